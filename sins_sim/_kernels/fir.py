@@ -1,0 +1,89 @@
+"""Streaming FIR low-pass followed by decimation.
+
+Output sample ``k`` of the whole stream is::
+
+    y[k] = sum_{j=0}^{M-1} taps[j] * x[k*R - j]        (x[i] = 0 for i < 0)
+
+i.e. ``scipy.signal.lfilter(taps, 1, x)[::R]``: the filter output is kept at
+input indices ``0, R, 2R, ...``. Only the kept outputs are computed.
+
+State between chunks:
+
+- ``hist`` (length ``M - 1``) holds the most recent inputs, newest first:
+  ``hist[m] = x[start - 1 - m]`` where ``start`` is the global index of the
+  chunk's first sample (zeros before the stream starts);
+- ``phase`` is the number of inputs consumed so far, modulo ``R``.
+
+Each output is summed over ``j = 0 .. M-1`` in the same order whether its
+inputs come from ``hist`` or from the chunk, so chunks of any length give
+bit-identical results to one call on the whole stream.
+
+The decimation factor ``R`` is the kernel's last argument (the state alone
+does not determine it). Kernels never validate: the public wrappers
+(``sins_sim.models.readout``) do, and size ``y`` with the number of outputs
+the chunk produces.
+"""
+
+from __future__ import annotations
+
+from sins_sim._kernels._config import jit
+
+
+@jit
+def fir_decimate(taps, x, hist, phase, y, decimation):
+    """Filter ``x`` with ``taps`` and keep every ``decimation``-th output.
+
+    Parameters
+    ----------
+    taps : ndarray, shape (M,), float64
+        FIR coefficients, ``M >= 1``.
+    x : ndarray, shape (n,), float64
+        Input chunk.
+    hist : ndarray, shape (M - 1,), float64
+        The ``M - 1`` most recent inputs before this chunk, newest first;
+        updated in place to the ``M - 1`` most recent inputs after it.
+    phase : int
+        Inputs consumed before this chunk, modulo ``decimation``.
+    y : ndarray, float64
+        Output buffer with room for every output this chunk produces:
+        ``ceil((n - i0) / R)`` with ``i0 = (R - phase) % R`` when ``i0 < n``,
+        else 0; written from index 0.
+    decimation : int
+        Decimation factor ``R >= 1``.
+
+    Returns
+    -------
+    n_out : int
+        Number of outputs written to ``y``.
+    new_phase : int
+        ``(phase + n) % R``, the ``phase`` for the next chunk.
+    """
+    r = decimation
+    n = x.shape[0]
+    m_taps = taps.shape[0]
+    n_hist = m_taps - 1
+    i = (r - phase) % r
+    n_out = 0
+    while i < n:
+        acc = 0.0
+        for j in range(m_taps):
+            idx = i - j
+            if idx >= 0:
+                acc += taps[j] * x[idx]
+            else:
+                acc += taps[j] * hist[-idx - 1]
+        y[n_out] = acc
+        n_out += 1
+        i += r
+    # Keep the M - 1 newest inputs, newest first.
+    if n >= n_hist:
+        for m in range(n_hist):
+            hist[m] = x[n - 1 - m]
+    else:
+        # Shift the old history back by n (descending, so no source is
+        # overwritten before it is read), then put the chunk in front.
+        for m in range(n_hist - 1, n - 1, -1):
+            hist[m] = hist[m - n]
+        for m in range(n):
+            hist[m] = x[n - 1 - m]
+    return n_out, (phase + n) % r

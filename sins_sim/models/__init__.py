@@ -1,0 +1,1 @@
+"""Physics of the dithered RLG channel: suspension, drive, plant, readout, motion."""

@@ -1,0 +1,73 @@
+"""Plots (matplotlib, imported lazily with the Agg backend so no display is needed)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sins_sim.units import ARCMIN, ARCSEC
+
+LABELS = {
+    "raw": "raw readout",
+    "eliminator": "elliptic eliminator",
+    "correcting": "correcting eq. 5, unity DC",
+    "correcting_paper": "correcting eq. 5, paper form",
+    "truth": "true SINS angle",
+}
+COLORS = {"raw": "0.6", "eliminator": "tab:red", "correcting": "tab:blue", "correcting_paper": "tab:cyan",
+          "truth": "k"}
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_channel(result, path, window_s: float = 0.03, settle_s: float = 0.0, title: str = "") -> None:
+    """Three panels: raw readout vs truth, filter outputs vs truth, residuals; last ``window_s`` seconds."""
+    plt = _pyplot()
+    t = result.t
+    sel = t >= max(t[-1] - window_s, settle_s)
+    tm = (t[sel] - t[sel][0]) * 1e3
+    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True, constrained_layout=True)
+    ax = axes[0]
+    ax.plot(tm, result.outputs["raw"][sel] / ARCMIN, color=COLORS["raw"], lw=1.0, label=LABELS["raw"])
+    ax.plot(tm, result.truth("raw")[sel] / ARCMIN, color="k", lw=1.2, ls="--", label=LABELS["truth"])
+    ax.set_ylabel("angle (arcmin)")
+    ax.set_title("RLG readout: dither on top of the SINS motion")
+    ax.legend(loc="upper right")
+    ax = axes[1]
+    ax.plot(tm, result.truth("correcting")[sel] / ARCSEC, color="k", lw=2.2, alpha=0.35,
+            label=LABELS["truth"] + " (aligned)")
+    for name in ("eliminator", "correcting", "correcting_paper"):
+        ax.plot(tm, result.outputs[name][sel] / ARCSEC, color=COLORS[name], lw=1.0, label=LABELS[name])
+    ax.set_ylabel("angle (arcsec)")
+    ax.set_title("Dither removed: filter outputs and the true SINS angle")
+    ax.legend(loc="upper right", fontsize=8)
+    ax = axes[2]
+    rms = result.residual_rms(settle_s)
+    for name in ("eliminator", "correcting", "correcting_paper"):
+        ax.plot(tm, result.residual(name)[sel] / ARCSEC, color=COLORS[name], lw=1.0,
+                label=f"{LABELS[name]}: RMS {rms[name] / ARCSEC:.3g} arcsec")
+    ax.axhline(0.0, color="k", lw=0.5)
+    ax.set_ylabel("output - truth (arcsec)")
+    ax.set_xlabel(f"time from t = {t[sel][0]:.3f} s (ms)")
+    ax.set_title("Residual after time alignment (RMS over the whole run after settling)")
+    ax.legend(loc="upper right", fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def spectrum_db(x, fs):
+    """One-sided amplitude spectrum (Hann window) in dB re 1 arcsec: (f, dB)."""
+    x = np.asarray(x, dtype=np.float64)
+    x = x - x.mean()
+    w = np.hanning(x.size)
+    spec = np.abs(np.fft.rfft(x * w)) * 2.0 / w.sum()
+    f = np.fft.rfftfreq(x.size, 1.0 / fs)
+    return f, 20.0 * np.log10(np.maximum(spec / ARCSEC, 1e-12))

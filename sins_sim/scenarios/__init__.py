@@ -1,0 +1,1 @@
+"""Jobs: validated configuration -> engine -> result files."""

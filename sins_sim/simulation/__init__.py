@@ -1,0 +1,1 @@
+"""The engine: wires models -> readout -> filters (and later navigation)."""

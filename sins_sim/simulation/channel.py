@@ -1,0 +1,247 @@
+"""One dithered RLG channel end to end: drive -> suspension -> readout -> filters.
+
+The engine connects the models (suspension, drive, plant, readout, motion)
+with the filters (correcting eq. 5 in both forms, elliptic eliminator). It
+streams in chunks, so memory does not grow with the duration; the result is
+a pure function of (configuration, motion, duration, seed).
+
+Time alignment (reference-model.md, "The correcting filter"): the decimated
+readout lags the RLG by the anti-alias FIR's delay; eq. 5's output lags by
+one more filter sample; the eliminator lags by its group delay at the
+alignment frequency. ``ChannelResult.truth(name)`` is the SINS angle at the
+time each output describes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sins_sim import _validate as v
+from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
+from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
+from sins_sim.models.drive import DriveParams, DriveSignal
+from sins_sim.models.motion import as_motion
+from sins_sim.models.plant import Plant, PlantSettings
+from sins_sim.models.readout import Decimator, Readout, ReadoutParams
+from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
+
+__all__ = ["EliminatorSettings", "ChannelConfig", "ChannelResult", "simulate_channel", "FILTER_NAMES"]
+
+#: Outputs of a channel run, in plotting order.
+FILTER_NAMES = ("raw", "eliminator", "correcting", "correcting_paper")
+
+
+@dataclass(frozen=True)
+class EliminatorSettings:
+    """How a channel's eliminator is designed (reference-model.md, "The elliptic eliminator").
+
+    ``band_hz=None`` centres a band of ``width_hz`` on the channel's drive frequency.
+    """
+
+    band_hz: tuple | None = None
+    width_hz: float = 40.0
+    order: int = 5
+    rp_db: float = 0.1
+    rs_db: float = 60.0
+
+    def __post_init__(self):
+        v.positive("eliminator", "width_hz", self.width_hz)
+
+    def design(self, dither_hz: float, fs_hz: float) -> EliminatorDesign:
+        if self.band_hz is not None:
+            return EliminatorDesign(fs_hz=fs_hz, band_hz=tuple(self.band_hz), order=self.order,
+                                    rp_db=self.rp_db, rs_db=self.rs_db)
+        return EliminatorDesign.centred(dither_hz, self.width_hz, fs_hz, self.order, self.rp_db, self.rs_db)
+
+
+@dataclass(frozen=True)
+class ChannelConfig:
+    """Everything that defines one channel.
+
+    Parameters
+    ----------
+    suspension : SuspensionParams
+        The true suspension.
+    drive : DriveParams
+    plant : PlantSettings
+        Integration rate and hysteresis rule of the plant.
+    readout : ReadoutParams
+        Quantum, noise, sampling and decimation; its input rate must equal the plant rate.
+    filter_suspension : SuspensionParams or None
+        What the correcting filter believes (None: the truth).
+    filter_hysteresis : {"paper", "masing"}
+        Hysteresis rule inside the correcting filter.
+    eliminator : EliminatorSettings
+    """
+
+    suspension: SuspensionParams = PAPER_SUSPENSION
+    drive: DriveParams = field(default_factory=DriveParams)
+    plant: PlantSettings = field(default_factory=PlantSettings)
+    readout: ReadoutParams = field(default_factory=ReadoutParams)
+    filter_suspension: SuspensionParams | None = None
+    filter_hysteresis: str = "paper"
+    eliminator: EliminatorSettings = field(default_factory=EliminatorSettings)
+
+    def __post_init__(self):
+        if abs(self.readout.input_rate_hz - self.plant.rate_hz) > 1e-9 * self.plant.rate_hz:
+            raise ValueError(
+                f"readout.input_rate_hz: must equal plant.rate_hz = {self.plant.rate_hz!r}, "
+                f"got {self.readout.input_rate_hz!r}"
+            )
+        v.integer_ratio("drive", "dac_rate_hz", self.plant.rate_hz, self.drive.dac_rate_hz,
+                        "plant.rate_hz / drive.dac_rate_hz")
+        fs = self.readout.output_rate_hz
+        f0 = (self.filter_suspension or self.suspension).f0_hz
+        if fs <= 2.0 * f0:
+            raise ValueError(
+                f"readout.output_rate_hz: the filter rate must be > 2 x f0 = {2 * f0:.6g} Hz "
+                f"(eq. 5 needs w = omega0 dT < pi), got {fs!r}"
+            )
+        # checks that need the resolved drive (Q > 0 at the amplitude, frequency below DAC Nyquist)
+        self.drive.resolve(self.suspension)
+        self.correcting_design("unity")
+
+    @property
+    def filter_rate_hz(self) -> float:
+        return self.readout.output_rate_hz
+
+    def drive_signal(self) -> DriveSignal:
+        return self.drive.resolve(self.suspension)
+
+    def correcting_design(self, form: str) -> CorrectingFilterDesign:
+        s = self.filter_suspension or self.suspension
+        return CorrectingFilterDesign(f0_hz=s.f0_hz, k1=s.k1, k2=s.k2, k3=s.k3, k4=s.k4, k5=s.k5,
+                                      fs_hz=self.filter_rate_hz, form=form, hysteresis=self.filter_hysteresis)
+
+    def eliminator_design(self) -> EliminatorDesign:
+        return self.eliminator.design(self.drive_signal().frequency_hz, self.filter_rate_hz)
+
+
+@dataclass
+class ChannelResult:
+    """Outputs of one channel at the filter rate.
+
+    Attributes
+    ----------
+    t : ndarray
+        Sample times of the decimated stream (s): sample k at k / fs.
+    outputs : dict of ndarray
+        ``raw`` (decimated readout angle), ``eliminator``, ``correcting``
+        (unity-DC eq. 5), ``correcting_paper`` (eq. 5 as printed), in rad.
+    delays_s : dict of float
+        How late each output is relative to ``t`` (s).
+    volts : ndarray
+        The drive through the same anti-alias chain (V).
+    drive : DriveSignal
+    motion : motion object
+    """
+
+    t: np.ndarray
+    outputs: dict
+    delays_s: dict
+    volts: np.ndarray
+    drive: DriveSignal
+    motion: object
+    config: ChannelConfig
+
+    def truth(self, name: str) -> np.ndarray:
+        """The SINS angle at the instants output ``name`` describes (rad)."""
+        angle, _ = self.motion.angle_rate(self.t - self.delays_s[name])
+        return angle
+
+    def residual(self, name: str) -> np.ndarray:
+        """Output minus the time-aligned truth (rad)."""
+        return self.outputs[name] - self.truth(name)
+
+    def residual_rms(self, settle_s: float = 0.0, remove_mean: bool = False) -> dict:
+        """RMS of each residual after ``settle_s`` (rad); optionally about its mean."""
+        mask = self.t >= settle_s
+        out = {}
+        for name in self.outputs:
+            r = self.residual(name)[mask]
+            if remove_mean:
+                r = r - r.mean()
+            out[name] = float(np.sqrt(np.mean(r * r))) if r.size else math.nan
+        return out
+
+
+def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed: int = 0,
+                     align_hz: float = 0.0, chunk_steps: int = 72000, progress=None) -> ChannelResult:
+    """Simulate one channel from rest for ``duration_s`` seconds.
+
+    Parameters
+    ----------
+    config : ChannelConfig
+    duration_s : float
+        Length of the run (s), > 0.
+    motion : None, motion object or callable
+        Block angle about the sensitive axis (``sins_sim.models.motion``).
+    seed : int
+        Seed of the readout noise (the only random element of a channel).
+    align_hz : float
+        Frequency at which the eliminator's group delay is taken for alignment.
+    chunk_steps : int
+        Plant steps per chunk (memory bound; results do not depend on it).
+    progress : callable(done_fraction) or None
+    """
+    duration_s = v.positive("run", "duration_s", duration_s)
+    v.non_negative("run", "align_hz", align_hz)
+    motion = as_motion(motion)
+    plant = Plant(config.suspension, config.plant)
+    readout = Readout(config.readout, np.random.default_rng(seed))
+    vdec = Decimator.from_readout(config.readout)
+    drive = config.drive_signal()
+    fs = config.filter_rate_hz
+    r_dec = config.readout.decimation
+    r_dac = v.integer_ratio("drive", "dac_rate_hz", config.plant.rate_hz, config.drive.dac_rate_hz,
+                            "plant.rate_hz / drive.dac_rate_hz")
+    h = plant.h
+    n_out = int(math.floor(duration_s * fs + 1e-9))
+    n_steps = n_out * r_dec
+    if n_out < 4:
+        raise ValueError(f"run.duration_s: must cover at least 4 filter samples, got {duration_s!r}")
+    chunk_steps = max(r_dec, (int(chunk_steps) // r_dec) * r_dec)
+    elim_design = config.eliminator_design()
+    filters = {
+        "eliminator": Eliminator(elim_design),
+        "correcting": CorrectingFilter(config.correcting_design("unity")),
+        "correcting_paper": CorrectingFilter(config.correcting_design("paper")),
+    }
+    phi0, rate0 = motion.angle_rate(np.zeros(1))
+    plant.reset(float(phi0[0]), float(rate0[0]))
+    carry_phi = float(phi0[0])  # RLG angle at the first readout sample (t = 0: at rest on the block)
+    pieces = {name: [] for name in FILTER_NAMES}
+    volts_out = []
+    for i0 in range(0, n_steps, chunk_steps):
+        i1 = min(i0 + chunk_steps, n_steps)
+        t_end = np.arange(i0 + 1, i1 + 1) * h
+        ang, rate = motion.angle_rate(t_end)
+        k = np.arange(i0, i1) // r_dac
+        dac = drive.samples(int(k[0]), int(k[-1] - k[0] + 1))
+        volts = dac[k - k[0]]
+        delta = plant.step(ang, rate, volts)
+        phi_rlg = ang + delta
+        feed = np.concatenate(([carry_phi], phi_rlg[:-1]))
+        carry_phi = float(phi_rlg[-1])
+        _, x = readout.process(feed)
+        vx = vdec.process(volts)
+        pieces["raw"].append(x)
+        volts_out.append(vx)
+        pieces["eliminator"].append(filters["eliminator"].process(x))
+        pieces["correcting"].append(filters["correcting"].process(x, vx))
+        pieces["correcting_paper"].append(filters["correcting_paper"].process(x, vx))
+        if progress is not None:
+            progress(i1 / n_steps)
+    outputs = {name: np.concatenate(p) for name, p in pieces.items()}
+    d_ro = readout.delay_s
+    delays = {
+        "raw": d_ro,
+        "eliminator": d_ro + float(elim_design.group_delay_s(align_hz)),
+        "correcting": d_ro + 1.0 / fs,
+        "correcting_paper": d_ro + 1.0 / fs,
+    }
+    return ChannelResult(t=np.arange(n_out) / fs, outputs=outputs, delays_s=delays,
+                         volts=np.concatenate(volts_out), drive=drive, motion=motion, config=config)

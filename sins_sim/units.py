@@ -1,0 +1,51 @@
+"""Physical constants and unit conversions.
+
+Everything inside sins-sim is SI with angles in rad; arcsec, arcmin and deg
+appear only at the edges (configuration, plots, reports). This module
+imports nothing from the package.
+"""
+
+from __future__ import annotations
+
+import math
+
+ARCSEC = math.pi / 648000.0
+"""One arcsecond in rad (reference-model.md, "Units everywhere")."""
+ARCMIN = math.pi / 10800.0
+"""One arcminute in rad."""
+DEG = math.pi / 180.0
+"""One degree in rad."""
+HOUR = 3600.0
+"""One hour in s."""
+DEG_PER_H = DEG / HOUR
+"""One deg/h in rad/s."""
+
+#: Fringe quantum of a 28 cm triangular He-Ne cavity (reference-model.md, "Readout").
+FRINGE_RAD = 2.42 * ARCSEC
+#: The paper's interpolating readout: comparator + 12-bit ADC, 1/16 fringe.
+INTERPOLATED_QUANTUM_RAD = FRINGE_RAD / 16.0
+
+
+def rad_to_arcsec(x):
+    """Convert rad to arcsec (works on scalars and arrays)."""
+    return x / ARCSEC
+
+
+def arcsec_to_rad(x):
+    """Convert arcsec to rad."""
+    return x * ARCSEC
+
+
+def rad_to_arcmin(x):
+    """Convert rad to arcmin."""
+    return x / ARCMIN
+
+
+def arcmin_to_rad(x):
+    """Convert arcmin to rad."""
+    return x * ARCMIN
+
+
+def hz_to_rad_s(f):
+    """Convert a frequency in Hz to a circular frequency in rad/s."""
+    return 2.0 * math.pi * f
