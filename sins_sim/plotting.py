@@ -71,3 +71,50 @@ def spectrum_db(x, fs):
     spec = np.abs(np.fft.rfft(x * w)) * 2.0 / w.sum()
     f = np.fft.rfftfreq(x.size, 1.0 / fs)
     return f, 20.0 * np.log10(np.maximum(spec / ARCSEC, 1e-12))
+
+
+SINS_LABELS = {"ideal": "ideal increments (algorithm floor)", **LABELS}
+SINS_COLORS = {"ideal": "k", **COLORS}
+
+
+def plot_attitude_error(result, path, title: str = "") -> None:
+    """Roll, pitch, yaw error (arcsec) vs time for each filter."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True, constrained_layout=True)
+    for i, comp in enumerate(("roll", "pitch", "yaw")):
+        ax = axes[i]
+        for name, err in result.attitude_error.items():
+            ax.plot(result.t, err[:, i] / ARCSEC, color=SINS_COLORS.get(name, None), lw=1.0,
+                    label=SINS_LABELS.get(name, name))
+        ax.set_ylabel(f"{comp} error (arcsec)")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper left", fontsize=8, ncol=2)
+    axes[-1].set_xlabel("time (s)")
+    axes[0].set_title(title or "Attitude error of the strapdown solution, per dither filter")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_output_spectra(result, path, title: str = "") -> None:
+    """Amplitude spectrum of each filter's gyro-angle output vs the truth, per axis."""
+    plt = _pyplot()
+    spec = result.spectra
+    fs = result.filter_rate_hz
+    fig, axes = plt.subplots(3, 1, figsize=(10, 10), sharex=True, constrained_layout=True)
+    for i, axis in enumerate(("x", "y", "z")):
+        ax = axes[i]
+        if spec["truth"].shape[0] < 16:
+            continue
+        for name in [n for n in spec if n not in ("t", "truth", "ideal")]:
+            f, db = spectrum_db(spec[name][:, i], fs)
+            ax.plot(f, db, color=SINS_COLORS.get(name), lw=0.8, label=SINS_LABELS.get(name, name))
+        f, db = spectrum_db(spec["truth"][:, i], fs)
+        ax.plot(f, db, color="k", lw=1.2, ls="--", label="true SINS angle")
+        ax.set_ylabel(f"gyro {axis}: amplitude (dB re 1 arcsec)")
+        ax.set_ylim(-80, 60)
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8, ncol=2)
+    axes[-1].set_xlabel("frequency (Hz)")
+    axes[0].set_title(title or "Spectrum of each filter's output against the true block angle")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -44,6 +44,7 @@ import numpy as np
 from sins_sim import _validate as v
 from sins_sim.filters.correcting import CorrectingFilter
 from sins_sim.filters.eliminator import Eliminator
+from sins_sim.models.motion3d import AttitudeStream
 from sins_sim.models.plant import Plant
 from sins_sim.models.readout import Decimator, Readout
 from sins_sim.navigation.attitude import AttitudeIntegrator, attitude_error
@@ -61,7 +62,7 @@ class DriveControl:
     """Amplitude control of the three drives (see module docstring)."""
 
     mode: str = "closed_loop"
-    gain: float = 0.3
+    gain: float = 0.1
     block_cycles: int = 10
     modulation_depth: float = 0.0
     v_max_factor: float = 4.0
@@ -191,7 +192,8 @@ class _AxisChain:
         self.r_dac = int(round(cfg.plant.rate_hz / cfg.drive.dac_rate_hz))
         self.block = max(1, int(round(control.block_cycles * cfg.plant.rate_hz / self.drive.frequency_hz)))
         self.block_left = self.block
-        self.block_max = 0.0
+        self.block_c = self.block_s = 0.0
+        self.block_n = 0
         self.filters = {
             "eliminator": Eliminator(cfg.eliminator_design()),
             "correcting": CorrectingFilter(cfg.correcting_design("unity")),
@@ -211,7 +213,10 @@ class _AxisChain:
 
     def _end_block(self):
         c = self.control
-        self.amp_meas = self.block_max
+        n = self.block_n
+        # dither amplitude by synchronous demodulation at the drive frequency (a real AGC's detector):
+        # vibration riding on the deflection does not bias it as a peak detector would
+        self.amp_meas = 2.0 * math.hypot(self.block_c, self.block_s) / n if n else 0.0
         if c.modulation_depth > 0.0:
             self.target = self.cfg.drive.amplitude_rad * (1.0 + c.modulation_depth * self.rng.uniform(-1.0, 1.0))
         if c.mode == "closed_loop":
@@ -219,8 +224,16 @@ class _AxisChain:
             self.v_m = min(max(self.v_m * (1.0 + c.gain * (ratio - 1.0)), 0.0), c.v_max_factor * self.v_m0)
         elif c.modulation_depth > 0.0:
             self.v_m = self.v_m0 * self.target / self.cfg.drive.amplitude_rad
-        self.block_max = 0.0
+        self.block_c = self.block_s = 0.0
+        self.block_n = 0
         self.block_left = self.block
+
+    def _demodulate(self, i0: int, delta: np.ndarray):
+        k = np.arange(i0 + 1, i0 + 1 + delta.shape[0], dtype=np.float64)
+        ph = 2.0 * math.pi * np.mod(self.drive.frequency_hz * k / self.cfg.plant.rate_hz, 1.0)
+        self.block_c += float(delta @ np.cos(ph))
+        self.block_s += float(delta @ np.sin(ph))
+        self.block_n += delta.shape[0]
 
     def run(self, i0: int, angle: np.ndarray, rate: np.ndarray):
         """Advance len(angle) plant steps starting at step i0; return filter-rate outputs."""
@@ -233,7 +246,7 @@ class _AxisChain:
             vv = self._volts(i0 + j, m)
             delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv)
             volts[j:j + m] = vv
-            self.block_max = max(self.block_max, float(np.max(np.abs(delta[j:j + m]))))
+            self._demodulate(i0 + j, delta[j:j + m])
             self.block_left -= m
             j += m
             if self.block_left == 0:
@@ -295,7 +308,12 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     n_spec = int(round(nav.spectrum_s * fs))
 
     # truth attitude on the filter grid, streamed
-    truth_stream = motion.attitude_stream(q0=None)
+    attitude_truth = AttitudeStream(motion)
+
+    def truth_stream(t_f):
+        if t_f[0] <= attitude_truth.t:  # t = 0: the initial attitude itself
+            return np.concatenate((attitude_truth.q[None, :], attitude_truth.advance(t_f[1:])))
+        return attitude_truth.advance(t_f)
     tq_hist = np.zeros((0, 4))
     out_hist = {name: np.zeros((0, 3)) for name in filters}  # filter outputs not yet consumed
     prev_angle = {name: None for name in filters}
@@ -310,83 +328,86 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     spec_t = []
     tq_base = 0  # filter index of tq_hist[0]
 
-    with _warnings.catch_warnings(record=True) as wlist:
-        _warnings.simplefilter("always")
-        for i0 in range(0, n_steps, chunk):
-            i1 = min(i0 + chunk, n_steps)
-            t_end = np.arange(i0 + 1, i1 + 1) * h
-            ang = motion.gyro_angle(t_end)
-            rate = motion.body_rate(t_end)
-            outs = [ch.run(i0, ang[:, i].copy(), rate[:, i].copy()) for i, ch in enumerate(chains)]
-            k0, k1 = i0 // r_dec, i1 // r_dec
-            t_f = np.arange(k0, k1) / fs
-            ideal = motion.gyro_angle(t_f)
-            tq = truth_stream(t_f)
-            tq_hist = np.concatenate((tq_hist, tq))
-            new = {name: (ideal if name == "ideal" else np.stack([o[name] for o in outs], axis=1))
-                   for name in filters}
-            for name in filters:
-                out_hist[name] = np.concatenate((out_hist[name], new[name]))
-            # spectra: keep outputs aligned with truth from k_start for n_spec samples
-            for name in filters:
-                d = delays[name]
-                lo = max(k_start + d, k0)
-                hi = min(k_start + d + n_spec, k1)
-                if hi > lo:
-                    spectra[name].append(new[name][lo - k0:hi - k0])
-            lo, hi = max(k_start, k0), min(k_start + n_spec, k1)
+    caught = []
+    for i0 in range(0, n_steps, chunk):
+        i1 = min(i0 + chunk, n_steps)
+        t_end = np.arange(i0 + 1, i1 + 1) * h
+        ang = motion.gyro_angle(t_end)
+        rate = motion.body_rate(t_end)
+        outs = []
+        for i, ch in enumerate(chains):
+            with _warnings.catch_warnings(record=True) as axis_w:
+                _warnings.simplefilter("always")
+                outs.append(ch.run(i0, ang[:, i].copy(), rate[:, i].copy()))
+            caught.extend(f"axis {AXES[i]}: {w.message}" for w in axis_w)
+        k0, k1 = i0 // r_dec, i1 // r_dec
+        t_f = np.arange(k0, k1) / fs
+        ideal = motion.gyro_angle(t_f)
+        tq = truth_stream(t_f)
+        tq_hist = np.concatenate((tq_hist, tq))
+        new = {name: (ideal if name == "ideal" else np.stack([o[name] for o in outs], axis=1))
+               for name in filters}
+        for name in filters:
+            out_hist[name] = np.concatenate((out_hist[name], new[name]))
+        # spectra: keep outputs aligned with truth from k_start for n_spec samples
+        for name in filters:
+            d = delays[name]
+            lo = max(k_start + d, k0)
+            hi = min(k_start + d + n_spec, k1)
             if hi > lo:
-                spectra["truth"].append(ideal[lo - k0:hi - k0])
-                spec_t.append(t_f[lo - k0:hi - k0])
-            # navigation for each filter
-            for name in filters:
-                d = delays[name]
-                buf = out_hist[name]
-                base = pos[name]  # filter-output index of buf[0]
-                if integrators[name] is None:
-                    j0 = k_start + d
-                    if j0 < base + buf.shape[0] and j0 - d >= tq_base:
-                        q0 = tq_hist[j0 - d - tq_base]
-                        integrators[name] = AttitudeIntegrator(q0=q0, algorithm=nav.coning)
-                        prev_angle[name] = buf[j0 - base]
-                        buf = buf[j0 - base + 1:]
-                        base = j0 + 1
-                    else:  # navigation has not started for this filter yet
-                        continue
-                if buf.shape[0] == 0:
-                    out_hist[name] = buf
-                    pos[name] = base
+                spectra[name].append(new[name][lo - k0:hi - k0])
+        lo, hi = max(k_start, k0), min(k_start + n_spec, k1)
+        if hi > lo:
+            spectra["truth"].append(ideal[lo - k0:hi - k0])
+            spec_t.append(t_f[lo - k0:hi - k0])
+        # navigation for each filter
+        for name in filters:
+            d = delays[name]
+            buf = out_hist[name]
+            base = pos[name]  # filter-output index of buf[0]
+            if integrators[name] is None:
+                j0 = k_start + d
+                if j0 < base + buf.shape[0] and j0 - d >= tq_base:
+                    q0 = tq_hist[j0 - d - tq_base]
+                    integrators[name] = AttitudeIntegrator(q0=q0, algorithm=nav.coning)
+                    prev_angle[name] = buf[j0 - base]
+                    buf = buf[j0 - base + 1:]
+                    base = j0 + 1
+                else:  # navigation has not started for this filter yet
                     continue
-                ang_seq = np.concatenate((prev_angle[name][None, :], buf))
-                dtheta = np.diff(ang_seq, axis=0)
-                q_est = integrators[name].process(dtheta)
-                truth_idx = np.arange(base, base + buf.shape[0]) - d - tq_base
-                err = attitude_error(q_est, tq_hist[truth_idx])
-                tk = (np.arange(base, base + buf.shape[0]) - d) / fs
-                st = stats[name]
-                st["sum"] += err.sum(axis=0)
-                st["sum2"] += (err * err).sum(axis=0)
-                st["n"] += err.shape[0]
-                st["st"] += tk.sum()
-                st["stt"] += (tk * tk).sum()
-                st["ste"] += tk @ err
-                st["last"] = err[-1]
-                sel = ((np.arange(base, base + buf.shape[0]) - d) % ts_every) == 0
-                errs_ts[name].append(err[sel])
-                if name == filters[0]:
-                    t_ts.append(tk[sel])
-                prev_angle[name] = buf[-1]
-                pos[name] = base + buf.shape[0]
-                out_hist[name] = buf[:0]
-            # drop truth no longer needed
-            need = min(pos[name] - delays[name] for name in filters) - 1
-            drop = max(0, need - tq_base - max_delay)
-            if drop:
-                tq_hist = tq_hist[drop:]
-                tq_base += drop
-            if progress is not None:
-                progress(i1 / n_steps)
-        caught = [str(w.message) for w in wlist]
+            if buf.shape[0] == 0:
+                out_hist[name] = buf
+                pos[name] = base
+                continue
+            ang_seq = np.concatenate((prev_angle[name][None, :], buf))
+            dtheta = np.diff(ang_seq, axis=0)
+            q_est = integrators[name].process(dtheta)
+            truth_idx = np.arange(base, base + buf.shape[0]) - d - tq_base
+            err = attitude_error(q_est, tq_hist[truth_idx])
+            tk = (np.arange(base, base + buf.shape[0]) - d) / fs
+            st = stats[name]
+            st["sum"] += err.sum(axis=0)
+            st["sum2"] += (err * err).sum(axis=0)
+            st["n"] += err.shape[0]
+            st["st"] += tk.sum()
+            st["stt"] += (tk * tk).sum()
+            st["ste"] += tk @ err
+            st["last"] = err[-1]
+            sel = ((np.arange(base, base + buf.shape[0]) - d) % ts_every) == 0
+            errs_ts[name].append(err[sel])
+            if name == filters[0]:
+                t_ts.append(tk[sel])
+            prev_angle[name] = buf[-1]
+            pos[name] = base + buf.shape[0]
+            out_hist[name] = buf[:0]
+        # drop truth no longer needed
+        need = min(pos[name] - delays[name] for name in filters) - 1
+        drop = max(0, need - tq_base - max_delay)
+        if drop:
+            tq_hist = tq_hist[drop:]
+            tq_base += drop
+        if progress is not None:
+            progress(i1 / n_steps)
 
     full_stats = {}
     for name in filters:
@@ -413,5 +434,5 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     res = SinsResult(t=t_arr, attitude_error=att, final_error={k: s["final_rad"] for k, s in full_stats.items()},
                      full_stats=full_stats, spectra=spec, delays=dict(delays, residual_eliminator=residual_delay),
                      drives=drives, filter_rate_hz=fs, duration_s=duration_s, nav_start_s=nav.start_s,
-                     warnings=sorted(set(caught)))
+                     warnings=list(dict.fromkeys(caught)))
     return res
