@@ -1,0 +1,220 @@
+"""Strapdown attitude kernels: quaternions and coning-corrected attitude update.
+
+Conventions (as in Savage 1998 and Titterton & Weston 2004, ch. 3 and 11):
+
+- quaternions are Hamilton, scalar first, ``q = [q0, q1, q2, q3]``;
+- ``q_nb`` rotates body-frame vectors into the navigation frame,
+  ``v_n = q_nb (x) v_b (x) q_nb*``;
+- a rotation vector ``phi`` (rad) is the axis times the angle; its quaternion
+  is ``q(phi) = [cos(|phi|/2), sin(|phi|/2) phi/|phi|]``;
+- a body-frame rotation over one step composes on the right:
+  ``q_nb[k] = q_nb[k-1] (x) q(phi_k)`` (Savage 1998; Titterton & Weston
+  2004, ch. 11).
+
+The rotation vector of step ``k`` is formed from the gyro angle increments
+``dtheta_k`` (rad, body frame, integral of the body rate over the step) and
+one or two previous increments (the "single-speed, previous-sample" coning
+algorithms; Savage 1998 sec. "Coning algorithms"; Ignagni 1996)::
+
+    algo 0 ("none"):         phi_k = dtheta_k
+    algo 1 ("two_sample"):   phi_k = dtheta_k + (1/12) dtheta_{k-1} x dtheta_k
+    algo 2 ("three_sample"): phi_k = dtheta_k - (1/60) dtheta_{k-2} x dtheta_k
+                                              + (7/60) dtheta_{k-1} x dtheta_k
+
+The 1/12 coefficient is Savage's single-sample-plus-previous-sample algorithm
+(Savage 1998, Part 1; Savage, *Strapdown Analytics*, 2nd ed., 2007,
+eq. 7.1.1.1.1-18 with one sample per update). The (-1/60, 7/60) pair is
+Ignagni's optimal three-sample "Algorithm E" (Ignagni 1990: coefficients
+9/20 for ``dtheta_1 x dtheta_3`` and 27/20 for the adjacent pairs) rewritten
+for one increment per update: matching the two free coefficients to the
+classical-cone Taylor series of the exact coning term (Miller 1983;
+Ignagni 1990) term by term through ``(Omega h)^5`` gives
+``2 c1 + c2 = 1/12`` and ``360 c1 + 60 c2 = 1``, i.e. ``c1 = -1/60``,
+``c2 = 7/60``; equivalently ``3 c1 + 1/2 = 9/20`` and ``3 c2 + 1 = 27/20``,
+the composition of three such updates reproducing Algorithm E (see
+:mod:`sins_sim.navigation.coning` for the derivation and the residuals).
+
+References
+----------
+.. [1] J. W. Bortz, "A new mathematical formulation for strapdown inertial
+   navigation", IEEE Trans. Aerosp. Electron. Syst. AES-7(1), 61-66, 1971.
+.. [2] R. B. Miller, "A new strapdown attitude algorithm", J. Guidance,
+   Control, and Dynamics 6(4), 287-291, 1983.
+.. [3] M. B. Ignagni, "Optimal strapdown attitude integration algorithms",
+   J. Guidance, Control, and Dynamics 13(2), 363-369, 1990.
+.. [4] M. B. Ignagni, "Efficient class of optimized coning compensation
+   algorithms", J. Guidance, Control, and Dynamics 19(2), 424-429, 1996.
+.. [5] P. G. Savage, "Strapdown inertial navigation integration algorithm
+   design, Part 1: Attitude algorithms", J. Guidance, Control, and Dynamics
+   21(1), 19-28, 1998.
+.. [6] D. H. Titterton, J. L. Weston, *Strapdown Inertial Navigation
+   Technology*, 2nd ed., IEE, 2004.
+
+Kernels never validate: the public wrappers (:mod:`sins_sim.navigation`) do.
+"""
+
+from __future__ import annotations
+
+import math
+
+from sins_sim._kernels._config import jit
+
+ALGO_NONE = 0
+ALGO_TWO_SAMPLE = 1
+ALGO_THREE_SAMPLE = 2
+
+#: algo 1: coefficient of ``dtheta_{k-1} x dtheta_k`` (Savage 1998).
+C_TWO_PREV1 = 1.0 / 12.0
+#: algo 2: coefficient of ``dtheta_{k-2} x dtheta_k`` (Ignagni 1990 Alg. E, one increment per update).
+C_THREE_PREV2 = -1.0 / 60.0
+#: algo 2: coefficient of ``dtheta_{k-1} x dtheta_k``.
+C_THREE_PREV1 = 7.0 / 60.0
+
+#: Below this ``|phi|^2`` (rad^2) the rotation-vector-to-quaternion map uses
+#: its Taylor series; the first neglected terms are below 3e-23.
+SMALL_ANGLE2 = 1e-6
+
+
+@jit
+def quat_mul(p, q, out):
+    """Hamilton product ``out = p (x) q`` (scalar first).
+
+    ``out = [p0 q0 - pv.qv, p0 qv + q0 pv + pv x qv]`` (Titterton & Weston
+    2004, ch. 3). ``out`` may be the same array as ``p`` or ``q``.
+
+    Parameters
+    ----------
+    p, q : ndarray, shape (4,), float64
+        Quaternions, scalar first.
+    out : ndarray, shape (4,), float64
+        Written in full.
+    """
+    p0, p1, p2, p3 = p[0], p[1], p[2], p[3]
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    out[0] = p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3
+    out[1] = p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2
+    out[2] = p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1
+    out[3] = p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0
+
+
+@jit
+def rotvec_to_quat(phi, out):
+    """Quaternion of the rotation vector ``phi`` (rad).
+
+    ``q = [cos(|phi|/2), sin(|phi|/2)/|phi| * phi]`` (Savage 1998;
+    Titterton & Weston 2004, ch. 11). For ``|phi|^2 < 1e-6`` the two
+    coefficients come from their Taylor series in ``n2 = |phi|^2``::
+
+        cos(|phi|/2)        = 1 - n2/8 + n2^2/384 - n2^3/46080
+        sin(|phi|/2)/|phi|  = 1/2 - n2/48 + n2^2/3840 - n2^3/645120
+
+    so no division by a vanishing norm occurs.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (3,), float64
+        Rotation vector (rad).
+    out : ndarray, shape (4,), float64
+        Written in full.
+    """
+    n2 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]
+    if n2 < SMALL_ANGLE2:
+        c = 1.0 - n2 * (1.0 / 8.0 - n2 * (1.0 / 384.0 - n2 * (1.0 / 46080.0)))
+        s = 0.5 - n2 * (1.0 / 48.0 - n2 * (1.0 / 3840.0 - n2 * (1.0 / 645120.0)))
+    else:
+        n = math.sqrt(n2)
+        c = math.cos(0.5 * n)
+        s = math.sin(0.5 * n) / n
+    out[0] = c
+    out[1] = s * phi[0]
+    out[2] = s * phi[1]
+    out[3] = s * phi[2]
+
+
+@jit
+def attitude_update(dtheta, q0, algo, prev, out_q):
+    """Coning-corrected strapdown attitude update, one step per increment.
+
+    For ``k = 0 .. N-1``::
+
+        phi_k = dtheta_k + c1 (dtheta_{k-2} x dtheta_k) + c2 (dtheta_{k-1} x dtheta_k)
+        q_k   = normalise(q_{k-1} (x) q(phi_k)),      q_{-1} = q0
+
+    with ``(c1, c2) = (0, 0)`` for ``algo == 0``, ``(0, 1/12)`` for
+    ``algo == 1`` (Savage 1998) and ``(-1/60, 7/60)`` for ``algo == 2``
+    (Ignagni 1990 Algorithm E, one increment per update; module docstring).
+    ``q(phi)`` is :func:`rotvec_to_quat`; the product is :func:`quat_mul`.
+    The renormalisation (division by the Euclidean norm) removes the
+    rounding-driven norm drift and changes nothing else.
+
+    Streaming: ``prev`` holds ``[dtheta_{-2}, dtheta_{-1}]`` on entry and is
+    overwritten with the last two increments, so calling the kernel on
+    consecutive chunks (feeding ``out_q[-1]`` back as ``q0``) gives the same
+    bits as one call on the whole array.
+
+    Parameters
+    ----------
+    dtheta : ndarray, shape (N, 3), float64
+        Gyro angle increments (rad, body frame), one per update.
+    q0 : ndarray, shape (4,), float64
+        Attitude ``q_nb`` before the first increment (unit norm). Not written.
+    algo : int
+        0 (none), 1 (two-sample with previous), 2 (three-sample with two previous).
+    prev : ndarray, shape (2, 3), float64
+        ``prev[0] = dtheta_{k-2}``, ``prev[1] = dtheta_{k-1}`` (rad); read and
+        updated in place.
+    out_q : ndarray, shape (N, 4), float64
+        ``out_q[k]`` is the attitude after increment ``k``; written in full.
+    """
+    if algo == ALGO_TWO_SAMPLE:
+        c1 = 0.0
+        c2 = C_TWO_PREV1
+    elif algo == ALGO_THREE_SAMPLE:
+        c1 = C_THREE_PREV2
+        c2 = C_THREE_PREV1
+    else:
+        c1 = 0.0
+        c2 = 0.0
+    a0, a1, a2, a3 = q0[0], q0[1], q0[2], q0[3]
+    m0, m1, m2 = prev[0, 0], prev[0, 1], prev[0, 2]  # dtheta_{k-2}
+    p0, p1, p2 = prev[1, 0], prev[1, 1], prev[1, 2]  # dtheta_{k-1}
+    phi = prev[0].copy()
+    dq = q0.copy()
+    for k in range(dtheta.shape[0]):
+        d0, d1, d2 = dtheta[k, 0], dtheta[k, 1], dtheta[k, 2]
+        phi[0] = d0
+        phi[1] = d1
+        phi[2] = d2
+        if algo != ALGO_NONE:
+            # c2 (dtheta_{k-1} x dtheta_k)
+            phi[0] += c2 * (p1 * d2 - p2 * d1)
+            phi[1] += c2 * (p2 * d0 - p0 * d2)
+            phi[2] += c2 * (p0 * d1 - p1 * d0)
+            if c1 != 0.0:
+                # c1 (dtheta_{k-2} x dtheta_k)
+                phi[0] += c1 * (m1 * d2 - m2 * d1)
+                phi[1] += c1 * (m2 * d0 - m0 * d2)
+                phi[2] += c1 * (m0 * d1 - m1 * d0)
+        rotvec_to_quat(phi, dq)
+        b0, b1, b2, b3 = dq[0], dq[1], dq[2], dq[3]
+        r0 = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
+        r1 = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
+        r2 = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
+        r3 = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0
+        inv = 1.0 / math.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3)
+        a0 = r0 * inv
+        a1 = r1 * inv
+        a2 = r2 * inv
+        a3 = r3 * inv
+        out_q[k, 0] = a0
+        out_q[k, 1] = a1
+        out_q[k, 2] = a2
+        out_q[k, 3] = a3
+        m0, m1, m2 = p0, p1, p2
+        p0, p1, p2 = d0, d1, d2
+    prev[0, 0] = m0
+    prev[0, 1] = m1
+    prev[0, 2] = m2
+    prev[1, 0] = p0
+    prev[1, 1] = p1
+    prev[1, 2] = p2

@@ -1,0 +1,80 @@
+"""Navigation layer: coning-corrected attitude integration and navigation error.
+
+Arrays in, arrays out; this package imports neither ``sins_sim.models`` nor
+``sins_sim.filters`` (the simulation engine connects them).
+
+Frames and units: ``q_nb`` Hamilton quaternions, scalar first, body to
+navigation; gyro angle increments in rad (body frame); rates in rad/s; times
+in s; positions in m. The navigation frame of the error model is local-level
+north-east-down.
+
+- :mod:`~sins_sim.navigation.attitude`: :func:`integrate_attitude`,
+  :class:`AttitudeIntegrator`, :func:`attitude_error`, :func:`drift_rate`,
+  numpy quaternion helpers.
+- :mod:`~sins_sim.navigation.coning`: :class:`ConingAlgorithm`, the classical
+  cone (exact rate, attitude and increments), :func:`coning_drift_closed_form`,
+  :func:`algorithm_residual_drift`.
+- :mod:`~sins_sim.navigation.error`: the Schuler-loop error model,
+  :func:`position_error_from_attitude_error`,
+  :func:`equivalent_position_error_1h`, :func:`strapdown_position_error`.
+"""
+
+from sins_sim.navigation.attitude import (
+    AttitudeIntegrator,
+    attitude_error,
+    drift_rate,
+    euler_from_quat,
+    integrate_attitude,
+    quat_conjugate,
+    quat_from_rotvec,
+    quat_multiply,
+    rotvec_from_quat,
+)
+from sins_sim.navigation.coning import (
+    CONING_ALGORITHMS,
+    ConingAlgorithm,
+    algorithm_residual_drift,
+    cone_body_rate,
+    cone_increments,
+    cone_quaternion,
+    coning_drift_closed_form,
+)
+from sins_sim.navigation.error import (
+    EARTH_RADIUS_M,
+    EARTH_RATE_RAD_S,
+    GRAVITY_M_S2,
+    SCHULER_RAD_S,
+    NavigationError,
+    equivalent_position_error_1h,
+    position_error_from_attitude_error,
+    schuler_ramp_position_error,
+    strapdown_position_error,
+)
+
+__all__ = [
+    "AttitudeIntegrator",
+    "attitude_error",
+    "drift_rate",
+    "euler_from_quat",
+    "integrate_attitude",
+    "quat_conjugate",
+    "quat_from_rotvec",
+    "quat_multiply",
+    "rotvec_from_quat",
+    "CONING_ALGORITHMS",
+    "ConingAlgorithm",
+    "algorithm_residual_drift",
+    "cone_body_rate",
+    "cone_increments",
+    "cone_quaternion",
+    "coning_drift_closed_form",
+    "EARTH_RADIUS_M",
+    "EARTH_RATE_RAD_S",
+    "GRAVITY_M_S2",
+    "SCHULER_RAD_S",
+    "NavigationError",
+    "equivalent_position_error_1h",
+    "position_error_from_attitude_error",
+    "schuler_ramp_position_error",
+    "strapdown_position_error",
+]
