@@ -169,11 +169,27 @@ def _stiffness_ratio_hb(a: float, k1: float, k2: float) -> float:
     return 1.0 + (2.0 / math.pi) * val / a
 
 
+#: Taylor coefficients of G(y) = (2/3)((1+y)^{3/2} - 1) - y - y^2/4 from y^3 on (binomial series).
+_G_SERIES = (-1.0 / 24.0, 1.0 / 64.0, -1.0 / 128.0, 7.0 / 1536.0, -3.0 / 1024.0, 33.0 / 16384.0)
+
+
+def _g(y: float) -> float:
+    """G(y) = (2/3)((1+y)^{3/2} - 1) - y - y^2/4 without cancellation (series below y = 0.05)."""
+    if y < 0.05:
+        acc = 0.0
+        for c in reversed(_G_SERIES):
+            acc = acc * y + c
+        return acc * y * y * y
+    return (2.0 / 3.0) * ((1.0 + y) ** 1.5 - 1.0) - y - 0.25 * y * y
+
+
 def _potential(d: float, k1: float, k2: float) -> float:
-    """int_0^d (x + Nonl(x)) dx for eq. 9, in closed form (d >= 0)."""
-    x = d / k2
-    # int_0^d k1 (sqrt(1 + x/k2) - 1) dx = k1 k2 [(2/3)((1+x)^{3/2} - 1) - x]
-    return 0.5 * d * d + k1 * k2 * ((2.0 / 3.0) * ((1.0 + x) ** 1.5 - 1.0) - x) - k1 * d * d / (4.0 * k2)
+    """int_0^d (x + Nonl(x)) dx for eq. 9, in closed form (d >= 0).
+
+    ``d^2/2 + k1 k2 G(d/k2)``: the eq. 9 part integrates to ``k1 k2 G``, which is
+    evaluated by its series at small ``d`` where the closed form cancels.
+    """
+    return 0.5 * d * d + k1 * k2 * _g(d / k2)
 
 
 @lru_cache(maxsize=256)
