@@ -12,6 +12,7 @@ The output ``Y_n`` describes the block at ``t_{n-1}``: it is one sample late
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +25,8 @@ from sins_sim.errors import warn_regime
 __all__ = ["FORMS", "CorrectingFilterDesign", "CorrectingFilter", "correct"]
 
 FORMS = ("unity", "paper")
+#: A deflection estimate beyond this (rad, ~172 arcmin, 50 x the paper's dither) is unphysical.
+D_LIMIT_RAD = 0.05
 
 
 @dataclass(frozen=True)
@@ -141,6 +144,7 @@ class CorrectingFilter:
         self.state[kcor.F_X1] = v.finite("correcting", "x0", x0)
         kphys.hyst_reset(self.hyst, self.stack)
         self._warned = False
+        self._warned_d = False
 
     @property
     def fast_half_cycles(self) -> int:
@@ -160,7 +164,19 @@ class CorrectingFilter:
         d = self.design
         kcor.correcting_run(x, volts, self._a2, self._g, d.k1, d.k2, d.k3, d.k4, d.k5, 1.0 / d.fs_hz,
                             self._rule, self._fast_dt, self.state, self.hyst, self.stack, out)
-        if self._rule == kphys.RULE_PAPER and self.hyst[5] > 0 and not self._warned:
+        if self.design.form == "paper" and not self._warned_d:
+            d_max = float(np.max(np.abs(x - out))) if x.size else 0.0
+            if not d_max <= D_LIMIT_RAD:
+                self._warned_d = True
+                warnings.warn(
+                    f"correcting filter (paper form): |D| = |X - Y| reached {d_max:.3g} rad, beyond any physical "
+                    f"deflection ({D_LIMIT_RAD} rad): eq. 5's DC gain B feeds (1 - B) X into D, so Nonl(D) and "
+                    "Diss(D) leave their domain under sustained rotation (and diverge after ~0.3 rad); use "
+                    "form='unity'",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
+        if self.design.k3 > 0.0 and self._rule == kphys.RULE_PAPER and self.hyst[5] > 0 and not self._warned:
             self._warned = True
             warn_regime("correcting filter", int(self.hyst[5]), float(self.hyst[6]), "D", stacklevel=2)
         return out

@@ -4,7 +4,7 @@ Layout (every key optional except ``channels``; units in the key names)::
 
     name: default
     suspension: {k1: 1.75e-4, k2_rad: 1.05e-3, k3: 4.4e-3, k4_per_rad: 250, k5_rad_per_v: -1.2e-5}
-    drive: {amplitude_arcmin: 3.0, dac_rate_hz: 72000, control: closed_loop, gain: 0.1,
+    drive: {amplitude_arcmin: 3.0, dac_rate_hz: 72000, control: closed_loop, loop_time_s: 0.1,
             block_cycles: 10, modulation_depth: 0.0}
     plant: {rate_hz: 72000, hysteresis: paper}
     readout: {quantum_arcsec: 0.15125, noise_arcsec: 0.0, output_rate_hz: 7200,
@@ -61,7 +61,7 @@ IMU_SCHEMA = Map({
         **_drive_fields(True),
         "dac_rate": Num(unit="hz", min=0.0, min_exclusive=True, default=72000.0),
         "control": Str(choices=("open_loop", "closed_loop"), default="closed_loop"),
-        "gain": Num(min=0.0, min_exclusive=True, max=1.0, default=0.1),
+        "loop_time": Num(unit="s", min=0.0, min_exclusive=True, default=0.1),
         "block_cycles": Num(min=1, integer=True, default=10),
         "modulation_depth": Num(min=0.0, max=0.5, default=0.0),
     }, default={}),
@@ -131,7 +131,7 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "") -> ImuConfig:
         plant = PlantSettings(rate_hz=c["plant"]["rate_hz"], hysteresis=c["plant"]["hysteresis"])
         elim = EliminatorSettings(width_hz=c["eliminator"]["width_hz"], rp_db=c["eliminator"]["rp_db"],
                                   rs_db=c["eliminator"]["rs_db"])
-        control = DriveControl(mode=c["drive"]["control"], gain=c["drive"]["gain"],
+        control = DriveControl(mode=c["drive"]["control"], loop_time_s=c["drive"]["loop_time_s"],
                                block_cycles=int(c["drive"]["block_cycles"]),
                                modulation_depth=c["drive"]["modulation_depth"])
         channels = []

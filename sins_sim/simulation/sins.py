@@ -21,10 +21,14 @@ Alignment: outputs are shifted by a whole number of filter samples
 (mean over the three axes; the rounding residual is reported).
 
 Drive: open loop at the amplitude-dependent resonance with V_m from eq. 17,
-or closed loop: every ``block_cycles`` dither periods an integral controller
-rescales V_m by ``1 + gain (a_target / a_measured - 1)`` from the measured
-deflection amplitude, as a unit's amplitude-stabilisation loop does (the
-paper: "k5 was determined by a system of amplitude stabilization").
+or closed loop, as a unit's amplitude-stabilisation loop does (the paper: "k5
+was determined by a system of amplitude stabilization"). The loop measures
+the dither amplitude every ``block_cycles`` dither periods by synchronous
+demodulation of the deflection at the drive frequency, and sets
+``V_m = V_ff + (V_m0 / a_m) kp (e + (1/tau) int e dt)`` with ``e`` the
+amplitude error. The amplitude obeys eq. 15, ``da/dt = -(a - a_m V/V_m0)/tau``
+with ``tau = 2 Q / omega``; the PI zero cancels that pole, so the closed loop
+is first order with time constant ``loop_time_s = tau / kp``.
 Optional random amplitude modulation draws a new target
 ``a_m (1 + depth u)``, ``u`` uniform in [-1, 1], every block (seeded), as real
 units do against dynamic lock-in.
@@ -62,16 +66,14 @@ class DriveControl:
     """Amplitude control of the three drives (see module docstring)."""
 
     mode: str = "closed_loop"
-    gain: float = 0.1
+    loop_time_s: float = 0.1
     block_cycles: int = 10
     modulation_depth: float = 0.0
     v_max_factor: float = 4.0
 
     def __post_init__(self):
         v.choice("drive_control", "mode", self.mode, ("open_loop", "closed_loop"))
-        g = v.positive("drive_control", "gain", self.gain)
-        if g > 1.0:
-            raise ValueError(f"drive_control.gain: must be <= 1 for a stable integral loop, got {g!r}")
+        v.positive("drive_control", "loop_time_s", self.loop_time_s)
         if int(self.block_cycles) != self.block_cycles or self.block_cycles < 1:
             raise ValueError(f"drive_control.block_cycles: must be an integer >= 1, got {self.block_cycles!r}")
         d = v.non_negative("drive_control", "modulation_depth", self.modulation_depth)
@@ -192,8 +194,12 @@ class _AxisChain:
         self.r_dac = int(round(cfg.plant.rate_hz / cfg.drive.dac_rate_hz))
         self.block = max(1, int(round(control.block_cycles * cfg.plant.rate_hz / self.drive.frequency_hz)))
         self.block_left = self.block
+        self.block_s_time = self.block / cfg.plant.rate_hz
         self.block_c = self.block_s = 0.0
         self.block_n = 0
+        self.integral = 0.0
+        # eq. 15: amplitude time constant 2 Q / omega at the target amplitude
+        self.tau = 2.0 * cfg.suspension.q_factor(cfg.drive.amplitude_rad) / (2.0 * math.pi * self.drive.frequency_hz)
         self.filters = {
             "eliminator": Eliminator(cfg.eliminator_design()),
             "correcting": CorrectingFilter(cfg.correcting_design("unity")),
@@ -220,8 +226,14 @@ class _AxisChain:
         if c.modulation_depth > 0.0:
             self.target = self.cfg.drive.amplitude_rad * (1.0 + c.modulation_depth * self.rng.uniform(-1.0, 1.0))
         if c.mode == "closed_loop":
-            ratio = self.target / self.amp_meas if self.amp_meas > 0 else c.v_max_factor
-            self.v_m = min(max(self.v_m * (1.0 + c.gain * (ratio - 1.0)), 0.0), c.v_max_factor * self.v_m0)
+            a_m = self.cfg.drive.amplitude_rad
+            err = (self.target - self.amp_meas) / a_m
+            kp = self.tau / c.loop_time_s
+            integral = self.integral + err * self.block_s_time
+            u = self.target / a_m + kp * (err + integral / self.tau)
+            if 0.0 <= u <= c.v_max_factor:  # anti-windup: integrate only while the drive is not saturated
+                self.integral = integral
+            self.v_m = min(max(u, 0.0), c.v_max_factor) * self.v_m0
         elif c.modulation_depth > 0.0:
             self.v_m = self.v_m0 * self.target / self.cfg.drive.amplitude_rad
         self.block_c = self.block_s = 0.0
@@ -229,11 +241,20 @@ class _AxisChain:
         self.block_left = self.block
 
     def _demodulate(self, i0: int, delta: np.ndarray):
+        """Accumulate the Hann-windowed synchronous detector over the current block.
+
+        The window keeps block-asynchronous vibration (e.g. 600 Hz coning beside a 384 Hz
+        dither) from leaking into the amplitude estimate.
+        """
+        pos = self.block - self.block_left  # position of delta[0] inside the block
+        j = np.arange(pos, pos + delta.shape[0], dtype=np.float64)
+        w = np.sin(math.pi * (j + 0.5) / self.block) ** 2
         k = np.arange(i0 + 1, i0 + 1 + delta.shape[0], dtype=np.float64)
         ph = 2.0 * math.pi * np.mod(self.drive.frequency_hz * k / self.cfg.plant.rate_hz, 1.0)
-        self.block_c += float(delta @ np.cos(ph))
-        self.block_s += float(delta @ np.sin(ph))
-        self.block_n += delta.shape[0]
+        wd = w * delta
+        self.block_c += float(wd @ np.cos(ph))
+        self.block_s += float(wd @ np.sin(ph))
+        self.block_n += float(w.sum())
 
     def run(self, i0: int, angle: np.ndarray, rate: np.ndarray):
         """Advance len(angle) plant steps starting at step i0; return filter-rate outputs."""
