@@ -83,18 +83,14 @@ def plot_attitude_error(result, path, title: str = "") -> None:
     fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True, constrained_layout=True)
     for i, comp in enumerate(("roll", "pitch", "yaw")):
         ax = axes[i]
-        lim = 0.0
-        for name, err in result.attitude_error.items():
-            y = err[:, i] / ARCSEC
-            label = SINS_LABELS.get(name, name)
-            if name == "raw":  # the dither itself: scaled out so the filters stay readable
-                label += f" (peak {np.max(np.abs(y)):.3g} arcsec, clipped)"
-            else:
-                lim = max(lim, float(np.max(np.abs(y))) if y.size else 0.0)
-            ax.plot(result.t, y, color=SINS_COLORS.get(name, None), lw=1.0, label=label,
-                    alpha=0.5 if name == "raw" else 1.0)
-        if lim > 0.0:
-            ax.set_ylim(-1.15 * lim, 1.15 * lim)
+        order = sorted(result.attitude_error, key=lambda n: n == "correcting")  # unity form on top
+        for name in order:
+            y = result.attitude_error[name][:, i] / ARCSEC
+            if name == "raw":  # the dither itself, hundreds of arcsec: named in the legend, not drawn
+                ax.plot([], [], color=SINS_COLORS["raw"],
+                        label=f"{SINS_LABELS['raw']}: not drawn, RMS {np.sqrt(np.mean(y * y)):.3g} arcsec")
+                continue
+            ax.plot(result.t, y, color=SINS_COLORS.get(name, None), lw=1.0, label=SINS_LABELS.get(name, name))
         ax.set_ylabel(f"{comp} error (arcsec)")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper left", fontsize=8, ncol=2)
