@@ -154,7 +154,8 @@ class Plant:
         return out
 
     def _check_regime(self) -> None:
-        if self._rule == kphys.RULE_PAPER and self.hyst[5] > 0 and not self._warned:
+        # eq. 10 is absent when k3 = 0: no rule to break
+        if self.suspension.k3 > 0.0 and self._rule == kphys.RULE_PAPER and self.hyst[5] > 0 and not self._warned:
             self._warned = True
             warn_regime("plant", int(self.hyst[5]), float(self.hyst[6]), "the deflection")
 

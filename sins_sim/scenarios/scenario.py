@@ -169,11 +169,14 @@ def load_scenario(path) -> Scenario:
 
 
 def _metrics(res, scenario) -> dict:
-    from sins_sim.navigation.error import equivalent_position_error_1h
+    from sins_sim.navigation.error import equivalent_position_error_1h, position_error_from_attitude_error
 
     out = {}
     for name, st in res.full_stats.items():
         drift = np.asarray(st["drift_rad_s"])
+        # the run's own navigation consequence: its attitude-error history through the INS error equations
+        # (Schuler loop, local-level frame, navigation frame taken as NED)
+        nav_err = position_error_from_attitude_error(res.t - res.t[0], res.attitude_error[name])
         out[name] = {
             "drift_deg_per_h": [float(x) / DEG_PER_H for x in drift],
             "drift_norm_deg_per_h": float(np.linalg.norm(drift)) / DEG_PER_H,
@@ -182,6 +185,8 @@ def _metrics(res, scenario) -> dict:
             # a horizontal (roll/pitch) drift tilts the platform and feeds the Schuler loop; a yaw drift
             # does not to first order for a vehicle at rest (navigation/error.py)
             "position_error_1h_m": abs(float(equivalent_position_error_1h(float(np.hypot(drift[0], drift[1]))))),
+            "velocity_error_final_m_s": float(np.hypot(*nav_err.velocity_m_s[-1])),
+            "position_error_final_m": float(nav_err.horizontal_m[-1]),
         }
     return out
 
@@ -229,15 +234,20 @@ def _report(scenario, metrics, figures) -> str:
              f"- duration {scenario.duration_s:g} s, seed {scenario.seed}, IMU `{scenario.imu.name}` "
              f"({scenario.imu_source}), navigation from t = {scenario.nav.start_s:g} s with "
              f"`{scenario.nav.coning}` coning correction",
-             "", "| filter | drift x, y, z (deg/h) | |drift| (deg/h) | attitude error RMS (arcsec) | "
-                 "final error (arcsec) | position error 1 h (m) |",
-             "|---|---|---|---|---|---|"]
+             "", "| filter | drift x, y, z (deg/h) | drift norm (deg/h) | attitude error RMS (arcsec) | "
+                 "final error (arcsec) | position error 1 h (m) | velocity / position error at the end (m/s, m) |",
+             "|---|---|---|---|---|---|---|"]
     for name, m in metrics["filters"].items():
         f3 = lambda xs: ", ".join(f"{x:.3g}" for x in xs)  # noqa: E731
         lines.append(f"| {name} | {f3(m['drift_deg_per_h'])} | {m['drift_norm_deg_per_h']:.3g} | "
                      f"{f3(m['attitude_error_rms_arcsec'])} | {f3(m['attitude_error_final_arcsec'])} | "
-                     f"{m['position_error_1h_m']:.3g} |")
-    lines += ["", "Drives (closed-loop amplitude at the amplitude-dependent resonance):", "",
+                     f"{m['position_error_1h_m']:.3g} | {m['velocity_error_final_m_s']:.3g} / "
+                     f"{m['position_error_final_m']:.3g} |")
+    lines += ["", "Drift: least-squares slope of the attitude error over the navigation interval. Position error "
+              "1 h: the Schuler-loop response to the horizontal (roll, pitch) drift held for an hour. Velocity / "
+              "position at the end: this run's attitude-error history through the INS error equations "
+              "(local-level frame, Earth rate neglected).", "",
+              "Drives (closed-loop amplitude at the amplitude-dependent resonance):", "",
               "| axis | f0 (Hz) | drive (Hz) | V_m start -> end (V) | amplitude (arcmin) |", "|---|---|---|---|---|"]
     for d in metrics["drives"]:
         lines.append(f"| {d['axis']} | {d['f0_hz']:g} | {d['frequency_hz']:.3f} | {d['v_m_initial']:.4g} -> "
