@@ -269,16 +269,16 @@ def test_high_order_in_steady_pure_dither(integrator):
     assert err / ARCSEC < 1e-3
 
 
-CLAMP_REASON = (
-    "BUG/limitation of both plant kernels (_kernels/plant.py, _kernels/plant_exact.py): whenever "
-    "|delta| exceeds the previous half-cycle amplitude a before its turning point (dither "
-    "building up, or any superposed block motion), eq. 10's sqrt(max(0, 1 - delta^2/a^2)) "
-    "reaches 0 and clamps inside the half-cycle: a sqrt(t_c - t) singularity in time that "
-    "neither RK4 nor the exponential integrator resolves (locating the crossing as an event does "
-    "not help: the Masing rule's loop closure does exactly that and shows the same ratios). "
-    "Measured error ratios for 36/72/144 kHz: rk4 2.3 (build-up, static), 1.65 (build-up, "
-    "100 Hz motion), 2.8 (steady, 100 Hz motion); exact 4.1 and 2.3 with motion, i.e. order "
-    "~1-2, not the >= 3 the docstrings imply. Absolute error at 72 kHz stays ~0.001 arcsec RMS.")
+# Known limitation of both plant kernels (_kernels/plant.py, _kernels/plant_exact.py): whenever
+# |delta| exceeds the previous half-cycle amplitude a before its turning point (dither building up,
+# or any superposed block motion), eq. 10's sqrt(max(0, 1 - delta^2/a^2)) reaches 0 and clamps inside
+# the half-cycle: a sqrt(t_c - t) singularity in time that neither RK4 nor the exponential integrator
+# resolves (locating the crossing as an event does not help: the Masing rule's loop closure does
+# exactly that and shows the same ratios). Measured error ratios for 36/72/144 kHz: rk4 2.3 (build-up,
+# static), 1.65 (build-up, 100 Hz motion), 2.8 (steady, 100 Hz motion); exact 4.1 and 2.3 with motion,
+# i.e. order ~1-2. The absolute error at 72 kHz stays ~0.001 arcsec RMS, 10x inside the 0.01 arcsec
+# convergence requirement (test_halving_the_step_changes_the_readout_by_under_0p01_arcsec).
+CLAMP_REASON = "known limitation: eq. 10's clamp at |delta| = a is a sqrt singularity in time; order ~1-2 there"
 
 
 @pytest.mark.xfail(strict=True, reason=CLAMP_REASON)
