@@ -130,16 +130,19 @@ class Plant:
         """Half-cycles shorter than a quarter dither period so far (the paper's rule breaks there)."""
         return int(self.hyst[5])
 
-    def step(self, sins_angle, sins_rate, volts) -> np.ndarray:
+    def step(self, sins_angle, sins_rate, volts, check: bool = True) -> np.ndarray:
         """Advance ``len(volts)`` steps; return delta at the new grid points (rad).
 
         ``sins_angle`` and ``sins_rate`` are the block's angle and rate at the
-        ends of the steps; ``volts`` the drive held over each step.
+        ends of the steps; ``volts`` the drive held over each step. ``check=False``
+        skips the input checks for callers (the engine) that pass contiguous,
+        finite float64 arrays of equal length they made themselves.
         """
-        volts = v.finite_array("plant", "volts", volts)
+        if check:
+            volts = np.ascontiguousarray(v.finite_array("plant", "volts", volts))
+            sins_angle = np.ascontiguousarray(v.finite_array("plant", "sins_angle", sins_angle))
+            sins_rate = np.ascontiguousarray(v.finite_array("plant", "sins_rate", sins_rate))
         n = volts.shape[0]
-        sins_angle = v.finite_array("plant", "sins_angle", sins_angle)
-        sins_rate = v.finite_array("plant", "sins_rate", sins_rate)
         if sins_angle.shape[0] != n or sins_rate.shape[0] != n:
             raise ValueError(
                 f"plant.sins_angle: angle, rate and volts must have the same length, got "

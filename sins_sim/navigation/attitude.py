@@ -404,6 +404,10 @@ def attitude_error(q_est, q_true) -> np.ndarray:
     qt = _quat_array("q_true", q_true)
     if qe.shape != qt.shape:
         raise ValueError(f"q_true: must have the shape of q_est {qe.shape}, got {qt.shape}")
+    if qe.ndim == 2:  # the engine's path: one kernel pass instead of numpy temporaries
+        out = np.empty((qe.shape[0], 3))
+        knav.attitude_error_run(np.ascontiguousarray(qe), np.ascontiguousarray(qt), out)
+        return out
     return rotvec_from_quat(quat_multiply(qe, quat_conjugate(qt)))
 
 

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
+from sins_sim._kernels import drive as kdrive
 from sins_sim.filters.correcting import CorrectingFilter
 from sins_sim.filters.eliminator import Eliminator
 from sins_sim.models.motion3d import AttitudeStream
@@ -195,8 +196,7 @@ class _AxisChain:
         self.block = max(1, int(round(control.block_cycles * cfg.plant.rate_hz / self.drive.frequency_hz)))
         self.block_left = self.block
         self.block_s_time = self.block / cfg.plant.rate_hz
-        self.block_c = self.block_s = 0.0
-        self.block_n = 0
+        self.acc = np.zeros(3)
         self.integral = 0.0
         # eq. 15: amplitude time constant 2 Q / omega at the target amplitude
         self.tau = 2.0 * cfg.suspension.q_factor(cfg.drive.amplitude_rad) / (2.0 * math.pi * self.drive.frequency_hz)
@@ -212,17 +212,17 @@ class _AxisChain:
         self.carry = angle0
 
     def _volts(self, i0: int, n: int) -> np.ndarray:
-        k = np.arange(i0, i0 + n) // self.r_dac
-        dac = self.drive.samples(int(k[0]), int(k[-1] - k[0] + 1))
-        scale = self.v_m / self.drive.v_m if self.drive.v_m != 0 else 0.0
-        return dac[k - k[0]] * scale
+        out = np.empty(n)
+        kdrive.dac_cosine(i0, self.r_dac, self.drive.frequency_hz / self.cfg.drive.dac_rate_hz,
+                          self.drive.phase_rad, self.v_m, out)
+        return out
 
     def _end_block(self):
         c = self.control
-        n = self.block_n
         # dither amplitude by synchronous demodulation at the drive frequency (a real AGC's detector):
         # vibration riding on the deflection does not bias it as a peak detector would
-        self.amp_meas = 2.0 * math.hypot(self.block_c, self.block_s) / n if n else 0.0
+        acc_c, acc_s, wsum = self.acc
+        self.amp_meas = 2.0 * math.hypot(acc_c, acc_s) / wsum if wsum > 0 else 0.0
         if c.modulation_depth > 0.0:
             self.target = self.cfg.drive.amplitude_rad * (1.0 + c.modulation_depth * self.rng.uniform(-1.0, 1.0))
         if c.mode == "closed_loop":
@@ -236,8 +236,7 @@ class _AxisChain:
             self.v_m = min(max(u, 0.0), c.v_max_factor) * self.v_m0
         elif c.modulation_depth > 0.0:
             self.v_m = self.v_m0 * self.target / self.cfg.drive.amplitude_rad
-        self.block_c = self.block_s = 0.0
-        self.block_n = 0
+        self.acc[:] = 0.0
         self.block_left = self.block
 
     def _demodulate(self, i0: int, delta: np.ndarray):
@@ -246,15 +245,8 @@ class _AxisChain:
         The window keeps block-asynchronous vibration (e.g. 600 Hz coning beside a 384 Hz
         dither) from leaking into the amplitude estimate.
         """
-        pos = self.block - self.block_left  # position of delta[0] inside the block
-        j = np.arange(pos, pos + delta.shape[0], dtype=np.float64)
-        w = np.sin(math.pi * (j + 0.5) / self.block) ** 2
-        k = np.arange(i0 + 1, i0 + 1 + delta.shape[0], dtype=np.float64)
-        ph = 2.0 * math.pi * np.mod(self.drive.frequency_hz * k / self.cfg.plant.rate_hz, 1.0)
-        wd = w * delta
-        self.block_c += float(wd @ np.cos(ph))
-        self.block_s += float(wd @ np.sin(ph))
-        self.block_n += float(w.sum())
+        kdrive.demod_accumulate(delta, i0, self.drive.frequency_hz / self.cfg.plant.rate_hz,
+                                self.block - self.block_left, self.block, self.acc)
 
     def run(self, i0: int, angle: np.ndarray, rate: np.ndarray):
         """Advance len(angle) plant steps starting at step i0; return filter-rate outputs."""
@@ -265,7 +257,7 @@ class _AxisChain:
         while j < n:
             m = min(self.block_left, n - j)
             vv = self._volts(i0 + j, m)
-            delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv)
+            delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv, check=False)
             volts[j:j + m] = vv
             self._demodulate(i0 + j, delta[j:j + m])
             self.block_left -= m
