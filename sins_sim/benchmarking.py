@@ -59,10 +59,11 @@ two-sample coning correction). The run streams in chunks of 0.5 s.
 
 :class:`FusedChain` runs it with the package's kernels called directly, one
 call per kernel per chunk and all buffers allocated once (the three plants
-advance together in ``plant_run_exact_many``, which interleaves independent
-suspensions); :class:`ApiChain` runs the same chain through the public
-classes. Both take their inputs from :func:`chain_inputs` and give identical
-bits (checked by ``run_bench`` and by ``benchmarks/``).
+in one call of ``plant_run_exact_many``, the three axes' inputs in one
+compiled loop, :func:`_chain_inputs_kernel`, with its constants computed
+once); :class:`ApiChain` runs the same chain through the public classes.
+Both take their inputs from :func:`chain_inputs` and give identical bits
+(checked by ``run_bench`` and by ``benchmarks/``).
 """
 
 from __future__ import annotations
@@ -200,21 +201,78 @@ def _chain_configs():
     return [ChannelConfig(suspension=PAPER_SUSPENSION.replace(f0_hz=f)) for f in CHAIN_F0_HZ]
 
 
-def chain_inputs(i0: int, n: int, ang: np.ndarray, rate: np.ndarray, volts: np.ndarray, configs=None) -> None:
+@jit
+def _chain_inputs_kernel(i0, n, steps, omegas, amp, f_hz, dac_hz, v_m, phase, ang, rate, volts):
+    """:func:`_sine_pair` (rate times ``omega``) and :func:`_drive_samples` of every axis, in one loop.
+
+    The same arithmetic as those two, value for value (so the same bits);
+    an axis' two rotations are independent recurrences, advanced in the same
+    loop so that the processor overlaps them.
+    """
+    na = steps.shape[0]
+    s = np.empty(na)
+    c = np.empty(na)
+    cr = np.empty(na)
+    sr = np.empty(na)
+    dc = np.empty(na)
+    ds = np.empty(na)
+    dcr = np.empty(na)
+    dsr = np.empty(na)
+    for i in range(na):
+        arg = omegas[i] * (i0 + 1) * steps[i] + 0.0  # phase 0, as _sine_pair's
+        s[i] = amp * math.sin(arg)
+        c[i] = amp * math.cos(arg)
+        cr[i] = math.cos(omegas[i] * steps[i])
+        sr[i] = math.sin(omegas[i] * steps[i])
+        cyc = f_hz[i] * i0 / dac_hz[i]
+        arg = 2.0 * math.pi * (cyc - math.floor(cyc)) + phase[i]
+        dc[i] = v_m[i] * math.cos(arg)
+        ds[i] = v_m[i] * math.sin(arg)
+        th = 2.0 * math.pi * f_hz[i] / dac_hz[i]
+        dcr[i] = math.cos(th)
+        dsr[i] = math.sin(th)
+    for i in range(na):
+        si = s[i]
+        ci = c[i]
+        cri = cr[i]
+        sri = sr[i]
+        w = omegas[i]
+        vc = dc[i]
+        vs = ds[i]
+        vcr = dcr[i]
+        vsr = dsr[i]
+        for j in range(n):
+            ang[i, j] = si
+            rate[i, j] = ci * w
+            volts[i, j] = vc
+            si, ci = si * cri + ci * sri, ci * cri - si * sri
+            vc, vs = vc * vcr - vs * vsr, vs * vcr + vc * vsr
+
+
+def _input_params(configs):
+    """Per-axis constants of :func:`chain_inputs` (plant steps, vibration and drive), as arrays."""
+    drives = [cfg.drive_signal() for cfg in configs]
+    return (np.array([1.0 / cfg.plant.rate_hz for cfg in configs]),
+            np.array([2.0 * math.pi * CHAIN_VIBRATION_HZ[i] for i in range(len(configs))]),
+            float(CHAIN_VIBRATION_RAD),
+            np.array([d.frequency_hz for d in drives], dtype=np.float64),
+            np.array([d.dac_rate_hz for d in drives], dtype=np.float64),
+            np.array([d.v_m for d in drives], dtype=np.float64),
+            np.array([d.phase_rad for d in drives], dtype=np.float64))
+
+
+def chain_inputs(i0: int, n: int, ang: np.ndarray, rate: np.ndarray, volts: np.ndarray, configs=None,
+                 params=None) -> None:
     """Fill the chain's inputs for plant steps ``i0 .. i0 + n - 1`` (arrays of shape ``(3, >= n)``).
 
     ``ang, rate``: block angle and rate about each gyro axis at the steps'
     ends; ``volts``: each axis' drive held over the step (DAC at the plant
-    rate, resonance and eq. 17 voltage of the 3 arcmin dither).
+    rate, resonance and eq. 17 voltage of the 3 arcmin dither). ``params``:
+    ``_input_params(configs)``, computed once by a caller that streams.
     """
-    configs = _chain_configs() if configs is None else configs
-    for i, cfg in enumerate(configs):
-        h = 1.0 / cfg.plant.rate_hz
-        w = 2.0 * math.pi * CHAIN_VIBRATION_HZ[i]
-        _sine_pair(i0, n, h, CHAIN_VIBRATION_RAD, w, 0.0, ang[i], rate[i])
-        rate[i, :n] *= w
-        d = cfg.drive_signal()
-        _drive_samples(i0, n, d.frequency_hz, d.dac_rate_hz, d.v_m, d.phase_rad, volts[i])
+    if params is None:
+        params = _input_params(_chain_configs() if configs is None else configs)
+    _chain_inputs_kernel(i0, n, *params, ang, rate, volts)
 
 
 # --- the three-axis chain -------------------------------------------------------------------------
@@ -270,6 +328,7 @@ class FusedChain:
         self.n, self.m = n, m
         self.q = cfg0.readout.quantum_rad
         self.taps = np.array(cfg0.readout.taps())
+        self.input_params = _input_params(self.configs)
         na = len(self.configs)
         self.ang, self.rate, self.volts, self.delta, self.feed = (np.empty((na, n)) for _ in range(5))
         self.x, self.vx, self.y, self.yp, self.e = (np.empty((na, m)) for _ in range(5))
@@ -310,7 +369,7 @@ class FusedChain:
     def run_chunk(self) -> None:
         """Advance one chunk; outputs in ``x, vx, y, yp, e`` (per axis) and ``qout`` (attitude)."""
         n, h = self.n, self.h
-        chain_inputs(self.i0, n, self.ang, self.rate, self.volts, self.configs)
+        chain_inputs(self.i0, n, self.ang, self.rate, self.volts, params=self.input_params)
         kexact.plant_run_exact_many(self.ang, self.rate, self.volts, h, self.params, self.rules, self.fast_dts,
                                     self.pstate, self.physt, self.pstack, self.delta)
         _quantise_feed(self.ang, self.delta, self.carry, self.q, self.feed)

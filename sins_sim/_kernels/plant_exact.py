@@ -89,15 +89,27 @@ after an event uses the event point itself as its earlier node when it lies
 at least ``h / 4`` back (with the Simpson correction), and starts afresh
 otherwise.
 
-Eq. 9 is evaluated as ``k1 (sgn(d) (sqrt(1 + |d|/k2) - 1) - d / (2 k2))``,
-one square root and no division; the subtraction loses relative precision
-for tiny ``d`` but its absolute error is below ``k1 * 1e-16`` rad, far under
-any effect in the model. Eq. 10 uses ``1/a`` and ``s k3 a (1 + k4 a)``,
-recomputed only when the branch changes.
+Eq. 9, ``k1 (sgn(d) (sqrt(1 + |d|/k2) - 1) - d / (2 k2))``, is evaluated
+as ``k1s sqrt(1 + |d|/k2) - (k1s + kl d)`` with ``k1s = sgn(d) k1`` and
+``kl = k1 / (2 k2)``: one square root, no division, one operation between
+the root and ``F``; the subtraction loses relative precision for tiny ``d``
+but its absolute error is below ``k1 * 1e-16`` rad, far under any effect in
+the model. Eq. 10 uses ``1/a`` and ``s k3 a (1 + k4 a)``, recomputed only
+when the branch changes. The viscous term is added only when ``zeta != 0``.
 
-Several suspensions advance together in :func:`plant_run_exact_many` (one
-step of each in turn): their arithmetic is independent and bit-identical to
-:func:`plant_run_exact`, and the processor overlaps their dependency chains.
+Cost per step (:func:`_run_axis`): the forcing without ``F``,
+``q0 + q1 tau`` (kinematic input and drive), depends on the inputs only and
+is computed for the whole chunk first (:func:`_forcing`, a loop without
+dependencies between steps); the per-step constants (``E(h)``, ``E(h/2)``,
+the quadratic weights, and the predictor's weights, so that a prediction
+is the state without ``F`` minus two products) are computed once per call
+(:func:`_constants`); the state lives in local variables over the chunk;
+``F`` at a step's end is the next step's ``F(0)`` (first same as last); a
+cheap screen of :func:`_find_event`'s conditions keeps the common step (no
+event) inline, and events leave the loop for :func:`_find_event` /
+:func:`_step_events`. :func:`plant_run_exact_many` runs several independent
+suspensions, each over the whole chunk in turn, bit for bit as
+:func:`plant_run_exact` runs each alone.
 
 State layout (``state``, float64[STATE_SIZE]): ``delta``, ``delta'``,
 ``phi_sins(t_n)``, ``rate_sins(t_n)``, ``t_n`` (as ``_kernels.plant`` for
@@ -192,12 +204,14 @@ def _force(d, dd, k1, kl, k2inv, kd, ainv, c, z):
     ``ainv = 1/a`` (0 without a branch), ``c`` the branch centre,
     ``z = 2 zeta / omega0``.
     """
-    sq = math.sqrt(1.0 + abs(d) * k2inv) - 1.0
-    nl = k1 * sq if d >= 0.0 else -k1 * sq
+    k1s = k1 if d >= 0.0 else -k1
+    nl = k1s * math.sqrt(1.0 + abs(d) * k2inv) - (k1s + kl * d)  # eq. 9, see the module docstring
     u = (d - c) * ainv
     r = 1.0 - u * u
-    ds = kd * math.sqrt(r) if r > 0.0 else 0.0
-    return (nl - kl * d) + ds + z * dd, r
+    ds = kd * math.sqrt(max(r, 0.0))  # clamped at r <= 0: kd * 0 (+-0 changes no sum), no branch
+    if z != 0.0:
+        return nl + ds + z * dd, r
+    return nl + ds, r
 
 
 @jit
@@ -462,19 +476,22 @@ C_Z = 25
 C_FAST = 26
 C_H = 27
 C_WM = 28  # weights of F at -h, 0, h for delta and delta' (uniform three-node quadratic)
-N_CONSTS = 34
-# per-suspension work values (``work[i, :]``): the state, then the branch of eq. 10
-W_S = STATE_SIZE
-W_KD = STATE_SIZE + 1
-W_AINV = STATE_SIZE + 2
-W_C = STATE_SIZE + 3
-W_TGT = STATE_SIZE + 4
-N_WORK = STATE_SIZE + 5
+C_P = 34  # predictor weights of F(0) and F(-h): delta(h), delta'(h), delta(h/2), delta'(h/2)
+C_W0E1 = 42  # omega0^2 E_1(h), omega0^2 E_1(h/2)
+N_CONSTS = 44
 
 
 @jit
 def _constants(consts, i, h, w0sq, k1, k2, k3, k4, k5, zeta2_w0, fast_dt):
-    """Fill ``consts[i]`` for plant step ``h`` and one suspension's parameters."""
+    """Fill ``consts[i]`` for plant step ``h`` and one suspension's parameters.
+
+    Besides the convolution weights, the predictor's: with ``F`` extrapolated
+    linearly from ``F(-h)`` and ``F(0)`` (Taylor coefficients ``F(0)`` and
+    ``(F(0) - F(-h))/h``), the predicted state is the state without ``F``
+    minus ``omega0^2 ((E_2 + E_3/h) F(0) - E_3/h F(-h))`` (``delta``) and
+    ``omega0^2 ((E_1 + E_2/h) F(0) - E_2/h F(-h))`` (``delta'``); at ``h/2``
+    the same with ``E(h/2)``.
+    """
     e = phi_functions(w0sq, h)
     eh = phi_functions(w0sq, 0.5 * h)
     wq = _quadratic_weights(w0sq, h, e)
@@ -483,7 +500,8 @@ def _constants(consts, i, h, w0sq, k1, k2, k3, k4, k5, zeta2_w0, fast_dt):
         consts[i, C_EH + j] = eh[j]
     for j in range(6):
         consts[i, C_W + j] = wq[j]
-    consts[i, C_IH] = 1.0 / h
+    ih = 1.0 / h
+    consts[i, C_IH] = ih
     consts[i, C_IH2] = 1.0 / (h * h)
     consts[i, C_KL] = k1 / (2.0 * k2)
     consts[i, C_K2INV] = 1.0 / k2
@@ -498,32 +516,192 @@ def _constants(consts, i, h, w0sq, k1, k2, k3, k4, k5, zeta2_w0, fast_dt):
     wm = _history_weights(w0sq, h, e)
     for j in range(6):
         consts[i, C_WM + j] = wm[j]
+    consts[i, C_P] = w0sq * (e[2] + e[3] * ih)
+    consts[i, C_P + 1] = w0sq * (e[3] * ih)
+    consts[i, C_P + 2] = w0sq * (e[1] + e[2] * ih)
+    consts[i, C_P + 3] = w0sq * (e[2] * ih)
+    consts[i, C_P + 4] = w0sq * (eh[2] + eh[3] * ih)
+    consts[i, C_P + 5] = w0sq * (eh[3] * ih)
+    consts[i, C_P + 6] = w0sq * (eh[1] + eh[2] * ih)
+    consts[i, C_P + 7] = w0sq * (eh[2] * ih)
+    consts[i, C_W0E1] = w0sq * e[1]
+    consts[i, C_W0E1 + 1] = w0sq * eh[1]
 
 
 @jit
-def _set_branch(work, i, hyst, stack, rule, k3, k4):
-    """Store the constants of the current branch of eq. 10 in ``work[i]`` (see ``_branch``)."""
+def _run_axis(sins_angle, sins_rate, volts, q0s, q1s, cs, rule, state, hyst, stack, out_delta):
+    """One suspension over the chunk: regular steps inline, events in ``_step_events``.
+
+    ``q0s, q1s``: the forcing without ``F`` of every step (``q0 + q1 tau``,
+    see ``plant_run_exact_many``); ``cs``: the suspension's ``_constants``
+    row. The state lives in local variables over the chunk.
+    """
+    h = cs[C_H]
+    w0sq = cs[C_W0SQ]
+    k1 = cs[C_K1]
+    kl = cs[C_KL]
+    k2inv = cs[C_K2INV]
+    k3 = cs[C_K3]
+    k4 = cs[C_K4]
+    z = cs[C_Z]
+    fast_dt = cs[C_FAST]
+    e0 = cs[C_E]
+    e1 = cs[C_E + 1]
+    e2 = cs[C_E + 2]
+    e3 = cs[C_E + 3]
+    e4 = cs[C_E + 4]
+    hx0 = cs[C_EH]
+    hx1 = cs[C_EH + 1]
+    hx2 = cs[C_EH + 2]
+    hx3 = cs[C_EH + 3]
+    hx4 = cs[C_EH + 4]
+    w0e1 = cs[C_W0E1]
+    w0h1 = cs[C_W0E1 + 1]
+    wx0 = cs[C_W]
+    wxm = cs[C_W + 1]
+    wxb = cs[C_W + 2]
+    wv0 = cs[C_W + 3]
+    wvm = cs[C_W + 4]
+    wvb = cs[C_W + 5]
+    mxp = cs[C_WM]
+    mx0 = cs[C_WM + 1]
+    mxb = cs[C_WM + 2]
+    mvp = cs[C_WM + 3]
+    mv0 = cs[C_WM + 4]
+    mvb = cs[C_WM + 5]
+    px0 = cs[C_P]
+    pxp = cs[C_P + 1]
+    pv0 = cs[C_P + 2]
+    pvp = cs[C_P + 3]
+    pmx0 = cs[C_P + 4]
+    pmxp = cs[C_P + 5]
+    pmv0 = cs[C_P + 6]
+    pmvp = cs[C_P + 7]
+    d = state[X_DELTA]
+    dd = state[X_DDELTA]
+    f0 = state[X_F0]
+    fp = state[X_FPREV]
+    lprev = state[X_LPREV]
+    r0 = state[X_R0]
+    rp = state[X_RPREV]
+    t = state[X_TIME]
     s, kd, ainv, c, tgt = _branch(hyst, stack, rule, k3, k4)
-    work[i, W_S] = s
-    work[i, W_KD] = kd
-    work[i, W_AINV] = ainv
-    work[i, W_C] = c
-    work[i, W_TGT] = tgt
+    viscous = z != 0.0
+    for n in range(volts.shape[0]):
+        q0 = q0s[n]
+        q1 = q1s[n]
+        xl = e0 * d + e1 * dd + (e2 * q0 + e3 * q1)  # the state at h without F
+        vl = e0 * dd - w0e1 * d + (e1 * q0 + e2 * q1)
+        if lprev == h:
+            # F known at -h and 0: predict the end with the line through them
+            xp = xl - (px0 * f0 - pxp * fp)
+            vp = 0.0
+            if viscous:  # the rates enter F only through the viscous term
+                vp = vl - (pv0 * f0 - pvp * fp)
+            fb, rb = _force(xp, vp, k1, kl, k2inv, kd, ainv, c, z)
+            if rp > R_SMOOTH and r0 > R_SMOOTH and rb > R_SMOOTH:
+                # eq. 10 far from its square-root end points at -h, 0 and h: F is smooth, the
+                # quadratic through F(-h), F(0), F(h) corrects (one evaluation per step)
+                xb = xl - ((mxp * fp + mx0 * f0) + mxb * fb)
+                vb = vl - ((mvp * fp + mv0 * f0) + mvb * fb)
+            else:
+                # near a turning point or a clamp: F also at the midpoint (predicted with the
+                # same line), the quadratic through F at 0, h/2 and h corrects
+                xm = hx0 * d + hx1 * dd + (hx2 * q0 + hx3 * q1) - (pmx0 * f0 - pmxp * fp)
+                vm = 0.0
+                if viscous:
+                    vm = hx0 * dd - w0h1 * d + (hx1 * q0 + hx2 * q1) - (pmv0 * f0 - pmvp * fp)
+                fm, _ = _force(xm, vm, k1, kl, k2inv, kd, ainv, c, z)
+                xb = xl - ((wx0 * f0 + wxm * fm) + wxb * fb)
+                vb = vl - ((wv0 * f0 + wvm * fm) + wvb * fb)
+        elif lprev > 0.0:
+            # the earlier node at -lprev (the last event): the line through F(-lprev), F(0)
+            sl = (f0 - fp) / lprev
+            g0 = q0 - w0sq * f0
+            g1 = q1 - w0sq * sl
+            xp = e0 * d + e1 * dd + (e2 * g0 + e3 * g1)
+            vp = 0.0
+            if viscous:
+                vp = e0 * dd - w0e1 * d + (e1 * g0 + e2 * g1)
+            fb, rb = _force(xp, vp, k1, kl, k2inv, kd, ainv, c, z)
+            xm = hx0 * d + hx1 * dd + (hx2 * g0 + hx3 * g1)
+            vm = 0.0
+            if viscous:
+                vm = hx0 * dd - w0h1 * d + (hx1 * g0 + hx2 * g1)
+            fm, _ = _force(xm, vm, k1, kl, k2inv, kd, ainv, c, z)
+            xb = xl - ((wx0 * f0 + wxm * fm) + wxb * fb)
+            vb = vl - ((wv0 * f0 + wvm * fm) + wvb * fb)
+        else:
+            xb, vb, fb, rb = _span_step(d, dd, h, (e0, e1, e2, e3, e4), (hx0, hx1, hx2, hx3, hx4), q0, q1, f0,
+                                        w0sq, k1, kl, k2inv, kd, ainv, c, z)
+        fpn = f0
+        rpn = r0
+        lprev = h
+        if s == 0.0:
+            # at rest so far: the first motion sets the direction, no turning point
+            # (no branch yet, a = 0: eq. 10 stays 0 and F is unchanged)
+            if vb != 0.0:
+                hyst[0] = 1.0 if vb > 0.0 else -1.0
+                s, kd, ainv, c, tgt = _branch(hyst, stack, rule, k3, k4)
+        else:
+            # cheap screen of _find_event's conditions: most steps have no event
+            maybe = s * vb < 0.0
+            if not maybe and s * dd > 0.0:
+                acc_a = q0 - w0sq * (d + f0)
+                acc_b = q0 + q1 * h - w0sq * (xb + fb)
+                maybe = s * acc_a < 0.0 and s * acc_b > 0.0
+            if not maybe and not math.isnan(tgt):
+                maybe = (d - tgt) * s <= 0.0 and (xb - tgt) * s > 0.0
+            if maybe:
+                acc_a = q0 - w0sq * (d + f0)
+                acc_b = q0 + q1 * h - w0sq * (xb + fb)
+                tau, kind = _find_event(s, rule, tgt, d, dd, acc_a, xb, vb, acc_b, h)
+                if kind != EVENT_NONE:
+                    xb, vb, fb, rb, lprev, fpn, rpn = _step_events(
+                        d, dd, f0, r0, xb, vb, fb, rb, tau, kind, h, q0, q1, t, w0sq, k1, kl,
+                        k2inv, k3, k4, z, rule, fast_dt, hyst, stack)
+                    s, kd, ainv, c, tgt = _branch(hyst, stack, rule, k3, k4)
+        d = xb
+        dd = vb
+        f0 = fb
+        r0 = rb
+        fp = fpn
+        rp = rpn
+        t += h
+        out_delta[n] = xb
+    state[X_DELTA] = d
+    state[X_DDELTA] = dd
+    state[X_F0] = f0
+    state[X_R0] = r0
+    state[X_FPREV] = fp
+    state[X_RPREV] = rp
+    state[X_LPREV] = lprev
+    state[X_TIME] = t
+    n = volts.shape[0]
+    if n > 0:
+        state[X_PHI] = sins_angle[n - 1]
+        state[X_RATE] = sins_rate[n - 1]
 
 
 @jit
-def _start_direction(work, i, hyst, stack, rule, vb, k3, k4):
-    """At rest so far: the first motion sets the direction (``hyst[0]``), no turning point."""
-    hyst[0] = 1.0 if vb > 0.0 else -1.0
-    _set_branch(work, i, hyst, stack, rule, k3, k4)
+def _forcing(sins_angle, sins_rate, volts, phi0, rate0, ih, ih2, w0sq, k5, q0s, q1s):
+    """The forcing without ``F`` of each step, ``q0 + q1 tau`` (``-p''`` and the drive, see module docstring).
 
-
-@jit
-def _load(work, i, state, hyst, stack, rule, k3, k4):
-    """Copy a suspension's state into ``work[i]`` and derive its branch constants."""
-    for j in range(STATE_SIZE):
-        work[i, j] = state[j]
-    _set_branch(work, i, hyst, stack, rule, k3, k4)
+    Depends on the inputs only (not on the state), so it is computed for the
+    whole chunk in a loop without dependencies between steps.
+    """
+    phi_a = phi0
+    r_a = rate0
+    for n in range(volts.shape[0]):
+        phi1 = sins_angle[n]
+        r1 = sins_rate[n]
+        slope = (phi1 - phi_a) * ih
+        p0 = (6.0 * slope - 4.0 * r_a - 2.0 * r1) * ih  # second derivative of the Hermite interpolant at 0
+        p1 = 6.0 * (r_a + r1 - 2.0 * slope) * ih2  # its (constant) third derivative
+        q0s[n] = -p0 - w0sq * (k5 * volts[n])  # forcing without F at tau = 0
+        q1s[n] = -p1
+        phi_a = phi1
+        r_a = r1
 
 
 @jit
@@ -574,12 +752,14 @@ def plant_run_exact(sins_angle, sins_rate, volts, h, w0sq, k1, k2, k3, k4, k5, z
 
 @jit
 def plant_run_exact_many(sins_angle, sins_rate, volts, h, params, rules, fast_dts, state, hyst, stack, out_delta):
-    """``plant_run_exact`` for several independent suspensions, advanced together step by step.
+    """``plant_run_exact`` for several independent suspensions over the same chunk.
 
     Each suspension's arithmetic is exactly that of ``plant_run_exact`` (bit
-    for bit); interleaving independent suspensions lets the processor
-    overlap their dependency chains (eq. 9 and 10's square roots), which
-    one suspension alone cannot.
+    for bit): its forcing is computed first (:func:`_forcing`), then it runs
+    over the chunk (:func:`_run_axis`), one suspension after the other.
+    (Advancing them side by side, one step of each in turn, measured no
+    faster once the state lives in registers: the step is bound by its
+    number of operations more than by its dependency chain.)
 
     Parameters
     ----------
@@ -597,114 +777,14 @@ def plant_run_exact_many(sins_angle, sins_rate, volts, h, params, rules, fast_dt
     out_delta : float64[M, N]
     """
     m_axes = volts.shape[0]
+    n = volts.shape[1]
     consts = np.empty((m_axes, N_CONSTS))
-    work = np.empty((m_axes, N_WORK))
+    q0s = np.empty(n)
+    q1s = np.empty(n)
     for i in range(m_axes):
         _constants(consts, i, h, params[i, 0], params[i, 1], params[i, 2], params[i, 3], params[i, 4],
                    params[i, 5], params[i, 6], fast_dts[i])
-        _load(work, i, state[i], hyst[i], stack[i], rules[i], params[i, 3], params[i, 4])
-    for n in range(volts.shape[1]):
-        for i in range(m_axes):
-            phi1 = sins_angle[i, n]
-            r1 = sins_rate[i, n]
-            rule = rules[i]
-            d = work[i, X_DELTA]
-            dd = work[i, X_DDELTA]
-            f0 = work[i, X_F0]
-            lprev = work[i, X_LPREV]
-            s = work[i, W_S]
-            kd = work[i, W_KD]
-            ainv = work[i, W_AINV]
-            c = work[i, W_C]
-            w0sq = consts[i, C_W0SQ]
-            k1 = consts[i, C_K1]
-            kl = consts[i, C_KL]
-            k2inv = consts[i, C_K2INV]
-            z = consts[i, C_Z]
-            ih = consts[i, C_IH]
-            e0 = consts[i, C_E]
-            e1 = consts[i, C_E + 1]
-            e2 = consts[i, C_E + 2]
-            e3 = consts[i, C_E + 3]
-            r0 = work[i, X_RATE]
-            slope = (phi1 - work[i, X_PHI]) * ih
-            p0 = (6.0 * slope - 4.0 * r0 - 2.0 * r1) * ih  # second derivative of the Hermite interpolant at 0
-            p1 = 6.0 * (r0 + r1 - 2.0 * slope) * consts[i, C_IH2]  # its (constant) third derivative
-            q0 = -p0 - w0sq * (consts[i, C_K5] * volts[i, n])  # forcing without F at tau = 0
-            q1 = -p1
-            r0 = work[i, X_R0]
-            if lprev > 0.0:
-                # F known at -lprev and 0: predict the end with the line through them
-                if lprev == h:
-                    sl = (f0 - work[i, X_FPREV]) * ih
-                else:
-                    sl = (f0 - work[i, X_FPREV]) / lprev
-                g0 = q0 - w0sq * f0
-                g1 = q1 - w0sq * sl
-                xp = e0 * d + e1 * dd + (e2 * g0 + e3 * g1)
-                vp = 0.0
-                if z != 0.0:  # the rates enter F only through the viscous term
-                    vp = e0 * dd - w0sq * e1 * d + (e1 * g0 + e2 * g1)
-                fb, rb = _force(xp, vp, k1, kl, k2inv, kd, ainv, c, z)
-                xl = e0 * d + e1 * dd + (e2 * q0 + e3 * q1)  # without F
-                vl = e0 * dd - w0sq * e1 * d + (e1 * q0 + e2 * q1)
-                if lprev == h and min(work[i, X_RPREV], r0, rb) > R_SMOOTH:
-                    # eq. 10 far from its square-root end points at -h, 0 and h: F is smooth, the
-                    # quadratic through F(-h), F(0), F(h) corrects (one evaluation per step)
-                    fp = work[i, X_FPREV]
-                    xb = xl - ((consts[i, C_WM] * fp + consts[i, C_WM + 1] * f0) + consts[i, C_WM + 2] * fb)
-                    vb = vl - ((consts[i, C_WM + 3] * fp + consts[i, C_WM + 4] * f0) + consts[i, C_WM + 5] * fb)
-                else:
-                    # near a turning point or a clamp: F also at the midpoint (predicted with the
-                    # same line), the quadratic through F at 0, h/2 and h corrects
-                    hx0 = consts[i, C_EH]
-                    hx1 = consts[i, C_EH + 1]
-                    xm = hx0 * d + hx1 * dd + (consts[i, C_EH + 2] * g0 + consts[i, C_EH + 3] * g1)
-                    vm = 0.0
-                    if z != 0.0:
-                        vm = hx0 * dd - w0sq * hx1 * d + (hx1 * g0 + consts[i, C_EH + 2] * g1)
-                    fm, _ = _force(xm, vm, k1, kl, k2inv, kd, ainv, c, z)
-                    xb = xl - ((consts[i, C_W] * f0 + consts[i, C_W + 1] * fm) + consts[i, C_W + 2] * fb)
-                    vb = vl - ((consts[i, C_W + 3] * f0 + consts[i, C_W + 4] * fm) + consts[i, C_W + 5] * fb)
-            else:
-                e = (e0, e1, e2, e3, consts[i, C_E + 4])
-                eh = (consts[i, C_EH], consts[i, C_EH + 1], consts[i, C_EH + 2], consts[i, C_EH + 3],
-                      consts[i, C_EH + 4])
-                xb, vb, fb, rb = _span_step(d, dd, h, e, eh, q0, q1, f0, w0sq, k1, kl, k2inv, kd, ainv, c, z)
-            fprev = f0
-            rprev = r0
-            lprev = h
-            if s == 0.0:
-                # at rest so far: the first motion sets the direction, no turning point
-                # (no branch yet, a = 0: eq. 10 stays 0 and F is unchanged)
-                if vb != 0.0:
-                    _start_direction(work, i, hyst[i], stack[i], rule, vb, consts[i, C_K3], consts[i, C_K4])
-            else:
-                acc_a = q0 - w0sq * (d + f0)
-                acc_b = q0 + q1 * h - w0sq * (xb + fb)
-                tgt = work[i, W_TGT]
-                # cheap screen of _find_event's conditions: most steps have no event
-                maybe = s * vb < 0.0 or (s * acc_a < 0.0 and s * acc_b > 0.0 and s * dd > 0.0)
-                if not maybe and not math.isnan(tgt):
-                    maybe = (d - tgt) * s <= 0.0 and (xb - tgt) * s > 0.0
-                if maybe:
-                    tau, kind = _find_event(s, rule, tgt, d, dd, acc_a, xb, vb, acc_b, h)
-                    if kind != EVENT_NONE:
-                        xb, vb, fb, rb, lprev, fprev, rprev = _step_events(
-                            d, dd, f0, r0, xb, vb, fb, rb, tau, kind, h, q0, q1, work[i, X_TIME], w0sq, k1, kl,
-                            k2inv, consts[i, C_K3], consts[i, C_K4], z, rule, consts[i, C_FAST], hyst[i], stack[i])
-                        _set_branch(work, i, hyst[i], stack[i], rule, consts[i, C_K3], consts[i, C_K4])
-            work[i, X_DELTA] = xb
-            work[i, X_DDELTA] = vb
-            work[i, X_F0] = fb
-            work[i, X_R0] = rb
-            work[i, X_FPREV] = fprev
-            work[i, X_RPREV] = rprev
-            work[i, X_LPREV] = lprev
-            work[i, X_PHI] = phi1
-            work[i, X_RATE] = r1
-            work[i, X_TIME] += h
-            out_delta[i, n] = xb
-    for i in range(m_axes):
-        for j in range(STATE_SIZE):
-            state[i, j] = work[i, j]
+        _forcing(sins_angle[i], sins_rate[i], volts[i], state[i, X_PHI], state[i, X_RATE], consts[i, C_IH],
+                 consts[i, C_IH2], consts[i, C_W0SQ], consts[i, C_K5], q0s, q1s)
+        _run_axis(sins_angle[i], sins_rate[i], volts[i], q0s, q1s, consts[i], rules[i], state[i], hyst[i], stack[i],
+                  out_delta[i])
