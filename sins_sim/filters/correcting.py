@@ -178,7 +178,7 @@ class CorrectingFilter:
                 )
         if self.design.k3 > 0.0 and self._rule == kphys.RULE_PAPER and self.hyst[5] > 0 and not self._warned:
             self._warned = True
-            warn_regime("correcting filter", int(self.hyst[5]), float(self.hyst[6]), "D", stacklevel=2)
+            warn_regime(f"correcting filter ({self.design.form} form)", int(self.hyst[5]), float(self.hyst[6]), "D", stacklevel=2)
         return out
 
 
