@@ -106,6 +106,43 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _cmd_simulate_recording(args) -> int:
+    from sins_sim.scenarios.recording_jobs import simulate_recording
+
+    info = simulate_recording(args.spec, args.out)
+    print(f"wrote {info.get('path', args.out)}")
+    return 0
+
+
+def _cmd_import_csv(args) -> int:
+    from sins_sim.scenarios.recording_jobs import import_csv
+
+    info = import_csv(args.csv, args.out, quantum_arcsec=args.quantum_arcsec, nominal=args.nominal,
+                      experiment=args.experiment, initial_state=args.initial_state, description=args.description,
+                      fs_hz=args.fs_hz)
+    print(f"wrote {info['path']}: axes {', '.join(info['axes'])}, {info['n_samples']} samples at "
+          f"{info['fs_hz']:g} Hz ({info['duration_s']:g} s)")
+    return 0
+
+
+def _cmd_diagnose(args) -> int:
+    from sins_sim.scenarios.recording_jobs import diagnose, format_diagnosis
+
+    effects = args.effects.split(",") if args.effects else None
+    result = diagnose(args.recording, json_out=args.json, report_dir=args.report, effects=effects)
+    print(format_diagnosis(result))
+    return 0
+
+
+def _cmd_diagnose_eval(args) -> int:
+    from sins_sim.scenarios.recording_jobs import diagnose_eval, format_eval
+
+    progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=args.json, progress=progress)
+    print(format_eval(result))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sins-sim", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -157,6 +194,47 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="every number at reduced resolution (< 90 s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_reproduce)
+
+    p = sub.add_parser("simulate-recording", help="write a sins-sim-recording/1 file from an experiment YAML",
+                       description="Simulate an experiment (stationary, afc_sweep, rate_table) with any effects "
+                                   "switched on and write it in the recording format; the file says nothing about "
+                                   "the effects. The YAML keys are listed in sins_sim/scenarios/recording_jobs.py.")
+    p.add_argument("spec", help="experiment YAML")
+    p.add_argument("--out", required=True, help="recording .npz to write")
+    p.set_defaults(func=_cmd_simulate_recording)
+
+    p = sub.add_parser("import-csv", help="convert a lab CSV export into a sins-sim-recording/1 file",
+                       description="Columns: time_s, counts_<axis>..., drive_v_<axis>..., optional "
+                                   "sins_angle_rad_<axis>... (see sins_sim/io/recording.py).")
+    p.add_argument("csv", help="lab export (CSV)")
+    p.add_argument("--out", required=True, help="recording .npz to write")
+    p.add_argument("--quantum-arcsec", type=float, required=True, help="readout quantum (arcsec)")
+    p.add_argument("--nominal", required=True, help="JSON or YAML file: axis -> {f0_hz, k1, k2, k3, k4, k5}")
+    p.add_argument("--experiment", default="stationary", help="experiment name [stationary]")
+    p.add_argument("--initial-state", choices=("rest", "unknown"), default="rest", help="[rest]")
+    p.add_argument("--description", default=None, help="free text for the header")
+    p.add_argument("--fs-hz", type=float, default=None, help="sample rate (default: from time_s)")
+    p.set_defaults(func=_cmd_import_csv)
+
+    p = sub.add_parser("diagnose", help="where a recording and the model disagree, and which effect explains it",
+                       description="Refit the nominal parameters per axis, localise the residual above the noise "
+                                   "floor, fit each catalogue effect, rank them (penalised) and give a verdict.")
+    p.add_argument("recording", help="sins-sim-recording/1 .npz")
+    p.add_argument("--json", help="write the diagnosis JSON here")
+    p.add_argument("--report", help="write report.md and PNGs into this directory")
+    p.add_argument("--effects", help="comma-separated subset of the catalogue to try (default: all)")
+    p.set_defaults(func=_cmd_diagnose)
+
+    p = sub.add_parser("diagnose-eval", help="blind evaluation of the diagnosis on generated recordings",
+                       description="Recordings with each catalogue effect at random strengths, none cases and an "
+                                   "off-catalogue disturbance, nominal parameters perturbed, labels hidden; prints "
+                                   "a confusion matrix and gap-reduction statistics.")
+    p.add_argument("--n", type=int, required=True, help="number of recordings")
+    p.add_argument("--seed", type=int, default=0, help="seed of the case generator [0]")
+    p.add_argument("--duration", type=float, default=1.0, help="length of each recording (s) [1]")
+    p.add_argument("--json", help="write the result JSON here")
+    p.add_argument("--quiet", action="store_true", help="no per-case progress lines")
+    p.set_defaults(func=_cmd_diagnose_eval)
 
     p = sub.add_parser("bench", help="measure the per-sample cost of the kernels and the three-axis chain")
     p.add_argument("--quick", action="store_true", help="short inputs, few repeats")

@@ -4,40 +4,60 @@ Given a recording (``sins_sim.io.recording``), :func:`diagnose_recording`
 
 1. **refits** the nominal parameters ``f0, k1..k5`` of every axis by
    simulating the same experiment (same drive, block motion and readout
-   instants, ``sins_sim.simulation.experiment``) and minimising the
-   residual with ``scipy.optimize.least_squares`` (parameters scaled by
-   their nominal values, a weak prior towards the nominal values for the
-   directions the data cannot resolve, uncertainty from the Jacobian with
-   the residual's correlation length taken into account). The axes are
-   independent in the nominal model, so each axis is fitted alone;
-2. estimates the **noise floor** from the data: the quantisation
-   ``q / sqrt(12)``, or more if the residual's high-frequency band (where
-   the model has no content) says so (white readout noise);
-3. **localises** the gap: per axis the excess of the residual's RMS over the
-   floor; on the worst axis the band holding the excess power (Welch
-   spectrum), the time window holding it (residual envelope), and for AFC
-   sweeps the operating points (segments of constant drive voltage and
-   frequency, found from ``drive_v``) ranked by their excess;
-4. **explains**: every effect of the catalogue (``sins_sim.models.effects``)
-   that the experiment can show is fitted together with the nominal
-   parameters on each axis with a significant gap; it is scored on held-out
-   data (the recording is cut in blocks; even blocks fit, odd blocks
-   score), so an extra parameter that only fits noise gains nothing;
+   instants, ``sins_sim.simulation.experiment``, exact integrator at about
+   28.8 kHz) and minimising the residual with
+   ``scipy.optimize.least_squares``. The axes are independent in the
+   nominal model, so each axis is fitted alone (in parallel threads).
+   Parametrisation: ``(F(a_ref), k1, k2, 1/Q(a_ref), k4, k5)`` relative to
+   their nominal values, with ``F`` the harmonic-balance resonance and
+   ``1/Q = k3 (1 + k4 a)`` at the measured dither amplitude ``a_ref``:
+   what a dither shows directly, so the fit does not crawl along the
+   valleys ``(f0, k1, k2)`` and ``(k3, k4)`` that a steady dither leaves.
+   A weak prior (1 % on F, 30 % on the others) keeps unresolved directions
+   at the nominal values. Stages: a grid over F (a dither far off phase is
+   far from the quadratic regime), then ``F, 1/Q, k5``, then all six;
+   the solver's unit step is one plausible variation of each parameter
+   (``_XSCALE``). Uncertainty: from the Jacobian and the prior, the
+   residual variance inflated by the residual's correlation length.
+   A recording longer than ``1.5 window_s`` is fitted on its first
+   ``window_s`` seconds and then refined on the whole of it;
+2. estimates the **noise floor** from the data (:func:`noise_floor`): the
+   quantisation ``q / sqrt(12)``, or more where the residual's
+   high-frequency band (where the model has no content) says so;
+3. **localises** the gap (:func:`localise`): per axis the excess of the
+   residual's RMS over the floor; on the worst axis the band holding 90 %
+   of the excess power (Welch spectrum) and its peaks, the time window
+   holding 90 % of the excess energy (residual envelope), and for AFC
+   sweeps the operating points (:func:`operating_points`, segments of
+   constant drive amplitude and frequency found from ``drive_v``) ranked by
+   their excess;
+4. **explains**: every catalogue effect (``sins_sim.models.effects``) that
+   the experiment can show is fitted together with the nominal parameters
+   on each axis with a significant gap, from the best of a few starts of
+   its parameters (for ``block_mode`` including the residual's peaks).
    ``gap_reduction`` is the fraction of the excess residual power over the
-   floor it removes;
+   floor it removes; the ``score`` is the RMS residual on held-out data
+   (the recording is cut in blocks; even blocks fit, odd blocks score), so
+   an extra parameter that only fits noise gains nothing;
 5. gives a **verdict**: ``none`` when the refit nominal model sits at the
-   floor (its excess RMS below ``max(rel_tol * floor, abs_tol)``, a
-   tolerance that covers integration-method, interpolation and noise
-   differences between simulators), the best-scoring effect when it
-   removes at least ``min_gap_reduction`` of the excess power, else
-   ``unknown`` (the localisation is then the answer).
+   floor (excess RMS below ``max(rel_tol * floor, abs_tol)``: a tolerance
+   that covers integration-method, interpolation and noise differences
+   between simulators); the best-scoring effect when it closes the gap
+   (leaves an excess within the tolerance, or below ``close_fraction`` of
+   the excess it started from, and removes at least ``min_gap_reduction``
+   of the power), with the effects that do as well within
+   ``ALTERNATIVE_MARGIN`` named as ``alternatives``; else ``unknown`` (the
+   localisation is then the answer).
 
 Conventions: the measured angle is ``counts * q + q / 2`` (the floor of the
-counter makes ``counts * q`` half a quantum low on average). With
-``initial_state = "unknown"`` a constant offset is profiled out and the
-first ``settle`` seconds (6 amplitude time constants ``2 Q / omega``, at
-most 40 % of the recording) are left out of every residual, the model
-starting from rest at ``t = 0`` with the recorded drive.
+counter makes ``counts * q`` half a quantum low on average). A recording
+with ``initial_state = "unknown"`` is simulated from rest 6 time constants
+``2 Q / omega`` before its start, the drive (and table motion) before
+``t = 0`` continued as it starts; the suspension's state at ``t = 0`` is
+then fitted as well (two more parameters: a change of deflection and of
+its rate there, applied as a fictitious block kick that only the plant
+sees), a constant (the counter's start) is profiled out, and the first
+half time constant is left out.
 
 Functions
 ---------
@@ -47,6 +67,7 @@ Functions
    noise_floor
    fit_axis
    localise
+   operating_points
    diagnose_recording
    write_report
 """
@@ -57,7 +78,7 @@ import json
 import math
 import warnings
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -67,7 +88,7 @@ from scipy.interpolate import CubicSpline
 from sins_sim import _validate as v
 from sins_sim.identification.afc import hb_stiffness_ratio
 from sins_sim.io.recording import NOMINAL_KEYS, Recording
-from sins_sim.models.effects import EFFECTS, AxisCoupling, Effect, rate_from_grid
+from sins_sim.models.effects import EFFECTS, Effect, Param
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.simulation.experiment import (FIT_SETTINGS, ExperimentInputs, ExperimentSettings, simulate_axis,
                                             suspension_from_nominal)
@@ -76,18 +97,24 @@ from sins_sim.units import ARCMIN, ARCSEC
 __all__ = ["DiagnoseSettings", "AxisFit", "Diagnosis", "noise_floor", "fit_axis", "localise", "operating_points",
            "diagnose_recording", "write_report"]
 
+#: Candidates scoring within this fraction of the best one are named as alternatives of the verdict.
+ALTERNATIVE_MARGIN = 0.05
 #: Relative bounds of the nominal parameters in the fit (multiples of the nominal value).
-_BOUNDS = {"f0_hz": (0.97, 1.03), "k1": (0.0, 10.0), "k2": (0.05, 20.0), "k3": (0.05, 20.0), "k4": (-2.0, 20.0),
-           "k5": (0.1, 10.0)}
-#: Relative finite-difference steps of the Jacobian (f0 is known to 1e-6 and acts strongly).
-import os
-_XSCALE = os.environ.get("XS", "jac")
-_XSCALE = float(_XSCALE) if _XSCALE != "jac" else _XSCALE
+#: A unit's parameters differ from the nominal ones by per cent (f0) or tens of per cent (k); wider
+#: bounds only let the refit bend weakly resolved parameters to absorb an unmodelled effect.
+_BOUNDS = {"f0_hz": (0.97, 1.03), "k1": (0.0, 5.0), "k2": (0.2, 5.0), "k3": (0.2, 5.0), "k4": (-1.0, 5.0),
+           "k5": (0.2, 5.0)}
+#: Termination tolerance of the least-squares stages (relative change of the cost, step in solver units).
+_TOL = 1e-4
+#: Plausible variation of the fitted nominal quantities (F(a_ref), k1, k2, 1/Q, k4, k5), relative:
+#: the solver's unit step in each (see ``_solve``).
+_XSCALE = np.array([0.002, 0.1, 0.1, 0.05, 0.1, 0.05])
 #: Typical sizes of (F, k1, k2, 1/Q, k4, k5), used as scale where a nominal value is 0.
 _TYPICAL = np.array([386.0, 1.75e-4, 1.05e-3, 5e-3, 250.0, 1.2e-5])
 #: Bounds (in those typical units) of a parameter whose nominal value is 0.
-_ZERO_BOUNDS = {"f0_hz": (0.5, 2.0), "k1": (0.0, 10.0), "k2": (0.05, 20.0), "k3": (0.0, 20.0), "k4": (-2.0, 20.0),
-                "k5": (-10.0, 10.0)}
+_ZERO_BOUNDS = {"f0_hz": (0.5, 2.0), "k1": (0.0, 5.0), "k2": (0.2, 5.0), "k3": (0.0, 5.0), "k4": (-1.0, 5.0),
+                "k5": (-5.0, 5.0)}
+#: Relative finite-difference steps of the Jacobian (F is resolved to 1e-6 and acts strongly).
 _STEPS = {"f0_hz": 2e-7, "k1": 1e-3, "k2": 1e-3, "k3": 1e-3, "k4": 1e-3, "k5": 1e-4}
 
 
@@ -102,13 +129,24 @@ class DiagnoseSettings:
     prior_f0, prior_k : float
         Relative standard deviation of the prior on f0 and on k1..k5 around
         the recording's nominal values (keeps unresolvable directions there).
-    max_nfev : int
-        Evaluation budget of each least-squares fit (Jacobian columns not counted).
+    max_nfev, candidate_nfev : int
+        Evaluation budget of the baseline's and of each candidate's last least-squares stage
+        (Jacobian columns not counted; the first stage gets half).
+    window_s : float or None
+        A recording longer than 1.5 x this is fitted on its first ``window_s`` seconds and the
+        result refined on the whole recording (``polish_nfev`` evaluations); ``None``: always
+        the whole recording.
+    polish_nfev : int
+        Evaluation budget of that refinement.
     rel_tol, abs_tol_arcsec : float
         The gap is significant when the excess RMS over the floor exceeds
         ``max(rel_tol * floor, abs_tol)``.
     min_gap_reduction : float
         Fraction of the excess power an effect must remove to be the verdict.
+    close_fraction : float
+        An effect closes the gap when the excess RMS it leaves on every axis is below the
+        tolerance or below this fraction of the excess RMS the baseline left; only an
+        effect that closes the gap can be the verdict.
     block_s : float or None
         Length of the fit / held-out blocks (s); ``None``: 1/20 of the
         recording, between 25 ms and 0.5 s.
@@ -122,9 +160,13 @@ class DiagnoseSettings:
     prior_f0: float = 0.01
     prior_k: float = 0.3
     max_nfev: int = 30
+    candidate_nfev: int = 16
+    window_s: float | None = 3.0
+    polish_nfev: int = 4
     rel_tol: float = 0.5
     abs_tol_arcsec: float = 0.02
     min_gap_reduction: float = 0.6
+    close_fraction: float = 0.15
     block_s: float | None = None
     effects: tuple | None = None
     threads: int = 2
@@ -132,13 +174,20 @@ class DiagnoseSettings:
     def __post_init__(self):
         v.positive("diagnose", "prior_f0", self.prior_f0)
         v.positive("diagnose", "prior_k", self.prior_k)
-        if int(self.max_nfev) != self.max_nfev or self.max_nfev < 2:
-            raise ValueError(f"diagnose.max_nfev: must be an integer >= 2, got {self.max_nfev!r}")
+        if self.window_s is not None:
+            v.positive("diagnose", "window_s", self.window_s)
+        for name in ("max_nfev", "candidate_nfev", "polish_nfev"):
+            val = getattr(self, name)
+            if int(val) != val or val < 2:
+                raise ValueError(f"diagnose.{name}: must be an integer >= 2, got {val!r}")
         v.non_negative("diagnose", "rel_tol", self.rel_tol)
         v.non_negative("diagnose", "abs_tol_arcsec", self.abs_tol_arcsec)
         g = v.finite("diagnose", "min_gap_reduction", self.min_gap_reduction)
         if not 0.0 < g <= 1.0:
             raise ValueError(f"diagnose.min_gap_reduction: must be in (0, 1], got {g!r}")
+        c = v.finite("diagnose", "close_fraction", self.close_fraction)
+        if not 0.0 <= c < 1.0:
+            raise ValueError(f"diagnose.close_fraction: must be in [0, 1), got {c!r}")
         if self.block_s is not None:
             v.positive("diagnose", "block_s", self.block_s)
         for name in self.effects or ():
@@ -192,6 +241,10 @@ class AxisFit:
         k1..k5``; effect: its parameters).
     nfev : int
         Model evaluations (Jacobian columns included).
+    train_rms, heldout_rms, rms : float
+        RMS residual on the fit blocks, the held-out blocks and all used samples (rad).
+    start_state : (d_delta, d_rate) or None
+        The fitted state change at ``t = 0`` of a recording that starts mid-operation.
     """
 
     axis: str
@@ -204,6 +257,7 @@ class AxisFit:
     train_rms: float = math.nan
     heldout_rms: float = math.nan
     rms: float = math.nan
+    start_state: tuple | None = None
 
 
 class _Problem:
@@ -218,8 +272,9 @@ class _Problem:
 
     def __init__(self, inputs: ExperimentInputs, axis: str, y: np.ndarray, nominal: SuspensionParams,
                  settings: DiagnoseSettings, used: np.ndarray, train: np.ndarray, offset: bool, sigma_rad: float,
-                 coupled: dict | None, a_ref: float):
+                 coupled: dict | None, a_ref: float, skip: int = 0):
         self.inputs = inputs
+        self.skip = int(skip)
         self.axis = axis
         self.y = y
         self.nominal = nominal
@@ -247,6 +302,15 @@ class _Problem:
         self.lo = np.array(lo)
         self.hi = np.array(hi)
         self.nfev = 0
+        # a recording that starts mid-operation: the suspension's state at t = 0 is fitted too, as a
+        # change (delta, rate) of the model's state there (``simulate_axis``'s kick)
+        self.kick_index = self.skip * inputs.grid(settings.experiment).r
+        self.nuisance = []
+        if offset:
+            w = nominal.omega0
+            self.nuisance = [Param("start_delta_rad", "state change at t = 0", -3.0 * a_ref, 3.0 * a_ref, a_ref),
+                             Param("start_rate_rad_s", "state change at t = 0", -3.0 * a_ref * w, 3.0 * a_ref * w,
+                                   a_ref * w)]
 
     def to_u(self, p) -> np.ndarray:
         """(f0, k1, k2, k3, k4, k5) -> (F(a_ref), k1, k2, 1/Q(a_ref), k4, k5)."""
@@ -277,43 +341,79 @@ class _Problem:
             g[:, j] = (self.to_p(dx * self.u_nom) - p0) / hj
         return g
 
-    def model(self, sus: SuspensionParams, effect: Effect | None) -> np.ndarray:
+    def model(self, sus: SuspensionParams, effect: Effect | None, start=None) -> np.ndarray:
+        """Model angle at the recording's samples; ``start`` = (d_delta, d_rate) at t = 0 or None."""
         self.nfev += 1
         effects = () if effect is None else (effect,)
+        kick = None if start is None else (self.kick_index, float(start[0]), float(start[1]))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            m = simulate_axis(self.inputs, self.axis, sus, effects, self.settings.experiment, coupled=self.coupled)
+            m = simulate_axis(self.inputs, self.axis, sus, effects, self.settings.experiment, coupled=self.coupled,
+                              kick=kick)
+        m = m[self.skip:]
         if self.offset:
             m = m + float(np.mean((self.y - m)[self.used]))
         return m
 
 
-def _solve(prob: _Problem, effect_cls, x0_nom, x0_eff, space, max_nfev, threads, mask):
-    """Least squares over (nominal relative, effect scaled) on ``mask``; returns (x, J, cost)."""
+def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None):
+    """Least squares over (nominal, effect) parameters on the samples ``mask``.
+
+    ``x0`` is the full start vector (nominal relative, then the start state
+    of a recording that starts mid-operation and the effect's parameters, in
+    units of their ``Param.scale``; ``space`` lists those); only the indices
+    ``free`` move. The solver
+    works in ``z = (x - x0) / _XSCALE``: the first trust region then spans
+    about one plausible variation of every parameter (a unit's f0 is off
+    by 0.2 %, its k by tens of %), not ``|x0|``, which keeps the first
+    steps of a badly started fit from jumping into nonsense.
+
+    Returns ``(x, jac, unpack)``: the full solution, the Jacobian of the
+    data residuals with respect to the free ``x`` (columns in ``free``
+    order), and a function ``x -> (SuspensionParams, Effect or None, start state or None)``.
+    """
     n_nom = len(NOMINAL_KEYS)
+    n = n_nom + len(space)
+    free = np.arange(n) if free is None else np.asarray(free)
     scales = np.array([p.scale for p in space])
     lo = np.concatenate([prob.lo, [p.lo / p.scale for p in space]])
     hi = np.concatenate([prob.hi, [p.hi / p.scale for p in space]])
+    xs = np.concatenate([_XSCALE, np.ones(len(space))])[free]
     steps = np.array([_STEPS[k] for k in NOMINAL_KEYS] + [1e-3] * len(space))
-    x0 = np.clip(np.concatenate([x0_nom, x0_eff]), lo + 1e-12, hi - 1e-12)
+    # a start on a bound stalls the trust-region reflective solver (its scaling shrinks the steps there
+    # to nothing): start the free parameters a little inside
+    x0 = np.asarray(x0, dtype=np.float64).copy()
+    xs_all = np.concatenate([_XSCALE, np.ones(len(space))])
+    margin = np.minimum(0.05 * xs_all, 0.25 * (hi - lo))
+    x0[free] = np.clip(x0[free], (lo + margin)[free], (hi - margin)[free])
+    x0 = np.clip(x0, lo, hi)
     prior_sd = np.array([prob.settings.prior_f0] + [prob.settings.prior_k] * (n_nom - 1))
     cache = {}
 
+    n_nui = len(prob.nuisance)
+
     def unpack(x):
         sus = prob.suspension(x[:n_nom])
+        start = tuple(float(val) for val in x[n_nom:n_nom + n_nui] * scales[:n_nui]) if n_nui else None
         eff = None
         if effect_cls is not None:
             eff = effect_cls.build(prob.axis, prob.inputs.axes, {p.name: float(xi * s) for p, xi, s in
-                                                                 zip(space, x[n_nom:], scales)})
-        return sus, eff
+                                                                 zip(space[n_nui:], x[n_nom + n_nui:], scales[n_nui:])})
+        return sus, eff, start
 
-    def fun(x):
-        key = x.tobytes()
+    def full(z):
+        x = x0.copy()
+        x[free] = x0[free] + z * xs
+        return x
+
+    def fun(z):
+        key = z.tobytes()
         if key in cache:
             return cache[key]
+        x = full(z)
         try:
-            sus, eff = unpack(x)
-            m = prob.model(sus, eff)
+            sus, eff, start = unpack(x)
+            m = prob.model(sus, eff, start)
             r = (prob.y - m)[mask] / prob.sigma
             if not np.all(np.isfinite(r)):
                 raise ValueError("non-finite model")
@@ -325,25 +425,30 @@ def _solve(prob: _Problem, effect_cls, x0_nom, x0_eff, space, max_nfev, threads,
         cache[key] = out
         return out
 
-    def jac(x):
-        f0 = fun(x)
-        hs = np.where(x + steps * np.maximum(1.0, np.abs(x)) <= hi, 1.0, -1.0) * steps * np.maximum(1.0, np.abs(x))
+    def jac(z):
+        f0 = fun(z)
+        x = full(z)
+        hx = steps[free] * np.maximum(1.0, np.abs(x[free]))
+        hx = np.where(x[free] + hx <= hi[free], hx, -hx)
+        hz = hx / xs
 
         def col(i):
-            xp = x.copy()
-            xp[i] += hs[i]
-            return (fun(xp) - f0) / hs[i]
+            zp = z.copy()
+            zp[i] += hz[i]
+            return (fun(zp) - f0) / hz[i]
 
         if threads > 1:
             with ThreadPoolExecutor(max_workers=threads) as ex:
-                cols = list(ex.map(col, range(x.size)))
+                cols = list(ex.map(col, range(z.size)))
         else:
-            cols = [col(i) for i in range(x.size)]
+            cols = [col(i) for i in range(z.size)]
         return np.column_stack(cols)
 
-    sol = optimize.least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=_XSCALE,
-                                 max_nfev=max_nfev, xtol=1e-8, ftol=1e-8, gtol=1e-8)
-    return sol.x, sol.jac, unpack
+    zlo = (lo[free] - x0[free]) / xs
+    zhi = (hi[free] - x0[free]) / xs
+    sol = optimize.least_squares(fun, np.zeros(free.size), jac=jac, bounds=(zlo, zhi), method="trf",
+                                 x_scale=1.0, max_nfev=max_nfev, xtol=_TOL, ftol=_TOL, gtol=_TOL)
+    return full(sol.x), sol.jac / xs[None, :], unpack
 
 
 def _rms(x):
@@ -366,9 +471,32 @@ def _correlation_length(r: np.ndarray) -> float:
     return max(1.0, 1.0 + 2.0 * float(np.sum(ac[1:m])))
 
 
+#: Indices of (F(a_ref), 1/Q(a_ref), k5): what a dither shows first; the first fit stage moves only these.
+_MAIN = (0, 3, 5)
+#: The grid of F(a_ref) (relative to nominal) that starts a baseline fit: +-1.5 % in 0.1 % steps,
+#: finer than the resonance's half width (about 0.27 % at Q = 187).
+_F_GRID = np.linspace(-0.015, 0.015, 31)
+
+
+def _cost(prob: _Problem, sus: SuspensionParams, effect, start=None) -> float:
+    try:
+        r = (prob.y - prob.model(sus, effect, start))[prob.train]
+        return float(np.mean(r * r))
+    except ValueError:
+        return math.inf
+
+
 def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effect_starts=None,
-             max_nfev: int | None = None) -> AxisFit:
+             max_nfev: int | None = None, polish: bool = False) -> AxisFit:
     """Fit the nominal parameters (and an effect's) on one axis, on the training blocks.
+
+    Stages: (0) without a start, the grid :data:`_F_GRID` of the
+    operating-point resonance (the residual is far from quadratic when the
+    dither's phase is off); with an effect, the best of ``effect_starts``
+    at the start's nominal parameters (or at those with the recording's
+    nominal ``k1, k2, k4``, whichever fits better); (1) least squares over
+    ``F, 1/Q, k5``, the start state (recordings that start mid-operation)
+    and the effect's parameters; (2) least squares over everything.
 
     Parameters
     ----------
@@ -377,48 +505,96 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
     start : AxisFit, optional
         Start of the nominal parameters (default: the recording's nominal).
     effect_starts : list of dict, optional
-        Candidate starts of the effect's parameters; the one with the lowest
-        cost (at the start's nominal parameters) is refined.
+        Candidate starts of the effect's parameters.
+    max_nfev : int, optional
+        Budget of the last stage (default ``settings.max_nfev``).
+    polish : bool
+        Only the last stage, from ``start`` (nominal and effect parameters):
+        the refinement on the whole recording of a fit made on its first window.
     """
     n_nom = len(NOMINAL_KEYS)
-    space = effect_cls.fit_space(prob.axis, prob.inputs.axes) if effect_cls is not None else []
+    n_nui = len(prob.nuisance)
+    threads = prob.settings.threads
+    eff_space = effect_cls.fit_space(prob.axis, prob.inputs.axes) if effect_cls is not None else []
+    space = list(prob.nuisance) + list(eff_space)
     x0_nom = prob.x_c.copy() if start is None else prob.x_of(start.suspension)
-    x0_eff = np.zeros(len(space))
+    x0_nui = np.zeros(n_nui)
+    if start is not None and start.start_state is not None and n_nui:
+        x0_nui = np.array(start.start_state) / np.array([p.scale for p in prob.nuisance])
+    state0 = None if start is None else start.start_state
+    x0_eff = np.zeros(len(eff_space))
+    if polish:
+        if start is None:
+            raise ValueError("fit_axis: polish needs a start")
+        if effect_cls is not None:
+            vals = start.effect.values(prob.axis)
+            x0_eff = np.array([vals[p.name] / p.scale for p in eff_space])
+        x, jac, unpack = _solve(prob, effect_cls, np.concatenate([x0_nom, x0_nui, x0_eff]), space,
+                                max_nfev or prob.settings.polish_nfev, threads, prob.train)
+        return _finish(prob, x, jac, unpack, space)
+    if effect_cls is None and start is None:
+        def grid_cost(df):
+            x = x0_nom.copy()
+            x[0] = prob.x_c[0] * (1.0 + df)
+            try:
+                return _cost(prob, prob.suspension(x), None)
+            except ValueError:
+                return math.inf
+
+        with ThreadPoolExecutor(max_workers=threads) as ex:
+            costs = list(ex.map(grid_cost, _F_GRID))
+        x0_nom[0] = prob.x_c[0] * (1.0 + _F_GRID[int(np.argmin(costs))])
     if effect_cls is not None:
-        starts = effect_starts or [{p.name: (p.default if p.default is not None else 0.0) for p in space}]
-        if len(starts) > 1:
-            sus0 = prob.suspension(x0_nom)
-            best = None
+        starts = effect_starts or [{p.name: (p.default if p.default is not None else 0.0) for p in eff_space}]
+        # nominal starts: the given one, and its (F, 1/Q, k5) with the recording's nominal k1, k2, k4
+        # (a baseline may have bent the weakly resolved k1, k2, k4 to absorb the effect)
+        hybrid = prob.x_c.copy()
+        hybrid[list(_MAIN)] = x0_nom[list(_MAIN)]
 
-            def cost(st):
-                try:
-                    eff = effect_cls.build(prob.axis, prob.inputs.axes, st)
-                    r = (prob.y - prob.model(sus0, eff))[prob.train]
-                    return float(np.mean(r * r))
-                except ValueError:
-                    return math.inf
+        def cost(trial):
+            try:
+                return _cost(prob, prob.suspension(trial[0]), effect_cls.build(prob.axis, prob.inputs.axes, trial[1]),
+                             state0)
+            except ValueError:
+                return math.inf
 
-            with ThreadPoolExecutor(max_workers=prob.settings.threads) as ex:
-                costs = list(ex.map(cost, starts))
-            best = starts[int(np.argmin(costs))]
+        trials = [(x0_nom, st) for st in starts]
+        if len(trials) > 1:
+            with ThreadPoolExecutor(max_workers=threads) as ex:
+                costs = list(ex.map(cost, trials))
         else:
-            best = starts[0]
-        x0_eff = np.array([best.get(p.name, 0.0) / p.scale for p in space])
-    x, jac, unpack = _solve(prob, effect_cls, x0_nom, x0_eff, space, max_nfev or prob.settings.max_nfev,
-                            prob.settings.threads, prob.train)
-    sus, eff = unpack(x)
-    model = prob.model(sus, eff)
+            costs = [math.inf]
+        best = trials[int(np.argmin(costs))]
+        if start is not None and not np.allclose(hybrid, x0_nom) and cost((hybrid, best[1])) < min(costs):
+            best = (hybrid, best[1])
+        x0_nom = best[0].copy()
+        x0_eff = np.array([best[1].get(p.name, 0.0) / p.scale for p in eff_space])
+    x = np.concatenate([x0_nom, x0_nui, x0_eff])
+    stage1 = list(_MAIN) + list(range(n_nom, n_nom + len(space)))
+    budget = max_nfev or (prob.settings.max_nfev if effect_cls is None else prob.settings.candidate_nfev)
+    x, _, _ = _solve(prob, effect_cls, x, space, max(4, budget // 2), threads, prob.train, free=stage1)
+    x, jac, unpack = _solve(prob, effect_cls, x, space, budget, threads, prob.train)
+    return _finish(prob, x, jac, unpack, space)
+
+
+def _finish(prob: _Problem, x, jac, unpack, space) -> AxisFit:
+    """The fit's model, residual and uncertainties at the solution ``x``."""
+    n_nom = len(NOMINAL_KEYS)
+    sus, eff, state = unpack(x)
+    model = prob.model(sus, eff, state)
     res = prob.y - model
     res = np.where(prob.used, res, np.nan)
-    # uncertainty: J^T J of the data part, residual variance inflated by its correlation length
+    # uncertainty: J^T J of the data part plus the prior, the residual variance inflated by the
+    # residual's correlation length (neighbouring samples are not independent)
     nd = int(prob.train.sum())
     jd = jac[:nd]
     r_train = res[prob.train]
     dof = max(1, nd - x.size)
     s2 = float(np.sum(r_train * r_train)) / dof / prob.sigma ** 2 * _correlation_length(r_train)
-    jtj = jd.T @ jd + np.diag(np.concatenate([1.0 / np.array([prob.settings.prior_f0] + [prob.settings.prior_k] * (n_nom - 1)) ** 2, np.zeros(len(space))]))
+    prior = np.concatenate([1.0 / np.array([prob.settings.prior_f0] + [prob.settings.prior_k] * (n_nom - 1)) ** 2,
+                            np.zeros(len(space))])
     try:
-        cov = np.linalg.pinv(jtj) * s2
+        cov = np.linalg.pinv(jd.T @ jd + np.diag(prior)) * s2
     except np.linalg.LinAlgError:
         cov = np.full((x.size, x.size), math.nan)
     gmap = prob.p_jacobian(x[:n_nom])
@@ -428,47 +604,90 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
         sigma[p.name] = float(math.sqrt(max(0.0, cov[n_nom + j, n_nom + j])) * p.scale)
     heldout = prob.used & ~prob.train
     return AxisFit(axis=prob.axis, suspension=sus, effect=eff, model=model, residual=res, sigma=sigma,
-                   nfev=prob.nfev, train_rms=_rms(res[prob.train]), heldout_rms=_rms(res[heldout]) if heldout.any()
-                   else math.nan, rms=_rms(res))
+                   nfev=prob.nfev, train_rms=_rms(res[prob.train]),
+                   heldout_rms=_rms(res[heldout]) if heldout.any() else math.nan, rms=_rms(res), start_state=state)
 
 
 # --- localisation ------------------------------------------------------------------------------------
+def _sine_fit(seg: np.ndarray, fs_hz: float, f_guess: float | None = None):
+    """Least-squares ``c cos + s sin`` at a refined frequency: (amplitude, frequency, phase, rms error)."""
+    n = seg.size
+    t = np.arange(n) / fs_hz
+    if f_guess is None:
+        spec = np.abs(np.fft.rfft(seg * np.hanning(n), 8 * n))
+        f_guess = float(np.fft.rfftfreq(8 * n, 1.0 / fs_hz)[int(np.argmax(spec[1:])) + 1])
+
+    def design(f):
+        w = 2.0 * math.pi * f
+        return np.column_stack([np.cos(w * t), np.sin(w * t)])
+
+    def res(p):
+        d = design(p[0])
+        return d @ np.linalg.lstsq(d, seg, rcond=None)[0] - seg
+
+    f = float(optimize.least_squares(res, [f_guess], method="lm", max_nfev=40).x[0])
+    c, s = np.linalg.lstsq(design(f), seg, rcond=None)[0]
+    err = float(np.sqrt(np.mean(res([f]) ** 2)))
+    return float(math.hypot(c, s)), abs(f), float(math.atan2(-s, c)), err
+
+
 def operating_points(drive: np.ndarray, drive_fs_hz: float, block_s: float = 0.02, rel_tol: float = 0.01,
                      freq_tol_hz: float = 0.05) -> list:
     """Segments of constant drive amplitude and frequency (an AFC sweep's operating points).
 
-    The drive is cut into blocks of ``block_s``; in each the dominant
-    frequency (FFT peak refined by a 3-parameter sine fit) and amplitude are
-    estimated; consecutive blocks that agree within ``rel_tol`` (amplitude)
-    and ``freq_tol_hz`` form one point. Returns ``[{"t_s": [t0, t1],
-    "v_m": V, "frequency_hz": f}]``.
+    The drive is cut into blocks of ``block_s``; a sine is fitted to each.
+    Blocks the sine fits to within 0.1 % of its amplitude (or 3 times the
+    median misfit, the drive's own noise) are steady; runs of
+    steady blocks that agree within ``rel_tol`` (amplitude) and
+    ``freq_tol_hz`` form one point, and a step between two points is placed
+    at the sample where the sine of the point after it starts to fit better
+    than the sine of the point before it. Returns ``[{"t_s": [t0, t1],
+    "v_m": V, "frequency_hz": f}]`` in time order.
     """
     x = np.asarray(drive, dtype=np.float64)
     nb = max(16, int(round(block_s * drive_fs_hz)))
-    est = []
+    blocks = []
     for i0 in range(0, x.size - nb + 1, nb):
-        seg = x[i0:i0 + nb]
-        t = np.arange(nb) / drive_fs_hz
-        spec = np.abs(np.fft.rfft(seg * np.hanning(nb), 8 * nb))
-        f = np.fft.rfftfreq(8 * nb, 1.0 / drive_fs_hz)[int(np.argmax(spec[1:])) + 1]
-
-        def res(p):
-            return p[0] * np.cos(2 * np.pi * p[1] * t) + p[2] * np.sin(2 * np.pi * p[1] * t) - seg
-
-        a0 = np.linalg.lstsq(np.column_stack([np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t)]), seg,
-                             rcond=None)[0]
-        sol = optimize.least_squares(res, [a0[0], f, a0[1]], method="lm", max_nfev=50)
-        est.append((i0, float(np.hypot(sol.x[0], sol.x[2])), float(abs(sol.x[1]))))
-    points = []
-    for i0, amp, f in est:
-        if points and abs(amp - points[-1]["_a"]) <= rel_tol * max(points[-1]["_a"], 1e-12) and \
-                abs(f - points[-1]["_f"]) <= freq_tol_hz:
-            points[-1]["t_s"][1] = (i0 + nb) / drive_fs_hz
+        amp, f, ph, err = _sine_fit(x[i0:i0 + nb], drive_fs_hz)
+        blocks.append((i0, amp, f, err / max(amp, 1e-30)))
+    # a block is steady when the sine fits it about as well as it fits most blocks (the drive's own
+    # noise), and to 0.1 %: a block holding a step fits much worse
+    level = max(1e-3, 3.0 * float(np.median([b[3] for b in blocks]))) if blocks else 1e-3
+    blocks = [(i0, amp, f, rel <= level) for i0, amp, f, rel in blocks]
+    segs = []  # [first block start, last block end, amplitude, frequency]
+    for i0, amp, f, steady in blocks:
+        if not steady:
             continue
-        points.append({"t_s": [i0 / drive_fs_hz, (i0 + nb) / drive_fs_hz], "_a": amp, "_f": f})
-    if points:
-        points[-1]["t_s"][1] = x.size / drive_fs_hz
-    return [{"t_s": p["t_s"], "v_m": p["_a"], "frequency_hz": p["_f"]} for p in points]
+        if segs and segs[-1][1] == i0 and abs(amp - segs[-1][2]) <= rel_tol * max(segs[-1][2], 1e-30) and \
+                abs(f - segs[-1][3]) <= freq_tol_hz:
+            segs[-1][1] = i0 + nb
+            continue
+        if segs and abs(amp - segs[-1][2]) <= rel_tol * max(segs[-1][2], 1e-30) and \
+                abs(f - segs[-1][3]) <= freq_tol_hz:
+            segs[-1][1] = i0 + nb  # the same point on both sides of an unsteady block
+            continue
+        segs.append([i0, i0 + nb, amp, f])
+    if not segs:
+        return []
+    # refine each point's sine on its whole steady span, then place the steps between points
+    fits = []
+    for s0, s1, amp, f in segs:
+        a, fr, ph, _ = _sine_fit(x[s0:s1], drive_fs_hz, f)
+        fits.append((s0, s1, a, fr, ph))
+    bounds = [0]
+    for (a0, a1, amp_a, f_a, ph_a), (b0, b1, amp_b, f_b, ph_b) in zip(fits[:-1], fits[1:]):
+        k = np.arange(a1, b0)
+        if k.size == 0:
+            bounds.append(b0)
+            continue
+        ya = amp_a * np.cos(2.0 * math.pi * f_a * (k - a0) / drive_fs_hz + ph_a)
+        yb = amp_b * np.cos(2.0 * math.pi * f_b * (k - b0) / drive_fs_hz + ph_b)
+        ea = np.concatenate(([0.0], np.cumsum((x[k] - ya) ** 2)))
+        eb = np.concatenate((np.cumsum(((x[k] - yb) ** 2)[::-1])[::-1], [0.0]))
+        bounds.append(int(a1 + np.argmin(ea + eb)))
+    bounds.append(x.size)
+    return [{"t_s": [bounds[i] / drive_fs_hz, bounds[i + 1] / drive_fs_hz], "v_m": fits[i][2],
+             "frequency_hz": fits[i][3]} for i in range(len(fits))]
 
 
 def _quantile_span(x: np.ndarray, w: np.ndarray, lo: float = 0.05, hi: float = 0.95):
@@ -545,7 +764,7 @@ class Diagnosis:
     gap: dict
     candidates: list
     verdict: dict
-    locals: dict = field(default_factory=dict)
+    localisation: dict = field(default_factory=dict)
     timing: dict = field(default_factory=dict)
     skipped: dict = field(default_factory=dict)
 
@@ -565,6 +784,7 @@ class Diagnosis:
             "gap": _json_clean(self.gap),
             "candidates": [{"effect": c["effect"], "residual_rms_arcsec": c["rms_rad"] / a,
                             "gap_reduction": c["gap_reduction"], "score": c["score"],
+                            "closes_gap": c["closes_gap"], "remaining_excess_arcsec": c["remaining_excess_arcsec"],
                             "params": c["params"], "uncertainty": c["uncertainty"],
                             "nominal": {ax: _susp_dict(f.suspension) for ax, f in c["fits"].items()}}
                            for c in self.candidates],
@@ -593,30 +813,119 @@ def _json_clean(x):
     return x
 
 
+def _sine_extension(x: np.ndarray, fs_hz: float, n_pre: int, block_s: float = 0.05) -> np.ndarray:
+    """``n_pre`` samples before ``x[0]``: the sinusoid plus constant fitted to the first ``block_s`` of ``x``.
+
+    Used when a recording starts mid-operation: the drive (and a coupled
+    axis' deflection) before ``t = 0`` is taken to have continued as it
+    started.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    nb = int(min(x.size, max(16, round(block_s * fs_hz))))
+    seg = x[:nb]
+    t = np.arange(nb) / fs_hz
+    spec = np.abs(np.fft.rfft((seg - seg.mean()) * np.hanning(nb), 16 * nb))
+    f = float(np.fft.rfftfreq(16 * nb, 1.0 / fs_hz)[int(np.argmax(spec))])
+
+    def design(freq, tt):
+        w = 2.0 * math.pi * freq
+        return np.column_stack([np.cos(w * tt), np.sin(w * tt), np.ones_like(tt)])
+
+    if f > 0.0:
+        sol = optimize.least_squares(
+            lambda p: design(p[0], t) @ np.linalg.lstsq(design(p[0], t), seg, rcond=None)[0] - seg, [f],
+            method="lm", max_nfev=60)
+        f = float(sol.x[0])
+    coef = np.linalg.lstsq(design(f, t), seg, rcond=None)[0]
+    t_pre = np.arange(-n_pre, 0) / fs_hz
+    return design(f, t_pre) @ coef
+
+
+class _ShiftedMotion:
+    """A recording's table motion delayed by ``t_shift`` (a model pre-roll), continued linearly before it."""
+
+    def __init__(self, base, t_shift: float):
+        self.base = base
+        self.t_shift = float(t_shift)
+        a0, r0 = base.angle_rate(np.zeros(1))
+        self.a0, self.r0 = float(a0[0]), float(r0[0])
+
+    def angle_rate(self, t):
+        tt = np.asarray(t, dtype=np.float64) - self.t_shift
+        a, r = self.base.angle_rate(np.maximum(tt, 0.0))
+        before = tt < 0.0
+        return np.where(before, self.a0 + self.r0 * tt, a), np.where(before, self.r0, r)
+
+
+def _model_inputs(rec: Recording, n_pre: int) -> ExperimentInputs:
+    """The experiment to simulate: the recording's, preceded by ``n_pre`` samples of extrapolated drive."""
+    inputs = ExperimentInputs.from_recording(rec)
+    if n_pre == 0:
+        return inputs
+    r = rec.drive_ratio
+    drive = np.asarray(rec.drive_v, dtype=np.float64)
+    ext = np.column_stack([_sine_extension(drive[:, i], rec.drive_fs_hz, n_pre * r) for i in range(rec.n_axes)])
+    table = None
+    if rec.sins_angle is not None:
+        table = {a: _ShiftedMotion(inputs.table[a], n_pre / rec.fs_hz) for a in rec.axes}
+    return ExperimentInputs(rec.axes, rec.fs_hz, rec.n_samples + n_pre, rec.drive_fs_hz,
+                            np.concatenate([ext, drive]), table)
+
+
+def _truncate(rec: Recording, n: int) -> Recording:
+    """The first ``n`` samples of a recording (drive and table angle cut to match)."""
+    sins = None
+    if rec.sins_angle is not None:
+        k = min(rec.sins_angle.shape[0], int(math.ceil((n - 1) * rec.sins_fs_hz / rec.fs_hz)) + 9)
+        sins = rec.sins_angle[:k]
+    return Recording(rec.meta, rec.counts[:n], rec.drive_v[:n * rec.drive_ratio], sins, {}, rec.source)
+
+
+def _table_angles(rec: Recording) -> dict:
+    """The table angle at the readout instants, per axis (0 without ``sins_angle``)."""
+    if rec.sins_angle is None:
+        return {a: np.zeros(rec.n_samples) for a in rec.axes}
+    inputs = ExperimentInputs.from_recording(rec)
+    return {a: inputs.table[a].angle_rate(rec.time())[0] for a in rec.axes}
+
+
+def _tau(nominal: dict) -> float:
+    """Longest amplitude time constant ``2 Q / omega`` of the axes at 3 arcmin (s)."""
+    return max(2.0 * s.q_factor(3.0 * ARCMIN) / s.omega0 for s in nominal.values())
+
+
 def _masks(rec: Recording, settings: DiagnoseSettings, nominal: dict):
     n = rec.n_samples
     fs = rec.fs_hz
     used = np.ones(n, dtype=bool)
     if rec.initial_state == "unknown":
-        tau = max(2.0 * s.q_factor(3.0 * ARCMIN) / s.omega0 for s in nominal.values())
-        settle = min(6.0 * tau, 0.4 * rec.duration_s)
-        used[: int(round(settle * fs))] = False
+        # the model starts from a pre-roll (see diagnose_recording); its first instants still carry
+        # what the extrapolated drive could not know
+        used[: int(round(min(0.5 * _tau(nominal), 0.2 * rec.duration_s) * fs))] = False
     block = settings.block_s or min(0.5, max(0.025, rec.duration_s / 20.0))
     nb = max(2, int(round(block * fs)))
     train = used & ((np.arange(n) // nb) % 2 == 0)
     return used, train
 
 
-def _coupling_sources(rec: Recording, inputs: ExperimentInputs, settings: ExperimentSettings) -> dict:
-    """Measured deflections of every axis on the plant grid: ``(delta, rate)`` (for ``axis_coupling``)."""
+def _coupling_sources(rec: Recording, inputs: ExperimentInputs, settings: ExperimentSettings, n_pre: int) -> dict:
+    """Measured deflections of every axis on the plant grid of ``inputs``: ``(delta, rate)``.
+
+    For ``axis_coupling``: the readout minus the table angle, by cubic
+    spline; before the recording (a model pre-roll of ``n_pre`` samples)
+    continued as the sinusoid it starts with.
+    """
     g = inputs.grid(settings)
     t = np.arange(g.n_steps + 1) * g.h
     out = {}
+    tt = np.arange(rec.n_samples + n_pre) / rec.fs_hz
     for a in rec.axes:
         y = rec.angle(a) + 0.5 * rec.quantum_rad
         if rec.sins_angle is not None:
-            y = y - inputs.table[a].angle_rate(rec.time())[0]
-        spl = CubicSpline(rec.time(), y)
+            y = y - inputs.table[a].angle_rate(tt[n_pre:])[0]
+        if n_pre:
+            y = np.concatenate([_sine_extension(y, rec.fs_hz, n_pre), y])
+        spl = CubicSpline(tt, y)
         out[a] = (spl(t), spl(t, 1))
     return out
 
@@ -637,7 +946,7 @@ def _effect_starts(cls, axis: str, loc: dict, fs_hz: float) -> list:
         freqs = [f for f in loc.get("peaks_hz", []) if f > 5.0]
         freqs += [60.0, 120.0, 250.0, 500.0, 1000.0, 2000.0]
         freqs = [f for f in freqs if f < 0.45 * fs_hz * 4]
-        return [{"frequency_hz": f, "zeta": z, "gain": g} for f in freqs for z in (0.03, 0.15) for g in (-0.3, 0.3)]
+        return [{"frequency_hz": f, "zeta": 0.08, "gain": g} for f in freqs for g in (-0.3, 0.3)]
     if name == "lock_in":
         return [{"threshold_rad_s": w, "phase_rad": p} for w in (1e-3, 4e-3) for p in (0.0, 1.6, 3.1, 4.7)]
     if name == "axis_coupling":
@@ -651,31 +960,57 @@ def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSett
 
     t_start = time.perf_counter()
     timing = {}
-    inputs = ExperimentInputs.from_recording(rec)
     nominal = {a: suspension_from_nominal(rec.nominal[a]) for a in rec.axes}
-    used, train = _masks(rec, settings, nominal)
+    # a recording that starts mid-operation is simulated from rest 6 time constants earlier, the drive
+    # before t = 0 continued as it starts, so that the model is in its steady state when the data begin
+    n_pre = int(round(6.0 * _tau(nominal) * rec.fs_hz)) if rec.initial_state == "unknown" else 0
     offset = rec.initial_state == "unknown"
     q = rec.quantum_rad
     fs = rec.fs_hz
-    ys = {a: rec.angle(a) + 0.5 * q for a in rec.axes}
     sig0 = q / math.sqrt(12.0)
-    coupled = _coupling_sources(rec, inputs, settings.experiment) if rec.n_axes > 1 else None
-
+    table = _table_angles(rec)
     a_ref = {}
-    for i, a in enumerate(rec.axes):
-        d = ys[a] - (inputs.table[a].angle_rate(rec.time())[0] if rec.sins_angle is not None else 0.0)
+    for a in rec.axes:
+        d = rec.angle(a) - table[a]
         half = d[rec.n_samples // 2:]
         a_ref[a] = max(math.sqrt(2.0) * float(np.std(half - np.mean(half))), 10.0 * q)
 
-    def problem(a, sigma):
-        return _Problem(inputs, a, ys[a], nominal[a], settings, used, train, offset, sigma, coupled, a_ref[a])
+    def context(r: Recording):
+        inputs = _model_inputs(r, n_pre)
+        used, train = _masks(r, settings, nominal)
+        coupled = _coupling_sources(r, inputs, settings.experiment, n_pre) if r.n_axes > 1 else None
+        return inputs, used, train, {a: r.angle(a) + 0.5 * q for a in r.axes}, coupled
 
-    # 1. baseline refit, per axis
-    fits = {}
-    for a in rec.axes:
-        fits[a] = fit_axis(problem(a, sig0))
-        if progress:
-            progress(f"baseline {a}")
+    full = context(rec)
+    used = full[1]
+    n_win = int(round(settings.window_s * fs)) + 1 if settings.window_s is not None else rec.n_samples
+    win = context(_truncate(rec, n_win)) if rec.n_samples > 1.5 * n_win else None
+
+    def problem(a, ctx, sett=settings):
+        inputs, u, tr, ys, coupled = ctx
+        return _Problem(inputs, a, ys[a], nominal[a], sett, u, tr, offset, sig0, coupled, a_ref[a], n_pre)
+
+    def fit(a, cls=None, start=None, starts=None, sett=settings):
+        """A fit on the whole recording, through its first window when it is long."""
+        if win is None:
+            return fit_axis(problem(a, full, sett), cls, start, starts)
+        fw = fit_axis(problem(a, win, sett), cls, start, starts)
+        ff = fit_axis(problem(a, full, sett), cls, start=fw, polish=True)
+        ff.nfev += fw.nfev
+        return ff
+
+    def per_axis(axes, job):
+        """``job(axis, settings)`` for every axis, in parallel threads when there are several."""
+        if len(axes) > 1 and settings.threads > 1:
+            inner = replace(settings, threads=max(1, settings.threads // len(axes)))
+            with ThreadPoolExecutor(max_workers=min(settings.threads, len(axes))) as ex:
+                return dict(zip(axes, ex.map(lambda a: job(a, inner), axes)))
+        return {a: job(a, settings) for a in axes}
+
+    # 1. baseline refit, per axis (independent in the nominal model)
+    fits = per_axis(list(rec.axes), lambda a, sett: fit(a, sett=sett))
+    if progress:
+        progress("baseline")
     timing["baseline"] = time.perf_counter() - t_start
     # 2. noise floor and significance per axis
     floors = {a: noise_floor(fits[a].residual[used], q, fs) for a in rec.axes}
@@ -711,7 +1046,7 @@ def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSett
     candidates = []
     skipped = {}
     moving = rec.sins_angle is not None and float(np.ptp(rec.sins_angle)) > 0.0
-    names = settings.effects or tuple(EFFECTS)
+    names = tuple(EFFECTS) if settings.effects is None else settings.effects
     base_ex = sum(excess[a] for a in sig_axes)
     if significant:
         for name in names:
@@ -724,19 +1059,25 @@ def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSett
                 continue
             t0 = time.perf_counter()
             cfits = dict(fits)
-            for a in sig_axes:
-                prob = problem(a, sig0)
-                cfits[a] = fit_axis(prob, cls, start=fits[a], effect_starts=_effect_starts(cls, a, locs[a], fs))
-            cand_ex = sum(max(0.0, cfits[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in sig_axes)
+            cfits.update(per_axis(sig_axes, lambda a, sett: fit(a, cls, fits[a], _effect_starts(cls, a, locs[a], fs),
+                                                                 sett)))
+            cand_axes = {a: max(0.0, cfits[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in sig_axes}
+            cand_ex = sum(cand_axes.values())
             red = 1.0 - cand_ex / base_ex if base_ex > 0 else 0.0
             held = math.sqrt(np.mean([cfits[a].heldout_rms ** 2 for a in sig_axes]))
+            # the gap is closed when what is left on every axis is within the tolerance, or a small
+            # fraction of the excess it started from (a large effect leaves model error of its own size)
+            closes = all(math.sqrt(cand_axes[a]) <= max(tol[a], settings.close_fraction * math.sqrt(excess[a]))
+                         for a in sig_axes)
             candidates.append({
                 "effect": name, "fits": cfits,
                 "rms_rad": math.sqrt(np.mean([cfits[a].rms ** 2 for a in rec.axes])),
-                "gap_reduction": float(red), "score": held / ARCSEC,
+                "gap_reduction": float(red), "score": held / ARCSEC, "closes_gap": bool(closes),
+                "remaining_excess_arcsec": {a: math.sqrt(cand_axes[a]) / ARCSEC for a in sig_axes},
                 "params": {a: cfits[a].effect.values(a) for a in sig_axes},
-                "uncertainty": {a: {k: val for k, val in cfits[a].sigma.items() if k not in NOMINAL_KEYS}
-                                for a in sig_axes},
+                "uncertainty": {a: {k: val for k, val in cfits[a].sigma.items()
+                                    if k not in NOMINAL_KEYS and not k.startswith("start_")} for a in sig_axes},
+                "nfev": sum(cfits[a].nfev for a in sig_axes),
             })
             timing[name] = time.perf_counter() - t0
             if progress:
@@ -744,18 +1085,23 @@ def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSett
         candidates.sort(key=lambda c: c["score"])
     base_held = math.sqrt(np.mean([fits[a].heldout_rms ** 2 for a in sig_axes])) if sig_axes else math.nan
     if not significant:
-        verdict = {"effect": "none", "gap_reduction": 0.0}
+        verdict = {"effect": "none", "gap_reduction": 0.0, "alternatives": []}
     else:
         best = candidates[0] if candidates else None
-        if best is not None and best["gap_reduction"] >= settings.min_gap_reduction and \
+        if best is not None and best["closes_gap"] and best["gap_reduction"] >= settings.min_gap_reduction and \
                 best["score"] < base_held / ARCSEC:
-            verdict = {"effect": best["effect"], "gap_reduction": best["gap_reduction"]}
+            # effects the data cannot tell from the best one: they close the gap as well and score
+            # within ALTERNATIVE_MARGIN of it
+            alts = [c["effect"] for c in candidates[1:] if c["closes_gap"]
+                    and c["score"] <= best["score"] * (1.0 + ALTERNATIVE_MARGIN)]
+            verdict = {"effect": best["effect"], "gap_reduction": best["gap_reduction"], "alternatives": alts}
         else:
-            verdict = {"effect": "unknown", "gap_reduction": best["gap_reduction"] if best else 0.0}
+            verdict = {"effect": "unknown", "gap_reduction": best["gap_reduction"] if best else 0.0,
+                       "alternatives": []}
     verdict["baseline_score"] = base_held / ARCSEC if significant else None
     timing["total"] = time.perf_counter() - t_start
     return Diagnosis(recording=rec, floors=floors, baseline=baseline, gap=gap, candidates=candidates,
-                     verdict=verdict, locals=locs, timing=timing, skipped=skipped)
+                     verdict=verdict, localisation=locs, timing=timing, skipped=skipped)
 
 
 # --- report ----------------------------------------------------------------------------------------------
@@ -782,7 +1128,7 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     floor = diag.floors[axis]["floor_rad"]
     # spectrum before / after the best effect
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    loc = diag.locals[axis]
+    loc = diag.localisation[axis]
     ax.semilogy(loc["spectrum"]["f"], np.sqrt(loc["spectrum"]["psd"]) / ARCSEC, label="baseline refit")
     if best is not None:
         lb = localise(best["fits"][axis].residual, floor, fs)
@@ -800,7 +1146,7 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     # envelope over time, every axis
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for a in rec.axes:
-        env = diag.locals[a]["envelope"]
+        env = diag.localisation[a]["envelope"]
         ax.plot(env["t"], env["rms"] / ARCSEC, label=f"{a} baseline")
         if best is not None and a in best["fits"] and best["fits"][a] is not diag.baseline["fits"][a]:
             eb = localise(best["fits"][a].residual, diag.floors[a]["floor_rad"], fs)["envelope"]
@@ -808,6 +1154,7 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     ax.axhline(floor / ARCSEC, color="k", ls="--", label="noise floor")
     if diag.gap["time_s"]:
         ax.axvspan(*diag.gap["time_s"], color="orange", alpha=0.15, label="window with the excess")
+    ax.set_yscale("log")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("residual RMS (arcsec)")
     ax.set_title("residual envelope")
@@ -834,9 +1181,13 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     lines = [f"# Sim-to-real diagnosis: {rec.source}", "",
              f"- experiment `{rec.experiment}`, axes {', '.join(rec.axes)}, {rec.n_samples} samples at "
              f"{fs:g} Hz ({rec.duration_s:.3g} s), initial state `{rec.initial_state}`",
-             f"- noise floor {js['noise_floor_arcsec']:.4g} arcsec RMS (quantisation {rec.quantum_rad / ARCSEC / math.sqrt(12):.4g})",
-             f"- verdict: **{js['verdict']['effect']}** (gap reduction {js['verdict']['gap_reduction']:.3f})", "",
-             "## Baseline refit", "", "| axis | residual RMS (arcsec) | excess (arcsec) | f0 (Hz) | k1 | k2 | k3 | k4 | k5 |",
+             f"- noise floor {js['noise_floor_arcsec']:.4g} arcsec RMS "
+             f"(quantisation {rec.quantum_rad / ARCSEC / math.sqrt(12):.4g})",
+             f"- verdict: **{js['verdict']['effect']}** (gap reduction {js['verdict']['gap_reduction']:.3f}"
+             + (f"; the data cannot tell it from {', '.join(js['verdict']['alternatives'])}"
+                if js["verdict"].get("alternatives") else "") + ")", "",
+             "## Baseline refit", "",
+             "| axis | residual RMS (arcsec) | excess (arcsec) | f0 (Hz) | k1 | k2 | k3 | k4 | k5 |",
              "|---|---|---|---|---|---|---|---|---|"]
     for a in rec.axes:
         p = js["baseline"]["params"][a]

@@ -1,0 +1,540 @@
+"""Strict reader and writer of recordings, format ``sins-sim-recording/1``.
+
+The format is specified in ``recording-format.md`` (shared spec). A
+recording is an ``.npz`` archive holding
+
+- ``meta``: a 0-d unicode array with one JSON object (the header);
+- ``counts``: int64 ``(N, A)``, the accumulated readout in counts of
+  ``meta.quantum_rad``, sample ``n`` at ``t = n / fs_hz``;
+- ``drive_v``: float64 or float32 ``(M, A)``, the piezo voltage, held
+  between updates at ``drive_fs_hz``, ``M = N * drive_fs_hz / fs_hz``;
+- ``sins_angle`` (optional): float64 ``(K, A)``, the block's angle about
+  each gyro axis at ``sins_fs_hz``.
+
+The reader never guesses: a file that breaks any rule is rejected with one
+:class:`RecordingError` (a ``ValueError``) whose message names the key and
+the rule, e.g. ``recording x.npz: meta.fs_hz: must be a number > 0, got -1``.
+Unknown header keys and unknown arrays are allowed and preserved (a
+writer writes them back unchanged).
+
+Rules the spec implies and this reader states explicitly:
+
+- ``N >= 2`` (a single sample carries no dynamics);
+- ``sins_angle`` has at least 4 samples (it is interpolated by a cubic
+  spline) and covers the time span of ``counts``:
+  ``(K - 1) / sins_fs_hz >= (N - 1) / fs_hz``;
+- ``meta.nominal`` has exactly one entry per axis of ``meta.axes``; each
+  entry holds ``f0_hz, k1, k2, k3, k4, k5`` as finite numbers with
+  ``f0_hz > 0``, ``k1 >= 0``, ``k2 > 0``, ``k3 >= 0``, ``k5 != 0``
+  (reference-model.md); other keys in an entry are preserved;
+- ``meta.description``, when present, is a string (it is optional).
+
+CSV import (:func:`read_csv_recording`)
+---------------------------------------
+A lab export with one header line and one row per sample, comma separated,
+``#`` comment lines allowed. Columns (any order, nothing else):
+
+``time_s``
+    sample time (s), ``n / fs`` for row ``n`` (uniform, starting at 0;
+    deviations up to 1 % of a sample period are tolerated as rounding).
+``counts_<axis>``
+    accumulated readout of ``<axis>`` in counts (integer values); the
+    order of these columns gives ``meta.axes``.
+``drive_v_<axis>``
+    piezo voltage of ``<axis>`` (V), one per counts column; the CSV
+    carries one rate, so ``drive_fs_hz = fs_hz``.
+``sins_angle_rad_<axis>`` (optional, for all axes or none)
+    block angle about ``<axis>`` (rad); ``sins_fs_hz = fs_hz``.
+
+The header (quantum, nominal parameters, experiment, ...) comes from the
+caller's arguments.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import io
+import json
+import math
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "RecordingError", "Recording",
+           "check_recording", "read_recording", "write_recording", "read_csv_recording"]
+
+#: The format tag a recording's header must carry.
+FORMAT = "sins-sim-recording/1"
+#: Model parameters every ``meta.nominal`` entry must hold (reference-model.md).
+NOMINAL_KEYS = ("f0_hz", "k1", "k2", "k3", "k4", "k5")
+#: Header keys that must be present (``sins_fs_hz`` only with ``sins_angle``).
+REQUIRED_META = ("format", "axes", "fs_hz", "drive_fs_hz", "quantum_rad", "initial_state", "experiment", "nominal")
+INITIAL_STATES = ("rest", "unknown")
+#: Arrays of the format; any other array in the archive is kept as an extra.
+ARRAYS = ("meta", "counts", "drive_v", "sins_angle")
+#: CSV columns understood by :func:`read_csv_recording` (``<axis>`` is the axis name).
+CSV_COLUMNS = ("time_s", "counts_<axis>", "drive_v_<axis>", "sins_angle_rad_<axis>")
+
+
+class RecordingError(ValueError):
+    """A recording broke a rule of ``sins-sim-recording/1``; the message names the key and the rule."""
+
+
+def _fail(where: str, key: str, rule: str):
+    raise RecordingError(f"{where}: {key}: {rule}")
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _number(where, key, value, rule="must be a finite number", check=None):
+    if not _is_number(value) or not math.isfinite(float(value)):
+        _fail(where, key, f"{rule}, got {value!r}")
+    value = float(value)
+    if check is not None and not check(value):
+        _fail(where, key, f"{rule}, got {value!r}")
+    return value
+
+
+_NOMINAL_RULES = {
+    "f0_hz": ("must be a finite number > 0", lambda x: x > 0.0),
+    "k1": ("must be a finite number >= 0", lambda x: x >= 0.0),
+    "k2": ("must be a finite number > 0", lambda x: x > 0.0),
+    "k3": ("must be a finite number >= 0", lambda x: x >= 0.0),
+    "k4": ("must be a finite number", None),
+    "k5": ("must be a finite number != 0", lambda x: x != 0.0),
+}
+
+
+def _check_meta(meta, where: str) -> None:
+    if not isinstance(meta, dict):
+        _fail(where, "meta", f"must hold a JSON object, got {type(meta).__name__}")
+    for key in REQUIRED_META:
+        if key not in meta:
+            _fail(where, f"meta.{key}", "is required but missing")
+    if meta["format"] != FORMAT:
+        _fail(where, "meta.format", f"must be {FORMAT!r}, got {meta['format']!r}")
+    axes = meta["axes"]
+    if not isinstance(axes, list) or not 1 <= len(axes) <= 3:
+        _fail(where, "meta.axes", f"must be a list of 1 to 3 axis names, got {axes!r}")
+    for i, a in enumerate(axes):
+        if not isinstance(a, str) or not a:
+            _fail(where, f"meta.axes[{i}]", f"must be a non-empty string, got {a!r}")
+    if len(set(axes)) != len(axes):
+        _fail(where, "meta.axes", f"axis names must be distinct, got {axes!r}")
+    fs = _number(where, "meta.fs_hz", meta["fs_hz"], "must be a number > 0", lambda x: x > 0.0)
+    dfs = _number(where, "meta.drive_fs_hz", meta["drive_fs_hz"], "must be a number > 0", lambda x: x > 0.0)
+    ratio = dfs / fs
+    if round(ratio) < 1 or abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+        _fail(where, "meta.drive_fs_hz", f"drive_fs_hz / fs_hz must be an integer >= 1, got {ratio!r}")
+    if "sins_fs_hz" in meta:
+        _number(where, "meta.sins_fs_hz", meta["sins_fs_hz"], "must be a number > 0", lambda x: x > 0.0)
+    _number(where, "meta.quantum_rad", meta["quantum_rad"], "must be a number > 0", lambda x: x > 0.0)
+    if meta["initial_state"] not in INITIAL_STATES:
+        _fail(where, "meta.initial_state", f"must be one of {list(INITIAL_STATES)}, got {meta['initial_state']!r}")
+    if not isinstance(meta["experiment"], str):
+        _fail(where, "meta.experiment", f"must be a string, got {meta['experiment']!r}")
+    if "description" in meta and not isinstance(meta["description"], str):
+        _fail(where, "meta.description", f"must be a string, got {meta['description']!r}")
+    nominal = meta["nominal"]
+    if not isinstance(nominal, dict):
+        _fail(where, "meta.nominal", f"must be an object with one entry per axis, got {nominal!r}")
+    for a in axes:
+        if a not in nominal:
+            _fail(where, f"meta.nominal.{a}", "is required (one entry per axis of meta.axes) but missing")
+    for a in nominal:
+        if a not in axes:
+            _fail(where, f"meta.nominal.{a}", f"is not an axis of meta.axes {axes!r}")
+        entry = nominal[a]
+        if not isinstance(entry, dict):
+            _fail(where, f"meta.nominal.{a}", f"must be an object with {list(NOMINAL_KEYS)}, got {entry!r}")
+        for k in NOMINAL_KEYS:
+            if k not in entry:
+                _fail(where, f"meta.nominal.{a}.{k}", "is required but missing")
+            rule, check = _NOMINAL_RULES[k]
+            _number(where, f"meta.nominal.{a}.{k}", entry[k], rule, check)
+
+
+def check_recording(meta, counts, drive_v, sins_angle=None, where: str = "recording") -> None:
+    """Check a header and its arrays against every rule of ``sins-sim-recording/1``.
+
+    Parameters
+    ----------
+    meta : dict
+        The header (parsed JSON).
+    counts, drive_v, sins_angle : ndarray
+        The arrays; ``sins_angle`` may be ``None`` (block at rest).
+    where : str
+        Prefix of the error message (the file name).
+
+    Raises
+    ------
+    RecordingError
+        Naming the key and the rule.
+    """
+    _check_meta(meta, where)
+    n_axes = len(meta["axes"])
+    if not isinstance(counts, np.ndarray) or counts.dtype != np.int64:
+        _fail(where, "counts", f"must be an int64 array, got {getattr(counts, 'dtype', type(counts).__name__)}")
+    if counts.ndim != 2 or counts.shape[1] != n_axes:
+        _fail(where, "counts", f"must have shape (N, A) with A = len(meta.axes) = {n_axes}, got {counts.shape}")
+    n = counts.shape[0]
+    if n < 2:
+        _fail(where, "counts", f"must hold at least 2 samples, got {n}")
+    if not isinstance(drive_v, np.ndarray) or drive_v.dtype not in (np.float64, np.float32):
+        _fail(where, "drive_v", f"must be a float64 or float32 array, got "
+                                f"{getattr(drive_v, 'dtype', type(drive_v).__name__)}")
+    ratio = int(round(float(meta["drive_fs_hz"]) / float(meta["fs_hz"])))
+    if drive_v.ndim != 2 or drive_v.shape != (n * ratio, n_axes):
+        _fail(where, "drive_v", f"must have shape (M, A) = ({n * ratio}, {n_axes}) with M = N * drive_fs_hz / fs_hz, "
+                                f"got {drive_v.shape}")
+    if not np.all(np.isfinite(drive_v)):
+        bad = np.argwhere(~np.isfinite(drive_v))[0]
+        _fail(where, "drive_v", f"must be finite everywhere, NaN/inf at {tuple(int(i) for i in bad)}")
+    if sins_angle is None:
+        return
+    if "sins_fs_hz" not in meta:
+        _fail(where, "meta.sins_fs_hz", "is required when sins_angle is present but missing")
+    if not isinstance(sins_angle, np.ndarray) or sins_angle.dtype != np.float64:
+        _fail(where, "sins_angle", f"must be a float64 array, got "
+                                   f"{getattr(sins_angle, 'dtype', type(sins_angle).__name__)}")
+    if sins_angle.ndim != 2 or sins_angle.shape[1] != n_axes:
+        _fail(where, "sins_angle", f"must have shape (K, A) with A = {n_axes}, got {sins_angle.shape}")
+    k = sins_angle.shape[0]
+    if k < 4:
+        _fail(where, "sins_angle", f"must hold at least 4 samples (cubic interpolation), got {k}")
+    if not np.all(np.isfinite(sins_angle)):
+        bad = np.argwhere(~np.isfinite(sins_angle))[0]
+        _fail(where, "sins_angle", f"must be finite everywhere, NaN/inf at {tuple(int(i) for i in bad)}")
+    span_counts = (n - 1) / float(meta["fs_hz"])
+    span_angle = (k - 1) / float(meta["sins_fs_hz"])
+    if span_angle < span_counts * (1.0 - 1e-12):
+        _fail(where, "sins_angle", f"must cover the time span of counts, (N - 1) / fs_hz = {span_counts!r} s, "
+                                   f"got (K - 1) / sins_fs_hz = {span_angle!r} s")
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A validated recording (arrays read-only, header deep-copied).
+
+    Parameters
+    ----------
+    meta : dict
+        The header, unknown keys included.
+    counts : ndarray of int64, shape (N, A)
+    drive_v : ndarray of float64 or float32, shape (M, A)
+    sins_angle : ndarray of float64, shape (K, A), or None
+    extra : dict of ndarray
+        Arrays of the archive that the format does not define (preserved).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> meta = {"format": FORMAT, "axes": ["x"], "fs_hz": 7200.0, "drive_fs_hz": 7200.0,
+    ...         "quantum_rad": 1e-6, "initial_state": "rest", "experiment": "stationary",
+    ...         "nominal": {"x": {"f0_hz": 386.0, "k1": 1.75e-4, "k2": 1.05e-3, "k3": 4.4e-3,
+    ...                           "k4": 250.0, "k5": -1.2e-5}}}
+    >>> rec = Recording(meta, np.zeros((4, 1), np.int64), np.zeros((4, 1)))
+    >>> rec.axes, rec.n_samples, rec.duration_s
+    (('x',), 4, 0.0004166666666666667)
+    """
+
+    meta: dict
+    counts: np.ndarray
+    drive_v: np.ndarray
+    sins_angle: np.ndarray | None = None
+    extra: dict = field(default_factory=dict)
+    source: str = "recording"
+
+    def __post_init__(self):
+        check_recording(self.meta, self.counts, self.drive_v, self.sins_angle, where=self.source)
+        object.__setattr__(self, "meta", copy.deepcopy(self.meta))
+        for name in ("counts", "drive_v", "sins_angle"):
+            arr = getattr(self, name)
+            if arr is not None:
+                arr = np.array(arr, order="C")
+                arr.setflags(write=False)
+                object.__setattr__(self, name, arr)
+        extra = {}
+        for k, arr in self.extra.items():
+            if k in ARRAYS:
+                raise RecordingError(f"{self.source}: extra.{k}: is an array of the format, not an extra")
+            arr = np.array(arr)
+            arr.setflags(write=False)
+            extra[k] = arr
+        object.__setattr__(self, "extra", extra)
+
+    # --- header -----------------------------------------------------------------------------
+    @property
+    def axes(self) -> tuple:
+        return tuple(self.meta["axes"])
+
+    @property
+    def n_axes(self) -> int:
+        return len(self.meta["axes"])
+
+    @property
+    def fs_hz(self) -> float:
+        return float(self.meta["fs_hz"])
+
+    @property
+    def drive_fs_hz(self) -> float:
+        return float(self.meta["drive_fs_hz"])
+
+    @property
+    def drive_ratio(self) -> int:
+        """``drive_fs_hz / fs_hz`` (an integer >= 1)."""
+        return int(round(self.drive_fs_hz / self.fs_hz))
+
+    @property
+    def sins_fs_hz(self) -> float | None:
+        return float(self.meta["sins_fs_hz"]) if "sins_fs_hz" in self.meta else None
+
+    @property
+    def quantum_rad(self) -> float:
+        return float(self.meta["quantum_rad"])
+
+    @property
+    def initial_state(self) -> str:
+        return self.meta["initial_state"]
+
+    @property
+    def experiment(self) -> str:
+        return self.meta["experiment"]
+
+    @property
+    def nominal(self) -> dict:
+        """Per axis, a copy of the nominal entry (``f0_hz, k1..k5`` as floats, other keys as stored)."""
+        out = {}
+        for a in self.axes:
+            entry = dict(self.meta["nominal"][a])
+            for k in NOMINAL_KEYS:
+                entry[k] = float(entry[k])
+            out[a] = entry
+        return out
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.counts.shape[0])
+
+    @property
+    def duration_s(self) -> float:
+        """Time of the last sample, ``(N - 1) / fs_hz`` (s)."""
+        return (self.n_samples - 1) / self.fs_hz
+
+    # --- data -------------------------------------------------------------------------------
+    def time(self) -> np.ndarray:
+        """Sample times ``n / fs_hz`` (s)."""
+        return np.arange(self.n_samples) / self.fs_hz
+
+    def axis_index(self, axis: str) -> int:
+        if axis not in self.axes:
+            raise ValueError(f"recording: axis: must be one of {list(self.axes)}, got {axis!r}")
+        return self.axes.index(axis)
+
+    def angle(self, axis: str | None = None) -> np.ndarray:
+        """Readout angle ``counts * quantum_rad`` (rad), all axes ``(N, A)`` or one ``(N,)``."""
+        c = self.counts if axis is None else self.counts[:, self.axis_index(axis)]
+        return c.astype(np.float64) * self.quantum_rad
+
+    def select(self, axes) -> "Recording":
+        """The same recording restricted to some axes (in the given order)."""
+        idx = [self.axis_index(a) for a in axes]
+        meta = copy.deepcopy(self.meta)
+        meta["axes"] = list(axes)
+        meta["nominal"] = {a: meta["nominal"][a] for a in axes}
+        return Recording(meta, self.counts[:, idx], self.drive_v[:, idx],
+                         None if self.sins_angle is None else self.sins_angle[:, idx], dict(self.extra), self.source)
+
+
+def _load_meta(arr, where):
+    if not isinstance(arr, np.ndarray) or arr.ndim != 0 or arr.dtype.kind != "U":
+        _fail(where, "meta", f"must be a 0-d unicode array holding one JSON object, got "
+                             f"{getattr(arr, 'dtype', type(arr).__name__)} of shape {getattr(arr, 'shape', None)}")
+
+    def reject(const):
+        raise ValueError(f"{const} is not valid JSON")
+
+    try:
+        meta = json.loads(str(arr[()]), parse_constant=reject)
+    except ValueError as exc:
+        _fail(where, "meta", f"must hold valid JSON ({exc})")
+    if not isinstance(meta, dict):
+        _fail(where, "meta", f"must hold a JSON object, got {type(meta).__name__}")
+    return meta
+
+
+def read_recording(path) -> Recording:
+    """Read and check a recording file (``.npz``, compressed or not).
+
+    Raises
+    ------
+    RecordingError
+        When the file is not an ``.npz`` archive or breaks any rule of the
+        format; the message names the file, the key and the rule.
+    """
+    path = Path(path)
+    where = f"recording {path}"
+    if not path.is_file():
+        _fail(where, "file", "does not exist or is not a file")
+    try:
+        archive = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        _fail(where, "file", f"must be a NumPy .npz archive ({exc})")
+    if not isinstance(archive, np.lib.npyio.NpzFile):
+        _fail(where, "file", "must be a NumPy .npz archive, got a single .npy array")
+    with archive:
+        names = list(archive.files)
+        for key in ("meta", "counts", "drive_v"):
+            if key not in names:
+                _fail(where, key, "is a required array but missing")
+        arrays = {}
+        for key in names:
+            try:
+                arrays[key] = archive[key]
+            except ValueError as exc:  # object arrays need pickle, which a recording may not use
+                _fail(where, key, f"must be a plain (non-object) array ({exc})")
+            except (OSError, zipfile.BadZipFile) as exc:
+                _fail(where, key, f"cannot be read ({exc})")
+    meta = _load_meta(arrays["meta"], where)
+    extra = {k: v for k, v in arrays.items() if k not in ARRAYS}
+    return Recording(meta, arrays["counts"], arrays["drive_v"], arrays.get("sins_angle"), extra, where)
+
+
+def write_recording(path, recording: Recording, compressed: bool = True) -> Path:
+    """Write a recording to ``path`` exactly (no suffix is added); return the path.
+
+    The header is written as compact JSON (``NaN`` and infinities are
+    refused); extras are written back unchanged.
+    """
+    if not isinstance(recording, Recording):
+        raise ValueError(f"recording: must be a Recording, got {type(recording).__name__}")
+    path = Path(path)
+    arrays = {"meta": np.array(json.dumps(recording.meta, allow_nan=False, sort_keys=False)),
+              "counts": recording.counts, "drive_v": recording.drive_v}
+    if recording.sins_angle is not None:
+        arrays["sins_angle"] = recording.sins_angle
+    arrays.update(recording.extra)
+    buf = io.BytesIO()
+    (np.savez_compressed if compressed else np.savez)(buf, **arrays)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(buf.getvalue())
+    return path
+
+
+def _csv_fail(where, key, rule):
+    raise RecordingError(f"{where}: {key}: {rule}")
+
+
+def read_csv_recording(csv_path, quantum_rad: float, nominal: dict, experiment: str = "stationary",
+                       initial_state: str = "rest", description: str = "", fs_hz: float | None = None,
+                       **extra_meta) -> Recording:
+    """Build a recording from a lab CSV export (columns in the module docstring).
+
+    Parameters
+    ----------
+    csv_path : path
+        The CSV file.
+    quantum_rad : float
+        Angle per count (rad).
+    nominal : dict
+        Per axis, ``{"f0_hz":, "k1":, ..., "k5":}`` (and any other keys).
+    experiment, initial_state, description : str
+        Header fields.
+    fs_hz : float, optional
+        Sample rate; default ``1 / mean spacing`` of ``time_s``.
+    **extra_meta
+        Further header keys, stored as given.
+
+    Raises
+    ------
+    RecordingError
+        Naming the column (or header key) and the rule.
+    """
+    path = Path(csv_path)
+    where = f"csv {path}"
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        _csv_fail(where, "file", f"cannot be read ({exc.strerror})")
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) < 3:
+        _csv_fail(where, "file", f"must hold a header line and at least 2 rows, got {len(lines)} line(s)")
+    rows = list(csv.reader(lines))
+    header = [h.strip() for h in rows[0]]
+    if len(set(header)) != len(header):
+        _csv_fail(where, "header", f"column names must be distinct, got {header}")
+    if "time_s" not in header:
+        _csv_fail(where, "time_s", "column is required but missing")
+    axes, drive_cols, angle_cols = [], {}, {}
+    for h in header:
+        if h == "time_s":
+            continue
+        if h.startswith("counts_") and len(h) > 7:
+            axes.append(h[7:])
+        elif h.startswith("drive_v_") and len(h) > 8:
+            drive_cols[h[8:]] = h
+        elif h.startswith("sins_angle_rad_") and len(h) > 15:
+            angle_cols[h[15:]] = h
+        else:
+            _csv_fail(where, h, f"unknown column (allowed: {', '.join(CSV_COLUMNS)})")
+    if not 1 <= len(axes) <= 3:
+        _csv_fail(where, "counts_<axis>", f"must be given for 1 to 3 axes, got {len(axes)}")
+    for a in axes:
+        if a not in drive_cols:
+            _csv_fail(where, f"drive_v_{a}", "column is required for every counts column but missing")
+    for a in list(drive_cols) + list(angle_cols):
+        if a not in axes:
+            col = drive_cols.get(a) or angle_cols.get(a)
+            _csv_fail(where, col, f"has no counts_{a} column")
+    if angle_cols and set(angle_cols) != set(axes):
+        missing = [a for a in axes if a not in angle_cols]
+        _csv_fail(where, f"sins_angle_rad_{missing[0]}", "must be given for all axes or for none")
+    width = len(header)
+    data = np.empty((len(rows) - 1, width))
+    for i, row in enumerate(rows[1:]):
+        if len(row) != width:
+            _csv_fail(where, f"row {i + 1}", f"must have {width} fields, got {len(row)}")
+        for j, cell in enumerate(row):
+            try:
+                data[i, j] = float(cell)
+            except ValueError:
+                _csv_fail(where, f"{header[j]} row {i + 1}", f"must be a number, got {cell!r}")
+    if not np.all(np.isfinite(data)):
+        i, j = np.argwhere(~np.isfinite(data))[0]
+        _csv_fail(where, f"{header[j]} row {i + 1}", "must be finite")
+    col = {h: data[:, j] for j, h in enumerate(header)}
+    t = col["time_s"]
+    n = t.size
+    if fs_hz is None:
+        if not t[-1] > t[0]:
+            _csv_fail(where, "time_s", "must increase")
+        fs_hz = (n - 1) / (t[-1] - t[0])
+    fs_hz = float(fs_hz)
+    if not (math.isfinite(fs_hz) and fs_hz > 0.0):
+        _csv_fail(where, "fs_hz", f"must be a number > 0, got {fs_hz!r}")
+    dev = np.abs(t - np.arange(n) / fs_hz) * fs_hz
+    if dev.max() > 0.01:
+        i = int(np.argmax(dev))
+        _csv_fail(where, "time_s", f"must be n / fs_hz (uniform from 0, fs_hz = {fs_hz:.9g}); row {i + 1} is "
+                                   f"off by {dev[i]:.3g} sample periods")
+    counts = np.empty((n, len(axes)), dtype=np.int64)
+    for i, a in enumerate(axes):
+        c = col[f"counts_{a}"]
+        if np.any(c != np.round(c)) or np.any(np.abs(c) > 2.0 ** 62):
+            r = int(np.flatnonzero((c != np.round(c)) | (np.abs(c) > 2.0 ** 62))[0])
+            _csv_fail(where, f"counts_{a} row {r + 1}", f"must be an integer, got {c[r]!r}")
+        counts[:, i] = c.astype(np.int64)
+    drive = np.column_stack([col[drive_cols[a]] for a in axes]).astype(np.float64)
+    meta = {"format": FORMAT, "axes": axes, "fs_hz": fs_hz, "drive_fs_hz": fs_hz, "quantum_rad": quantum_rad,
+            "initial_state": initial_state, "experiment": experiment, "nominal": copy.deepcopy(nominal),
+            "description": description, **extra_meta}
+    sins = None
+    if angle_cols:
+        meta["sins_fs_hz"] = fs_hz
+        sins = np.column_stack([col[angle_cols[a]] for a in axes]).astype(np.float64)
+    return Recording(meta, counts, drive, sins, {}, where)

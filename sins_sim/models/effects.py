@@ -1,0 +1,493 @@
+"""Unmodelled effects: named, parameterised extensions of the nominal channel model.
+
+reference-model.md ("Three axes"): the nominal model is a rigid block with
+three independent suspensions, each obeying eq. 2 with eq. 9, 10 and 14,
+and an ideal fringe counter. Everything beyond it is an effect that a
+configuration switches on. Each effect here is a small frozen object with
+SI parameters, validated on construction, that acts at one stage of the
+experiment simulator (``sins_sim.simulation.experiment``):
+
+============== ============ ==========================================================
+name           stage        what it does
+============== ============ ==========================================================
+piezo_lag      voltage      first-order lag of the effective piezo voltage, ``tau_s``
+axis_coupling  coupling     a channel's block angle picks up the other channels'
+                            dither deflections, ``coefficients[target][source]``
+block_mode     block        structural mode of the block/mount between table and gyros:
+                            the block angle is the table angle through a second-order
+                            resonance (``frequency_hz``, ``zeta``, ``gain``)
+viscous_damping suspension  velocity-proportional damping ``zeta`` beside eq. 10
+resonance_drift plant       ``f0`` changing linearly, ``rate_hz_per_s``
+readout_delay  readout      the readout samples the RLG ``delay_s`` late
+scale_factor   readout      readout scale error, angle x ``(1 + error)``
+lock_in        sense        backscatter lock-in: Adler equation on the Sagnac phase,
+                            ``threshold_rad_s``, ``phase_rad``, ``fringe_rad``
+============== ============ ==========================================================
+
+Two more disturbances live in :data:`DISTURBANCES`, outside the catalogue:
+they exist so that the blind evaluation can test that the diagnosis says
+``unknown`` for what it does not know (``mains_pickup``: a sine added to the
+readout; ``drive_harmonic``: a quadratic piezo, ``V + c2 V^2``).
+
+Registries: :data:`EFFECTS` (the catalogue, by name), :data:`DISTURBANCES`;
+:func:`make_effect` builds either from a name and parameters, as a scenario
+file gives them.
+
+Definitions
+-----------
+piezo_lag
+    ``tau dV_eff/dt = V - V_eff``, ``V_eff(0) = 0``; the plant receives the
+    exact average of ``V_eff`` over each plant step (the drive is held
+    between DAC updates, so this is exact).
+block_mode
+    With ``u'' + 2 zeta w u' + w^2 u = 2 zeta w phi' + w^2 phi`` (``w = 2 pi
+    frequency_hz``, ``phi`` the table angle; the block on a flexible mount,
+    whose relative motion ``u - phi`` is excited by the table's
+    acceleration), the gyros' block angle is ``(1 - gain) phi + gain u``
+    (``gain = 1``: the whole block rides on the mode). ``u(0) = phi(0)``,
+    ``u'(0) = phi'(0)``; ``phi`` between grid points is the cubic Hermite
+    interpolant of angle and rate (as for the plant), integrated exactly.
+    Invisible while the table does not move.
+axis_coupling
+    ``phi_block_i = phi_table_i + sum_j c_ij delta_j`` (and the same for
+    the rates): the mount transmits a fraction of the other gyros' dither
+    deflection to gyro ``i``.
+resonance_drift
+    ``f0(t) = f0 + rate_hz_per_s * t`` (e.g. temperature).
+readout_delay
+    Sample ``n`` of the readout holds the RLG angle at ``n / fs - delay_s``
+    (the angle before ``t = 0`` is the rest angle).
+scale_factor
+    The readout angle is ``(1 + error)`` times the RLG angle (in a recording
+    without table motion this is indistinguishable from a rescaling of
+    ``k1, k2, k4, k5``, so it is identifiable only with table motion).
+lock_in
+    ``psi = 2 pi phi_meas / fringe_rad + phase_rad``,
+    ``dpsi/dt = 2 pi/fringe_rad (dphi_rlg/dt - threshold_rad_s sin psi)``
+    (Adler), integrated at the plant rate with sub-steps that resolve the
+    Sagnac beat; the readout counts ``phi_meas``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import ClassVar
+
+import numpy as np
+from scipy import linalg, signal
+
+from sins_sim._kernels.effects import lock_in_run, mode_run
+from sins_sim.models.suspension import SuspensionParams
+from sins_sim.units import FRINGE_RAD
+
+__all__ = ["Param", "Effect", "PiezoLag", "AxisCoupling", "BlockMode", "ViscousDamping", "ResonanceDrift",
+           "ReadoutDelay", "ScaleFactor", "LockIn", "MainsPickup", "DriveHarmonic", "EFFECTS", "DISTURBANCES",
+           "make_effect", "effect_names", "rate_from_grid"]
+
+
+@dataclass(frozen=True)
+class Param:
+    """One scalar parameter of an effect.
+
+    Parameters
+    ----------
+    name : str
+        Key (SI unit in the name where it has one).
+    doc : str
+    lo, hi : float
+        Valid range (inclusive).
+    scale : float
+        Typical size: the unit in which a fit moves it.
+    default : float or None
+        Value when not given (``None``: required).
+    fit : bool
+        Whether the diagnosis fits it.
+    """
+
+    name: str
+    doc: str
+    lo: float
+    hi: float
+    scale: float
+    default: float | None = None
+    fit: bool = True
+
+
+def _check_param(effect: str, p: Param, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise ValueError(f"effects.{effect}.{p.name}: must be a finite number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or not p.lo <= value <= p.hi:
+        raise ValueError(f"effects.{effect}.{p.name}: must be in [{p.lo:g}, {p.hi:g}], got {value!r}")
+    return value
+
+
+def rate_from_grid(x: np.ndarray, h: float) -> np.ndarray:
+    """Derivative of a signal on a uniform grid: 4th-order central differences, 2nd-order at the ends."""
+    x = np.asarray(x, dtype=np.float64)
+    d = np.empty_like(x)
+    n = x.size
+    if n < 5:
+        return np.gradient(x, h) if n > 1 else np.zeros_like(x)
+    d[2:-2] = (x[:-4] - 8.0 * x[1:-3] + 8.0 * x[3:-1] - x[4:]) / (12.0 * h)
+    d[0] = (-3.0 * x[0] + 4.0 * x[1] - x[2]) / (2.0 * h)
+    d[1] = (x[2] - x[0]) / (2.0 * h)
+    d[-2] = (x[-1] - x[-3]) / (2.0 * h)
+    d[-1] = (3.0 * x[-1] - 4.0 * x[-2] + x[-3]) / (2.0 * h)
+    return d
+
+
+class Effect:
+    """Base class: a named model extension with validated SI parameters.
+
+    Parameters
+    ----------
+    axes : list of str or None
+        Axes the effect acts on (``None``: every axis).
+    **params
+        The parameters of :attr:`PARAMS` (unknown names are errors).
+
+    Hooks (identity here; each effect overrides the one of its stage) are
+    called by the experiment simulator with per-axis arrays on the plant
+    grid (``n + 1`` points including ``t = 0``, step ``h``).
+    """
+
+    name: ClassVar[str] = ""
+    stage: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    PARAMS: ClassVar[tuple] = ()
+    #: True when the effect is invisible while the block does not move.
+    needs_motion: ClassVar[bool] = False
+    #: Fewest axes the effect needs to exist.
+    min_axes: ClassVar[int] = 1
+
+    def __init__(self, axes=None, **params):
+        if axes is not None:
+            if isinstance(axes, str) or not all(isinstance(a, str) and a for a in axes) or not len(axes):
+                raise ValueError(f"effects.{self.name}.axes: must be a non-empty list of axis names, got {axes!r}")
+            axes = tuple(axes)
+        self.axes = axes
+        known = {p.name: p for p in self.PARAMS}
+        for key in params:
+            if key not in known:
+                raise ValueError(f"effects.{self.name}.{key}: unknown parameter (allowed: "
+                                 f"{', '.join(sorted(known)) or 'none'})")
+        values = {}
+        for p in self.PARAMS:
+            if p.name in params:
+                values[p.name] = _check_param(self.name, p, params[p.name])
+            elif p.default is not None:
+                values[p.name] = float(p.default)
+            else:
+                raise ValueError(f"effects.{self.name}.{p.name}: is required")
+        self.params = MappingProxyType(values)
+        self._check()
+
+    def _check(self) -> None:
+        """Cross-parameter checks (subclasses)."""
+
+    def __repr__(self):
+        args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
+        ax = f", axes={list(self.axes)!r}" if self.axes is not None else ""
+        return f"{type(self).__name__}({args}{ax})"
+
+    def __eq__(self, other):
+        return type(self) is type(other) and self.to_dict() == other.to_dict()
+
+    def __hash__(self):
+        return hash(repr(self))
+
+    def to_dict(self) -> dict:
+        """``{"name": ..., "axes": [...], <params>}`` (what a scenario file holds)."""
+        out = {"name": self.name, **dict(self.params)}
+        if self.axes is not None:
+            out["axes"] = list(self.axes)
+        return out
+
+    def acts_on(self, axis: str) -> bool:
+        return self.axes is None or axis in self.axes
+
+    def check_axes(self, axes) -> None:
+        """Raise if the effect names an axis the experiment does not have."""
+        for a in self.axes or ():
+            if a not in axes:
+                raise ValueError(f"effects.{self.name}.axes: {a!r} is not an axis of the experiment {list(axes)}")
+        if len(axes) < self.min_axes:
+            raise ValueError(f"effects.{self.name}: needs at least {self.min_axes} axes, the experiment has "
+                             f"{len(axes)}")
+
+    # --- fitting protocol -------------------------------------------------------------------
+    @classmethod
+    def fit_space(cls, axis: str, axes) -> list:
+        """The fitted parameters for one axis: list of ``Param`` (keys of :meth:`build`)."""
+        return [p for p in cls.PARAMS if p.fit]
+
+    @classmethod
+    def build(cls, axis: str, axes, values: dict) -> "Effect":
+        """The effect acting on ``axis`` only with the fitted ``values``."""
+        return cls(axes=[axis], **values)
+
+    def values(self, axis: str) -> dict:
+        """The fitted parameters' values for ``axis`` (inverse of :meth:`build`)."""
+        return {p.name: self.params[p.name] for p in self.fit_space(axis, ()) if p.name in self.params}
+
+    # --- hooks --------------------------------------------------------------------------------
+    def suspension(self, axis: str, s: SuspensionParams) -> SuspensionParams:
+        return s
+
+    def f0_rate_hz_per_s(self, axis: str) -> float:
+        return 0.0
+
+    def voltage(self, axis: str, volts: np.ndarray, h: float) -> np.ndarray:
+        return volts
+
+    def block(self, axis: str, angle: np.ndarray, rate: np.ndarray, h: float):
+        return angle, rate
+
+    def coupling(self, axis: str) -> dict:
+        return {}
+
+    def sense(self, axis: str, phi: np.ndarray, rate: np.ndarray, h: float) -> np.ndarray:
+        return phi
+
+    def delay_s(self, axis: str) -> float:
+        return 0.0
+
+    def scale(self, axis: str) -> float:
+        return 1.0
+
+    def additive(self, axis: str, t: np.ndarray):
+        return None
+
+
+class PiezoLag(Effect):
+    name = "piezo_lag"
+    stage = "voltage"
+    summary = "first-order lag of the effective piezo voltage (drive electronics)"
+    PARAMS = (Param("tau_s", "time constant of the lag (s)", 0.0, 0.01, 1e-4),)
+
+    def voltage(self, axis, volts, h):
+        tau = self.params["tau_s"]
+        if not self.acts_on(axis) or tau <= 0.0:
+            return volts
+        a = math.exp(-h / tau)
+        y_end = signal.lfilter([1.0 - a], [1.0, -a], volts)
+        y_start = np.concatenate(([0.0], y_end[:-1]))
+        # exact mean of V_eff over each step with V held: V + (V_eff(start) - V) tau/h (1 - a)
+        return volts + (y_start - volts) * (tau / h) * (1.0 - a)
+
+
+class AxisCoupling(Effect):
+    """``coefficients = {target: {source: c}}``: gyro ``target``'s block angle gains ``c delta_source``."""
+
+    name = "axis_coupling"
+    stage = "coupling"
+    summary = "a channel's block angle picks up the other channels' dither deflections"
+    PARAMS = ()
+    min_axes = 2
+    LIMIT = 0.2
+
+    def __init__(self, coefficients=None, axes=None):
+        super().__init__(axes=None)
+        if not isinstance(coefficients, dict) or not coefficients:
+            raise ValueError(f"effects.axis_coupling.coefficients: must be a mapping target -> {{source: c}}, "
+                             f"got {coefficients!r}")
+        clean = {}
+        for tgt, row in coefficients.items():
+            if not isinstance(tgt, str) or not isinstance(row, dict):
+                raise ValueError(f"effects.axis_coupling.coefficients.{tgt}: must be a mapping source -> c, "
+                                 f"got {row!r}")
+            clean[tgt] = {}
+            for src, c in row.items():
+                p = Param(f"coefficients.{tgt}.{src}", "", -self.LIMIT, self.LIMIT, 1e-2)
+                val = _check_param("axis_coupling", p, c)
+                if src == tgt:
+                    raise ValueError(f"effects.axis_coupling.coefficients.{tgt}.{src}: an axis does not couple "
+                                     "to itself")
+                clean[tgt][src] = val
+        self.coefficients = MappingProxyType({k: MappingProxyType(v) for k, v in clean.items()})
+        self.axes = tuple(clean)
+
+    def __repr__(self):
+        return f"AxisCoupling(coefficients={self.to_dict()['coefficients']!r})"
+
+    def to_dict(self):
+        return {"name": self.name, "coefficients": {t: dict(r) for t, r in self.coefficients.items()}}
+
+    def check_axes(self, axes):
+        super().check_axes(axes)
+        for row in self.coefficients.values():
+            for src in row:
+                if src not in axes:
+                    raise ValueError(f"effects.axis_coupling.coefficients: source {src!r} is not an axis of the "
+                                     f"experiment {list(axes)}")
+
+    @classmethod
+    def fit_space(cls, axis, axes):
+        return [Param(f"c_{src}", f"coupling of {src}'s deflection into {axis}", -cls.LIMIT, cls.LIMIT, 1e-2)
+                for src in axes if src != axis]
+
+    @classmethod
+    def build(cls, axis, axes, values):
+        return cls(coefficients={axis: {k[2:]: v for k, v in values.items()}})
+
+    def values(self, axis):
+        return {f"c_{src}": c for src, c in self.coefficients.get(axis, {}).items()}
+
+    def coupling(self, axis):
+        return dict(self.coefficients.get(axis, {}))
+
+
+class BlockMode(Effect):
+    name = "block_mode"
+    stage = "block"
+    summary = "structural mode of the block/mount between table and gyros (second-order resonance)"
+    PARAMS = (Param("frequency_hz", "mode frequency (Hz)", 1.0, 20000.0, 100.0),
+              Param("zeta", "mode damping ratio", 1e-4, 1.0, 0.05),
+              Param("gain", "participation of the gyros' block in the mode", -2.0, 2.0, 0.3))
+    needs_motion = True
+
+    def block(self, axis, angle, rate, h):
+        if not self.acts_on(axis):
+            return angle, rate
+        w = 2.0 * math.pi * self.params["frequency_hz"]
+        z = self.params["zeta"]
+        g = self.params["gain"]
+        # augmented state (u, u', f and its three derivatives): exact for a cubic forcing over the step
+        m = np.zeros((6, 6))
+        m[0, 1] = 1.0
+        m[1, 0] = -w * w
+        m[1, 1] = -2.0 * z * w
+        m[1, 2] = 1.0
+        m[2, 3] = m[3, 4] = m[4, 5] = 1.0
+        e = linalg.expm(m * h)
+        u = np.empty_like(angle)
+        du = np.empty_like(angle)
+        mode_run(np.ascontiguousarray(angle), np.ascontiguousarray(rate), h, w, z, np.ascontiguousarray(e[:2, :2]),
+                 np.ascontiguousarray(e[:2, 2:6]), float(angle[0]), float(rate[0]), u, du)
+        return (1.0 - g) * angle + g * u, (1.0 - g) * rate + g * du
+
+
+class ViscousDamping(Effect):
+    name = "viscous_damping"
+    stage = "suspension"
+    summary = "velocity-proportional damping beside the hysteretic loss"
+    PARAMS = (Param("zeta", "viscous damping ratio added to the suspension", 0.0, 0.1, 5e-4),)
+
+    def suspension(self, axis, s):
+        if not self.acts_on(axis) or self.params["zeta"] == 0.0:
+            return s
+        return s.replace(zeta=s.zeta + self.params["zeta"])
+
+
+class ResonanceDrift(Effect):
+    name = "resonance_drift"
+    stage = "plant"
+    summary = "small-amplitude resonance f0 changing linearly over the recording (temperature)"
+    PARAMS = (Param("rate_hz_per_s", "df0/dt (Hz/s)", -100.0, 100.0, 0.2),)
+
+    def f0_rate_hz_per_s(self, axis):
+        return self.params["rate_hz_per_s"] if self.acts_on(axis) else 0.0
+
+
+class ReadoutDelay(Effect):
+    name = "readout_delay"
+    stage = "readout"
+    summary = "a delay between the drive and the readout"
+    PARAMS = (Param("delay_s", "the readout samples the RLG this late (s)", 0.0, 0.01, 2e-5),)
+
+    def delay_s(self, axis):
+        return self.params["delay_s"] if self.acts_on(axis) else 0.0
+
+
+class ScaleFactor(Effect):
+    name = "scale_factor"
+    stage = "readout"
+    summary = "readout scale-factor error"
+    PARAMS = (Param("error", "relative scale error of the readout", -0.5, 0.5, 1e-3),)
+    needs_motion = True
+
+    def scale(self, axis):
+        return 1.0 + self.params["error"] if self.acts_on(axis) else 1.0
+
+
+class LockIn(Effect):
+    name = "lock_in"
+    stage = "sense"
+    summary = "backscatter lock-in of the counter-propagating modes (Adler equation)"
+    PARAMS = (Param("threshold_rad_s", "lock-in rate Omega_L (rad/s)", 0.0, 1.0, 2e-3),
+              Param("phase_rad", "backscatter phase (rad)", -4.0 * math.pi, 4.0 * math.pi, 1.0, default=0.0),
+              Param("fringe_rad", "rotation angle per Sagnac fringe (rad)", 1e-7, 1e-3, FRINGE_RAD,
+                    default=FRINGE_RAD, fit=False))
+    #: Sub-interval control of the lock-in kernel: 8 x the largest deviation of the phase from its chord (rad).
+    MAX_DPSI = 0.05
+
+    def sense(self, axis, phi, rate, h):
+        if not self.acts_on(axis) or self.params["threshold_rad_s"] == 0.0:
+            return phi
+        e = np.empty_like(phi)
+        k = 2.0 * math.pi / self.params["fringe_rad"]
+        lock_in_run(np.ascontiguousarray(phi), np.ascontiguousarray(rate), h, self.params["threshold_rad_s"], k,
+                    self.params["phase_rad"], self.MAX_DPSI, 0.0, e)
+        return phi + e
+
+
+class MainsPickup(Effect):
+    """Off-catalogue: a sine added to the readout angle (electrical pickup)."""
+
+    name = "mains_pickup"
+    stage = "readout"
+    summary = "sine added to the readout angle (not in the catalogue)"
+    PARAMS = (Param("amplitude_rad", "amplitude (rad)", 0.0, 1e-3, 1e-6),
+              Param("frequency_hz", "frequency (Hz)", 0.1, 1e5, 50.0, default=50.0),
+              Param("phase_rad", "phase (rad)", -10.0, 10.0, 1.0, default=0.0))
+
+    def additive(self, axis, t):
+        if not self.acts_on(axis):
+            return None
+        p = self.params
+        return p["amplitude_rad"] * np.sin(2.0 * math.pi * p["frequency_hz"] * t + p["phase_rad"])
+
+
+class DriveHarmonic(Effect):
+    """Off-catalogue: a quadratic piezo, ``V_eff = V + c2 V^2``."""
+
+    name = "drive_harmonic"
+    stage = "voltage"
+    summary = "quadratic piezo response (not in the catalogue)"
+    PARAMS = (Param("c2_per_v", "quadratic coefficient (1/V)", -10.0, 10.0, 0.05),)
+
+    def voltage(self, axis, volts, h):
+        if not self.acts_on(axis):
+            return volts
+        return volts + self.params["c2_per_v"] * volts * volts
+
+
+#: The catalogue of unmodelled effects the diagnosis knows, by name.
+EFFECTS = MappingProxyType({cls.name: cls for cls in (PiezoLag, AxisCoupling, BlockMode, ViscousDamping,
+                                                       ResonanceDrift, ReadoutDelay, ScaleFactor, LockIn)})
+#: Disturbances outside the catalogue (for the blind evaluation).
+DISTURBANCES = MappingProxyType({cls.name: cls for cls in (MainsPickup, DriveHarmonic)})
+
+
+def effect_names() -> list:
+    """Names of the catalogue's effects."""
+    return list(EFFECTS)
+
+
+def make_effect(name: str, **params) -> Effect:
+    """Build a catalogue effect (or an off-catalogue disturbance) by name.
+
+    Examples
+    --------
+    >>> make_effect("piezo_lag", tau_s=1e-4)
+    PiezoLag(tau_s=0.0001)
+    >>> make_effect("axis_coupling", coefficients={"x": {"y": 0.01}}).coupling("x")
+    {'y': 0.01}
+    """
+    cls = EFFECTS.get(name) or DISTURBANCES.get(name)
+    if cls is None:
+        raise ValueError(f"effects: name: must be one of {sorted(EFFECTS) + sorted(DISTURBANCES)}, got {name!r}")
+    return cls(**params)

@@ -1,0 +1,396 @@
+"""Recording jobs the CLI calls: write, import, diagnose and blindly evaluate recordings.
+
+Each function returns a dictionary and prints nothing:
+
+- :func:`simulate_recording` (``sins-sim simulate-recording SPEC.yaml --out REC.npz``): a recording from a
+  small YAML experiment description, effects switched on but not written into the file;
+- :func:`import_csv` (``sins-sim import-csv LAB.csv --out REC.npz ...``): a lab export into the format
+  (columns in ``sins_sim.io.recording``);
+- :func:`diagnose` (``sins-sim diagnose REC.npz --json OUT.json --report DIR``);
+- :func:`diagnose_eval` (``sins-sim diagnose-eval --n N --seed S``).
+
+Experiment YAML (units in the key names; every key optional except ``experiment`` and ``duration_s``)::
+
+    experiment: stationary          # stationary | afc_sweep | rate_table
+    description: "bench run 3"      # written to the recording
+    axes: [x, y, z]                 # 1 to 3 names, default [x]
+    duration_s: 2.0
+    seed: 0                         # readout noise and the random perturbation
+    fs_hz: 7200                     # readout rate
+    drive_fs_hz: 7200               # drive update rate (a multiple of fs_hz), default fs_hz
+    plant_rate_hz: 72000            # truth simulation rate (a multiple of drive_fs_hz)
+    integrator: exact               # exact | rk4
+    hysteresis: paper               # paper | masing
+    quantum_arcsec: 0.15125         # readout quantum (2.42/16 arcsec)
+    noise_arcsec: 0.0               # white readout noise before quantisation
+    initial_state: rest             # rest | unknown (the recording starts after preroll_s)
+    preroll_s: 1.0
+    amplitude_arcmin: 3.0           # dither amplitude the drive is set up for (from the nominal parameters)
+    nominal:                        # per axis, as in configs/*.yaml; defaults: the paper, f0 386/352/421 Hz
+      x: {f0_hz: 386, k1: 1.75e-4, k2_rad: 1.05e-3, k3: 4.4e-3, k4_per_rad: 250, k5_rad_per_v: -1.2e-5}
+    perturb: {f0: 0.002, k: 0.05}   # the unit differs from nominal: relative std, seeded
+    truth:                          # or explicitly (overrides the perturbation), per axis
+      x: {f0_hz: 386.6}
+    afc: {voltage_factors: [0.5, 0.75, 1.0, 1.25], frequency_offsets_hz: [-3, -1.5, 0, 1.5, 3], dwell_s: 0.25}
+    rate_table:                     # the table's angle about every axis listed (default all)
+      rate_deg_s: 10
+      sines: [{amplitude_arcmin: 30, frequency_hz: 7}, {amplitude_arcmin: 3, frequency_hz: 80, phase_deg: 60}]
+      axes: [x]
+    effects:                        # catalogue effects (sins_sim.models.effects), SI parameters
+      - {name: piezo_lag, tau_s: 1.0e-4, axes: [x]}
+      - {name: axis_coupling, coefficients: {x: {y: 0.01}}}
+
+The drive runs at the amplitude-dependent resonance of the *nominal* suspension with eq. 17's voltage
+(stationary, rate_table) or steps through the AFC plan (afc_sweep), as an engineer would set it up.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from sins_sim.io.recording import read_csv_recording, read_recording, write_recording
+from sins_sim.models.effects import make_effect
+from sins_sim.models.suspension import SuspensionParams
+from sins_sim.scenarios.imu import load_yaml
+from sins_sim.scenarios.schema import ConfigError, ListOf, Map, Num, Str, validate
+from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings, afc_drive, record,
+                                            stationary_drive, table_motion)
+from sins_sim.units import ARCSEC
+
+__all__ = ["EXPERIMENT_SCHEMA", "DEFAULT_F0_HZ", "experiment_from_dict", "simulate_recording", "import_csv",
+           "diagnose", "diagnose_eval", "format_diagnosis", "format_eval"]
+
+#: Default small-amplitude resonances per axis (reference-model.md "Three axes": 300-450 Hz, all different).
+DEFAULT_F0_HZ = {"x": 386.0, "y": 352.0, "z": 421.0}
+_POS = dict(min=0.0, min_exclusive=True)
+
+
+def _suspension_fields():
+    return {
+        "f0": Num(unit="hz", **_POS),
+        "k1": Num(min=0.0),
+        "k2": Num(unit="rad", **_POS),
+        "k3": Num(min=0.0),
+        "k4": Num(unit="per_rad"),
+        "k5": Num(unit="rad_per_v", nonzero=True),
+        "zeta": Num(min=0.0),
+    }
+
+
+class _PerAxis:
+    """A mapping axis name -> suspension overrides (axis names are free)."""
+
+    unit = None
+    default = None
+    required = False
+
+    def __init__(self):
+        self.item = Map(_suspension_fields())
+
+    def check(self, value, ctx, path):
+        if not isinstance(value, dict):
+            raise ConfigError(f"{ctx}: {path}: must be a mapping axis -> parameters, got {value!r}")
+        return {str(k): self.item.check(v, ctx, f"{path}.{k}") for k, v in value.items()}
+
+
+class _Effects:
+    """The effects list: ``{name: ..., axes: [...], <SI parameters>}`` per item, checked by the catalogue."""
+
+    unit = None
+    default = None
+    required = False
+
+    def check(self, value, ctx, path):
+        if not isinstance(value, list):
+            raise ConfigError(f"{ctx}: {path}: must be a list of effects, got {value!r}")
+        out = []
+        for i, item in enumerate(value):
+            if not isinstance(item, dict) or "name" not in item:
+                raise ConfigError(f"{ctx}: {path}[{i}]: must be a mapping with a 'name', got {item!r}")
+            params = {k: v for k, v in item.items() if k != "name"}
+            try:
+                out.append(make_effect(item["name"], **params))
+            except (ValueError, TypeError) as exc:
+                raise ConfigError(f"{ctx}: {path}[{i}]: {exc}") from None
+        return out
+
+
+EXPERIMENT_SCHEMA = Map({
+    "name": Str(default=""),
+    "experiment": Str(choices=("stationary", "afc_sweep", "rate_table"), required=True),
+    "description": Str(default=""),
+    "axes": ListOf(Str(), default=["x"], min_len=1),
+    "duration": Num(unit="s", required=True, **_POS),
+    "seed": Num(integer=True, min=0, default=0),
+    "fs": Num(unit="hz", default=7200.0, **_POS),
+    "drive_fs": Num(unit="hz", **_POS),
+    "plant_rate": Num(unit="hz", default=72000.0, **_POS),
+    "integrator": Str(choices=("exact", "rk4"), default="exact"),
+    "hysteresis": Str(choices=("paper", "masing"), default="paper"),
+    "quantum": Num(unit="arcsec", default=2.42 / 16.0, **_POS),
+    "noise": Num(unit="arcsec", min=0.0, default=0.0),
+    "initial_state": Str(choices=("rest", "unknown"), default="rest"),
+    "preroll": Num(unit="s", min=0.0, default=1.0),
+    "amplitude": Num(unit="arcmin", default=3.0, **_POS),
+    "nominal": _PerAxis(),
+    "truth": _PerAxis(),
+    "perturb": Map({"f0": Num(min=0.0, max=0.05, default=0.0), "k": Num(min=0.0, max=0.5, default=0.0)},
+                   default={}),
+    "afc": Map({
+        "voltage_factors": ListOf(Num(**_POS), default=[0.5, 0.75, 1.0, 1.25], min_len=1),
+        "frequency_offsets_hz": ListOf(Num(), default=[-3.0, -1.5, 0.0, 1.5, 3.0], min_len=1),
+        "dwell": Num(unit="s", default=0.25, **_POS),
+    }, default={}),
+    "rate_table": Map({
+        "rate": Num(unit="deg_s", default=10.0),
+        "sines": ListOf(Map({"amplitude": Num(unit="arcmin", required=True, min=0.0),
+                             "frequency": Num(unit="hz", required=True, **_POS),
+                             "phase": Num(unit="deg", default=0.0)}),
+                        default=[{"amplitude_arcmin": 30.0, "frequency_hz": 7.0},
+                                 {"amplitude_arcmin": 3.0, "frequency_hz": 80.0, "phase_deg": 60.0},
+                                 {"amplitude_arcmin": 1.0, "frequency_hz": 230.0, "phase_deg": 120.0}]),
+        "axes": ListOf(Str(), min_len=1),
+    }, default={}),
+    "effects": _Effects(),
+})
+
+_YAML_SUSP = {"f0_hz": "f0_hz", "k1": "k1", "k2_rad": "k2", "k3": "k3", "k4_per_rad": "k4", "k5_rad_per_v": "k5",
+              "zeta": "zeta"}
+
+
+def _suspension(base: SuspensionParams, over: dict | None) -> SuspensionParams:
+    if not over:
+        return base
+    return base.replace(**{_YAML_SUSP[k]: float(v) for k, v in over.items() if v is not None})
+
+
+def experiment_from_dict(doc: dict, ctx: str = "experiment") -> dict:
+    """Validate an experiment mapping and build everything :func:`simulate_recording` needs.
+
+    Returns a dict with ``inputs`` (ExperimentInputs, pre-roll included), ``truth`` and ``nominal``
+    (axis -> SuspensionParams), ``effects``, ``settings``, ``quantum_rad``, ``noise_rad``, ``seed``,
+    ``preroll_samples``, ``experiment``, ``description`` and ``points`` (AFC plan).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``ctx``, the key path and the rule.
+    """
+    c = validate(doc, EXPERIMENT_SCHEMA, ctx)
+    axes = list(c["axes"])
+    if len(axes) > 3 or len(set(axes)) != len(axes):
+        raise ConfigError(f"{ctx}: axes: must be 1 to 3 distinct names, got {axes!r}")
+    for key in ("nominal", "truth"):
+        for a in c[key] or {}:
+            if a not in axes:
+                raise ConfigError(f"{ctx}: {key}.{a}: is not one of axes {axes}")
+    try:
+        nominal = {}
+        for i, a in enumerate(axes):
+            base = SuspensionParams(f0_hz=DEFAULT_F0_HZ.get(a, 386.0 - 17.0 * i))
+            nominal[a] = _suspension(base, (c["nominal"] or {}).get(a))
+        rng = np.random.default_rng([int(c["seed"]), 7])
+        truth = {}
+        for a in axes:
+            s = nominal[a]
+            pf, pk = c["perturb"]["f0"], c["perturb"]["k"]
+            if pf or pk:
+                z = rng.standard_normal(6)
+                s = s.replace(f0_hz=s.f0_hz * (1 + pf * z[0]), k1=s.k1 * (1 + pk * z[1]), k2=s.k2 * (1 + pk * z[2]),
+                              k3=s.k3 * (1 + pk * z[3]), k4=s.k4 * (1 + pk * z[4]), k5=s.k5 * (1 + pk * z[5]))
+            truth[a] = _suspension(s, (c["truth"] or {}).get(a))
+        fs = c["fs_hz"]
+        dfs = c["drive_fs_hz"] or fs
+        settings = ExperimentSettings(plant_rate_hz=c["plant_rate_hz"], integrator=c["integrator"],
+                                      hysteresis=c["hysteresis"])
+        pre = int(round(c["preroll_s"] * fs)) if c["initial_state"] == "unknown" else 0
+        n = int(math.floor(c["duration_s"] * fs + 1e-9)) + 1 + pre
+        ratio = int(round(dfs / fs))
+        if ratio < 1 or abs(dfs / fs - ratio) > 1e-9:
+            raise ValueError(f"drive_fs_hz: drive_fs_hz / fs_hz must be an integer >= 1, got {dfs / fs!r}")
+        amp = c["amplitude_rad"]
+        points = []
+        if c["experiment"] == "afc_sweep":
+            afc = c["afc"]
+            drive, points = afc_drive(nominal, axes, amp, afc["voltage_factors"], afc["frequency_offsets_hz"],
+                                      afc["dwell_s"], dfs, n * ratio)
+        else:
+            drive = stationary_drive(nominal, axes, amp, dfs, n * ratio)
+        table = None
+        if c["experiment"] == "rate_table":
+            rt = c["rate_table"]
+            mot = table_motion(rt["rate_rad_s"], [(s["amplitude_rad"], s["frequency_hz"], s["phase_rad"])
+                                                  for s in rt["sines"]])
+            on = rt["axes"] or axes
+            for a in on:
+                if a not in axes:
+                    raise ValueError(f"rate_table.axes: {a!r} is not one of axes {axes}")
+            table = {a: mot for a in on}
+        inputs = ExperimentInputs(axes, fs, n, dfs, drive, table)
+        effects = c["effects"] or []
+        for e in effects:
+            e.check_axes(axes)
+        inputs.plant_rate(settings)
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: {exc}") from None
+    return {"inputs": inputs, "truth": truth, "nominal": nominal, "effects": effects, "settings": settings,
+            "quantum_rad": c["quantum_rad"], "noise_rad": c["noise_rad"], "seed": int(c["seed"]),
+            "preroll_samples": pre, "experiment": c["experiment"], "description": c["description"],
+            "points": points, "name": c["name"]}
+
+
+def simulate_recording(yaml_path, out_npz) -> dict:
+    """Write the recording an experiment YAML describes (effects on, nothing about them in the file).
+
+    Parameters
+    ----------
+    yaml_path : path
+        Experiment description (module docstring).
+    out_npz : path
+        Recording to write (``sins-sim-recording/1``).
+
+    Returns
+    -------
+    dict
+        ``path``, ``experiment``, ``axes``, ``n_samples``, ``fs_hz``, ``duration_s``, ``quantum_arcsec``,
+        ``effects`` (what was switched on, for the caller's log only).
+    """
+    path = Path(yaml_path)
+    spec = experiment_from_dict(load_yaml(path), str(path))
+    rec = record(spec["inputs"], spec["truth"], spec["nominal"], spec["quantum_rad"], spec["effects"],
+                 spec["settings"], spec["noise_rad"], spec["seed"], spec["experiment"], spec["description"],
+                 spec["preroll_samples"])
+    out = write_recording(out_npz, rec)
+    return {"path": str(out), "experiment": rec.experiment, "axes": list(rec.axes), "n_samples": rec.n_samples,
+            "fs_hz": rec.fs_hz, "duration_s": rec.duration_s, "quantum_arcsec": rec.quantum_rad / ARCSEC,
+            "initial_state": rec.initial_state, "effects": [e.to_dict() for e in spec["effects"]]}
+
+
+def import_csv(csv_path, out_npz, **meta) -> dict:
+    """Convert a lab CSV export into a recording.
+
+    Parameters
+    ----------
+    csv_path, out_npz : path
+    **meta
+        ``quantum_rad`` (or ``quantum_arcsec``), required; ``nominal``: a mapping axis ->
+        ``{f0_hz, k1, ..., k5}`` or the path of a JSON/YAML file holding one, required;
+        optional ``experiment`` (default ``stationary``), ``initial_state`` (``rest``),
+        ``description``, ``fs_hz`` (default from ``time_s``); anything else is stored in the header.
+
+    Returns
+    -------
+    dict
+        ``path``, ``axes``, ``n_samples``, ``fs_hz``, ``duration_s``, ``has_sins_angle``.
+    """
+    meta = dict(meta)
+    if "quantum_arcsec" in meta:
+        if "quantum_rad" in meta:
+            raise ValueError("import_csv: give quantum_rad or quantum_arcsec, not both")
+        meta["quantum_rad"] = float(meta.pop("quantum_arcsec")) * ARCSEC
+    for key in ("quantum_rad", "nominal"):
+        if meta.get(key) is None:
+            raise ValueError(f"import_csv: {key}: is required")
+    nominal = meta.pop("nominal")
+    if isinstance(nominal, (str, Path)):
+        p = Path(nominal)
+        if p.suffix.lower() == ".json":
+            import json
+
+            try:
+                nominal = json.loads(p.read_text())
+            except (OSError, ValueError) as exc:
+                raise ValueError(f"import_csv: nominal: cannot read {p} ({exc})") from None
+        else:
+            nominal = load_yaml(p)
+    meta = {k: v for k, v in meta.items() if v is not None}
+    rec = read_csv_recording(csv_path, nominal=nominal, **meta)
+    out = write_recording(out_npz, rec)
+    return {"path": str(out), "axes": list(rec.axes), "n_samples": rec.n_samples, "fs_hz": rec.fs_hz,
+            "duration_s": rec.duration_s, "has_sins_angle": rec.sins_angle is not None}
+
+
+def diagnose(rec_path, json_out=None, report_dir=None, effects=None) -> dict:
+    """Diagnose a recording; write the JSON and the report directory when given; return the JSON dict.
+
+    Parameters
+    ----------
+    rec_path : path
+        A recording (``sins-sim-recording/1``).
+    json_out : path, optional
+        Where to write the JSON (keys of ``sins_sim.identification.diagnose.Diagnosis.to_json``).
+    report_dir : path, optional
+        Where to write ``report.md``, ``spectrum.png``, ``envelope.png``, ``ranking.png``.
+    effects : list of str, optional
+        Catalogue effects to try (default all).
+    """
+    from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording, write_report
+
+    rec = read_recording(rec_path)
+    settings = DiagnoseSettings(effects=tuple(effects) if effects else None)
+    diag = diagnose_recording(rec, settings)
+    if report_dir is not None:
+        return write_report(diag, report_dir, json_out)
+    js = diag.to_json()
+    if json_out is not None:
+        import json
+
+        Path(json_out).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_out).write_text(json.dumps(js, indent=2) + "\n")
+    return js
+
+
+def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None) -> dict:
+    """Blind evaluation (``sins_sim.identification.blind.evaluate``); the result dictionary.
+
+    Parameters
+    ----------
+    n : int
+        Number of recordings.
+    seed : int
+        Seed of the case generator.
+    duration_s : float
+        Length of each recording (s).
+    json_out : path, optional
+        Write the result as JSON too.
+    progress : callable(str) or None
+        Called after each case with a one-line summary.
+    """
+    from sins_sim.identification.blind import evaluate
+
+    res = evaluate(n, seed, duration_s=duration_s, progress=progress)
+    if json_out is not None:
+        import json
+
+        Path(json_out).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_out).write_text(json.dumps(res, indent=2) + "\n")
+    return res
+
+
+
+def format_diagnosis(js: dict) -> str:
+    """A few lines summarising a diagnosis' JSON (for the CLI to print)."""
+    g = js["gap"]
+    v = js["verdict"]
+    lines = [f"noise floor {js['noise_floor_arcsec']:.4g} arcsec; baseline residual "
+             f"{js['baseline']['residual_rms_arcsec']:.4g} arcsec RMS"]
+    if g["significant"]:
+        lines.append(f"gap on axis {g['axis']}: band {g['band_hz']} Hz, time {g['time_s']} s")
+        for c in js["candidates"][:3]:
+            lines.append(f"  {c['effect']:<16} gap reduction {c['gap_reduction']:.3f}  score {c['score']:.4g}  "
+                         f"{c['params']}")
+    else:
+        lines.append("no significant gap: the refit nominal model sits at the noise floor")
+    alts = f" (or: {', '.join(v['alternatives'])})" if v.get("alternatives") else ""
+    lines.append(f"verdict: {v['effect']}{alts}, gap reduction {v['gap_reduction']:.3f}")
+    return "\n".join(lines)
+
+
+def format_eval(res: dict) -> str:
+    """The blind evaluation's confusion matrix and statistics as text (for the CLI to print)."""
+    from sins_sim.identification.blind import format_result
+
+    return format_result(res)
