@@ -100,25 +100,42 @@ def plot_attitude_error(result, path, title: str = "") -> None:
     plt.close(fig)
 
 
+def _welch_amplitude_db(x, fs):
+    """Welch-averaged amplitude spectrum (Hann, 'spectrum' scaling) in dB re 1 arcsec: a sine of
+    amplitude A reads 20 log10(A / 1 arcsec) at its frequency."""
+    from scipy import signal
+
+    x = np.asarray(x, dtype=np.float64)
+    nper = int(min(4096, x.size))
+    f, p = signal.welch(x - x.mean(), fs=fs, window="hann", nperseg=nper, scaling="spectrum")
+    return f, 20.0 * np.log10(np.maximum(np.sqrt(2.0 * p) / ARCSEC, 1e-12))
+
+
 def plot_output_spectra(result, path, title: str = "") -> None:
-    """Amplitude spectrum of each filter's gyro-angle output vs the truth, per axis."""
+    """Amplitude spectrum of each filter's gyro-angle output vs the truth, per axis (Welch, log frequency)."""
     plt = _pyplot()
     spec = result.spectra
     fs = result.filter_rate_hz
     fig, axes = plt.subplots(3, 1, figsize=(10, 10), sharex=True, constrained_layout=True)
+    drives = {d["axis"]: d["frequency_hz"] for d in getattr(result, "drives", [])}
     for i, axis in enumerate(("x", "y", "z")):
         ax = axes[i]
-        if spec["truth"].shape[0] < 16:
+        if spec["truth"].shape[0] < 64:
             continue
-        for name in [n for n in spec if n not in ("t", "truth", "ideal")]:
-            f, db = spectrum_db(spec[name][:, i], fs)
-            ax.plot(f, db, color=SINS_COLORS.get(name), lw=0.8, label=SINS_LABELS.get(name, name))
-        f, db = spectrum_db(spec["truth"][:, i], fs)
-        ax.plot(f, db, color="k", lw=1.2, ls="--", label="true SINS angle")
-        ax.set_ylabel(f"gyro {axis}: amplitude (dB re 1 arcsec)")
-        ax.set_ylim(-80, 60)
-        ax.grid(alpha=0.3)
-    axes[0].legend(loc="upper right", fontsize=8, ncol=2)
+        for name in [n for n in ("raw", "eliminator", "correcting_paper", "correcting") if n in spec]:
+            f, db = _welch_amplitude_db(spec[name][:, i], fs)
+            ax.semilogx(f[1:], db[1:], color=SINS_COLORS.get(name), lw=1.6 if name == "correcting" else 1.0,
+                        alpha=0.5 if name == "raw" else 1.0, label=SINS_LABELS.get(name, name))
+        f, db = _welch_amplitude_db(spec["truth"][:, i], fs)
+        ax.semilogx(f[1:], db[1:], color="k", lw=1.2, ls="--", label="true SINS angle")
+        if axis in drives:
+            ax.axvline(drives[axis], color="0.5", lw=0.8, ls=":")
+            ax.text(drives[axis], 52, f" dither {drives[axis]:.0f} Hz", fontsize=8, color="0.4", va="top")
+        ax.set_ylabel(f"gyro {axis}: amplitude\n(dB re 1 arcsec)")
+        ax.set_ylim(-90, 60)
+        ax.set_xlim(f[1], fs / 2)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].legend(loc="lower left", fontsize=8, ncol=2)
     axes[-1].set_xlabel("frequency (Hz)")
     axes[0].set_title(title or "Spectrum of each filter's output against the true block angle")
     fig.savefig(path, dpi=120)
