@@ -125,7 +125,7 @@ CASES = {
 @pytest.mark.parametrize("name", list(CASES))
 def test_each_effect_is_identified(name):
     experiment, params, tol = CASES[name]
-    rec = _recording(experiment, [make_effect(name, **params)], duration=0.8)
+    rec = _recording(experiment, [make_effect(name, **params)], duration=0.6)
     js = diagnose_recording(rec).to_json()
     assert js["gap"]["significant"]
     assert js["verdict"]["effect"] == name, [(c["effect"], c["gap_reduction"], c["score"]) for c in js["candidates"]]

@@ -348,3 +348,21 @@ def test_inputs_from_a_recording_with_a_faster_encoder():
     ang, rate = mot.angle_rate(t)
     assert np.max(np.abs(g.angle["x"] - ang)) < 1e-9
     assert np.max(np.abs(g.rate["x"] - rate)) < 1e-6 * np.max(np.abs(rate))
+
+
+def test_kick_sets_the_state_change():
+    """The fictitious kick changes the deflection by d_delta and its rate by d_rate at the given grid point,
+    and nothing before. The kick spans two plant steps and the rate is read two steps later, in which the
+    oscillator turns by omega0 * 4 h = 0.34 rad: 2 % on the deflection, 5 % on the rate (the diagnosis fits
+    the kick's size, so only its shape matters)."""
+    inputs, sus = _inputs(0.05)
+    g = inputs.grid(SET)
+    idx = 40 * g.r
+    _, d0 = simulate_axis(inputs, "x", sus["x"], (), SET, return_delta=True)
+    _, d1 = simulate_axis(inputs, "x", sus["x"], (), SET, return_delta=True, kick=(idx, 10 * ARCSEC, 0.0))
+    np.testing.assert_array_equal(d1[:idx - 2], d0[:idx - 2])
+    assert (d1 - d0)[idx] == pytest.approx(10 * ARCSEC, rel=0.02)
+    _, d2 = simulate_axis(inputs, "x", sus["x"], (), SET, return_delta=True, kick=(idx, 0.0, 0.02))
+    rate = rate_from_grid(d2 - d0, g.h)
+    assert rate[idx + 2] == pytest.approx(0.02, rel=0.05)
+    assert abs((d2 - d0)[idx]) < 0.02 * 2 * g.h

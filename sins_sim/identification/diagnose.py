@@ -486,6 +486,31 @@ def _cost(prob: _Problem, sus: SuspensionParams, effect, start=None) -> float:
         return math.inf
 
 
+def _bent(prob: _Problem, xn: np.ndarray) -> bool:
+    """Whether k1, k2 or k4 of ``xn`` sit more than the prior's width from the nominal values."""
+    idx = [1, 2, 4]
+    return bool(np.any(np.abs(xn[idx] - prob.x_c[idx]) > prob.settings.prior_k))
+
+
+def _drift_centred(prob: _Problem, effect_cls, xn: np.ndarray, values: dict) -> np.ndarray:
+    """For a ``resonance_drift`` start: f0 moved so that f0 in the middle of the data is unchanged.
+
+    A fit without the drift finds the recording's mean resonance; the
+    drift's f0 is the one at the start of the simulation (the model's
+    ``t = 0``, before any pre-roll), so a drift start keeps the mean where
+    the fit found it.
+    """
+    if effect_cls is None or effect_cls.name != "resonance_drift":
+        return xn
+    rate = float(values.get("rate_hz_per_s", 0.0))
+    t_mid = (prob.skip + 0.5 * prob.y.size) / prob.inputs.fs_hz
+    sus = prob.suspension(xn)
+    try:
+        return prob.x_of(sus.replace(f0_hz=sus.f0_hz - rate * t_mid))
+    except ValueError:
+        return xn
+
+
 def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effect_starts=None,
              max_nfev: int | None = None, polish: bool = False) -> AxisFit:
     """Fit the nominal parameters (and an effect's) on one axis, on the training blocks.
@@ -493,10 +518,13 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
     Stages: (0) without a start, the grid :data:`_F_GRID` of the
     operating-point resonance (the residual is far from quadratic when the
     dither's phase is off); with an effect, the best of ``effect_starts``
-    at the start's nominal parameters (or at those with the recording's
-    nominal ``k1, k2, k4``, whichever fits better); (1) least squares over
-    ``F, 1/Q, k5``, the start state (recordings that start mid-operation)
-    and the effect's parameters; (2) least squares over everything.
+    at the start's nominal parameters; (1) least squares over ``F, 1/Q,
+    k5``, the start state (recordings that start mid-operation) and the
+    effect's parameters; (2) least squares over everything. Stages 1 and 2
+    run from the start's nominal parameters and, when the start has bent
+    the weakly resolved ``k1, k2, k4`` more than their prior's width
+    (a baseline absorbing what the effect explains), from the recording's
+    nominal ones too; the better result is kept.
 
     Parameters
     ----------
@@ -544,12 +572,11 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
         with ThreadPoolExecutor(max_workers=threads) as ex:
             costs = list(ex.map(grid_cost, _F_GRID))
         x0_nom[0] = prob.x_c[0] * (1.0 + _F_GRID[int(np.argmin(costs))])
+    nominal_starts = []
     if effect_cls is not None:
         starts = effect_starts or [{p.name: (p.default if p.default is not None else 0.0) for p in eff_space}]
-        # nominal starts: the given one, and its (F, 1/Q, k5) with the recording's nominal k1, k2, k4
-        # (a baseline may have bent the weakly resolved k1, k2, k4 to absorb the effect)
-        hybrid = prob.x_c.copy()
-        hybrid[list(_MAIN)] = x0_nom[list(_MAIN)]
+        # nominal starts: the given one (the baseline refit) and, where the baseline bent the weakly
+        # resolved k1, k2, k4 (absorbing what the effect explains), the recording's nominal parameters
 
         def cost(trial):
             try:
@@ -558,23 +585,28 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
             except ValueError:
                 return math.inf
 
-        trials = [(x0_nom, st) for st in starts]
+        trials = [(_drift_centred(prob, effect_cls, x0_nom, st), st) for st in starts]
         if len(trials) > 1:
             with ThreadPoolExecutor(max_workers=threads) as ex:
                 costs = list(ex.map(cost, trials))
         else:
             costs = [math.inf]
         best = trials[int(np.argmin(costs))]
-        if start is not None and not np.allclose(hybrid, x0_nom) and cost((hybrid, best[1])) < min(costs):
-            best = (hybrid, best[1])
-        x0_nom = best[0].copy()
         x0_eff = np.array([best[1].get(p.name, 0.0) / p.scale for p in eff_space])
-    x = np.concatenate([x0_nom, x0_nui, x0_eff])
+        x0_nom = best[0].copy()
+        if start is not None and _bent(prob, x0_nom):
+            nominal_starts.append(_drift_centred(prob, effect_cls, prob.x_c, best[1]))
     stage1 = list(_MAIN) + list(range(n_nom, n_nom + len(space)))
     budget = max_nfev or (prob.settings.max_nfev if effect_cls is None else prob.settings.candidate_nfev)
-    x, _, _ = _solve(prob, effect_cls, x, space, max(4, budget // 2), threads, prob.train, free=stage1)
-    x, jac, unpack = _solve(prob, effect_cls, x, space, budget, threads, prob.train)
-    return _finish(prob, x, jac, unpack, space)
+    best, best_cost = None, math.inf
+    for xn in [x0_nom] + nominal_starts:
+        x, _, _ = _solve(prob, effect_cls, np.concatenate([xn, x0_nui, x0_eff]), space, max(4, budget // 2),
+                         threads, prob.train, free=stage1)
+        x, jac, unpack = _solve(prob, effect_cls, x, space, budget, threads, prob.train)
+        c = _cost(prob, *unpack(x))
+        if best is None or c < best_cost:
+            best, best_cost = (x, jac, unpack), c
+    return _finish(prob, *best, space)
 
 
 def _finish(prob: _Problem, x, jac, unpack, space) -> AxisFit:

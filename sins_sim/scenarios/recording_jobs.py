@@ -280,13 +280,14 @@ def import_csv(csv_path, out_npz, **meta) -> dict:
         ``{f0_hz, k1, ..., k5}`` or the path of a JSON/YAML file holding one, required;
         optional ``experiment`` (default ``stationary``), ``initial_state`` (``rest``),
         ``description``, ``fs_hz`` (default from ``time_s``); anything else is stored in the header.
+        Options given as ``None`` count as not given (so a CLI can pass its defaults through).
 
     Returns
     -------
     dict
         ``path``, ``axes``, ``n_samples``, ``fs_hz``, ``duration_s``, ``has_sins_angle``.
     """
-    meta = dict(meta)
+    meta = {k: v for k, v in meta.items() if v is not None}  # options the caller left unset
     if "quantum_arcsec" in meta:
         if "quantum_rad" in meta:
             raise ValueError("import_csv: give quantum_rad or quantum_arcsec, not both")
@@ -306,7 +307,6 @@ def import_csv(csv_path, out_npz, **meta) -> dict:
                 raise ValueError(f"import_csv: nominal: cannot read {p} ({exc})") from None
         else:
             nominal = load_yaml(p)
-    meta = {k: v for k, v in meta.items() if v is not None}
     rec = read_csv_recording(csv_path, nominal=nominal, **meta)
     out = write_recording(out_npz, rec)
     return {"path": str(out), "axes": list(rec.axes), "n_samples": rec.n_samples, "fs_hz": rec.fs_hz,

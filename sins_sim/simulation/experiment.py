@@ -26,7 +26,10 @@ grid ``t_k = k h``, ``k = 0 .. (N - 1) R``, ``R = plant rate / fs``:
    fitting one axis);
 4. plant: eq. 2 from rest (``sins_sim.models.plant.Plant``); with
    ``resonance_drift`` the plant is stepped in blocks of
-   ``drift_block_s`` with f0 at each block's middle;
+   ``drift_block_s`` with f0 at each block's middle; an optional ``kick``
+   (a fictitious block motion only the plant sees) changes the
+   suspension's state at one instant (the fitted start state of a
+   recording that begins mid-operation);
 5. sense: ``phi_rlg = block angle + delta``, then ``effect.sense``
    (lock-in, which needs the rate: block rate plus the finite-difference
    rate of ``delta``);
