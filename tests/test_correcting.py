@@ -22,6 +22,7 @@ from sins_sim.models.readout import ReadoutParams
 from sins_sim.models.suspension import PAPER_SUSPENSION
 from sins_sim.simulation.channel import ChannelConfig, simulate_channel
 from sins_sim.units import ARCMIN, ARCSEC, DEG, INTERPOLATED_QUANTUM_RAD
+from chunking import uneven_bounds
 
 P = PAPER_SUSPENSION
 FS = 7200.0
@@ -124,12 +125,7 @@ def _synthetic_readout(n, seed=1):
 
 
 def _uneven(n, sizes=(1, 0, 7, 1000, 333, 2, 4999, 13, 3)):
-    bounds, i, k = [], 0, 0
-    while i < n:
-        j = min(n, i + sizes[k % len(sizes)])
-        bounds.append((i, j))
-        i, k = j, k + 1
-    return bounds
+    return uneven_bounds(n, sizes)
 
 
 @pytest.mark.filterwarnings("ignore::sins_sim.errors.HysteresisRegimeWarning")

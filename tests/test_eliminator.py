@@ -12,6 +12,7 @@ from scipy import signal
 
 from sins_sim._kernels.sos import sos_filter
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign, eliminate
+from chunking import uneven_chunks
 
 FS = 7200.0
 
@@ -28,14 +29,7 @@ def _test_signal(n=40_000, seed=0):
 
 
 def _uneven_chunks(x, sizes=(1, 7, 0, 333, 2, 1000, 4999, 13)):
-    """Split ``x`` into chunks of cycling, uneven sizes (empty chunks included)."""
-    out, i, k = [], 0, 0
-    while i < x.size:
-        n = sizes[k % len(sizes)]
-        out.append(x[i : i + n])
-        i += n
-        k += 1
-    return out
+    return uneven_chunks(x, sizes)
 
 
 # --- kernel ---------------------------------------------------------------

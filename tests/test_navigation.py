@@ -45,6 +45,7 @@ from sins_sim.navigation import (
     strapdown_position_error,
 )
 from sins_sim.navigation.coning import CONING_COEFFICIENTS
+from chunking import uneven_chunks
 
 EPS = np.finfo(np.float64).eps
 OMEGA_CONE = 2.0 * math.pi * 10.0  # rad/s: a 10 Hz cone (the value only scales time)
@@ -71,13 +72,7 @@ def _random_quats(rng, n):
 
 
 def _uneven_chunks(x, sizes=(1, 7, 0, 333, 2, 1000, 13)):
-    out, i, k = [], 0, 0
-    while i < len(x):
-        n = sizes[k % len(sizes)]
-        out.append(x[i : i + n])
-        i += n
-        k += 1
-    return out
+    return uneven_chunks(x, sizes)
 
 
 def _naive_attitude(dtheta, q0, algorithm, prev):

@@ -20,6 +20,7 @@ from sins_sim.models.motion import ConstantRateMotion, SineMotion
 from sins_sim.models.plant import Plant, PlantSettings, simulate_plant
 from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
 from sins_sim.units import ARCMIN, ARCSEC, DEG
+from chunking import uneven_bounds
 
 P = PAPER_SUSPENSION
 A_M = 3.0 * ARCMIN
@@ -298,12 +299,7 @@ def test_high_order_with_growing_half_cycles(integrator, motion, duration_s, win
 
 
 def _uneven(n, sizes=(1, 0, 7, 1000, 333, 2, 4999, 13, 20000)):
-    bounds, i, k = [], 0, 0
-    while i < n:
-        j = min(n, i + sizes[k % len(sizes)])
-        bounds.append((i, j))
-        i, k = j, k + 1
-    return bounds
+    return uneven_bounds(n, sizes)
 
 
 @IGNORE_REGIME

@@ -20,6 +20,7 @@ from sins_sim.models.motion import ConstantRateMotion, SineMotion
 from sins_sim.models.plant import Plant, PlantSettings, simulate_plant
 from sins_sim.models.suspension import PAPER_SUSPENSION
 from sins_sim.units import ARCMIN, ARCSEC
+from chunking import uneven_bounds
 
 P = PAPER_SUSPENSION
 FS = 72000.0
@@ -131,12 +132,7 @@ def test_exact_at_72khz_agrees_with_rk4_at_288khz(rule, f_hz):
 
 
 def _uneven(n, sizes=(1, 0, 7, 1000, 333, 2, 4999, 13, 20000)):
-    bounds, i, k = [], 0, 0
-    while i < n:
-        j = min(n, i + sizes[k % len(sizes)])
-        bounds.append((i, j))
-        i, k = j, k + 1
-    return bounds
+    return uneven_bounds(n, sizes)
 
 
 MOTION = SineMotion(3.0 * ARCMIN, 384.0) + SineMotion(ARCMIN, 1500.0, 0.3) + ConstantRateMotion(0.2)

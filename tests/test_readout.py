@@ -18,20 +18,14 @@ from sins_sim.models.readout import (
     quantise,
 )
 from sins_sim.units import ARCMIN, FRINGE_RAD, INTERPOLATED_QUANTUM_RAD
+from chunking import uneven_chunks
 
 FS_IN = 72_000.0
 
 
 def _uneven_chunks(x, sizes=(1, 3, 0, 10, 7, 19, 20, 21, 997, 2, 4001)):
-    """Split ``x`` into chunks of cycling sizes, not multiples of 10 and some
-    shorter than the FIR history."""
-    out, i, k = [], 0, 0
-    while i < x.size:
-        n = sizes[k % len(sizes)]
-        out.append(x[i : i + n])
-        i += n
-        k += 1
-    return out
+    """Chunks not multiples of 10, some shorter than the FIR history."""
+    return uneven_chunks(x, sizes)
 
 
 def _dither_angle(n, seed=0):
