@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
+from sins_sim._kernels import drive as kdrive
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
 from sins_sim.models.drive import DriveParams, DriveSignal
@@ -28,7 +29,8 @@ from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.readout import Decimator, Readout, ReadoutParams
 from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
 
-__all__ = ["EliminatorSettings", "ChannelConfig", "ChannelResult", "simulate_channel", "FILTER_NAMES"]
+__all__ = ["EliminatorSettings", "ChannelConfig", "ChannelResult", "DriveControl", "ChannelChain",
+           "simulate_channel", "FILTER_NAMES"]
 
 #: Outputs of a channel run, in plotting order.
 FILTER_NAMES = ("raw", "eliminator", "correcting", "correcting_paper")
@@ -168,6 +170,133 @@ class ChannelResult:
         return out
 
 
+@dataclass(frozen=True)
+class DriveControl:
+    """Amplitude control of the three drives (see module docstring)."""
+
+    mode: str = "closed_loop"
+    loop_time_s: float = 0.1
+    block_cycles: int = 10
+    modulation_depth: float = 0.0
+    v_max_factor: float = 4.0
+
+    def __post_init__(self):
+        v.choice("drive_control", "mode", self.mode, ("open_loop", "closed_loop"))
+        v.positive("drive_control", "loop_time_s", self.loop_time_s)
+        if int(self.block_cycles) != self.block_cycles or self.block_cycles < 1:
+            raise ValueError(f"drive_control.block_cycles: must be an integer >= 1, got {self.block_cycles!r}")
+        d = v.non_negative("drive_control", "modulation_depth", self.modulation_depth)
+        if d >= 1.0:
+            raise ValueError(f"drive_control.modulation_depth: must be < 1, got {d!r}")
+        if v.positive("drive_control", "v_max_factor", self.v_max_factor) < 1.0:
+            raise ValueError(f"drive_control.v_max_factor: must be >= 1, got {self.v_max_factor!r}")
+
+
+class ChannelChain:
+    """One channel's plant, readout, drive control and filters, streamed.
+
+    Used by the single-channel engine (open loop) and by each axis of the SINS engine.
+    ``run`` returns the filter-rate outputs and, under ``volts``, the drive through the
+    readout's anti-alias chain.
+    """
+
+    def __init__(self, cfg: ChannelConfig, control: DriveControl, rng: np.random.Generator):
+        self.cfg = cfg
+        self.control = control
+        self.rng = rng
+        self.plant = Plant(cfg.suspension, cfg.plant)
+        self.readout = Readout(cfg.readout, rng)
+        self.vdec = Decimator.from_readout(cfg.readout)
+        self.drive = cfg.drive_signal()
+        self.v_m0 = self.drive.v_m
+        self.v_m = self.v_m0
+        self.target = cfg.drive.amplitude_rad
+        self.amp_meas = 0.0
+        self.r_dac = int(round(cfg.plant.rate_hz / cfg.drive.dac_rate_hz))
+        self.block = max(1, int(round(control.block_cycles * cfg.plant.rate_hz / self.drive.frequency_hz)))
+        self.block_left = self.block
+        self.block_s_time = self.block / cfg.plant.rate_hz
+        self.acc = np.zeros(3)
+        self.integral = 0.0
+        # eq. 15: amplitude time constant 2 Q / omega at the target amplitude
+        self.tau = 2.0 * cfg.suspension.q_factor(cfg.drive.amplitude_rad) / (2.0 * math.pi * self.drive.frequency_hz)
+        self.filters = {
+            "eliminator": Eliminator(cfg.eliminator_design()),
+            "correcting": CorrectingFilter(cfg.correcting_design("unity")),
+            "correcting_paper": CorrectingFilter(cfg.correcting_design("paper")),
+        }
+        self.carry = 0.0
+
+    def reset(self, angle0: float, rate0: float):
+        self.plant.reset(angle0, rate0)
+        self.carry = angle0
+
+    def _volts(self, i0: int, n: int) -> np.ndarray:
+        out = np.empty(n)
+        kdrive.dac_cosine(i0, self.r_dac, self.drive.frequency_hz / self.cfg.drive.dac_rate_hz,
+                          self.drive.phase_rad, self.v_m, out)
+        return out
+
+    def _end_block(self):
+        c = self.control
+        # dither amplitude by synchronous demodulation at the drive frequency (a real AGC's detector):
+        # vibration riding on the deflection does not bias it as a peak detector would
+        acc_c, acc_s, wsum = self.acc
+        self.amp_meas = 2.0 * math.hypot(acc_c, acc_s) / wsum if wsum > 0 else 0.0
+        if c.modulation_depth > 0.0:
+            self.target = self.cfg.drive.amplitude_rad * (1.0 + c.modulation_depth * self.rng.uniform(-1.0, 1.0))
+        if c.mode == "closed_loop":
+            a_m = self.cfg.drive.amplitude_rad
+            err = (self.target - self.amp_meas) / a_m
+            kp = self.tau / c.loop_time_s
+            integral = self.integral + err * self.block_s_time
+            u = self.target / a_m + kp * (err + integral / self.tau)
+            if 0.0 <= u <= c.v_max_factor:  # anti-windup: integrate only while the drive is not saturated
+                self.integral = integral
+            self.v_m = min(max(u, 0.0), c.v_max_factor) * self.v_m0
+        elif c.modulation_depth > 0.0:
+            self.v_m = self.v_m0 * self.target / self.cfg.drive.amplitude_rad
+        self.acc[:] = 0.0
+        self.block_left = self.block
+
+    def _demodulate(self, i0: int, delta: np.ndarray):
+        """Accumulate the Hann-windowed synchronous detector over the current block.
+
+        The window keeps block-asynchronous vibration (e.g. 600 Hz coning beside a 384 Hz
+        dither) from leaking into the amplitude estimate.
+        """
+        kdrive.demod_accumulate(delta, i0, self.drive.frequency_hz / self.cfg.plant.rate_hz,
+                                self.block - self.block_left, self.block, self.acc)
+
+    def run(self, i0: int, angle: np.ndarray, rate: np.ndarray):
+        """Advance len(angle) plant steps starting at step i0; return filter-rate outputs."""
+        n = angle.shape[0]
+        delta = np.empty(n)
+        volts = np.empty(n)
+        j = 0
+        while j < n:
+            m = min(self.block_left, n - j)
+            vv = self._volts(i0 + j, m)
+            delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv, check=False)
+            volts[j:j + m] = vv
+            self._demodulate(i0 + j, delta[j:j + m])
+            self.block_left -= m
+            j += m
+            if self.block_left == 0:
+                self._end_block()
+        phi = angle + delta
+        feed = np.concatenate(([self.carry], phi[:-1]))
+        self.carry = float(phi[-1])
+        _, x = self.readout.process(feed)
+        vx = self.vdec.process(volts)
+        out = {"raw": x}
+        out["eliminator"] = self.filters["eliminator"].process(x)
+        out["correcting"] = self.filters["correcting"].process(x, vx)
+        out["correcting_paper"] = self.filters["correcting_paper"].process(x, vx)
+        out["volts"] = vx
+        return out
+
+
 def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed: int = 0,
                      align_hz: float = 0.0, chunk_steps: int = 72000, progress=None) -> ChannelResult:
     """Simulate one channel from rest for ``duration_s`` seconds.
@@ -190,58 +319,35 @@ def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed
     duration_s = v.positive("run", "duration_s", duration_s)
     v.non_negative("run", "align_hz", align_hz)
     motion = as_motion(motion)
-    plant = Plant(config.suspension, config.plant)
-    readout = Readout(config.readout, np.random.default_rng(seed))
-    vdec = Decimator.from_readout(config.readout)
-    drive = config.drive_signal()
     fs = config.filter_rate_hz
     r_dec = config.readout.decimation
-    r_dac = v.integer_ratio("drive", "dac_rate_hz", config.plant.rate_hz, config.drive.dac_rate_hz,
-                            "plant.rate_hz / drive.dac_rate_hz")
-    h = plant.h
     n_out = int(math.floor(duration_s * fs + 1e-9))
     n_steps = n_out * r_dec
     if n_out < 4:
         raise ValueError(f"run.duration_s: must cover at least 4 filter samples, got {duration_s!r}")
     chunk_steps = max(r_dec, (int(chunk_steps) // r_dec) * r_dec)
-    elim_design = config.eliminator_design()
-    filters = {
-        "eliminator": Eliminator(elim_design),
-        "correcting": CorrectingFilter(config.correcting_design("unity")),
-        "correcting_paper": CorrectingFilter(config.correcting_design("paper")),
-    }
+    # open loop: V_m from eq. 17 at the amplitude-dependent resonance, never changed
+    chain = ChannelChain(config, DriveControl(mode="open_loop"), np.random.default_rng(seed))
+    h = chain.plant.h
     phi0, rate0 = motion.angle_rate(np.zeros(1))
-    plant.reset(float(phi0[0]), float(rate0[0]))
-    carry_phi = float(phi0[0])  # RLG angle at the first readout sample (t = 0: at rest on the block)
-    pieces = {name: [] for name in FILTER_NAMES}
-    volts_out = []
+    chain.reset(float(phi0[0]), float(rate0[0]))
+    names = FILTER_NAMES + ("volts",)
+    pieces = {name: [] for name in names}
     for i0 in range(0, n_steps, chunk_steps):
         i1 = min(i0 + chunk_steps, n_steps)
-        t_end = np.arange(i0 + 1, i1 + 1) * h
-        ang, rate = motion.angle_rate(t_end)
-        k = np.arange(i0, i1) // r_dac
-        dac = drive.samples(int(k[0]), int(k[-1] - k[0] + 1))
-        volts = dac[k - k[0]]
-        delta = plant.step(ang, rate, volts)
-        phi_rlg = ang + delta
-        feed = np.concatenate(([carry_phi], phi_rlg[:-1]))
-        carry_phi = float(phi_rlg[-1])
-        _, x = readout.process(feed)
-        vx = vdec.process(volts)
-        pieces["raw"].append(x)
-        volts_out.append(vx)
-        pieces["eliminator"].append(filters["eliminator"].process(x))
-        pieces["correcting"].append(filters["correcting"].process(x, vx))
-        pieces["correcting_paper"].append(filters["correcting_paper"].process(x, vx))
+        ang, rate = motion.angle_rate(np.arange(i0 + 1, i1 + 1) * h)
+        out = chain.run(i0, np.ascontiguousarray(ang, dtype=np.float64), np.ascontiguousarray(rate, dtype=np.float64))
+        for name in names:
+            pieces[name].append(out[name])
         if progress is not None:
             progress(i1 / n_steps)
-    outputs = {name: np.concatenate(p) for name, p in pieces.items()}
-    d_ro = readout.delay_s
+    outputs = {name: np.concatenate(pieces[name]) for name in FILTER_NAMES}
+    d_ro = chain.readout.delay_s
     delays = {
         "raw": d_ro,
-        "eliminator": d_ro + float(elim_design.group_delay_s(align_hz)),
+        "eliminator": d_ro + float(chain.filters["eliminator"].design.group_delay_s(align_hz)),
         "correcting": d_ro + 1.0 / fs,
         "correcting_paper": d_ro + 1.0 / fs,
     }
     return ChannelResult(t=np.arange(n_out) / fs, outputs=outputs, delays_s=delays,
-                         volts=np.concatenate(volts_out), drive=drive, motion=motion, config=config)
+                         volts=np.concatenate(pieces["volts"]), drive=chain.drive, motion=motion, config=config)

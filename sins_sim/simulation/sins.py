@@ -46,42 +46,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim._kernels import drive as kdrive
-from sins_sim.filters.correcting import CorrectingFilter
-from sins_sim.filters.eliminator import Eliminator
 from sins_sim.models.motion3d import AttitudeStream
-from sins_sim.models.plant import Plant
-from sins_sim.models.readout import Decimator, Readout
 from sins_sim.navigation.attitude import AttitudeIntegrator, attitude_error
-from sins_sim.simulation.channel import ChannelConfig
+from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl
 
 __all__ = ["DriveControl", "ImuConfig", "NavSettings", "SinsResult", "simulate_sins", "SINS_FILTERS"]
 
 #: Every filter a SINS run can compare.
 SINS_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
 AXES = ("x", "y", "z")
-
-
-@dataclass(frozen=True)
-class DriveControl:
-    """Amplitude control of the three drives (see module docstring)."""
-
-    mode: str = "closed_loop"
-    loop_time_s: float = 0.1
-    block_cycles: int = 10
-    modulation_depth: float = 0.0
-    v_max_factor: float = 4.0
-
-    def __post_init__(self):
-        v.choice("drive_control", "mode", self.mode, ("open_loop", "closed_loop"))
-        v.positive("drive_control", "loop_time_s", self.loop_time_s)
-        if int(self.block_cycles) != self.block_cycles or self.block_cycles < 1:
-            raise ValueError(f"drive_control.block_cycles: must be an integer >= 1, got {self.block_cycles!r}")
-        d = v.non_negative("drive_control", "modulation_depth", self.modulation_depth)
-        if d >= 1.0:
-            raise ValueError(f"drive_control.modulation_depth: must be < 1, got {d!r}")
-        if v.positive("drive_control", "v_max_factor", self.v_max_factor) < 1.0:
-            raise ValueError(f"drive_control.v_max_factor: must be >= 1, got {self.v_max_factor!r}")
 
 
 @dataclass(frozen=True)
@@ -177,112 +150,6 @@ class SinsResult:
     warnings: list
 
 
-class _AxisChain:
-    """One channel's plant, readout, drive control and filters, streamed."""
-
-    def __init__(self, cfg: ChannelConfig, control: DriveControl, rng: np.random.Generator):
-        self.cfg = cfg
-        self.control = control
-        self.rng = rng
-        self.plant = Plant(cfg.suspension, cfg.plant)
-        self.readout = Readout(cfg.readout, rng)
-        self.vdec = Decimator.from_readout(cfg.readout)
-        self.drive = cfg.drive_signal()
-        self.v_m0 = self.drive.v_m
-        self.v_m = self.v_m0
-        self.target = cfg.drive.amplitude_rad
-        self.amp_meas = 0.0
-        self.r_dac = int(round(cfg.plant.rate_hz / cfg.drive.dac_rate_hz))
-        self.block = max(1, int(round(control.block_cycles * cfg.plant.rate_hz / self.drive.frequency_hz)))
-        self.block_left = self.block
-        self.block_s_time = self.block / cfg.plant.rate_hz
-        self.acc = np.zeros(3)
-        self.integral = 0.0
-        # eq. 15: amplitude time constant 2 Q / omega at the target amplitude
-        self.tau = 2.0 * cfg.suspension.q_factor(cfg.drive.amplitude_rad) / (2.0 * math.pi * self.drive.frequency_hz)
-        self.filters = {
-            "eliminator": Eliminator(cfg.eliminator_design()),
-            "correcting": CorrectingFilter(cfg.correcting_design("unity")),
-            "correcting_paper": CorrectingFilter(cfg.correcting_design("paper")),
-        }
-        self.carry = 0.0
-
-    def reset(self, angle0: float, rate0: float):
-        self.plant.reset(angle0, rate0)
-        self.carry = angle0
-
-    def _volts(self, i0: int, n: int) -> np.ndarray:
-        out = np.empty(n)
-        kdrive.dac_cosine(i0, self.r_dac, self.drive.frequency_hz / self.cfg.drive.dac_rate_hz,
-                          self.drive.phase_rad, self.v_m, out)
-        return out
-
-    def _end_block(self):
-        c = self.control
-        # dither amplitude by synchronous demodulation at the drive frequency (a real AGC's detector):
-        # vibration riding on the deflection does not bias it as a peak detector would
-        acc_c, acc_s, wsum = self.acc
-        self.amp_meas = 2.0 * math.hypot(acc_c, acc_s) / wsum if wsum > 0 else 0.0
-        if c.modulation_depth > 0.0:
-            self.target = self.cfg.drive.amplitude_rad * (1.0 + c.modulation_depth * self.rng.uniform(-1.0, 1.0))
-        if c.mode == "closed_loop":
-            a_m = self.cfg.drive.amplitude_rad
-            err = (self.target - self.amp_meas) / a_m
-            kp = self.tau / c.loop_time_s
-            integral = self.integral + err * self.block_s_time
-            u = self.target / a_m + kp * (err + integral / self.tau)
-            if 0.0 <= u <= c.v_max_factor:  # anti-windup: integrate only while the drive is not saturated
-                self.integral = integral
-            self.v_m = min(max(u, 0.0), c.v_max_factor) * self.v_m0
-        elif c.modulation_depth > 0.0:
-            self.v_m = self.v_m0 * self.target / self.cfg.drive.amplitude_rad
-        self.acc[:] = 0.0
-        self.block_left = self.block
-
-    def _demodulate(self, i0: int, delta: np.ndarray):
-        """Accumulate the Hann-windowed synchronous detector over the current block.
-
-        The window keeps block-asynchronous vibration (e.g. 600 Hz coning beside a 384 Hz
-        dither) from leaking into the amplitude estimate.
-        """
-        kdrive.demod_accumulate(delta, i0, self.drive.frequency_hz / self.cfg.plant.rate_hz,
-                                self.block - self.block_left, self.block, self.acc)
-
-    def run(self, i0: int, angle: np.ndarray, rate: np.ndarray):
-        """Advance len(angle) plant steps starting at step i0; return filter-rate outputs."""
-        n = angle.shape[0]
-        delta = np.empty(n)
-        volts = np.empty(n)
-        j = 0
-        while j < n:
-            m = min(self.block_left, n - j)
-            vv = self._volts(i0 + j, m)
-            delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv, check=False)
-            volts[j:j + m] = vv
-            self._demodulate(i0 + j, delta[j:j + m])
-            self.block_left -= m
-            j += m
-            if self.block_left == 0:
-                self._end_block()
-        phi = angle + delta
-        feed = np.concatenate(([self.carry], phi[:-1]))
-        self.carry = float(phi[-1])
-        _, x = self.readout.process(feed)
-        vx = self.vdec.process(volts)
-        out = {"raw": x}
-        out["eliminator"] = self.filters["eliminator"].process(x)
-        out["correcting"] = self.filters["correcting"].process(x, vx)
-        out["correcting_paper"] = self.filters["correcting_paper"].process(x, vx)
-        return out
-
-
-def _drift(t, err):
-    """Least-squares slope of each column of err over t (rad/s)."""
-    tc = t - t.mean()
-    den = float(np.sum(tc * tc))
-    return (tc @ (err - err.mean(axis=0))) / den if den > 0 else np.zeros(err.shape[1])
-
-
 def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav: NavSettings = NavSettings(),
                   filters=SINS_FILTERS, chunk_s: float = 0.5, progress=None) -> SinsResult:
     """Run the three-axis SINS for ``duration_s`` seconds under ``motion`` (a Motion3D)."""
@@ -301,7 +168,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     n_steps = n_out * r_dec
     chunk = max(r_dec, int(round(chunk_s * fs)) * r_dec)
     axis_rngs = [np.random.default_rng([seed, i]) for i in range(3)]  # one independent stream per axis
-    chains = [_AxisChain(c, imu.drive_control, axis_rngs[i]) for i, c in enumerate(imu.channels)]
+    chains = [ChannelChain(c, imu.drive_control, axis_rngs[i]) for i, c in enumerate(imu.channels)]
     a0 = motion.gyro_angle(np.zeros(1))[0]
     r0 = motion.body_rate(np.zeros(1))[0]
     for i, ch in enumerate(chains):
