@@ -9,8 +9,8 @@ Units: SI inside, angles in rad, rates in rad/s, frequencies in Hz
 (``omega`` in rad/s), voltages in V. arcsec / arcmin / deg and deg/h appear
 only at the edges (configuration, plots, reports); see :mod:`sins_sim.units`.
 
-Layers (imports point one way): ``cli -> scenarios -> simulation ->
-{models, filters} -> _kernels -> units``.
+Layers (imports point one way): ``cli -> jobs -> identification -> simulation ->
+{models, filters, navigation} -> _kernels -> units``.
 """
 
 __version__ = "0.1.0"

@@ -34,7 +34,7 @@ def _cmd_channel(args) -> int:
     from sins_sim.models.plant import PlantSettings
     from sins_sim.models.readout import AntiAliasParams, ReadoutParams
     from sins_sim.models.suspension import SuspensionParams
-    from sins_sim.scenarios.channel import make_motion, run_channel_job
+    from sins_sim.jobs.channel import make_motion, run_channel_job
     from sins_sim.simulation.channel import ChannelConfig
     from sins_sim.units import ARCMIN, ARCSEC
 
@@ -67,7 +67,7 @@ def _cmd_channel(args) -> int:
 def _cmd_run(args) -> int:
     from pathlib import Path
 
-    from sins_sim.scenarios.scenario import run_scenario
+    from sins_sim.jobs.scenario import run_scenario
 
     out = Path(args.out)
     metrics = run_scenario(args.scenario, out, progress=None if args.quiet else _progress(Path(args.scenario).stem))
@@ -84,7 +84,7 @@ def _cmd_run(args) -> int:
 def _cmd_reproduce(args) -> int:
     from pathlib import Path
 
-    from sins_sim.scenarios.reproduce import run_reproduce
+    from sins_sim.jobs.reproduce import run_reproduce
 
     out = Path(args.out)
     run_reproduce(out, quick=args.quick, progress=None if args.quiet else _progress("reproduce"))
@@ -107,7 +107,7 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_simulate_recording(args) -> int:
-    from sins_sim.scenarios.recording_jobs import simulate_recording
+    from sins_sim.jobs.recording_jobs import simulate_recording
 
     info = simulate_recording(args.spec, args.out)
     print(f"wrote {info.get('path', args.out)}")
@@ -115,7 +115,7 @@ def _cmd_simulate_recording(args) -> int:
 
 
 def _cmd_import_csv(args) -> int:
-    from sins_sim.scenarios.recording_jobs import import_csv
+    from sins_sim.jobs.recording_jobs import import_csv
 
     info = import_csv(args.csv, args.out, quantum_arcsec=args.quantum_arcsec, nominal=args.nominal,
                       experiment=args.experiment, initial_state=args.initial_state, description=args.description,
@@ -126,7 +126,7 @@ def _cmd_import_csv(args) -> int:
 
 
 def _cmd_diagnose(args) -> int:
-    from sins_sim.scenarios.recording_jobs import diagnose, format_diagnosis
+    from sins_sim.jobs.recording_jobs import diagnose, format_diagnosis
 
     effects = args.effects.split(",") if args.effects else None
     result = diagnose(args.recording, json_out=args.json, report_dir=args.report, effects=effects)
@@ -135,7 +135,7 @@ def _cmd_diagnose(args) -> int:
 
 
 def _cmd_diagnose_eval(args) -> int:
-    from sins_sim.scenarios.recording_jobs import diagnose_eval, format_eval
+    from sins_sim.jobs.recording_jobs import diagnose_eval, format_eval
 
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=args.json, progress=progress)
@@ -198,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("simulate-recording", help="write a sins-sim-recording/1 file from an experiment YAML",
                        description="Simulate an experiment (stationary, afc_sweep, rate_table) with any effects "
                                    "switched on and write it in the recording format; the file says nothing about "
-                                   "the effects. The YAML keys are listed in sins_sim/scenarios/recording_jobs.py.")
+                                   "the effects. The YAML keys are listed in sins_sim/jobs/recording_jobs.py.")
     p.add_argument("spec", help="experiment YAML")
     p.add_argument("--out", required=True, help="recording .npz to write")
     p.set_defaults(func=_cmd_simulate_recording)

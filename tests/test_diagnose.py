@@ -18,7 +18,7 @@ from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recordin
 from sins_sim.io.recording import read_recording
 from sins_sim.models.effects import EFFECTS, make_effect
 from sins_sim.models.suspension import SuspensionParams
-from sins_sim.scenarios import recording_jobs
+from sins_sim.jobs import recording_jobs
 from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings, afc_drive, record,
                                             stationary_drive, table_motion)
 from sins_sim.units import ARCMIN, ARCSEC, DEG, INTERPOLATED_QUANTUM_RAD

@@ -1,4 +1,4 @@
-"""The package's import direction (style.md): cli -> {scenarios, identification} -> simulation ->
+"""The package's import direction (style.md): cli -> jobs -> identification -> simulation ->
 {models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
 each other. Checked on the source with ``ast`` (module-level and function-level imports alike)."""
 
@@ -22,12 +22,10 @@ ALLOWED = {
     "filters": BASE,
     "navigation": BASE,
     "io": BASE,
-    "plotting": {"units"},
+    "plots": {"units", "models"},  # the paper figures draw eq. 9 itself
     "simulation": BASE | {"models", "filters", "navigation", "io"},
-    "identification": BASE | {"simulation", "models", "filters", "navigation", "io", "plotting"},
-    "scenarios": BASE | {"simulation", "models", "filters", "navigation", "io", "identification", "plotting",
-                         "plotting_paper"},
-    "plotting_paper": {"units", "plotting", "models"},  # the paper figures draw eq. 9 itself
+    "identification": BASE | {"simulation", "models", "filters", "navigation", "io", "plots"},
+    "jobs": BASE | {"simulation", "models", "filters", "navigation", "io", "identification", "plots"},
 }
 
 

@@ -1,4 +1,4 @@
-"""Tests of the three-axis motion library (``sins_sim.models.motion3d``).
+"""Tests of the three-axis motion library (``sins_sim.models.motion``).
 
 Truth for the SINS block (reference-model.md, "Three axes"): body rate,
 gyro angles (their exact integrals) and the attitude quaternion, checked
@@ -30,7 +30,7 @@ from scipy import integrate
 from scipy.spatial.transform import Rotation
 
 from sins_sim.models import motion as motion1d
-from sins_sim.models.motion3d import (
+from sins_sim.models.motion import (
     DEFAULT_SUBSTEPS,
     MOTION_TYPES,
     AttitudeStream,
@@ -647,7 +647,7 @@ def test_bad_attitude_arguments():
 
 
 def test_public_names_are_documented():
-    import sins_sim.models.motion3d as mod
+    import sins_sim.models.motion as mod
 
     for name in mod.__all__:
         obj = getattr(mod, name)

@@ -1,4 +1,4 @@
-"""Tests of the paper reproduction job (sins_sim.scenarios.reproduce) on its quick numbers.
+"""Tests of the paper reproduction job (sins_sim.jobs.reproduce) on its quick numbers.
 
 ``run_reproduce(quick=True)`` runs once per session (module fixture); each test reads its output. The
 thresholds come from the physics, as each comment says, not from the numbers a run happened to give.
@@ -12,7 +12,7 @@ import math
 import pytest
 
 from sins_sim.models.suspension import PAPER_SUSPENSION
-from sins_sim.scenarios.reproduce import run_reproduce
+from sins_sim.jobs.reproduce import run_reproduce
 from sins_sim.units import ARCMIN
 
 FIGURES = ("fig1_correcting_afc.png", "fig3_resonance_vs_amplitude.png", "fig3_abel_nonl.png", "fig4_afc_fit.png",
@@ -219,7 +219,7 @@ def test_channel_starts_on_the_steady_dither():
     import numpy as np
 
     from sins_sim.identification.afc import first_harmonic
-    from sins_sim.scenarios.reproduce import simulate_paper_channel
+    from sins_sim.jobs.reproduce import simulate_paper_channel
 
     run = simulate_paper_channel(0.1)
     # the start kick puts the dither at its steady amplitude from t = 0: within 1 % over the first 0.1 s
@@ -232,7 +232,7 @@ def test_channel_starts_on_the_steady_dither():
 def test_free_decay_follows_the_exact_period():
     import numpy as np
 
-    from sins_sim.scenarios.reproduce import free_decay
+    from sins_sim.jobs.reproduce import free_decay
 
     amp, freq = free_decay(PAPER_SUSPENSION, 4.0 * ARCMIN, 0.3)
     f3 = float(np.interp(3.0 * ARCMIN, amp[::-1], freq[::-1]))

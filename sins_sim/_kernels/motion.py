@@ -1,4 +1,4 @@
-"""Kernels of the three-axis motion library (``sins_sim.models.motion3d``).
+"""Kernels of the three-axis motion library (``sins_sim.models.motion``).
 
 Two jobs:
 

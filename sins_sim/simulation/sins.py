@@ -3,7 +3,7 @@
 Each body axis x, y, z carries one single-axis RLG on its own suspension
 (reference-model.md, "Three axes"): its own resonance, drive, readout,
 correcting filters (unity-DC and paper form) and eliminator centred on its
-own dither. The block's motion (``sins_sim.models.motion3d``) gives each gyro
+own dither. The block's motion (``sins_sim.models.motion``) gives each gyro
 its SINS angle (the time integral of the body rate along its axis) and the
 true attitude. For every filter the three outputs are differenced into angle
 increments and integrated into an attitude (``sins_sim.navigation``), which
@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim.models.motion3d import AttitudeStream
+from sins_sim.models.motion import AttitudeStream
 from sins_sim.navigation.attitude import AttitudeIntegrator, attitude_error
 from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl
 

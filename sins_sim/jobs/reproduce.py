@@ -661,7 +661,7 @@ def run_reproduce(out_dir, quick: bool = False, progress=None) -> dict:
 
 
 def _run_reproduce(out_dir, quick: bool, progress) -> dict:
-    from sins_sim import plotting_paper as pp
+    from sins_sim.plots import paper as pp
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

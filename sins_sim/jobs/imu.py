@@ -29,7 +29,7 @@ from sins_sim.models.drive import DriveParams
 from sins_sim.models.plant import PlantSettings
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
-from sins_sim.scenarios.schema import ConfigError, Map, Num, Str, validate
+from sins_sim.jobs.schema import ConfigError, Map, Num, Str, validate
 from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
 from sins_sim.simulation.sins import DriveControl, ImuConfig
 

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.scenarios.imu import imu_from_dict, load_yaml
-from sins_sim.scenarios.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
+from sins_sim.jobs.imu import imu_from_dict, load_yaml
+from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.simulation.sins import SINS_FILTERS, NavSettings, simulate_sins
 from sins_sim.units import ARCMIN, ARCSEC, DEG_PER_H
 
@@ -120,7 +120,7 @@ class Scenario:
 
 
 def _build_motion(segments, seed, ctx):
-    from sins_sim.models import motion3d as m3
+    from sins_sim.models import motion as m3
 
     parts = []
     for i, seg in enumerate(segments):
@@ -218,7 +218,7 @@ def run_scenario(path, out_dir, progress=None) -> dict:
                             **{f"spectrum_{k}": v for k, v in res.spectra.items()})
     figures = []
     if scenario.outputs["plots"]:
-        from sins_sim.plotting import plot_attitude_error, plot_output_spectra
+        from sins_sim.plots.common import plot_attitude_error, plot_output_spectra
 
         plot_attitude_error(res, out / "attitude_error.png",
                             title=f"{scenario.name}: attitude error per dither filter ({scenario.nav.coning} coning "

@@ -70,7 +70,7 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim._kernels.motion import comb_increment, comb_rate, magnus4_run, sines_increment, sines_rate
-from sins_sim.models.motion import _Motion
+from sins_sim.models.motion.single_axis import _Motion
 
 __all__ = [
     "Motion3D",
@@ -566,7 +566,7 @@ class AttitudeStream:
 
     Examples
     --------
-    >>> from sins_sim.models.motion3d import Coning, AttitudeStream
+    >>> from sins_sim.models.motion import Coning, AttitudeStream
     >>> import numpy as np
     >>> s = AttitudeStream(Coning(2.9e-4, 100.0))
     >>> t = np.arange(1, 7201) / 72000.0
@@ -1453,7 +1453,7 @@ def build_motion(specs):
 
     Examples
     --------
-    >>> from sins_sim.models.motion3d import build_motion
+    >>> from sins_sim.models.motion import build_motion
     >>> from sins_sim.units import ARCMIN
     >>> m = build_motion([{"type": "coning", "amplitude_rad": ARCMIN, "frequency_hz": 100.0},
     ...                   {"type": "shock", "axis": "x", "peak_rate_rad_s": 0.1, "duration_s": 1e-3}])

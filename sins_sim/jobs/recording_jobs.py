@@ -54,8 +54,8 @@ import numpy as np
 from sins_sim.io.recording import read_csv_recording, read_recording, write_recording
 from sins_sim.models.effects import make_effect
 from sins_sim.models.suspension import SuspensionParams
-from sins_sim.scenarios.imu import load_yaml
-from sins_sim.scenarios.schema import ConfigError, ListOf, Map, Num, Str, validate
+from sins_sim.jobs.imu import load_yaml
+from sins_sim.jobs.schema import ConfigError, ListOf, Map, Num, Str, validate
 from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings, afc_drive, record,
                                             stationary_drive, table_motion)
 from sins_sim.units import ARCSEC

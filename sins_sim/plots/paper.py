@@ -1,10 +1,10 @@
-"""Figures of the paper reproduction (``sins_sim.scenarios.reproduce``); matplotlib imported lazily (Agg)."""
+"""Figures of the paper reproduction (``sins_sim.jobs.reproduce``); matplotlib imported lazily (Agg)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from sins_sim.plotting import COLORS, LABELS, _pyplot
+from sins_sim.plots.common import COLORS, LABELS, _pyplot
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["plot_fig1", "plot_fig3", "plot_fig4", "plot_fig5", "plot_fig6", "plot_fig7"]

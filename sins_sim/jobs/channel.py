@@ -31,7 +31,7 @@ def run_channel_job(config: ChannelConfig, duration_s: float, motion, out_dir, s
     true SINS angle over ``t >= settle_s`` (the start-up transient excluded).
     Returns the metrics dictionary.
     """
-    from sins_sim.plotting import plot_channel
+    from sins_sim.plots.common import plot_channel
 
     if not 0.0 <= settle_s < duration_s:
         raise ValueError(f"settle_s: must be in [0, duration_s = {duration_s!r}), got {settle_s!r}")
