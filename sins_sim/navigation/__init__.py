@@ -17,6 +17,9 @@ north-east-down.
 - :mod:`~sins_sim.navigation.error`: the Schuler-loop error model,
   :func:`position_error_from_attitude_error`,
   :func:`equivalent_position_error_1h`, :func:`strapdown_position_error`.
+- :mod:`~sins_sim.navigation.strapdown`: :class:`StrapdownNavigator` (the full
+  INS loop, local-level NED on WGS-84), :class:`NavSolution`,
+  :func:`height_aid_gains`.
 """
 
 from sins_sim.navigation.attitude import (
@@ -50,6 +53,13 @@ from sins_sim.navigation.error import (
     schuler_ramp_position_error,
     strapdown_position_error,
 )
+from sins_sim.navigation.strapdown import (
+    SCULLING_ALGORITHMS,
+    VERTICAL_MODES,
+    NavSolution,
+    StrapdownNavigator,
+    height_aid_gains,
+)
 
 __all__ = [
     "AttitudeIntegrator",
@@ -77,4 +87,9 @@ __all__ = [
     "position_error_from_attitude_error",
     "schuler_ramp_position_error",
     "strapdown_position_error",
+    "SCULLING_ALGORITHMS",
+    "VERTICAL_MODES",
+    "NavSolution",
+    "StrapdownNavigator",
+    "height_aid_gains",
 ]
