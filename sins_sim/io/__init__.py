@@ -1,4 +1,5 @@
-"""Files: recordings in the shared format ``sins-sim-recording/1`` (``recording-format.md``)."""
+"""Files: recordings in the shared format ``sins-sim-recording/1`` (``recording-format.md``) and
+trajectory files (CSV or Parquet, :mod:`sins_sim.io.trajectory`)."""
 
 from sins_sim.io.recording import (
     CSV_COLUMNS,
@@ -11,6 +12,14 @@ from sins_sim.io.recording import (
     read_recording,
     write_recording,
 )
+from sins_sim.io.trajectory import (
+    TRAJECTORY_COLUMNS,
+    TrajectoryData,
+    TrajectoryFileError,
+    read_trajectory,
+    write_trajectory,
+)
 
 __all__ = ["CSV_COLUMNS", "FORMAT", "NOMINAL_KEYS", "Recording", "RecordingError", "check_recording",
-           "read_csv_recording", "read_recording", "write_recording"]
+           "read_csv_recording", "read_recording", "write_recording",
+           "TRAJECTORY_COLUMNS", "TrajectoryData", "TrajectoryFileError", "read_trajectory", "write_trajectory"]

@@ -1,0 +1,218 @@
+"""Kernels of the filtered-noise vibrations (``sins_sim.models.motion.vibration``).
+
+The vibration's primary quantity ``x(t)`` (the angle of an angular vibration,
+the velocity of a translational one) is a quintic Hermite interpolant of its
+node values: at node ``n`` (time ``n h``, ``h = 1 / fs``) the caller gives,
+per axis ``a``, the value ``x_n``, the scaled first derivative ``h x'_n`` and
+the scaled second derivative ``h^2 x''_n`` (:func:`hermite5_coefficients`).
+On segment ``[n h, (n + 1) h]``, with ``u = t fs - n`` in ``[0, 1)``
+(computed without the rounding of the product ``t fs``, :func:`_segment`),
+
+    x(u) = x_0 + d_0 u + s_0 u^2 / 2 + c_3 u^3 + c_4 u^4 + c_5 u^5,
+    c_3 = 10 D - 6 d_0 - 4 d_1 - 3/2 s_0 + 1/2 s_1,
+    c_4 = -15 D + 8 d_0 + 7 d_1 + 3/2 s_0 - s_1,
+    c_5 = 6 D - 3 d_0 - 3 d_1 - 1/2 s_0 + 1/2 s_1,
+
+``D = x_1 - x_0``, ``d = h x'``, ``s = h^2 x''`` at the segment's ends 0 and
+1: the unique quintic matching value, first and second derivative at both
+ends (the quintic Hermite basis, e.g. Burden and Faires, *Numerical
+Analysis*, sect. 3.4, written in powers of ``u`` for Horner evaluation). The
+derivative ``x'(t) = fs dx/du`` (the rate, or the acceleration) is the exact
+derivative of that polynomial, so ``x(t_b) - x(t_a)`` is its exact integral.
+
+:func:`hermite5_coefficients` turns node values into the six power-basis
+coefficients of each segment once, so that an evaluation is one Horner
+polynomial per axis. Each time is evaluated on its own (segment from
+``floor(t fs)``), so the results do not depend on how the times are chunked.
+Kernels never validate: the caller guarantees that every
+``floor(t fs) - n0`` is a row of ``coef``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from sins_sim._kernels._config import jit
+
+
+_SPLITTER = 134217729.0  # 2^27 + 1 (Veltkamp splitting of a float64)
+
+
+@jit
+def _split(x):
+    """``x = hi + lo`` with ``hi`` holding the upper 26 bits (Veltkamp), so products of halves are exact."""
+    c = _SPLITTER * x
+    hi = c - (c - x)
+    return hi, x - hi
+
+
+@jit
+def _segment(t, fs, fh, fl):
+    """Segment index ``k = floor(t fs)`` and ``u = t fs - k`` with the product's rounding error restored.
+
+    ``t fs`` is rounded to ``p``; Dekker's two-product (T. J. Dekker, "A
+    floating-point technique for extending the available precision", Numer.
+    Math. 18, 224-242, 1971) gives its exact error ``e = t fs - p``
+    (``fh + fl = fs`` from :func:`_split`), and ``p - k`` is exact for
+    ``p >= 0`` (Sterbenz), so ``u = (p - k) + e`` is within ``eps`` of the
+    true position instead of ``eps t fs`` (6e-9 of a segment at
+    ``t = 3600`` s and 14.4 kHz): the angle stays the exact integral of the
+    rate to rounding at any time. ``u`` may leave ``[0, 1)`` by
+    ``eps t fs`` when ``p`` rounds across a node; the segment's polynomial
+    is then used that far outside it, where it agrees with its neighbour's
+    to rounding.
+    """
+    p = t * fs
+    th, tl = _split(t)
+    e = ((th * fh - p) + th * fl + tl * fh) + tl * fl
+    k = math.floor(p)
+    return int(k), (p - k) + e
+
+
+@jit
+def hermite5_coefficients(nodes, start, after, coef):
+    """Power-basis coefficients of the quintic Hermite segments between consecutive nodes.
+
+    Parameters
+    ----------
+    nodes : float64[3, 3, M]
+        ``nodes[q, a, start + i]``: quantity ``q`` of node ``i`` on axis ``a``,
+        ``q = 0, 1, 2`` for the value ``x``, ``h x'`` and ``h^2 x''``
+        (``h = 1 / fs``; units of the value).
+    start : int
+        Column of node 0.
+    after : float64[3, 3]
+        ``after[q, a]``: the node after the last one (the end of the last
+        segment).
+    coef : float64[m, 18]
+        Filled with ``c_0 .. c_5`` of segment ``i`` (from node ``i`` to
+        ``i + 1``, ``i < m``) and axis ``a`` in columns ``6a .. 6a + 5``
+        (module docstring), units of the value.
+    """
+    m = coef.shape[0]
+    for a in range(3):
+        c = 6 * a
+        for i in range(m):
+            k = start + i
+            x0 = nodes[0, a, k]
+            d0 = nodes[1, a, k]
+            s0 = nodes[2, a, k]
+            if i + 1 < m:
+                x1 = nodes[0, a, k + 1]
+                d1 = nodes[1, a, k + 1]
+                s1 = nodes[2, a, k + 1]
+            else:
+                x1 = after[0, a]
+                d1 = after[1, a]
+                s1 = after[2, a]
+            dd = x1 - x0
+            coef[i, c] = x0
+            coef[i, c + 1] = d0
+            coef[i, c + 2] = 0.5 * s0
+            coef[i, c + 3] = 10.0 * dd - 6.0 * d0 - 4.0 * d1 - 1.5 * s0 + 0.5 * s1
+            coef[i, c + 4] = -15.0 * dd + 8.0 * d0 + 7.0 * d1 + 1.5 * s0 - s1
+            coef[i, c + 5] = 6.0 * dd - 3.0 * d0 - 3.0 * d1 - 0.5 * s0 + 0.5 * s1
+
+
+@jit
+def hermite5_value(t, fs, n0, coef, offset, out):
+    """Quintic Hermite interpolant at the times ``t``, less ``offset``.
+
+    Parameters
+    ----------
+    t : float64[N]
+        Times (s).
+    fs : float
+        Node rate (Hz); node ``n`` sits at ``t = n / fs``.
+    n0 : int
+        Index of the segment in ``coef[0]`` (segment ``n`` runs from node
+        ``n`` to ``n + 1``).
+    coef : float64[m, 18]
+        Segment coefficients from :func:`hermite5_coefficients`.
+    offset : float64[3]
+        Subtracted from the value of each axis (``x(0)`` for the integral
+        from 0; zeros for the value itself).
+    out : float64[N, 3]
+        Filled with ``x(t) - offset`` (units of the node values).
+    """
+    n = t.shape[0]
+    fh, fl = _split(fs)
+    for j in range(n):
+        k, u = _segment(t[j], fs, fh, fl)
+        i = k - n0
+        for a in range(3):
+            c = 6 * a
+            p = coef[i, c + 4] + u * coef[i, c + 5]
+            p = coef[i, c + 3] + u * p
+            p = coef[i, c + 2] + u * p
+            p = coef[i, c + 1] + u * p
+            out[j, a] = (coef[i, c] + u * p) - offset[a]
+
+
+@jit
+def hermite5_slope(t, fs, n0, coef, out):
+    """Time derivative of :func:`hermite5_value` at the times ``t``.
+
+    Parameters
+    ----------
+    t : float64[N]
+        Times (s).
+    fs : float
+        Node rate (Hz).
+    n0 : int
+        Index of the segment in ``coef[0]``.
+    coef : float64[m, 18]
+        Segment coefficients from :func:`hermite5_coefficients`.
+    out : float64[N, 3]
+        Filled with ``dx/dt = fs dx/du`` (units of the value per second).
+    """
+    n = t.shape[0]
+    fh, fl = _split(fs)
+    for j in range(n):
+        k, u = _segment(t[j], fs, fh, fl)
+        i = k - n0
+        for a in range(3):
+            c = 6 * a
+            p = 4.0 * coef[i, c + 4] + u * (5.0 * coef[i, c + 5])
+            p = 3.0 * coef[i, c + 3] + u * p
+            p = 2.0 * coef[i, c + 2] + u * p
+            out[j, a] = fs * (coef[i, c + 1] + u * p)
+
+
+@jit
+def hermite5_value_slope(t, fs, n0, coef, offset, value, slope):
+    """:func:`hermite5_value` and :func:`hermite5_slope` in one pass (same operations, same bits).
+
+    Parameters
+    ----------
+    t : float64[N]
+        Times (s).
+    fs : float
+        Node rate (Hz).
+    n0 : int
+        Index of the segment in ``coef[0]``.
+    coef : float64[m, 18]
+        Segment coefficients from :func:`hermite5_coefficients`.
+    offset : float64[3]
+        Subtracted from the value of each axis.
+    value : float64[N, 3]
+        Filled with ``x(t) - offset``.
+    slope : float64[N, 3]
+        Filled with ``dx/dt``.
+    """
+    n = t.shape[0]
+    fh, fl = _split(fs)
+    for j in range(n):
+        k, u = _segment(t[j], fs, fh, fl)
+        i = k - n0
+        for a in range(3):
+            c = 6 * a
+            p = coef[i, c + 4] + u * coef[i, c + 5]
+            p = coef[i, c + 3] + u * p
+            p = coef[i, c + 2] + u * p
+            p = coef[i, c + 1] + u * p
+            value[j, a] = (coef[i, c] + u * p) - offset[a]
+            q = 4.0 * coef[i, c + 4] + u * (5.0 * coef[i, c + 5])
+            q = 3.0 * coef[i, c + 3] + u * q
+            q = 2.0 * coef[i, c + 2] + u * q
+            slope[j, a] = fs * (coef[i, c + 1] + u * q)

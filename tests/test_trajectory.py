@@ -1,0 +1,678 @@
+"""Tests of the vehicle trajectory truth (``sins_sim.models.motion.trajectory``) and of the
+trajectory file format (``sins_sim.io.trajectory``).
+
+Checks, each against something the code under test does not compute itself:
+
+* closed forms: at rest, on an eastbound equator leg, in a coordinated turn;
+* the continuous navigation equations (Titterton & Weston 2004, sec. 3.5 and 3.7;
+  Groves 2013, sec. 5.4) integrated by scipy ``solve_ivp`` (DOP853) from the
+  truth's own ``omega_iv_v`` and ``f_v`` reproduce its position, velocity
+  and attitude;
+* continuity of ``f_v`` and ``omega_iv_v`` across segment boundaries and
+  ramp ends (values and first derivatives);
+* chunked evaluation equals one call to the last bit;
+* position integration against a 10x finer step over 30 minutes;
+* a ``SampledTrajectory`` through 10 Hz samples agrees with the analytic truth;
+* the file reader rejects each kind of bad file with one named ``ValueError``.
+
+Tolerances are stated next to each assertion with their reason; measured
+values (this machine) are quoted in comments.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+from scipy.integrate import solve_ivp
+
+from chunking import uneven_chunks
+from sins_sim import earth
+from sins_sim.io import TrajectoryData, TrajectoryFileError, read_trajectory, write_trajectory
+from sins_sim.models.motion import (
+    Accelerate,
+    Climb,
+    CoordinatedTurn,
+    Cruise,
+    SampledTrajectory,
+    Stationary,
+    Trajectory,
+    TrajectoryTruth,
+    build_trajectory,
+)
+
+D = math.radians
+ROOT = Path(__file__).resolve().parents[1]
+BUNDLED = ROOT / "scenarios" / "trajectories" / "short-flight.csv"
+FIELDS = ("t_s", "lat_rad", "lon_rad", "h_m", "v_ned_m_s", "a_ned_m_s2", "q_nv", "omega_iv_v_rad_s", "f_v_m_s2")
+
+
+def short_flight() -> Trajectory:
+    """The flight of the bundled file (its header states this definition)."""
+    return Trajectory(D(48.0), D(11.5), 1500.0, 120.0, D(30.0),
+                      [Cruise(30.0), CoordinatedTurn(40.0, D(90.0)), Cruise(30.0), Climb(60.0, 400.0),
+                       Accelerate(30.0, 20.0), CoordinatedTurn(50.0, D(-150.0)), Cruise(60.0)], transition_s=4.0)
+
+
+def c_nv(q):
+    """Rotation matrices vehicle -> NED (N, 3, 3) of quaternions (N, 4), an independent numpy formula."""
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = q.T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
+
+
+def to_v(q, x_n):
+    """``C_vn x_n`` for stacks of quaternions and NED vectors."""
+    return np.einsum("nji,nj->ni", c_nv(q), x_n)
+
+
+def angle_between(qa, qb):
+    """Rotation angle (rad) between attitudes: 2 asin |vec(qa* (x) qb)| (accurate for small angles)."""
+    qa = qa / np.linalg.norm(qa, axis=-1, keepdims=True)
+    qb = qb / np.linalg.norm(qb, axis=-1, keepdims=True)
+    a0, av = qa[:, :1], qa[:, 1:]
+    b0, bv = qb[:, :1], qb[:, 1:]
+    vec = a0 * bv - b0 * av - np.cross(av, bv)
+    return 2.0 * np.arcsin(np.minimum(np.linalg.norm(vec, axis=-1), 1.0))
+
+
+# --- closed forms ------------------------------------------------------------------------
+
+
+def test_stationary_closed_form():
+    """At rest: omega_iv = C_vn omega_ie, f = -C_vn g, position constant (T&W sec. 3.5 with v = 0)."""
+    tr = Trajectory(D(45.0), D(7.0), 250.0, 0.0, D(30.0), [Stationary(600.0)])
+    t = np.linspace(0.0, 600.0, 1201)
+    truth = tr.evaluate(t)
+    lat = np.full(t.size, D(45.0))
+    # Position: the rates are exactly 0, so latitude and longitude stay bit for bit.
+    assert_array_equal(truth.lat_rad, lat)
+    assert_array_equal(truth.lon_rad, np.full(t.size, D(7.0)))
+    assert_array_equal(truth.h_m, np.full(t.size, 250.0))
+    assert_array_equal(truth.v_ned_m_s, 0.0)
+    assert_array_equal(truth.a_ned_m_s2, 0.0)
+    # Attitude: yaw 30 deg, level.
+    assert np.max(np.abs(truth.euler_rad - [0.0, 0.0, D(30.0)])) < 1e-15
+    # Rates: C_vn omega_ie^n from the numpy Earth model; only rounding may differ (|omega| = 7.3e-5 rad/s,
+    # ulp 1.4e-20): 1e-19 rad/s.  Measured: 0 (equal bits).
+    w_expect = to_v(truth.q_nv, earth.earth_rate_ned(lat))
+    assert np.max(np.abs(truth.omega_iv_v_rad_s - w_expect)) < 1e-19
+    # Specific force: -C_vn g^n; rounding of 9.8 m/s^2 (ulp 1.8e-15): 1e-14 m/s^2.  Measured: 0.
+    f_expect = -to_v(truth.q_nv, earth.gravity_ned(lat, 250.0))
+    assert np.max(np.abs(truth.f_v_m_s2 - f_expect)) < 1e-14
+
+
+def test_equator_eastbound_closed_form():
+    """Due east along the equator at speed V, height h: transport rate V/(a+h) about north (T&W sec. 3.7)."""
+    speed, h = 200.0, 3000.0
+    tr = Trajectory(0.0, D(10.0), h, speed, D(90.0), [Cruise(600.0)])
+    t = np.linspace(0.0, 600.0, 601)
+    truth = tr.evaluate(t)
+    rho = speed / (earth.WGS84_A_M + h)
+    omega = earth.EARTH_RATE_RAD_S
+    # Latitude stays 0 (v_N = V cos(pi/2) = 1.2e-14 m/s moves it by < 1e-18 rad in 600 s).
+    assert np.max(np.abs(truth.lat_rad)) < 1e-15
+    # Longitude: lon0 + rho t exactly (constant rate; RK4 exact), rounding only: 1e-14 rad (6e-8 m).
+    # Measured: 2.8e-17 rad.
+    assert np.max(np.abs(truth.lon_rad - (D(10.0) + rho * t))) < 1e-14
+    assert np.max(np.abs(truth.v_ned_m_s - [0.0, speed, 0.0])) < 1e-13
+    # The transport rate the truth uses equals sins_sim.earth's.
+    assert np.allclose(earth.transport_rate_ned(truth.lat_rad, truth.h_m, truth.v_ned_m_s), [rho, 0.0, 0.0],
+                       rtol=0.0, atol=1e-20)
+    # Body x = east, y = south, z = down: omega_iv^v = (0, -(Omega + rho), 0);
+    # f = (2 Omega + rho) x v - g = (0, 0, (2 Omega + rho) V - g).
+    # Tolerances: rounding (1e-18 rad/s; 1e-13 m/s^2).  Measured: 2.1e-20 rad/s, 4.1e-20 m/s^2.
+    assert np.max(np.abs(truth.omega_iv_v_rad_s - [0.0, -(omega + rho), 0.0])) < 1e-18
+    g = earth.gravity_down(0.0, h)
+    assert np.max(np.abs(truth.f_v_m_s2 - [0.0, 0.0, (2.0 * omega + rho) * speed - g])) < 1e-13
+
+
+def test_coordinated_turn():
+    """Bank = atan(V psi'/g); the body-y specific force is only the Coriolis/transport and gravity-change terms."""
+    speed, dpsi, dur, ramp = 150.0, D(180.0), 64.0, 4.0
+    tr = Trajectory(D(50.0), D(-3.0), 800.0, speed, D(10.0), [Cruise(10.0), CoordinatedTurn(dur, dpsi), Cruise(10.0)],
+                    transition_s=ramp)
+    t = np.arange(0.0, tr.duration_s, 0.01)
+    truth = tr.evaluate(t)
+    g_ref = earth.gravity_down(D(50.0), 800.0)
+    rate = dpsi / (dur - ramp)
+    plateau = (t >= 10.0 + ramp) & (t <= 10.0 + dur - ramp)
+    euler = truth.euler_rad
+    # Plateau (bank 38.7 deg): bank = atan(V r / g_ref) to rounding (1e-12 rad; measured 2.2e-16).
+    assert np.max(np.abs(euler[plateau, 0] - math.atan(speed * rate / g_ref))) < 1e-12
+    assert np.max(np.abs(euler[:, 1])) < 1e-15
+    # Flat, non-rotating Earth with g_ref: the turn is exactly balanced, C_vn (a - g_ref z)_y = 0 everywhere
+    # (ramps included) to rounding of 10 m/s^2 terms: 1e-12 m/s^2.  Measured: 5.3e-15.
+    flat = to_v(truth.q_nv, truth.a_ned_m_s2 - [0.0, 0.0, g_ref])
+    assert np.max(np.abs(flat[:, 1])) < 1e-12
+    # The full lateral force is exactly the rest: Coriolis + transport, and the change of gravity from g_ref
+    # (the height is constant; the latitude moves by < 0.1 deg): f_y = [C_vn((2 w_ie + w_en) x v)]_y
+    # - (g - g_ref) (C_vn z)_y, to 1e-12 m/s^2.  Measured: 3.8e-15; |f_y| reaches 1.75e-2 m/s^2 (Coriolis),
+    # the gravity term |g - g_ref| 3.3e-5 m/s^2.
+    lat, h, vel = truth.lat_rad, truth.h_m, truth.v_ned_m_s
+    cor = np.cross(2.0 * earth.earth_rate_ned(lat) + earth.transport_rate_ned(lat, h, vel), vel)
+    dg = earth.gravity_down(lat, h) - g_ref
+    expect_y = to_v(truth.q_nv, cor)[:, 1] - dg * to_v(truth.q_nv, np.tile([0.0, 0.0, 1.0], (t.size, 1)))[:, 1]
+    assert np.max(np.abs(truth.f_v_m_s2[:, 1] - expect_y)) < 1e-12
+    assert 1e-3 < np.max(np.abs(truth.f_v_m_s2[:, 1])) < 0.02  # 2 Omega V sin(lat) = 1.7e-2 m/s^2 at most
+    # The turn is flown: heading +180 deg, speed and height kept.
+    end = tr.evaluate([tr.duration_s])
+    assert abs(math.remainder(end.euler_rad[0, 2] - D(190.0), 2 * math.pi)) < 1e-12
+    assert abs(np.linalg.norm(end.v_ned_m_s) - speed) < 1e-12 and end.h_m[0] == 800.0
+
+
+def test_segment_end_states_and_describe():
+    """Each segment reaches its target exactly (closed forms); describe() has one line per segment."""
+    tr = short_flight()
+    ends = tr.segment_start_s[1:].tolist() + [tr.duration_s]
+    truth = tr.evaluate(ends)
+    heading = np.degrees(truth.euler_rad[:, 2])
+    speed = np.linalg.norm(truth.v_ned_m_s, axis=-1)
+    np.testing.assert_allclose(heading, [30, 120, 120, 120, 120, -30, -30], atol=1e-11)
+    np.testing.assert_allclose(speed, [120, 120, 120, 120, 140, 140, 140], atol=1e-11)
+    np.testing.assert_allclose(truth.h_m, [1500, 1500, 1500, 1900, 1900, 1900, 1900], atol=1e-9)
+    text = tr.describe().splitlines()
+    assert len(text) == 1 + len(tr.segments)
+    assert "climb" in text[4] and "1500.0 -> 1900.0 m" in text[4]
+    assert "bank +28.1 deg" in text[2]
+
+
+def test_validation_messages():
+    """Bad parameters give one ValueError naming the field and the rule."""
+    cases = [
+        (lambda: Cruise(-1.0), "Cruise.duration_s: must be > 0"),
+        (lambda: Accelerate(10.0, float("nan")), "Accelerate.delta_speed_m_s: must be a finite number"),
+        (lambda: Trajectory(D(89.5), 0.0, 0.0, 10.0, 0.0, [Cruise(1.0)]), "start_lat_rad: |latitude| must be <= 89"),
+        (lambda: Trajectory(0.0, 0.0, 2e5, 10.0, 0.0, [Cruise(1.0)]), "start_h_m: must lie in"),
+        (lambda: Trajectory(0.0, 0.0, 0.0, 10.0, 0.0, []), "segments: must hold at least one"),
+        (lambda: Trajectory(0.0, 0.0, 0.0, 10.0, 0.0, ["cruise"]), "segments[0]: must be one of"),
+        (lambda: Trajectory(0.0, 0.0, 0.0, 10.0, 0.0, [Stationary(5.0)]), "segments[0]: Stationary needs speed 0"),
+        (lambda: Trajectory(0.0, 0.0, 0.0, 10.0, 0.0, [CoordinatedTurn(7.0, 1.0)]),
+         "segments[0].duration_s: must be >= 2 transition_s"),
+        (lambda: Trajectory(0.0, 0.0, 0.0, 10.0, 0.0, [Accelerate(20.0, -11.0)]), "the speed would end at -1.0"),
+        (lambda: Trajectory(0.0, 0.0, 0.0, 0.0, 0.0, [Climb(20.0, 10.0)]), "Climb needs a speed > 0"),
+        (lambda: Trajectory(0.0, 0.0, 0.0, 10.0, 0.0, [Climb(20.0, 200.0)]), "flight-path angle"),
+        (lambda: build_trajectory({"start_lat_rad": 0.0}), "trajectory.start_lon_rad: required"),
+        (lambda: build_trajectory({"start_lat_rad": 0, "start_lon_rad": 0, "start_h_m": 0, "start_speed_m_s": 1,
+                                   "start_heading_rad": 0, "segments": [{"type": "loop", "duration_s": 1}]}),
+         "segments[0].type: unknown segment type 'loop'"),
+    ]
+    for make, text in cases:
+        with pytest.raises(ValueError) as err:
+            make()
+        assert text in str(err.value), (text, str(err.value))
+    tr = Trajectory(0.0, 0.0, 0.0, 10.0, 0.0, [Cruise(10.0)])
+    s = tr.stream()
+    s.evaluate([1.0, 2.0])
+    for bad, text in (([1.5], "moves forward only"), ([3.0, 2.5], "non-decreasing"), ([11.0], "<= duration_s"),
+                      ([[3.0]], "1-D")):
+        with pytest.raises(ValueError, match="TrajectoryStream.evaluate.t"):
+            s.evaluate(bad)
+
+
+def test_build_trajectory_equals_constructor():
+    spec = {"start_lat_rad": D(48.0), "start_lon_rad": D(11.5), "start_h_m": 1500.0, "start_speed_m_s": 120.0,
+            "start_heading_rad": D(30.0), "transition_s": 4.0,
+            "segments": [{"type": "cruise", "duration_s": 30.0}, {"type": "turn", "duration_s": 40.0,
+                                                                   "delta_heading_rad": D(90.0)},
+                         {"type": "cruise", "duration_s": 30.0}, {"type": "climb", "duration_s": 60.0,
+                                                                   "delta_height_m": 400.0},
+                         {"type": "accelerate", "duration_s": 30.0, "delta_speed_m_s": 20.0},
+                         {"type": "turn", "duration_s": 50.0, "delta_heading_rad": D(-150.0)},
+                         {"type": "cruise", "duration_s": 60.0}]}
+    assert build_trajectory(spec) == short_flight()
+
+
+# --- independent check: the navigation equations reproduce the truth ---------------------
+
+
+def _nav_rhs(t, y, imu):
+    """Continuous strapdown equations in NED (T&W sec. 3.5, 3.7; Groves sec. 5.4), numpy Earth model."""
+    q, vel, lat, lon, h = y[:4], y[4:7], y[7], y[8], y[9]
+    w_iv, f_v = imu(t)
+    c = c_nv(q[None])[0]
+    w_ie = earth.earth_rate_ned(lat)
+    w_en = earth.transport_rate_ned(lat, h, vel)
+    w_nv = w_iv - c.T @ (w_ie + w_en)
+    qw, qx, qy, qz = q
+    dq = 0.5 * np.array([-qx * w_nv[0] - qy * w_nv[1] - qz * w_nv[2],
+                         qw * w_nv[0] + qy * w_nv[2] - qz * w_nv[1],
+                         qw * w_nv[1] - qx * w_nv[2] + qz * w_nv[0],
+                         qw * w_nv[2] + qx * w_nv[1] - qy * w_nv[0]])
+    dv = c @ f_v + earth.gravity_ned(lat, h) - np.cross(2.0 * w_ie + w_en, vel)
+    r_n, r_e = earth.radii(lat)
+    return np.concatenate((dq, dv, [vel[0] / (r_n + h), vel[1] / ((r_e + h) * math.cos(lat)), -vel[2]]))
+
+
+def _nav_errors(truth_at, t_end, t_check, rtol=1e-10):
+    """Integrate the navigation equations from the truth's own IMU signals; errors against the truth."""
+    first = truth_at(0.0)
+    y0 = np.concatenate((first.q_nv[0], first.v_ned_m_s[0], [first.lat_rad[0], first.lon_rad[0], first.h_m[0]]))
+
+    def imu(t):
+        tt = truth_at(min(max(t, 0.0), t_end))
+        return tt.omega_iv_v_rad_s[0], tt.f_v_m_s2[0]
+
+    # atol: 1e-13 (quaternion), 1e-10 m/s, 1e-15 rad (6e-9 m), 1e-8 m, scaled with rtol.
+    atol = np.r_[np.full(4, 1e-13), np.full(3, 1e-10), 1e-15, 1e-15, 1e-8] * (rtol / 1e-10)
+    sol = solve_ivp(_nav_rhs, (0.0, t_end), y0, method="DOP853", rtol=rtol, atol=atol, t_eval=t_check, args=(imu,))
+    assert sol.success
+    ref = TrajectoryTruth.concatenate([truth_at(t) for t in t_check])
+    y = sol.y.T
+    horiz = earth.horizontal_error_m(y[:, 7], y[:, 8], ref.lat_rad, ref.lon_rad, ref.h_m)[2]
+    return dict(horizontal_m=np.max(horiz), height_m=np.max(np.abs(y[:, 9] - ref.h_m)),
+                velocity_m_s=np.max(np.abs(y[:, 4:7] - ref.v_ned_m_s)),
+                attitude_rad=np.max(angle_between(y[:, :4], ref.q_nv)), nfev=sol.nfev)
+
+
+#: Bounds of the navigation-equation check at rtol 1e-10: ~3x the larger of the two measurements below.
+#: A missing or wrong term would be far outside: the Coriolis force alone (1.7e-2 m/s^2) moves the position
+#: by ~800 m in 300 s; the transport rate (2e-5 rad/s) turns the attitude by 6e-3 rad.
+NAV_BOUNDS = dict(horizontal_m=2e-4, height_m=1e-5, velocity_m_s=5e-6, attitude_rad=3e-9)
+
+
+def test_navigation_equations_reproduce_trajectory():
+    """solve_ivp (DOP853, rtol 1e-10) of the nav equations driven by omega_iv_v and f_v returns the truth.
+
+    300 s, two turns (28 and 39 deg of bank), a 400 m climb and an acceleration. Random access for the
+    integrator's stages comes from stream checkpoints every second (the stream moves forward only).
+    Measured at rtol 1e-10: 2.5e-5 m horizontal, 1.6e-6 m height, 2.3e-7 m/s, 1.3e-10 rad. These are the
+    integrator's errors, not the truth's: at rtol 1e-12 they fall to 1.0e-6 m, 6.0e-8 m, 1.3e-8 m/s,
+    1.4e-11 rad (asserted: at least 10x smaller horizontally and in velocity).
+    """
+    tr = short_flight()
+    stream = tr.stream()
+    checkpoints = []
+    for k in range(int(tr.duration_s) + 1):
+        stream.evaluate([float(k)])
+        checkpoints.append(stream.copy())
+
+    def truth_at(t):
+        return checkpoints[min(int(t), len(checkpoints) - 1)].copy().evaluate([t])
+
+    t_check = np.arange(0.0, tr.duration_s + 0.5, 5.0)
+    err = _nav_errors(truth_at, tr.duration_s, t_check)
+    for key, bound in NAV_BOUNDS.items():
+        assert err[key] < bound, (key, err)
+    fine = _nav_errors(truth_at, tr.duration_s, t_check, rtol=1e-12)
+    assert fine["horizontal_m"] < err["horizontal_m"] / 10 and fine["velocity_m_s"] < err["velocity_m_s"] / 10, fine
+
+
+def test_navigation_equations_reproduce_sampled_trajectory():
+    """The same independent check for a SampledTrajectory through 10 Hz samples (first 100 s of the flight:
+    a turn with its ramps). Measured at rtol 1e-10: 5.7e-5 m, 1.7e-6 m, 1.1e-6 m/s, 7.0e-10 rad (at rtol
+    1e-12: 9.0e-6 m, 1.1e-7 m, 1.3e-7 m/s, 1.2e-10 rad, so again the integrator's error; the spline
+    knots, where the jerk has kinks, make DOP853 converge more slowly than on the analytic flight)."""
+    tr = short_flight()
+    t = np.arange(0.0, 100.05, 0.1)
+    sampled = SampledTrajectory.from_data(_data_from_truth(tr.evaluate(t)))
+    err = _nav_errors(lambda x: sampled.evaluate([x]), sampled.duration_s, np.arange(0.0, 100.0, 5.0))
+    for key, bound in NAV_BOUNDS.items():
+        assert err[key] < bound, (key, err)
+
+
+# --- continuity, streaming, integration accuracy ------------------------------------------
+
+
+def test_continuity_at_segment_boundaries_and_ramp_ends():
+    """f_v and omega_iv_v are continuous, with continuous first derivatives (they are C2).
+
+    1) Over the whole flight at 1 kHz, the largest step between adjacent samples is at most 1.5x the
+       largest slope (from 10 ms central differences) times 1 ms: a jump J would show as J in the 1 kHz
+       steps but only J/10 in the slope estimate. Measured ratio: 1.00002 (smooth).
+    2) At every segment boundary and ramp end t_b: |x(t_b + d) - x(t_b - d)| (d = 1e-6 s) is within 1.5x
+       2 d times the one-sided slopes over 1 ms (plus 1e-12 of rounding); and the one-sided derivatives
+       (step 1e-4 s) agree within 3x 3e-4 s times the largest |x''| (from 1 ms second differences within
+       10 ms on either side) plus rounding 1e-9 (|x| ~ 10 / 1e-4 s * 1e-16 ~ 1e-11). A ramp that is only
+       C1 (raised cosine) makes omega's derivative jump by 0.16 rad/s^2 at a turn's start, 2e5x this bound.
+    """
+    tr = short_flight()
+    t = np.arange(0.0, tr.duration_s + 1e-9, 1e-3)
+    truth = tr.evaluate(t)
+    coarse_t = np.arange(0.005, tr.duration_s - 0.005, 1e-3)
+    lo, hi = tr.evaluate(coarse_t - 0.005), tr.evaluate(coarse_t + 0.005)
+    for name in ("f_v_m_s2", "omega_iv_v_rad_s"):
+        x = getattr(truth, name)
+        step = np.max(np.abs(np.diff(x, axis=0)), axis=0)
+        slope = np.max(np.abs(getattr(hi, name) - getattr(lo, name)) / 0.01, axis=0)
+        assert np.all(step <= 1.5 * slope * 1e-3 + 1e-15), (name, step, slope * 1e-3)
+
+    marks = []
+    for t0, t1, kind in zip(tr.segment_start_s, np.r_[tr.segment_start_s[1:], tr.duration_s],
+                            [type(s).__name__ for s in tr.segments]):
+        marks.append(t0)
+        if kind != "Cruise":
+            marks += [t0 + tr.transition_s, t1 - tr.transition_s]
+    marks = [m for m in marks if 0.01 < m < tr.duration_s - 0.01]
+    d, e = 1e-6, 1e-4
+    side = np.arange(1, 11) * 1e-3  # 1..10 ms, each side
+    for tb in marks:
+        offs = np.array([-0.001, -2 * e, -e, -d, 0.0, d, e, 2 * e, 0.001])
+        pts = tr.evaluate(tb + offs)
+        left, right = tr.evaluate(tb - side[::-1]), tr.evaluate(tb + side)
+        for name in ("f_v_m_s2", "omega_iv_v_rad_s"):
+            x = getattr(pts, name)
+            slope = np.maximum(np.abs(x[8] - x[4]), np.abs(x[4] - x[0])) / 0.001
+            assert np.all(np.abs(x[5] - x[3]) <= 1.5 * 2 * d * slope + 1e-12), (name, tb)
+            d_plus = (x[7] - x[6]) / e
+            d_minus = (x[2] - x[1]) / e
+            # |x''| from 1 ms second differences on either side (not straddling t_b, so a kink at t_b
+            # does not inflate it).
+            curv = np.maximum(np.max(np.abs(np.diff(getattr(left, name), 2, axis=0)), axis=0),
+                              np.max(np.abs(np.diff(getattr(right, name), 2, axis=0)), axis=0)) / 1e-6
+            assert np.all(np.abs(d_plus - d_minus) <= 3 * 3 * e * curv + 1e-9), (name, tb, d_plus - d_minus)
+
+
+def test_chunked_evaluation_equals_one_call():
+    """Uneven chunks (empty ones included, boundaries on internal nodes and segment starts) give the
+    same bits as one call, for the segment trajectory and for a sampled one."""
+    tr = short_flight()
+    t = np.arange(0, 7200 * 120) / 7200.0 + 25.0  # 120 s at 7.2 kHz across three segments
+    t = np.sort(np.r_[t, [30.0, 34.0, 66.0, 70.0, 100.0, 100.01, 100.02]])
+    whole = tr.evaluate(t)
+    stream = tr.stream()
+    parts = [stream.evaluate(c) for c in uneven_chunks(t, [1, 0, 7, 3600, 13, 0, 51234, 2, 999])]
+    chunked = TrajectoryTruth.concatenate(parts)
+    for name in FIELDS:
+        assert_array_equal(getattr(chunked, name), getattr(whole, name), err_msg=name)
+
+    sampled = SampledTrajectory.from_data(_data_from_truth(tr.evaluate(np.arange(0.0, 300.05, 0.1))))
+    whole = sampled.evaluate(t)
+    stream = sampled.stream()
+    chunked = TrajectoryTruth.concatenate([stream.evaluate(c) for c in uneven_chunks(t, [5, 0, 40000, 17, 3])])
+    for name in FIELDS:
+        assert_array_equal(getattr(chunked, name), getattr(whole, name), err_msg=name)
+    with pytest.raises(ValueError, match="moves forward only"):
+        stream.evaluate([1.0])
+
+
+def test_position_integration_accuracy_30_min():
+    """RK4 at 0.01 s (+ cubic Hermite between nodes) against 0.001 s over 30 min of manoeuvres.
+
+    RK4's global error scales as step^4 and the Hermite error as step^4/384 |d^4 p/dt^4|: ~1e-9 m here.
+    Bound 1e-6 m (the stated accuracy), at 4000 random (off-node) times. Measured: 1.4e-9 m (a 0.04 s
+    step gives 1.3e-8 m). Height is closed-form (equal bits). The flight goes 229 km from its start.
+    """
+    segs = []
+    for k in range(6):  # 6 x 300 s
+        sign = (-1) ** k
+        segs += [Cruise(60.0), CoordinatedTurn(60.0, D(90.0)), Climb(60.0, 500.0 * sign),
+                 Accelerate(40.0, 30.0 * sign), CoordinatedTurn(40.0, D(-60.0)), Cruise(40.0)]
+    tr = Trajectory(D(60.0), D(-20.0), 3000.0, 220.0, D(45.0), segs, transition_s=5.0)
+    assert tr.duration_s == 1800.0
+    rng = np.random.default_rng(5)
+    t = np.sort(rng.uniform(0.0, 1800.0, 4000))
+    a = tr.evaluate(t, step_s=0.01)
+    b = tr.evaluate(t, step_s=0.001)
+    horiz = earth.horizontal_error_m(a.lat_rad, a.lon_rad, b.lat_rad, b.lon_rad, b.h_m)[2]
+    assert np.max(horiz) < 1e-6, np.max(horiz)
+    assert_array_equal(a.h_m, b.h_m)
+    # The flight covers ground (the comparison is not vacuous): more than 100 km from the start.
+    span = earth.horizontal_error_m(a.lat_rad, a.lon_rad, a.lat_rad[0], a.lon_rad[0])[2]
+    assert np.max(span) > 1e5
+
+
+def test_stream_memory_is_constant():
+    """The streaming state is 12 numbers whatever the mission length."""
+    tr = Trajectory(0.3, 0.1, 100.0, 50.0, 0.0, [Cruise(3600.0)])
+    s = tr.stream()
+    s.evaluate([0.0])
+    n0 = s._state.nbytes
+    s.evaluate([3600.0])
+    assert s._state.nbytes == n0 == 12 * 8
+
+
+# --- sampled trajectory ---------------------------------------------------------------------
+
+
+def _data_from_truth(truth, with_velocity=True):
+    e = truth.euler_rad
+    return TrajectoryData(truth.t_s, truth.lat_rad, truth.lon_rad, truth.h_m, e[:, 0], e[:, 1], e[:, 2],
+                          truth.v_ned_m_s if with_velocity else None)
+
+
+def test_sampled_trajectory_matches_analytic_between_samples():
+    """10 Hz samples of the analytic flight, splined, against the analytic truth at 100 Hz between samples.
+
+    Errors come from the spline interpolation ([de Boor]) where the profiles are least smooth: the ramp ends,
+    where the 4th derivative of the bank jumps by phi_max 840/T^4 (840 = s''''(0) of the septic ramp); the
+    rate error scales as h^4 times that jump (h = 0.1 s). Bounds are 2.5-5x the measured values:
+    position 6.4e-9 m -> 3e-8 m, height 1.7e-8 -> 5e-8 m, velocity 5.4e-7 -> 1.5e-6 m/s,
+    acceleration 2.1e-5 -> 5e-5 m/s^2, specific force 2.1e-5 -> 5e-5 m/s^2, rate 1.8e-5 -> 7e-5 rad/s,
+    attitude 4.8e-7 -> 2e-6 rad.
+    """
+    tr = short_flight()
+    samples = tr.evaluate(np.arange(0.0, 300.05, 0.1))
+    sampled = SampledTrajectory.from_data(_data_from_truth(samples, with_velocity=False))
+    t = np.arange(0.0, 300.0, 0.01) + 0.003
+    a, b = tr.evaluate(t), sampled.evaluate(t)
+    horiz = earth.horizontal_error_m(b.lat_rad, b.lon_rad, a.lat_rad, a.lon_rad, a.h_m)[2]
+    err = dict(position=np.max(horiz), height=np.max(np.abs(b.h_m - a.h_m)),
+               velocity=np.max(np.abs(b.v_ned_m_s - a.v_ned_m_s)), accel=np.max(np.abs(b.a_ned_m_s2 - a.a_ned_m_s2)),
+               force=np.max(np.abs(b.f_v_m_s2 - a.f_v_m_s2)),
+               rate=np.max(np.abs(b.omega_iv_v_rad_s - a.omega_iv_v_rad_s)),
+               attitude=np.max(angle_between(a.q_nv, b.q_nv)))
+    bounds = dict(position=3e-8, height=5e-8, velocity=1.5e-6, accel=5e-5, force=5e-5, rate=7e-5, attitude=2e-6)
+    for key, bound in bounds.items():
+        assert err[key] < bound, (key, err)
+    # Away from the ramps (the plateaus and cruises) the interpolation is far better.
+    # Away from the ramps (plateaus and cruises, 1 s clear of ramps and of the spline's ends) the
+    # interpolation is far better: measured 2.6e-7 m/s^2 and 5.2e-9 rad/s; bounds 1e-6 and 2e-8.
+    calm = (t > 1.0) & (t < 299.0)
+    for m0, m1 in ((30, 34), (66, 70), (100, 104), (156, 164), (186, 194), (236, 240)):  # the ramps
+        calm &= (t < m0 - 1.0) | (t > m1 + 1.0)
+    assert np.max(np.abs(b.f_v_m_s2 - a.f_v_m_s2)[calm]) < 1e-6
+    assert np.max(np.abs(b.omega_iv_v_rad_s - a.omega_iv_v_rad_s)[calm]) < 2e-8
+
+
+def test_sampled_trajectory_velocity_check_and_small_files():
+    tr = short_flight()
+    samples = tr.evaluate(np.arange(0.0, 20.05, 0.1))
+    data = _data_from_truth(samples)
+    SampledTrajectory.from_data(data)  # consistent: passes
+    bad_v = data.v_ned_m_s.copy()
+    bad_v[57, 1] += 0.2
+    with pytest.raises(ValueError, match=r"v_ned_m_s: sample 57 differs .* by 0\.2"):
+        SampledTrajectory.from_data({**{k: getattr(data, k) for k in ("t_s", "lat_rad", "lon_rad", "h_m", "roll_rad",
+                                                                       "pitch_rad", "yaw_rad")}, "v_ned_m_s": bad_v})
+    # 4 samples (cubic splines) still evaluate, continuous.
+    st = SampledTrajectory(*(np.asarray(getattr(data, k))[:4] for k in ("t_s", "lat_rad", "lon_rad", "h_m",
+                                                                          "roll_rad", "pitch_rad", "yaw_rad")))
+    out = st.evaluate(np.linspace(0.0, st.duration_s, 31))
+    assert np.all(np.isfinite(out.f_v_m_s2))
+    with pytest.raises(ValueError, match="needs at least 4 samples"):
+        SampledTrajectory(*(np.zeros(3) for _ in range(7)))
+    with pytest.raises(ValueError, match=r"<= duration_s"):
+        st.evaluate([st.duration_s + 0.01])
+    # Yaw across +-180 deg is unwrapped: no spurious rate.
+    t = np.arange(10) * 0.1
+    yaw = D(179.0) + D(1.0) * t
+    st = SampledTrajectory(t, np.full(10, 0.5), np.zeros(10), np.zeros(10), np.zeros(10), np.zeros(10),
+                           np.angle(np.exp(1j * yaw)))
+    w = st.evaluate(np.linspace(0.0, 0.9, 50)).omega_iv_v_rad_s
+    assert np.max(np.abs(w[:, 2] - D(1.0))) < 1e-4  # 1 deg/s (+ Earth rate 6e-5)
+
+
+# --- files --------------------------------------------------------------------------------
+
+
+GOOD_HEADER = "time_s,lat_deg,lon_deg,height_m,roll_deg,pitch_deg,yaw_deg"
+
+
+def good_rows(n=12):
+    rows = []
+    for i in range(n):
+        yaw = (350.0 + 2 * i) % 360.0  # wraps 358 -> 0 deg
+        rows.append([f"{0.1 * i:.1f}", f"{45.0 + 1e-5 * i:.9f}", "7.0", "100.0", "1.0", "2.0", f"{yaw:.1f}"])
+    return rows
+
+
+def write_csv(path, header=GOOD_HEADER, rows=None, top=("# a comment",)):
+    rows = good_rows() if rows is None else rows
+    text = "\n".join(list(top) + [header] + [",".join(r) for r in rows]) + "\n"
+    path.write_text(text)
+    return path
+
+
+def _mutate(i, col, value):
+    def f(rows):
+        rows[i][col] = value
+        return rows
+    return f
+
+
+BAD_FILES = [
+    # (id, header, row mutation, expected fragments)
+    ("missing-column", GOOD_HEADER.replace(",yaw_deg", ""), lambda r: [x[:-1] for x in r],
+     ["header (line 2)", "missing required column 'yaw_deg'"]),
+    ("unknown-column", GOOD_HEADER + ",speed", lambda r: [x + ["1"] for x in r], ["unknown column 'speed'"]),
+    ("duplicate-column", GOOD_HEADER + ",lat_deg", lambda r: [x + ["45"] for x in r],
+     ["column 'lat_deg' appears more than once"]),
+    ("partial-velocity", GOOD_HEADER + ",vn_m_s,ve_m_s", lambda r: [x + ["0", "0"] for x in r],
+     ["all three or none", "missing vd_m_s"]),
+    ("cell-count", GOOD_HEADER, lambda r: r[:3] + [r[3][:-1]] + r[4:], ["row 4 (line 6)", "expected 7"]),
+    ("non-numeric", GOOD_HEADER, _mutate(4, 3, "abc"), ["row 5 (line 7), column height_m", "must be a number",
+                                                        "'abc'"]),
+    ("empty-cell", GOOD_HEADER, _mutate(2, 1, " "), ["row 3 (line 5), column lat_deg", "must be a number"]),
+    ("nan", GOOD_HEADER, _mutate(6, 4, "nan"), ["row 7 (line 9), column roll_deg", "must be a finite number"]),
+    ("inf", GOOD_HEADER, _mutate(6, 2, "-inf"), ["row 7 (line 9), column lon_deg", "must be a finite number"]),
+    ("time-not-increasing", GOOD_HEADER, _mutate(5, 0, "0.4"),
+     ["row 6 (line 8), column time_s", "strictly increasing", "0.4 after 0.4"]),
+    ("too-few-rows", GOOD_HEADER, lambda r: r[:3], ["at least 4 rows, got 3"]),
+    ("lat-range", GOOD_HEADER, lambda r: [x[:1] + ["90.5"] + x[2:] for x in r],
+     ["row 1 (line 3), column lat_deg", "[-90, 90]", "90.5"]),
+    ("pitch-90", GOOD_HEADER, _mutate(8, 5, "90.0"), ["row 9 (line 11), column pitch_deg", "|pitch| must be < 90"]),
+    ("height-range", GOOD_HEADER, lambda r: [x[:3] + ["100000.5"] + x[4:] for x in r],
+     ["row 1 (line 3), column height_m", "[-1000, 100000]"]),
+    ("speed-jump", GOOD_HEADER, _mutate(7, 1, "45.01"), ["row 8 (line 10)", "position jump", "> 3000 m/s"]),
+    ("angle-rate", GOOD_HEADER, _mutate(3, 4, "80.0"), ["row 4 (line 6), column roll_deg", "deg/s"]),
+    ("sample-rate", GOOD_HEADER, lambda r: r[:6] + [[f"{float(x[0]) + 1.5:.1f}"] + x[1:] for x in r[6:]],
+     ["row 7 (line 9), column time_s", "exceeds 1.0 s", ">= 1 Hz"]),
+    ("blank-inside", GOOD_HEADER, lambda r: r[:5] + [[""]] + r[5:], ["row 6 (line 8)", "empty line"]),
+]
+
+
+@pytest.mark.parametrize("case", BAD_FILES, ids=[c[0] for c in BAD_FILES])
+def test_reader_rejects_bad_files(tmp_path, case):
+    name, header, mutate, fragments = case
+    path = write_csv(tmp_path / "bad.csv", header, mutate(good_rows()))
+    with pytest.raises(ValueError) as err:
+        read_trajectory(path)
+    msg = str(err.value)
+    assert isinstance(err.value, TrajectoryFileError)
+    assert msg.startswith(f"trajectory file {path}: ")
+    for frag in fragments:
+        assert frag in msg, (frag, msg)
+
+
+def test_reader_rejects_missing_file_and_suffix(tmp_path):
+    with pytest.raises(ValueError, match="does not exist"):
+        read_trajectory(tmp_path / "nothing.csv")
+    (tmp_path / "x.txt").write_text(GOOD_HEADER + "\n")
+    with pytest.raises(ValueError, match="unknown suffix '.txt'"):
+        read_trajectory(tmp_path / "x.txt")
+    (tmp_path / "c.csv").write_text("# only a comment\n")
+    with pytest.raises(ValueError, match="expected the header row"):
+        read_trajectory(tmp_path / "c.csv")
+
+
+def test_reader_good_file_and_yaw_wrap(tmp_path):
+    """A good file (comment, spaces, yaw wrapping 358 -> 0 deg) reads into SI arrays."""
+    rows = good_rows()
+    rows[0][1] = " 45.000000000 "
+    data = read_trajectory(write_csv(tmp_path / "good.csv", rows=rows))
+    assert len(data) == 12 and data.v_ned_m_s is None
+    assert data.lat_rad[0] == 45.0 * math.pi / 180.0
+    assert np.all(np.diff(data.t_s) > 0) and not data.t_s.flags.writeable
+    yaw_deg = np.degrees(data.yaw_rad)
+    assert yaw_deg[4] == pytest.approx(358.0) and yaw_deg[5] == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_file_round_trip(tmp_path, suffix):
+    """write -> read: CSV within its decimals (1e-13 deg, 1e-8 m, 1e-6 s and m/s), Parquet to 1 ulp of the
+    deg <-> rad conversion (2e-16 relative)."""
+    tr = short_flight()
+    data = _data_from_truth(tr.evaluate(np.arange(0.0, 60.05, 0.1)))
+    path = write_trajectory(tmp_path / f"f{suffix}", data, comments=["made by test_file_round_trip"])
+    back = read_trajectory(path)
+    if suffix == ".csv":
+        assert path.read_text().startswith("# made by test_file_round_trip\n" + GOOD_HEADER + ",vn_m_s")
+        tol = dict(t_s=5e-7, h_m=5e-9, v_ned_m_s=5e-7, angle=0.51e-13 * math.pi / 180.0)
+    else:
+        tol = dict(t_s=0.0, h_m=0.0, v_ned_m_s=0.0, angle=4e-16)
+    for name in ("t_s", "h_m", "v_ned_m_s"):
+        assert np.max(np.abs(getattr(back, name) - getattr(data, name))) <= tol[name], name
+    for name in ("lat_rad", "lon_rad", "roll_rad", "pitch_rad", "yaw_rad"):
+        assert np.max(np.abs(getattr(back, name) - getattr(data, name))) <= tol["angle"] * 2.0, name
+
+
+def test_parquet_rejects_bad_columns(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    cols = {c: pa.array(np.arange(6, dtype=float) * (0.1 if c == "time_s" else 0.0)) for c in
+            ("time_s", "lat_deg", "lon_deg", "height_m", "roll_deg", "pitch_deg")}
+    pq.write_table(pa.table(cols), tmp_path / "a.parquet")
+    with pytest.raises(ValueError, match="missing required column 'yaw_deg'"):
+        read_trajectory(tmp_path / "a.parquet")
+    cols["yaw_deg"] = pa.array([0.0, 1.0, None, 3.0, 4.0, 5.0])
+    pq.write_table(pa.table(cols), tmp_path / "b.parquet")
+    with pytest.raises(ValueError, match="row 3, column yaw_deg: must be a number, got null"):
+        read_trajectory(tmp_path / "b.parquet")
+    cols["yaw_deg"] = pa.array(["a"] * 6)
+    pq.write_table(pa.table(cols), tmp_path / "c.parquet")
+    with pytest.raises(ValueError, match="column yaw_deg: must be numeric"):
+        read_trajectory(tmp_path / "c.parquet")
+    cols["yaw_deg"] = pa.array(np.zeros(6))
+    cols["pitch_deg"] = pa.array([0.0, 0.0, 0.0, 0.0, 95.0, 0.0])
+    pq.write_table(pa.table(cols), tmp_path / "d.parquet")
+    with pytest.raises(ValueError, match=r"row 5, column pitch_deg: \|pitch\| must be < 90"):
+        read_trajectory(tmp_path / "d.parquet")
+
+
+def test_trajectory_data_checks_arrays():
+    t = np.arange(6) * 0.1
+    z = np.zeros(6)
+    with pytest.raises(ValueError, match=r"TrajectoryData: sample 2, field pitch_rad \(in deg\): \|pitch\|"):
+        TrajectoryData(t, z + 0.5, z, z, z, np.r_[0, 0, 1.6, 0, 0, 0], z)
+    with pytest.raises(ValueError, match=r"TrajectoryData.v_ned_m_s: must have shape \(6, 3\)"):
+        TrajectoryData(t, z, z, z, z, z, z, v_ned_m_s=np.zeros((6, 2)))
+
+
+def test_bundled_short_flight():
+    """The bundled file is what its header says: the stated Trajectory sampled at 10 Hz, rounded to the
+    stated decimals (1e-13 deg, 1e-8 m, 1e-6 m/s; a rounded value is within half a unit, plus 2% for
+    float64's own rounding of 48.x deg); and it builds a SampledTrajectory close to the analytic truth:
+    at the ramps the interpolation error dominates (measured 2.1e-5 m/s^2, 1.7e-5 rad/s; bounds 1e-4 and
+    7e-5 as for exact samples), elsewhere the file's rounding (~6 eps/dt^2 = 3e-6 m/s^2 for eps = 5e-9 m;
+    measured 4.3e-6, bound 1.5e-5)."""
+    head = BUNDLED.read_text().splitlines()[:7]
+    assert all(line.startswith("#") for line in head)
+    assert "CoordinatedTurn(40 s, +90 deg)" in "\n".join(head)
+    data = read_trajectory(BUNDLED)
+    tr = short_flight()
+    assert len(data) == 3001 and data.t_s[-1] == tr.duration_s
+    truth = tr.evaluate(data.t_s)
+    e = truth.euler_rad
+    deg_tol = 0.5e-13 * math.pi / 180.0 * 1.02  # measured 0.509e-13 deg
+    for got, want in ((data.lat_rad, truth.lat_rad), (data.lon_rad, truth.lon_rad), (data.roll_rad, e[:, 0]),
+                      (data.pitch_rad, e[:, 1]), (data.yaw_rad, e[:, 2])):
+        assert np.max(np.abs(got - want)) <= deg_tol
+    assert np.max(np.abs(data.h_m - truth.h_m)) <= 0.51e-8
+    assert np.max(np.abs(data.v_ned_m_s - truth.v_ned_m_s)) <= 0.51e-6
+    sampled = SampledTrajectory.from_data(data)
+    t = np.arange(0.0, 300.0, 0.05) + 0.01
+    a, b = tr.evaluate(t), sampled.evaluate(t)
+    assert np.max(np.abs(a.f_v_m_s2 - b.f_v_m_s2)) < 1e-4
+    assert np.max(np.abs(a.omega_iv_v_rad_s - b.omega_iv_v_rad_s)) < 7e-5
+    calm = (t > 1.0) & (t < 299.0)
+    for m0, m1 in ((30, 34), (66, 70), (100, 104), (156, 164), (186, 194), (236, 240)):  # the ramps
+        calm &= (t < m0 - 1.0) | (t > m1 + 1.0)
+    assert np.max(np.abs(a.f_v_m_s2 - b.f_v_m_s2)[calm]) < 1.5e-5
