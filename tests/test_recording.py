@@ -207,7 +207,7 @@ def test_sins_fs_required_with_sins_angle(tmp_path):
     (lambda a: a.update(counts=a["counts"].astype(np.float64)), "counts", "must be an int64 array"),
     (lambda a: a.update(counts=a["counts"][:, 0]), "counts", "shape (N, A)"),
     (lambda a: a.update(counts=a["counts"][:, :1]), "counts", "shape (N, A)"),
-    (lambda a: a.update(counts=a["counts"][:1], drive_v=a["drive_v"][:2]), "counts", "at least 2 samples"),
+    (lambda a: a.update(counts=a["counts"][:1], drive_v=a["drive_v"][:2]), "counts", "at least 4 samples"),
     (lambda a: a.update(drive_v=a["drive_v"].astype(np.int64)), "drive_v", "float64 or float32"),
     (lambda a: a.update(drive_v=a["drive_v"][:-1]), "drive_v", "M = N * drive_fs_hz / fs_hz"),
     (lambda a: a.update(drive_v=a["drive_v"][:, :1]), "drive_v", "shape (M, A)"),

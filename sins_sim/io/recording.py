@@ -19,7 +19,16 @@ writer writes them back unchanged).
 
 Rules the spec implies and this reader states explicitly:
 
-- ``N >= 2`` (a single sample carries no dynamics);
+- ``N >= 4`` (:data:`MIN_SAMPLES`): the readout is interpolated by cubic
+  splines, like ``sins_angle``, and eq. 5 needs a second difference; fewer
+  samples carry no dynamics (a 2-sample file used to pass the reader and fail
+  later inside a fit);
+- every array's ``.npy`` header is checked against the archive before
+  anything is allocated: the shape it claims must fit in the bytes the
+  archive member holds (a header claiming 2^40 rows is refused, not
+  allocated); members are stored or deflated, as ``numpy.savez`` and
+  ``numpy.savez_compressed`` write them;
+- ``meta`` is JSON nested at most :data:`MAX_META_DEPTH` levels deep;
 - ``sins_angle`` has at least 4 samples (it is interpolated by a cubic
   spline) and covers the time span of ``counts``:
   ``(K - 1) / sins_fs_hz >= (N - 1) / fs_hz``;
@@ -57,14 +66,18 @@ import csv
 import io
 import json
 import math
+import os
+import re
+import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "RecordingError", "Recording",
-           "check_recording", "read_recording", "write_recording", "read_csv_recording"]
+__all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "MIN_SAMPLES", "MAX_META_DEPTH",
+           "RecordingError", "Recording", "check_recording", "read_recording", "write_recording",
+           "read_csv_recording"]
 
 #: The format tag a recording's header must carry.
 FORMAT = "sins-sim-recording/1"
@@ -77,6 +90,12 @@ INITIAL_STATES = ("rest", "unknown")
 ARRAYS = ("meta", "counts", "drive_v", "sins_angle")
 #: CSV columns understood by :func:`read_csv_recording` (``<axis>`` is the axis name).
 CSV_COLUMNS = ("time_s", "counts_<axis>", "drive_v_<axis>", "sins_angle_rad_<axis>")
+#: Fewest samples ``counts`` may hold (cubic interpolation, as for ``sins_angle``).
+MIN_SAMPLES = 4
+#: Deepest nesting of objects and lists allowed in ``meta`` (a header is a few levels deep).
+MAX_META_DEPTH = 32
+#: Most a deflate stream can expand (about 1032:1), plus slack: a member claiming more is corrupt.
+_DEFLATE_MAX_RATIO = 1100
 
 
 class RecordingError(ValueError):
@@ -183,8 +202,8 @@ def check_recording(meta, counts, drive_v, sins_angle=None, where: str = "record
     if counts.ndim != 2 or counts.shape[1] != n_axes:
         _fail(where, "counts", f"must have shape (N, A) with A = len(meta.axes) = {n_axes}, got {counts.shape}")
     n = counts.shape[0]
-    if n < 2:
-        _fail(where, "counts", f"must hold at least 2 samples, got {n}")
+    if n < MIN_SAMPLES:
+        _fail(where, "counts", f"must hold at least {MIN_SAMPLES} samples (N >= {MIN_SAMPLES}), got {n}")
     if not isinstance(drive_v, np.ndarray) or drive_v.dtype not in (np.float64, np.float32):
         _fail(where, "drive_v", f"must be a float64 or float32 array, got "
                                 f"{getattr(drive_v, 'dtype', type(drive_v).__name__)}")
@@ -359,13 +378,92 @@ def _load_meta(arr, where):
     def reject(const):
         raise ValueError(f"{const} is not valid JSON")
 
+    text = str(arr[()])
+    depth = _json_depth(text, MAX_META_DEPTH)
+    if depth > MAX_META_DEPTH:
+        _fail(where, "meta", f"must hold JSON nested at most {MAX_META_DEPTH} levels deep, got more")
     try:
-        meta = json.loads(str(arr[()]), parse_constant=reject)
+        meta = json.loads(text, parse_constant=reject)
     except ValueError as exc:
         _fail(where, "meta", f"must hold valid JSON ({exc})")
     if not isinstance(meta, dict):
         _fail(where, "meta", f"must hold a JSON object, got {type(meta).__name__}")
     return meta
+
+
+_JSON_TOKENS = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')
+
+
+def _json_depth(text: str, limit: int) -> int:
+    """Nesting depth of the objects and lists in JSON ``text`` (strings skipped), counted up to ``limit + 1``."""
+    depth = deepest = 0
+    for m in _JSON_TOKENS.finditer(text):
+        tok = m.group()
+        if tok in "[{":
+            depth += 1
+            if depth > deepest:
+                deepest = depth
+                if deepest > limit:
+                    break
+        elif tok in "]}":
+            depth -= 1
+    return deepest
+
+
+def _npy_header(fp):
+    """(shape, dtype, header length in bytes) of an ``.npy`` stream positioned at its start."""
+    fmt = np.lib.format
+    version = fmt.read_magic(fp)
+    if version == (1, 0):
+        shape, _, dtype = fmt.read_array_header_1_0(fp)
+    elif version == (2, 0):
+        shape, _, dtype = fmt.read_array_header_2_0(fp)
+    else:
+        raise ValueError(f".npy format version {version[0]}.{version[1]} is not supported (1.0 or 2.0)")
+    return shape, dtype, fp.tell()
+
+
+def _check_members(path: Path, where: str) -> None:
+    """Check every archive member's ``.npy`` header against the bytes the member holds, before loading.
+
+    A header may claim any shape; numpy would allocate it before reading. The
+    claimed array must fit in the member's declared size, and that size in
+    what its compressed bytes can expand to.
+    """
+    try:
+        zf = zipfile.ZipFile(path)
+    except (OSError, zipfile.BadZipFile, ValueError, EOFError) as exc:
+        _fail(where, "file", f"must be a NumPy .npz archive ({exc})")
+    with zf:
+        for info in zf.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            key = info.filename[:-4]
+            if info.compress_type == zipfile.ZIP_STORED:
+                if info.file_size != info.compress_size:
+                    _fail(where, key, f"archive member claims {info.file_size} bytes but stores "
+                                      f"{info.compress_size}")
+            elif info.compress_type == zipfile.ZIP_DEFLATED:
+                if info.file_size > _DEFLATE_MAX_RATIO * info.compress_size + 2 ** 16:
+                    _fail(where, key, f"archive member claims {info.file_size} bytes from {info.compress_size} "
+                                      "compressed bytes, more than deflate can produce")
+            else:
+                _fail(where, key, "archive member must be stored or deflated (as numpy.savez or "
+                                  f"numpy.savez_compressed write it), got compression method {info.compress_type}")
+            try:
+                with zf.open(info) as fp:
+                    shape, dtype, header_len = _npy_header(fp)
+            except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+                _fail(where, key, f"must be a readable .npy array ({' '.join(str(exc).split())})")
+            if dtype.hasobject:
+                continue  # refused when loaded: a recording may not use pickle
+            count = math.prod(int(d) for d in shape)
+            need = count * dtype.itemsize
+            have = info.file_size - header_len
+            if need > have:
+                _fail(where, key, f"the .npy header claims shape {tuple(shape)} of {dtype} ({need} bytes), but the "
+                                  f"archive member holds {max(have, 0)} bytes of data: an array's shape must fit "
+                                  "in the file")
 
 
 def read_recording(path) -> Recording:
@@ -388,6 +486,7 @@ def read_recording(path) -> Recording:
     if not isinstance(archive, np.lib.npyio.NpzFile):
         _fail(where, "file", "must be a NumPy .npz archive, got a single .npy array")
     with archive:
+        _check_members(path, where)
         names = list(archive.files)
         for key in ("meta", "counts", "drive_v"):
             if key not in names:
@@ -398,8 +497,10 @@ def read_recording(path) -> Recording:
                 arrays[key] = archive[key]
             except ValueError as exc:  # object arrays need pickle, which a recording may not use
                 _fail(where, key, f"must be a plain (non-object) array ({exc})")
-            except (OSError, zipfile.BadZipFile) as exc:
-                _fail(where, key, f"cannot be read ({exc})")
+            except (OSError, zipfile.BadZipFile, EOFError) as exc:
+                _fail(where, key, f"cannot be read ({' '.join(str(exc).split())})")
+            except MemoryError:
+                _fail(where, key, "is too large to load into memory")
     meta = _load_meta(arrays["meta"], where)
     extra = {k: v for k, v in arrays.items() if k not in ARRAYS}
     return Recording(meta, arrays["counts"], arrays["drive_v"], arrays.get("sins_angle"), extra, where)
@@ -422,7 +523,21 @@ def write_recording(path, recording: Recording, compressed: bool = True) -> Path
     buf = io.BytesIO()
     (np.savez_compressed if compressed else np.savez)(buf, **arrays)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(buf.getvalue())
+    # in one step: a reader sees the old file or the new one, never a part
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.tmp-", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(buf.getvalue())
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
     return path
 
 

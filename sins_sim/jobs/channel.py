@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,15 @@ from sins_sim.models.motion import SineMotion, StaticMotion
 from sins_sim.simulation.channel import ChannelConfig, simulate_channel
 from sins_sim.units import ARCMIN, ARCSEC
 
-__all__ = ["make_motion", "run_channel_job"]
+__all__ = ["make_motion", "default_settle_s", "run_channel_job"]
+
+#: The start-up transient excluded from the residual RMS by default (s), at most half the run.
+SETTLE_S = 1.0
+
+
+def default_settle_s(duration_s: float) -> float:
+    """``min(1 s, duration_s / 2)``: the default transient to skip, so that any positive duration works."""
+    return min(SETTLE_S, 0.5 * float(duration_s))
 
 
 def make_motion(kind: str, frequency_hz: float = 100.0, amplitude_arcmin: float = 1.0):
@@ -23,16 +32,20 @@ def make_motion(kind: str, frequency_hz: float = 100.0, amplitude_arcmin: float 
     raise ValueError(f"motion: must be one of ['none', 'sine'], got {kind!r}")
 
 
-def run_channel_job(config: ChannelConfig, duration_s: float, motion, out_dir, settle_s: float = 1.0,
+def run_channel_job(config: ChannelConfig, duration_s: float, motion, out_dir, settle_s: float | None = None,
                     seed: int = 0, progress=None) -> dict:
     """Simulate one channel and write ``channel.png``, ``metrics.json``, ``timeseries.npz``.
 
     ``residual_rms_arcsec`` holds the RMS of each output minus the time-aligned
-    true SINS angle over ``t >= settle_s`` (the start-up transient excluded).
-    Returns the metrics dictionary.
+    true SINS angle over ``t >= settle_s`` (the start-up transient excluded;
+    default :func:`default_settle_s`). Returns the metrics dictionary.
     """
     from sins_sim.plots.common import plot_channel
 
+    if not (isinstance(duration_s, (int, float)) and math.isfinite(duration_s) and duration_s > 0.0):
+        raise ValueError(f"duration_s: must be a finite number > 0, got {duration_s!r}")
+    if settle_s is None:
+        settle_s = default_settle_s(duration_s)
     if not 0.0 <= settle_s < duration_s:
         raise ValueError(f"settle_s: must be in [0, duration_s = {duration_s!r}), got {settle_s!r}")
     out = Path(out_dir)

@@ -21,15 +21,12 @@ A channel's ``suspension`` and ``drive`` entries override the shared ones.
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import yaml
-
 from sins_sim.models.drive import DriveParams
 from sins_sim.models.plant import PlantSettings
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.jobs.schema import ConfigError, Map, Num, Str, validate
+from sins_sim.jobs.yaml_io import load_yaml  # re-exported: other modules import it from here
 from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
 from sins_sim.simulation.sins import DriveControl, ImuConfig
 
@@ -94,25 +91,6 @@ IMU_SCHEMA = Map({
 })
 
 
-def load_yaml(path) -> dict:
-    """Parse a YAML file; a syntax error becomes one ConfigError naming the file and the line."""
-    path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read: {exc.strerror}") from None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise ConfigError(f"{path}:{where}: malformed YAML: {problem}") from None
-    if not isinstance(doc, dict):
-        raise ConfigError(f"{path}: the top level must be a mapping, got {type(doc).__name__}")
-    return doc
-
-
 def _merged(shared: dict, own: dict) -> dict:
     return {k: (own[k] if own.get(k) is not None else shared[k]) for k in shared}
 
@@ -153,7 +131,23 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "") -> ImuConfig:
 
 
 def load_imu(path) -> ImuConfig:
-    """Load and validate ``configs/*.yaml``."""
+    """Load and validate an IMU file (``configs/*.yaml``).
+
+    Parameters
+    ----------
+    path : path
+        The YAML file: suspension, drive, plant, readout, filters and per-axis channels (the keys
+        carry their units; see ``configs/default-imu.yaml``).
+
+    Returns
+    -------
+    ImuConfig
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the key path and the rule.
+    """
     return imu_from_dict(load_yaml(path), str(path))
 
 
