@@ -10,7 +10,7 @@ makes one untimed call first, uses fixed inputs, checks its result against
 an independent computation, and checks a same-run ratio against
 ``benchmarks/thresholds.json`` (``max``/``min`` enforced, ``target``
 reported in ``extra_info``). The ratios use CPU-time medians
-(``sins_sim.benchmarking.median_time``), robust on shared CI machines;
+(``sins_sim.bench.timing.median_time``), robust on shared CI machines;
 pytest-benchmark's own table records the kernels for ``--benchmark-compare``.
 """
 
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from sins_sim.benchmarking import SIZES
+from sins_sim.bench import SIZES
 
 THRESHOLDS_FILE = Path(__file__).with_name("thresholds.json")
 
@@ -40,7 +40,7 @@ def quick(request) -> bool:
 
 @pytest.fixture(scope="session")
 def sizes(quick) -> dict:
-    """Input sizes and repeats (``sins_sim.benchmarking.SIZES``)."""
+    """Input sizes and repeats (``sins_sim.bench.SIZES``)."""
     return dict(SIZES[quick])
 
 

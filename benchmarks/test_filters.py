@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from sins_sim.benchmarking import correcting_reference, filter_input, median_ratio, median_time
+from sins_sim.bench import correcting_reference, filter_input, median_ratio, median_time
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
 

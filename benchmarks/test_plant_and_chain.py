@@ -3,9 +3,10 @@
 - the plant ("exact" integrator) against RK4 in plain Python on a short record (result
   check and speed-up), against the numba RK4 reference integrator, and against
   ``scipy.signal.sosfilt`` (the machine's yardstick);
-- the three-axis chain (3 x plant at 72 kHz, readout and drive decimated to 7.2 kHz, eq. 5 in
-  both forms, eliminator, one attitude update per filter sample) through the kernels, checked
-  bit for bit against the same chain through the public classes, per plant step of one axis.
+- the engine users run, ``simulate_sins`` (three channels at 72 kHz with closed-loop drives,
+  readout and drive decimated to 7.2 kHz, eq. 5 in both forms, eliminator; with and without the
+  full INS loop), against its bare channel kernels on precomputed inputs: the user path cannot
+  fall behind the kernels unnoticed.
 """
 
 from __future__ import annotations
@@ -16,8 +17,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from sins_sim.benchmarking import (ApiChain, FusedChain, check_fused_chain, filter_input, median_ratio, median_time,
-                                   plant_input, plant_rk4_reference)
+from sins_sim.bench import filter_input, median_ratio, median_time, plant_input, plant_rk4_reference
+from sins_sim.bench.engine import BareKernels, engine_run
 from sins_sim.filters.eliminator import EliminatorDesign
 from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.suspension import PAPER_SUSPENSION
@@ -67,29 +68,34 @@ def test_plant_step_one_axis(benchmark, check_ratio, record, sizes, sosfilt):
     check_ratio("plant_rk4_python/plant_step_1axis", python_ns / ns)
 
 
-def test_three_axis_chain(benchmark, check_ratio, record, sizes, sosfilt):
-    # result: the fused chain gives the public classes' bits (plant, readout, decimated drive,
-    # both eq. 5 forms, eliminator, attitude), over two chunks
-    check_fused_chain()
-    n_chunks = sizes["chain_chunks"]
-    fused, api = FusedChain(), ApiChain()
-
-    def run():
-        fused.reset()
-        fused.run(n_chunks)
-
-    def run_api():
-        api.reset()
-        api.run(n_chunks)
-
-    record(run)
-    assert np.all(np.isfinite(fused.qout))
-    steps = 3 * n_chunks * fused.n  # plant steps of one axis, times three axes
-    reps = sizes["repeats"]
-    ratio_api, ns, api_ns = median_ratio(run, steps, run_api, steps, max(3, reps // 2))
-    ratio_sos, _, sosfilt_ns = median_ratio(run, steps, sosfilt[0], sosfilt[1], reps)
-    benchmark.extra_info.update(ns_per_plant_step=ns, api_ns_per_plant_step=api_ns,
-                                realtime_factor_3axis=1e9 / (3.0 * ns * fused.n / (fused.n * fused.h)),
+def test_engine_against_bare_kernels(benchmark, check_ratio, record, sizes, sosfilt):
+    dur = 2.0 if sizes["engine_s"] < 10 else 10.0
+    bare = BareKernels(dur)
+    sim_s = bare.simulated_s
+    res = record(lambda: engine_run(sim_s, navigation=False))
+    assert set(res.outputs_last) == {"raw", "eliminator", "correcting", "correcting_paper"}
+    assert all(np.all(np.isfinite(v)) for v in res.outputs_last.values())
+    reps = max(3, sizes["repeats"] // 2)
+    steps = 3 * bare.n_chunks * bare.n
+    ratio_bare, ns, bare_ns = median_ratio(lambda: engine_run(sim_s, navigation=False), steps, bare.run, steps, reps)
+    ratio_sos, _, sosfilt_ns = median_ratio(lambda: engine_run(sim_s, navigation=False), steps, sosfilt[0],
+                                            sosfilt[1], reps)
+    benchmark.extra_info.update(ns_per_plant_step=ns, bare_kernels_ns_per_plant_step=bare_ns,
+                                realtime_factor_3axis=1e9 / (3.0 * 72000.0 * ns),
                                 scipy_sosfilt_ns_per_sample=sosfilt_ns)
-    check_ratio("sins_chain_per_plant_step/scipy_sosfilt", ratio_sos)
-    check_ratio("sins_chain_per_plant_step/sins_chain_api", ratio_api)
+    check_ratio("engine_3axis/bare_kernels", ratio_bare)
+    check_ratio("engine_3axis_per_plant_step/scipy_sosfilt", ratio_sos)
+
+
+def test_scenario_with_navigation(benchmark, check_ratio, record, sizes):
+    """The full INS loop on top of the engine: same-run ratio against the engine without navigation."""
+    dur = 2.0 if sizes["engine_s"] < 10 else 10.0
+    res = record(lambda: engine_run(dur, navigation=True))
+    # result check: the ideal increments keep the solution on the truth (algorithm floor, m)
+    assert res.stats["ideal"].last["horizontal_m"] < 1e-3
+    reps = max(3, sizes["repeats"] // 2)
+    ratio, ns, base_ns = median_ratio(lambda: engine_run(dur, navigation=True), 1,
+                                      lambda: engine_run(dur, navigation=False), 1, reps)
+    benchmark.extra_info.update(scenario_s=ns * 1e-9, engine_s=base_ns * 1e-9,
+                                realtime_factor_scenario=dur / (ns * 1e-9))
+    check_ratio("scenario/engine_3axis", ratio)

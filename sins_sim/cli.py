@@ -1,40 +1,175 @@
-"""Command-line interface: thin argument parsing over the scenario and identification layers.
+"""Command-line interface: thin argument parsing over the jobs layer.
 
-Bad input (an unphysical parameter, an inconsistent setting) is reported as
-one line, ``sins-sim: error: <field>: <rule>``, with exit status 2.
+Every command ends in one of four ways:
+
+- success: exit status 0;
+- bad input (an unphysical parameter, a malformed file, an unusable output
+  path, a bad flag): one line ``sins-sim: error: <flag or field>: <rule>``
+  on stderr, exit status 2;
+- an internal failure (out of memory, a disk error, a bug): one line
+  ``sins-sim: error: ...`` on stderr, exit status 1; ``SINS_SIM_DEBUG=1``
+  re-raises it with the traceback;
+- Ctrl-C or SIGTERM: ``sins-sim: interrupted``, exit status 130.
+
+Never a traceback, and never a half-written result: outputs are written to a
+temporary sibling and moved into place when the job has finished
+(:mod:`sins_sim.jobs.output`). Python warnings raised by a job are printed as
+one ``warning: <message>`` line each, once (:mod:`sins_sim.jobs.messages`),
+also with ``--quiet`` (which silences only the progress bar).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
+import re
+import signal
 import sys
+import threading
+from contextlib import ExitStack, contextmanager
 
-__all__ = ["main", "build_parser"]
+from sins_sim import __version__
+from sins_sim.jobs.messages import capture_warnings, format_warning_lines
+from sins_sim.jobs.schema import ConfigError
+
+__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_INTERNAL", "EXIT_USAGE", "EXIT_INTERRUPTED"]
+
+EXIT_OK = 0
+#: an internal failure (memory, disk, a bug)
+EXIT_INTERNAL = 1
+#: bad input: a parameter, a file, an output path, a flag
+EXIT_USAGE = 2
+#: Ctrl-C or SIGTERM (128 + SIGINT)
+EXIT_INTERRUPTED = 130
+#: set to 1 to get the traceback instead of the one-line message
+DEBUG_ENV = "SINS_SIM_DEBUG"
+
+#: ``channel``: internal field names in error messages -> the flag the user types (longest first)
+CHANNEL_FLAGS = {
+    "readout.anti_alias.cutoff_hz": "--anti-alias-hz",
+    "readout.output_rate_hz": "--filter-rate",
+    "readout.input_rate_hz": "--plant-rate",
+    "readout.quantum_rad": "--quantum-arcsec",
+    "readout.noise_rad": "--noise-arcsec",
+    "drive.amplitude_rad": "--dither-arcmin",
+    "drive.dac_rate_hz": "--plant-rate",
+    "plant.rate_hz": "--plant-rate",
+    "plant.hysteresis": "--hysteresis",
+    "correcting.fs_hz": "--filter-rate",
+    "correcting.f0_hz": "--f0",
+    "suspension.f0_hz": "--f0",
+    **{f"suspension.k{i}": f"--k{i}" for i in range(1, 6)},
+    "output_rate_hz": "--filter-rate",
+    "input_rate_hz": "--plant-rate",
+    "settle_s": "--settle",
+    "duration_s": "--duration",
+    "f0_hz": "--f0",
+}
 
 
-def _progress(label: str):
-    """A one-line progress bar on stderr for runs longer than a blink."""
-    state = {"last": -1}
-
-    def update(fraction: float) -> None:
-        pct = int(100 * fraction)
-        if pct != state["last"]:
-            state["last"] = pct
-            bar = "#" * (pct // 4)
-            sys.stderr.write(f"\r{label} [{bar:<25}] {pct:3d}%")
-            if pct >= 100:
-                sys.stderr.write("\n")
-            sys.stderr.flush()
-
-    return update
+def _one_line(text) -> str:
+    return " ".join(str(text).split())
 
 
+def _name_flags(message: str, flags: dict | None) -> str:
+    """Replace internal field names in ``message`` by the flags that set them."""
+    if not flags:
+        return message
+    names = sorted(flags, key=len, reverse=True)
+    pattern = re.compile(r"(?<![\w.])(" + "|".join(re.escape(n) for n in names) + r")(?![\w])")
+    return pattern.sub(lambda m: flags[m.group(1)], message)
+
+
+# --- argument types: checked before anything runs ------------------------------------------------
+def _number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def _positive(text: str) -> float:
+    value = _number(text)
+    if not value > 0.0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return value
+
+
+def _non_negative(text: str) -> float:
+    value = _number(text)
+    if not value >= 0.0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the package's one-line error format."""
+
+    def error(self, message):
+        self.exit(EXIT_USAGE, f"sins-sim: error: {_one_line(message)} (see: {self.prog} --help)\n")
+
+
+# --- progress --------------------------------------------------------------------------------------
+class _Progress:
+    """A tqdm bar on stderr behind the jobs' ``progress(fraction)`` callback (rate and time left shown)."""
+
+    def __init__(self, label: str, disable: bool):
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=100.0, desc=label, unit="%", file=sys.stderr, disable=disable, leave=True,
+                        dynamic_ncols=True,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}, {rate_fmt}]")
+
+    def __call__(self, fraction: float) -> None:
+        done = 100.0 * min(max(float(fraction), 0.0), 1.0)
+        if done > self.bar.n:
+            self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+@contextmanager
+def _progress(label: str, quiet: bool):
+    bar = _Progress(label, disable=quiet)
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+# --- commands -------------------------------------------------------------------------------------
 def _cmd_channel(args) -> int:
     from sins_sim.models.drive import DriveParams
     from sins_sim.models.plant import PlantSettings
     from sins_sim.models.readout import AntiAliasParams, ReadoutParams
     from sins_sim.models.suspension import SuspensionParams
-    from sins_sim.jobs.channel import make_motion, run_channel_job
+    from sins_sim.jobs.channel import default_settle_s, make_motion, run_channel_job
+    from sins_sim.jobs.output import atomic_output_dir
     from sins_sim.simulation.channel import ChannelConfig
     from sins_sim.units import ARCMIN, ARCSEC
 
@@ -54,97 +189,141 @@ def _cmd_channel(args) -> int:
         filter_hysteresis=args.hysteresis,
     )
     motion = make_motion(args.motion, args.motion_hz, args.motion_arcmin)
-    metrics = run_channel_job(config, args.duration, motion, args.out, settle_s=args.settle, seed=args.seed,
-                              progress=_progress("channel") if not args.quiet else None)
+    settle = default_settle_s(args.duration) if args.settle is None else args.settle
+    if not settle < args.duration:
+        raise ConfigError(f"--settle: must be < --duration = {args.duration:g} s, got {settle:g}")
+    with atomic_output_dir(args.out, "--out") as tmp, _progress("channel", args.quiet) as progress:
+        metrics = run_channel_job(config, args.duration, motion, tmp, settle_s=settle, seed=args.seed,
+                                  progress=progress)
     rms = metrics["residual_rms_arcsec"]
     print(f"drive {metrics['drive']['frequency_hz']:.3f} Hz, {metrics['drive']['v_m']:.4g} V; "
           f"Q = {metrics['suspension']['q_at_amplitude']:.1f}")
     print("residual RMS vs true SINS angle (arcsec): " + ", ".join(f"{k} {val:.4g}" for k, val in rms.items()))
     print(f"wrote {args.out}/channel.png, metrics.json, timeseries.npz")
-    return 0
+    return EXIT_OK
 
 
 def _cmd_run(args) -> int:
     from pathlib import Path
 
-    from sins_sim.jobs.scenario import run_scenario
+    from sins_sim.jobs.output import atomic_output_dir
+    from sins_sim.jobs.run import run_scenario
 
+    overrides = {}
+    if args.seed is not None:
+        overrides["seed"] = args.seed
+    if args.duration is not None:
+        overrides["duration_s"] = args.duration
     out = Path(args.out)
-    metrics = run_scenario(args.scenario, out, progress=None if args.quiet else _progress(Path(args.scenario).stem))
-    print(f"{'filter':<18}{'|drift| deg/h':>14}{'RMS err arcsec (x,y,z)':>34}{'pos. 1 h (m)':>14}")
+    with atomic_output_dir(out, "--out", inputs=[args.scenario]) as tmp, \
+            _progress(Path(args.scenario).stem, args.quiet) as progress:
+        metrics = run_scenario(args.scenario, tmp, progress=progress, overrides=overrides)
+    print(f"navigation error against truth after {metrics['duration_s']:g} s "
+          f"(navigation from {metrics['navigation']['start_s']:g} s):")
+    print(f"{'filter':<18}{'horizontal m':>14}{'max m':>11}{'vertical m':>12}{'velocity m/s':>14}"
+          f"{'attitude RMS N,E,D arcsec':>30}  status")
     for name, m in metrics["filters"].items():
-        rms = ", ".join(f"{x:.3g}" for x in m["attitude_error_rms_arcsec"])
-        print(f"{name:<18}{m['drift_norm_deg_per_h']:>14.4g}{rms:>34}{m['position_error_1h_m']:>14.4g}")
-    for w in metrics["warnings"]:
-        print(f"warning: {w}")
+        if "horizontal_position_error_m" not in m:
+            print(f"{name:<18}{'':>81}  {m['status']}")
+            continue
+        rms = ", ".join(f"{x:.3g}" for x in m["attitude_error_arcsec"]["rms"].values())
+        print(f"{name:<18}{m['horizontal_position_error_m']['final']:>14.4g}{m['horizontal_position_error_m']['max']:>11.4g}"
+              f"{m['vertical_position_error_m']['final']:>12.3g}{m['velocity_error_m_s']['final']:>14.3g}{rms:>30}  "
+              f"{m['status']}")
+    for name, d in metrics.get("diverged", {}).items():
+        print(f"diverged: {name}, axis {d['axis']}, t = {d['time_s']:.4g} s: {d['reason']}")
+    args.job_warnings.extend(metrics.get("warnings", []))
     print(f"report: {out / 'report.md'}")
-    return 0
+    return EXIT_OK
 
 
 def _cmd_reproduce(args) -> int:
     from pathlib import Path
 
+    from sins_sim.jobs.output import atomic_output_dir
     from sins_sim.jobs.reproduce import run_reproduce
 
     out = Path(args.out)
-    run_reproduce(out, quick=args.quick, progress=None if args.quiet else _progress("reproduce"))
+    with atomic_output_dir(out, "--out") as tmp, _progress("reproduce", args.quiet) as progress:
+        run_reproduce(tmp, quick=args.quick, progress=progress)
     print(f"report: {out / 'report.md'}; numbers: {out / 'numbers.json'}")
-    return 0
+    return EXIT_OK
 
 
 def _cmd_bench(args) -> int:
     import json
 
-    from sins_sim.benchmarking import format_table, run_bench
+    from sins_sim.bench import format_table, run_bench
+    from sins_sim.jobs.output import atomic_write_text, check_out_file
 
+    target = check_out_file(args.json, "--json") if args.json is not None else None
     result = run_bench(quick=args.quick)
     print(format_table(result))
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(result, fh, indent=2)
+    if target is not None:
+        atomic_write_text(target, json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.json}")
-    return 0
+    return EXIT_OK
 
 
 def _cmd_simulate_recording(args) -> int:
+    from sins_sim.jobs.output import atomic_output_file
     from sins_sim.jobs.recording_jobs import simulate_recording
 
-    info = simulate_recording(args.spec, args.out)
-    print(f"wrote {info.get('path', args.out)}")
-    return 0
+    with atomic_output_file(args.out, "--out") as tmp:
+        info = simulate_recording(args.spec, tmp)
+    print(f"wrote {args.out}: axes {', '.join(info['axes'])}, {info['n_samples']} samples at {info['fs_hz']:g} Hz "
+          f"({info['duration_s']:g} s)")
+    return EXIT_OK
 
 
 def _cmd_import_csv(args) -> int:
+    from sins_sim.jobs.output import atomic_output_file
     from sins_sim.jobs.recording_jobs import import_csv
 
-    info = import_csv(args.csv, args.out, quantum_arcsec=args.quantum_arcsec, nominal=args.nominal,
-                      experiment=args.experiment, initial_state=args.initial_state, description=args.description,
-                      fs_hz=args.fs_hz)
-    print(f"wrote {info['path']}: axes {', '.join(info['axes'])}, {info['n_samples']} samples at "
+    with atomic_output_file(args.out, "--out") as tmp:
+        info = import_csv(args.csv, tmp, quantum_arcsec=args.quantum_arcsec, nominal=args.nominal,
+                          experiment=args.experiment, initial_state=args.initial_state,
+                          description=args.description, fs_hz=args.fs_hz)
+    print(f"wrote {args.out}: axes {', '.join(info['axes'])}, {info['n_samples']} samples at "
           f"{info['fs_hz']:g} Hz ({info['duration_s']:g} s)")
-    return 0
+    return EXIT_OK
 
 
 def _cmd_diagnose(args) -> int:
+    from sins_sim.jobs.output import atomic_output_dir, atomic_output_file
     from sins_sim.jobs.recording_jobs import diagnose, format_diagnosis
 
-    effects = args.effects.split(",") if args.effects else None
-    result = diagnose(args.recording, json_out=args.json, report_dir=args.report, effects=effects)
+    effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    if args.json is not None and args.report is not None:
+        report, js = os.path.abspath(args.report), os.path.abspath(args.json)
+        if os.path.commonpath([report, js]) == report:
+            # the report folder is replaced as a whole when the run succeeds: the JSON would go with it
+            raise ConfigError(f"--json: must not be inside --report {args.report} (the folder is replaced as a "
+                              "whole); write it beside the folder")
+    with ExitStack() as stack:
+        json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
+        report_tmp = (stack.enter_context(atomic_output_dir(args.report, "--report", inputs=[args.recording]))
+                      if args.report is not None else None)
+        result = diagnose(args.recording, json_out=json_tmp, report_dir=report_tmp, effects=effects)
     print(format_diagnosis(result))
-    return 0
+    return EXIT_OK
 
 
 def _cmd_diagnose_eval(args) -> int:
+    from sins_sim.jobs.output import atomic_output_file
     from sins_sim.jobs.recording_jobs import diagnose_eval, format_eval
 
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
-    result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=args.json, progress=progress)
+    with ExitStack() as stack:
+        json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
+        result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=json_tmp, progress=progress)
     print(format_eval(result))
-    return 0
+    return EXIT_OK
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sins-sim", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="sins-sim", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"sins-sim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("channel", help="simulate one dithered RLG channel and both dither filters",
@@ -152,47 +331,49 @@ def build_parser() -> argparse.ArgumentParser:
                                    "resonance, plant eq. 2, readout, filters at the filter rate) and write "
                                    "channel.png, metrics.json and timeseries.npz.")
     p.add_argument("--f0", type=float, default=386.0, help="small-amplitude resonance f0 (Hz) [386]")
-    p.add_argument("--dither-arcmin", type=float, default=3.0, help="dither amplitude (arcmin) [3]")
-    p.add_argument("--duration", type=float, default=2.0, help="simulated time (s) [2]")
-    p.add_argument("--settle", type=float, default=1.0,
-                   help="start-up transient excluded from the residual RMS (s) [1]")
+    p.add_argument("--dither-arcmin", type=_positive, default=3.0, help="dither amplitude (arcmin) [3]")
+    p.add_argument("--duration", type=_positive, default=2.0, help="simulated time (s) [2]")
+    p.add_argument("--settle", type=_non_negative, default=None,
+                   help="start-up transient excluded from the residual RMS (s) [min(1, duration/2)]")
     p.add_argument("--motion", choices=("none", "sine"), default="none", help="SINS motion [none]")
-    p.add_argument("--motion-hz", type=float, default=100.0, help="sine motion frequency (Hz) [100]")
-    p.add_argument("--motion-arcmin", type=float, default=1.0, help="sine motion amplitude (arcmin) [1]")
+    p.add_argument("--motion-hz", type=_positive, default=100.0, help="sine motion frequency (Hz) [100]")
+    p.add_argument("--motion-arcmin", type=_non_negative, default=1.0, help="sine motion amplitude (arcmin) [1]")
     p.add_argument("--k1", type=float, default=1.75e-4, help="eq. 9 k1 [1.75e-4]")
     p.add_argument("--k2", type=float, default=1.05e-3, help="eq. 9 k2 (rad) [1.05e-3]")
     p.add_argument("--k3", type=float, default=4.4e-3, help="eq. 10 k3 [4.4e-3]")
     p.add_argument("--k4", type=float, default=250.0, help="eq. 10 k4 (1/rad) [250]")
     p.add_argument("--k5", type=float, default=-1.2e-5, help="eq. 14 k5 (rad/V) [-1.2e-5]")
-    p.add_argument("--quantum-arcsec", type=float, default=2.42 / 16,
+    p.add_argument("--quantum-arcsec", type=_positive, default=2.42 / 16,
                    help="readout quantum (arcsec) [2.42/16, the paper's interpolation; 2.42 = one fringe]")
-    p.add_argument("--noise-arcsec", type=float, default=0.0, help="white readout noise std (arcsec) [0]")
+    p.add_argument("--noise-arcsec", type=_non_negative, default=0.0, help="white readout noise std (arcsec) [0]")
     p.add_argument("--plant-rate", type=float, default=72000.0, help="plant and readout rate (Hz) [72000]")
     p.add_argument("--filter-rate", type=float, default=7200.0, help="decimated filter rate (Hz) [7200]")
     p.add_argument("--anti-alias", choices=("fir", "off"), default="fir", help="anti-alias low-pass [fir]")
     p.add_argument("--anti-alias-hz", type=float, default=9000.0, help="anti-alias cut-off (Hz) [9000]")
     p.add_argument("--hysteresis", choices=("paper", "masing"), default="paper",
                    help="eq. 10 half-cycle rule in plant and filter [paper]")
-    p.add_argument("--seed", type=int, default=0, help="seed of the readout noise [0]")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--out", required=True, help="output directory")
-    p.set_defaults(func=_cmd_channel)
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the readout noise [0]")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
+    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
+    p.set_defaults(func=_cmd_channel, flags=CHANNEL_FLAGS)
 
     p = sub.add_parser("run", help="run a three-axis SINS scenario (YAML) end to end",
                        description="Run a scenario file: three dithered channels, their filters, attitude "
                                    "integration and navigation error; writes metrics.json, timeseries.npz, "
                                    "attitude_error.png, spectrum.png and report.md.")
     p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
-    p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
+    p.add_argument("--seed", type=_seed, default=None, help="override the scenario's seed")
+    p.add_argument("--duration", type=_positive, default=None, help="override the scenario's duration_s (s)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("reproduce", help="regenerate the paper's figures and numbers with sins-sim's own code",
                        description="Figures 1, 3-7, the Abel inversion, the sensitivity table, numbers.json and "
                                    "a report.md comparing sins-sim with the paper.")
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
     p.add_argument("--quick", action="store_true", help="every number at reduced resolution (< 90 s)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_reproduce)
 
     p = sub.add_parser("simulate-recording", help="write a sins-sim-recording/1 file from an experiment YAML",
@@ -208,12 +389,12 @@ def build_parser() -> argparse.ArgumentParser:
                                    "sins_angle_rad_<axis>... (see sins_sim/io/recording.py).")
     p.add_argument("csv", help="lab export (CSV)")
     p.add_argument("--out", required=True, help="recording .npz to write")
-    p.add_argument("--quantum-arcsec", type=float, required=True, help="readout quantum (arcsec)")
+    p.add_argument("--quantum-arcsec", type=_positive, required=True, help="readout quantum (arcsec)")
     p.add_argument("--nominal", required=True, help="JSON or YAML file: axis -> {f0_hz, k1, k2, k3, k4, k5}")
     p.add_argument("--experiment", default="stationary", help="experiment name [stationary]")
     p.add_argument("--initial-state", choices=("rest", "unknown"), default="rest", help="[rest]")
     p.add_argument("--description", default=None, help="free text for the header")
-    p.add_argument("--fs-hz", type=float, default=None, help="sample rate (default: from time_s)")
+    p.add_argument("--fs-hz", type=_positive, default=None, help="sample rate (default: from time_s)")
     p.set_defaults(func=_cmd_import_csv)
 
     p = sub.add_parser("diagnose", help="where a recording and the model disagree, and which effect explains it",
@@ -229,9 +410,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Recordings with each catalogue effect at random strengths, none cases and an "
                                    "off-catalogue disturbance, nominal parameters perturbed, labels hidden; prints "
                                    "a confusion matrix and gap-reduction statistics.")
-    p.add_argument("--n", type=int, required=True, help="number of recordings")
-    p.add_argument("--seed", type=int, default=0, help="seed of the case generator [0]")
-    p.add_argument("--duration", type=float, default=1.0, help="length of each recording (s) [1]")
+    p.add_argument("--n", type=_count, required=True, help="number of recordings")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the case generator [0]")
+    p.add_argument("--duration", type=_positive, default=1.0, help="length of each recording (s) [1]")
     p.add_argument("--json", help="write the result JSON here")
     p.add_argument("--quiet", action="store_true", help="no per-case progress lines")
     p.set_defaults(func=_cmd_diagnose_eval)
@@ -243,14 +424,78 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# --- the one way out ------------------------------------------------------------------------------
+def _on_sigterm(signum, frame):
+    raise KeyboardInterrupt
+
+
+@contextmanager
+def _sigterm_interrupts():
+    """SIGTERM raises KeyboardInterrupt while the command runs (main thread only; restored after)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _error(message: str) -> None:
+    sys.stderr.write(f"sins-sim: error: {_one_line(message)}\n")
+
+
+def _internal(exc: BaseException) -> str:
+    if isinstance(exc, MemoryError):
+        return f"out of memory{': ' + _one_line(exc) if str(exc) else ''} (try a shorter --duration)"
+    if isinstance(exc, OSError):
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        return f"{where}{exc.strerror or _one_line(exc) or type(exc).__name__}"
+    return (f"internal error ({type(exc).__name__}: {_one_line(exc)}); set {DEBUG_ENV}=1 for the traceback "
+            "and please report it")
+
+
+def _print_warnings(job_warnings, caught) -> None:
+    for line in format_warning_lines([*job_warnings, *caught]):
+        sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+
+
 def main(argv=None) -> int:
+    """Run the command line; return the exit status (argparse's ``--help``/``--version`` exit via SystemExit)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.job_warnings = []
+    debug = os.environ.get(DEBUG_ENV, "").strip() not in ("", "0")
     try:
-        return args.func(args)
-    except ValueError as exc:
-        sys.stderr.write(f"sins-sim: error: {exc}\n")
-        return 2
+        with _sigterm_interrupts():
+            with capture_warnings() as caught:
+                try:
+                    return args.func(args)
+                finally:
+                    _print_warnings(args.job_warnings, caught)
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        sys.stderr.write("sins-sim: interrupted\n")
+        return EXIT_INTERRUPTED
+    except ValueError as exc:  # ConfigError, RecordingError and every parameter rule
+        if debug:
+            raise
+        _error(_name_flags(_one_line(exc), getattr(args, "flags", None)))
+        return EXIT_USAGE
+    except BrokenPipeError:  # the reader of stdout went away (| head): nothing left to tell it
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+        return EXIT_INTERNAL
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: one line, no traceback
+        if debug:
+            raise
+        _error(_internal(exc))
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":  # pragma: no cover

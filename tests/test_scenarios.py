@@ -124,5 +124,7 @@ def test_run_is_reproducible_from_yaml_and_seed(tmp_path):
     saved = json.loads((tmp_path / "a" / "metrics.json").read_text())
     for name in ("ideal", "raw", "eliminator", "correcting", "correcting_paper"):
         m = saved["filters"][name]
-        assert len(m["drift_deg_per_h"]) == 3 and len(m["attitude_error_final_arcsec"]) == 3
-        assert np.isfinite(m["position_error_1h_m"])
+        assert m["status"] == "ok"
+        assert set(m["attitude_error_arcsec"]["final"]) == {"north", "east", "down"}
+        assert np.isfinite(m["horizontal_position_error_m"]["final"])
+        assert m["horizontal_position_error_m"]["max"] >= m["horizontal_position_error_m"]["final"]

@@ -164,6 +164,16 @@ class CorrectingFilter:
         d = self.design
         kcor.correcting_run(x, volts, self._a2, self._g, d.k1, d.k2, d.k3, d.k4, d.k5, 1.0 / d.fs_hz,
                             self._rule, self._fast_dt, self.state, self.hyst, self.stack, out)
+        self.check_output(x, out, stacklevel=3)
+        return out
+
+    def check_output(self, x, out, stacklevel: int = 2) -> None:
+        """Warn (once per run) when a chunk's output leaves the filter's domain.
+
+        The paper form's ``D = X - Y`` beyond any physical deflection (eq. 5's DC gain B), and
+        the hysteresis regime of eq. 10 inside the filter. Called by :meth:`process` and by
+        the engine's fused kernel path after each chunk.
+        """
         if self.design.form == "paper" and not self._warned_d:
             d_max = float(np.max(np.abs(x - out))) if x.size else 0.0
             if not d_max <= D_LIMIT_RAD:
@@ -174,14 +184,45 @@ class CorrectingFilter:
                     "Diss(D) leave their domain under sustained rotation (and diverge after ~0.3 rad); use "
                     "form='unity'",
                     RuntimeWarning,
-                    stacklevel=2,
+                    stacklevel=stacklevel,
                 )
         if self.design.k3 > 0.0 and self._rule == kphys.RULE_PAPER and self.hyst[5] > 0 and not self._warned:
             self._warned = True
-            warn_regime(f"correcting filter ({self.design.form} form)", int(self.hyst[5]), float(self.hyst[6]), "D", stacklevel=2)
-        return out
+            warn_regime(f"correcting filter ({self.design.form} form)", int(self.hyst[5]), float(self.hyst[6]), "D", stacklevel=stacklevel)
 
 
-def correct(x, design: CorrectingFilterDesign, volts=None, x0: float = 0.0) -> np.ndarray:
-    """Eq. 5 over a whole record (see :class:`CorrectingFilter`)."""
+def correct(x, design: CorrectingFilterDesign, volts, x0: float = 0.0, *, drive_free: bool = False) -> np.ndarray:
+    """Eq. 5 over a whole record (see :class:`CorrectingFilter`).
+
+    Parameters
+    ----------
+    x : array_like
+        RLG angles (rad) at the filter rate.
+    design : CorrectingFilterDesign
+    volts : array_like or None
+        The piezo drive (V) aligned with ``x``; eq. 5 subtracts its ``k5 V``
+        term. Required: ``None`` means "no drive term" and is accepted only
+        when ``design.k5 == 0`` or ``drive_free=True``.
+    x0 : float
+        The angle the RLG rests at before the first sample.
+    drive_free : bool
+        Filter without the drive term although ``design.k5 != 0`` (the
+        caller states that the suspension was not driven).
+
+    Raises
+    ------
+    ValueError
+        ``volts`` is None while ``design.k5 != 0`` and ``drive_free`` is not set.
+
+    Examples
+    --------
+    >>> d = CorrectingFilterDesign(k5=0.0)
+    >>> correct(np.zeros(4), d, None).shape
+    (4,)
+    """
+    if volts is None and design.k5 != 0.0 and not drive_free:
+        raise ValueError(
+            f"correcting.volts: is required when the design's k5 = {design.k5!r} != 0 (eq. 5 subtracts the "
+            "k5 V drive term); pass the drive voltage aligned with x, or volts=None with drive_free=True"
+        )
     return CorrectingFilter(design, x0).process(x, volts)

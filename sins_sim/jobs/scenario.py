@@ -1,15 +1,13 @@
-"""Scenario files (``scenarios/*.yaml``): validate, run the three-axis SINS, write results.
+"""Scenario files (``scenarios/*.yaml``): the schema and the loader.
 
-A scenario names an IMU configuration, the block's motion as a list of
-segments that add up, the filters to compare, navigation settings and a
-seed. ``run_scenario`` writes ``metrics.json``, ``timeseries.npz``,
-``attitude_error.png``, ``spectrum.png`` and ``report.md``. A run is
-reproducible from the YAML and the seed.
+A scenario names an IMU configuration, the mission (a site, and a trajectory of segments or
+a trajectory file), the block's motion on its mounts as a list of parts that add up, the
+filters to compare, navigation settings and a seed. A run is reproducible from the YAML and
+the seed; :func:`sins_sim.jobs.run.run_scenario` runs it and writes the results.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -17,10 +15,9 @@ import numpy as np
 
 from sins_sim.jobs.imu import imu_from_dict, load_yaml
 from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
-from sins_sim.simulation.sins import SINS_FILTERS, NavSettings, simulate_sins
-from sins_sim.units import ARCMIN, ARCSEC, DEG_PER_H
+from sins_sim.simulation.sins import SINS_FILTERS, NavSettings
 
-__all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "load_scenario", "run_scenario", "Scenario"]
+__all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "run_scenario", "Scenario"]
 
 _POS = dict(min=0.0, min_exclusive=True)
 
@@ -39,7 +36,10 @@ MOTION_SCHEMA = OneOf({
                                            doc="[[f_hz, rate PSD (deg/s)^2/Hz], ...]"),
                              "f_lo": Num(unit="hz", required=True, **_POS),
                              "f_hi": Num(unit="hz", required=True, **_POS),
-                             "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0)}),
+                             "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0),
+                             "method": Str(choices=("filtered_noise", "tones"), default="filtered_noise",
+                                           doc="filtered_noise: streaming, never repeats (missions); tones: a "
+                                               "sum of 1 Hz-spaced sines, periodic in 1 s (short runs)")}),
     "shock": Map({"axis": Vec(3, required=True), "peak_rate": Num(unit="deg_s", required=True),
                   "duration": Num(unit="ms", required=True, **_POS), "start": Num(unit="s", min=0.0, default=0.0),
                   "ring_frequency": Num(unit="hz", min=0.0, default=0.0),
@@ -51,18 +51,62 @@ MOTION_SCHEMA = OneOf({
                   "kind": Str(choices=("linear", "log"), default="linear")}),
 })
 
+LINEAR_SCHEMA = OneOf({
+    "sines": Map({"amplitude": Vec(3, unit="m_s2", required=True, min=0.0),
+                  "frequency": Vec(3, unit="hz", required=True, min=0.0),
+                  "phase": Vec(3, unit="deg", default=[0.0, 0.0, 0.0])}),
+    "random": Map({"psd_g2_per_hz": ListOf(Vec(2, min=0.0), required=True, min_len=2,
+                                           doc="[[f_hz, acceleration PSD g^2/Hz], ...]"),
+                   "f_lo": Num(unit="hz", required=True, **_POS),
+                   "f_hi": Num(unit="hz", required=True, **_POS),
+                   "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0)}),
+})
+
+SEGMENT_SCHEMA = OneOf({
+    "stationary": Map({"duration": Num(unit="s", required=True, **_POS)}),
+    "cruise": Map({"duration": Num(unit="s", required=True, **_POS)}),
+    "accelerate": Map({"duration": Num(unit="s", required=True, **_POS),
+                       "delta_speed": Num(unit="m_s", required=True)}),
+    "turn": Map({"duration": Num(unit="s", required=True, **_POS),
+                 "heading_change": Num(unit="deg", required=True)}),
+    "climb": Map({"duration": Num(unit="s", required=True, **_POS),
+                  "delta_height": Num(unit="m", required=True)}),
+})
+
+SITE_SCHEMA = Map({
+    "lat": Num(unit="deg", min=-89.0, max=89.0, default=45.0, doc="latitude of the start (geodetic)"),
+    "lon": Num(unit="deg", min=-180.0, max=180.0, default=0.0),
+    "height": Num(unit="m", min=-1000.0, max=100000.0, default=0.0, doc="above the WGS-84 ellipsoid"),
+    "heading": Num(unit="deg", default=0.0, doc="from north towards east"),
+}, default={})
+
+TRAJECTORY_SCHEMA = Map({
+    "speed": Num(unit="m_s", min=0.0, default=0.0, doc="speed at the start"),
+    "transition": Num(unit="s", default=4.0, **_POS, doc="length of each smooth ramp of a segment"),
+    "segments": ListOf(SEGMENT_SCHEMA, default=[], doc="flown in order after the start"),
+    "file": Str(default="", doc="CSV or Parquet trajectory file (sins_sim/io/trajectory.py), relative to the scenario"),
+}, default={})
+
 SCENARIO_SCHEMA = Map({
     "name": Str(required=True),
     "description": Str(default=""),
     "seed": Num(integer=True, min=0, default=0),
     "duration": Num(unit="s", required=True, **_POS),
     "imu": None,  # path or mapping: checked by load_scenario
-    "motion": ListOf(MOTION_SCHEMA, required=True, min_len=1),
+    "site": SITE_SCHEMA,
+    "trajectory": TRAJECTORY_SCHEMA,
+    "motion": ListOf(MOTION_SCHEMA, default=[{"type": "static"}], min_len=1),
+    "linear_vibration": ListOf(LINEAR_SCHEMA, default=[], doc="the block's translational vibration (mount axes)"),
     "filters": ListOf(Str(choices=SINS_FILTERS), default=list(SINS_FILTERS), min_len=1),
     "navigation": Map({
         "coning": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
+        "sculling": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
         "start": Num(unit="s", min=0.0, default=1.0),
-        "timeseries_rate": Num(unit="hz", **_POS, default=720.0),
+        "n_sub": Num(integer=True, min=1, default=1, doc="filter samples per navigation update"),
+        "vertical": Str(choices=("height_aid", "free"), default="height_aid"),
+        "height_aid_tau": Num(unit="s", **_POS, default=100.0),
+        "accel_delay": Str(choices=("matched", "none"), default="matched"),
+        "timeseries_rate": Num(unit="hz", **_POS, default=10.0),
         "spectrum": Num(unit="s", min=0.0, default=2.0),
     }, default={}),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
@@ -109,13 +153,20 @@ class Scenario:
         self.filters = tuple(dict.fromkeys(c["filters"]))
         nv = c["navigation"]
         try:
-            self.nav = NavSettings(coning=nv["coning"], start_s=nv["start_s"],
+            self.nav = NavSettings(coning=nv["coning"], sculling=nv["sculling"], start_s=nv["start_s"],
+                                   n_sub=nv["n_sub"], vertical=nv["vertical"],
+                                   height_aid_tau_s=nv["height_aid_tau_s"], accel_delay=nv["accel_delay"],
                                    timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"])
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {exc}") from None
         if self.nav.start_s >= self.duration_s:
             raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {self.duration_s:g}, "
                               f"got {self.nav.start_s:g}")
+        self.site = c["site"]
+        self.trajectory_spec = c["trajectory"]
+        self.vehicle = _build_vehicle(c["site"], c["trajectory"], self.duration_s, ctx, base_dir)
+        self.events = _events(c["motion"], self.vehicle)
+        self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.outputs = c["outputs"]
 
 
@@ -142,8 +193,9 @@ def _build_motion(segments, seed, ctx):
                                  phase_rad=seg["phase_rad"])
             elif kind == "random_vibration":
                 table = [(f, p * (math.pi / 180.0) ** 2) for f, p in seg["psd_deg2_s2_per_hz"]]  # (deg/s)^2/Hz -> (rad/s)^2/Hz
-                part = m3.RandomVibration(psd_table=tuple(table), f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
-                                          axis_weights=tuple(seg["axes"]), seed=seed + 1000 * (i + 1))
+                cls = m3.FilteredNoiseVibration if seg["method"] == "filtered_noise" else m3.RandomVibration
+                part = cls(psd_table=tuple(table), f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
+                           axis_weights=tuple(seg["axes"]), seed=seed + 1000 * (i + 1))
             elif kind == "shock":
                 part = m3.Shock(axis=np.array(seg["axis"]), peak_rate_rad_s=seg["peak_rate_rad_s"],
                                 duration_s=seg["duration_s"], start_s=seg["start_s"],
@@ -162,97 +214,106 @@ def _build_motion(segments, seed, ctx):
     return motion
 
 
-def load_scenario(path) -> Scenario:
-    """Read and validate a scenario file (errors name the file, the key path and the rule)."""
-    path = Path(path)
-    return Scenario(load_yaml(path), str(path), path.parent)
+def _build_translation(segments, seed, ctx):
+    """The block's translational vibration (None when there is none)."""
+    from sins_sim.models import motion as m3
+
+    parts = []
+    for i, seg in enumerate(segments):
+        try:
+            if seg["type"] == "sines":
+                parts.append(m3.LinearSines(tuple(seg["amplitude_m_s2"]), tuple(seg["frequency_hz"]),
+                                            tuple(seg["phase_rad"])))
+            else:
+                parts.append(m3.LinearRandomVibration(psd_table=tuple(tuple(r) for r in seg["psd_g2_per_hz"]),
+                                                      f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
+                                                      axis_weights=tuple(seg["axes"]), seed=seed + 5000 + 1000 * i))
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: linear_vibration[{i}]: {exc}") from None
+    if not parts:
+        return None
+    total = parts[0]
+    for part in parts[1:]:
+        total = total + part
+    return total
 
 
-def _metrics(res, scenario) -> dict:
-    from sins_sim.navigation.error import equivalent_position_error_1h, position_error_from_attitude_error
+def _build_vehicle(site, spec, duration_s, ctx, base_dir):
+    """The vehicle: a trajectory file, segments after the start, or at rest at the site."""
+    from sins_sim.models.motion import trajectory as tj
 
-    out = {}
-    for name, st in res.full_stats.items():
-        drift = np.asarray(st["drift_rad_s"])
-        # the run's own navigation consequence: its attitude-error history through the INS error equations
-        # (Schuler loop, local-level frame, navigation frame taken as NED)
-        nav_err = position_error_from_attitude_error(res.t - res.t[0], res.attitude_error[name])
-        out[name] = {
-            "drift_deg_per_h": [float(x) / DEG_PER_H for x in drift],
-            "drift_norm_deg_per_h": float(np.linalg.norm(drift)) / DEG_PER_H,
-            "attitude_error_rms_arcsec": [float(x) / ARCSEC for x in st["rms_rad"]],
-            "attitude_error_final_arcsec": [float(x) / ARCSEC for x in st["final_rad"]],
-            # a horizontal (roll/pitch) drift tilts the platform and feeds the Schuler loop; a yaw drift
-            # does not to first order for a vehicle at rest (navigation/error.py)
-            "position_error_1h_m": abs(float(equivalent_position_error_1h(float(np.hypot(drift[0], drift[1]))))),
-            "velocity_error_final_m_s": float(np.hypot(*nav_err.velocity_m_s[-1])),
-            "position_error_final_m": float(nav_err.horizontal_m[-1]),
-        }
+    try:
+        if spec["file"]:
+            from sins_sim.io.trajectory import read_trajectory
+
+            path = (base_dir / spec["file"]).resolve()
+            data = read_trajectory(path)
+            vehicle = tj.SampledTrajectory.from_data(data)
+            where = f"trajectory.file ({spec['file']})"
+        else:
+            segs = []
+            for seg in spec["segments"]:
+                kind = seg["type"]
+                if kind == "stationary":
+                    segs.append(tj.Stationary(seg["duration_s"]))
+                elif kind == "cruise":
+                    segs.append(tj.Cruise(seg["duration_s"]))
+                elif kind == "accelerate":
+                    segs.append(tj.Accelerate(seg["duration_s"], seg["delta_speed_m_s"]))
+                elif kind == "turn":
+                    segs.append(tj.CoordinatedTurn(seg["duration_s"], seg["heading_change_rad"]))
+                else:
+                    segs.append(tj.Climb(seg["duration_s"], seg["delta_height_m"]))
+            flown = sum(sg.duration_s for sg in segs)
+            tail = duration_s + 1.0 - flown  # after the last segment the vehicle holds its state
+            if tail > 0:
+                segs.append(tj.Stationary(tail) if _ends_at_rest(spec, segs) else tj.Cruise(tail))
+            vehicle = tj.Trajectory(site["lat_rad"], site["lon_rad"], site["height_m"], spec["speed_m_s"],
+                                    site["heading_rad"], tuple(segs), transition_s=spec["transition_s"])
+            where = "trajectory"
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: trajectory: {exc}") from None
+    if vehicle.duration_s < duration_s + 0.1:
+        raise ConfigError(f"{ctx}: duration_s: must be <= the {where}'s length {vehicle.duration_s:g} s minus "
+                          f"0.1 s, got {duration_s:g}")
+    return vehicle
+
+
+def _ends_at_rest(spec, segs) -> bool:
+    speed = spec["speed_m_s"]
+    for sg in segs:
+        speed += getattr(sg, "delta_speed_m_s", 0.0)
+    return abs(speed) < 1e-9
+
+
+def _events(motion_spec, vehicle):
+    """Shocks and block turns of the motion list, for the step and scale-factor metrics."""
+    out = []
+    for seg in motion_spec:
+        if seg["type"] == "shock":
+            out.append({"kind": "shock", "start_s": seg["start_s"], "end_s": seg["start_s"] + seg["duration_s"]})
+        elif seg["type"] == "turn":
+            ax = np.asarray(seg["axis"], dtype=float)
+            out.append({"kind": "turn", "start_s": seg["start_s"], "end_s": seg["start_s"] + seg["duration_s"],
+                        "angle_rad": seg["angle_rad"], "axis_body": (ax / np.linalg.norm(ax)).tolist()})
     return out
 
 
-def run_scenario(path, out_dir, progress=None) -> dict:
-    """Run a scenario file end to end; return the metrics dictionary."""
-    scenario = load_scenario(path)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
-                        filters=scenario.filters, progress=progress)
-    metrics = {
-        "scenario": scenario.name,
-        "description": scenario.description,
-        "seed": scenario.seed,
-        "duration_s": scenario.duration_s,
-        "navigation": {"coning": scenario.nav.coning, "start_s": scenario.nav.start_s},
-        "imu": scenario.imu.name,
-        "filters": _metrics(res, scenario),
-        "alignment_samples": {k: v for k, v in res.delays.items() if k != "residual_eliminator"},
-        "drives": [{**d, "amplitude_measured_arcmin": d["amplitude_measured_rad"] / ARCMIN,
-                    "amplitude_target_arcmin": d["amplitude_target_rad"] / ARCMIN} for d in res.drives],
-        "warnings": res.warnings,
-    }
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    if scenario.outputs["timeseries"]:
-        np.savez_compressed(out / "timeseries.npz", t=res.t,
-                            **{f"attitude_error_{k}": v for k, v in res.attitude_error.items()},
-                            **{f"spectrum_{k}": v for k, v in res.spectra.items()})
-    figures = []
-    if scenario.outputs["plots"]:
-        from sins_sim.plots.common import plot_attitude_error, plot_output_spectra
+def load_scenario(path, overrides: dict | None = None) -> Scenario:
+    """Read and validate a scenario file (errors name the file, the key path and the rule).
 
-        plot_attitude_error(res, out / "attitude_error.png",
-                            title=f"{scenario.name}: attitude error per dither filter ({scenario.nav.coning} coning "
-                                  f"correction)")
-        plot_output_spectra(res, out / "spectrum.png", title=f"{scenario.name}: filter outputs vs the true angle")
-        figures = ["attitude_error.png", "spectrum.png"]
-    (out / "report.md").write_text(_report(scenario, metrics, figures))
-    return metrics
+    ``overrides`` replaces top-level keys before validation (``{"seed": 3, "duration_s": 60}``,
+    from the command line), so an override is checked like the file's own value.
+    """
+    path = Path(path)
+    doc = load_yaml(path)
+    if overrides:
+        doc = dict(doc)
+        for key, value in overrides.items():
+            if key not in ("seed", "duration_s"):
+                raise ConfigError(f"{path}: {key}: cannot be overridden (allowed: seed, duration_s)")
+            doc[key] = value
+    return Scenario(doc, str(path), path.parent)
 
 
-def _report(scenario, metrics, figures) -> str:
-    lines = [f"# {scenario.name}", "", scenario.description or "", "",
-             f"- duration {scenario.duration_s:g} s, seed {scenario.seed}, IMU `{scenario.imu.name}` "
-             f"({scenario.imu_source}), navigation from t = {scenario.nav.start_s:g} s with "
-             f"`{scenario.nav.coning}` coning correction",
-             "", "| filter | drift x, y, z (deg/h) | drift norm (deg/h) | attitude error RMS (arcsec) | "
-                 "final error (arcsec) | position error 1 h (m) | velocity / position error at the end (m/s, m) |",
-             "|---|---|---|---|---|---|---|"]
-    for name, m in metrics["filters"].items():
-        f3 = lambda xs: ", ".join(f"{x:.3g}" for x in xs)  # noqa: E731
-        lines.append(f"| {name} | {f3(m['drift_deg_per_h'])} | {m['drift_norm_deg_per_h']:.3g} | "
-                     f"{f3(m['attitude_error_rms_arcsec'])} | {f3(m['attitude_error_final_arcsec'])} | "
-                     f"{m['position_error_1h_m']:.3g} | {m['velocity_error_final_m_s']:.3g} / "
-                     f"{m['position_error_final_m']:.3g} |")
-    lines += ["", "Drift: least-squares slope of the attitude error over the navigation interval. Position error "
-              "1 h: the Schuler-loop response to the horizontal (roll, pitch) drift held for an hour. Velocity / "
-              "position at the end: this run's attitude-error history through the INS error equations "
-              "(local-level frame, Earth rate neglected).", "",
-              "Drives (closed-loop amplitude at the amplitude-dependent resonance):", "",
-              "| axis | f0 (Hz) | drive (Hz) | V_m start -> end (V) | amplitude (arcmin) |", "|---|---|---|---|---|"]
-    for d in metrics["drives"]:
-        lines.append(f"| {d['axis']} | {d['f0_hz']:g} | {d['frequency_hz']:.3f} | {d['v_m_initial']:.4g} -> "
-                     f"{d['v_m_final']:.4g} | {d['amplitude_measured_arcmin']:.4g} |")
-    if metrics["warnings"]:
-        lines += ["", "Warnings:", ""] + [f"- {w}" for w in metrics["warnings"]]
-    lines += [""] + [f"![{f}]({f})" for f in figures] + [""]
-    return "\n".join(lines)
+from sins_sim.jobs.run import run_scenario  # noqa: E402  (the run job re-exported where it always was)

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
+from sins_sim._kernels import chain as kchain
 from sins_sim._kernels import drive as kdrive
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
@@ -193,31 +194,50 @@ class DriveControl:
 
 
 class ChannelChain:
-    """One channel's plant, readout, drive control and filters, streamed.
+    """One channel's plant, readout, drive control and filters, streamed: the engine's inner loop.
 
     Used by the single-channel engine (open loop) and by each axis of the SINS engine.
-    ``run`` returns the filter-rate outputs and, under ``volts``, the drive through the
-    readout's anti-alias chain.
+    ``run`` advances a chunk of plant steps and returns the filter-rate outputs and, under
+    ``volts``, the drive through the readout's anti-alias chain.
+
+    Two paths give the same bits:
+
+    * ``fused`` (the default with the exact plant integrator): one call of
+      :func:`sins_sim._kernels.chain.axis_chunk` per chunk (``nogil``, so the SINS
+      engine runs its three axes on threads);
+    * ``reference``: the straightforward composition of the public classes
+      (:class:`~sins_sim.models.plant.Plant`, :class:`~sins_sim.models.readout.Readout`,
+      :class:`~sins_sim.models.readout.Decimator`, the filters), block by block in
+      Python; used for the RK4 integrator and by the tests as the reference.
+
+    Parameters
+    ----------
+    cfg : ChannelConfig
+    control : DriveControl
+    rng : numpy.random.Generator
+        Source of the readout noise (one standard normal per plant step, in order).
+    rng_modulation : numpy.random.Generator, optional
+        Source of the amplitude-modulation draws (one uniform per control block);
+        a separate stream so that results do not depend on chunking.
+    path : {"auto", "fused", "reference"}
     """
 
-    def __init__(self, cfg: ChannelConfig, control: DriveControl, rng: np.random.Generator):
+    def __init__(self, cfg: ChannelConfig, control: DriveControl, rng: np.random.Generator,
+                 rng_modulation: np.random.Generator | None = None, path: str = "auto"):
+        v.choice("channel", "path", path, ("auto", "fused", "reference"))
         self.cfg = cfg
         self.control = control
         self.rng = rng
+        self.rng_mod = rng_modulation if rng_modulation is not None else np.random.default_rng(0)
         self.plant = Plant(cfg.suspension, cfg.plant)
         self.readout = Readout(cfg.readout, rng)
         self.vdec = Decimator.from_readout(cfg.readout)
         self.drive = cfg.drive_signal()
         self.v_m0 = self.drive.v_m
-        self.v_m = self.v_m0
-        self.target = cfg.drive.amplitude_rad
-        self.amp_meas = 0.0
         self.r_dac = int(round(cfg.plant.rate_hz / cfg.drive.dac_rate_hz))
+        self.r_dec = cfg.readout.decimation
         self.block = max(1, int(round(control.block_cycles * cfg.plant.rate_hz / self.drive.frequency_hz)))
-        self.block_left = self.block
         self.block_s_time = self.block / cfg.plant.rate_hz
-        self.acc = np.zeros(3)
-        self.integral = 0.0
         # eq. 15: amplitude time constant 2 Q / omega at the target amplitude
         self.tau = 2.0 * cfg.suspension.q_factor(cfg.drive.amplitude_rad) / (2.0 * math.pi * self.drive.frequency_hz)
         self.filters = {
@@ -225,68 +245,194 @@ class ChannelChain:
             "correcting": CorrectingFilter(cfg.correcting_design("unity")),
             "correcting_paper": CorrectingFilter(cfg.correcting_design("paper")),
         }
-        self.carry = 0.0
+        if path == "auto":
+            path = "fused" if cfg.plant.integrator == "exact" else "reference"
+        if path == "fused" and cfg.plant.integrator != "exact":
+            raise ValueError("channel.path: the fused kernel runs the exact plant integrator only")
+        self.path = path
+        self._pack()
+        self.dstate = np.zeros(kchain.N_DSTATE)
+        self.reset(0.0, 0.0)
+
+    # -- parameters of the fused kernel -------------------------------------------------------
+    def _pack(self):
+        cfg, c, s = self.cfg, self.control, self.cfg.suspension
+        fp = np.zeros(kchain.N_FPAR)
+        fp[kchain.P_H] = self.plant.h
+        fp[kchain.P_W0SQ] = s.omega0 ** 2
+        fp[kchain.P_K1:kchain.P_K5 + 1] = (s.k1, s.k2, s.k3, s.k4, s.k5)
+        fp[kchain.P_Z] = 2.0 * s.zeta / s.omega0
+        fp[kchain.P_FAST] = 0.25 / s.f0_hz
+        fp[kchain.P_CYC_DAC] = self.drive.frequency_hz / cfg.drive.dac_rate_hz
+        fp[kchain.P_PHASE] = self.drive.phase_rad
+        fp[kchain.P_CYC_STEP] = self.drive.frequency_hz / cfg.plant.rate_hz
+        fp[kchain.P_Q] = cfg.readout.quantum_rad
+        fp[kchain.P_SIGMA] = cfg.readout.noise_rad
+        fp[kchain.P_AM] = cfg.drive.amplitude_rad
+        fp[kchain.P_VM0] = self.v_m0
+        fp[kchain.P_TAU] = self.tau
+        fp[kchain.P_KP] = self.tau / c.loop_time_s
+        fp[kchain.P_BLOCK_S] = self.block_s_time
+        fp[kchain.P_VMAX] = c.v_max_factor
+        fp[kchain.P_DEPTH] = c.modulation_depth
+        fp[kchain.P_CLOSED] = 1.0 if c.mode == "closed_loop" else 0.0
+        self.fpar = fp
+        self.ipar = np.array([self.r_dac, self.block, self.plant._rule, self.r_dec], dtype=np.int64)
+        cp = np.zeros((2, kchain.N_CPAR))
+        for f, name in enumerate(("correcting", "correcting_paper")):
+            flt = self.filters[name]
+            d = flt.design
+            cp[f, kchain.C_A2], cp[f, kchain.C_G] = flt._a2, flt._g
+            cp[f, kchain.C_K1:kchain.C_K1 + 5] = (d.k1, d.k2, d.k3, d.k4, d.k5)
+            cp[f, kchain.C_DT] = 1.0 / d.fs_hz
+            cp[f, kchain.C_FAST] = flt._fast_dt
+            cp[f, kchain.C_RULE] = flt._rule
+        self.cpar = cp
+        self.taps = np.array(self.vdec._taps)
 
     def reset(self, angle0: float, rate0: float):
+        """Back to rest at t = 0 with the block at ``angle0`` (rad) moving at ``rate0`` (rad/s)."""
         self.plant.reset(angle0, rate0)
-        self.carry = angle0
+        self.readout.reset()
+        self.vdec.reset()
+        for name in ("correcting", "correcting_paper"):
+            self.filters[name].reset(0.0)
+        self.filters["eliminator"].reset()
+        d = self.dstate
+        d[:] = 0.0
+        d[kchain.D_VM] = self.v_m0
+        d[kchain.D_TARGET] = self.cfg.drive.amplitude_rad
+        d[kchain.D_LEFT] = self.block
+        d[kchain.D_CARRY] = angle0
+        self._blocks_done = 0
+        self._chunk_n = -1
 
-    def _volts(self, i0: int, n: int) -> np.ndarray:
-        out = np.empty(n)
-        kdrive.dac_cosine(i0, self.r_dac, self.drive.frequency_hz / self.cfg.drive.dac_rate_hz,
-                          self.drive.phase_rad, self.v_m, out)
-        return out
+    # -- drive state, readable on both paths --------------------------------------------------
+    @property
+    def v_m(self) -> float:
+        """Current drive amplitude (V)."""
+        return float(self.dstate[kchain.D_VM])
 
-    def _end_block(self):
-        c = self.control
-        # dither amplitude by synchronous demodulation at the drive frequency (a real AGC's detector):
-        # vibration riding on the deflection does not bias it as a peak detector would
-        acc_c, acc_s, wsum = self.acc
-        self.amp_meas = 2.0 * math.hypot(acc_c, acc_s) / wsum if wsum > 0 else 0.0
-        if c.modulation_depth > 0.0:
-            self.target = self.cfg.drive.amplitude_rad * (1.0 + c.modulation_depth * self.rng.uniform(-1.0, 1.0))
-        if c.mode == "closed_loop":
-            a_m = self.cfg.drive.amplitude_rad
-            err = (self.target - self.amp_meas) / a_m
-            kp = self.tau / c.loop_time_s
-            integral = self.integral + err * self.block_s_time
-            u = self.target / a_m + kp * (err + integral / self.tau)
-            if 0.0 <= u <= c.v_max_factor:  # anti-windup: integrate only while the drive is not saturated
-                self.integral = integral
-            self.v_m = min(max(u, 0.0), c.v_max_factor) * self.v_m0
-        elif c.modulation_depth > 0.0:
-            self.v_m = self.v_m0 * self.target / self.cfg.drive.amplitude_rad
-        self.acc[:] = 0.0
-        self.block_left = self.block
+    @property
+    def amp_meas(self) -> float:
+        """Dither amplitude measured at the last block's end (rad)."""
+        return float(self.dstate[kchain.D_AMP])
 
-    def _demodulate(self, i0: int, delta: np.ndarray):
-        """Accumulate the Hann-windowed synchronous detector over the current block.
+    def _uniforms(self, i0: int, n: int) -> np.ndarray:
+        """One draw per control block ending in steps ``i0 + 1 .. i0 + n`` (blocks end at multiples of ``block``)."""
+        nb = (i0 + n) // self.block - i0 // self.block
+        if self.control.modulation_depth > 0.0:
+            return self.rng_mod.uniform(-1.0, 1.0, size=nb)
+        return np.zeros(nb)
 
-        The window keeps block-asynchronous vibration (e.g. 600 Hz coning beside a 384 Hz
-        dither) from leaking into the amplitude estimate.
-        """
-        kdrive.demod_accumulate(delta, i0, self.drive.frequency_hz / self.cfg.plant.rate_hz,
-                                self.block - self.block_left, self.block, self.acc)
+    def _buffers(self, n: int):
+        if self._chunk_n != n:
+            m = n // self.r_dec
+            self._work = tuple(np.empty(n) for _ in range(3))
+            self._chunk_n = n
+            self._m = m
+        return self._work
 
     def run(self, i0: int, angle: np.ndarray, rate: np.ndarray):
-        """Advance len(angle) plant steps starting at step i0; return filter-rate outputs."""
+        """Advance ``len(angle)`` plant steps starting at step ``i0``; return filter-rate outputs.
+
+        ``angle`` and ``rate`` are the block's angle about the sensitive axis (rad) and its rate
+        (rad/s) at the ends of the steps; ``len(angle)`` must be a multiple of the decimation.
+        Returns a dict of ``raw``, ``eliminator``, ``correcting``, ``correcting_paper`` and
+        ``volts`` (filter rate), and the plant-rate deflection under ``delta``.
+        """
         n = angle.shape[0]
+        if n % self.r_dec:
+            raise ValueError(f"channel.chunk: must be a multiple of the decimation {self.r_dec}, got {n}")
+        uniforms = self._uniforms(i0, n)
+        if self.path == "reference":
+            return self._run_reference(i0, angle, rate, uniforms)
+        out = self.run_kernel(i0, angle, rate, uniforms)
+        self.check_chunk(out)
+        return out
+
+    def run_kernel(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray | None = None):
+        """The fused kernel over one chunk, without the Python-side warning checks.
+
+        Thread-safe across chains (each chain owns its state and random streams; the kernel
+        releases the GIL). Call :meth:`check_chunk` on the result afterwards, in the thread
+        that collects warnings.
+        """
+        n = angle.shape[0]
+        if uniforms is None:
+            uniforms = self._uniforms(i0, n)
+        sigma = self.cfg.readout.noise_rad
+        noise = self.rng.standard_normal(n) if sigma > 0.0 else np.zeros(0)
+        delta, volts, feed = self._buffers(n)
+        m = n // self.r_dec
+        out = {k: np.empty(m) for k in ("raw", "volts", "correcting", "correcting_paper", "eliminator")}
+        p, el = self.plant, self.filters["eliminator"]
+        kchain.axis_chunk(i0, np.ascontiguousarray(angle), np.ascontiguousarray(rate), noise, uniforms,
+                          self.fpar, self.ipar, self.dstate, p.state, p.hyst, p.stack,
+                          self.taps, self.readout.decimator._hist, self.vdec._hist, self.cpar,
+                          self._fstate(), self._fhyst(), self._fstack(), el._sos, el._zi,
+                          delta, volts, feed, out["raw"], out["volts"], out["correcting"],
+                          out["correcting_paper"], out["eliminator"])
+        self._sync_filters()
+        out["delta"] = delta
+        return out
+
+    def check_chunk(self, out) -> None:
+        """Raise the plant's and the correcting filters' once-per-run warnings for a fused chunk."""
+        self.plant._check_regime()
+        self.filters["correcting"].check_output(out["raw"], out["correcting"])
+        self.filters["correcting_paper"].check_output(out["raw"], out["correcting_paper"])
+
+    # the correcting filters' state lives in the filter objects (so warnings and resets work on
+    # both paths); the fused kernel reads and writes stacked copies
+    def _fstate(self):
+        self._fs = np.stack([self.filters["correcting"].state, self.filters["correcting_paper"].state])
+        return self._fs
+
+    def _fhyst(self):
+        self._fh = np.stack([self.filters["correcting"].hyst, self.filters["correcting_paper"].hyst])
+        return self._fh
+
+    def _fstack(self):
+        self._fk = np.stack([self.filters["correcting"].stack, self.filters["correcting_paper"].stack])
+        return self._fk
+
+    def _sync_filters(self):
+        for f, name in enumerate(("correcting", "correcting_paper")):
+            flt = self.filters[name]
+            flt.state[:] = self._fs[f]
+            flt.hyst[:] = self._fh[f]
+            flt.stack[:] = self._fk[f]
+
+    def _run_reference(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray):
+        """The chain composed of the public classes, block by block (same arithmetic as the kernel)."""
+        n = angle.shape[0]
+        d = self.dstate
         delta = np.empty(n)
         volts = np.empty(n)
+        used = 0
         j = 0
         while j < n:
-            m = min(self.block_left, n - j)
-            vv = self._volts(i0 + j, m)
+            left = int(d[kchain.D_LEFT])
+            m = min(left, n - j)
+            vv = np.empty(m)
+            kdrive.dac_cosine(i0 + j, self.r_dac, self.drive.frequency_hz / self.cfg.drive.dac_rate_hz,
+                              self.drive.phase_rad, float(d[kchain.D_VM]), vv)
             delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv, check=False)
             volts[j:j + m] = vv
-            self._demodulate(i0 + j, delta[j:j + m])
-            self.block_left -= m
+            acc = d[kchain.D_ACC:kchain.D_ACC + 3]
+            kdrive.demod_accumulate(delta[j:j + m], i0 + j, self.drive.frequency_hz / self.cfg.plant.rate_hz,
+                                    self.block - left, self.block, acc)
+            left -= m
             j += m
-            if self.block_left == 0:
-                self._end_block()
+            if left == 0:
+                kchain.end_block(self.fpar, d, uniforms[used])
+                used += 1
+                left = self.block
+            d[kchain.D_LEFT] = left
         phi = angle + delta
-        feed = np.concatenate(([self.carry], phi[:-1]))
-        self.carry = float(phi[-1])
+        feed = np.concatenate(([d[kchain.D_CARRY]], phi[:-1]))
+        d[kchain.D_CARRY] = float(phi[-1])
         _, x = self.readout.process(feed)
         vx = self.vdec.process(volts)
         out = {"raw": x}
@@ -294,6 +440,7 @@ class ChannelChain:
         out["correcting"] = self.filters["correcting"].process(x, vx)
         out["correcting_paper"] = self.filters["correcting_paper"].process(x, vx)
         out["volts"] = vx
+        out["delta"] = delta
         return out
 
 

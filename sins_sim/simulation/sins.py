@@ -1,41 +1,34 @@
-"""Three-axis SINS in the loop: three dithered channels, their filters, attitude and navigation error.
+"""The engine: three dithered gyro channels, their filters, accelerometers and the strapdown loop.
 
-Each body axis x, y, z carries one single-axis RLG on its own suspension
-(reference-model.md, "Three axes"): its own resonance, drive, readout,
-correcting filters (unity-DC and paper form) and eliminator centred on its
-own dither. The block's motion (``sins_sim.models.motion``) gives each gyro
-its SINS angle (the time integral of the body rate along its axis) and the
-true attitude. For every filter the three outputs are differenced into angle
-increments and integrated into an attitude (``sins_sim.navigation``), which
-is compared with the truth after aligning each filter's delay.
+One run is a pure function of (configuration, mission, duration, seed) and streams in chunks
+(memory does not grow with the duration). Per chunk:
 
-Filters compared:
-- ``ideal``: the true angle increments through the same navigation
-  algorithm (the algorithm's own error floor);
-- ``raw``: the decimated readout, dither included;
-- ``eliminator``, ``correcting``, ``correcting_paper``.
+1. the mission truth (:class:`~sins_sim.simulation.truth.MissionTruth`: vehicle on the Earth,
+   block motion on its mounts) gives each gyro's angle and rate at the plant rate, and the
+   navigation truth, ideal gyro increments and accelerometer increments at the filter rate;
+2. each axis (reference-model.md, "Three axes": its own suspension, drive, readout, eq. 5 in
+   both forms and eliminator) runs in one fused kernel call
+   (:class:`~sins_sim.simulation.channel.ChannelChain`), the three axes on threads;
+3. every filter's output is differenced into angle increments and navigated by its own
+   :class:`~sins_sim.navigation.strapdown.StrapdownNavigator`, all fed by the same
+   accelerometers, and compared with the truth (:mod:`~sins_sim.simulation.metrics`).
 
-Alignment: outputs are shifted by a whole number of filter samples
-(``delay_samples``): the anti-alias FIR's delay plus one sample for eq. 5
-(exact), plus the eliminator's DC group delay rounded to the nearest sample
-(mean over the three axes; the rounding residual is reported).
+Filters compared (reference-model.md, "Navigation"): ``ideal`` (the true increments through
+the same navigation: the algorithm's floor), ``raw`` (the decimated readout, dither
+included), ``eliminator``, ``correcting`` (eq. 5, unity DC), ``correcting_paper`` (eq. 5 as
+printed).
 
-Drive: open loop at the amplitude-dependent resonance with V_m from eq. 17,
-or closed loop, as a unit's amplitude-stabilisation loop does (the paper: "k5
-was determined by a system of amplitude stabilization"). The loop measures
-the dither amplitude every ``block_cycles`` dither periods by synchronous
-demodulation of the deflection at the drive frequency, and sets
-``V_m = V_ff + (V_m0 / a_m) kp (e + (1/tau) int e dt)`` with ``e`` the
-amplitude error. The amplitude obeys eq. 15, ``da/dt = -(a - a_m V/V_m0)/tau``
-with ``tau = 2 Q / omega``; the PI zero cancels that pole, so the closed loop
-is first order with time constant ``loop_time_s = tau / kp``.
-Optional random amplitude modulation draws a new target
-``a_m (1 + depth u)``, ``u`` uniform in [-1, 1], every block (seeded), as real
-units do against dynamic lock-in.
+Time alignment. Filter output ``k`` describes the gyro angle at ``t_k - d`` with ``d`` a whole
+number of filter samples: the anti-alias FIR's delay, plus one sample for eq. 5, or plus the
+eliminator's DC group delay (rounded; the rounding residual is reported). Each filter's
+navigation runs on the truth timeline ``j = k - d`` and starts aligned to the truth at
+``start_s``. ``accel_delay="matched"`` delays the accelerometers by the same ``d`` (what a
+real unit does); ``"none"`` feeds them undelayed, so that the navigation mixes gyro data
+``d`` samples old with current accelerometer data (the cost shows under vibration as a
+sculling-like error).
 
-A run is a pure function of (configuration, motion, duration, seed) and
-streams in chunks: memory does not grow with the duration except for the
-stored time series (decimated to ``timeseries_rate_hz``).
+Divergence. A filter whose output or navigation solution stops being finite is reported as
+diverged (filter, axis, time, reason) and dropped; the run goes on for the others.
 """
 
 from __future__ import annotations
@@ -46,23 +39,42 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim.models.motion import AttitudeStream
-from sins_sim.navigation.attitude import AttitudeIntegrator, attitude_error
+from sins_sim.models.accelerometer import Accelerometer, AccelerometerParams
+from sins_sim._kernels import truth as ktruth
+from sins_sim.navigation.strapdown import StrapdownNavigator
 from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl
+from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
+from sins_sim.simulation.truth import MissionTruth
 
-__all__ = ["DriveControl", "ImuConfig", "NavSettings", "SinsResult", "simulate_sins", "SINS_FILTERS"]
+__all__ = ["DriveControl", "ImuConfig", "NavSettings", "SinsResult", "simulate_sins", "SINS_FILTERS",
+           "default_threads"]
 
 #: Every filter a SINS run can compare.
 SINS_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
 AXES = ("x", "y", "z")
+#: An attitude error beyond this (rad) means the navigation of a filter has diverged.
+DIVERGED_ATTITUDE_RAD = 0.5
 
 
 @dataclass(frozen=True)
 class ImuConfig:
-    """Three channels on orthogonal axes x, y, z plus their drive control."""
+    """The unit: three gyro channels on orthogonal axes x, y, z, their drive control, the accelerometers.
+
+    Parameters
+    ----------
+    channels : tuple of three ChannelConfig
+        Axes x, y, z; resonances must differ, plant and filter rates must agree.
+    drive_control : DriveControl
+        Amplitude control of the three drives (closed loop by default).
+    accelerometer : AccelerometerParams
+        The accelerometer triad.
+    name : str
+        A label for reports.
+    """
 
     channels: tuple
     drive_control: DriveControl = field(default_factory=DriveControl)
+    accelerometer: AccelerometerParams = field(default_factory=AccelerometerParams)
     name: str = "imu"
 
     def __post_init__(self):
@@ -89,230 +101,448 @@ class ImuConfig:
 
 @dataclass(frozen=True)
 class NavSettings:
-    """Navigation settings.
+    """Navigation settings of a run.
 
     Parameters
     ----------
-    coning : str
-        Coning correction of the attitude update (``sins_sim.navigation.attitude``).
+    coning, sculling : {"none", "two_sample", "three_sample"}
+        Coning and sculling compensation (:class:`~sins_sim.navigation.strapdown.StrapdownNavigator`).
     start_s : float
-        Navigation starts (attitude aligned to the truth) at this time, after the
-        dithers have built up from rest.
+        Navigation starts, aligned to the truth, at this time (s), after the dithers have
+        built up from rest.
+    n_sub : int
+        Filter samples per navigation update (the coning/sculling sums run at the filter rate).
+    vertical : {"height_aid", "free"}
+        Vertical channel: held by a height aid (the truth height through the third-order loop)
+        or free (pure inertial, unstable with a time constant of about 570 s).
+    height_aid_tau_s : float
+        Time constant of the height-aided loop (s).
+    accel_delay : {"matched", "none"}
+        Whether the accelerometers are delayed to match each filter's gyro delay.
     timeseries_rate_hz : float
-        Rate of the stored attitude-error time series.
+        Rate of the stored (block-averaged, min/max enveloped) error series (Hz).
     spectrum_s : float
-        Length of filter output kept at full rate for spectra (from ``start_s``).
+        Length of the full-rate gyro-error record kept for spectra (s, from ``start_s``).
     """
 
     coning: str = "two_sample"
+    sculling: str = "two_sample"
     start_s: float = 1.0
-    timeseries_rate_hz: float = 720.0
+    n_sub: int = 1
+    vertical: str = "height_aid"
+    height_aid_tau_s: float = 100.0
+    accel_delay: str = "matched"
+    timeseries_rate_hz: float = 10.0
     spectrum_s: float = 2.0
 
     def __post_init__(self):
+        v.choice("navigation", "coning", self.coning, ("none", "two_sample", "three_sample"))
+        v.choice("navigation", "sculling", self.sculling, ("none", "two_sample", "three_sample"))
         v.non_negative("navigation", "start_s", self.start_s)
+        if isinstance(self.n_sub, bool) or int(self.n_sub) != self.n_sub or self.n_sub < 1:
+            raise ValueError(f"navigation.n_sub: must be an integer >= 1, got {self.n_sub!r}")
+        v.choice("navigation", "vertical", self.vertical, ("height_aid", "free"))
+        v.positive("navigation", "height_aid_tau_s", self.height_aid_tau_s)
+        v.choice("navigation", "accel_delay", self.accel_delay, ("matched", "none"))
         v.positive("navigation", "timeseries_rate_hz", self.timeseries_rate_hz)
         v.non_negative("navigation", "spectrum_s", self.spectrum_s)
 
 
 @dataclass
 class SinsResult:
-    """What a SINS run produced (all SI / rad).
+    """What a SINS run produced (SI units, rad).
 
     Attributes
     ----------
-    t : ndarray
-        Times of the stored attitude-error series (s).
-    attitude_error : dict name -> (N, 3) ndarray
-        Attitude error per filter (rad), about the navigation axes (roll, pitch, yaw).
-    nav_t : ndarray
-        Times of all navigation samples (s), for metrics.
-    metrics_data : dict name -> dict
-        Drift and error statistics computed on the full-rate error.
+    stats : dict name -> NavErrorStats
+        Full-rate error statistics per filter (navigation runs only).
+    series : dict name -> dict of ndarray
+        Stored error series per filter (:meth:`ErrorSeries.arrays`).
+    truth_series : dict of ndarray
+        The truth's ``t_s, lat_rad, lon_rad, h_m`` at the stored rate.
     spectra : dict
-        ``t`` and per-filter (N, 3) outputs at the filter rate plus ``truth``, over ``spectrum_s``.
+        ``t`` and per filter the gyro-angle error (output minus truth, rad, (N, 3)) at the
+        filter rate over ``spectrum_s``.
     delays : dict name -> int
-        Alignment shift in filter samples.
+        Alignment shift in filter samples (and ``residual_eliminator``, fractional).
+    diverged : dict name -> dict
+        Filters whose output or navigation stopped being finite: axis, time, reason.
     drives : list of dict
-        Per axis: frequency, initial and final V_m, measured amplitude.
+        Per axis: resonance, drive frequency, initial and final V_m, measured amplitude.
+    outputs_last : dict name -> ndarray (3,)
+        Last filter output per axis (rad), for checks.
+    filter_rate_hz, duration_s, nav_start_s : float
+        Filter rate (Hz), mission length and navigation start (s).
+    warnings : list of str
+        One line per distinct warning raised during the run (``"axis x: ..."``).
+    filters : tuple of str
+        The filters compared.
+    nav : NavSettings or None
     """
 
-    t: np.ndarray
-    attitude_error: dict
-    final_error: dict
-    full_stats: dict
+    stats: dict
+    series: dict
+    truth_series: dict
     spectra: dict
     delays: dict
+    diverged: dict
     drives: list
     filter_rate_hz: float
     duration_s: float
     nav_start_s: float
     warnings: list
+    filters: tuple
+    nav: NavSettings | None
+    outputs_last: dict
 
 
-def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav: NavSettings = NavSettings(),
-                  filters=SINS_FILTERS, chunk_s: float = 0.5, progress=None) -> SinsResult:
-    """Run the three-axis SINS for ``duration_s`` seconds under ``motion`` (a Motion3D)."""
+def axis_pool(threads: int):
+    """A thread pool for the three axes' chains (their kernels release the GIL), or None for serial."""
+    if threads <= 1:
+        return None
+    from concurrent.futures import ThreadPoolExecutor
+
+    return ThreadPoolExecutor(max_workers=min(3, threads), thread_name_prefix="sins-axis")
+
+
+def run_axes(chains, i0, ang, rate, pool, caught):
+    """Advance the three channel chains over one chunk, on ``pool`` threads when given.
+
+    Warnings each axis raises are collected as ``"axis x: message"`` lines into ``caught``
+    (the threads run only the kernels; ``warnings.catch_warnings`` is not thread-safe, so the
+    warning checks run here, in the caller's thread, in axis order).
+    """
     import warnings as _warnings
 
+    if pool is None or any(ch.path != "fused" for ch in chains):
+        outs = []
+        for i, ch in enumerate(chains):
+            with _warnings.catch_warnings(record=True) as axis_w:
+                _warnings.simplefilter("always")
+                outs.append(ch.run(i0, np.ascontiguousarray(ang[:, i]), np.ascontiguousarray(rate[:, i])))
+            caught.extend(f"axis {AXES[i]}: {w.message}" for w in axis_w)
+        return outs
+    futures = [pool.submit(ch.run_kernel, i0, ang[:, i].copy(), rate[:, i].copy()) for i, ch in enumerate(chains)]
+    outs = [f.result() for f in futures]
+    for i, ch in enumerate(chains):  # warnings in this thread: catch_warnings is not thread-safe
+        with _warnings.catch_warnings(record=True) as axis_w:
+            _warnings.simplefilter("always")
+            ch.check_chunk(outs[i])
+        caught.extend(f"axis {AXES[i]}: {w.message}" for w in axis_w)
+    return outs
+
+
+def default_threads() -> int:
+    """Threads for the axes of one run: the cores this process may use, at most 3."""
+    import os
+
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        n = os.cpu_count() or 1
+    return max(1, min(3, n))
+
+
+def stationary_vehicle(duration_s: float, lat_deg: float = 45.0, lon_deg: float = 0.0, height_m: float = 0.0,
+                       heading_deg: float = 0.0):
+    """A vehicle at rest at a site for ``duration_s`` (level, heading ``heading_deg``)."""
+    from sins_sim.models.motion.trajectory import Stationary, Trajectory
+
+    return Trajectory(math.radians(lat_deg), math.radians(lon_deg), height_m, 0.0, math.radians(heading_deg),
+                      (Stationary(duration_s),))
+
+
+class _Ring:
+    """A growing window of per-index rows ``[base, base + len)`` (filter-sample indices)."""
+
+    def __init__(self, width):
+        self.base = 0
+        self.a = np.zeros((0,) + tuple(width))
+
+    def push(self, rows):
+        self.a = np.concatenate((self.a, rows))
+
+    def get(self, j0, j1):
+        return self.a[j0 - self.base:j1 - self.base]
+
+    @property
+    def end(self):
+        return self.base + self.a.shape[0]
+
+    def drop_before(self, j):
+        k = j - self.base
+        if k > 0:
+            self.a = self.a[k:]
+            self.base = j
+
+
+class _FilterNav:
+    """One filter's navigation: its increments and the accelerometers, aligned, through the strapdown."""
+
+    def __init__(self, name, delay, dv_shift):
+        self.name = name
+        self.d = delay  # output index k describes truth index j = k - d
+        self.dv_shift = dv_shift  # accelerometer index = j + dv_shift
+        self.nav = None
+        self.next_j = None  # next truth index to navigate
+        self.j0 = None
+        self.stats = NavErrorStats()
+        self.series = None
+        self.diverged = None
+        self.free = np.zeros(6)  # free attitude error and the last gyro-angle error (see nav_errors)
+
+
+def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav: NavSettings | None = NavSettings(),
+                  filters=SINS_FILTERS, chunk_s: float = 1.0, progress=None, threads: int | None = None,
+                  vehicle=None, translation=None) -> SinsResult:
+    """Run the three-axis SINS (module docstring).
+
+    Parameters
+    ----------
+    imu : ImuConfig
+        The unit: three channels, drive control, accelerometers.
+    motion : Motion3D
+        The block's motion on its mounts, relative to the vehicle (vibration, coning, shock...).
+    duration_s : float
+        Mission length (s), > 0.
+    seed : int
+        Seed of every random stream of the run (readout noise per axis, amplitude modulation).
+    nav : NavSettings or None
+        Navigation settings; None runs the gyro chains and filters only (no truth attitude, no
+        navigation): the engine's speed without the INS loop.
+    filters : sequence of str
+        Filters to navigate (subset of :data:`SINS_FILTERS`).
+    chunk_s : float
+        Chunk length (s): memory bound; results do not depend on it.
+    progress : callable(fraction) or None
+    threads : int or None
+        Threads for the three axes (None: :func:`default_threads`); results do not depend on it.
+    vehicle : trajectory or None
+        The vehicle (``sins_sim.models.motion.trajectory``); None: at rest at 45 deg N, level,
+        heading north.
+    translation : translational vibration or None
+        The block's linear vibration in vehicle axes (``accel``, ``velocity``,
+        ``velocity_increment``).
+
+    Returns
+    -------
+    SinsResult
+    """
     duration_s = v.positive("run", "duration_s", duration_s)
+    filters = tuple(dict.fromkeys(filters))
     for name in filters:
         v.choice("run", "filters", name, SINS_FILTERS)
-    if nav.start_s >= duration_s:
+    if nav is not None and nav.start_s >= duration_s:
         raise ValueError(f"navigation.start_s: must be < duration_s = {duration_s!r}, got {nav.start_s!r}")
     fs = imu.filter_rate_hz
     fp = imu.plant_rate_hz
     r_dec = imu.channels[0].readout.decimation
-    h = 1.0 / fp
     n_out = int(math.floor(duration_s * fs + 1e-9))
-    n_steps = n_out * r_dec
-    chunk = max(r_dec, int(round(chunk_s * fs)) * r_dec)
-    axis_rngs = [np.random.default_rng([seed, i]) for i in range(3)]  # one independent stream per axis
-    chains = [ChannelChain(c, imu.drive_control, axis_rngs[i]) for i, c in enumerate(imu.channels)]
-    a0 = motion.gyro_angle(np.zeros(1))[0]
-    r0 = motion.body_rate(np.zeros(1))[0]
-    for i, ch in enumerate(chains):
-        ch.reset(float(a0[i]), float(r0[i]))
+    if n_out < 8:
+        raise ValueError(f"run.duration_s: must cover at least 8 filter samples, got {duration_s!r}")
+    chunk = max(1, int(round(chunk_s * fs)))
+    threads = default_threads() if threads is None else int(threads)
+    if vehicle is None:
+        vehicle = stationary_vehicle(duration_s + 1.0)
+    elif hasattr(vehicle, "duration_s") and vehicle.duration_s < duration_s + 0.1:
+        raise ValueError(f"run.duration_s: the trajectory lasts {vehicle.duration_s:g} s, shorter than the run "
+                         f"({duration_s:g} s) plus 0.1 s")
+    stream = vehicle.stream() if hasattr(vehicle, "stream") else vehicle
+    truth = MissionTruth(stream, motion, translation, fp, fs)
+    # independent random streams per axis: readout noise [seed, axis], amplitude modulation [seed, axis, 1]
+    chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]))
+              for i, c in enumerate(imu.channels)]
+    accel = Accelerometer(imu.accelerometer, np.random.default_rng([seed, 3]))
 
     # alignment shifts (filter samples)
     ro_delay = chains[0].readout.delay_s * fs
     elim_gd = float(np.mean([float(ch.filters["eliminator"].design.group_delay_s(0.0)) for ch in chains])) * fs
     delays = {"ideal": 0, "raw": int(round(ro_delay)), "correcting": int(round(ro_delay)) + 1,
-              "correcting_paper": int(round(ro_delay)) + 1,
-              "eliminator": int(round(ro_delay + elim_gd))}
+              "correcting_paper": int(round(ro_delay)) + 1, "eliminator": int(round(ro_delay + elim_gd))}
     residual_delay = {"eliminator": ro_delay + elim_gd - delays["eliminator"]}
-    max_delay = max(delays.values())
+    max_delay = max(delays[n] for n in filters)
 
-    k_start = int(round(nav.start_s * fs))
-    ts_every = max(1, int(round(fs / nav.timeseries_rate_hz)))
-    n_spec = int(round(nav.spectrum_s * fs))
-
-    # truth attitude on the filter grid, streamed
-    attitude_truth = AttitudeStream(motion)
-
-    def truth_stream(t_f):
-        if t_f[0] <= attitude_truth.t:  # t = 0: the initial attitude itself
-            return np.concatenate((attitude_truth.q[None, :], attitude_truth.advance(t_f[1:])))
-        return attitude_truth.advance(t_f)
-    tq_hist = np.zeros((0, 4))
-    out_hist = {name: np.zeros((0, 3)) for name in filters}  # filter outputs not yet consumed
-    prev_angle = {name: None for name in filters}
-    integrators = {name: None for name in filters}
-    pos = {name: 0 for name in filters}  # next filter-output index to consume
-    errs_ts = {name: [] for name in filters}
-    t_ts = []
-    stats = {name: {"sum": np.zeros(3), "sum2": np.zeros(3), "n": 0, "st": 0.0, "stt": 0.0,
-                    "ste": np.zeros(3), "se": np.zeros(3), "last": np.zeros(3)} for name in filters}
+    # buffers indexed by filter sample
+    outs_buf = {name: _Ring((3,)) for name in filters if name != "ideal"}
+    phi_buf = _Ring((3,))  # true gyro angles (the ideal output)
+    tr_buf = {k: _Ring(w) for k, w in (("q", (4,)), ("lat", ()), ("lon", ()), ("h", ()), ("v", (3,)), ("dv", (3,)),
+                                       ("dth", (3,)))}
+    navs = {}
+    if nav is not None:
+        k_start = int(round(nav.start_s * fs))
+        every = max(1, int(round(fs / nav.n_sub / nav.timeseries_rate_hz)))
+        for name in filters:
+            d = delays[name]
+            navs[name] = _FilterNav(name, d, d if nav.accel_delay == "none" else 0)
+        truth_every = every * nav.n_sub
+        n_spec = int(round(nav.spectrum_s * fs))
+        spec_next = k_start
     spectra = {name: [] for name in filters}
-    spectra["truth"] = []
-    spec_t = []
-    tq_base = 0  # filter index of tq_hist[0]
-
+    truth_series = {"t_s": [], "lat_rad": [], "lon_rad": [], "h_m": []}
+    diverged = {}
     caught = []
-    for i0 in range(0, n_steps, chunk):
-        i1 = min(i0 + chunk, n_steps)
-        t_end = np.arange(i0 + 1, i1 + 1) * h
-        ang = motion.gyro_angle(t_end)
-        rate = motion.body_rate(t_end)
-        outs = []
-        for i, ch in enumerate(chains):
-            with _warnings.catch_warnings(record=True) as axis_w:
-                _warnings.simplefilter("always")
-                outs.append(ch.run(i0, ang[:, i].copy(), rate[:, i].copy()))
-            caught.extend(f"axis {AXES[i]}: {w.message}" for w in axis_w)
-        k0, k1 = i0 // r_dec, i1 // r_dec
-        t_f = np.arange(k0, k1) / fs
-        ideal = motion.gyro_angle(t_f)
-        tq = truth_stream(t_f)
-        tq_hist = np.concatenate((tq_hist, tq))
-        new = {name: (ideal if name == "ideal" else np.stack([o[name] for o in outs], axis=1))
-               for name in filters}
-        for name in filters:
-            out_hist[name] = np.concatenate((out_hist[name], new[name]))
-        # spectra: keep outputs aligned with truth from k_start for n_spec samples
-        for name in filters:
-            d = delays[name]
-            lo = max(k_start + d, k0)
-            hi = min(k_start + d + n_spec, k1)
-            if hi > lo:
-                spectra[name].append(new[name][lo - k0:hi - k0])
-        lo, hi = max(k_start, k0), min(k_start + n_spec, k1)
-        if hi > lo:
-            spectra["truth"].append(ideal[lo - k0:hi - k0])
-            spec_t.append(t_f[lo - k0:hi - k0])
-        # navigation for each filter
-        for name in filters:
-            d = delays[name]
-            buf = out_hist[name]
-            base = pos[name]  # filter-output index of buf[0]
-            if integrators[name] is None:
-                j0 = k_start + d
-                if j0 < base + buf.shape[0] and j0 - d >= tq_base:
-                    q0 = tq_hist[j0 - d - tq_base]
-                    integrators[name] = AttitudeIntegrator(q0=q0, algorithm=nav.coning)
-                    prev_angle[name] = buf[j0 - base]
-                    buf = buf[j0 - base + 1:]
-                    base = j0 + 1
-                else:  # navigation has not started for this filter yet
-                    continue
-            if buf.shape[0] == 0:
-                out_hist[name] = buf
-                pos[name] = base
-                continue
-            ang_seq = np.concatenate((prev_angle[name][None, :], buf))
-            dtheta = np.diff(ang_seq, axis=0)
-            q_est = integrators[name].process(dtheta)
-            truth_idx = np.arange(base, base + buf.shape[0]) - d - tq_base
-            err = attitude_error(q_est, tq_hist[truth_idx])
-            tk = (np.arange(base, base + buf.shape[0]) - d) / fs
-            st = stats[name]
-            st["sum"] += err.sum(axis=0)
-            st["sum2"] += (err * err).sum(axis=0)
-            st["n"] += err.shape[0]
-            st["st"] += tk.sum()
-            st["stt"] += (tk * tk).sum()
-            st["ste"] += tk @ err
-            st["last"] = err[-1]
-            sel = ((np.arange(base, base + buf.shape[0]) - d) % ts_every) == 0
-            errs_ts[name].append(err[sel])
-            if name == filters[0]:
-                t_ts.append(tk[sel])
-            prev_angle[name] = buf[-1]
-            pos[name] = base + buf.shape[0]
-            out_hist[name] = buf[:0]
-        # drop truth no longer needed
-        need = min(pos[name] - delays[name] for name in filters) - 1
-        drop = max(0, need - tq_base - max_delay)
-        if drop:
-            tq_hist = tq_hist[drop:]
-            tq_base += drop
-        if progress is not None:
-            progress(i1 / n_steps)
+    pool = axis_pool(threads) if outs_buf else None
+    k_prev = 0
+    last_out = {}
+    try:
+        while k_prev < n_out:
+            k1 = min(k_prev + chunk, n_out)
+            tc, ang, rate = truth.advance(k1, plant=bool(outs_buf))
+            # the gyro chains run only when a filter needs them (``ideal`` alone navigates the truth)
+            outs = run_axes(chains, k_prev * r_dec, ang, rate, pool, caught) if outs_buf else []
+            # truth rows for nodes tc.k0 .. k1
+            phi_buf.push(tc.phi_rad)
+            for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
+                             ("v", tc.v_ned_m_s), ("dth", tc.dtheta_rad)):
+                tr_buf[key].push(arr)
+            tr_buf["dv"].push(accel.process(tc.dv_m_s))
+            for name in outs_buf:
+                y = np.stack([o[name] for o in outs], axis=1)
+                outs_buf[name].push(y)
+                last_out[name] = y[-1].copy()
+                if name not in diverged and not np.all(np.isfinite(y)):
+                    bad = np.argwhere(~np.isfinite(y))[0]
+                    diverged[name] = {"axis": AXES[int(bad[1])], "time_s": (k_prev + int(bad[0])) / fs,
+                                      "reason": "filter output not finite"}
+            if nav is not None:
+                _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged)
+                spec_next = _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, min(k_start + n_spec, n_out),
+                                          max_delay, filters)
+                _keep_truth_series(truth_series, tr_buf, k_prev, k1, k_start, truth_every, fs)
+                # drop what no filter needs any more
+                keep = [nf.next_j if nf.next_j is not None else k_start for nf in navs.values() if nf.diverged is None]
+                if spec_next < min(k_start + n_spec, n_out):
+                    keep.append(spec_next)
+                need = min(keep or [k1])
+                low = min(need, k1 - max_delay - 2) - 2
+                for r in tr_buf.values():
+                    r.drop_before(low)
+                phi_buf.drop_before(low)
+                for name, r in outs_buf.items():
+                    r.drop_before(low + delays[name] - 1)
+            else:
+                for r in list(tr_buf.values()) + list(outs_buf.values()) + [phi_buf]:
+                    r.drop_before(k1 - 2)
+            k_prev = k1
+            if progress is not None:
+                progress(k1 / n_out)
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True)
 
-    full_stats = {}
-    for name in filters:
-        st = stats[name]
-        n = st["n"]
-        if n < 2:
-            raise ValueError("run.duration_s: too short for navigation after navigation.start_s")
-        mean = st["sum"] / n
-        rms = np.sqrt(st["sum2"] / n)
-        tm = st["st"] / n
-        var_t = st["stt"] / n - tm * tm
-        slope = (st["ste"] / n - tm * mean) / var_t if var_t > 0 else np.zeros(3)
-        full_stats[name] = {"drift_rad_s": slope, "rms_rad": rms, "final_rad": st["last"], "n": n}
-    n_ts = min(len(np.concatenate(errs_ts[name])) for name in filters)
-    t_arr = np.concatenate(t_ts)[:n_ts]
-    att = {name: np.concatenate(errs_ts[name])[:n_ts] for name in filters}
-    spec = {name: (np.concatenate(spectra[name]) if spectra[name] else np.zeros((0, 3))) for name in spectra}
-    n_sp = min(s.shape[0] for s in spec.values())
-    spec = {name: s[:n_sp] for name, s in spec.items()}
-    spec["t"] = np.concatenate(spec_t)[:n_sp] if spec_t else np.zeros(0)
     drives = [{"axis": AXES[i], "f0_hz": ch.cfg.suspension.f0_hz, "frequency_hz": ch.drive.frequency_hz,
                "v_m_initial": ch.v_m0, "v_m_final": ch.v_m, "amplitude_measured_rad": ch.amp_meas,
                "amplitude_target_rad": ch.cfg.drive.amplitude_rad} for i, ch in enumerate(chains)]
-    res = SinsResult(t=t_arr, attitude_error=att, final_error={k: s["final_rad"] for k, s in full_stats.items()},
-                     full_stats=full_stats, spectra=spec, delays=dict(delays, residual_eliminator=residual_delay),
-                     drives=drives, filter_rate_hz=fs, duration_s=duration_s, nav_start_s=nav.start_s,
-                     warnings=list(dict.fromkeys(caught)))
-    return res
+    spec = {}
+    if nav is not None:
+        lens = [sum(x.shape[0] for x in spectra[n]) for n in filters]
+        n_sp = min(lens) if lens else 0
+        spec = {n: (np.concatenate(spectra[n])[:n_sp] if spectra[n] else np.zeros((0, 3))) for n in filters}
+        spec["t"] = (k_start + np.arange(n_sp)) / fs
+    series = {n: nf.series.arrays() for n, nf in navs.items() if nf.series is not None}
+    ts = {k: (np.concatenate(a) if a else np.zeros(0)) for k, a in truth_series.items()}
+    return SinsResult(stats={n: nf.stats for n, nf in navs.items()}, series=series, truth_series=ts, spectra=spec,
+                      delays=dict(delays, residual_eliminator=residual_delay), diverged=diverged, drives=drives,
+                      filter_rate_hz=fs, duration_s=duration_s, nav_start_s=(nav.start_s if nav else 0.0),
+                      warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out)
+
+
+def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged):
+    """Advance every filter's navigation as far as its aligned data reach."""
+    for name, nf in navs.items():
+        if nf.diverged is not None:
+            continue
+        out_end = (phi_buf.end if name == "ideal" else outs_buf[name].end)  # outputs available: [.., out_end)
+        j_end = min(out_end - nf.d, tr_buf["dv"].end - nf.dv_shift, tr_buf["q"].end)  # truth indices < j_end
+        if nf.nav is None:
+            j0 = k_start
+            if j_end <= j0 + 1:
+                continue
+            q0 = tr_buf["q"].get(j0, j0 + 1)[0]
+            nf.nav = StrapdownNavigator(float(tr_buf["lat"].get(j0, j0 + 1)[0]), float(tr_buf["lon"].get(j0, j0 + 1)[0]),
+                                        float(tr_buf["h"].get(j0, j0 + 1)[0]), tr_buf["v"].get(j0, j0 + 1)[0], q0,
+                                        1.0 / fs, coning=nav.coning, sculling=nav.sculling, n_sub=nav.n_sub,
+                                        vertical=nav.vertical, height_aid_tau_s=nav.height_aid_tau_s)
+            nf.j0 = j0
+            nf.next_j = j0 + 1
+            if name != "ideal":  # the gyro-angle offset at alignment is not an error of the run
+                nf.free[3:6] = outs_buf[name].get(j0 + nf.d, j0 + nf.d + 1)[0] - phi_buf.get(j0, j0 + 1)[0]
+            nf.series = ErrorSeries(every, nav.n_sub / fs, j0 / fs)
+        ja, jb = nf.next_j, j_end
+        if jb <= ja:
+            continue
+        if name == "ideal":
+            dth = tr_buf["dth"].get(ja, jb)
+        else:
+            y = outs_buf[name].get(ja + nf.d - 1, jb + nf.d)
+            dth = np.diff(y, axis=0)
+        dv = tr_buf["dv"].get(ja + nf.dv_shift, jb + nf.dv_shift)
+        if not (np.all(np.isfinite(dth)) and np.all(np.isfinite(dv))):
+            bad = np.argwhere(~np.isfinite(dth))
+            ax = AXES[int(bad[0][1])] if bad.size else "-"
+            nf.diverged = diverged.setdefault(name, {"axis": ax, "time_s": (ja + (int(bad[0][0]) if bad.size else 0)) / fs,
+                                                     "reason": "angle increments not finite"})
+            continue
+        n_before = nf.nav.n_updates
+        h_aid = tr_buf["h"].get(ja, jb) if nav.vertical == "height_aid" else None
+        sol = nf.nav.process(dth, dv, h_aid)
+        nf.next_j = jb
+        m = len(sol)
+        if m == 0:
+            continue
+        jj = nf.j0 + nav.n_sub * (n_before + 1 + np.arange(m))  # truth index of each update
+        lo, hi = int(jj[0]), int(jj[-1]) + 1
+        sel = jj - lo
+        # gyro-angle error (output minus truth) at the updates, for the free attitude error
+        if name == "ideal":
+            e_body = np.zeros((m, 3))
+        else:
+            e_body = outs_buf[name].get(lo + nf.d, hi + nf.d)[sel] - phi_buf.get(lo, hi)[sel]
+        rows = np.empty((m, N_COLS))
+        bad = ktruth.nav_errors(sol.lat_rad, sol.lon_rad, sol.h_m, sol.v_ned_m_s, sol.q_nb,
+                                np.ascontiguousarray(tr_buf["lat"].get(lo, hi)[sel]),
+                                np.ascontiguousarray(tr_buf["lon"].get(lo, hi)[sel]),
+                                np.ascontiguousarray(tr_buf["h"].get(lo, hi)[sel]),
+                                np.ascontiguousarray(tr_buf["v"].get(lo, hi)[sel]),
+                                np.ascontiguousarray(tr_buf["q"].get(lo, hi)[sel]), np.ascontiguousarray(e_body),
+                                nf.free, DIVERGED_ATTITUDE_RAD, rows)
+        rows[:, 10] = sol.lat_rad
+        rows[:, 11] = sol.lon_rad
+        t = jj / fs
+        if bad >= 0:
+            nf.diverged = diverged.setdefault(name, {"axis": "-", "time_s": float(t[bad]),
+                                                     "reason": "navigation solution diverged (attitude error beyond "
+                                                               f"{DIVERGED_ATTITUDE_RAD} rad or not finite)"})
+            rows, t = rows[:bad], t[:bad]
+        nf.stats.add(rows, t)
+        nf.series.add(rows)
+
+
+def _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, k_end, max_delay, filters):
+    """Gyro-angle error (output minus aligned truth) at full rate for truth indices ``[spec_next, k_end)``.
+
+    Returns the next truth index still to keep (``k_end`` when the window is complete)."""
+    hi = min(k_end, k1 - max_delay - 1)
+    if hi <= spec_next:
+        return spec_next
+    truth = phi_buf.get(spec_next, hi)
+    for name in filters:
+        if name == "ideal":
+            spectra[name].append(np.zeros_like(truth))
+        else:
+            d = delays[name]
+            spectra[name].append(outs_buf[name].get(spec_next + d, hi + d) - truth)
+    return hi
+
+
+def _keep_truth_series(ts, tr_buf, k_prev, k1, k_start, every, fs):
+    lo = max(k_prev, k_start)
+    first = lo + (-(lo - k_start)) % every
+    idx = np.arange(first, k1, every)
+    idx = idx[idx < tr_buf["lat"].end]
+    if idx.size == 0:
+        return
+    ts["t_s"].append(idx / fs)
+    for key, name in (("lat", "lat_rad"), ("lon", "lon_rad"), ("h", "h_m")):
+        r = tr_buf[key]
+        ts[name].append(r.a[idx - r.base])

@@ -69,7 +69,8 @@ from dataclasses import InitVar, dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim._kernels.motion import comb_increment, comb_rate, magnus4_run, sines_increment, sines_rate
+from sins_sim._kernels.motion import (comb_increment, comb_rate, magnus4_run, sines_grid, sines_increment,
+                                      sines_rate)
 from sins_sim.models.motion.single_axis import _Motion
 
 __all__ = [
@@ -306,6 +307,21 @@ class Motion3D(abc.ABC):
         """
         flat, shape = _times(t)
         return self._increment(np.zeros_like(flat), flat).reshape(shape + (3,))
+
+    def grid_angle_rate(self, i0: int, n: int, h: float):
+        """Gyro angles and body rates on the grid ``t_j = (i0 + 1 + j) h``, ``j < n`` (the plant steps).
+
+        The engine's fast path: motions made of sinusoids override it with a recurrence
+        (:func:`sins_sim._kernels.motion.sines_grid`); the result equals
+        ``gyro_angle(t), body_rate(t)`` to rounding and does not depend on how the grid is
+        split into calls.
+
+        Returns
+        -------
+        angle, rate : ndarray, shape (n, 3)
+        """
+        t = np.arange(i0 + 1, i0 + n + 1) * h
+        return self.gyro_angle(t), self.body_rate(t)
 
     def angle_increment(self, t_a, t_b):
         """Exact ``integral_{t_a}^{t_b} omega_b dt`` (rad), without cancellation for short intervals.
@@ -628,6 +644,9 @@ class Static(Motion3D):
     def _increment(self, ta, tb):
         return np.zeros((ta.size, 3))
 
+    def grid_angle_rate(self, i0: int, n: int, h: float):
+        return np.zeros((n, 3)), np.zeros((n, 3))
+
     def _fixed_axis(self):
         return _STATIC
 
@@ -742,6 +761,12 @@ class _SineBank(Motion3D):
         out = np.empty((ta.size, 3))
         sines_increment(np.ascontiguousarray(ta), np.ascontiguousarray(tb), self._amp, self._omega, self._phase, out)
         return out
+
+    def grid_angle_rate(self, i0: int, n: int, h: float):
+        angle = np.empty((n, 3))
+        rate = np.empty((n, 3))
+        sines_grid(int(i0), int(n), float(h), self._amp, self._omega, self._phase, angle, rate)
+        return angle, rate
 
     def _fixed_axis(self):
         live = [i for i in range(3) if np.any(self._amp[i] != 0.0)]
@@ -1388,6 +1413,15 @@ class SumMotion3D(Motion3D):
         for p in self.parts:
             out += p._increment(ta, tb)
         return out
+
+    def grid_angle_rate(self, i0: int, n: int, h: float):
+        angle = np.zeros((n, 3))
+        rate = np.zeros((n, 3))
+        for p in self.parts:
+            a, r = p.grid_angle_rate(i0, n, h)
+            angle += a
+            rate += r
+        return angle, rate
 
     def _moving(self):
         return [p for p in self.parts if not (isinstance(p._fixed_axis(), str))]

@@ -1,0 +1,222 @@
+"""One gyro channel over one chunk in a single kernel call: drive, suspension, readout, filters.
+
+This is the engine's inner loop (``sins_sim.simulation.channel.ChannelChain``):
+everything a channel does at the plant rate and at the filter rate, fused so
+that a chunk costs one call per axis instead of a Python loop over amplitude
+control blocks. The arithmetic is that of the separate kernels, called in the
+same order on the same numbers, so the result is bit-identical to composing
+the public classes (``Plant``, ``Readout``, ``Decimator``, ``CorrectingFilter``,
+``Eliminator``) by hand (``tests/test_engine.py`` checks it):
+
+1. per amplitude-control block (``block`` plant steps, reference-model.md
+   "One dithered gyro channel", drive): the DAC cosine held over ``r_dac``
+   steps (``drive.dac_cosine``), the suspension (``plant_exact``: eq. 2, 9,
+   10, 14), the Hann-windowed synchronous detector (``drive.demod_accumulate``)
+   and, at the block's end, the PI amplitude loop whose zero cancels the eq. 15
+   pole (see ``end_block``);
+2. the readout: ``floor((phi_rlg + noise) / q)`` at the plant rate, the
+   anti-alias FIR and decimation (``fir.fir_decimate``), the drive through the
+   same FIR so volts stay aligned (reference-model.md "Readout");
+3. the filters at the filter rate: eq. 5 in the unity-DC and the paper form
+   (``correcting.correcting_run``) and the elliptic eliminator
+   (``sos.sos_filter``).
+
+The kernel is ``nogil``: the engine runs the three axes of a SINS on threads.
+Random numbers (readout noise, amplitude-modulation draws) are drawn by the
+caller, per chunk, in stream order, so results do not depend on chunking.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sins_sim._kernels import correcting as kcor
+from sins_sim._kernels import drive as kdrive
+from sins_sim._kernels import fir as kfir
+from sins_sim._kernels import plant_exact as kexact
+from sins_sim._kernels import sos as ksos
+from sins_sim._kernels._config import jit
+
+# float parameters (``fpar``)
+P_H = 0  # plant step (s)
+P_W0SQ = 1  # omega0^2 (rad^2/s^2)
+P_K1 = 2
+P_K2 = 3
+P_K3 = 4
+P_K4 = 5
+P_K5 = 6
+P_Z = 7  # 2 zeta / omega0
+P_FAST = 8  # quarter dither period (s), the regime counter's threshold
+P_CYC_DAC = 9  # drive cycles per DAC sample
+P_PHASE = 10  # drive phase (rad)
+P_CYC_STEP = 11  # drive cycles per plant step
+P_Q = 12  # readout quantum (rad)
+P_SIGMA = 13  # readout noise (rad)
+P_AM = 14  # target amplitude a_m (rad)
+P_VM0 = 15  # open-loop drive amplitude (V)
+P_TAU = 16  # eq. 15 amplitude time constant 2 Q / omega (s)
+P_KP = 17  # PI gain tau / loop_time
+P_BLOCK_S = 18  # block length (s)
+P_VMAX = 19  # drive saturation (multiple of V_m0)
+P_DEPTH = 20  # amplitude-modulation depth
+P_CLOSED = 21  # 1.0: closed loop, 0.0: open loop
+N_FPAR = 22
+
+# integer parameters (``ipar``)
+I_RDAC = 0  # plant steps per DAC sample
+I_BLOCK = 1  # plant steps per amplitude-control block
+I_RULE = 2  # plant hysteresis rule
+I_RDEC = 3  # decimation (plant steps per filter sample)
+N_IPAR = 4
+
+# drive / readout state (``dstate``)
+D_VM = 0  # current drive amplitude (V)
+D_TARGET = 1  # current amplitude target (rad)
+D_INTEGRAL = 2  # PI integrator
+D_AMP = 3  # last measured amplitude (rad)
+D_LEFT = 4  # plant steps left in the current block
+D_ACC = 5  # detector sums (3 values)
+D_CARRY = 8  # phi_rlg at the last plant step of the previous chunk
+D_PH_X = 9  # decimation phase of the readout FIR
+D_PH_V = 10  # decimation phase of the volts FIR
+N_DSTATE = 11
+
+# correcting-filter parameters (``cpar[form]``)
+C_A2 = 0
+C_G = 1
+C_K1 = 2  # k1..k5 at 2..6
+C_DT = 7
+C_FAST = 8
+C_RULE = 9
+N_CPAR = 10
+
+
+@jit
+def end_block(fpar, dstate, u):
+    """Close an amplitude-control block (``ChannelChain`` drive control).
+
+    Amplitude by synchronous detection ``a = 2 |sum w delta e^{-i w t}| / sum w``;
+    with modulation depth ``d`` a new target ``a_m (1 + d u)``; closed loop:
+    ``V_m = V_m0 (a_t / a_m + kp (e + (1/tau) int e dt))`` with
+    ``e = (a_t - a) / a_m``, the integrator frozen while the drive saturates
+    (anti-windup); open loop with modulation: ``V_m = V_m0 a_t / a_m``.
+    """
+    wsum = dstate[D_ACC + 2]
+    if wsum > 0.0:
+        dstate[D_AMP] = 2.0 * math.hypot(dstate[D_ACC], dstate[D_ACC + 1]) / wsum
+    else:
+        dstate[D_AMP] = 0.0
+    a_m = fpar[P_AM]
+    if fpar[P_DEPTH] > 0.0:
+        dstate[D_TARGET] = a_m * (1.0 + fpar[P_DEPTH] * u)
+    if fpar[P_CLOSED] > 0.0:
+        err = (dstate[D_TARGET] - dstate[D_AMP]) / a_m
+        integral = dstate[D_INTEGRAL] + err * fpar[P_BLOCK_S]
+        uu = dstate[D_TARGET] / a_m + fpar[P_KP] * (err + integral / fpar[P_TAU])
+        if 0.0 <= uu <= fpar[P_VMAX]:
+            dstate[D_INTEGRAL] = integral
+        dstate[D_VM] = min(max(uu, 0.0), fpar[P_VMAX]) * fpar[P_VM0]
+    elif fpar[P_DEPTH] > 0.0:
+        dstate[D_VM] = fpar[P_VM0] * dstate[D_TARGET] / a_m
+    dstate[D_ACC] = 0.0
+    dstate[D_ACC + 1] = 0.0
+    dstate[D_ACC + 2] = 0.0
+
+
+@jit
+def axis_chunk(i0, ang, rate, noise, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
+               taps, fhist, vhist, cpar, fstate, fhyst, fstack, sos, zi,
+               delta, volts, feed, x, vx, y_unity, y_paper, e_out):
+    """Advance one channel by ``len(ang)`` plant steps from absolute step ``i0``.
+
+    Parameters
+    ----------
+    i0 : int
+        Absolute index of the first plant step of the chunk.
+    ang, rate : float64[n]
+        Block angle about the sensitive axis (rad) and its rate (rad/s) at the
+        ends of the steps ``i0 + 1 .. i0 + n``.
+    noise : float64[n] or float64[0]
+        Standard normal draws for the readout noise (empty when ``sigma = 0``).
+    uniforms : float64[nb]
+        Uniform draws on [-1, 1], one per block that ends in this chunk, in order.
+    fpar, ipar : float64[N_FPAR], int64[N_IPAR]
+        Parameters (layouts above).
+    dstate : float64[N_DSTATE]
+        Drive and readout state, updated in place.
+    pstate, physt, pstack : float64 arrays
+        Suspension state and its hysteresis branch and reversal stack (``plant_exact``).
+    taps, fhist, vhist : float64 arrays
+        Anti-alias FIR taps and the histories of the readout and volts FIRs.
+    cpar : float64[2, N_CPAR]
+        Correcting-filter parameters, unity-DC form first, then the paper form.
+    fstate, fhyst, fstack : float64[2, ...]
+        Their states.
+    sos, zi : float64 arrays
+        Eliminator sections and state.
+    delta, volts, feed : float64[n]
+        Work buffers (deflection, drive, readout input), left filled.
+    x, vx, y_unity, y_paper, e_out : float64[m]
+        Filter-rate outputs (``m = n / R``, whole): readout angle, volts, the two
+        correcting forms, the eliminator.
+
+    Returns
+    -------
+    int
+        Number of uniforms consumed (blocks closed).
+    """
+    n = ang.shape[0]
+    consts = np.empty((1, kexact.N_CONSTS))
+    kexact._constants(consts, 0, fpar[P_H], fpar[P_W0SQ], fpar[P_K1], fpar[P_K2], fpar[P_K3], fpar[P_K4],
+                      fpar[P_K5], fpar[P_Z], fpar[P_FAST])
+    cs = consts[0]
+    q0s = np.empty(n)
+    q1s = np.empty(n)
+    block = ipar[I_BLOCK]
+    used = 0
+    j = 0
+    while j < n:
+        left = int(dstate[D_LEFT])
+        m = min(left, n - j)
+        vv = volts[j:j + m]
+        kdrive.dac_cosine(i0 + j, ipar[I_RDAC], fpar[P_CYC_DAC], fpar[P_PHASE], dstate[D_VM], vv)
+        aa = ang[j:j + m]
+        rr = rate[j:j + m]
+        dd = delta[j:j + m]
+        kexact._forcing(aa, rr, vv, pstate[kexact.X_PHI], pstate[kexact.X_RATE], cs[kexact.C_IH],
+                        cs[kexact.C_IH2], cs[kexact.C_W0SQ], cs[kexact.C_K5], q0s[:m], q1s[:m])
+        kexact._run_axis(aa, rr, vv, q0s[:m], q1s[:m], cs, ipar[I_RULE], pstate, physt, pstack, dd)
+        acc = dstate[D_ACC:D_ACC + 3]
+        kdrive.demod_accumulate(dd, i0 + j, fpar[P_CYC_STEP], block - left, block, acc)
+        left -= m
+        j += m
+        if left == 0:
+            end_block(fpar, dstate, uniforms[used])
+            used += 1
+            left = block
+        dstate[D_LEFT] = left
+    # readout: fringe counts of phi_rlg = block angle + deflection, one plant step late
+    q = fpar[P_Q]
+    sigma = fpar[P_SIGMA]
+    carry = dstate[D_CARRY]
+    for k in range(n):
+        phi = carry
+        carry = ang[k] + delta[k]
+        if sigma > 0.0:
+            phi = phi + sigma * noise[k]
+        feed[k] = math.floor(phi / q) * q
+    dstate[D_CARRY] = carry
+    r = ipar[I_RDEC]
+    _, ph = kfir.fir_decimate(taps, feed, fhist, int(dstate[D_PH_X]), x, r)
+    dstate[D_PH_X] = ph
+    _, ph = kfir.fir_decimate(taps, volts, vhist, int(dstate[D_PH_V]), vx, r)
+    dstate[D_PH_V] = ph
+    for f in range(2):
+        out = y_unity if f == 0 else y_paper
+        c = cpar[f]
+        kcor.correcting_run(x, vx, c[C_A2], c[C_G], c[C_K1], c[C_K1 + 1], c[C_K1 + 2], c[C_K1 + 3], c[C_K1 + 4],
+                            c[C_DT], int(c[C_RULE]), c[C_FAST], fstate[f], fhyst[f], fstack[f], out)
+    ksos.sos_filter(sos, x, zi, e_out)
+    return used

@@ -1,0 +1,302 @@
+"""Mission-truth kernels: vehicle interpolation, per-sample quadrature, plant-rate Hermite.
+
+The equations are documented in :mod:`sins_sim.simulation.truth`; these kernels evaluate
+them per filter sample without numpy temporaries.
+"""
+
+from __future__ import annotations
+
+import math
+
+from sins_sim._kernels._config import jit
+from sins_sim.earth import WGS84_A_M, WGS84_E2
+
+#: 3-point Gauss-Legendre on [0, 1] (Abramowitz & Stegun 25.4.29).
+GL_X0 = 0.5 - 0.5 * math.sqrt(0.6)
+GL_X2 = 0.5 + 0.5 * math.sqrt(0.6)
+GL_W0 = 5.0 / 18.0
+GL_W1 = 8.0 / 18.0
+
+
+@jit
+def lagrange4(nodes, j0, h, t, out):
+    """4-point Lagrange interpolation of node rows at times ``t`` (A&S 25.2.13).
+
+    ``nodes[i]`` is the row at time ``(j0 + i) h``; for ``t`` in ``[t_j, t_{j+1})`` the cubic
+    through nodes ``j - 1 .. j + 2`` is evaluated. ``out[n, c]`` receives the values.
+    """
+    for n in range(t.shape[0]):
+        x = t[n] / h
+        j = math.floor(x)
+        u = x - j
+        i = int(j) - j0
+        w0 = -u * (u - 1.0) * (u - 2.0) / 6.0
+        w1 = (u + 1.0) * (u - 1.0) * (u - 2.0) / 2.0
+        w2 = -(u + 1.0) * u * (u - 2.0) / 2.0
+        w3 = (u + 1.0) * u * (u - 1.0) / 6.0
+        for c in range(nodes.shape[1]):
+            out[n, c] = w0 * nodes[i - 1, c] + w1 * nodes[i, c] + w2 * nodes[i + 1, c] + w3 * nodes[i + 2, c]
+
+
+@jit
+def _cbv_from_q(q, c):
+    """``C_bv = C(q_vb)^T`` (q_vb: block to vehicle, scalar first) into the 3x3 array ``c``."""
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    # C_vb rows, transposed on the fly
+    c[0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
+    c[1, 0] = 2.0 * (q1 * q2 - q0 * q3)
+    c[2, 0] = 2.0 * (q1 * q3 + q0 * q2)
+    c[0, 1] = 2.0 * (q1 * q2 + q0 * q3)
+    c[1, 1] = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
+    c[2, 1] = 2.0 * (q2 * q3 - q0 * q1)
+    c[0, 2] = 2.0 * (q1 * q3 - q0 * q2)
+    c[1, 2] = 2.0 * (q2 * q3 + q0 * q1)
+    c[2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+
+
+@jit
+def _rotated_small(c, alpha, x, out):
+    """``out = (I - [alpha x] + [alpha x]^2 / 2) C x`` for the 3x3 ``c``."""
+    y0 = c[0, 0] * x[0] + c[0, 1] * x[1] + c[0, 2] * x[2]
+    y1 = c[1, 0] * x[0] + c[1, 1] * x[1] + c[1, 2] * x[2]
+    y2 = c[2, 0] * x[0] + c[2, 1] * x[1] + c[2, 2] * x[2]
+    a0, a1, a2 = alpha[0], alpha[1], alpha[2]
+    b0 = a1 * y2 - a2 * y1
+    b1 = a2 * y0 - a0 * y2
+    b2 = a0 * y1 - a1 * y0
+    out[0] = y0 - b0 + 0.5 * (a1 * b2 - a2 * b1)
+    out[1] = y1 - b1 + 0.5 * (a2 * b0 - a0 * b2)
+    out[2] = y2 - b2 + 0.5 * (a0 * b1 - a1 * b0)
+
+
+@jit
+def truth_samples(hf, om, fv, acc, dv_vib, phib, q_vb, q_nv, state, dth, dv, s_nodes, ds_nodes, q_nb):
+    """Per filter sample ``n``: ideal gyro increment, velocity increment, ``S`` and ``q_nb``.
+
+    Parameters
+    ----------
+    hf : float
+        Filter sample period (s).
+    om, fv : float64[n, 4, 3]
+        ``omega_iv^v`` (rad/s) and ``f^v`` (m/s^2) at the 3 Gauss-Legendre nodes and the end of
+        each sample.
+    acc : float64[n, 4, 3] or float64[0, 4, 3]
+        The block's translational vibration (vehicle axes, m/s^2) at the same times, or empty.
+    dv_vib : float64[n, 3] or float64[0, 3]
+        Its exact velocity increment over each sample (m/s), or empty.
+    phib : float64[n, 4, 3]
+        The block's closed-form gyro angles (rad) at the same times.
+    q_vb : float64[n, 4]
+        Block attitude relative to the vehicle at the end of each sample.
+    q_nv : float64[n, 4]
+        Vehicle attitude at the end of each sample.
+    state : float64[18]
+        ``S (3), dS/dt (3), phi_b (3), C_bv (9, row-major)`` at the last node; updated.
+    dth, dv : float64[n, 3]
+        Ideal gyro increments (rad) and velocity increments (m/s), body axes.
+    s_nodes, ds_nodes : float64[n + 1, 3]
+        ``S`` and its rate at the previous node and at each new one.
+    q_nb : float64[n, 4]
+        ``q_nv (x) q_vb`` at each node.
+    """
+    c = state[9:18].copy().reshape((3, 3))
+    c_end = c.copy()
+    alpha = state[0:3].copy()
+    tmp = state[0:3].copy()
+    xs = state[0:3].copy()
+    for i in range(3):
+        s_nodes[0, i] = state[i]
+        ds_nodes[0, i] = state[3 + i]
+    has_vib = acc.shape[0] > 0
+    ws0 = GL_W0
+    ws1 = GL_W1
+    for n in range(om.shape[0]):
+        ds0 = 0.0
+        ds1 = 0.0
+        ds2 = 0.0
+        v0 = 0.0
+        v1 = 0.0
+        v2 = 0.0
+        for k in range(3):
+            w = ws1 if k == 1 else ws0
+            for i in range(3):
+                alpha[i] = phib[n, k, i] - state[6 + i]
+            _rotated_small(c, alpha, om[n, k], tmp)
+            ds0 += w * tmp[0]
+            ds1 += w * tmp[1]
+            ds2 += w * tmp[2]
+            for i in range(3):
+                xs[i] = fv[n, k, i]
+                if has_vib:
+                    xs[i] += acc[n, k, i]
+            _rotated_small(c, alpha, xs, tmp)
+            v0 += w * tmp[0]
+            v1 += w * tmp[1]
+            v2 += w * tmp[2]
+            if has_vib:  # the unrotated vibration term goes in exactly below
+                for i in range(3):
+                    xs[i] = acc[n, k, i]
+                y0 = c[0, 0] * xs[0] + c[0, 1] * xs[1] + c[0, 2] * xs[2]
+                y1 = c[1, 0] * xs[0] + c[1, 1] * xs[1] + c[1, 2] * xs[2]
+                y2 = c[2, 0] * xs[0] + c[2, 1] * xs[1] + c[2, 2] * xs[2]
+                v0 -= w * y0
+                v1 -= w * y1
+                v2 -= w * y2
+        dsx = hf * ds0
+        dsy = hf * ds1
+        dsz = hf * ds2
+        dv[n, 0] = hf * v0
+        dv[n, 1] = hf * v1
+        dv[n, 2] = hf * v2
+        if has_vib:
+            for i in range(3):
+                dv[n, i] += c[i, 0] * dv_vib[n, 0] + c[i, 1] * dv_vib[n, 1] + c[i, 2] * dv_vib[n, 2]
+        dth[n, 0] = phib[n, 3, 0] - state[6] + dsx
+        dth[n, 1] = phib[n, 3, 1] - state[7] + dsy
+        dth[n, 2] = phib[n, 3, 2] - state[8] + dsz
+        # advance the node state to the end of the sample
+        state[0] += dsx
+        state[1] += dsy
+        state[2] += dsz
+        _cbv_from_q(q_vb[n], c_end)
+        for i in range(3):
+            state[3 + i] = c_end[i, 0] * om[n, 3, 0] + c_end[i, 1] * om[n, 3, 1] + c_end[i, 2] * om[n, 3, 2]
+            state[6 + i] = phib[n, 3, i]
+            s_nodes[n + 1, i] = state[i]
+            ds_nodes[n + 1, i] = state[3 + i]
+        for i in range(3):
+            for j in range(3):
+                c[i, j] = c_end[i, j]
+        p = q_nv[n]
+        q = q_vb[n]
+        q_nb[n, 0] = p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3]
+        q_nb[n, 1] = p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2]
+        q_nb[n, 2] = p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1]
+        q_nb[n, 3] = p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0]
+    for i in range(3):
+        for j in range(3):
+            state[9 + 3 * i + j] = c[i, j]
+
+
+@jit
+def hermite_plant(s_nodes, ds_nodes, herm, dherm, out_s, out_ds):
+    """Cubic Hermite interpolant of ``S`` (values and rates at filter nodes) at the plant steps.
+
+    ``herm[r]``, ``dherm[r]``: the basis (and its derivative) at step ``r + 1`` of ``R`` within a
+    sample (``h00, h10 h, h01, h11 h``); rows ``n R + r`` of ``out_s`` and ``out_ds``.
+    """
+    rr = herm.shape[0]
+    for n in range(s_nodes.shape[0] - 1):
+        for r in range(rr):
+            row = n * rr + r
+            for i in range(3):
+                a = s_nodes[n, i]
+                b = ds_nodes[n, i]
+                cc = s_nodes[n + 1, i]
+                d = ds_nodes[n + 1, i]
+                out_s[row, i] = herm[r, 0] * a + herm[r, 1] * b + herm[r, 2] * cc + herm[r, 3] * d
+                out_ds[row, i] = dherm[r, 0] * a + dherm[r, 1] * b + dherm[r, 2] * cc + dherm[r, 3] * d
+
+
+@jit
+def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, v_t, q_t, e_body, free, att_limit, out):
+    """Navigation errors against the truth, one row per update; returns the first bad row or -1.
+
+    ``out[:, 0:3]``: north, east (m, along the surface at the true position: ``dlat (R_N + h)``,
+    ``wrap(dlon) cos(lat) (R_E + h)``) and their norm; ``out[:, 3]``: height error (m, up);
+    ``out[:, 4:7]``: NED velocity error (m/s); ``out[:, 7:10]``: attitude error ``psi`` (rad),
+    the rotation vector of ``q_est (x) q_true*`` (``C_nb_est = (I + [psi x]) C_nb_true``);
+    ``out[:, 12:15]``: the free attitude error, the gyro-angle error ``e_body`` (output minus
+    truth, body axes, rad) accumulated in the navigation frame, ``sum C_nb,true de_body``;
+    ``free = [psi_free (3), e_body at the previous update (3)]`` carries it across calls.
+    Radii of curvature as :func:`sins_sim.earth.radii`. A row is bad when it is not finite or
+    ``|psi|`` exceeds ``att_limit`` (rad): the first such row's index is returned (-1: none).
+    """
+    bad = -1
+    for n in range(lat.shape[0]):
+        sl = math.sin(lat_t[n])
+        w = 1.0 - WGS84_E2 * sl * sl
+        r_e = WGS84_A_M / math.sqrt(w)
+        r_n = r_e * (1.0 - WGS84_E2) / w
+        dn = (lat[n] - lat_t[n]) * (r_n + h_t[n])
+        dl = lon[n] - lon_t[n]
+        dl = (dl + math.pi) % (2.0 * math.pi) - math.pi
+        de = dl * math.cos(lat_t[n]) * (r_e + h_t[n])
+        out[n, 0] = dn
+        out[n, 1] = de
+        out[n, 2] = math.sqrt(dn * dn + de * de)
+        out[n, 3] = h[n] - h_t[n]
+        for i in range(3):
+            out[n, 4 + i] = v[n, i] - v_t[n, i]
+        # e = q_est (x) conj(q_true)
+        a0, a1, a2, a3 = q[n, 0], q[n, 1], q[n, 2], q[n, 3]
+        b0, b1, b2, b3 = q_t[n, 0], -q_t[n, 1], -q_t[n, 2], -q_t[n, 3]
+        e0 = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
+        e1 = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
+        e2 = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
+        e3 = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0
+        if e0 < 0.0:
+            e0, e1, e2, e3 = -e0, -e1, -e2, -e3
+        s = math.sqrt(e1 * e1 + e2 * e2 + e3 * e3)
+        if s < 1e-8:
+            k = 2.0 / e0 * (1.0 + s * s / (6.0 * e0 * e0))  # 2 atan2(s, e0) / s to third order
+        else:
+            k = 2.0 * math.atan2(s, e0) / s
+        out[n, 7] = k * e1
+        out[n, 8] = k * e2
+        out[n, 9] = k * e3
+        # free attitude error: d psi_free = C_nb de_body (rotate by the true attitude)
+        d0 = e_body[n, 0] - free[3]
+        d1 = e_body[n, 1] - free[4]
+        d2 = e_body[n, 2] - free[5]
+        free[3] = e_body[n, 0]
+        free[4] = e_body[n, 1]
+        free[5] = e_body[n, 2]
+        w0, w1, w2, w3 = q_t[n, 0], q_t[n, 1], q_t[n, 2], q_t[n, 3]
+        free[0] += (1 - 2 * (w2 * w2 + w3 * w3)) * d0 + 2 * (w1 * w2 - w0 * w3) * d1 + 2 * (w1 * w3 + w0 * w2) * d2
+        free[1] += 2 * (w1 * w2 + w0 * w3) * d0 + (1 - 2 * (w1 * w1 + w3 * w3)) * d1 + 2 * (w2 * w3 - w0 * w1) * d2
+        free[2] += 2 * (w1 * w3 - w0 * w2) * d0 + 2 * (w2 * w3 + w0 * w1) * d1 + (1 - 2 * (w1 * w1 + w2 * w2)) * d2
+        out[n, 12] = free[0]
+        out[n, 13] = free[1]
+        out[n, 14] = free[2]
+        if bad < 0:
+            ok = s * k <= att_limit
+            for i in range(10):
+                if not math.isfinite(out[n, i]):
+                    ok = False
+            if not ok:
+                bad = n
+    return bad
+
+
+@jit
+def block_stats(x, every, acc, out_mean, out_min, out_max):
+    """Block means, minima and maxima over ``every`` consecutive rows, streamed.
+
+    ``acc``: ``[count, sums (C), mins (C), maxs (C)]`` of the open block, updated in place;
+    each block completed in ``x`` writes one row of ``out_*``. Returns the number written.
+    """
+    c = x.shape[1]
+    m = 0
+    for n in range(x.shape[0]):
+        if acc[0] == 0.0:
+            for i in range(c):
+                acc[1 + i] = 0.0
+                acc[1 + c + i] = x[n, i]
+                acc[1 + 2 * c + i] = x[n, i]
+        acc[0] += 1.0
+        for i in range(c):
+            xi = x[n, i]
+            acc[1 + i] += xi
+            if xi < acc[1 + c + i]:
+                acc[1 + c + i] = xi
+            if xi > acc[1 + 2 * c + i]:
+                acc[1 + 2 * c + i] = xi
+        if acc[0] == every:
+            for i in range(c):
+                out_mean[m, i] = acc[1 + i] / every
+                out_min[m, i] = acc[1 + c + i]
+                out_max[m, i] = acc[1 + 2 * c + i]
+            m += 1
+            acc[0] = 0.0
+    return m
