@@ -73,7 +73,7 @@ def test_engine_against_bare_kernels(benchmark, check_ratio, record, sizes, sosf
     bare = BareKernels(dur)
     sim_s = bare.simulated_s
     res = record(lambda: engine_run(sim_s, navigation=False))
-    assert set(res.outputs_last) == {"raw", "eliminator", "correcting", "correcting_paper"}
+    assert set(res.outputs_last) == {"eliminator", "correcting", "correcting_paper"}
     assert all(np.all(np.isfinite(v)) for v in res.outputs_last.values())
     reps = max(3, sizes["repeats"] // 2)
     steps = 3 * bare.n_chunks * bare.n

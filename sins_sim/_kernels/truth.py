@@ -180,10 +180,11 @@ def truth_samples(hf, om, fv, acc, dv_vib, phib, q_vb, q_nv, state, dth, dv, s_n
 
 @jit
 def hermite_plant(s_nodes, ds_nodes, herm, dherm, out_s, out_ds):
-    """Cubic Hermite interpolant of ``S`` (values and rates at filter nodes) at the plant steps.
+    """Add the cubic Hermite interpolant of ``S`` (values and rates at filter nodes) at the plant steps.
 
     ``herm[r]``, ``dherm[r]``: the basis (and its derivative) at step ``r + 1`` of ``R`` within a
-    sample (``h00, h10 h, h01, h11 h``); rows ``n R + r`` of ``out_s`` and ``out_ds``.
+    sample (``h00, h10 h, h01, h11 h``); added in place to rows ``n R + r`` of ``out_s`` and
+    ``out_ds`` (which hold the block's own angles and rates).
     """
     rr = herm.shape[0]
     for n in range(s_nodes.shape[0] - 1):
@@ -194,8 +195,8 @@ def hermite_plant(s_nodes, ds_nodes, herm, dherm, out_s, out_ds):
                 b = ds_nodes[n, i]
                 cc = s_nodes[n + 1, i]
                 d = ds_nodes[n + 1, i]
-                out_s[row, i] = herm[r, 0] * a + herm[r, 1] * b + herm[r, 2] * cc + herm[r, 3] * d
-                out_ds[row, i] = dherm[r, 0] * a + dherm[r, 1] * b + dherm[r, 2] * cc + dherm[r, 3] * d
+                out_s[row, i] += herm[r, 0] * a + herm[r, 1] * b + herm[r, 2] * cc + herm[r, 3] * d
+                out_ds[row, i] += dherm[r, 0] * a + dherm[r, 1] * b + dherm[r, 2] * cc + dherm[r, 3] * d
 
 
 @jit
@@ -238,8 +239,9 @@ def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, v_t, q_t, e_body, free, att
         if e0 < 0.0:
             e0, e1, e2, e3 = -e0, -e1, -e2, -e3
         s = math.sqrt(e1 * e1 + e2 * e2 + e3 * e3)
-        if s < 1e-8:
-            k = 2.0 / e0 * (1.0 + s * s / (6.0 * e0 * e0))  # 2 atan2(s, e0) / s to third order
+        if s < 1e-3:  # 2 atan2(s, e0) / s = (2 / e0) atan(x) / x, x = s / e0: series, next term x^6 / 7 < 2e-19
+            x2 = s * s / (e0 * e0)
+            k = 2.0 / e0 * (1.0 - x2 / 3.0 + x2 * x2 / 5.0)
         else:
             k = 2.0 * math.atan2(s, e0) / s
         out[n, 7] = k * e1
@@ -300,3 +302,33 @@ def block_stats(x, every, acc, out_mean, out_min, out_max):
             m += 1
             acc[0] = 0.0
     return m
+
+
+@jit
+def block_at_nodes(ang, rate, blk, rr, gl_r0, gl_w, hp, phib):
+    """The block's gyro angles at the 3 Gauss-Legendre nodes and the end of each filter sample.
+
+    ``ang, rate`` (float64[n R, 3]): the block's angles and rates at the plant steps; ``blk``
+    (float64[6]): angle and rate at the start of the first sample; node ``g`` lies between plant
+    steps ``gl_r0[g]`` and ``gl_r0[g] + 1`` of its sample (step 0: the sample's start) with cubic
+    Hermite weights ``gl_w[g]`` (``h00, h10, h01, h11``; the rate terms scaled by the plant step
+    ``hp``). ``phib`` (float64[n, 4, 3]) receives the angles; ``blk`` moves to the last step.
+    """
+    n = phib.shape[0]
+    for k in range(n):
+        for g in range(3):
+            r0 = gl_r0[g]
+            for i in range(3):
+                if r0 == 0:
+                    a0 = blk[i]
+                    d0 = blk[3 + i]
+                else:
+                    a0 = ang[k * rr + r0 - 1, i]
+                    d0 = rate[k * rr + r0 - 1, i]
+                a1 = ang[k * rr + r0, i]
+                d1 = rate[k * rr + r0, i]
+                phib[k, g, i] = gl_w[g, 0] * a0 + gl_w[g, 1] * hp * d0 + gl_w[g, 2] * a1 + gl_w[g, 3] * hp * d1
+        for i in range(3):
+            phib[k, 3, i] = ang[k * rr + rr - 1, i]
+            blk[i] = ang[k * rr + rr - 1, i]
+            blk[3 + i] = rate[k * rr + rr - 1, i]

@@ -15,7 +15,7 @@ import numpy as np
 
 from sins_sim.jobs.imu import imu_from_dict, load_yaml
 from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
-from sins_sim.simulation.sins import SINS_FILTERS, NavSettings
+from sins_sim.simulation.sins import DEFAULT_FILTERS, SINS_FILTERS, NavSettings
 
 __all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "run_scenario", "Scenario"]
 
@@ -97,7 +97,7 @@ SCENARIO_SCHEMA = Map({
     "trajectory": TRAJECTORY_SCHEMA,
     "motion": ListOf(MOTION_SCHEMA, default=[{"type": "static"}], min_len=1),
     "linear_vibration": ListOf(LINEAR_SCHEMA, default=[], doc="the block's translational vibration (mount axes)"),
-    "filters": ListOf(Str(choices=SINS_FILTERS), default=list(SINS_FILTERS), min_len=1),
+    "filters": ListOf(Str(choices=SINS_FILTERS), default=list(DEFAULT_FILTERS), min_len=1),
     "navigation": Map({
         "coning": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
         "sculling": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
@@ -106,7 +106,11 @@ SCENARIO_SCHEMA = Map({
         "vertical": Str(choices=("height_aid", "free"), default="height_aid"),
         "height_aid_tau": Num(unit="s", **_POS, default=100.0),
         "accel_delay": Str(choices=("matched", "none"), default="matched"),
-        "timeseries_rate": Num(unit="hz", **_POS, default=10.0),
+        "align": Num(unit="s", min=0.0, default=0.5, doc="window before start_s over which each filter's offset "
+                                                           "from the truth is averaged (alignment)"),
+        "timeseries_rate": Num(unit="hz", **_POS, default=None,
+                               doc="stored series rate; default 10 Hz, slower for missions over 12 min "
+                                   "(at most 7200 stored blocks, each with its min/max envelope)"),
         "spectrum": Num(unit="s", min=0.0, default=2.0),
     }, default={}),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
@@ -155,7 +159,7 @@ class Scenario:
         try:
             self.nav = NavSettings(coning=nv["coning"], sculling=nv["sculling"], start_s=nv["start_s"],
                                    n_sub=nv["n_sub"], vertical=nv["vertical"],
-                                   height_aid_tau_s=nv["height_aid_tau_s"], accel_delay=nv["accel_delay"],
+                                   height_aid_tau_s=nv["height_aid_tau_s"], accel_delay=nv["accel_delay"], align_s=nv["align_s"],
                                    timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"])
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {exc}") from None

@@ -22,7 +22,8 @@ Time alignment. Filter output ``k`` describes the gyro angle at ``t_k - d`` with
 number of filter samples: the anti-alias FIR's delay, plus one sample for eq. 5, or plus the
 eliminator's DC group delay (rounded; the rounding residual is reported). Each filter's
 navigation runs on the truth timeline ``j = k - d`` and starts aligned to the truth at
-``start_s``. ``accel_delay="matched"`` delays the accelerometers by the same ``d`` (what a
+``start_s``; the first increment starts from the filter's mean offset from the truth over the
+alignment window ``align_s`` (a single sample would carry its residual in as a tilt). ``accel_delay="matched"`` delays the accelerometers by the same ``d`` (what a
 real unit does); ``"none"`` feeds them undelayed, so that the navigation mixes gyro data
 ``d`` samples old with current accelerometer data (the cost shows under vibration as a
 sculling-like error).
@@ -46,12 +47,18 @@ from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveContro
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
 from sins_sim.simulation.truth import MissionTruth
 
-__all__ = ["DriveControl", "ImuConfig", "NavSettings", "SinsResult", "simulate_sins", "SINS_FILTERS",
+__all__ = ["DriveControl", "ImuConfig", "NavSettings", "SinsResult", "simulate_sins", "SINS_FILTERS", "DEFAULT_FILTERS",
            "default_threads"]
 
 #: Every filter a SINS run can compare.
 SINS_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
+#: The filters navigated by default: the dither filters and the ideal floor (``raw``, the readout with the
+#: dither still in it, on request).
+DEFAULT_FILTERS = ("ideal", "eliminator", "correcting", "correcting_paper")
 AXES = ("x", "y", "z")
+#: Default rate of the stored error series (Hz) and the most blocks stored per filter by default.
+DEFAULT_SERIES_RATE_HZ = 10.0
+MAX_SERIES_BLOCKS = 7200
 #: An attitude error beyond this (rad) means the navigation of a filter has diverged.
 DIVERGED_ATTITUDE_RAD = 0.5
 
@@ -119,8 +126,16 @@ class NavSettings:
         Time constant of the height-aided loop (s).
     accel_delay : {"matched", "none"}
         Whether the accelerometers are delayed to match each filter's gyro delay.
-    timeseries_rate_hz : float
-        Rate of the stored (block-averaged, min/max enveloped) error series (Hz).
+    align_s : float
+        Alignment window before ``start_s`` (s): each filter's gyro-angle offset from the truth is
+        averaged over it and taken as the reference of the first increment, as a fine alignment
+        averages its sensors (0: the single sample at ``start_s``, whose residual then enters the
+        run as an initial tilt).
+    timeseries_rate_hz : float or None
+        Rate of the stored (block-averaged, min/max enveloped) error series (Hz). None: 10 Hz, or
+        slower for long missions so that at most :data:`MAX_SERIES_BLOCKS` blocks are stored (the
+        stored series, and the memory they take, do not grow with the mission length; every block
+        keeps its min/max envelope).
     spectrum_s : float
         Length of the full-rate gyro-error record kept for spectra (s, from ``start_s``).
     """
@@ -132,7 +147,8 @@ class NavSettings:
     vertical: str = "height_aid"
     height_aid_tau_s: float = 100.0
     accel_delay: str = "matched"
-    timeseries_rate_hz: float = 10.0
+    align_s: float = 0.5
+    timeseries_rate_hz: float | None = None
     spectrum_s: float = 2.0
 
     def __post_init__(self):
@@ -144,7 +160,15 @@ class NavSettings:
         v.choice("navigation", "vertical", self.vertical, ("height_aid", "free"))
         v.positive("navigation", "height_aid_tau_s", self.height_aid_tau_s)
         v.choice("navigation", "accel_delay", self.accel_delay, ("matched", "none"))
-        v.positive("navigation", "timeseries_rate_hz", self.timeseries_rate_hz)
+        v.non_negative("navigation", "align_s", self.align_s)
+        if self.timeseries_rate_hz is not None:
+            v.positive("navigation", "timeseries_rate_hz", self.timeseries_rate_hz)
+
+    def series_rate_hz(self, duration_s: float) -> float:
+        """The stored series' rate for a mission of ``duration_s`` (see ``timeseries_rate_hz``)."""
+        if self.timeseries_rate_hz is not None:
+            return self.timeseries_rate_hz
+        return min(DEFAULT_SERIES_RATE_HZ, MAX_SERIES_BLOCKS / max(duration_s - self.start_s, 1e-9))
         v.non_negative("navigation", "spectrum_s", self.spectrum_s)
 
 
@@ -196,35 +220,46 @@ class SinsResult:
     outputs_last: dict
 
 
-def axis_pool(threads: int):
-    """A thread pool for the three axes' chains (their kernels release the GIL), or None for serial."""
+def axis_pool(threads: int, n_axes: int = 3):
+    """One single-thread executor per axis (each axis's chunks run in order), or None for serial.
+
+    The kernels release the GIL, so the axes run in parallel while the calling thread prepares
+    the next chunk's truth and navigates the previous one.
+    """
     if threads <= 1:
         return None
     from concurrent.futures import ThreadPoolExecutor
 
-    return ThreadPoolExecutor(max_workers=min(3, threads), thread_name_prefix="sins-axis")
+    return [ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"sins-axis-{AXES[i]}") for i in range(n_axes)]
 
 
-def run_axes(chains, i0, ang, rate, pool, caught):
-    """Advance the three channel chains over one chunk, on ``pool`` threads when given.
+def submit_axes(chains, i0, ang, rate, pool):
+    """Start the three chains on one chunk: futures on ``pool``, or a deferred serial call."""
+    if pool is None or any(ch.path != "fused" for ch in chains):
+        return ("serial", i0, ang, rate)
+    return ("futures", [pool[i].submit(ch.run_kernel, i0, np.ascontiguousarray(ang[:, i]),
+                                       np.ascontiguousarray(rate[:, i])) for i, ch in enumerate(chains)])
 
-    Warnings each axis raises are collected as ``"axis x: message"`` lines into ``caught``
-    (the threads run only the kernels; ``warnings.catch_warnings`` is not thread-safe, so the
-    warning checks run here, in the caller's thread, in axis order).
+
+def collect_axes(chains, job, caught):
+    """The outputs of a chunk started by :func:`submit_axes`, with each axis's warnings collected.
+
+    Warnings become ``"axis x: message"`` lines in ``caught``; the warning checks run in the
+    calling thread (``warnings.catch_warnings`` is not thread-safe).
     """
     import warnings as _warnings
 
-    if pool is None or any(ch.path != "fused" for ch in chains):
-        outs = []
+    outs = []
+    if job[0] == "serial":
+        _, i0, ang, rate = job
         for i, ch in enumerate(chains):
             with _warnings.catch_warnings(record=True) as axis_w:
                 _warnings.simplefilter("always")
                 outs.append(ch.run(i0, np.ascontiguousarray(ang[:, i]), np.ascontiguousarray(rate[:, i])))
             caught.extend(f"axis {AXES[i]}: {w.message}" for w in axis_w)
         return outs
-    futures = [pool.submit(ch.run_kernel, i0, ang[:, i].copy(), rate[:, i].copy()) for i, ch in enumerate(chains)]
-    outs = [f.result() for f in futures]
-    for i, ch in enumerate(chains):  # warnings in this thread: catch_warnings is not thread-safe
+    outs = [f.result() for f in job[1]]
+    for i, ch in enumerate(chains):
         with _warnings.catch_warnings(record=True) as axis_w:
             _warnings.simplefilter("always")
             ch.check_chunk(outs[i])
@@ -290,10 +325,11 @@ class _FilterNav:
         self.series = None
         self.diverged = None
         self.free = np.zeros(6)  # free attitude error and the last gyro-angle error (see nav_errors)
+        self.ref = None  # gyro angle the first increment starts from (alignment)
 
 
 def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav: NavSettings | None = NavSettings(),
-                  filters=SINS_FILTERS, chunk_s: float = 1.0, progress=None, threads: int | None = None,
+                  filters=DEFAULT_FILTERS, chunk_s: float = 1.0, progress=None, threads: int | None = None,
                   vehicle=None, translation=None) -> SinsResult:
     """Run the three-axis SINS (module docstring).
 
@@ -311,7 +347,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         Navigation settings; None runs the gyro chains and filters only (no truth attitude, no
         navigation): the engine's speed without the INS loop.
     filters : sequence of str
-        Filters to navigate (subset of :data:`SINS_FILTERS`).
+        Filters to navigate (subset of :data:`SINS_FILTERS`; default :data:`DEFAULT_FILTERS`).
     chunk_s : float
         Chunk length (s): memory bound; results do not depend on it.
     progress : callable(fraction) or None
@@ -370,26 +406,35 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     navs = {}
     if nav is not None:
         k_start = int(round(nav.start_s * fs))
-        every = max(1, int(round(fs / nav.n_sub / nav.timeseries_rate_hz)))
+        every = max(1, int(round(fs / nav.n_sub / nav.series_rate_hz(duration_s))))
         for name in filters:
             d = delays[name]
             navs[name] = _FilterNav(name, d, d if nav.accel_delay == "none" else 0)
         truth_every = every * nav.n_sub
         n_spec = int(round(nav.spectrum_s * fs))
         spec_next = k_start
+        n_align = min(k_start, int(round(nav.align_s * fs)))
     spectra = {name: [] for name in filters}
     truth_series = {"t_s": [], "lat_rad": [], "lon_rad": [], "h_m": []}
     diverged = {}
     caught = []
     pool = axis_pool(threads) if outs_buf else None
-    k_prev = 0
     last_out = {}
+
+    def stage(k_a, k_b):
+        """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
+        tc, ang, rate = truth.advance(k_b, plant=bool(outs_buf))
+        job = submit_axes(chains, k_a * r_dec, ang, rate, pool) if outs_buf else None
+        return k_a, k_b, tc, job
+
     try:
-        while k_prev < n_out:
-            k1 = min(k_prev + chunk, n_out)
-            tc, ang, rate = truth.advance(k1, plant=bool(outs_buf))
-            # the gyro chains run only when a filter needs them (``ideal`` alone navigates the truth)
-            outs = run_axes(chains, k_prev * r_dec, ang, rate, pool, caught) if outs_buf else []
+        pending = stage(0, min(chunk, n_out))
+        while pending is not None:
+            k_prev, k1, tc, job = pending
+            # pipeline: the next chunk's truth is prepared (and its kernels queued behind this chunk's on each
+            # axis) while this chunk's kernels run; this chunk is navigated while the next one's kernels run
+            pending = stage(k1, min(k1 + chunk, n_out)) if k1 < n_out else None
+            outs = collect_axes(chains, job, caught) if outs_buf else []
             # truth rows for nodes tc.k0 .. k1
             phi_buf.push(tc.phi_rad)
             for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
@@ -405,12 +450,13 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                     diverged[name] = {"axis": AXES[int(bad[1])], "time_s": (k_prev + int(bad[0])) / fs,
                                       "reason": "filter output not finite"}
             if nav is not None:
-                _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged)
+                _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged, n_align)
                 spec_next = _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, min(k_start + n_spec, n_out),
                                           max_delay, filters)
                 _keep_truth_series(truth_series, tr_buf, k_prev, k1, k_start, truth_every, fs)
                 # drop what no filter needs any more
-                keep = [nf.next_j if nf.next_j is not None else k_start for nf in navs.values() if nf.diverged is None]
+                keep = [nf.next_j if nf.next_j is not None else k_start - n_align for nf in navs.values()
+                        if nf.diverged is None]
                 if spec_next < min(k_start + n_spec, n_out):
                     keep.append(spec_next)
                 need = min(keep or [k1])
@@ -423,12 +469,12 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             else:
                 for r in list(tr_buf.values()) + list(outs_buf.values()) + [phi_buf]:
                     r.drop_before(k1 - 2)
-            k_prev = k1
             if progress is not None:
                 progress(k1 / n_out)
     finally:
         if pool is not None:
-            pool.shutdown(wait=True)
+            for ex in pool:
+                ex.shutdown(wait=True, cancel_futures=True)
 
     drives = [{"axis": AXES[i], "f0_hz": ch.cfg.suspension.f0_hz, "frequency_hz": ch.drive.frequency_hz,
                "v_m_initial": ch.v_m0, "v_m_final": ch.v_m, "amplitude_measured_rad": ch.amp_meas,
@@ -447,7 +493,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                       warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out)
 
 
-def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged):
+def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged, n_align):
     """Advance every filter's navigation as far as its aligned data reach."""
     for name, nf in navs.items():
         if nf.diverged is not None:
@@ -465,8 +511,14 @@ def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs
                                         vertical=nav.vertical, height_aid_tau_s=nav.height_aid_tau_s)
             nf.j0 = j0
             nf.next_j = j0 + 1
-            if name != "ideal":  # the gyro-angle offset at alignment is not an error of the run
-                nf.free[3:6] = outs_buf[name].get(j0 + nf.d, j0 + nf.d + 1)[0] - phi_buf.get(j0, j0 + 1)[0]
+            if name != "ideal":
+                # alignment: the filter's gyro-angle offset from the truth, averaged over the alignment window
+                # (as a fine alignment averages its sensors), is the reference of the first increment; a single
+                # sample would carry its own residual (quantisation, dither) into the run as a tilt
+                w0 = max(outs_buf[name].base - nf.d, phi_buf.base, j0 - n_align)
+                off = (outs_buf[name].get(w0 + nf.d, j0 + nf.d + 1) - phi_buf.get(w0, j0 + 1)).mean(axis=0)
+                nf.ref = phi_buf.get(j0, j0 + 1)[0] + off
+                nf.free[3:6] = off
             nf.series = ErrorSeries(every, nav.n_sub / fs, j0 / fs)
         ja, jb = nf.next_j, j_end
         if jb <= ja:
@@ -475,6 +527,8 @@ def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs
             dth = tr_buf["dth"].get(ja, jb)
         else:
             y = outs_buf[name].get(ja + nf.d - 1, jb + nf.d)
+            if ja == nf.j0 + 1:  # the first increment starts from the aligned reference
+                y = np.concatenate((nf.ref[None], y[1:]))
             dth = np.diff(y, axis=0)
         dv = tr_buf["dv"].get(ja + nf.dv_shift, jb + nf.dv_shift)
         if not (np.all(np.isfinite(dth)) and np.all(np.isfinite(dv))):

@@ -200,13 +200,11 @@ class MissionTruth:
         self._dherm = np.ascontiguousarray(np.stack([(6 * s ** 2 - 6 * s) / h, 3 * s ** 2 - 4 * s + 1,
                                                      (-6 * s ** 2 + 6 * s) / h, 3 * s ** 2 - 2 * s], axis=1))
         # each Gauss-Legendre node sits between plant steps r0 and r0 + 1 of its sample (step 0: the start)
-        self._gl_interp = []
-        for x in GL_NODES:
-            pos = x * self.r
-            r0 = min(int(np.floor(pos)), self.r - 1)
-            u = pos - r0
-            self._gl_interp.append((r0, (2 * u ** 3 - 3 * u ** 2 + 1, u ** 3 - 2 * u ** 2 + u, -2 * u ** 3 + 3 * u ** 2,
-                                         u ** 3 - u ** 2)))
+        pos = GL_NODES * self.r
+        self._gl_r0 = np.minimum(np.floor(pos), self.r - 1).astype(np.int64)
+        u = pos - self._gl_r0
+        self._gl_w = np.ascontiguousarray(np.stack([2 * u ** 3 - 3 * u ** 2 + 1, u ** 3 - 2 * u ** 2 + u,
+                                                    -2 * u ** 3 + 3 * u ** 2, u ** 3 - u ** 2], axis=1))
         self._blk = np.zeros(6)  # block angle and rate at the last node
         a0, r0_ = self.block.grid_angle_rate(-1, 1, 1.0 / self.fp)
         self._blk[:3], self._blk[3:] = a0[0], r0_[0]
@@ -250,16 +248,8 @@ class MissionTruth:
         hp = 1.0 / self.fp
         if plant:
             ang_b, rate_b = self.block.grid_angle_rate(k_prev * self.r, n * self.r, hp)
-            pa = np.concatenate((self._blk[None, 0:3], ang_b[self.r - 1::self.r][:-1]))  # angle at each sample start
-            pr = np.concatenate((self._blk[None, 3:6], rate_b[self.r - 1::self.r][:-1]))
-            ang3 = np.concatenate((pa[:, None], ang_b.reshape(n, self.r, 3)), axis=1)  # (n, R + 1, 3)
-            rate3 = np.concatenate((pr[:, None], rate_b.reshape(n, self.r, 3)), axis=1)
             phib = np.empty((n, 4, 3))
-            for g, (r0, w) in enumerate(self._gl_interp):
-                phib[:, g] = (w[0] * ang3[:, r0] + w[1] * hp * rate3[:, r0] + w[2] * ang3[:, r0 + 1]
-                              + w[3] * hp * rate3[:, r0 + 1])
-            phib[:, 3] = ang3[:, self.r]
-            self._blk = np.concatenate((ang_b[-1], rate_b[-1]))
+            ktruth.block_at_nodes(ang_b, rate_b, self._blk, self.r, self._gl_r0, self._gl_w, hp, phib)
         else:
             phib = np.ascontiguousarray(self.block.gyro_angle(grid).reshape(n, 4, 3))
         om = np.ascontiguousarray(f(rows, "omega_iv_v_rad_s"))
@@ -281,12 +271,9 @@ class MissionTruth:
                              ds_nodes, q_nb)
         # gyro inputs at the plant rate: block angle (closed form) + Hermite interpolant of S
         angle = rate = None
-        if plant:
-            s_pl = np.empty((n * self.r, 3))
-            ds_pl = np.empty((n * self.r, 3))
-            ktruth.hermite_plant(s_nodes, ds_nodes, self._herm, self._dherm, s_pl, ds_pl)
-            angle = ang_b + s_pl
-            rate = rate_b + ds_pl
+        if plant:  # block angle (closed form) + Hermite interpolant of S, in place
+            ktruth.hermite_plant(s_nodes, ds_nodes, self._herm, self._dherm, ang_b, rate_b)
+            angle, rate = ang_b, rate_b
         phi = phib[:, 3] + s_nodes[1:]
         lat, lon, h = f(end, "lat_rad"), f(end, "lon_rad"), f(end, "h_m")
         v_ned = self._v_ned(f(end, "v_ned_m_s"), q_nv, t_end)

@@ -62,7 +62,6 @@ References
 from __future__ import annotations
 
 import abc
-import inspect
 import math
 from dataclasses import InitVar, dataclass, field
 
@@ -71,6 +70,7 @@ import numpy as np
 from sins_sim import _validate as v
 from sins_sim._kernels.motion import (comb_increment, comb_rate, magnus4_run, sines_grid, sines_increment,
                                       sines_rate)
+from sins_sim.models.motion._registry import build_typed
 from sins_sim.models.motion.single_axis import _Motion
 
 __all__ = [
@@ -1498,24 +1498,7 @@ def build_motion(specs):
         raise ValueError(f"motion: must be a list of {{'type': ..., ...}} entries, got {type(specs).__name__}")
     parts = []
     for i, spec in enumerate(specs):
-        where = f"motion[{i}]"
-        if not isinstance(spec, dict):
-            raise ValueError(f"{where}: must be a dict with a 'type' key, got {type(spec).__name__}")
-        if "type" not in spec:
-            raise ValueError(f"{where}.type: missing; one of {sorted(MOTION_TYPES)}")
-        name = spec["type"]
-        if name not in MOTION_TYPES:
-            raise ValueError(f"{where}.type: unknown motion type {name!r}; one of {sorted(MOTION_TYPES)}")
-        cls = MOTION_TYPES[name]
-        params = inspect.signature(cls).parameters
-        kwargs = {k: val for k, val in spec.items() if k != "type"}
-        for key in kwargs:
-            if key not in params:
-                raise ValueError(f"{where}.{key}: unknown key for motion type {name!r}; allowed: {sorted(params)}")
-        for key, par in params.items():
-            if par.default is inspect.Parameter.empty and key not in kwargs:
-                raise ValueError(f"{where}.{key}: required for motion type {name!r}")
-        parts.append(cls(**kwargs))
+        parts.append(build_typed(spec, MOTION_TYPES, f"motion[{i}]", "motion type"))
     return SumMotion3D(tuple(parts))
 
 

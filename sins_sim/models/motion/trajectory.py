@@ -99,6 +99,7 @@ from scipy.interpolate import make_interp_spline
 from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim._kernels._config import jit
+from sins_sim.models.motion._registry import build_typed
 
 __all__ = [
     "Stationary",
@@ -1097,24 +1098,7 @@ def build_trajectory(spec) -> Trajectory:
                          f"{type(raw).__name__}")
     segs = []
     for i, entry in enumerate(raw):
-        where = f"trajectory.segments[{i}]"
-        if not isinstance(entry, Mapping):
-            raise ValueError(f"{where}: must be a dict with a 'type' key, got {type(entry).__name__}")
-        if "type" not in entry:
-            raise ValueError(f"{where}.type: missing; one of {sorted(SEGMENT_TYPES)}")
-        name = entry["type"]
-        if name not in SEGMENT_TYPES:
-            raise ValueError(f"{where}.type: unknown segment type {name!r}; one of {sorted(SEGMENT_TYPES)}")
-        cls = SEGMENT_TYPES[name]
-        fields = inspect.signature(cls).parameters
-        kwargs = {k: val for k, val in entry.items() if k != "type"}
-        for key in kwargs:
-            if key not in fields:
-                raise ValueError(f"{where}.{key}: unknown key for segment type {name!r}; allowed: {sorted(fields)}")
-        for key in fields:
-            if key not in kwargs:
-                raise ValueError(f"{where}.{key}: required for segment type {name!r}")
-        segs.append(cls(**kwargs))
+        segs.append(build_typed(entry, SEGMENT_TYPES, f"trajectory.segments[{i}]", "segment type"))
     return Trajectory(**{**{k: spec[k] for k in spec if k != "segments"}, "segments": segs})
 
 
