@@ -14,7 +14,7 @@ from sins_sim.jobs.imu import load_imu
 from sins_sim.models.motion import AxisSines, Coning
 from sins_sim.simulation.channel import ChannelChain, DriveControl
 from sins_sim.units import ARCMIN
-from tests.chunking import uneven_bounds
+from chunking import uneven_bounds
 
 IMU = load_imu("configs/default-imu.yaml")
 H = 1.0 / 72000.0
