@@ -19,11 +19,12 @@ GL_W1 = 8.0 / 18.0
 
 
 @jit
-def lagrange4(nodes, j0, h, t, out):
+def lagrange4(nodes, j0, h, t, q_col, out):
     """4-point Lagrange interpolation of node rows at times ``t`` (A&S 25.2.13).
 
     ``nodes[i]`` is the row at time ``(j0 + i) h``; for ``t`` in ``[t_j, t_{j+1})`` the cubic
-    through nodes ``j - 1 .. j + 2`` is evaluated. ``out[n, c]`` receives the values.
+    through nodes ``j - 1 .. j + 2`` is evaluated. ``out[n, c]`` receives the values; the four
+    columns from ``q_col`` (a quaternion) are renormalised (``q_col < 0``: none).
     """
     for n in range(t.shape[0]):
         x = t[n] / h
@@ -36,6 +37,10 @@ def lagrange4(nodes, j0, h, t, out):
         w3 = (u + 1.0) * u * (u - 1.0) / 6.0
         for c in range(nodes.shape[1]):
             out[n, c] = w0 * nodes[i - 1, c] + w1 * nodes[i, c] + w2 * nodes[i + 1, c] + w3 * nodes[i + 2, c]
+        if q_col >= 0:
+            qn = math.sqrt(out[n, q_col] ** 2 + out[n, q_col + 1] ** 2 + out[n, q_col + 2] ** 2 + out[n, q_col + 3] ** 2)
+            for c in range(q_col, q_col + 4):
+                out[n, c] /= qn
 
 
 @jit

@@ -111,9 +111,7 @@ class VehicleSampler:
             self._nodes = self._nodes[drop:]
             self._j0 += drop
         out = np.empty((t.size, N_VEHICLE_COLS))
-        ktruth.lagrange4(self._nodes, self._j0, self.h, t, out)
-        q = out[:, _COLS["q_nv"]]
-        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        ktruth.lagrange4(self._nodes, self._j0, self.h, t, _COLS["q_nv"].start, out)
         return out
 
     @staticmethod
