@@ -194,3 +194,24 @@ def test_accelerometer_delay_mismatch_costs_what_sculling_theory_says():
     expected = 0.5 * a * b * math.sin(2 * math.pi * f * 2 / 7200.0)
     assert rate["none"] == pytest.approx(expected, rel=0.05)
     assert abs(rate["matched"]) < 0.03 * expected
+
+
+@pytest.mark.parametrize("f_hz, bound_rad", [(100.0, 1e-14), (600.0, 3e-11), (1600.0, 3e-9)])
+def test_block_attitude_from_the_plant_grid_matches_magnus(f_hz, bound_rad):
+    """The engine's block attitude (Bortz with Simpson over the 72 kHz grid, one rotation vector per
+    filter sample) against a 16-substep Magnus-4 integration of the same motion, over 1 s of elliptic
+    coning plus a third-axis sine. The expected error is ``(w h_p)^4 / 180`` of the coning term per
+    second: 1.4e-6 relative at 1.6 kHz (measured 6.1e-10 rad, 6.2e-12 at 600 Hz, 9e-16 at 100 Hz);
+    bounds at about 5x the measured values."""
+    from sins_sim.navigation.attitude import attitude_error, quat_multiply
+
+    blk = m3.AxisSines(amplitude_rad=np.array([ARCMIN, ARCMIN, 0.3 * ARCMIN]),
+                       frequency_hz=np.array([f_hz, f_hz, 0.37 * f_hz]), phase_rad=np.array([0.0, math.pi / 2, 0.3]))
+    veh = stationary_vehicle(3.0)
+    tr = MissionTruth(veh.stream(), blk, None, 72000.0, 7200.0)
+    c1, _, _ = tr.advance(3600)
+    c2, _, _ = tr.advance(7200)
+    q = np.concatenate((c1.q_nb, c2.q_nb))
+    t = np.arange(0, 7201) / 7200.0
+    q_ref = quat_multiply(veh.stream().evaluate(t).q_nv, blk.attitude(t, substeps=16, method="numeric"))
+    assert np.max(np.abs(attitude_error(q, q_ref))) < bound_rad

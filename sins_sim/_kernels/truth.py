@@ -337,3 +337,71 @@ def block_at_nodes(ang, rate, blk, rr, gl_r0, gl_w, hp, phib):
             phib[k, 3, i] = ang[k * rr + rr - 1, i]
             blk[i] = ang[k * rr + rr - 1, i]
             blk[3 + i] = rate[k * rr + rr - 1, i]
+
+
+@jit
+def block_attitude_grid(ang, rate, blk, rr, hp, q, q_out):
+    """The block's attitude at the end of each filter sample from its angles and rates on the plant grid.
+
+    Per filter sample (``rr`` plant steps of ``hp``), the rotation vector is Bortz's
+    ``phi = int w dt + 1/2 int alpha x w dt`` with ``alpha(t) = theta(t) - theta(t_start)`` (the
+    gyro angles are the exact integral of the rate); the second integral by Simpson's rule over
+    pairs of plant steps (``rr`` even), error ``(w h_p)^4 / 180`` of the coning term (2e-6 at
+    1.6 kHz and 72 kHz). The neglected Bortz term ``(1/12) phi x (phi x w)`` is third order in the
+    block's rotation within a sample (below 1e-13 of it for rotations of 1e-4 rad). Then
+    ``q <- q (x) exp(phi)`` (Bortz 1971; Savage 1998 part 1).
+
+    ``blk``: angle (3) and rate (3) at the start of the first sample (not changed); ``q``
+    (float64[4]) the attitude there, advanced in place; ``q_out`` (float64[n, 4]) the attitudes.
+    """
+    n = q_out.shape[0]
+    a0 = blk[0]
+    a1 = blk[1]
+    a2 = blk[2]
+    for k in range(n):
+        base = k * rr
+        # f(t) = alpha(t) x w(t) at the rr + 1 points of the sample (f = 0 at the start)
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for r in range(1, rr + 1):
+            x0 = ang[base + r - 1, 0] - a0
+            x1 = ang[base + r - 1, 1] - a1
+            x2 = ang[base + r - 1, 2] - a2
+            w0 = rate[base + r - 1, 0]
+            w1 = rate[base + r - 1, 1]
+            w2 = rate[base + r - 1, 2]
+            c = 4.0 if r % 2 == 1 else (1.0 if r == rr else 2.0)
+            s0 += c * (x1 * w2 - x2 * w1)
+            s1 += c * (x2 * w0 - x0 * w2)
+            s2 += c * (x0 * w1 - x1 * w0)
+        e0 = ang[base + rr - 1, 0]
+        e1 = ang[base + rr - 1, 1]
+        e2 = ang[base + rr - 1, 2]
+        p0 = (e0 - a0) + 0.5 * hp / 3.0 * s0
+        p1 = (e1 - a1) + 0.5 * hp / 3.0 * s1
+        p2 = (e2 - a2) + 0.5 * hp / 3.0 * s2
+        a0, a1, a2 = e0, e1, e2
+        # exp(phi): [cos(|phi|/2), sin(|phi|/2) phi/|phi|] (Taylor below 1e-6 rad^2)
+        m2 = p0 * p0 + p1 * p1 + p2 * p2
+        if m2 < 1e-6:
+            cq = 1.0 - m2 / 8.0 + m2 * m2 / 384.0
+            sq = 0.5 - m2 / 48.0 + m2 * m2 / 3840.0
+        else:
+            m = math.sqrt(m2)
+            cq = math.cos(0.5 * m)
+            sq = math.sin(0.5 * m) / m
+        b0, b1, b2, b3 = cq, sq * p0, sq * p1, sq * p2
+        r0 = q[0] * b0 - q[1] * b1 - q[2] * b2 - q[3] * b3
+        r1 = q[0] * b1 + q[1] * b0 + q[2] * b3 - q[3] * b2
+        r2 = q[0] * b2 - q[1] * b3 + q[2] * b0 + q[3] * b1
+        r3 = q[0] * b3 + q[1] * b2 - q[2] * b1 + q[3] * b0
+        nrm = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3)
+        q[0] = r0 / nrm
+        q[1] = r1 / nrm
+        q[2] = r2 / nrm
+        q[3] = r3 / nrm
+        q_out[k, 0] = q[0]
+        q_out[k, 1] = q[1]
+        q_out[k, 2] = q[2]
+        q_out[k, 3] = q[3]

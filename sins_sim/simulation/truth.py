@@ -187,6 +187,8 @@ class MissionTruth:
         self.r = int(round(self.fp / self.fs))
         self.hf = 1.0 / self.fs
         self._att = AttitudeStream(block, substeps=substeps)
+        self._grid_attitude = None  # block attitude from the plant grid (numeric motions) or AttitudeStream
+        self._qvb = np.array([1.0, 0.0, 0.0, 0.0])
         self._k = -1  # last node computed
         self._state = np.zeros(18)  # S, dS/dt, phi_b, C_bv (row-major) at the last node
         self._state[9:18] = np.eye(3).reshape(-1)
@@ -239,17 +241,23 @@ class MissionTruth:
             row0 = self.vehicle.sample(np.zeros(1))
             self._state[3:6] = f(row0, "omega_iv_v_rad_s")[0]
         rows = self.vehicle.sample(grid).reshape(n, 4, N_VEHICLE_COLS)
-        q_vb = np.ascontiguousarray(self._att.advance(t_end))
+        if self._grid_attitude is None:  # decided once per run
+            self._grid_attitude = bool(plant and self.r % 2 == 0 and not self.block.has_closed_form_attitude)
         # the block's own motion on the plant grid (closed forms), then at the Gauss-Legendre nodes by cubic
         # Hermite interpolation between the two plant steps around each node (error ~ (w h_p)^4 / 384 of the
         # block angle: below 1e-9 relative at 1.5 kHz)
         hp = 1.0 / self.fp
         if plant:
             ang_b, rate_b = self.block.grid_angle_rate(k_prev * self.r, n * self.r, hp)
+            if self._grid_attitude:  # block attitude from the same grid (Bortz, Simpson): no second evaluation
+                q_vb = np.empty((n, 4))
+                ktruth.block_attitude_grid(ang_b, rate_b, self._blk, self.r, hp, self._qvb, q_vb)
             phib = np.empty((n, 4, 3))
             ktruth.block_at_nodes(ang_b, rate_b, self._blk, self.r, self._gl_r0, self._gl_w, hp, phib)
         else:
             phib = np.ascontiguousarray(self.block.gyro_angle(grid).reshape(n, 4, 3))
+        if not self._grid_attitude:  # closed forms, or the Magnus integration of the motion itself
+            q_vb = np.ascontiguousarray(self._att.advance(t_end))
         om = np.ascontiguousarray(f(rows, "omega_iv_v_rad_s"))
         fv = np.ascontiguousarray(f(rows, "f_v_m_s2"))
         end = rows[:, 3]

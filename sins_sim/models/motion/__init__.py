@@ -4,9 +4,15 @@ One module per kind of motion:
 
 * :mod:`~sins_sim.models.motion.single_axis`: the block angle about one gyro's
   sensitive axis (``angle_rate(t)``), the single-channel interface;
-* :mod:`~sins_sim.models.motion.body`: three-axis block motions (static,
-  rates, turns, sines, coning, random vibration, shocks, rate-table sweeps)
-  with closed-form gyro angles and attitude truth;
+* three-axis block motions with closed-form gyro angles and attitude truth:
+  :mod:`~sins_sim.models.motion.base` (the ``Motion3D`` interface, sums,
+  one gyro's view, chunked attitude), :mod:`~sins_sim.models.motion.rotations`
+  (static, constant rate, turn), :mod:`~sins_sim.models.motion.sines` (sines,
+  coning, random vibration as tones), :mod:`~sins_sim.models.motion.shocks`,
+  :mod:`~sins_sim.models.motion.sweeps` (rate-table sweeps),
+  :mod:`~sins_sim.models.motion.specific_force` (ideal accelerometers) and
+  :mod:`~sins_sim.models.motion.body` (the registry ``MOTION_TYPES`` /
+  ``build_motion``, and the overview with references);
 * :mod:`~sins_sim.models.motion.vibration`: random vibration as filtered noise
   (angular, non-repeating, O(1) per evaluated time) and the block's
   translational vibration (``Translation``: sines, random in g^2/Hz);
@@ -17,7 +23,7 @@ One module per kind of motion:
 Everything public is re-exported here, so ``from sins_sim.models.motion import
 Coning, SineMotion`` works whichever module holds the class. The trajectory's
 coordinated turn is exported as ``CoordinatedTurn`` (``Turn`` here is the
-block motion of :mod:`~sins_sim.models.motion.body`).
+block motion of :mod:`~sins_sim.models.motion.rotations`).
 """
 
 from sins_sim.models.motion.single_axis import (
@@ -30,25 +36,13 @@ from sins_sim.models.motion.single_axis import (
     _Motion,
     as_motion,
 )
-from sins_sim.models.motion.body import (
-    DEFAULT_SUBSTEPS,
-    MOTION_TYPES,
-    STANDARD_GRAVITY,
-    AttitudeStream,
-    AxisSines,
-    Coning,
-    ConstantRate,
-    GyroAxis,
-    Motion3D,
-    RandomVibration,
-    RateTableSweep,
-    Shock,
-    Static,
-    SumMotion3D,
-    Turn,
-    build_motion,
-    specific_force_body,
-)
+from sins_sim.models.motion.base import DEFAULT_SUBSTEPS, AttitudeStream, GyroAxis, Motion3D, SumMotion3D
+from sins_sim.models.motion.rotations import ConstantRate, Static, Turn
+from sins_sim.models.motion.sines import AxisSines, Coning, RandomVibration
+from sins_sim.models.motion.shocks import Shock
+from sins_sim.models.motion.sweeps import RateTableSweep
+from sins_sim.models.motion.specific_force import STANDARD_GRAVITY, specific_force_body
+from sins_sim.models.motion.body import MOTION_TYPES, build_motion
 from sins_sim.models.motion.vibration import (
     DEFAULT_NODE_RATE_HZ,
     FilteredNoiseVibration,

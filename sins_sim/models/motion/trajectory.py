@@ -673,7 +673,7 @@ class CoordinatedTurn:
     normal gravity at the start latitude and the turn's height). Speed and
     height are held. At speed 0 the vehicle pivots in place (bank 0).
     Also available as ``Turn`` in this module (``sins_sim.models.motion.Turn``
-    is the block motion of :mod:`~sins_sim.models.motion.body`).
+    is the block motion of :mod:`~sins_sim.models.motion.rotations`).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """Random vibration as filtered noise: non-repeating, random access, O(1) per evaluated time.
 
-:class:`~sins_sim.models.motion.body.RandomVibration` (a sum of ``K`` tones,
+:class:`~sins_sim.models.motion.sines.RandomVibration` (a sum of ``K`` tones,
 Shinozuka and Jan [1]_) costs ``3 K`` cosines per evaluated time and repeats
 with period ``1 / df``. The vibrations here are Gaussian processes obtained
 by shaping white noise with a FIR filter (the discrete simulation of coloured
@@ -50,7 +50,7 @@ is the same with velocity for angle and acceleration for rate)
   the exact integral of the rate (to 4e-18 rad in the tests, at any ``t``:
   the position ``u`` in a segment is computed without the rounding of
   ``t fs``). The gyro angle is ``phi(t) = theta(t) - theta(0)``
-  (``phi(0) = 0``, the :class:`~sins_sim.models.motion.body.Motion3D`
+  (``phi(0) = 0``, the :class:`~sins_sim.models.motion.base.Motion3D`
   contract).
 * **Why quintic at 14.4 kHz.** Interpolating ``exp(j omega t)`` from its
   node samples gives the passband gain ``c_0`` and images at ``f + k fs``
@@ -144,15 +144,8 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim._kernels.vibration import hermite5_coefficients, hermite5_slope, hermite5_value, hermite5_value_slope
-from sins_sim.models.motion.body import (
-    _STATIC,
-    STANDARD_GRAVITY,
-    Motion3D,
-    _cos_diff,
-    _loglog_segment_integral,
-    _set,
-    _vec3,
-)
+from sins_sim.models.motion.base import _STATIC, Motion3D, _cos_diff, _loglog_segment_integral, _set, _vec3
+from sins_sim.models.motion.specific_force import STANDARD_GRAVITY
 
 __all__ = [
     "FilteredNoiseVibration",
@@ -748,7 +741,7 @@ class FilteredNoiseVibration(_FilteredNoise, Motion3D):
     ``i`` (``S`` the table, zero outside ``[f_lo_hz, f_hi_hz]``), independent
     across axes; the rate is the angle's exact derivative, so rate and gyro
     angle are closed forms at any ``t``. Unlike
-    :class:`~sins_sim.models.motion.body.RandomVibration` it never repeats and
+    :class:`~sins_sim.models.motion.sines.RandomVibration` it never repeats and
     costs O(1) per evaluated time, whatever the band. Construction,
     interpolation, image level and accuracy: module docstring.
 
@@ -874,10 +867,10 @@ class Translation(abc.ABC):
     shaken in; the acceleration adds to the specific force the
     accelerometers sense, on top of gravity and the vehicle's motion (for a
     sculling study in body axes, together with an angular
-    :class:`~sins_sim.models.motion.body.AxisSines`; the mission truth,
+    :class:`~sins_sim.models.motion.sines.AxisSines`; the mission truth,
     ``sins_sim.simulation.truth``, takes them in vehicle axes and rotates
     them into the body). These are not
-    :class:`~sins_sim.models.motion.body.Motion3D` (no rotation).
+    :class:`~sins_sim.models.motion.base.Motion3D` (no rotation).
     """
 
     @abc.abstractmethod

@@ -1,0 +1,127 @@
+"""Candidate effects that could explain the gap (step 4 of the diagnosis).
+
+Every catalogue effect (``sins_sim.models.effects``) that the experiment can
+show is fitted together with the nominal parameters on each axis with a
+significant gap (:func:`sins_sim.identification.refit.fit_axis`), from the
+best of a few starts of its parameters (:func:`_effect_starts`; for
+``block_mode`` including the residual's peaks). ``gap_reduction`` is the
+fraction of the excess residual power over the floor it removes; the
+``score`` is the RMS residual on held-out data, so an extra parameter that
+only fits noise gains nothing. See :mod:`sins_sim.identification.diagnose`.
+
+.. autosummary::
+
+   explain
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from sins_sim.identification.refit import DiagnoseSettings
+from sins_sim.io.recording import NOMINAL_KEYS, Recording
+from sins_sim.models.effects import EFFECTS
+from sins_sim.units import ARCSEC
+
+__all__ = ["explain"]
+
+
+def _effect_starts(cls, axis: str, loc: dict, fs_hz: float) -> list:
+    name = cls.name
+    if name == "piezo_lag":
+        return [{"tau_s": x} for x in (3e-5, 1e-4, 3e-4, 1e-3)]
+    if name == "viscous_damping":
+        return [{"zeta": x} for x in (1e-4, 5e-4, 2e-3)]
+    if name == "resonance_drift":
+        return [{"rate_hz_per_s": x} for x in (-0.3, 0.0, 0.3)]
+    if name == "readout_delay":
+        return [{"delay_s": x} for x in (3e-6, 2e-5, 1e-4, 4e-4)]
+    if name == "scale_factor":
+        return [{"error": 0.0}]
+    if name == "block_mode":
+        freqs = [f for f in loc.get("peaks_hz", []) if f > 5.0]
+        freqs += [60.0, 120.0, 250.0, 500.0, 1000.0, 2000.0]
+        freqs = [f for f in freqs if f < 0.45 * fs_hz * 4]
+        return [{"frequency_hz": f, "zeta": 0.08, "gain": g} for f in freqs for g in (-0.3, 0.3)]
+    if name == "lock_in":
+        return [{"threshold_rad_s": w, "phase_rad": p} for w in (1e-3, 4e-3) for p in (0.0, 1.6, 3.1, 4.7)]
+    if name == "axis_coupling":
+        return None
+    return None
+
+
+def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict, excess: dict, tol: dict,
+            sig_axes: list, locs: dict, fit_effect, timing: dict, progress=None) -> tuple:
+    """Fit every catalogue effect the experiment can show on the axes with a significant gap, best first.
+
+    Parameters
+    ----------
+    rec : Recording
+    settings : DiagnoseSettings
+        ``effects`` (the catalogue effects to try) and ``close_fraction``.
+    fits : dict
+        The baseline refit per axis (``AxisFit``).
+    floors, excess, tol : dict
+        Per axis: the noise floor (``noise_floor``), the baseline's excess power over it (rad^2)
+        and the tolerance of the gap's significance (rad).
+    sig_axes : list of str
+        The axes with a significant gap.
+    locs : dict
+        The localisation per axis (its peaks start ``block_mode``).
+    fit_effect : callable(cls, starts) -> dict
+        The fits with the effect class ``cls`` on ``sig_axes`` (axis -> ``AxisFit``), started
+        from the baseline and on each axis ``a`` from the effect starts ``starts[a]``.
+    timing : dict
+        The seconds each candidate took are added under its name.
+    progress : callable(str) or None
+
+    Returns
+    -------
+    candidates : list of dict
+        Ranked by score (held-out RMS, arcsec), best first.
+    skipped : dict
+        Effect name -> why it was not tried.
+    """
+    candidates = []
+    skipped = {}
+    moving = rec.sins_angle is not None and float(np.ptp(rec.sins_angle)) > 0.0
+    names = tuple(EFFECTS) if settings.effects is None else settings.effects
+    base_ex = sum(excess[a] for a in sig_axes)
+    fs = rec.fs_hz
+    for name in names:
+        cls = EFFECTS[name]
+        if cls.needs_motion and not moving:
+            skipped[name] = "the block does not move in this recording: the effect cannot show"
+            continue
+        if rec.n_axes < cls.min_axes:
+            skipped[name] = f"needs at least {cls.min_axes} axes"
+            continue
+        t0 = time.perf_counter()
+        cfits = dict(fits)
+        cfits.update(fit_effect(cls, {a: _effect_starts(cls, a, locs[a], fs) for a in sig_axes}))
+        cand_axes = {a: max(0.0, cfits[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in sig_axes}
+        cand_ex = sum(cand_axes.values())
+        red = 1.0 - cand_ex / base_ex if base_ex > 0 else 0.0
+        held = math.sqrt(np.mean([cfits[a].heldout_rms ** 2 for a in sig_axes]))
+        # the gap is closed when what is left on every axis is within the tolerance, or a small
+        # fraction of the excess it started from (a large effect leaves model error of its own size)
+        closes = all(math.sqrt(cand_axes[a]) <= max(tol[a], settings.close_fraction * math.sqrt(excess[a]))
+                     for a in sig_axes)
+        candidates.append({
+            "effect": name, "fits": cfits,
+            "rms_rad": math.sqrt(np.mean([cfits[a].rms ** 2 for a in rec.axes])),
+            "gap_reduction": float(red), "score": held / ARCSEC, "closes_gap": bool(closes),
+            "remaining_excess_arcsec": {a: math.sqrt(cand_axes[a]) / ARCSEC for a in sig_axes},
+            "params": {a: cfits[a].effect.values(a) for a in sig_axes},
+            "uncertainty": {a: {k: val for k, val in cfits[a].sigma.items()
+                                if k not in NOMINAL_KEYS and not k.startswith("start_")} for a in sig_axes},
+            "nfev": sum(cfits[a].nfev for a in sig_axes),
+        })
+        timing[name] = time.perf_counter() - t0
+        if progress:
+            progress(f"candidate {name}")
+    candidates.sort(key=lambda c: c["score"])
+    return candidates, skipped

@@ -1,0 +1,557 @@
+"""Refit of the nominal parameters on one axis of a recording (step 1 of the diagnosis).
+
+:func:`fit_axis` fits ``f0, k1..k5`` of one axis (with a candidate effect's
+parameters when given one) by simulating the recording's experiment
+(``sins_sim.simulation.experiment``) and minimising the residual with
+``scipy.optimize.least_squares``. Parametrisation:
+``(F(a_ref), k1, k2, 1/Q(a_ref), k4, k5)`` relative to their nominal values,
+with ``F`` the harmonic-balance resonance and ``1/Q = k3 (1 + k4 a)`` at the
+measured dither amplitude ``a_ref``; a weak prior keeps unresolved directions
+at the nominal values; stages: a grid over F, then ``F, 1/Q, k5``, then all
+six; uncertainty from the Jacobian and the prior, the residual variance
+inflated by the residual's correlation length. The whole procedure is
+described in :mod:`sins_sim.identification.diagnose`.
+
+:class:`DiagnoseSettings` holds the settings of every step of the diagnosis.
+
+.. autosummary::
+
+   DiagnoseSettings
+   AxisFit
+   fit_axis
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+from sins_sim import _validate as v
+from sins_sim.identification.afc import hb_stiffness_ratio
+from sins_sim.io.recording import NOMINAL_KEYS
+from sins_sim.models.effects import EFFECTS, Effect, Param
+from sins_sim.models.suspension import SuspensionParams
+from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, ExperimentSettings, simulate_axis
+
+__all__ = ["DiagnoseSettings", "AxisFit", "fit_axis"]
+
+#: Relative bounds of the nominal parameters in the fit (multiples of the nominal value).
+#: A unit's parameters differ from the nominal ones by per cent (f0) or tens of per cent (k); wider
+#: bounds only let the refit bend weakly resolved parameters to absorb an unmodelled effect.
+_BOUNDS = {"f0_hz": (0.97, 1.03), "k1": (0.0, 5.0), "k2": (0.2, 5.0), "k3": (0.2, 5.0), "k4": (-1.0, 5.0),
+           "k5": (0.2, 5.0)}
+#: Termination tolerance of the least-squares stages (relative change of the cost, step in solver units).
+_TOL = 1e-4
+#: Plausible variation of the fitted nominal quantities (F(a_ref), k1, k2, 1/Q, k4, k5), relative:
+#: the solver's unit step in each (see ``_solve``).
+_XSCALE = np.array([0.002, 0.1, 0.1, 0.05, 0.1, 0.05])
+#: Typical sizes of (F, k1, k2, 1/Q, k4, k5), used as scale where a nominal value is 0.
+_TYPICAL = np.array([386.0, 1.75e-4, 1.05e-3, 5e-3, 250.0, 1.2e-5])
+#: Bounds (in those typical units) of a parameter whose nominal value is 0.
+_ZERO_BOUNDS = {"f0_hz": (0.5, 2.0), "k1": (0.0, 5.0), "k2": (0.2, 5.0), "k3": (0.0, 5.0), "k4": (-1.0, 5.0),
+                "k5": (-5.0, 5.0)}
+#: Relative finite-difference steps of the Jacobian (F is resolved to 1e-6 and acts strongly).
+_STEPS = {"f0_hz": 2e-7, "k1": 1e-3, "k2": 1e-3, "k3": 1e-3, "k4": 1e-3, "k5": 1e-4}
+
+
+@dataclass(frozen=True)
+class DiagnoseSettings:
+    """Settings of the diagnosis.
+
+    Parameters
+    ----------
+    experiment : ExperimentSettings
+        How the model is simulated (plant rate, integrator).
+    prior_f0, prior_k : float
+        Relative standard deviation of the prior on f0 and on k1..k5 around
+        the recording's nominal values (keeps unresolvable directions there).
+    max_nfev, candidate_nfev : int
+        Evaluation budget of the baseline's and of each candidate's last least-squares stage
+        (Jacobian columns not counted; the first stage gets half).
+    window_s : float or None
+        A recording longer than 1.5 x this is fitted on its first ``window_s`` seconds and the
+        result refined on the whole recording (``polish_nfev`` evaluations); ``None``: always
+        the whole recording.
+    polish_nfev : int
+        Evaluation budget of that refinement.
+    rel_tol, abs_tol_arcsec : float
+        The gap is significant when the excess RMS over the floor exceeds
+        ``max(rel_tol * floor, abs_tol)``.
+    min_gap_reduction : float
+        Fraction of the excess power an effect must remove to be the verdict.
+    close_fraction : float
+        An effect closes the gap when the excess RMS it leaves on every axis is below the
+        tolerance or below this fraction of the excess RMS the baseline left; only an
+        effect that closes the gap can be the verdict.
+    block_s : float or None
+        Length of the fit / held-out blocks (s); ``None``: 1/20 of the
+        recording, between 25 ms and 0.5 s.
+    effects : tuple of str or None
+        Catalogue effects to try (``None``: all).
+    threads : int
+        Simulations run in parallel for the Jacobian (the kernels release the GIL).
+    """
+
+    experiment: ExperimentSettings = FIT_SETTINGS
+    prior_f0: float = 0.01
+    prior_k: float = 0.3
+    max_nfev: int = 30
+    candidate_nfev: int = 16
+    window_s: float | None = 3.0
+    polish_nfev: int = 4
+    rel_tol: float = 0.5
+    abs_tol_arcsec: float = 0.02
+    min_gap_reduction: float = 0.6
+    close_fraction: float = 0.15
+    block_s: float | None = None
+    effects: tuple | None = None
+    threads: int = 2
+
+    def __post_init__(self):
+        v.positive("diagnose", "prior_f0", self.prior_f0)
+        v.positive("diagnose", "prior_k", self.prior_k)
+        if self.window_s is not None:
+            v.positive("diagnose", "window_s", self.window_s)
+        for name in ("max_nfev", "candidate_nfev", "polish_nfev"):
+            val = getattr(self, name)
+            if int(val) != val or val < 2:
+                raise ValueError(f"diagnose.{name}: must be an integer >= 2, got {val!r}")
+        v.non_negative("diagnose", "rel_tol", self.rel_tol)
+        v.non_negative("diagnose", "abs_tol_arcsec", self.abs_tol_arcsec)
+        g = v.finite("diagnose", "min_gap_reduction", self.min_gap_reduction)
+        if not 0.0 < g <= 1.0:
+            raise ValueError(f"diagnose.min_gap_reduction: must be in (0, 1], got {g!r}")
+        c = v.finite("diagnose", "close_fraction", self.close_fraction)
+        if not 0.0 <= c < 1.0:
+            raise ValueError(f"diagnose.close_fraction: must be in [0, 1), got {c!r}")
+        if self.block_s is not None:
+            v.positive("diagnose", "block_s", self.block_s)
+        for name in self.effects or ():
+            v.choice("diagnose", "effects", name, EFFECTS)
+        if int(self.threads) != self.threads or self.threads < 1:
+            raise ValueError(f"diagnose.threads: must be an integer >= 1, got {self.threads!r}")
+
+
+# --- fitting -----------------------------------------------------------------------------------------
+@dataclass
+class AxisFit:
+    """Result of one least-squares fit on one axis.
+
+    Attributes
+    ----------
+    axis : str
+    suspension : SuspensionParams
+        The fitted nominal parameters.
+    effect : Effect or None
+        The fitted effect (acting on this axis only).
+    model : ndarray
+        Model angle at every sample (rad), offset included.
+    residual : ndarray
+        Measured minus model (rad); NaN where excluded (settling).
+    sigma : dict
+        One-sigma uncertainty of each fitted parameter (nominal: ``f0_hz,
+        k1..k5``; effect: its parameters).
+    nfev : int
+        Model evaluations (Jacobian columns included).
+    train_rms, heldout_rms, rms : float
+        RMS residual on the fit blocks, the held-out blocks and all used samples (rad).
+    start_state : (d_delta, d_rate) or None
+        The fitted state change at ``t = 0`` of a recording that starts mid-operation.
+    """
+
+    axis: str
+    suspension: SuspensionParams
+    effect: Effect | None
+    model: np.ndarray
+    residual: np.ndarray
+    sigma: dict
+    nfev: int
+    train_rms: float = math.nan
+    heldout_rms: float = math.nan
+    rms: float = math.nan
+    start_state: tuple | None = None
+
+
+class _Problem:
+    """One axis of a recording: data, masks, and the model as a function of scaled parameters.
+
+    The nominal parameters are fitted as ``u = (F(a_ref), k1, k2, 1/Q(a_ref), k4, k5)``
+    relative to their nominal values: ``F(a_ref)`` the harmonic-balance resonance at the
+    operating amplitude and ``1/Q(a_ref) = k3 (1 + k4 a_ref)``. These are what a dither
+    at ``a_ref`` shows directly, so the fit does not have to follow the long valleys of
+    ``(f0, k1, k2)`` and ``(k3, k4)`` that a stationary recording leaves.
+    """
+
+    def __init__(self, inputs: ExperimentInputs, axis: str, y: np.ndarray, nominal: SuspensionParams,
+                 settings: DiagnoseSettings, used: np.ndarray, train: np.ndarray, offset: bool, sigma_rad: float,
+                 coupled: dict | None, a_ref: float, skip: int = 0):
+        self.inputs = inputs
+        self.skip = int(skip)
+        self.axis = axis
+        self.y = y
+        self.nominal = nominal
+        self.settings = settings
+        self.used = used
+        self.train = train
+        self.offset = offset
+        self.sigma = sigma_rad
+        self.coupled = coupled
+        self.a_ref = float(a_ref)
+        self.p_nom = np.array([getattr(nominal, k) for k in NOMINAL_KEYS])
+        u = self.to_u(self.p_nom)
+        # scale of each fitted quantity: its nominal value, or a typical size where that is 0
+        self.u_nom = np.where(u != 0.0, np.abs(u), _TYPICAL)
+        self.x_c = u / self.u_nom  # the nominal point (+-1, or 0)
+        lo, hi = [], []
+        for k, xc in zip(NOMINAL_KEYS, self.x_c):
+            a, b = _BOUNDS[k]
+            if xc != 0.0:
+                lo.append(min(a * xc, b * xc))
+                hi.append(max(a * xc, b * xc))
+            else:
+                lo.append(_ZERO_BOUNDS[k][0])
+                hi.append(_ZERO_BOUNDS[k][1])
+        self.lo = np.array(lo)
+        self.hi = np.array(hi)
+        self.nfev = 0
+        # a recording that starts mid-operation: the suspension's state at t = 0 is fitted too, as a
+        # change (delta, rate) of the model's state there (``simulate_axis``'s kick)
+        self.kick_index = self.skip * inputs.grid(settings.experiment).r
+        self.nuisance = []
+        if offset:
+            w = nominal.omega0
+            self.nuisance = [Param("start_delta_rad", "state change at t = 0", -3.0 * a_ref, 3.0 * a_ref, a_ref),
+                             Param("start_rate_rad_s", "state change at t = 0", -3.0 * a_ref * w, 3.0 * a_ref * w,
+                                   a_ref * w)]
+
+    def to_u(self, p) -> np.ndarray:
+        """(f0, k1, k2, k3, k4, k5) -> (F(a_ref), k1, k2, 1/Q(a_ref), k4, k5)."""
+        f0, k1, k2, k3, k4, k5 = p
+        kap = float(hb_stiffness_ratio(self.a_ref, k1, k2))
+        return np.array([f0 * math.sqrt(kap), k1, k2, k3 * (1.0 + k4 * self.a_ref), k4, k5])
+
+    def to_p(self, u) -> np.ndarray:
+        fr, k1, k2, iq, k4, k5 = u
+        kap = float(hb_stiffness_ratio(self.a_ref, k1, k2))
+        return np.array([fr / math.sqrt(kap), k1, k2, iq / (1.0 + k4 * self.a_ref), k4, k5])
+
+    def suspension(self, xn) -> SuspensionParams:
+        p = self.to_p(np.asarray(xn) * self.u_nom)
+        return self.nominal.replace(**{k: float(val) for k, val in zip(NOMINAL_KEYS, p)})
+
+    def x_of(self, s: SuspensionParams) -> np.ndarray:
+        return self.to_u(np.array([getattr(s, k) for k in NOMINAL_KEYS])) / self.u_nom
+
+    def p_jacobian(self, xn) -> np.ndarray:
+        """d p / d x (6 x 6), for propagating the covariance to (f0, k1..k5)."""
+        g = np.empty((6, 6))
+        p0 = self.to_p(np.asarray(xn) * self.u_nom)
+        for j in range(6):
+            dx = np.array(xn, dtype=np.float64)
+            hj = 1e-6 * max(1.0, abs(dx[j]))
+            dx[j] += hj
+            g[:, j] = (self.to_p(dx * self.u_nom) - p0) / hj
+        return g
+
+    def model(self, sus: SuspensionParams, effect: Effect | None, start=None) -> np.ndarray:
+        """Model angle at the recording's samples; ``start`` = (d_delta, d_rate) at t = 0 or None."""
+        self.nfev += 1
+        effects = () if effect is None else (effect,)
+        kick = None if start is None else (self.kick_index, float(start[0]), float(start[1]))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = simulate_axis(self.inputs, self.axis, sus, effects, self.settings.experiment, coupled=self.coupled,
+                              kick=kick)
+        m = m[self.skip:]
+        if self.offset:
+            m = m + float(np.mean((self.y - m)[self.used]))
+        return m
+
+
+def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None):
+    """Least squares over (nominal, effect) parameters on the samples ``mask``.
+
+    ``x0`` is the full start vector (nominal relative, then the start state
+    of a recording that starts mid-operation and the effect's parameters, in
+    units of their ``Param.scale``; ``space`` lists those); only the indices
+    ``free`` move. The solver
+    works in ``z = (x - x0) / _XSCALE``: the first trust region then spans
+    about one plausible variation of every parameter (a unit's f0 is off
+    by 0.2 %, its k by tens of %), not ``|x0|``, which keeps the first
+    steps of a badly started fit from jumping into nonsense.
+
+    Returns ``(x, jac, unpack)``: the full solution, the Jacobian of the
+    data residuals with respect to the free ``x`` (columns in ``free``
+    order), and a function ``x -> (SuspensionParams, Effect or None, start state or None)``.
+    """
+    n_nom = len(NOMINAL_KEYS)
+    n = n_nom + len(space)
+    free = np.arange(n) if free is None else np.asarray(free)
+    scales = np.array([p.scale for p in space])
+    lo = np.concatenate([prob.lo, [p.lo / p.scale for p in space]])
+    hi = np.concatenate([prob.hi, [p.hi / p.scale for p in space]])
+    xs = np.concatenate([_XSCALE, np.ones(len(space))])[free]
+    steps = np.array([_STEPS[k] for k in NOMINAL_KEYS] + [1e-3] * len(space))
+    # a start on a bound stalls the trust-region reflective solver (its scaling shrinks the steps there
+    # to nothing): start the free parameters a little inside
+    x0 = np.asarray(x0, dtype=np.float64).copy()
+    xs_all = np.concatenate([_XSCALE, np.ones(len(space))])
+    margin = np.minimum(0.05 * xs_all, 0.25 * (hi - lo))
+    x0[free] = np.clip(x0[free], (lo + margin)[free], (hi - margin)[free])
+    x0 = np.clip(x0, lo, hi)
+    prior_sd = np.array([prob.settings.prior_f0] + [prob.settings.prior_k] * (n_nom - 1))
+    cache = {}
+
+    n_nui = len(prob.nuisance)
+
+    def unpack(x):
+        sus = prob.suspension(x[:n_nom])
+        start = tuple(float(val) for val in x[n_nom:n_nom + n_nui] * scales[:n_nui]) if n_nui else None
+        eff = None
+        if effect_cls is not None:
+            eff = effect_cls.build(prob.axis, prob.inputs.axes, {p.name: float(xi * s) for p, xi, s in
+                                                                 zip(space[n_nui:], x[n_nom + n_nui:], scales[n_nui:])})
+        return sus, eff, start
+
+    def full(z):
+        x = x0.copy()
+        x[free] = x0[free] + z * xs
+        return x
+
+    def fun(z):
+        key = z.tobytes()
+        if key in cache:
+            return cache[key]
+        x = full(z)
+        try:
+            sus, eff, start = unpack(x)
+            m = prob.model(sus, eff, start)
+            r = (prob.y - m)[mask] / prob.sigma
+            if not np.all(np.isfinite(r)):
+                raise ValueError("non-finite model")
+        except ValueError:
+            r = np.full(int(mask.sum()), 1e3)
+        out = np.concatenate([r, (x[:n_nom] - prob.x_c) / prior_sd])
+        if len(cache) > 64:
+            cache.clear()
+        cache[key] = out
+        return out
+
+    def jac(z):
+        f0 = fun(z)
+        x = full(z)
+        hx = steps[free] * np.maximum(1.0, np.abs(x[free]))
+        hx = np.where(x[free] + hx <= hi[free], hx, -hx)
+        hz = hx / xs
+
+        def col(i):
+            zp = z.copy()
+            zp[i] += hz[i]
+            return (fun(zp) - f0) / hz[i]
+
+        if threads > 1:
+            with ThreadPoolExecutor(max_workers=threads) as ex:
+                cols = list(ex.map(col, range(z.size)))
+        else:
+            cols = [col(i) for i in range(z.size)]
+        return np.column_stack(cols)
+
+    zlo = (lo[free] - x0[free]) / xs
+    zhi = (hi[free] - x0[free]) / xs
+    sol = optimize.least_squares(fun, np.zeros(free.size), jac=jac, bounds=(zlo, zhi), method="trf",
+                                 x_scale=1.0, max_nfev=max_nfev, xtol=_TOL, ftol=_TOL, gtol=_TOL)
+    return full(sol.x), sol.jac / xs[None, :], unpack
+
+
+def _rms(x):
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
+
+
+def _correlation_length(r: np.ndarray) -> float:
+    """Integrated autocorrelation time of a residual (samples, >= 1), up to the first zero crossing."""
+    r = r[np.isfinite(r)]
+    r = r - r.mean()
+    n = r.size
+    if n < 8:
+        return 1.0
+    f = np.fft.rfft(r, 2 * n)
+    ac = np.fft.irfft(f * np.conj(f))[:n]
+    ac = ac / ac[0] if ac[0] > 0 else ac
+    neg = np.flatnonzero(ac <= 0.0)
+    m = int(neg[0]) if neg.size else n
+    return max(1.0, 1.0 + 2.0 * float(np.sum(ac[1:m])))
+
+
+#: Indices of (F(a_ref), 1/Q(a_ref), k5): what a dither shows first; the first fit stage moves only these.
+_MAIN = (0, 3, 5)
+#: The grid of F(a_ref) (relative to nominal) that starts a baseline fit: +-1.5 % in 0.1 % steps,
+#: finer than the resonance's half width (about 0.27 % at Q = 187).
+_F_GRID = np.linspace(-0.015, 0.015, 31)
+
+
+def _cost(prob: _Problem, sus: SuspensionParams, effect, start=None) -> float:
+    try:
+        r = (prob.y - prob.model(sus, effect, start))[prob.train]
+        return float(np.mean(r * r))
+    except ValueError:
+        return math.inf
+
+
+def _bent(prob: _Problem, xn: np.ndarray) -> bool:
+    """Whether k1, k2 or k4 of ``xn`` sit more than the prior's width from the nominal values."""
+    idx = [1, 2, 4]
+    return bool(np.any(np.abs(xn[idx] - prob.x_c[idx]) > prob.settings.prior_k))
+
+
+def _drift_centred(prob: _Problem, effect_cls, xn: np.ndarray, values: dict) -> np.ndarray:
+    """For a ``resonance_drift`` start: f0 moved so that f0 in the middle of the data is unchanged.
+
+    A fit without the drift finds the recording's mean resonance; the
+    drift's f0 is the one at the start of the simulation (the model's
+    ``t = 0``, before any pre-roll), so a drift start keeps the mean where
+    the fit found it.
+    """
+    if effect_cls is None or effect_cls.name != "resonance_drift":
+        return xn
+    rate = float(values.get("rate_hz_per_s", 0.0))
+    t_mid = (prob.skip + 0.5 * prob.y.size) / prob.inputs.fs_hz
+    sus = prob.suspension(xn)
+    try:
+        return prob.x_of(sus.replace(f0_hz=sus.f0_hz - rate * t_mid))
+    except ValueError:
+        return xn
+
+
+def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effect_starts=None,
+             max_nfev: int | None = None, polish: bool = False) -> AxisFit:
+    """Fit the nominal parameters (and an effect's) on one axis, on the training blocks.
+
+    Stages: (0) without a start, the grid :data:`_F_GRID` of the
+    operating-point resonance (the residual is far from quadratic when the
+    dither's phase is off); with an effect, the best of ``effect_starts``
+    at the start's nominal parameters; (1) least squares over ``F, 1/Q,
+    k5``, the start state (recordings that start mid-operation) and the
+    effect's parameters; (2) least squares over everything. Stages 1 and 2
+    run from the start's nominal parameters and, when the start has bent
+    the weakly resolved ``k1, k2, k4`` more than their prior's width
+    (a baseline absorbing what the effect explains), from the recording's
+    nominal ones too; the better result is kept.
+
+    Parameters
+    ----------
+    prob : _Problem
+    effect_cls : Effect subclass or None
+    start : AxisFit, optional
+        Start of the nominal parameters (default: the recording's nominal).
+    effect_starts : list of dict, optional
+        Candidate starts of the effect's parameters.
+    max_nfev : int, optional
+        Budget of the last stage (default ``settings.max_nfev``).
+    polish : bool
+        Only the last stage, from ``start`` (nominal and effect parameters):
+        the refinement on the whole recording of a fit made on its first window.
+    """
+    n_nom = len(NOMINAL_KEYS)
+    n_nui = len(prob.nuisance)
+    threads = prob.settings.threads
+    eff_space = effect_cls.fit_space(prob.axis, prob.inputs.axes) if effect_cls is not None else []
+    space = list(prob.nuisance) + list(eff_space)
+    x0_nom = prob.x_c.copy() if start is None else prob.x_of(start.suspension)
+    x0_nui = np.zeros(n_nui)
+    if start is not None and start.start_state is not None and n_nui:
+        x0_nui = np.array(start.start_state) / np.array([p.scale for p in prob.nuisance])
+    state0 = None if start is None else start.start_state
+    x0_eff = np.zeros(len(eff_space))
+    if polish:
+        if start is None:
+            raise ValueError("fit_axis: polish needs a start")
+        if effect_cls is not None:
+            vals = start.effect.values(prob.axis)
+            x0_eff = np.array([vals[p.name] / p.scale for p in eff_space])
+        x, jac, unpack = _solve(prob, effect_cls, np.concatenate([x0_nom, x0_nui, x0_eff]), space,
+                                max_nfev or prob.settings.polish_nfev, threads, prob.train)
+        return _finish(prob, x, jac, unpack, space)
+    if effect_cls is None and start is None:
+        def grid_cost(df):
+            x = x0_nom.copy()
+            x[0] = prob.x_c[0] * (1.0 + df)
+            try:
+                return _cost(prob, prob.suspension(x), None)
+            except ValueError:
+                return math.inf
+
+        with ThreadPoolExecutor(max_workers=threads) as ex:
+            costs = list(ex.map(grid_cost, _F_GRID))
+        x0_nom[0] = prob.x_c[0] * (1.0 + _F_GRID[int(np.argmin(costs))])
+    nominal_starts = []
+    if effect_cls is not None:
+        starts = effect_starts or [{p.name: (p.default if p.default is not None else 0.0) for p in eff_space}]
+        # nominal starts: the given one (the baseline refit) and, where the baseline bent the weakly
+        # resolved k1, k2, k4 (absorbing what the effect explains), the recording's nominal parameters
+
+        def cost(trial):
+            try:
+                return _cost(prob, prob.suspension(trial[0]), effect_cls.build(prob.axis, prob.inputs.axes, trial[1]),
+                             state0)
+            except ValueError:
+                return math.inf
+
+        trials = [(_drift_centred(prob, effect_cls, x0_nom, st), st) for st in starts]
+        if len(trials) > 1:
+            with ThreadPoolExecutor(max_workers=threads) as ex:
+                costs = list(ex.map(cost, trials))
+        else:
+            costs = [math.inf]
+        best = trials[int(np.argmin(costs))]
+        x0_eff = np.array([best[1].get(p.name, 0.0) / p.scale for p in eff_space])
+        x0_nom = best[0].copy()
+        if start is not None and _bent(prob, x0_nom):
+            nominal_starts.append(_drift_centred(prob, effect_cls, prob.x_c, best[1]))
+    stage1 = list(_MAIN) + list(range(n_nom, n_nom + len(space)))
+    budget = max_nfev or (prob.settings.max_nfev if effect_cls is None else prob.settings.candidate_nfev)
+    best, best_cost = None, math.inf
+    for xn in [x0_nom] + nominal_starts:
+        x, _, _ = _solve(prob, effect_cls, np.concatenate([xn, x0_nui, x0_eff]), space, max(4, budget // 2),
+                         threads, prob.train, free=stage1)
+        x, jac, unpack = _solve(prob, effect_cls, x, space, budget, threads, prob.train)
+        c = _cost(prob, *unpack(x))
+        if best is None or c < best_cost:
+            best, best_cost = (x, jac, unpack), c
+    return _finish(prob, *best, space)
+
+
+def _finish(prob: _Problem, x, jac, unpack, space) -> AxisFit:
+    """The fit's model, residual and uncertainties at the solution ``x``."""
+    n_nom = len(NOMINAL_KEYS)
+    sus, eff, state = unpack(x)
+    model = prob.model(sus, eff, state)
+    res = prob.y - model
+    res = np.where(prob.used, res, np.nan)
+    # uncertainty: J^T J of the data part plus the prior, the residual variance inflated by the
+    # residual's correlation length (neighbouring samples are not independent)
+    nd = int(prob.train.sum())
+    jd = jac[:nd]
+    r_train = res[prob.train]
+    dof = max(1, nd - x.size)
+    s2 = float(np.sum(r_train * r_train)) / dof / prob.sigma ** 2 * _correlation_length(r_train)
+    prior = np.concatenate([1.0 / np.array([prob.settings.prior_f0] + [prob.settings.prior_k] * (n_nom - 1)) ** 2,
+                            np.zeros(len(space))])
+    try:
+        cov = np.linalg.pinv(jd.T @ jd + np.diag(prior)) * s2
+    except np.linalg.LinAlgError:
+        cov = np.full((x.size, x.size), math.nan)
+    gmap = prob.p_jacobian(x[:n_nom])
+    cov_p = gmap @ cov[:n_nom, :n_nom] @ gmap.T
+    sigma = {k: float(math.sqrt(max(0.0, cov_p[i, i]))) for i, k in enumerate(NOMINAL_KEYS)}
+    for j, p in enumerate(space):
+        sigma[p.name] = float(math.sqrt(max(0.0, cov[n_nom + j, n_nom + j])) * p.scale)
+    heldout = prob.used & ~prob.train
+    return AxisFit(axis=prob.axis, suspension=sus, effect=eff, model=model, residual=res, sigma=sigma,
+                   nfev=prob.nfev, train_rms=_rms(res[prob.train]),
+                   heldout_rms=_rms(res[heldout]) if heldout.any() else math.nan, rms=_rms(res), start_state=state)
