@@ -65,6 +65,10 @@ CHANNEL_FLAGS = {
     "settle_s": "--settle",
     "duration_s": "--duration",
     "f0_hz": "--f0",
+    "motion_hz": "--motion-hz",
+    "motion_arcmin": "--motion-arcmin",
+    "drive.v_m": "--dither-arcmin",
+    "drive.amplitude": "--dither-arcmin",
 }
 
 
@@ -135,22 +139,44 @@ class _Parser(argparse.ArgumentParser):
 
 # --- progress --------------------------------------------------------------------------------------
 class _Progress:
-    """A tqdm bar on stderr behind the jobs' ``progress(fraction)`` callback (rate and time left shown)."""
+    """A tqdm bar on stderr behind the jobs' ``progress(fraction)`` callback (rate and time left shown).
+
+    A job that estimates its run (:mod:`sins_sim.jobs.estimate`) calls :meth:`estimate` before the engine
+    starts: the bar then counts simulated seconds (rate in ``s/s``, so the time left is the simulated
+    time left over the measured speed) and shows the estimated wall time; otherwise it counts percent.
+    """
 
     def __init__(self, label: str, disable: bool):
+        self.label = label
+        self.disable = disable
+        self.bar = None  # made when the job reports its estimate or its first progress: no bar before an error
+
+    def _open(self, total: float, unit: str, postfix: str = ""):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=100.0, desc=label, unit="%", file=sys.stderr, disable=disable, leave=True,
-                        dynamic_ncols=True,
-                        bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}, {rate_fmt}]")
+        self.bar = tqdm(total=total, desc=self.label, unit=unit, file=sys.stderr, disable=self.disable, leave=True,
+                        dynamic_ncols=True, postfix=postfix or None,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.4g}/{total:.4g} {unit} "
+                                   "[{elapsed}<{remaining}, {rate_fmt}{postfix}]")
+
+    def estimate(self, est: dict) -> None:
+        """Count simulated seconds and show the estimated wall time (called by the job before the engine starts)."""
+        from sins_sim.jobs.estimate import format_duration
+
+        total = float(est["simulated_s"])
+        if self.bar is None and total > 0.0:
+            self._open(total, "s", f"estimate {format_duration(est['wall_s'])}")
 
     def __call__(self, fraction: float) -> None:
-        done = 100.0 * min(max(float(fraction), 0.0), 1.0)
+        if self.bar is None:
+            self._open(100.0, "%")
+        done = self.bar.total * min(max(float(fraction), 0.0), 1.0)
         if done > self.bar.n:
             self.bar.update(done - self.bar.n)
 
     def close(self) -> None:
-        self.bar.close()
+        if self.bar is not None:
+            self.bar.close()
 
 
 @contextmanager
@@ -321,6 +347,17 @@ def _cmd_diagnose_eval(args) -> int:
     return EXIT_OK
 
 
+def _cmd_schema(args) -> int:
+    from sins_sim.jobs.reference import FORMATS, render_markdown, render_text
+
+    formats = [args.format] if args.format else list(FORMATS)
+    if args.markdown:
+        sys.stdout.write(render_markdown(formats))
+    else:
+        sys.stdout.write("\n".join(render_text(f) for f in formats))
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sins-sim", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"sins-sim {__version__}")
@@ -417,6 +454,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no per-case progress lines")
     p.set_defaults(func=_cmd_diagnose_eval)
 
+    p = sub.add_parser("schema", help="every key of an input format with its unit, range and default",
+                       description="Print the reference of an input format (scenario, imu, experiment, trajectory; "
+                                   "default all), generated from the schemas; --markdown gives "
+                                   "docs/scenario-reference.md.")
+    p.add_argument("format", nargs="?", choices=("scenario", "imu", "experiment", "trajectory"), default=None,
+                   help="the format [all]")
+    p.add_argument("--markdown", action="store_true", help="Markdown tables (docs/scenario-reference.md)")
+    p.set_defaults(func=_cmd_schema)
+
     p = sub.add_parser("bench", help="measure the per-sample cost of the kernels and the three-axis chain")
     p.add_argument("--quick", action="store_true", help="short inputs, few repeats")
     p.add_argument("--json", help="write the results as JSON to this file")
@@ -456,9 +502,9 @@ def _internal(exc: BaseException) -> str:
             "and please report it")
 
 
-def _print_warnings(job_warnings, caught) -> None:
+def _print_warnings(job_warnings, caught, flags=None) -> None:
     for line in format_warning_lines([*job_warnings, *caught]):
-        sys.stderr.write(line + "\n")
+        sys.stderr.write(_name_flags(line, flags) + "\n")
     sys.stderr.flush()
 
 
@@ -474,7 +520,7 @@ def main(argv=None) -> int:
                 try:
                     return args.func(args)
                 finally:
-                    _print_warnings(args.job_warnings, caught)
+                    _print_warnings(args.job_warnings, caught, getattr(args, "flags", None))
     except KeyboardInterrupt:
         if debug:
             raise

@@ -49,3 +49,10 @@ def arcmin_to_rad(x):
 def hz_to_rad_s(f):
     """Convert a frequency in Hz to a circular frequency in rad/s."""
     return 2.0 * math.pi * f
+
+
+STANDARD_GRAVITY = 9.80665
+"""Standard acceleration of gravity g_n (m/s^2), exact by definition (3rd CGPM, 1901): the g of
+accelerometer datasheets (ug, ug/g^2)."""
+MICRO_G = STANDARD_GRAVITY * 1e-6
+"""One micro-g (ug) in m/s^2."""

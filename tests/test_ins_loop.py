@@ -215,3 +215,30 @@ def test_block_attitude_from_the_plant_grid_matches_magnus(f_hz, bound_rad):
     t = np.arange(0, 7201) / 7200.0
     q_ref = quat_multiply(veh.stream().evaluate(t).q_nv, blk.attitude(t, substeps=16, method="numeric"))
     assert np.max(np.abs(attitude_error(q, q_ref))) < bound_rad
+
+
+def test_gyro_bias_in_the_full_loop_gives_the_schuler_closed_form():
+    """A constant bias eps on the x gyro (pointing north: level, heading north, at the equator where
+    the Earth-rate coupling into the north channel vanishes) in the full loop with ideal increments:
+    the east position error follows ``R eps (t - sin(w_s t)/w_s)`` (reference-model.md, classic checks)
+    within 2 % over the second hour (measured 0.25 %: 2101.8 m against 2105.3 m at 2 h; 1.2 kHz filter
+    rate, height-aided vertical channel)."""
+    from sins_sim.models.sensor_errors import GyroErrorParams, SensorErrorParams
+
+    eps_deg_h = 0.01
+    imu = imu_from_dict({"channels": CHANNELS, "readout": {"output_rate_hz": 1200.0}}, "t")
+    import dataclasses
+
+    imu = dataclasses.replace(imu, sensors=SensorErrorParams(gyro=GyroErrorParams(bias_deg_h=(eps_deg_h, 0.0, 0.0))))
+    veh = stationary_vehicle(7203.0, lat_deg=0.0)
+    res = simulate_sins(imu, m3.Static(), 7201.0, vehicle=veh, filters=("ideal",),
+                        nav=NavSettings(start_s=1.0, timeseries_rate_hz=0.1, vertical="height_aid", height_aid_tau_s=10.0))
+    ser = res.series["ideal"]
+    t = ser["t_s"] - 1.0
+    eps = eps_deg_h * DEG / 3600.0
+    ws = earth.schuler_rate_rad_s(0.0)
+    r_e = earth.radii(0.0)[1]
+    expected = r_e * eps * (t - np.sin(ws * t) / ws)
+    got = ser["east_m"]
+    sel = t > 1800.0
+    assert np.max(np.abs(got[sel] - expected[sel]) / expected[sel]) < 0.02

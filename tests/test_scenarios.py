@@ -35,18 +35,21 @@ def test_bundled_scenarios_validate(path):
     "doc, match",
     [
         ({"channels": {"x": {"f0_hz": 386}, "y": {"f0_hz": 352}}}, r"channels\.z: is required"),
-        ({"channels": {**GOOD_CHANNELS, "z": {"f0_hz": -1}}}, r"channels\.z\.f0_hz: must be > 0"),
+        ({"channels": {**GOOD_CHANNELS, "z": {"f0_hz": -1}}}, r"channels\.z\.f0_hz: must be >= 20"),
         ({"channels": GOOD_CHANNELS, "readout": {"quantum": 0.1}}, r"readout\.quantum: needs a unit: write quantum_arcsec"),
         ({"channels": GOOD_CHANNELS, "readout": {"quantum_arcmin": 0.1}}, r"unknown unit in 'quantum_arcmin'"),
         ({"channels": GOOD_CHANNELS, "readuot": {}}, r"readuot: unknown key"),
         ({"channels": GOOD_CHANNELS, "suspension": {"k2_rad": "big"}}, r"suspension\.k2_rad: must be a number"),
-        ({"channels": GOOD_CHANNELS, "suspension": {"k2_rad": 0}}, r"suspension\.k2_rad: must be > 0"),
+        ({"channels": GOOD_CHANNELS, "suspension": {"k2_rad": 0}}, r"suspension\.k2_rad: must be >= 1e-06"),
         ({"channels": GOOD_CHANNELS, "suspension": {"k5_rad_per_v": 0}}, r"k5_rad_per_v: must be != 0"),
         ({"channels": GOOD_CHANNELS, "readout": {"output_rate_hz": 7000}}, r"readout\.output_rate_hz: .*integer"),
         ({"channels": GOOD_CHANNELS, "readout": {"output_rate_hz": 720}}, r"output_rate_hz: the filter rate must be > 2 x f0"),
         ({"channels": {**GOOD_CHANNELS, "y": {"f0_hz": 386}}}, r"resonances must differ"),
         ({"channels": GOOD_CHANNELS, "drive": {"control": "pid"}}, r"drive\.control: must be one of"),
-        ({"channels": GOOD_CHANNELS, "suspension": {"k4_per_rad": -5000}}, r"Q .* must be > 0"),
+        ({"channels": GOOD_CHANNELS, "suspension": {"k4_per_rad": -5000}}, r"suspension\.k4_per_rad: must be >= -20"),
+        ({"channels": GOOD_CHANNELS, "suspension": {"k3": 0.15, "k4_per_rad": 200}},
+         r"suspension \(shared, with channels\.x\.f0_hz\): suspension\.k3: the loss 1/Q = k3 \(1 \+ k4 a\) \+ 2 zeta "
+         r"must stay < 1"),
     ],
 )
 def test_imu_validation_errors_name_key_and_rule(doc, match):

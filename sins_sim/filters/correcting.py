@@ -28,6 +28,22 @@ FORMS = ("unity", "paper")
 #: A deflection estimate beyond this (rad, ~172 arcmin, 50 x the paper's dither) is unphysical.
 D_LIMIT_RAD = 0.05
 
+# Physical ranges of what the filter believes (issue 12, point 4): the same numbers, and the same reasons,
+# as sins_sim.models.suspension (the layers keep filters and models apart, so they are repeated here).
+#: f0 (Hz): dither suspensions resonate at 100-1500 Hz; 20-5000 Hz is refused outside.
+F0_RANGE_HZ = (20.0, 5000.0)
+#: k1 <= 0.1 and k1 < 2 k2 (the spring keeps its stiffness); k2 in [1e-6, 0.1] rad; k3 <= 0.2 (Q >= 5);
+#: k4 in [-20, 1e4] /rad; |k5| <= 1e-2 rad/V (0: a drive-free filter); and the loss k3 (1 + k4 a) below 1 for
+#: every deflection a up to D_LIMIT_RAD (eq. 5 inverts eq. 10 on its own D and runs away otherwise).
+K1_MAX, K2_RANGE_RAD, K3_MAX, K4_RANGE_PER_RAD, K5_MAX_RAD_PER_V = 0.1, (1e-6, 0.1), 0.2, (-20.0, 1.0e4), 1.0e-2
+#: Filter rate (Hz): at most 1 MHz (the readout's limit).
+FS_MAX_HZ = 1.0e6
+
+
+def _within(field: str, value: float, lo: float, hi: float, unit: str = "") -> None:
+    if not lo <= value <= hi:
+        raise ValueError(f"correcting.{field}: must be in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}, got {value!r}")
+
 
 @dataclass(frozen=True)
 class CorrectingFilterDesign:
@@ -60,12 +76,24 @@ class CorrectingFilterDesign:
     def __post_init__(self):
         o = "correcting"
         f0 = v.positive(o, "f0_hz", self.f0_hz)
-        v.non_negative(o, "k1", self.k1)
-        v.positive(o, "k2", self.k2)
-        v.non_negative(o, "k3", self.k3)
-        v.finite(o, "k4", self.k4)
-        v.finite(o, "k5", self.k5)
+        _within("f0_hz", f0, *F0_RANGE_HZ, "Hz")
+        k1 = v.non_negative(o, "k1", self.k1)
+        _within("k1", k1, 0.0, K1_MAX)
+        k2 = v.positive(o, "k2", self.k2)
+        _within("k2", k2, *K2_RANGE_RAD, "rad")
+        if not k1 < 2.0 * k2:
+            raise ValueError(f"correcting.k1: must be < 2 k2 = {2.0 * k2:g} (eq. 9 keeps the spring's stiffness), "
+                             f"got {k1!r}")
+        k3 = v.non_negative(o, "k3", self.k3)
+        _within("k3", k3, 0.0, K3_MAX)
+        k4 = v.finite(o, "k4", self.k4)
+        _within("k4", k4, *K4_RANGE_PER_RAD, "1/rad")
+        if not k3 * (1.0 + k4 * D_LIMIT_RAD) < 1.0:
+            raise ValueError(f"correcting.k3: the loss k3 (1 + k4 a) must stay < 1 for every deflection up to "
+                             f"{D_LIMIT_RAD:g} rad, got {k3 * (1.0 + k4 * D_LIMIT_RAD):.4g} (k3 = {k3!r}, k4 = {k4!r})")
+        _within("k5", v.finite(o, "k5", self.k5), -K5_MAX_RAD_PER_V, K5_MAX_RAD_PER_V, "rad/V")
         fs = v.positive(o, "fs_hz", self.fs_hz)
+        _within("fs_hz", fs, 0.0, FS_MAX_HZ, "Hz")
         if fs <= 2.0 * f0:
             raise ValueError(
                 f"correcting.fs_hz: must be > 2 x f0 = {2 * f0:.6g} Hz (w = omega0 dT < pi), got {fs!r}"

@@ -32,6 +32,17 @@ __all__ = ["EliminatorDesign", "Eliminator", "eliminate"]
 
 _OWNER = "eliminator"
 
+# Ranges (issue 12, point 4).
+#: Sampling rate (Hz): at most 1 MHz (the readout's limit).
+FS_MAX_HZ = 1.0e6
+#: Prototype order: the paper's band-stop has order 5 (10 poles); beyond 20 (40 poles) the sections' poles
+#: crowd the unit circle and the design says more about rounding than about a filter.
+MAX_ORDER = 20
+#: Pass-band ripple (dB): a band-stop that ripples more than 6 dB (a factor 2) in its pass band is no
+#: dither eliminator. Stop-band attenuation (dB): 200 dB is 1e-10, below float64 rounding of the angles.
+MAX_RP_DB = 6.0
+MAX_RS_DB = 200.0
+
 # scipy >= 1.15 names it freqz_sos; sosfreqz is the older name (same function).
 _freqz_sos = getattr(signal, "freqz_sos", None) or signal.sosfreqz
 
@@ -71,6 +82,8 @@ class EliminatorDesign:
 
     def __post_init__(self):
         fs = v.positive(_OWNER, "fs_hz", self.fs_hz)
+        if fs > FS_MAX_HZ:
+            raise ValueError(f"{_OWNER}.fs_hz: must be <= {FS_MAX_HZ:g} Hz, got {fs!r}")
         band = self.band_hz
         try:
             n_edges = len(band)
@@ -87,12 +100,16 @@ class EliminatorDesign:
                 f"{_OWNER}.band_hz: hi must be < fs_hz / 2 = {fs / 2.0!r}, got {hi!r}"
             )
         order = self.order
-        if isinstance(order, bool) or not isinstance(order, Integral) or order < 1:
-            raise ValueError(f"{_OWNER}.order: must be an integer >= 1, got {order!r}")
+        if isinstance(order, bool) or not isinstance(order, Integral) or not 1 <= order <= MAX_ORDER:
+            raise ValueError(f"{_OWNER}.order: must be an integer in [1, {MAX_ORDER}], got {order!r}")
         rp = v.positive(_OWNER, "rp_db", self.rp_db)
+        if rp > MAX_RP_DB:
+            raise ValueError(f"{_OWNER}.rp_db: must be in (0, {MAX_RP_DB:g}] dB, got {rp!r}")
         rs = v.positive(_OWNER, "rs_db", self.rs_db)
         if not rs > rp:
             raise ValueError(f"{_OWNER}.rs_db: must be > rp_db = {rp!r}, got {rs!r}")
+        if rs > MAX_RS_DB:
+            raise ValueError(f"{_OWNER}.rs_db: must be <= {MAX_RS_DB:g} dB, got {rs!r}")
         object.__setattr__(self, "fs_hz", fs)
         object.__setattr__(self, "band_hz", (lo, hi))
         object.__setattr__(self, "order", int(order))
@@ -151,6 +168,13 @@ class EliminatorDesign:
             output="sos",
         )
         sos = np.ascontiguousarray(sos, dtype=np.float64)
+        # each section's poles are the roots of z^2 + a1 z + a2: inside the unit circle, or the filter grows
+        radius = max((float(np.max(np.abs(np.roots(row[3:])))) for row in sos), default=0.0)
+        if not (np.all(np.isfinite(sos)) and radius < 1.0):
+            raise ValueError(
+                f"{_OWNER}.band_hz: the elliptic design {self.band_hz} Hz at {self.fs_hz:g} Hz, order {self.order}, "
+                f"is not stable in float64 (largest pole radius {radius:.12g}); widen the band or lower the order"
+            )
         sos.setflags(write=False)
         return sos
 

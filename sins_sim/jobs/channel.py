@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ from sins_sim.models.motion import SineMotion, StaticMotion
 from sins_sim.simulation.channel import ChannelConfig, simulate_channel
 from sins_sim.units import ARCMIN, ARCSEC
 
-__all__ = ["make_motion", "default_settle_s", "run_channel_job"]
+__all__ = ["make_motion", "check_motion", "default_settle_s", "run_channel_job"]
 
 #: The start-up transient excluded from the residual RMS by default (s), at most half the run.
 SETTLE_S = 1.0
@@ -23,13 +24,47 @@ def default_settle_s(duration_s: float) -> float:
     return min(SETTLE_S, 0.5 * float(duration_s))
 
 
+#: Largest sine motion amplitude (arcmin): the scenario's limit (a block on its mounts moves by arcminutes).
+MAX_MOTION_ARCMIN = 600.0
+#: Largest peak rate of the motion (deg/s): the input range of navigation-grade RLGs.
+MAX_MOTION_RATE_DEG_S = 1000.0
+#: Above this fraction of the filter Nyquist a motion draws a warning.
+NEAR_NYQUIST = 0.8
+
+
 def make_motion(kind: str, frequency_hz: float = 100.0, amplitude_arcmin: float = 1.0):
     """``none`` or ``sine`` (amplitude in arcmin at the edge, rad inside)."""
     if kind == "none":
         return StaticMotion()
     if kind == "sine":
+        if not 0.0 <= amplitude_arcmin <= MAX_MOTION_ARCMIN:
+            raise ValueError(f"motion_arcmin: must be in [0, {MAX_MOTION_ARCMIN:g}] arcmin, got {amplitude_arcmin!r}")
         return SineMotion(amplitude_rad=amplitude_arcmin * ARCMIN, frequency_hz=frequency_hz)
     raise ValueError(f"motion: must be one of ['none', 'sine'], got {kind!r}")
+
+
+def check_motion(config: ChannelConfig, motion) -> None:
+    """A sine motion below the filter Nyquist (a warning near it) and within an RLG's rate range.
+
+    The filters, the truth they are compared with and the plots run at the filter rate: a motion above
+    its Nyquist aliases (above the plant's Nyquist it is not even represented: ``--motion-hz 1e6`` gave
+    ``correcting nan``).
+    """
+    f = float(getattr(motion, "frequency_hz", 0.0) or 0.0)
+    if f <= 0.0:
+        return
+    nyq = 0.5 * config.filter_rate_hz
+    if not f < nyq:
+        raise ValueError(f"motion_hz: must be < the filter Nyquist {nyq:g} Hz (output_rate_hz / 2; above it the "
+                         f"motion aliases, above input_rate_hz / 2 = {0.5 * config.plant.rate_hz:g} Hz it is not "
+                         f"even sampled), got {f:g}")
+    rate = math.degrees(2.0 * math.pi * f * float(getattr(motion, "amplitude_rad", 0.0)))
+    if rate > MAX_MOTION_RATE_DEG_S:
+        raise ValueError(f"motion_arcmin: the sine's peak rate {rate:.4g} deg/s is beyond the "
+                         f"{MAX_MOTION_RATE_DEG_S:g} deg/s an RLG measures")
+    if f > NEAR_NYQUIST * nyq:
+        warnings.warn(f"motion_hz: {f:g} Hz is near the filter Nyquist {nyq:g} Hz (above {NEAR_NYQUIST:.0%} of it the "
+                      "motion is barely resolved at the filter rate)", UserWarning, stacklevel=2)
 
 
 def run_channel_job(config: ChannelConfig, duration_s: float, motion, out_dir, settle_s: float | None = None,
@@ -48,6 +83,12 @@ def run_channel_job(config: ChannelConfig, duration_s: float, motion, out_dir, s
         settle_s = default_settle_s(duration_s)
     if not 0.0 <= settle_s < duration_s:
         raise ValueError(f"settle_s: must be in [0, duration_s = {duration_s!r}), got {settle_s!r}")
+    from sins_sim.jobs.estimate import check_channel
+    from sins_sim.models.plant import check_resolution
+
+    check_resolution(config.suspension, config.plant.rate_hz)
+    check_motion(config, motion)
+    check_channel(config, duration_s, progress)  # refuse what cannot finish, before the engine starts
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     align_hz = getattr(motion, "frequency_hz", 0.0)

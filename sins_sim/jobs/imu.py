@@ -21,10 +21,16 @@ A channel's ``suspension`` and ``drive`` entries override the shared ones.
 
 from __future__ import annotations
 
+from sins_sim.filters import eliminator as _elim
+from sins_sim.models import drive as _drive
+from sins_sim.models import plant as _plant
+from sins_sim.models import readout as _readout
+from sins_sim.models import suspension as _sus
 from sins_sim.models.drive import DriveParams
-from sins_sim.models.plant import PlantSettings
+from sins_sim.models.plant import PlantSettings, check_resolution
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
+from sins_sim.units import ARCSEC
 from sins_sim.jobs.schema import ConfigError, Map, Num, Str, validate
 from sins_sim.jobs.yaml_io import load_yaml  # re-exported: other modules import it from here
 from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
@@ -33,21 +39,37 @@ from sins_sim.simulation.sins import DriveControl, ImuConfig
 __all__ = ["IMU_SCHEMA", "load_yaml", "load_imu", "imu_from_dict"]
 
 
+# The ranges are the models' physical ranges (sins_sim.models.suspension, .drive, .plant, .readout, where each
+# is justified); the schema repeats them so that an error names the YAML key and the reference lists them.
+_K5 = _sus.K5_RANGE_RAD_PER_V[1]
+
+
 def _suspension_fields(defaults: bool):
     d = (lambda x: x) if defaults else (lambda x: None)
     return {
-        "k1": Num(min=0.0, default=d(1.75e-4), doc="eq. 9 scale"),
-        "k2": Num(unit="rad", min=0.0, min_exclusive=True, default=d(1.05e-3), doc="eq. 9 angle"),
-        "k3": Num(min=0.0, default=d(4.4e-3), doc="eq. 10 dissipation"),
-        "k4": Num(unit="per_rad", default=d(250.0), doc="eq. 10 amplitude dependence"),
-        "k5": Num(unit="rad_per_v", nonzero=True, default=d(-1.2e-5), doc="eq. 14 piezo gain"),
-        "zeta": Num(min=0.0, default=d(0.0), doc="extra viscous damping ratio"),
+        "k1": Num(min=0.0, max=_sus.K1_MAX, default=d(1.75e-4), doc="eq. 9 scale; also k1 < 2 k2"),
+        "k2": Num(unit="rad", min=_sus.K2_RANGE_RAD[0], max=_sus.K2_RANGE_RAD[1], default=d(1.05e-3),
+                  doc="eq. 9 angle"),
+        "k3": Num(min=0.0, max=_sus.K3_MAX, default=d(4.4e-3), doc="eq. 10 dissipation"),
+        "k4": Num(unit="per_rad", min=_sus.K4_MIN_PER_RAD, max=_sus.K4_MAX_PER_RAD, default=d(250.0),
+                  doc=f"eq. 10 amplitude dependence; the loss k3 (1 + k4 a) + 2 zeta < 1 up to "
+                      f"a = {_sus.LOSS_AMPLITUDE_RAD:g} rad"),
+        "k5": Num(unit="rad_per_v", min=-_K5, max=_K5, nonzero=True, default=d(-1.2e-5),
+                  doc=f"eq. 14 piezo gain; |k5| >= {_sus.K5_RANGE_RAD_PER_V[0]:g}"),
+        "zeta": Num(min=0.0, max=_sus.ZETA_MAX, default=d(0.0), doc="extra viscous damping ratio"),
     }
 
 
 def _drive_fields(defaults: bool):
     d = (lambda x: x) if defaults else (lambda x: None)
-    return {"amplitude": Num(unit="arcmin", min=0.0, min_exclusive=True, default=d(3.0))}
+    lo, hi = _drive.AMPLITUDE_RANGE_ARCMIN
+    tlo, thi = _drive.AMPLITUDE_TYPICAL_ARCMIN
+    return {"amplitude": Num(unit="arcmin", min=lo, max=hi, default=d(3.0),
+                             doc=f"dither amplitude; usual {tlo:g}-{thi:g} arcmin (outside: a warning)")}
+
+
+_RATE = dict(min=_plant.RATE_RANGE_HZ[0], max=_plant.RATE_RANGE_HZ[1])
+_F0 = _sus.F0_RANGE_HZ
 
 
 IMU_SCHEMA = Map({
@@ -56,38 +78,53 @@ IMU_SCHEMA = Map({
     "suspension": Map(_suspension_fields(True), default={}),
     "drive": Map({
         **_drive_fields(True),
-        "dac_rate": Num(unit="hz", min=0.0, min_exclusive=True, default=72000.0),
+        "dac_rate": Num(unit="hz", **_RATE, default=72000.0, doc="plant.rate_hz / dac_rate_hz an integer"),
         "control": Str(choices=("open_loop", "closed_loop"), default="closed_loop"),
-        "loop_time": Num(unit="s", min=0.0, min_exclusive=True, default=0.1),
-        "block_cycles": Num(min=1, integer=True, default=10),
+        "loop_time": Num(unit="s", min=0.001, max=1000.0, default=0.1,
+                         doc="time constant of the amplitude loop (1 ms to 1000 s)"),
+        "block_cycles": Num(min=1, max=10000, integer=True, default=10,
+                            doc="dither cycles per amplitude measurement"),
         "modulation_depth": Num(min=0.0, max=0.5, default=0.0),
-    }, default={}),
+    }, default={}, rules=(
+        f"the drive voltage that holds the amplitude at resonance (eq. 17) must be <= {_drive.V_MAX:g} V (a piezo "
+        f"stack); above {_drive.V_TYPICAL_MAX:g} V a warning",
+        f"the mechanical Q at the amplitude must lie in [{_sus.Q_RANGE[0]:g}, {_sus.Q_RANGE[1]:g}]",
+    )),
     "plant": Map({
-        "rate": Num(unit="hz", min=0.0, min_exclusive=True, default=72000.0),
+        "rate": Num(unit="hz", **_RATE, default=72000.0, doc="integration and readout rate"),
         "hysteresis": Str(choices=("paper", "masing"), default="paper"),
-    }, default={}),
+    }, default={}, rules=(f"rate_hz >= {_plant.MIN_STEPS_PER_PERIOD} x f0_hz of every channel "
+                          f"({_plant.MIN_STEPS_PER_PERIOD} steps per dither period)",)),
     "readout": Map({
-        "quantum": Num(unit="arcsec", min=0.0, min_exclusive=True, default=2.42 / 16),
-        "noise": Num(unit="arcsec", min=0.0, default=0.0),
-        "output_rate": Num(unit="hz", min=0.0, min_exclusive=True, default=7200.0),
+        "quantum": Num(unit="arcsec", min=_readout.QUANTUM_REAL_RANGE_RAD[0] / ARCSEC,
+                       max=_readout.QUANTUM_REAL_RANGE_RAD[1] / ARCSEC, default=2.42 / 16,
+                       doc="angle per count (2.42/16: the paper's interpolated fringe)"),
+        "noise": Num(unit="arcsec", min=0.0, max=_readout.NOISE_MAX_RAD / ARCSEC, default=0.0,
+                     doc="white noise before quantisation (RMS)"),
+        "output_rate": Num(unit="hz", min=100.0, max=_readout.RATE_MAX_HZ, default=7200.0,
+                           doc="filter rate; plant.rate_hz / output_rate_hz an integer, > 2 f0"),
         "anti_alias": Map({
-            "cutoff": Num(unit="hz", min=0.0, min_exclusive=True, default=9000.0),
-            "numtaps": Num(min=1, integer=True, default=21),
-        }, default={}, allow_null=True),
+            "cutoff": Num(unit="hz", min=0.0, min_exclusive=True, max=_readout.RATE_MAX_HZ / 2, default=9000.0,
+                          doc="< plant.rate_hz / 2"),
+            "numtaps": Num(min=1, max=_readout.MAX_NUMTAPS, integer=True, default=21, doc="odd"),
+        }, default={}, allow_null=True, doc="null: no anti-alias filter"),
     }, default={}),
     "correcting": Map({"hysteresis": Str(choices=("paper", "masing"), default="paper")}, default={}),
     "eliminator": Map({
-        "width": Num(unit="hz", min=0.0, min_exclusive=True, default=40.0),
-        "rp": Num(unit="db", min=0.0, min_exclusive=True, default=0.1),
-        "rs": Num(unit="db", min=0.0, min_exclusive=True, default=60.0),
+        "width": Num(unit="hz", min=1.0, max=1000.0, default=40.0,
+                     doc="band centred on each channel's drive frequency, inside (0, output_rate_hz / 2)"),
+        "rp": Num(unit="db", min=0.0, min_exclusive=True, max=_elim.MAX_RP_DB, default=0.1),
+        "rs": Num(unit="db", min=0.0, min_exclusive=True, max=_elim.MAX_RS_DB, default=60.0, doc="> rp_db"),
     }, default={}),
     "channels": Map({
         axis: Map({
-            "f0": Num(unit="hz", min=0.0, min_exclusive=True, required=True),
-            "suspension": Map(_suspension_fields(False), default={}),
-            "drive": Map(_drive_fields(False), default={}),
+            "f0": Num(unit="hz", min=_F0[0], max=_F0[1], required=True,
+                      doc=f"small-amplitude resonance; usual {_sus.F0_TYPICAL_HZ[0]:g}-{_sus.F0_TYPICAL_HZ[1]:g} Hz "
+                          "(outside: a warning)"),
+            "suspension": Map(_suspension_fields(False), default={}, doc="overrides of the shared suspension"),
+            "drive": Map(_drive_fields(False), default={}, doc="overrides of the shared drive"),
         }, required=True) for axis in ("x", "y", "z")
-    }, required=True),
+    }, required=True, rules=("the three f0_hz must differ",)),
 })
 
 
@@ -95,8 +132,34 @@ def _merged(shared: dict, own: dict) -> dict:
     return {k: (own[k] if own.get(k) is not None else shared[k]) for k in shared}
 
 
+def _check_shared(c: dict, ctx: str, path: str) -> None:
+    """The shared suspension and drive must be physical on their own, even where every channel overrides them."""
+    sus, where = c["suspension"], f"{path + '.' if path else ''}suspension"
+    try:
+        shared = SuspensionParams(f0_hz=c["channels"]["x"]["f0_hz"], k1=sus["k1"], k2=sus["k2_rad"], k3=sus["k3"],
+                                  k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
+        DriveParams(amplitude_rad=c["drive"]["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]).resolve(shared)
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: {where} (shared, with channels.x.f0_hz): {exc}") from None
+
+
 def imu_from_dict(doc: dict, ctx: str, path: str = "") -> ImuConfig:
-    """Validate an IMU mapping and build the ImuConfig (errors name ``ctx`` and the key path)."""
+    """Validate an IMU mapping and build the ImuConfig (errors name ``ctx`` and the key path).
+
+    The optional ``sensors:`` section (gyro and accelerometer errors in datasheet units, see
+    :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) is validated by its own parser.
+    """
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+
+    sensors = None
+    if isinstance(doc, dict) and "sensors" in doc:
+        doc = dict(doc)
+        try:
+            sensors = sensor_params_from_dict(doc.pop("sensors"), ctx, f"{path + '.' if path else ''}sensors")
+        except ConfigError:
+            raise
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {exc}" if not str(exc).startswith(ctx) else str(exc)) from None
     c = validate(doc, IMU_SCHEMA, ctx, path)
     ro = c["readout"]
     anti = ro["anti_alias"]
@@ -112,18 +175,27 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "") -> ImuConfig:
         control = DriveControl(mode=c["drive"]["control"], loop_time_s=c["drive"]["loop_time_s"],
                                block_cycles=int(c["drive"]["block_cycles"]),
                                modulation_depth=c["drive"]["modulation_depth"])
+        _check_shared(c, ctx, path)
         channels = []
         for axis in ("x", "y", "z"):
-            ch = c["channels"][axis]
-            sus = _merged(c["suspension"], ch["suspension"])
-            drv = _merged({"amplitude_rad": c["drive"]["amplitude_rad"]}, ch["drive"])
-            suspension = SuspensionParams(f0_hz=ch["f0_hz"], k1=sus["k1"], k2=sus["k2_rad"], k3=sus["k3"],
-                                          k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
-            channels.append(ChannelConfig(
-                suspension=suspension,
-                drive=DriveParams(amplitude_rad=drv["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]),
-                plant=plant, readout=readout, filter_hysteresis=c["correcting"]["hysteresis"], eliminator=elim))
-        return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"])
+            where = f"{path + '.' if path else ''}channels.{axis}"
+            try:
+                ch = c["channels"][axis]
+                sus = _merged(c["suspension"], ch["suspension"])
+                drv = _merged({"amplitude_rad": c["drive"]["amplitude_rad"]}, ch["drive"])
+                suspension = SuspensionParams(f0_hz=ch["f0_hz"], k1=sus["k1"], k2=sus["k2_rad"], k3=sus["k3"],
+                                              k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
+                check_resolution(suspension, plant.rate_hz)
+                cfg = ChannelConfig(
+                    suspension=suspension,
+                    drive=DriveParams(amplitude_rad=drv["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]),
+                    plant=plant, readout=readout, filter_hysteresis=c["correcting"]["hysteresis"], eliminator=elim)
+                cfg.eliminator_design().sos  # the band fits and the design is stable, checked before any kernel
+                cfg.correcting_design("paper")
+            except ValueError as exc:
+                raise ConfigError(f"{ctx}: {where}: {exc}") from None
+            channels.append(cfg)
+        return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors)
     except ConfigError:
         raise
     except ValueError as exc:  # a physical rule that needs several fields (Q > 0, fs > 2 f0, ...)

@@ -53,6 +53,7 @@ import numpy as np
 
 from sins_sim.io.recording import read_csv_recording, read_recording, write_recording
 from sins_sim.models.effects import make_effect
+from sins_sim.models.plant import check_resolution
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.jobs.imu import load_yaml
 from sins_sim.jobs.schema import ConfigError, ListOf, Map, Num, Str, validate
@@ -69,15 +70,25 @@ _POS = dict(min=0.0, min_exclusive=True)
 
 
 def _suspension_fields():
+    from sins_sim.models import suspension as sus
+
+    k5 = sus.K5_RANGE_RAD_PER_V[1]
     return {
-        "f0": Num(unit="hz", **_POS),
-        "k1": Num(min=0.0),
-        "k2": Num(unit="rad", **_POS),
-        "k3": Num(min=0.0),
-        "k4": Num(unit="per_rad"),
-        "k5": Num(unit="rad_per_v", nonzero=True),
-        "zeta": Num(min=0.0),
+        "f0": Num(unit="hz", min=sus.F0_RANGE_HZ[0], max=sus.F0_RANGE_HZ[1]),
+        "k1": Num(min=0.0, max=sus.K1_MAX),
+        "k2": Num(unit="rad", min=sus.K2_RANGE_RAD[0], max=sus.K2_RANGE_RAD[1]),
+        "k3": Num(min=0.0, max=sus.K3_MAX),
+        "k4": Num(unit="per_rad", min=sus.K4_MIN_PER_RAD, max=sus.K4_MAX_PER_RAD),
+        "k5": Num(unit="rad_per_v", min=-k5, max=k5, nonzero=True),
+        "zeta": Num(min=0.0, max=sus.ZETA_MAX),
     }
+
+
+#: Longest experiment (s): the simulator keeps the whole record at the plant rate in memory (about 60 B per
+#: plant step and axis: 13 MB per second for 3 axes at 72 kHz); bench experiments last seconds to minutes.
+MAX_EXPERIMENT_S = 300.0
+#: Most plant steps x axes an experiment may hold (about 4 GB at 60 B each).
+MAX_EXPERIMENT_STEPS = 6.5e7
 
 
 class _PerAxis:
@@ -89,6 +100,13 @@ class _PerAxis:
 
     def __init__(self):
         self.item = Map(_suspension_fields())
+
+    def describe_rows(self, path):
+        from sins_sim.jobs.schema import describe
+
+        head = {"key": path, "kind": "mapping", "unit": "", "range": "axis name -> parameters", "default": "(none)",
+                "doc": "per axis (a name of axes), the suspension keys of the IMU format"}
+        return [head] + describe(self.item, f"{path}.AXIS")
 
     def check(self, value, ctx, path):
         if not isinstance(value, dict):
@@ -102,6 +120,11 @@ class _Effects:
     unit = None
     default = None
     required = False
+
+    def describe_rows(self, path):
+        return [{"key": path, "kind": "list", "unit": "", "range": "catalogue effects", "default": "(none)",
+                 "doc": "[{name: EFFECT, axes: [...], SI parameters}, ...]; names and parameters: "
+                        "sins_sim.models.effects"}]
 
     def check(self, value, ctx, path):
         if not isinstance(value, list):
@@ -118,44 +141,51 @@ class _Effects:
         return out
 
 
+_RATE = dict(min=100.0, max=1.0e6)
 EXPERIMENT_SCHEMA = Map({
     "name": Str(default=""),
     "experiment": Str(choices=("stationary", "afc_sweep", "rate_table"), required=True),
     "description": Str(default=""),
-    "axes": ListOf(Str(), default=["x"], min_len=1),
-    "duration": Num(unit="s", required=True, **_POS),
-    "seed": Num(integer=True, min=0, default=0),
-    "fs": Num(unit="hz", default=7200.0, **_POS),
-    "drive_fs": Num(unit="hz", **_POS),
-    "plant_rate": Num(unit="hz", default=72000.0, **_POS),
+    "axes": ListOf(Str(), default=["x"], min_len=1, max_len=3, doc="1 to 3 distinct names"),
+    "duration": Num(unit="s", required=True, **_POS, max=MAX_EXPERIMENT_S),
+    "seed": Num(integer=True, min=0, max=2 ** 32 - 1, default=0),
+    "fs": Num(unit="hz", default=7200.0, **_RATE, doc="readout rate"),
+    "drive_fs": Num(unit="hz", **_RATE, doc="drive update rate, a multiple of fs_hz (default fs_hz)"),
+    "plant_rate": Num(unit="hz", default=72000.0, min=1.0e3, max=1.0e6,
+                      doc="truth simulation rate, a multiple of drive_fs_hz, >= 40 f0"),
     "integrator": Str(choices=("exact", "rk4"), default="exact"),
     "hysteresis": Str(choices=("paper", "masing"), default="paper"),
-    "quantum": Num(unit="arcsec", default=2.42 / 16.0, **_POS),
-    "noise": Num(unit="arcsec", min=0.0, default=0.0),
+    "quantum": Num(unit="arcsec", default=2.42 / 16.0, min=0.001, max=60.0),
+    "noise": Num(unit="arcsec", min=0.0, max=60.0, default=0.0),
     "initial_state": Str(choices=("rest", "unknown"), default="rest"),
-    "preroll": Num(unit="s", min=0.0, default=1.0),
-    "amplitude": Num(unit="arcmin", default=3.0, **_POS),
+    "preroll": Num(unit="s", min=0.0, max=60.0, default=1.0, doc="simulated before the record (initial_state: "
+                                                                 "unknown)"),
+    "amplitude": Num(unit="arcmin", default=3.0, min=0.01, max=60.0, doc="dither amplitude the drive is set up for"),
     "nominal": _PerAxis(),
     "truth": _PerAxis(),
     "perturb": Map({"f0": Num(min=0.0, max=0.05, default=0.0), "k": Num(min=0.0, max=0.5, default=0.0)},
-                   default={}),
+                   default={}, doc="relative std of the unit's difference from nominal (seeded)"),
     "afc": Map({
-        "voltage_factors": ListOf(Num(**_POS), default=[0.5, 0.75, 1.0, 1.25], min_len=1),
-        "frequency_offsets_hz": ListOf(Num(), default=[-3.0, -1.5, 0.0, 1.5, 3.0], min_len=1),
-        "dwell": Num(unit="s", default=0.25, **_POS),
+        "voltage_factors": ListOf(Num(**_POS, max=10.0), default=[0.5, 0.75, 1.0, 1.25], min_len=1, max_len=100),
+        "frequency_offsets_hz": ListOf(Num(min=-100.0, max=100.0), default=[-3.0, -1.5, 0.0, 1.5, 3.0], min_len=1,
+                                       max_len=100),
+        "dwell": Num(unit="s", default=0.25, **_POS, max=60.0),
     }, default={}),
     "rate_table": Map({
-        "rate": Num(unit="deg_s", default=10.0),
-        "sines": ListOf(Map({"amplitude": Num(unit="arcmin", required=True, min=0.0),
-                             "frequency": Num(unit="hz", required=True, **_POS),
-                             "phase": Num(unit="deg", default=0.0)}),
+        "rate": Num(unit="deg_s", default=10.0, min=-1000.0, max=1000.0),
+        "sines": ListOf(Map({"amplitude": Num(unit="arcmin", required=True, min=0.0, max=600.0),
+                             "frequency": Num(unit="hz", required=True, **_POS, max=5.0e5, doc="< fs_hz / 2"),
+                             "phase": Num(unit="deg", default=0.0, min=-360.0, max=360.0)}),
+                        max_len=100,
                         default=[{"amplitude_arcmin": 30.0, "frequency_hz": 7.0},
                                  {"amplitude_arcmin": 3.0, "frequency_hz": 80.0, "phase_deg": 60.0},
                                  {"amplitude_arcmin": 1.0, "frequency_hz": 230.0, "phase_deg": 120.0}]),
         "axes": ListOf(Str(), min_len=1),
     }, default={}),
     "effects": _Effects(),
-})
+}, rules=(f"(duration_s + preroll_s) x plant_rate_hz x axes <= {MAX_EXPERIMENT_STEPS:.3g} plant steps (memory)",
+          "plant_rate_hz >= 40 x f0_hz of every axis; rate_table sines below fs_hz / 2 and their peak rate "
+          "<= 1000 deg/s"))
 
 _YAML_SUSP = {"f0_hz": "f0_hz", "k1": "k1", "k2_rad": "k2", "k3": "k3", "k4_per_rad": "k4", "k5_rad_per_v": "k5",
               "zeta": "zeta"}
@@ -222,6 +252,14 @@ def experiment_from_dict(doc: dict, ctx: str = "experiment") -> dict:
         table = None
         if c["experiment"] == "rate_table":
             rt = c["rate_table"]
+            for i, sn in enumerate(rt["sines"]):
+                if not sn["frequency_hz"] < fs / 2.0:
+                    raise ValueError(f"rate_table.sines[{i}].frequency_hz: must be < fs_hz / 2 = {fs / 2.0:g} Hz, "
+                                     f"got {sn['frequency_hz']:g}")
+                peak = math.degrees(2.0 * math.pi * sn["frequency_hz"] * sn["amplitude_rad"])
+                if peak > 1000.0:
+                    raise ValueError(f"rate_table.sines[{i}].amplitude_arcmin: gives a peak rate of {peak:.4g} deg/s, "
+                                     "beyond the 1000 deg/s an RLG measures")
             mot = table_motion(rt["rate_rad_s"], [(s["amplitude_rad"], s["frequency_hz"], s["phase_rad"])
                                                   for s in rt["sines"]])
             on = rt["axes"] or axes
@@ -233,7 +271,14 @@ def experiment_from_dict(doc: dict, ctx: str = "experiment") -> dict:
         effects = c["effects"] or []
         for e in effects:
             e.check_axes(axes)
-        inputs.plant_rate(settings)
+        rate = inputs.plant_rate(settings)
+        steps = n * rate / fs * len(axes)
+        if steps > MAX_EXPERIMENT_STEPS:
+            raise ValueError(f"duration_s: {c['duration_s']:g} s (+ preroll) at plant_rate_hz {rate:g} on {len(axes)} "
+                             f"axis/axes is {steps:.3g} plant steps held in memory (the limit is "
+                             f"{MAX_EXPERIMENT_STEPS:.3g}, about 4 GB): shorten duration_s")
+        for a in axes:
+            check_resolution(truth[a], rate)
     except ValueError as exc:
         raise ConfigError(f"{ctx}: {exc}") from None
     return {"inputs": inputs, "truth": truth, "nominal": nominal, "effects": effects, "settings": settings,

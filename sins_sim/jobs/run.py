@@ -30,8 +30,9 @@ __all__ = ["run_scenario", "scenario_metrics", "NMI_M", "CEP_RATE_MIN_S"]
 
 #: One international nautical mile (m).
 NMI_M = 1852.0
-#: The CEP rate is reported for missions at least this long (s): over shorter ones the
-#: Schuler oscillation (84.4 min) dominates a radial error rate.
+#: The CEP rate (final horizontal error over the navigated time) is reported for missions at
+#: least this long (s): over shorter ones the Schuler oscillation (84.4 min) dominates a radial
+#: error rate.
 CEP_RATE_MIN_S = 1800.0
 _NED = ("north", "east", "down")
 
@@ -69,7 +70,7 @@ def scenario_metrics(res, scenario) -> dict:
             "attitude_error_arcsec": {"final": _ned(last["attitude_ned_rad"] / ARCSEC),
                                       "rms": _ned(st.attitude_rms_rad / ARCSEC)},
             "cep_rate_nmi_h": (last["horizontal_m"] / NMI_M / (mission_s / 3600.0)
-                               if mission_s >= CEP_RATE_MIN_S and not div else None),
+                               if res.duration_s >= CEP_RATE_MIN_S and not div else None),
         }
         if ideal is not None and ideal.n and name != "ideal":
             m["excess_over_ideal"] = {
@@ -133,6 +134,9 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
     from sins_sim.jobs.scenario import load_scenario
 
     scenario = load_scenario(path, overrides)
+    from sins_sim.jobs.estimate import check_run
+
+    check_run(scenario, progress)  # refuse a run that cannot finish, before the engine starts (issue 12, point 3)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,

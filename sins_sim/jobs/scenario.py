@@ -9,6 +9,7 @@ the seed; :func:`sins_sim.jobs.run.run_scenario` runs it and writes the results.
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -21,100 +22,181 @@ __all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario"
 
 _POS = dict(min=0.0, min_exclusive=True)
 
+# --- ranges (issue 12, points 3 and 4) -------------------------------------------------------------------
+#: Longest mission (s): sample indices at the plant rate (at most 1 MHz) stay exact float64 integers
+#: (< 2^53), so every time t = k / rate the engine forms is exact. Whether a run that long can finish is
+#: the estimate's business (sins_sim.jobs.estimate refuses runs above 48 h of wall time).
+MAX_DURATION_S = 2.0 ** 53 / 1.0e6
+#: Block rates (deg/s): the input range of navigation-grade RLGs is +-400 to +-1000 deg/s. A block motion
+#: part whose peak rate exceeds 1000 deg/s is refused.
+MAX_RATE_DEG_S = 1000.0
+#: Angular vibration amplitudes (arcmin): a block on its isolators moves by arcminutes; 10 deg would tear them.
+MAX_ANGLE_ARCMIN = 600.0
+#: Frequencies (Hz): the schema's ceiling is the highest plant Nyquist (1 MHz / 2); the loader then requires
+#: every block and translational motion frequency to lie below the filter Nyquist (readout.output_rate_hz / 2,
+#: 3.6 kHz by default): the filters, the truth they are compared with and the navigation all run at the filter
+#: rate, so a motion above it aliases into the navigation band. Above NEAR_NYQUIST of it: a warning.
+MAX_FREQUENCY_HZ = 5.0e5
+NEAR_NYQUIST = 0.8
+#: Phases (deg): one turn either way.
+_PHASE = dict(min=-360.0, max=360.0)
+#: Rate PSD of angular random vibration ((deg/s)^2/Hz): 1e-6 is a unit on isolators in a running vehicle;
+#: 1 (deg/s)^2/Hz over 2 kHz would be 45 deg/s RMS, beyond any mount.
+MAX_RATE_PSD = 1.0
+#: Acceleration PSD (g^2/Hz): 10 g^2/Hz over 2 kHz is 141 g RMS, beyond any qualification test.
+MAX_ACCEL_PSD = 10.0
+#: Translational vibration amplitude (m/s^2): 2000 m/s^2 is about 200 g.
+MAX_ACCEL_M_S2 = 2000.0
+#: Vehicle speed (m/s) and heights (m): the trajectory file format's limits (sins_sim.io.trajectory).
+MAX_SPEED_M_S = 3000.0
+#: Stored error series: at most this many blocks per filter (~360 B each), and spectra of at most 600 s
+#: (the full-rate gyro error of every filter is kept in memory: 7.2 kHz x 600 s x 24 B = 100 MB per filter).
+MAX_SPECTRUM_S = 600.0
+_DUR = dict(min=0.0, min_exclusive=True, max=MAX_DURATION_S)
+_START = dict(min=0.0, max=MAX_DURATION_S)
+_FREQ_RULE = (f"every frequency must be < the filter Nyquist (readout.output_rate_hz / 2 of the IMU, 3600 Hz by "
+              f"default); above {NEAR_NYQUIST:g} of it a warning")
+_RATE_RULE = f"the part's peak rate must be <= {MAX_RATE_DEG_S:g} deg/s"
+
+
+def _psd_row(max_psd, unit_doc):
+    return Vec(2, items=(Num(min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ),
+                         Num(min=0.0, min_exclusive=True, max=max_psd)),
+               doc=f"[f_hz, {unit_doc}]")
+
+
 MOTION_SCHEMA = OneOf({
-    "static": Map({}),
-    "constant_rate": Map({"rate": Vec(3, unit="deg_s", required=True)}),
-    "turn": Map({"axis": Vec(3, required=True), "angle": Num(unit="deg", required=True),
-                 "duration": Num(unit="s", required=True, **_POS), "start": Num(unit="s", min=0.0, default=0.0)}),
-    "sines": Map({"amplitude": Vec(3, unit="arcmin", required=True, min=0.0),
-                  "frequency": Vec(3, unit="hz", required=True, min=0.0),
-                  "phase": Vec(3, unit="deg", default=[0.0, 0.0, 0.0])}),
-    "coning": Map({"amplitude": Num(unit="arcmin", required=True, **_POS),
-                   "frequency": Num(unit="hz", required=True, **_POS),
-                   "phase": Num(unit="deg", default=90.0)}),
-    "random_vibration": Map({"psd_deg2_s2_per_hz": ListOf(Vec(2, min=0.0), required=True, min_len=2,
-                                           doc="[[f_hz, rate PSD (deg/s)^2/Hz], ...]"),
-                             "f_lo": Num(unit="hz", required=True, **_POS),
-                             "f_hi": Num(unit="hz", required=True, **_POS),
-                             "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0),
+    "static": Map({}, doc="no block motion"),
+    "constant_rate": Map({"rate": Vec(3, unit="deg_s", required=True, min=-MAX_RATE_DEG_S, max=MAX_RATE_DEG_S,
+                                      doc="body rate about x, y, z")}, doc="a steady rotation of the block"),
+    "turn": Map({"axis": Vec(3, required=True, min=-1.0e6, max=1.0e6, doc="body axis (normalised; not zero)"),
+                 "angle": Num(unit="deg", required=True, min=-36000.0, max=36000.0),
+                 "duration": Num(unit="s", required=True, **_DUR),
+                 "start": Num(unit="s", default=0.0, **_START)},
+                doc="a turn by angle about a fixed axis, raised-cosine rate (peak 2 angle / duration)"),
+    "sines": Map({"amplitude": Vec(3, unit="arcmin", required=True, min=0.0, max=MAX_ANGLE_ARCMIN),
+                  "frequency": Vec(3, unit="hz", required=True, min=0.0, max=MAX_FREQUENCY_HZ),
+                  "phase": Vec(3, unit="deg", default=[0.0, 0.0, 0.0], **_PHASE)},
+                 doc="per-axis sinusoidal gyro angles (peak rate 2 pi f A)"),
+    "coning": Map({"amplitude": Num(unit="arcmin", required=True, **_POS, max=MAX_ANGLE_ARCMIN),
+                   "frequency": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                   "phase": Num(unit="deg", default=90.0, **_PHASE, doc="+90 or -90 (a circular cone)")},
+                  doc="classic coning about z (peak rate 2 pi f A)"),
+    "random_vibration": Map({"psd_deg2_s2_per_hz": ListOf(_psd_row(MAX_RATE_PSD, "rate PSD (deg/s)^2/Hz"),
+                                                           required=True, min_len=2, max_len=1000,
+                                                           doc="[[f_hz, rate PSD (deg/s)^2/Hz], ...], f increasing"),
+                             "f_lo": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                             "f_hi": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                             "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0, max=10.0),
                              "method": Str(choices=("filtered_noise", "tones"), default="filtered_noise",
                                            doc="filtered_noise: streaming, never repeats (missions); tones: a "
-                                               "sum of 1 Hz-spaced sines, periodic in 1 s (short runs)")}),
-    "shock": Map({"axis": Vec(3, required=True), "peak_rate": Num(unit="deg_s", required=True),
-                  "duration": Num(unit="ms", required=True, **_POS), "start": Num(unit="s", min=0.0, default=0.0),
-                  "ring_frequency": Num(unit="hz", min=0.0, default=0.0),
-                  "ring_amplitude": Num(unit="deg_s", default=0.0),
-                  "ring_decay": Num(unit="ms", min=0.0, min_exclusive=True, default=5.0)}),
-    "sweep": Map({"axis": Vec(3, required=True), "amplitude": Num(unit="arcmin", required=True, **_POS),
-                  "f_start": Num(unit="hz", required=True, **_POS), "f_stop": Num(unit="hz", required=True, **_POS),
-                  "duration": Num(unit="s", required=True, **_POS), "start": Num(unit="s", min=0.0, default=0.0),
-                  "kind": Str(choices=("linear", "log"), default="linear")}),
+                                               "sum of 1 Hz-spaced sines, periodic in 1 s (short runs)")},
+                            doc="band-limited angular random vibration, log-log interpolated PSD"),
+    "shock": Map({"axis": Vec(3, required=True, min=-1.0e6, max=1.0e6, doc="body axis (normalised; not zero)"),
+                  "peak_rate": Num(unit="deg_s", required=True, min=-MAX_RATE_DEG_S, max=MAX_RATE_DEG_S),
+                  "duration": Num(unit="ms", required=True, **_POS, max=1000.0),
+                  "start": Num(unit="s", default=0.0, **_START),
+                  "ring_frequency": Num(unit="hz", min=0.0, max=MAX_FREQUENCY_HZ, default=0.0,
+                                        doc="0: no ringing"),
+                  "ring_amplitude": Num(unit="deg_s", default=0.0, min=-MAX_RATE_DEG_S, max=MAX_RATE_DEG_S),
+                  "ring_decay": Num(unit="ms", min=0.0, min_exclusive=True, max=1.0e4, default=5.0)},
+                 doc="a half-sine rate pulse, optionally ringing afterwards"),
+    "sweep": Map({"axis": Vec(3, required=True, min=-1.0e6, max=1.0e6, doc="body axis (normalised; not zero)"),
+                  "amplitude": Num(unit="arcmin", required=True, **_POS, max=MAX_ANGLE_ARCMIN),
+                  "f_start": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                  "f_stop": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                  "duration": Num(unit="s", required=True, **_DUR), "start": Num(unit="s", default=0.0, **_START),
+                  "kind": Str(choices=("linear", "log"), default="linear")},
+                 doc="a rate-table sine sweep (peak rate 2 pi f A)"),
+}, rules={
+    "constant_rate": (),
+    "turn": (_RATE_RULE,),
+    "sines": (_FREQ_RULE, _RATE_RULE),
+    "coning": (_FREQ_RULE, _RATE_RULE),
+    "random_vibration": (_FREQ_RULE, "f_lo_hz < f_hi_hz, both inside the table"),
+    "shock": ("ring_frequency_hz: " + _FREQ_RULE, "ring_frequency_hz > 0 when ring_amplitude_deg_s != 0"),
+    "sweep": (_FREQ_RULE, _RATE_RULE),
 })
 
 LINEAR_SCHEMA = OneOf({
-    "sines": Map({"amplitude": Vec(3, unit="m_s2", required=True, min=0.0),
-                  "frequency": Vec(3, unit="hz", required=True, min=0.0),
-                  "phase": Vec(3, unit="deg", default=[0.0, 0.0, 0.0])}),
-    "random": Map({"psd_g2_per_hz": ListOf(Vec(2, min=0.0), required=True, min_len=2,
-                                           doc="[[f_hz, acceleration PSD g^2/Hz], ...]"),
-                   "f_lo": Num(unit="hz", required=True, **_POS),
-                   "f_hi": Num(unit="hz", required=True, **_POS),
-                   "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0)}),
-})
+    "sines": Map({"amplitude": Vec(3, unit="m_s2", required=True, min=0.0, max=MAX_ACCEL_M_S2,
+                                   doc="0 leaves an axis still"),
+                  "frequency": Vec(3, unit="hz", required=True, min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ),
+                  "phase": Vec(3, unit="deg", default=[0.0, 0.0, 0.0], **_PHASE)},
+                 doc="per-axis sinusoidal acceleration"),
+    "random": Map({"psd_g2_per_hz": ListOf(_psd_row(MAX_ACCEL_PSD, "acceleration PSD g^2/Hz"), required=True,
+                                           min_len=2, max_len=1000,
+                                           doc="[[f_hz, acceleration PSD g^2/Hz], ...], f increasing"),
+                   "f_lo": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                   "f_hi": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                   "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0, max=10.0)},
+                  doc="band-limited random acceleration"),
+}, rules={"sines": (_FREQ_RULE,), "random": (_FREQ_RULE,)})
 
 SEGMENT_SCHEMA = OneOf({
-    "stationary": Map({"duration": Num(unit="s", required=True, **_POS)}),
-    "cruise": Map({"duration": Num(unit="s", required=True, **_POS)}),
-    "accelerate": Map({"duration": Num(unit="s", required=True, **_POS),
-                       "delta_speed": Num(unit="m_s", required=True)}),
-    "turn": Map({"duration": Num(unit="s", required=True, **_POS),
-                 "heading_change": Num(unit="deg", required=True)}),
-    "climb": Map({"duration": Num(unit="s", required=True, **_POS),
-                  "delta_height": Num(unit="m", required=True)}),
+    "stationary": Map({"duration": Num(unit="s", required=True, **_DUR)}, doc="at rest"),
+    "cruise": Map({"duration": Num(unit="s", required=True, **_DUR)}, doc="straight and level at the current speed"),
+    "accelerate": Map({"duration": Num(unit="s", required=True, **_DUR),
+                       "delta_speed": Num(unit="m_s", required=True, min=-MAX_SPEED_M_S, max=MAX_SPEED_M_S)},
+                      doc="speed change along the track"),
+    "turn": Map({"duration": Num(unit="s", required=True, **_DUR),
+                 "heading_change": Num(unit="deg", required=True, min=-36000.0, max=36000.0)},
+                doc="a coordinated turn"),
+    "climb": Map({"duration": Num(unit="s", required=True, **_DUR),
+                  "delta_height": Num(unit="m", required=True, min=-101000.0, max=101000.0)},
+                 doc="height change (heights stay in [-1000, 100000] m)"),
 })
 
 SITE_SCHEMA = Map({
     "lat": Num(unit="deg", min=-89.0, max=89.0, default=45.0, doc="latitude of the start (geodetic)"),
     "lon": Num(unit="deg", min=-180.0, max=180.0, default=0.0),
     "height": Num(unit="m", min=-1000.0, max=100000.0, default=0.0, doc="above the WGS-84 ellipsoid"),
-    "heading": Num(unit="deg", default=0.0, doc="from north towards east"),
-}, default={})
+    "heading": Num(unit="deg", default=0.0, min=-360.0, max=360.0, doc="from north towards east"),
+}, default={}, doc="where the mission starts")
 
 TRAJECTORY_SCHEMA = Map({
-    "speed": Num(unit="m_s", min=0.0, default=0.0, doc="speed at the start"),
-    "transition": Num(unit="s", default=4.0, **_POS, doc="length of each smooth ramp of a segment"),
-    "segments": ListOf(SEGMENT_SCHEMA, default=[], doc="flown in order after the start"),
-    "file": Str(default="", doc="CSV or Parquet trajectory file (sins_sim/io/trajectory.py), relative to the scenario"),
-}, default={})
+    "speed": Num(unit="m_s", min=0.0, max=MAX_SPEED_M_S, default=0.0, doc="speed at the start"),
+    "transition": Num(unit="s", default=4.0, **_POS, max=3600.0, doc="length of each smooth ramp of a segment"),
+    "segments": ListOf(SEGMENT_SCHEMA, default=[], max_len=10000, doc="flown in order after the start"),
+    "file": Str(default="", doc="CSV or Parquet trajectory file (format: sins-sim schema trajectory), relative to "
+                                "the scenario"),
+}, default={}, doc="how the vehicle moves (segments, or a file); without either it sits at the site",
+    rules=("the trajectory must last at least duration_s + 0.1 s",
+           "every segment lasts at least 2 transition_s (a smooth ramp in and one out)"))
 
 SCENARIO_SCHEMA = Map({
     "name": Str(required=True),
     "description": Str(default=""),
-    "seed": Num(integer=True, min=0, default=0),
-    "duration": Num(unit="s", required=True, **_POS),
+    "seed": Num(integer=True, min=0, max=2 ** 32 - 1, default=0, doc="seed of every random stream of the run"),
+    "duration": Num(unit="s", required=True, **_DUR, doc="mission length"),
     "imu": None,  # path or mapping: checked by load_scenario
     "site": SITE_SCHEMA,
     "trajectory": TRAJECTORY_SCHEMA,
-    "motion": ListOf(MOTION_SCHEMA, default=[{"type": "static"}], min_len=1),
-    "linear_vibration": ListOf(LINEAR_SCHEMA, default=[], doc="the block's translational vibration (mount axes)"),
-    "filters": ListOf(Str(choices=SINS_FILTERS), default=list(DEFAULT_FILTERS), min_len=1),
+    "motion": ListOf(MOTION_SCHEMA, default=[{"type": "static"}], min_len=1, max_len=1000,
+                     doc="the block's own motion on its mounts: parts that add up"),
+    "linear_vibration": ListOf(LINEAR_SCHEMA, default=[], max_len=1000,
+                               doc="the block's translational vibration (mount axes)"),
+    "filters": ListOf(Str(choices=SINS_FILTERS), default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
     "navigation": Map({
         "coning": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
         "sculling": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
-        "start": Num(unit="s", min=0.0, default=1.0),
-        "n_sub": Num(integer=True, min=1, default=1, doc="filter samples per navigation update"),
+        "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
+        "n_sub": Num(integer=True, min=1, max=1000, default=1, doc="filter samples per navigation update"),
         "vertical": Str(choices=("height_aid", "free"), default="height_aid"),
-        "height_aid_tau": Num(unit="s", **_POS, default=100.0),
+        "height_aid_tau": Num(unit="s", **_POS, max=1.0e5, default=100.0),
         "accel_delay": Str(choices=("matched", "none"), default="matched"),
-        "align": Num(unit="s", min=0.0, default=0.5, doc="window before start_s over which each filter's offset "
-                                                           "from the truth is averaged (alignment)"),
-        "timeseries_rate": Num(unit="hz", **_POS, default=None,
+        "align": Num(unit="s", min=0.0, max=3600.0, default=0.5,
+                     doc="window before start_s over which each filter's offset from the truth is averaged "
+                         "(alignment)"),
+        "timeseries_rate": Num(unit="hz", **_POS, max=1.0e6, default=None,
                                doc="stored series rate; default 10 Hz, slower for missions over 12 min "
                                    "(at most 7200 stored blocks, each with its min/max envelope)"),
-        "spectrum": Num(unit="s", min=0.0, default=2.0),
-    }, default={}),
+        "spectrum": Num(unit="s", min=0.0, max=MAX_SPECTRUM_S, default=2.0,
+                        doc="full-rate gyro-error record kept for the spectra"),
+    }, default={}, rules=("timeseries_rate_hz <= the navigation update rate (readout.output_rate_hz / n_sub)",
+                          "the stored series and spectra must fit in memory (checked with the run's estimate)")),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
-})
+}, rules=("the run's estimated wall time must be <= 48 h (sins_sim.jobs.estimate; shown before the run starts)",))
 
 
 class _Any:
@@ -123,6 +205,11 @@ class _Any:
     unit = None
     default = None
     required = True
+
+    def describe_rows(self, path):
+        return [{"key": path, "kind": "path or mapping", "unit": "", "range": "an IMU file or mapping",
+                 "default": "required", "doc": "the unit: a path relative to the scenario, or the IMU keys inline "
+                                              "(sins-sim schema imu)"}]
 
     def check(self, value, ctx, path):
         if not isinstance(value, (str, dict)):
@@ -138,6 +225,7 @@ class Scenario:
 
     def __init__(self, doc: dict, ctx: str, base_dir: Path):
         c = validate(doc, SCENARIO_SCHEMA, ctx)
+        self.ctx = ctx
         self.name = c["name"]
         self.description = c["description"]
         self.seed = int(c["seed"])
@@ -152,6 +240,12 @@ class Scenario:
         else:
             self.imu_source = "inline"
             self.imu = imu_from_dict(imu, ctx, "imu")
+        fs = self.imu.filter_rate_hz
+        _check_motion(c["motion"], c["linear_vibration"], fs, ctx)
+        nv = c["navigation"]
+        if nv["timeseries_rate_hz"] is not None and nv["timeseries_rate_hz"] > fs / nv["n_sub"]:
+            raise ConfigError(f"{ctx}: navigation.timeseries_rate_hz: must be <= the navigation update rate "
+                              f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub), got {nv['timeseries_rate_hz']:g}")
         self.motion_spec = c["motion"]
         self.motion = _build_motion(c["motion"], self.seed, ctx)
         self.filters = tuple(dict.fromkeys(c["filters"]))
@@ -172,6 +266,63 @@ class Scenario:
         self.events = _events(c["motion"], self.vehicle)
         self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.outputs = c["outputs"]
+
+
+def _motion_frequencies(seg):
+    """(key, Hz) of every frequency a motion or translation part puts on the block (amplitude not zero)."""
+    kind = seg["type"]
+    if kind == "sines":
+        amp = seg.get("amplitude_rad", seg.get("amplitude_m_s2"))
+        return [(f"frequency_hz[{i}]", f) for i, (f, a) in enumerate(zip(seg["frequency_hz"], amp)) if a > 0.0]
+    if kind == "coning":
+        return [("frequency_hz", seg["frequency_hz"])]
+    if kind in ("random_vibration", "random"):
+        return [("f_hi_hz", seg["f_hi_hz"])]
+    if kind == "shock":
+        return [("ring_frequency_hz", seg["ring_frequency_hz"])] if seg["ring_amplitude_rad_s"] != 0.0 else []
+    if kind == "sweep":
+        return [("f_start_hz", seg["f_start_hz"]), ("f_stop_hz", seg["f_stop_hz"])]
+    return []
+
+
+def _peak_rate_deg_s(seg):
+    """(key, peak rate in deg/s) of a block motion part, where the schema alone cannot bound it."""
+    kind = seg["type"]
+    two_pi = 2.0 * math.pi
+    if kind == "turn":
+        return [("angle_deg", 2.0 * abs(seg["angle_rad"]) / seg["duration_s"])]
+    if kind == "sines":
+        return [(f"amplitude_arcmin[{i}]", two_pi * f * a)
+                for i, (f, a) in enumerate(zip(seg["frequency_hz"], seg["amplitude_rad"]))]
+    if kind == "coning":
+        return [("amplitude_arcmin", two_pi * seg["frequency_hz"] * seg["amplitude_rad"])]
+    if kind == "sweep":
+        return [("amplitude_arcmin", two_pi * max(seg["f_start_hz"], seg["f_stop_hz"]) * seg["amplitude_rad"])]
+    return []
+
+
+def _check_motion(motion, linear, fs_hz: float, ctx: str) -> None:
+    """Every motion frequency below the filter Nyquist (a warning near it); every part's peak rate in range."""
+    nyq = 0.5 * fs_hz
+    for group, parts in (("motion", motion), ("linear_vibration", linear)):
+        for i, seg in enumerate(parts):
+            for key, f in _motion_frequencies(seg):
+                where = f"{group}[{i}].{key}"
+                if not f < nyq:
+                    raise ConfigError(f"{ctx}: {where}: must be < the filter Nyquist {nyq:g} Hz "
+                                      f"(readout.output_rate_hz / 2: the filters, the truth they are compared with "
+                                      f"and the navigation run at the filter rate; above it the motion aliases), "
+                                      f"got {f:g}")
+                if f > NEAR_NYQUIST * nyq:
+                    warnings.warn(f"{where}: {f:g} Hz is near the filter Nyquist {nyq:g} Hz (above "
+                                  f"{NEAR_NYQUIST:.0%} of it the motion is barely resolved at the filter rate)",
+                                  UserWarning, stacklevel=2)
+            if group == "motion":
+                for key, rate in _peak_rate_deg_s(seg):
+                    rate_deg = math.degrees(rate)
+                    if rate_deg > MAX_RATE_DEG_S:
+                        raise ConfigError(f"{ctx}: {group}[{i}].{key}: gives a peak rate of {rate_deg:.4g} deg/s, "
+                                          f"beyond the {MAX_RATE_DEG_S:g} deg/s an RLG measures")
 
 
 def _build_motion(segments, seed, ctx):

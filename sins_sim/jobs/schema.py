@@ -20,7 +20,8 @@ from typing import Any, Callable
 
 from sins_sim.units import ARCMIN, ARCSEC, DEG
 
-__all__ = ["ConfigError", "Num", "Str", "Bool", "Vec", "Map", "ListOf", "OneOf", "UNITS", "validate"]
+__all__ = ["ConfigError", "Num", "Str", "Bool", "Vec", "Map", "ListOf", "OneOf", "UNITS", "UNIT_LABELS", "validate",
+           "describe", "format_range"]
 
 
 class ConfigError(ValueError):
@@ -46,6 +47,14 @@ UNITS = {
     "m": ("m", 1.0),
     "m_s": ("m_s", 1.0),
     "m_s2": ("m_s2", 1.0),
+}
+
+
+#: unit suffix -> how the unit reads in the reference (``sins-sim schema``)
+UNIT_LABELS = {
+    "hz": "Hz", "s": "s", "ms": "ms", "rad": "rad", "arcmin": "arcmin", "arcsec": "arcsec", "deg": "deg",
+    "deg_s": "deg/s", "rad_s": "rad/s", "deg2_s2_per_hz": "(deg/s)^2/Hz", "v": "V", "db": "dB", "per_rad": "1/rad",
+    "rad_per_v": "rad/V", "m": "m", "m_s": "m/s", "m_s2": "m/s^2",
 }
 
 
@@ -124,12 +133,18 @@ class Vec:
     default: Any = None
     required: bool = False
     min: float | None = None
+    min_exclusive: bool = False
+    max: float | None = None
     doc: str = ""
+    #: optional: one Num per element (its own range), e.g. a [frequency, PSD] row
+    items: tuple | None = None
 
     def check(self, value, ctx, path):
         if not isinstance(value, (list, tuple)) or len(value) != self.n:
             _fail(ctx, path, f"must be a list of {self.n} numbers, got {value!r}")
-        item = Num(unit=self.unit, min=self.min)
+        if self.items is not None:
+            return [item.check(x, ctx, f"{path}[{i}]") for i, (item, x) in enumerate(zip(self.items, value))]
+        item = Num(unit=self.unit, min=self.min, min_exclusive=self.min_exclusive, max=self.max)
         return [item.check(x, ctx, f"{path}[{i}]") for i, x in enumerate(value)]
 
 
@@ -139,6 +154,7 @@ class ListOf:
     default: Any = None
     required: bool = False
     min_len: int = 0
+    max_len: int | None = None
     doc: str = ""
 
     def check(self, value, ctx, path):
@@ -146,6 +162,8 @@ class ListOf:
             _fail(ctx, path, f"must be a list, got {type(value).__name__} {value!r}")
         if len(value) < self.min_len:
             _fail(ctx, path, f"must have at least {self.min_len} item(s), got {len(value)}")
+        if self.max_len is not None and len(value) > self.max_len:
+            _fail(ctx, path, f"must have at most {self.max_len} item(s), got {len(value)}")
         return [self.item.check(x, ctx, f"{path}[{i}]") for i, x in enumerate(value)]
 
 
@@ -159,6 +177,8 @@ class Map:
     allow_null: bool = False
     post: Callable | None = None
     doc: str = ""
+    #: rules that involve several keys (checked by the loader), listed in the reference
+    rules: tuple = ()
 
     def check(self, value, ctx, path):
         if value is None and self.allow_null:
@@ -202,12 +222,14 @@ class OneOf:
     default: Any = None
     required: bool = False
     doc: str = ""
+    #: per variant: rules that involve several keys or other parts of the file, for the reference
+    rules: dict = field(default_factory=dict)
 
     def check(self, value, ctx, path):
         if not isinstance(value, dict):
             _fail(ctx, path, f"must be a mapping with a '{self.key}' key, got {value!r}")
         kind = value.get(self.key)
-        if kind not in self.variants:
+        if not isinstance(kind, str) or kind not in self.variants:
             _fail(ctx, _join(path, self.key), f"must be one of {sorted(self.variants)}, got {kind!r}")
         rest = {k: v for k, v in value.items() if k != self.key}
         out = self.variants[kind].check(rest, ctx, path)
@@ -240,3 +262,122 @@ def _unknown_rule(key, known):
 def validate(doc, schema, ctx: str, path: str = ""):
     """Check ``doc`` (parsed YAML) against ``schema``; return it in SI units."""
     return schema.check(doc, ctx, path)
+
+
+# --- the reference: every key with its unit, range and default, from the schema objects themselves ---------------
+def _g(x) -> str:
+    """A number as the reference prints it (``0.15125``, ``1e-06``, ``72000``)."""
+    if isinstance(x, bool):
+        return "true" if x else "false"
+    if isinstance(x, int):
+        return str(x)
+    if isinstance(x, float):
+        return f"{x:.6g}"
+    return str(x)
+
+
+def format_range(spec) -> str:
+    """The range of a :class:`Num` or :class:`Vec` entry in interval notation (YAML units)."""
+    lo, hi = getattr(spec, "min", None), getattr(spec, "max", None)
+    if lo is None and hi is None:
+        text = "any"
+    elif hi is None:
+        text = f"{'>' if spec.min_exclusive else '>='} {_g(lo)}"
+    elif lo is None:
+        text = f"<= {_g(hi)}"
+    else:
+        text = f"{'(' if spec.min_exclusive else '['}{_g(lo)}, {_g(hi)}]"
+    if getattr(spec, "nonzero", False):
+        text += ", != 0"
+    if getattr(spec, "integer", False):
+        text += ", integer"
+    return text
+
+
+def _default_text(spec) -> str:
+    if getattr(spec, "required", False):
+        return "required"
+    d = getattr(spec, "default", None)
+    if d is None:
+        return "(none)"
+    if isinstance(d, str):
+        return f'"{d}"' if d == "" else d
+    if isinstance(d, (list, tuple)):
+        if d and isinstance(d[0], dict):
+            return "; ".join("{" + ", ".join(f"{k}: {_g(v)}" for k, v in item.items()) + "}" for item in d)
+        return "[" + ", ".join(_g(x) for x in d) + "]"
+    if isinstance(d, dict):
+        return "{}" if not d else ", ".join(f"{k}: {_g(v)}" for k, v in d.items())
+    return _g(d)
+
+
+def _row(key, kind, spec, unit=None, range_="", doc=None):
+    return {"key": key, "kind": kind, "unit": UNIT_LABELS.get(unit, unit or ""), "range": range_,
+            "default": _default_text(spec), "doc": doc if doc is not None else getattr(spec, "doc", "")}
+
+
+def describe(schema, path: str = "") -> list:
+    """Every key of ``schema`` as rows: ``key`` (YAML path), ``kind``, ``unit``, ``range``, ``default``, ``doc``.
+
+    Lists are written ``key[]``, the variants of a :class:`OneOf` ``key[type=NAME]``. Rows of kind
+    ``rule`` carry the rules that involve several keys (``Map.rules``, ``OneOf.rules``). Schema
+    entries of other classes describe themselves with a ``describe_rows(path)`` method.
+    """
+    rows: list = []
+    _walk(schema, path, rows)
+    return rows
+
+
+def _walk(spec, path, rows, key_name=None):
+    if hasattr(spec, "describe_rows"):
+        rows.extend(spec.describe_rows(path))
+    elif isinstance(spec, Num):
+        kind = "integer" if spec.integer else "number"
+        rows.append(_row(path, kind, spec, spec.unit, format_range(spec)))
+    elif isinstance(spec, Vec):
+        if spec.items is not None:
+            rng = "; ".join(f"[{i}] {format_range(it)}{' ' + UNIT_LABELS.get(it.unit, '') if it.unit else ''}"
+                            for i, it in enumerate(spec.items))
+        else:
+            rng = format_range(spec) + " each"
+        rows.append(_row(path, f"list of {spec.n} numbers", spec, spec.unit, rng))
+    elif isinstance(spec, Str):
+        rng = "one of " + ", ".join(spec.choices) if spec.choices else "text"
+        rows.append(_row(path, "string", spec, None, rng))
+    elif isinstance(spec, Bool):
+        rows.append(_row(path, "bool", spec, None, "true or false"))
+    elif isinstance(spec, ListOf):
+        n = f"{spec.min_len} or more" if spec.max_len is None else f"{spec.min_len} to {spec.max_len}"
+        item = spec.item
+        if isinstance(item, (Num, Vec, Str)):  # a list of plain values: one row
+            inner = describe(item, "")[0]
+            rows.append({**_row(path, f"list of {inner['kind']}", spec, getattr(item, "unit", None),
+                                f"{n} items; {inner['range']}"), "doc": spec.doc or inner["doc"]})
+        else:
+            rows.append(_row(path, "list", spec, None, f"{n} items"))
+            _walk(item, f"{path}[]", rows)
+    elif isinstance(spec, OneOf):
+        for kind in sorted(spec.variants):
+            # a list of typed entries: ``motion[]`` -> ``motion[type=sines]``
+            sub = f"{path[:-2] if path.endswith('[]') else path}[{spec.key}={kind}]"
+            variant = spec.variants[kind]
+            rows.append({"key": sub, "kind": "variant", "unit": "", "range": "", "default": "",
+                         "doc": variant.doc or spec.doc})
+            for rule in spec.rules.get(kind, ()):
+                rows.append({"key": sub, "kind": "rule", "unit": "", "range": "", "default": "", "doc": rule})
+            _walk_fields(variant, sub, rows)
+    elif isinstance(spec, Map):
+        if path:
+            rng = "mapping" + (" or null" if spec.allow_null else "")
+            rows.append(_row(path, "mapping", spec, None, rng))
+        for rule in spec.rules:
+            rows.append({"key": path or "(top level)", "kind": "rule", "unit": "", "range": "", "default": "",
+                         "doc": rule})
+        _walk_fields(spec, path, rows)
+    else:  # pragma: no cover - every schema class is handled above
+        rows.append({"key": path, "kind": type(spec).__name__, "unit": "", "range": "", "default": "", "doc": ""})
+
+
+def _walk_fields(spec: Map, path, rows):
+    for name, sub in spec.fields.items():
+        _walk(sub, _join(path, _yaml_key(name, getattr(sub, "unit", None))), rows)

@@ -8,15 +8,33 @@ at resonance the steady deflection is ``a_m sin(omega t)`` (eq. 15-17).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim.models.suspension import SuspensionParams
+from sins_sim.models.suspension import Q_RANGE, SuspensionParams
 from sins_sim.units import ARCMIN
 
-__all__ = ["DriveParams", "DriveSignal"]
+__all__ = ["DriveParams", "DriveSignal", "AMPLITUDE_RANGE_ARCMIN", "AMPLITUDE_TYPICAL_ARCMIN", "V_MAX",
+           "V_TYPICAL_MAX", "RATE_MAX_HZ"]
+
+# --- physical ranges (issue 12, point 4) ------------------------------------------------------------------
+#: Dither amplitude a_m (arcmin). RLG dithers run at 0.1-30 arcmin (the paper: 3 arcmin, a peak rate of
+#: ~130 deg/s, far above the lock-in band): the usual band, outside it a warning. Below 0.01 arcmin
+#: (0.6 arcsec, a few readout quanta) there is no dither to remove; above 60 arcmin (1 deg) the flexure
+#: would be far beyond its elastic range and eq. 9/10 beyond their domain.
+AMPLITUDE_RANGE_ARCMIN = (0.01, 60.0)
+AMPLITUDE_TYPICAL_ARCMIN = (0.1, 30.0)
+#: Drive voltage amplitude V_m (V): piezo stacks are rated to 100-200 V (low-voltage stacks) and up to
+#: ~1000 V (high-voltage stacks). Above V_TYPICAL_MAX a warning, above V_MAX refused: the suspension's k5
+#: (rad/V) or the amplitude is then wrong (k5 = 1e-30 asked for 1.25e25 V).
+V_MAX = 1000.0
+V_TYPICAL_MAX = 200.0
+#: DAC, plant and readout rates (Hz): at most 1 MHz (14 x the paper's 72 kHz). The engine holds one 1 s chunk
+#: at the plant rate in memory per axis (~20 float64 per step: 160 MB at 1 MHz).
+RATE_MAX_HZ = 1.0e6
 
 
 @dataclass(frozen=True)
@@ -47,18 +65,46 @@ class DriveParams:
 
     def __post_init__(self):
         o = "drive"
-        v.positive(o, "amplitude_rad", self.amplitude_rad)
+        a = v.positive(o, "amplitude_rad", self.amplitude_rad) / ARCMIN
+        lo, hi = AMPLITUDE_RANGE_ARCMIN
+        if not lo <= a <= hi:
+            raise ValueError(f"drive.amplitude_rad: must be in [{lo:g}, {hi:g}] arcmin ({lo * ARCMIN:.3g} to "
+                             f"{hi * ARCMIN:.3g} rad; RLG dithers run at 0.1-30 arcmin), got {self.amplitude_rad!r} "
+                             f"({a:.4g} arcmin)")
         if self.frequency_hz is not None:
             v.positive(o, "frequency_hz", self.frequency_hz)
         if self.v_m is not None:
-            v.non_negative(o, "v_m", self.v_m)
-        v.positive(o, "dac_rate_hz", self.dac_rate_hz)
-        v.finite(o, "phase_rad", self.phase_rad)
+            vm = v.non_negative(o, "v_m", self.v_m)
+            if vm > V_MAX:
+                raise ValueError(f"drive.v_m: must be <= {V_MAX:g} V (what a piezo stack takes), got {vm!r}")
+        rate = v.positive(o, "dac_rate_hz", self.dac_rate_hz)
+        if rate > RATE_MAX_HZ:
+            raise ValueError(f"drive.dac_rate_hz: must be <= {RATE_MAX_HZ:g} Hz, got {rate!r}")
+        if abs(v.finite(o, "phase_rad", self.phase_rad)) > 1.0e3:
+            raise ValueError(f"drive.phase_rad: must be in [-1000, 1000] rad, got {self.phase_rad!r}")
+        tlo, thi = AMPLITUDE_TYPICAL_ARCMIN
+        if not tlo <= a <= thi:
+            warnings.warn(f"drive.amplitude: {a:.4g} arcmin is outside the usual RLG dither amplitudes "
+                          f"({tlo:g}-{thi:g} arcmin)", UserWarning, stacklevel=3)
 
     def resolve(self, suspension: SuspensionParams) -> "DriveSignal":
         """Fix frequency and voltage for a given suspension."""
-        f = self.frequency_hz if self.frequency_hz is not None else suspension.resonance_hz(self.amplitude_rad)
-        vm = self.v_m if self.v_m is not None else suspension.drive_voltage(self.amplitude_rad)
+        a = self.amplitude_rad
+        q = suspension.q_factor(a)
+        if not Q_RANGE[0] <= q <= Q_RANGE[1]:
+            raise ValueError(
+                f"suspension.k3: Q = 1/(k3 (1 + k4 a) + 2 zeta) at the dither amplitude {a / ARCMIN:.4g} arcmin must be "
+                f"in [{Q_RANGE[0]:g}, {Q_RANGE[1]:g}] (dither suspensions: 50-1000), got {q:.4g}")
+        f = self.frequency_hz if self.frequency_hz is not None else suspension.resonance_hz(a)
+        vm = self.v_m if self.v_m is not None else suspension.drive_voltage(a)
+        if abs(vm) > V_MAX:
+            raise ValueError(
+                f"suspension.k5: holding {a / ARCMIN:.4g} arcmin at Q = {q:.4g} takes a drive of {abs(vm):.3g} V, "
+                f"beyond what a piezo stack takes ({V_MAX:g} V): |k5| = {abs(suspension.k5):.3g} rad/V is too small "
+                "or the amplitude too large")
+        if abs(vm) > V_TYPICAL_MAX:
+            warnings.warn(f"drive: {abs(vm):.4g} V is beyond what most piezo stacks take continuously "
+                          f"({V_TYPICAL_MAX:g} V; high-voltage stacks up to {V_MAX:g} V)", UserWarning, stacklevel=2)
         if f >= 0.5 * self.dac_rate_hz:
             raise ValueError(
                 f"drive.dac_rate_hz: must exceed twice the drive frequency {f:.6g} Hz, got {self.dac_rate_hz!r}"

@@ -35,7 +35,23 @@ from sins_sim import _validate as v
 from sins_sim._kernels.fir import fir_decimate
 from sins_sim.units import INTERPOLATED_QUANTUM_RAD
 
-__all__ = ["AntiAliasParams", "ReadoutParams", "quantise", "Decimator", "Readout"]
+__all__ = ["AntiAliasParams", "ReadoutParams", "quantise", "Decimator", "Readout", "QUANTUM_RANGE_RAD",
+           "QUANTUM_REAL_RANGE_RAD", "NOISE_MAX_RAD", "RATE_MAX_HZ", "MAX_NUMTAPS"]
+
+# --- physical ranges (issue 12, point 4) ------------------------------------------------------------------
+_ARCSEC = 4.84813681109536e-06
+#: Readout quantum q (rad): one fringe is 1.2-6 arcsec for 10-50 cm cavities (2.42 arcsec at 28 cm) and
+#: interpolators split it into up to 1/256, so real readouts lie in 0.001-60 arcsec (QUANTUM_REAL_RANGE_RAD, what
+#: the YAML files accept). The library goes down to 1e-15 rad for "unquantised" references (the reproduction
+#: uses 1e-13 rad): the int64 counts floor(phi / q) still hold block angles up to 9e3 rad.
+QUANTUM_RANGE_RAD = (1e-15, 60.0 * _ARCSEC)
+QUANTUM_REAL_RANGE_RAD = (0.001 * _ARCSEC, 60.0 * _ARCSEC)
+#: White readout noise before quantisation (rad): at most 60 arcsec RMS (25 fringes).
+NOISE_MAX_RAD = 60.0 * _ARCSEC
+#: Sampling rates (Hz): at most 1 MHz (see sins_sim.models.plant.RATE_RANGE_HZ).
+RATE_MAX_HZ = 1.0e6
+#: Anti-alias taps: at most 1001 (a 500-sample delay, 7 ms at 72 kHz; the paper's FIR has 21).
+MAX_NUMTAPS = 1001
 
 
 @dataclass(frozen=True)
@@ -64,8 +80,8 @@ class AntiAliasParams:
         o = "readout.anti_alias"
         object.__setattr__(self, "cutoff_hz", v.positive(o, "cutoff_hz", self.cutoff_hz))
         n = self.numtaps
-        if isinstance(n, bool) or not isinstance(n, Integral) or n < 1 or n % 2 == 0:
-            raise ValueError(f"{o}.numtaps: must be an odd integer >= 1, got {n!r}")
+        if isinstance(n, bool) or not isinstance(n, Integral) or n < 1 or n % 2 == 0 or n > MAX_NUMTAPS:
+            raise ValueError(f"{o}.numtaps: must be an odd integer in [1, {MAX_NUMTAPS}], got {n!r}")
         object.__setattr__(self, "numtaps", int(n))
         try:
             w = signal.get_window(self.window, 3, fftbins=False)
@@ -140,10 +156,20 @@ class ReadoutParams:
 
     def __post_init__(self):
         o = "readout"
-        object.__setattr__(self, "quantum_rad", v.positive(o, "quantum_rad", self.quantum_rad))
-        object.__setattr__(self, "noise_rad", v.non_negative(o, "noise_rad", self.noise_rad))
+        q = v.positive(o, "quantum_rad", self.quantum_rad)
+        if not QUANTUM_RANGE_RAD[0] <= q <= QUANTUM_RANGE_RAD[1]:
+            raise ValueError(f"{o}.quantum_rad: must be in [{QUANTUM_RANGE_RAD[0]:.3g}, {QUANTUM_RANGE_RAD[1]:.3g}] rad "
+                             f"(real readouts: 0.001 to 60 arcsec), got {q!r}")
+        object.__setattr__(self, "quantum_rad", q)
+        noise = v.non_negative(o, "noise_rad", self.noise_rad)
+        if noise > NOISE_MAX_RAD:
+            raise ValueError(f"{o}.noise_rad: must be <= {NOISE_MAX_RAD:.3g} rad (60 arcsec), got {noise!r}")
+        object.__setattr__(self, "noise_rad", noise)
         fin = v.positive(o, "input_rate_hz", self.input_rate_hz)
         fout = v.positive(o, "output_rate_hz", self.output_rate_hz)
+        for name, rate in (("input_rate_hz", fin), ("output_rate_hz", fout)):
+            if rate > RATE_MAX_HZ:
+                raise ValueError(f"{o}.{name}: must be <= {RATE_MAX_HZ:g} Hz, got {rate!r}")
         object.__setattr__(self, "input_rate_hz", fin)
         object.__setattr__(self, "output_rate_hz", fout)
         v.integer_ratio(o, "output_rate_hz", fin, fout, "input_rate_hz / output_rate_hz")

@@ -41,6 +41,7 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim.models.accelerometer import Accelerometer, AccelerometerParams
+from sins_sim.models.sensor_errors import AccelErrors, GyroErrors, SensorErrorParams
 from sins_sim._kernels import truth as ktruth
 from sins_sim.navigation.strapdown import StrapdownNavigator
 from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl
@@ -77,12 +78,16 @@ class ImuConfig:
         The accelerometer triad.
     name : str
         A label for reports.
+    sensors : SensorErrorParams or None
+        Gyro and accelerometer errors beyond the dither physics (bias, noise, scale factor,
+        misalignment; :mod:`sins_sim.models.sensor_errors`); None: ideal sensors.
     """
 
     channels: tuple
     drive_control: DriveControl = field(default_factory=DriveControl)
     accelerometer: AccelerometerParams = field(default_factory=AccelerometerParams)
     name: str = "imu"
+    sensors: SensorErrorParams | None = None
 
     def __post_init__(self):
         if len(self.channels) != 3 or not all(isinstance(c, ChannelConfig) for c in self.channels):
@@ -389,6 +394,14 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]))
               for i, c in enumerate(imu.channels)]
     accel = Accelerometer(imu.accelerometer, np.random.default_rng([seed, 3]))
+    # sensor errors beyond the dither physics, generated at the filter rate from the true increments and added to
+    # every filter's increments at that filter's alignment (they pass the filters at unity gain: exact for the
+    # low-frequency terms; the white noise is not shaped by the filters' passbands in this model)
+    sens = imu.sensors
+    gyro_err = (GyroErrors(sens.gyro, np.random.default_rng([seed, 4]), 1.0 / fs)
+                if sens is not None and not sens.gyro.is_ideal else None)
+    accel_err = (AccelErrors(sens.accelerometer, np.random.default_rng([seed, 5]), 1.0 / fs)
+                 if sens is not None and not sens.accelerometer.is_ideal else None)
 
     # alignment shifts (filter samples)
     ro_delay = chains[0].readout.delay_s * fs
@@ -402,7 +415,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     outs_buf = {name: _Ring((3,)) for name in filters if name != "ideal"}
     phi_buf = _Ring((3,))  # true gyro angles (the ideal output)
     tr_buf = {k: _Ring(w) for k, w in (("q", (4,)), ("lat", ()), ("lon", ()), ("h", ()), ("v", (3,)), ("dv", (3,)),
-                                       ("dth", (3,)))}
+                                       ("dth", (3,)), ("gerr", (3,)), ("gcum", (3,)))}
     navs = {}
     if nav is not None:
         k_start = int(round(nav.start_s * fs))
@@ -420,6 +433,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     caught = []
     pool = axis_pool(threads) if outs_buf else None
     last_out = {}
+    g_cum = np.zeros(3)
 
     def stage(k_a, k_b):
         """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
@@ -440,7 +454,13 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
                              ("v", tc.v_ned_m_s), ("dth", tc.dtheta_rad)):
                 tr_buf[key].push(arr)
-            tr_buf["dv"].push(accel.process(tc.dv_m_s))
+            tr_buf["dv"].push(accel.process(tc.dv_m_s if accel_err is None else accel_err.apply(tc.dv_m_s)))
+            g_e = (np.zeros_like(tc.dtheta_rad) if gyro_err is None
+                   else gyro_err.apply(tc.dtheta_rad) - tc.dtheta_rad)
+            tr_buf["gerr"].push(g_e)
+            g_cum = g_cum + np.cumsum(g_e, axis=0)  # accumulated sensor error angle (for the free attitude error)
+            tr_buf["gcum"].push(g_cum)
+            g_cum = g_cum[-1]
             for name in outs_buf:
                 y = np.stack([o[name] for o in outs], axis=1)
                 outs_buf[name].push(y)
@@ -511,6 +531,7 @@ def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs
                                         vertical=nav.vertical, height_aid_tau_s=nav.height_aid_tau_s)
             nf.j0 = j0
             nf.next_j = j0 + 1
+            nf.free[3:6] = tr_buf["gcum"].get(j0, j0 + 1)[0]
             if name != "ideal":
                 # alignment: the filter's gyro-angle offset from the truth, averaged over the alignment window
                 # (as a fine alignment averages its sensors), is the reference of the first increment; a single
@@ -518,18 +539,18 @@ def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs
                 w0 = max(outs_buf[name].base - nf.d, phi_buf.base, j0 - n_align)
                 off = (outs_buf[name].get(w0 + nf.d, j0 + nf.d + 1) - phi_buf.get(w0, j0 + 1)).mean(axis=0)
                 nf.ref = phi_buf.get(j0, j0 + 1)[0] + off
-                nf.free[3:6] = off
+                nf.free[3:6] = off + tr_buf["gcum"].get(j0, j0 + 1)[0]
             nf.series = ErrorSeries(every, nav.n_sub / fs, j0 / fs)
         ja, jb = nf.next_j, j_end
         if jb <= ja:
             continue
         if name == "ideal":
-            dth = tr_buf["dth"].get(ja, jb)
+            dth = tr_buf["dth"].get(ja, jb) + tr_buf["gerr"].get(ja, jb)
         else:
             y = outs_buf[name].get(ja + nf.d - 1, jb + nf.d)
             if ja == nf.j0 + 1:  # the first increment starts from the aligned reference
                 y = np.concatenate((nf.ref[None], y[1:]))
-            dth = np.diff(y, axis=0)
+            dth = np.diff(y, axis=0) + tr_buf["gerr"].get(ja, jb)
         dv = tr_buf["dv"].get(ja + nf.dv_shift, jb + nf.dv_shift)
         if not (np.all(np.isfinite(dth)) and np.all(np.isfinite(dv))):
             bad = np.argwhere(~np.isfinite(dth))
@@ -548,10 +569,9 @@ def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs
         lo, hi = int(jj[0]), int(jj[-1]) + 1
         sel = jj - lo
         # gyro-angle error (output minus truth) at the updates, for the free attitude error
-        if name == "ideal":
-            e_body = np.zeros((m, 3))
-        else:
-            e_body = outs_buf[name].get(lo + nf.d, hi + nf.d)[sel] - phi_buf.get(lo, hi)[sel]
+        e_body = tr_buf["gcum"].get(lo, hi)[sel]  # the sensor errors' angle, plus the filter's own error
+        if name != "ideal":
+            e_body = e_body + outs_buf[name].get(lo + nf.d, hi + nf.d)[sel] - phi_buf.get(lo, hi)[sel]
         rows = np.empty((m, N_COLS))
         bad = ktruth.nav_errors(sol.lat_rad, sol.lon_rad, sol.h_m, sol.v_ned_m_s, sol.q_nb,
                                 np.ascontiguousarray(tr_buf["lat"].get(lo, hi)[sel]),
