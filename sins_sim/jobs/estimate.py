@@ -4,7 +4,7 @@
 starts: a run whose estimate exceeds :data:`MAX_WALL_S` (48 h) or :data:`MAX_MEMORY_BYTES` (8 GiB) is
 refused with one line naming the key to change, e.g.::
 
-    s.yaml: duration_s: 1e+09 s would take about 268 days of wall time at 43.1x real time (3 gyro chains at
+    s.yaml: duration_s: 1e+09 s would take about 238 days of wall time at 48.6x real time (3 gyro chains at
     72 kHz, 4 filter(s) navigated at 7.2 kHz, one core); the limit is 48 h: shorten duration_s
 
 and the progress bar shows the estimate (a progress object with an ``estimate(dict)`` method is told it;
@@ -14,34 +14,36 @@ Cost model
 ----------
 Per-sample costs, measured on the development machine (2 shared cores, numba, one thread, process CPU
 time; ``simulate_sins`` on the bench case of ``sins_sim.bench.engine``: the default IMU under 1 arcmin
-of 100/130/170 Hz vibration; each cost is the slope between 4 s and 16 s runs, so start-up is excluded):
+of 100/130/170 Hz vibration; each cost is the slope between 4 s and 16 s runs, so start-up is excluded;
+measured on the engine of commit d6a14b4, block attitude on the plant grid):
 
 =============================  ==========  ========================================================
 constant                       value       source
 =============================  ==========  ========================================================
-``PLANT_STEP_AXIS_S``          72 ns       gyro chains only (``nav=None``): 15.6 ms per simulated s
-                                           for 3 axes x 72 kHz = 64x real time (plant, drive, readout,
+``PLANT_STEP_AXIS_S``          57 ns       gyro chains only (``nav=None``): 12.35 ms per simulated s
+                                           for 3 axes x 72 kHz = 81x real time (plant, drive, readout,
                                            every filter, the block truth at the plant rate)
-``NAV_SAMPLE_FILTER_S``        0.25 us     full loop with four filters: 23.0 ms per simulated s =
-                                           43x real time; one filter: 17.8 ms (56x); the difference
+``NAV_SAMPLE_FILTER_S``        0.26 us     full loop with four filters: 20.6 ms per simulated s =
+                                           49x real time; one filter: 15.0 ms (67x); the difference
                                            per navigated filter and filter sample
-``TRUTH_SAMPLE_S``             0.06 us     the navigation truth per filter sample beside the chains
-                                           (one filter's 17.8 ms minus chains and its navigation)
-``TRUTH_ONLY_SAMPLE_S``        1.07 us     an ``ideal``-only run (no gyro chains): 9.4 ms per
-                                           simulated s = 106x, 1.31 us per filter sample with its
+``TRUTH_SAMPLE_S``             0.105 us    the navigation truth per filter sample beside the chains
+                                           (one filter's 15.0 ms minus chains and its navigation)
+``TRUTH_ONLY_SAMPLE_S``        0.97 us     an ``ideal``-only run (no gyro chains): 8.9 ms per
+                                           simulated s = 112x, 1.23 us per filter sample with its
                                            navigation (the filter-rate truth path without the chains)
-``TONE_STEP_AXIS_S``           3.0 ns      ``random_vibration`` with ``method: tones``: 1000 tones
-                                           cost 663 ms per simulated s at 72 kHz on 3 axes
-``FILTERED_NOISE_STEP_AXIS_S`` 24 ns       ``method: filtered_noise`` (20-2000 Hz): 20.7 ms per
-                                           simulated s against 15.6 ms without
+``TONE_STEP_AXIS_S``           2.15 ns     ``random_vibration`` with ``method: tones``: 1000 tones
+                                           cost 476 ms per simulated s at 72 kHz on 3 axes
+``FILTERED_NOISE_STEP_AXIS_S`` 33 ns       ``method: filtered_noise`` (20-2000 Hz): 19.4 ms per
+                                           simulated s against 12.35 ms without
 ``CHANNEL_PLANT_STEP_S``       60 ns       ``simulate_channel``: 4.3 ms per simulated s at 72 kHz (233x)
 ``CHANNEL_OUTPUT_SAMPLE_S``    2.8 us      the ``channel`` job's residuals, ``timeseries.npz`` and plot:
                                            24.5 ms per simulated s in all (41x)
 ``FIXED_S``                    3 s         start-up (cached machine code), plots and report
 =============================  ==========  ========================================================
 
-The issue's figures for the same machine (60x real time without navigation, 42x with four filters)
-agree; an ``ideal``-only run was quoted at 5 us per filter sample and measures 1.3 us here. The model is
+The brief quoted 60x real time without navigation and 42x with four filters for the engine before the block
+attitude moved onto the plant grid (measured here then: 64x and 43x); the README's bench quotes 72x and 46x.
+An ``ideal``-only run was quoted at 5 us per filter sample and measures 1.2-1.3 us here. The model is
 linear in the simulated time and ignores the axes running on threads (up to 3x faster on 3 cores), so
 it errs long. Memory: one 1 s chunk at the plant rate (about 480 B per plant step for 3 axes), the
 stored error series (360 B per block and filter), the spectra (48 B per filter sample and filter over
@@ -64,12 +66,12 @@ MAX_WALL_S = 48 * 3600.0
 #: Largest estimated memory a run may take (bytes): 8 GiB.
 MAX_MEMORY_BYTES = 8 * 2 ** 30
 
-PLANT_STEP_AXIS_S = 72e-9
-NAV_SAMPLE_FILTER_S = 0.25e-6
-TRUTH_SAMPLE_S = 0.06e-6
-TRUTH_ONLY_SAMPLE_S = 1.07e-6
-TONE_STEP_AXIS_S = 3.0e-9
-FILTERED_NOISE_STEP_AXIS_S = 24e-9
+PLANT_STEP_AXIS_S = 57e-9
+NAV_SAMPLE_FILTER_S = 0.26e-6
+TRUTH_SAMPLE_S = 0.105e-6
+TRUTH_ONLY_SAMPLE_S = 0.97e-6
+TONE_STEP_AXIS_S = 2.15e-9
+FILTERED_NOISE_STEP_AXIS_S = 33e-9
 CHANNEL_PLANT_STEP_S = 60e-9
 CHANNEL_OUTPUT_SAMPLE_S = 2.8e-6
 FIXED_S = 3.0
@@ -247,7 +249,7 @@ def estimate_channel(config, duration_s: float) -> dict:
 
 
 def check_channel(config, duration_s: float, progress=None) -> dict:
-    """Estimate a channel run, refuse what cannot finish or does not fit in memory (ValueError naming ``duration_s``)."""
+    """Estimate a channel run; refuse what cannot finish or does not fit in memory (naming ``duration_s``)."""
     est = estimate_channel(config, duration_s)
     if est["wall_s"] > MAX_WALL_S:
         _refuse_wall("", est)

@@ -245,7 +245,8 @@ class Scenario:
         nv = c["navigation"]
         if nv["timeseries_rate_hz"] is not None and nv["timeseries_rate_hz"] > fs / nv["n_sub"]:
             raise ConfigError(f"{ctx}: navigation.timeseries_rate_hz: must be <= the navigation update rate "
-                              f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub), got {nv['timeseries_rate_hz']:g}")
+                              f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub), "
+                              f"got {nv['timeseries_rate_hz']:g}")
         self.motion_spec = c["motion"]
         self.motion = _build_motion(c["motion"], self.seed, ctx)
         self.filters = tuple(dict.fromkeys(c["filters"]))

@@ -93,8 +93,8 @@ class DriveParams:
         q = suspension.q_factor(a)
         if not Q_RANGE[0] <= q <= Q_RANGE[1]:
             raise ValueError(
-                f"suspension.k3: Q = 1/(k3 (1 + k4 a) + 2 zeta) at the dither amplitude {a / ARCMIN:.4g} arcmin must be "
-                f"in [{Q_RANGE[0]:g}, {Q_RANGE[1]:g}] (dither suspensions: 50-1000), got {q:.4g}")
+                f"suspension.k3: Q = 1/(k3 (1 + k4 a) + 2 zeta) at the dither amplitude {a / ARCMIN:.4g} arcmin "
+                f"must be in [{Q_RANGE[0]:g}, {Q_RANGE[1]:g}] (dither suspensions: 50-1000), got {q:.4g}")
         f = self.frequency_hz if self.frequency_hz is not None else suspension.resonance_hz(a)
         vm = self.v_m if self.v_m is not None else suspension.drive_voltage(a)
         if abs(vm) > V_MAX:

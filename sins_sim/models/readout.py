@@ -158,8 +158,9 @@ class ReadoutParams:
         o = "readout"
         q = v.positive(o, "quantum_rad", self.quantum_rad)
         if not QUANTUM_RANGE_RAD[0] <= q <= QUANTUM_RANGE_RAD[1]:
-            raise ValueError(f"{o}.quantum_rad: must be in [{QUANTUM_RANGE_RAD[0]:.3g}, {QUANTUM_RANGE_RAD[1]:.3g}] rad "
-                             f"(real readouts: 0.001 to 60 arcsec), got {q!r}")
+            lo, hi = QUANTUM_RANGE_RAD
+            raise ValueError(f"{o}.quantum_rad: must be in [{lo:.3g}, {hi:.3g}] rad (real readouts: 0.001 to 60 "
+                             f"arcsec), got {q!r}")
         object.__setattr__(self, "quantum_rad", q)
         noise = v.non_negative(o, "noise_rad", self.noise_rad)
         if noise > NOISE_MAX_RAD:

@@ -19,7 +19,8 @@ from sins_sim._kernels.physics import dnonl, nonl
 from sins_sim.units import ARCMIN
 
 __all__ = ["SuspensionParams", "PAPER_SUSPENSION", "nonl_array", "F0_RANGE_HZ", "F0_TYPICAL_HZ", "K1_MAX",
-           "K2_RANGE_RAD", "K3_MAX", "K4_MAX_PER_RAD", "K4_MIN_PER_RAD", "LOSS_AMPLITUDE_RAD", "K5_RANGE_RAD_PER_V", "ZETA_MAX", "Q_RANGE", "check_range"]
+           "K2_RANGE_RAD", "K3_MAX", "K4_MAX_PER_RAD", "K4_MIN_PER_RAD", "LOSS_AMPLITUDE_RAD", "K5_RANGE_RAD_PER_V",
+           "ZETA_MAX", "Q_RANGE", "check_range"]
 
 # --- physical ranges (issue 12, point 4) ------------------------------------------------------------------
 # A value outside a RANGE is refused with a ValueError naming the field; one outside a TYPICAL band is
