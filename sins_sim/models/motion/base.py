@@ -686,3 +686,32 @@ class SumMotion3D(Motion3D):
         if len(moving) == 1:
             return moving[0]._transition(ta, tb)
         return None
+
+
+def _psd_table(owner, psd_table, f_lo_hz, f_hi_hz):
+    """Validated ``(table (n, 2), f_lo, f_hi)`` of a one-sided PSD table with its band.
+
+    The rules of the random vibrations (:class:`RandomVibration`, and the filtered-noise and
+    translational vibrations): at least two finite ``(f_hz, psd)`` rows, frequencies > 0 and
+    strictly increasing, PSD values > 0 (log-log interpolation), and a band inside the table.
+    """
+    try:
+        table = np.asarray(psd_table, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{owner}.psd_table: must be a sequence of (f_hz, psd) pairs, got {psd_table!r}") from None
+    if table.ndim != 2 or table.shape[1] != 2 or table.shape[0] < 2:
+        raise ValueError(f"{owner}.psd_table: must be at least two (f_hz, psd) rows, got shape {table.shape}")
+    if not np.all(np.isfinite(table)):
+        raise ValueError(f"{owner}.psd_table: must be finite, got {psd_table!r}")
+    fr, ps = table[:, 0], table[:, 1]
+    if not (fr[0] > 0.0 and np.all(np.diff(fr) > 0.0)):
+        raise ValueError(f"{owner}.psd_table: frequencies must be > 0 and strictly increasing, got {fr.tolist()}")
+    if not np.all(ps > 0.0):
+        raise ValueError(f"{owner}.psd_table: PSD values must be > 0 (log-log interpolation), got {ps.tolist()}")
+    f_lo = fr[0] if f_lo_hz is None else v.finite(owner, "f_lo_hz", f_lo_hz)
+    f_hi = fr[-1] if f_hi_hz is None else v.finite(owner, "f_hi_hz", f_hi_hz)
+    if not fr[0] <= f_lo < fr[-1]:
+        raise ValueError(f"{owner}.f_lo_hz: must lie in the table [{fr[0]}, {fr[-1]}) Hz, got {f_lo!r}")
+    if not f_lo < f_hi <= fr[-1]:
+        raise ValueError(f"{owner}.f_hi_hz: must lie in ({f_lo}, {fr[-1]}] Hz, got {f_hi!r}")
+    return table, float(f_lo), float(f_hi)

@@ -34,8 +34,8 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim._kernels.motion import comb_increment, comb_rate, sines_grid, sines_increment, sines_rate
-from sins_sim.models.motion.base import (_STATIC, Motion3D, _axis_index, _loglog_segment_integral, _qconj, _qexp,
-                                         _qmul, _set, _vec3)
+from sins_sim.models.motion.base import (_STATIC, Motion3D, _axis_index, _loglog_segment_integral, _psd_table, _qconj,
+                                         _qexp, _qmul, _set, _vec3)
 
 __all__ = ["AxisSines", "Coning", "RandomVibration"]
 
@@ -337,25 +337,7 @@ class RandomVibration(_SineBank):
 
     def __post_init__(self):
         owner = "RandomVibration"
-        try:
-            table = np.asarray(self.psd_table, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"{owner}.psd_table: must be a sequence of (f_hz, psd) pairs") from None
-        if table.ndim != 2 or table.shape[1] != 2 or table.shape[0] < 2:
-            raise ValueError(f"{owner}.psd_table: must be at least two (f_hz, psd) rows, got shape {table.shape}")
-        if not np.all(np.isfinite(table)):
-            raise ValueError(f"{owner}.psd_table: must be finite")
-        fr, ps = table[:, 0], table[:, 1]
-        if not (fr[0] > 0.0 and np.all(np.diff(fr) > 0.0)):
-            raise ValueError(f"{owner}.psd_table: frequencies must be > 0 and strictly increasing")
-        if not np.all(ps > 0.0):
-            raise ValueError(f"{owner}.psd_table: PSD values must be > 0 (log-log interpolation)")
-        f_lo = fr[0] if self.f_lo_hz is None else v.finite(owner, "f_lo_hz", self.f_lo_hz)
-        f_hi = fr[-1] if self.f_hi_hz is None else v.finite(owner, "f_hi_hz", self.f_hi_hz)
-        if not fr[0] <= f_lo < fr[-1]:
-            raise ValueError(f"{owner}.f_lo_hz: must lie in the table [{fr[0]}, {fr[-1]}) Hz, got {f_lo!r}")
-        if not f_lo < f_hi <= fr[-1]:
-            raise ValueError(f"{owner}.f_hi_hz: must lie in ({f_lo}, {fr[-1]}] Hz, got {f_hi!r}")
+        table, f_lo, f_hi = _psd_table(owner, self.psd_table, self.f_lo_hz, self.f_hi_hz)
         weights = _vec3(owner, "axis_weights", self.axis_weights)
         for i in range(3):
             v.non_negative(owner, f"axis_weights[{i}]", weights[i])

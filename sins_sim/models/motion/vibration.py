@@ -144,7 +144,8 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim._kernels.vibration import hermite5_coefficients, hermite5_slope, hermite5_value, hermite5_value_slope
-from sins_sim.models.motion.base import _STATIC, Motion3D, _cos_diff, _loglog_segment_integral, _set, _vec3
+from sins_sim.models.motion.base import (_STATIC, Motion3D, _cos_diff, _loglog_segment_integral, _psd_table, _set,
+                                         _vec3)
 from sins_sim.models.motion.specific_force import STANDARD_GRAVITY
 
 __all__ = [
@@ -192,30 +193,6 @@ def _times(owner, t):
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{owner}.t: times must be finite")
     return arr.reshape(-1), arr.shape
-
-
-def _psd_table(owner, psd_table, f_lo_hz, f_hi_hz):
-    """Validated ``(table (n, 2), f_lo, f_hi)``: the rules of :class:`RandomVibration`."""
-    try:
-        table = np.asarray(psd_table, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{owner}.psd_table: must be a sequence of (f_hz, psd) pairs, got {psd_table!r}") from None
-    if table.ndim != 2 or table.shape[1] != 2 or table.shape[0] < 2:
-        raise ValueError(f"{owner}.psd_table: must be at least two (f_hz, psd) rows, got shape {table.shape}")
-    if not np.all(np.isfinite(table)):
-        raise ValueError(f"{owner}.psd_table: must be finite, got {psd_table!r}")
-    fr, ps = table[:, 0], table[:, 1]
-    if not (fr[0] > 0.0 and np.all(np.diff(fr) > 0.0)):
-        raise ValueError(f"{owner}.psd_table: frequencies must be > 0 and strictly increasing, got {fr.tolist()}")
-    if not np.all(ps > 0.0):
-        raise ValueError(f"{owner}.psd_table: PSD values must be > 0 (log-log interpolation), got {ps.tolist()}")
-    f_lo = fr[0] if f_lo_hz is None else v.finite(owner, "f_lo_hz", f_lo_hz)
-    f_hi = fr[-1] if f_hi_hz is None else v.finite(owner, "f_hi_hz", f_hi_hz)
-    if not fr[0] <= f_lo < fr[-1]:
-        raise ValueError(f"{owner}.f_lo_hz: must lie in the table [{fr[0]}, {fr[-1]}) Hz, got {f_lo!r}")
-    if not f_lo < f_hi <= fr[-1]:
-        raise ValueError(f"{owner}.f_hi_hz: must lie in ({f_lo}, {fr[-1]}] Hz, got {f_hi!r}")
-    return table, float(f_lo), float(f_hi)
 
 
 def _loglog(table, f):
