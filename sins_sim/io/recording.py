@@ -70,6 +70,7 @@ import os
 import re
 import tempfile
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -83,6 +84,12 @@ __all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "MIN_SAMPLE
 FORMAT = "sins-sim-recording/1"
 #: Model parameters every ``meta.nominal`` entry must hold (reference-model.md).
 NOMINAL_KEYS = ("f0_hz", "k1", "k2", "k3", "k4", "k5")
+#: Range of the recording's sample rates (Hz): counter, drive and table.
+FS_MIN_HZ = 100.0
+FS_MAX_HZ = 1.0e6
+#: Range of the readout quantum (rad): 1e-9 rad up to a few fringes.
+QUANTUM_MIN_RAD = 1.0e-9
+QUANTUM_MAX_RAD = 1.0e-4
 #: Header keys that must be present (``sins_fs_hz`` only with ``sins_angle``).
 REQUIRED_META = ("format", "axes", "fs_hz", "drive_fs_hz", "quantum_rad", "initial_state", "experiment", "nominal")
 INITIAL_STATES = ("rest", "unknown")
@@ -145,14 +152,21 @@ def _check_meta(meta, where: str) -> None:
             _fail(where, f"meta.axes[{i}]", f"must be a non-empty string, got {a!r}")
     if len(set(axes)) != len(axes):
         _fail(where, "meta.axes", f"axis names must be distinct, got {axes!r}")
-    fs = _number(where, "meta.fs_hz", meta["fs_hz"], "must be a number > 0", lambda x: x > 0.0)
-    dfs = _number(where, "meta.drive_fs_hz", meta["drive_fs_hz"], "must be a number > 0", lambda x: x > 0.0)
+    # a fringe counter read at 100 Hz .. 1 MHz (the paper's readout runs at 7.2 kHz; below 100 Hz a dither of
+    # 100-1500 Hz cannot be seen at all, above 1 MHz no counter interface exists): a rate in kHz or 1e30 is an error
+    rate_rule = f"must be a number in [{FS_MIN_HZ:g}, {FS_MAX_HZ:g}] Hz"
+    in_range = lambda x: FS_MIN_HZ <= x <= FS_MAX_HZ  # noqa: E731
+    fs = _number(where, "meta.fs_hz", meta["fs_hz"], rate_rule, in_range)
+    dfs = _number(where, "meta.drive_fs_hz", meta["drive_fs_hz"], rate_rule, in_range)
     ratio = dfs / fs
     if round(ratio) < 1 or abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         _fail(where, "meta.drive_fs_hz", f"drive_fs_hz / fs_hz must be an integer >= 1, got {ratio!r}")
     if "sins_fs_hz" in meta:
-        _number(where, "meta.sins_fs_hz", meta["sins_fs_hz"], "must be a number > 0", lambda x: x > 0.0)
-    _number(where, "meta.quantum_rad", meta["quantum_rad"], "must be a number > 0", lambda x: x > 0.0)
+        _number(where, "meta.sins_fs_hz", meta["sins_fs_hz"], rate_rule, in_range)
+    # a fringe counter's angle per count: a fraction of a 2.42 arcsec fringe (1.17e-5 rad; the paper's readout
+    # interpolates to 1/16 of it); a quantum given in arcsec (0.15) or in degrees would be a misread file
+    _number(where, "meta.quantum_rad", meta["quantum_rad"], f"must be a number in [{QUANTUM_MIN_RAD:g}, "
+            f"{QUANTUM_MAX_RAD:g}] rad (an RLG fringe is 1.17e-5 rad)", lambda x: QUANTUM_MIN_RAD <= x <= QUANTUM_MAX_RAD)
     if meta["initial_state"] not in INITIAL_STATES:
         _fail(where, "meta.initial_state", f"must be one of {list(INITIAL_STATES)}, got {meta['initial_state']!r}")
     if not isinstance(meta["experiment"], str):
@@ -382,10 +396,18 @@ def _load_meta(arr, where):
     depth = _json_depth(text, MAX_META_DEPTH)
     if depth > MAX_META_DEPTH:
         _fail(where, "meta", f"must hold JSON nested at most {MAX_META_DEPTH} levels deep, got more")
+    def unique(pairs):
+        seen = {}
+        for k, val in pairs:
+            if k in seen:
+                raise ValueError(f"duplicate key {k!r}")
+            seen[k] = val
+        return seen
+
     try:
-        meta = json.loads(text, parse_constant=reject)
+        meta = json.loads(text, parse_constant=reject, object_pairs_hook=unique)
     except ValueError as exc:
-        _fail(where, "meta", f"must hold valid JSON ({exc})")
+        _fail(where, "meta", f"must hold valid JSON without duplicate keys ({exc})")
     if not isinstance(meta, dict):
         _fail(where, "meta", f"must hold a JSON object, got {type(meta).__name__}")
     return meta
@@ -453,7 +475,7 @@ def _check_members(path: Path, where: str) -> None:
             try:
                 with zf.open(info) as fp:
                     shape, dtype, header_len = _npy_header(fp)
-            except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+            except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error) as exc:
                 _fail(where, key, f"must be a readable .npy array ({' '.join(str(exc).split())})")
             if dtype.hasobject:
                 continue  # refused when loaded: a recording may not use pickle
@@ -497,8 +519,8 @@ def read_recording(path) -> Recording:
                 arrays[key] = archive[key]
             except ValueError as exc:  # object arrays need pickle, which a recording may not use
                 _fail(where, key, f"must be a plain (non-object) array ({exc})")
-            except (OSError, zipfile.BadZipFile, EOFError) as exc:
-                _fail(where, key, f"cannot be read ({' '.join(str(exc).split())})")
+            except (OSError, zipfile.BadZipFile, EOFError, zlib.error) as exc:
+                _fail(where, key, f"cannot be read (corrupted data: {' '.join(str(exc).split())})")
             except MemoryError:
                 _fail(where, key, "is too large to load into memory")
     meta = _load_meta(arrays["meta"], where)
