@@ -221,6 +221,28 @@ def attitude_update(dtheta, q0, algo, prev, out_q):
 
 
 @jit
+def error_rotvec(p0, p1, p2, p3, t0, t1, t2, t3):
+    """``rotvec(p (x) t*)`` (rad) of two unit quaternions: the attitude error of ``p`` against ``t``.
+
+    The product taken with a non-negative scalar part, ``phi = 2 atan2(|qv|, q0) qv / |qv|``, and for
+    ``|qv| < 1e-5`` the series ``(2/q0)(1 - |qv|^2 / (3 q0^2))`` (next term below 1e-20 relative).
+    """
+    r0, r1, r2, r3 = t0, -t1, -t2, -t3
+    w = p0 * r0 - p1 * r1 - p2 * r2 - p3 * r3
+    x = p0 * r1 + p1 * r0 + p2 * r3 - p3 * r2
+    y = p0 * r2 - p1 * r3 + p2 * r0 + p3 * r1
+    z = p0 * r3 + p1 * r2 - p2 * r1 + p3 * r0
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    n = math.sqrt(x * x + y * y + z * z)
+    if n < 1e-5:
+        f = (2.0 / w) * (1.0 - n * n / (3.0 * w * w))
+    else:
+        f = 2.0 * math.atan2(n, w) / n
+    return f * x, f * y, f * z
+
+
+@jit
 def attitude_error_run(q_est, q_true, out):
     """``out[k] = rotvec(q_est[k] (x) q_true[k]*)`` (rad), the kernel of ``navigation.attitude_error``.
 
@@ -229,19 +251,8 @@ def attitude_error_run(q_est, q_true, out):
     ``|qv| < 1e-5`` the series ``(2/q0)(1 - |qv|^2 / (3 q0^2))``.
     """
     for k in range(q_est.shape[0]):
-        p0, p1, p2, p3 = q_est[k, 0], q_est[k, 1], q_est[k, 2], q_est[k, 3]
-        r0, r1, r2, r3 = q_true[k, 0], -q_true[k, 1], -q_true[k, 2], -q_true[k, 3]
-        w = p0 * r0 - p1 * r1 - p2 * r2 - p3 * r3
-        x = p0 * r1 + p1 * r0 + p2 * r3 - p3 * r2
-        y = p0 * r2 - p1 * r3 + p2 * r0 + p3 * r1
-        z = p0 * r3 + p1 * r2 - p2 * r1 + p3 * r0
-        if w < 0.0:
-            w, x, y, z = -w, -x, -y, -z
-        n = math.sqrt(x * x + y * y + z * z)
-        if n < 1e-5:
-            f = (2.0 / w) * (1.0 - n * n / (3.0 * w * w))
-        else:
-            f = 2.0 * math.atan2(n, w) / n
-        out[k, 0] = f * x
-        out[k, 1] = f * y
-        out[k, 2] = f * z
+        x, y, z = error_rotvec(q_est[k, 0], q_est[k, 1], q_est[k, 2], q_est[k, 3],
+                               q_true[k, 0], q_true[k, 1], q_true[k, 2], q_true[k, 3])
+        out[k, 0] = x
+        out[k, 1] = y
+        out[k, 2] = z

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from sins_sim._kernels._config import jit
+from sins_sim._kernels.nav import error_rotvec
 from sins_sim.earth import WGS84_A_M, WGS84_E2
 
 #: 3-point Gauss-Legendre on [0, 1] (Abramowitz & Stegun 25.4.29).
@@ -234,24 +235,10 @@ def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, v_t, q_t, e_body, free, att
         out[n, 3] = h[n] - h_t[n]
         for i in range(3):
             out[n, 4 + i] = v[n, i] - v_t[n, i]
-        # e = q_est (x) conj(q_true)
-        a0, a1, a2, a3 = q[n, 0], q[n, 1], q[n, 2], q[n, 3]
-        b0, b1, b2, b3 = q_t[n, 0], -q_t[n, 1], -q_t[n, 2], -q_t[n, 3]
-        e0 = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
-        e1 = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
-        e2 = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
-        e3 = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0
-        if e0 < 0.0:
-            e0, e1, e2, e3 = -e0, -e1, -e2, -e3
-        s = math.sqrt(e1 * e1 + e2 * e2 + e3 * e3)
-        if s < 1e-3:  # 2 atan2(s, e0) / s = (2 / e0) atan(x) / x, x = s / e0: series, next term x^6 / 7 < 2e-19
-            x2 = s * s / (e0 * e0)
-            k = 2.0 / e0 * (1.0 - x2 / 3.0 + x2 * x2 / 5.0)
-        else:
-            k = 2.0 * math.atan2(s, e0) / s
-        out[n, 7] = k * e1
-        out[n, 8] = k * e2
-        out[n, 9] = k * e3
+        e1, e2, e3 = error_rotvec(q[n, 0], q[n, 1], q[n, 2], q[n, 3], q_t[n, 0], q_t[n, 1], q_t[n, 2], q_t[n, 3])
+        out[n, 7] = e1
+        out[n, 8] = e2
+        out[n, 9] = e3
         # free attitude error: d psi_free = C_nb de_body (rotate by the true attitude)
         d0 = e_body[n, 0] - free[3]
         d1 = e_body[n, 1] - free[4]
@@ -267,7 +254,7 @@ def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, v_t, q_t, e_body, free, att
         out[n, 13] = free[1]
         out[n, 14] = free[2]
         if bad < 0:
-            ok = s * k <= att_limit
+            ok = math.sqrt(e1 * e1 + e2 * e2 + e3 * e3) <= att_limit
             for i in range(10):
                 if not math.isfinite(out[n, i]):
                     ok = False
