@@ -16,6 +16,7 @@ import numpy as np
 
 from sins_sim.jobs.imu import imu_from_dict, load_yaml
 from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
+from sins_sim.filters import registry as filter_registry
 from sins_sim.simulation.sins import DEFAULT_FILTERS, SINS_FILTERS, NavSettings
 
 __all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "run_scenario", "Scenario"]
@@ -176,7 +177,8 @@ SCENARIO_SCHEMA = Map({
                      doc="the block's own motion on its mounts: parts that add up"),
     "linear_vibration": ListOf(LINEAR_SCHEMA, default=[], max_len=1000,
                                doc="the block's translational vibration (mount axes)"),
-    "filters": ListOf(Str(choices=SINS_FILTERS), default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
+    "filters": ListOf(Str(choices=SINS_FILTERS + filter_registry.plugin_names()), default=list(DEFAULT_FILTERS),
+                      min_len=1, max_len=20),
     "navigation": Map({
         "coning": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
         "sculling": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),

@@ -24,6 +24,7 @@ from sins_sim._kernels import chain as kchain
 from sins_sim._kernels import drive as kdrive
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
+from sins_sim.filters import registry as filter_registry
 from sins_sim.models.drive import DriveParams, DriveSignal
 from sins_sim.models.motion import as_motion
 from sins_sim.models.plant import Plant, PlantSettings
@@ -121,6 +122,14 @@ class ChannelConfig:
 
     def eliminator_design(self) -> EliminatorDesign:
         return self.eliminator.design(self.drive_signal().frequency_hz, self.filter_rate_hz)
+
+    def filter_context(self, axis: str = "x") -> filter_registry.FilterContext:
+        """What a plug-in filter of this channel is built from (the parameters the filters believe)."""
+        s = self.filter_suspension or self.suspension
+        return filter_registry.FilterContext(f0_hz=s.f0_hz, k1=s.k1, k2=s.k2, k3=s.k3, k4=s.k4, k5=s.k5,
+                                             fs_hz=self.filter_rate_hz, dither_hz=self.drive_signal().frequency_hz,
+                                             hysteresis=self.filter_hysteresis, quantum_rad=self.readout.quantum_rad,
+                                             axis=axis)
 
 
 @dataclass
@@ -220,10 +229,16 @@ class ChannelChain:
         Source of the amplitude-modulation draws (one uniform per control block);
         a separate stream so that results do not depend on chunking.
     path : {"auto", "fused", "reference"}
+    plugins : sequence of str
+        Plug-in filters (:mod:`sins_sim.filters.registry`) run on this chain's decimated readout
+        and drive after each chunk, on the same thread.
+    axis : str
+        The axis name given to the plug-ins.
     """
 
     def __init__(self, cfg: ChannelConfig, control: DriveControl, rng: np.random.Generator,
-                 rng_modulation: np.random.Generator | None = None, path: str = "auto"):
+                 rng_modulation: np.random.Generator | None = None, path: str = "auto", plugins=(),
+                 axis: str = "x"):
         v.choice("channel", "path", path, ("auto", "fused", "reference"))
         self.cfg = cfg
         self.control = control
@@ -245,6 +260,8 @@ class ChannelChain:
             "correcting": CorrectingFilter(cfg.correcting_design("unity")),
             "correcting_paper": CorrectingFilter(cfg.correcting_design("paper")),
         }
+        ctx = cfg.filter_context(axis) if plugins else None
+        self.plugins = {name: filter_registry.build(name, ctx) for name in plugins}
         if path == "auto":
             path = "fused" if cfg.plant.integrator == "exact" else "reference"
         if path == "fused" and cfg.plant.integrator != "exact":
@@ -298,6 +315,8 @@ class ChannelChain:
         for name in ("correcting", "correcting_paper"):
             self.filters[name].reset(0.0)
         self.filters["eliminator"].reset()
+        for flt in self.plugins.values():
+            flt.reset()
         d = self.dstate
         d[:] = 0.0
         d[kchain.D_VM] = self.v_m0
@@ -374,14 +393,22 @@ class ChannelChain:
                           delta, volts, feed, out["raw"], out["volts"], out["correcting"],
                           out["correcting_paper"], out["eliminator"])
         self._sync_filters()
+        self._run_plugins(out)
         out["delta"] = delta
         return out
+
+    def _run_plugins(self, out) -> None:
+        for name, flt in self.plugins.items():
+            out[name] = np.asarray(flt.process(out["raw"], out["volts"]), dtype=np.float64)
 
     def check_chunk(self, out) -> None:
         """Raise the plant's and the correcting filters' once-per-run warnings for a fused chunk."""
         self.plant._check_regime()
         self.filters["correcting"].check_output(out["raw"], out["correcting"])
         self.filters["correcting_paper"].check_output(out["raw"], out["correcting_paper"])
+        for name, flt in self.plugins.items():
+            if hasattr(flt, "check_output"):
+                flt.check_output(out["raw"], out[name])
 
     # the correcting filters' state lives in the filter objects (so warnings and resets work on
     # both paths); the fused kernel reads and writes stacked copies
@@ -440,12 +467,13 @@ class ChannelChain:
         out["correcting"] = self.filters["correcting"].process(x, vx)
         out["correcting_paper"] = self.filters["correcting_paper"].process(x, vx)
         out["volts"] = vx
+        self._run_plugins(out)
         out["delta"] = delta
         return out
 
 
 def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed: int = 0,
-                     align_hz: float = 0.0, chunk_steps: int = 72000, progress=None) -> ChannelResult:
+                     align_hz: float = 0.0, chunk_steps: int = 72000, progress=None, plugins=()) -> ChannelResult:
     """Simulate one channel from rest for ``duration_s`` seconds.
 
     Parameters
@@ -462,8 +490,12 @@ def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed
     chunk_steps : int
         Plant steps per chunk (memory bound; results do not depend on it).
     progress : callable(done_fraction) or None
+    plugins : sequence of str
+        Plug-in filters (:mod:`sins_sim.filters.registry`) to run beside the built-in ones;
+        their outputs and delays appear in the result under their names.
     """
     duration_s = v.positive("run", "duration_s", duration_s)
+    plugins = tuple(dict.fromkeys(p for p in plugins if p not in FILTER_NAMES))
     v.non_negative("run", "align_hz", align_hz)
     motion = as_motion(motion)
     fs = config.filter_rate_hz
@@ -474,11 +506,11 @@ def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed
         raise ValueError(f"run.duration_s: must cover at least 4 filter samples, got {duration_s!r}")
     chunk_steps = max(r_dec, (int(chunk_steps) // r_dec) * r_dec)
     # open loop: V_m from eq. 17 at the amplitude-dependent resonance, never changed
-    chain = ChannelChain(config, DriveControl(mode="open_loop"), np.random.default_rng(seed))
+    chain = ChannelChain(config, DriveControl(mode="open_loop"), np.random.default_rng(seed), plugins=plugins)
     h = chain.plant.h
     phi0, rate0 = motion.angle_rate(np.zeros(1))
     chain.reset(float(phi0[0]), float(rate0[0]))
-    names = FILTER_NAMES + ("volts",)
+    names = FILTER_NAMES + plugins + ("volts",)
     pieces = {name: [] for name in names}
     for i0 in range(0, n_steps, chunk_steps):
         i1 = min(i0 + chunk_steps, n_steps)
@@ -488,7 +520,7 @@ def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed
             pieces[name].append(out[name])
         if progress is not None:
             progress(i1 / n_steps)
-    outputs = {name: np.concatenate(pieces[name]) for name in FILTER_NAMES}
+    outputs = {name: np.concatenate(pieces[name]) for name in FILTER_NAMES + plugins}
     d_ro = chain.readout.delay_s
     delays = {
         "raw": d_ro,
@@ -496,5 +528,7 @@ def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed
         "correcting": d_ro + 1.0 / fs,
         "correcting_paper": d_ro + 1.0 / fs,
     }
+    for name, flt in chain.plugins.items():
+        delays[name] = d_ro + float(flt.delay_samples) / fs
     return ChannelResult(t=np.arange(n_out) / fs, outputs=outputs, delays_s=delays,
                          volts=np.concatenate(pieces["volts"]), drive=chain.drive, motion=motion, config=config)

@@ -43,6 +43,7 @@ from sins_sim import _validate as v
 from sins_sim.models.accelerometer import Accelerometer, AccelerometerParams
 from sins_sim.models.sensor_errors import AccelErrors, GyroErrors, SensorErrorParams
 from sins_sim._kernels import truth as ktruth
+from sins_sim.filters import registry as filter_registry
 from sins_sim.navigation.strapdown import StrapdownNavigator
 from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
@@ -51,8 +52,8 @@ from sins_sim.simulation.truth import MissionTruth
 __all__ = ["DriveControl", "ImuConfig", "NavSettings", "SinsResult", "simulate_sins", "SINS_FILTERS", "DEFAULT_FILTERS",
            "default_threads"]
 
-#: Every filter a SINS run can compare.
-SINS_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
+#: The built-in filters a SINS run can compare (plug-ins of :mod:`sins_sim.filters.registry` come on top).
+SINS_FILTERS = filter_registry.BUILTIN_FILTERS
 #: The filters navigated by default: the dither filters and the ideal floor (``raw``, the readout with the
 #: dither still in it, on request).
 DEFAULT_FILTERS = ("ideal", "eliminator", "correcting", "correcting_paper")
@@ -193,7 +194,9 @@ class SinsResult:
         ``t`` and per filter the gyro-angle error (output minus truth, rad, (N, 3)) at the
         filter rate over ``spectrum_s``.
     delays : dict name -> int
-        Alignment shift in filter samples (and ``residual_eliminator``, fractional).
+        Alignment shift in filter samples, and under ``residual_eliminator`` the fractional
+        remainder per filter whose delay is not a whole number of samples (the eliminator's
+        group delay, plug-ins).
     diverged : dict name -> dict
         Filters whose output or navigation stopped being finite: axis, time, reason.
     drives : list of dict
@@ -352,7 +355,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         Navigation settings; None runs the gyro chains and filters only (no truth attitude, no
         navigation): the engine's speed without the INS loop.
     filters : sequence of str
-        Filters to navigate (subset of :data:`SINS_FILTERS`; default :data:`DEFAULT_FILTERS`).
+        Filters to navigate: built-in (:data:`SINS_FILTERS`) or plug-in names
+        (:func:`sins_sim.filters.registry.plugin_names`); default :data:`DEFAULT_FILTERS`.
     chunk_s : float
         Chunk length (s): memory bound; results do not depend on it.
     progress : callable(fraction) or None
@@ -372,7 +376,10 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     duration_s = v.positive("run", "duration_s", duration_s)
     filters = tuple(dict.fromkeys(filters))
     for name in filters:
-        v.choice("run", "filters", name, SINS_FILTERS)
+        if not filter_registry.is_known(name):
+            raise ValueError(f"run.filters: unknown filter {name!r}; known: "
+                             f"{', '.join(SINS_FILTERS + filter_registry.plugin_names())}")
+    plugins = tuple(n for n in filters if n not in SINS_FILTERS)
     if nav is not None and nav.start_s >= duration_s:
         raise ValueError(f"navigation.start_s: must be < duration_s = {duration_s!r}, got {nav.start_s!r}")
     fs = imu.filter_rate_hz
@@ -391,7 +398,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     stream = vehicle.stream() if hasattr(vehicle, "stream") else vehicle
     truth = MissionTruth(stream, motion, translation, fp, fs)
     # independent random streams per axis: readout noise [seed, axis], amplitude modulation [seed, axis, 1]
-    chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]))
+    chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]),
+                           plugins=plugins, axis=AXES[i])
               for i, c in enumerate(imu.channels)]
     accel = Accelerometer(imu.accelerometer, np.random.default_rng([seed, 3]))
     # sensor errors beyond the dither physics, generated at the filter rate from the true increments and added to
@@ -409,6 +417,10 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     delays = {"ideal": 0, "raw": int(round(ro_delay)), "correcting": int(round(ro_delay)) + 1,
               "correcting_paper": int(round(ro_delay)) + 1, "eliminator": int(round(ro_delay + elim_gd))}
     residual_delay = {"eliminator": ro_delay + elim_gd - delays["eliminator"]}
+    for name in plugins:
+        dly = ro_delay + float(np.mean([float(ch.plugins[name].delay_samples) for ch in chains]))
+        delays[name] = int(round(dly))
+        residual_delay[name] = dly - delays[name]
     max_delay = max(delays[n] for n in filters)
 
     # buffers indexed by filter sample

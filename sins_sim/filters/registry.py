@@ -1,0 +1,131 @@
+"""Dither filters selectable by name beyond the built-in ones (plug-ins).
+
+The engine's fused kernel (``sins_sim._kernels.chain``) runs the built-in filters: ``raw``,
+``eliminator``, ``correcting`` (eq. 5, unity DC) and ``correcting_paper`` (eq. 5 as printed).
+Any further filter is a *plug-in*: a streaming filter that reads the same decimated readout
+``x`` (rad, the filter rate) and the drive voltage ``volts`` through the same anti-alias chain
+(V) that eq. 5 reads, one chunk at a time, on the axis's own thread. A plug-in is registered
+under a name and then selectable wherever a filter name is: the ``filters`` of
+:func:`~sins_sim.simulation.sins.simulate_sins`, scenarios, sweeps and the error budget.
+
+A plug-in is built per axis from a :class:`FilterContext` (what the filter is allowed to know:
+the parameters it believes, not the unit's true ones unless the run says so) and must provide
+
+``process(x, volts) -> y``
+    The output for one chunk (same length as ``x``), streaming: the concatenation of chunk
+    outputs equals the output on the concatenated input.
+``delay_samples``
+    How late the output is relative to ``x`` (filter samples, float), at DC: the engine
+    shifts the navigation by ``round(readout delay + delay_samples)`` filter samples and
+    reports the fractional remainder (accelerometers are delayed to match).
+``reset()``
+    Back to the state before the first chunk.
+
+and may provide ``check_output(x, y)`` (raises its warnings, once per run). Its cost per sample
+is measured by the benchmarks, not declared.
+
+Registering: ``register(name, builder, description)`` with ``builder(ctx) -> filter``, or an
+entry ``name: "module:function"`` in :data:`_LAZY` for filters shipped with sins-sim (imported
+on first use, so ``import sins_sim`` stays light).
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+__all__ = ["BUILTIN_FILTERS", "FilterContext", "register", "plugin_names", "build", "describe", "is_known"]
+
+#: Filters computed by the engine's fused kernel (plus ``ideal``, the true increments).
+BUILTIN_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
+
+
+@dataclass(frozen=True)
+class FilterContext:
+    """What a plug-in filter of one axis is built from (SI units, rad).
+
+    Attributes
+    ----------
+    f0_hz : float
+        The resonance the filter believes (Hz): the unit's, the datasheet's or a tracked one,
+        depending on the run's filter parameters.
+    k1, k2, k3, k4, k5 : float
+        Suspension parameters the filter believes (eq. 9, 10, 14; k2 in rad, k4 in 1/rad,
+        k5 in rad/V).
+    fs_hz : float
+        Filter rate (Hz).
+    dither_hz : float
+        The drive frequency of the axis (Hz).
+    hysteresis : str
+        Hysteresis rule of eq. 10 inside the filter (``paper`` or ``masing``).
+    quantum_rad : float
+        Readout quantum (rad), for filters that bound their noise gain.
+    axis : str
+        ``x``, ``y`` or ``z``.
+    """
+
+    f0_hz: float
+    k1: float
+    k2: float
+    k3: float
+    k4: float
+    k5: float
+    fs_hz: float
+    dither_hz: float
+    hysteresis: str = "paper"
+    quantum_rad: float = 0.0
+    axis: str = "x"
+
+
+_REGISTRY: dict = {}
+#: Plug-ins shipped with sins-sim: name -> ("module:builder", one-line description).
+_LAZY: dict = {}
+
+
+def register(name: str, builder, description: str = "") -> None:
+    """Make ``builder(ctx: FilterContext)`` selectable as filter ``name``."""
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"filters.name: must be an identifier, got {name!r}")
+    if name in BUILTIN_FILTERS:
+        raise ValueError(f"filters.name: {name!r} is a built-in filter")
+    if not callable(builder):
+        raise ValueError(f"filters.{name}: the builder must be callable")
+    _REGISTRY[name] = (builder, description)
+
+
+def _entry(name: str):
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    if name in _LAZY:
+        target, description = _LAZY[name]
+        module, func = target.split(":")
+        builder = getattr(importlib.import_module(module), func)
+        _REGISTRY[name] = (builder, description)
+        return _REGISTRY[name]
+    raise ValueError(f"filters: unknown filter {name!r}; known: {', '.join(BUILTIN_FILTERS + plugin_names())}")
+
+
+def plugin_names() -> tuple:
+    """Names of the registered plug-in filters (shipped and user-registered), sorted."""
+    return tuple(sorted(set(_REGISTRY) | set(_LAZY)))
+
+
+def is_known(name: str) -> bool:
+    return name in BUILTIN_FILTERS or name in _REGISTRY or name in _LAZY
+
+
+def describe(name: str) -> str:
+    """The one-line description of a plug-in."""
+    if name in _LAZY and name not in _REGISTRY:
+        return _LAZY[name][1]
+    return _entry(name)[1]
+
+
+def build(name: str, ctx: FilterContext):
+    """A fresh instance of plug-in ``name`` for one axis, checked for the protocol."""
+    builder, _ = _entry(name)
+    flt = builder(ctx)
+    for attr in ("process", "reset", "delay_samples"):
+        if not hasattr(flt, attr):
+            raise ValueError(f"filters.{name}: the filter has no {attr!r} (see sins_sim.filters.registry)")
+    return flt
