@@ -11,12 +11,16 @@ Layout (every key optional except ``channels``; units in the key names)::
               anti_alias: {cutoff_hz: 9000, numtaps: 21}}      # anti_alias: null = off
     correcting: {hysteresis: paper}
     eliminator: {width_hz: 40, rp_db: 0.1, rs_db: 60}
+    filter_parameters: nominal    # what the filters believe: true (default) | nominal | a mapping
+                                  # (sins_sim.jobs.filter_params)
     channels:
       x: {f0_hz: 386}
       y: {f0_hz: 352, suspension: {k3: 4.6e-3}}
       z: {f0_hz: 421, drive: {amplitude_arcmin: 2.9}}
 
-A channel's ``suspension`` and ``drive`` entries override the shared ones.
+A channel's ``suspension`` and ``drive`` entries override the shared ones: the shared block is the
+batch's datasheet (what ``filter_parameters: nominal`` hands the filters), the channel's values are
+the unit's own.
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ from sins_sim.models.plant import PlantSettings, check_resolution
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.units import ARCSEC
+from sins_sim.jobs import filter_params as _fparams
 from sins_sim.jobs.schema import ConfigError, Map, Num, Str, validate
 from sins_sim.jobs.yaml_io import load_yaml  # re-exported: other modules import it from here
 from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
@@ -125,6 +130,8 @@ IMU_SCHEMA = Map({
             "drive": Map(_drive_fields(False), default={}, doc="overrides of the shared drive"),
         }, required=True) for axis in ("x", "y", "z")
     }, required=True, rules=("the three f0_hz must differ",)),
+    # parsed by its own loader before the rest (true / nominal shorthands); listed here for the reference
+    "filter_parameters": _fparams.FILTER_PARAMETERS_SCHEMA,
 })
 
 
@@ -143,14 +150,21 @@ def _check_shared(c: dict, ctx: str, path: str) -> None:
         raise ConfigError(f"{ctx}: {where} (shared, with channels.x.f0_hz): {exc}") from None
 
 
-def imu_from_dict(doc: dict, ctx: str, path: str = "") -> ImuConfig:
+def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConfig:
     """Validate an IMU mapping and build the ImuConfig (errors name ``ctx`` and the key path).
 
     The optional ``sensors:`` section (gyro and accelerometer errors in datasheet units, see
-    :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) is validated by its own parser.
+    :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) and ``filter_parameters``
+    (what the filters believe, :mod:`sins_sim.jobs.filter_params`) are validated by their own
+    parsers; ``base_dir`` resolves a diagnosis file named there (default: the working directory).
     """
     from sins_sim.models.sensor_errors import sensor_params_from_dict
 
+    pre = f"{path + '.' if path else ''}"
+    fspec = _fparams.parse_filter_parameters(True, ctx, f"{pre}filter_parameters")
+    if isinstance(doc, dict) and "filter_parameters" in doc:
+        doc = dict(doc)
+        fspec = _fparams.parse_filter_parameters(doc.pop("filter_parameters"), ctx, f"{pre}filter_parameters")
     sensors = None
     if isinstance(doc, dict) and "sensors" in doc:
         doc = dict(doc)
@@ -195,11 +209,35 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "") -> ImuConfig:
             except ValueError as exc:
                 raise ConfigError(f"{ctx}: {where}: {exc}") from None
             channels.append(cfg)
+        channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
         return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors)
     except ConfigError:
         raise
     except ValueError as exc:  # a physical rule that needs several fields (Q > 0, fs > 2 f0, ...)
         raise ConfigError(f"{ctx}: {path + ': ' if path else ''}{exc}") from None
+
+
+def _with_filter_parameters(channels, fspec, c, ctx, where, base_dir):
+    """The channels with the suspension their filters believe (``ChannelConfig.filter_suspension``)."""
+    import dataclasses
+    from pathlib import Path
+
+    axes = ("x", "y", "z")
+    sus = c["suspension"]
+    nominal = {"k1": sus["k1"], "k2": sus["k2_rad"], "k3": sus["k3"], "k4": sus["k4_per_rad"], "k5": sus["k5_rad_per_v"]}
+    believed = _fparams.filter_suspensions(
+        fspec, {a: ch.suspension for a, ch in zip(axes, channels)}, nominal,
+        {a: c["channels"][a]["f0_hz"] for a in axes},
+        {a: ch.drive_signal().frequency_hz for a, ch in zip(axes, channels)},
+        {a: ch.drive.amplitude_rad for a, ch in zip(axes, channels)}, ctx,
+        Path(base_dir) if base_dir is not None else None, where)
+    out = []
+    for a, ch in zip(axes, channels):
+        try:
+            out.append(dataclasses.replace(ch, filter_suspension=believed[a]))
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {where} (axis {a}): {exc}") from None
+    return out
 
 
 def load_imu(path) -> ImuConfig:
@@ -220,6 +258,8 @@ def load_imu(path) -> ImuConfig:
     ConfigError
         One line naming the file, the key path and the rule.
     """
-    return imu_from_dict(load_yaml(path), str(path))
+    from pathlib import Path
+
+    return imu_from_dict(load_yaml(path), str(path), base_dir=Path(path).parent)
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sins_sim.jobs import filter_params as _fparams
 from sins_sim.jobs.imu import imu_from_dict, load_yaml
 from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.filters import registry as filter_registry
@@ -219,7 +220,28 @@ class _Any:
         return value
 
 
+class _FilterParameters:
+    """Schema entry for the scenario's ``filter_parameters`` (replaces the IMU file's; checked by the IMU loader)."""
+
+    unit = None
+    default = None
+    required = False
+
+    def describe_rows(self, path):
+        return [{"key": path, "kind": "true, nominal or mapping", "unit": "", "range": "sins-sim schema imu",
+                 "default": "(the IMU file's)", "doc": "what the filters believe about each unit: the true "
+                 "parameters, the datasheet (nominal, f0 from the dither PLL), explicit values or a diagnosis; "
+                 "replaces the IMU file's filter_parameters"}]
+
+    def check(self, value, ctx, path):
+        if value is None:
+            return None
+        _fparams.parse_filter_parameters(value, ctx, path)
+        return value
+
+
 SCENARIO_SCHEMA.fields["imu"] = _Any()
+SCENARIO_SCHEMA.fields["filter_parameters"] = _FilterParameters()
 
 
 class Scenario:
@@ -238,10 +260,15 @@ class Scenario:
             if not imu_path.exists():
                 raise ConfigError(f"{ctx}: imu: file not found: {imu_path}")
             self.imu_source = str(imu)
-            self.imu = imu_from_dict(load_yaml(imu_path), f"{ctx} -> {imu_path.name}")
+            imu_doc = load_yaml(imu_path)
+            if c["filter_parameters"] is not None and isinstance(imu_doc, dict):
+                imu_doc = dict(imu_doc, filter_parameters=c["filter_parameters"])
+            self.imu = imu_from_dict(imu_doc, f"{ctx} -> {imu_path.name}", base_dir=imu_path.parent)
         else:
             self.imu_source = "inline"
-            self.imu = imu_from_dict(imu, ctx, "imu")
+            if c["filter_parameters"] is not None:
+                imu = dict(imu, filter_parameters=c["filter_parameters"])
+            self.imu = imu_from_dict(imu, ctx, "imu", base_dir=base_dir)
         fs = self.imu.filter_rate_hz
         _check_motion(c["motion"], c["linear_vibration"], fs, ctx)
         nv = c["navigation"]

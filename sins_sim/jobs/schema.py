@@ -47,6 +47,7 @@ UNITS = {
     "m": ("m", 1.0),
     "m_s": ("m_s", 1.0),
     "m_s2": ("m_s2", 1.0),
+    "ppm": ("ppm", 1.0),
 }
 
 
@@ -54,7 +55,7 @@ UNITS = {
 UNIT_LABELS = {
     "hz": "Hz", "s": "s", "ms": "ms", "rad": "rad", "arcmin": "arcmin", "arcsec": "arcsec", "deg": "deg",
     "deg_s": "deg/s", "rad_s": "rad/s", "deg2_s2_per_hz": "(deg/s)^2/Hz", "v": "V", "db": "dB", "per_rad": "1/rad",
-    "rad_per_v": "rad/V", "m": "m", "m_s": "m/s", "m_s2": "m/s^2",
+    "rad_per_v": "rad/V", "m": "m", "m_s": "m/s", "m_s2": "m/s^2", "ppm": "ppm",
 }
 
 
