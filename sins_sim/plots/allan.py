@@ -6,6 +6,7 @@ module imports no physics room). matplotlib is imported lazily (Agg backend).
 .. autosummary::
 
    plot_allan
+   plot_allan_filters
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 
 from sins_sim.plots.common import _pyplot
 
-__all__ = ["plot_allan", "TERM_STYLE"]
+__all__ = ["plot_allan", "plot_allan_filters", "TERM_STYLE"]
 
 #: name -> (label for a gyro, label for an accelerometer, colour, the tau (s) at which the reading is taken)
 TERM_STYLE = {
@@ -105,6 +106,62 @@ def plot_allan(analyses, path, title: str = "") -> None:
         ax.set_title(f"{label + ': ' if label else ''}{a.sensor}, {c.rate_hz:g} Hz, "
                      f"{dur:.4g} s record" if math.isfinite(dur) else label)
         ax.legend(fontsize=7, loc="best")
+    if title:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_allan_filters(by_filter: dict, path, title: str = "", colors: dict | None = None,
+                       labels: dict | None = None) -> None:
+    """The gyro Allan deviation of every filter's output error, one panel per axis, curves overlaid.
+
+    Parameters
+    ----------
+    by_filter : dict
+        ``{filter: {"x": AllanAnalysis, "y": ..., "z": ...}}`` (gyro analyses).
+    path : path
+        The image file to write.
+    title : str
+        Figure title.
+    colors, labels : dict, optional
+        Per filter name.
+
+    Notes
+    -----
+    Only the points averaged over at least ``min_clusters`` clusters are drawn. A slope -1/2 guide
+    through the ideal output's angle-random-walk reading (where found) shows the sensor's ARW; the
+    filters that sit above it at short tau show their own noise (slope -1: the readout quantum
+    amplified by the filter) before they meet it.
+    """
+    plt = _pyplot()
+    colors, labels = colors or {}, labels or {}
+    axes_names = ("x", "y", "z")
+    fig, axs = plt.subplots(1, 3, figsize=(15, 4.8), sharey=True, constrained_layout=True)
+    for ax, axis in zip(axs, axes_names):
+        for name, per_axis in by_filter.items():
+            a = per_axis.get(axis)
+            if a is None:
+                continue
+            c = a.curve
+            used = c.clusters >= a.min_clusters
+            if not np.any(used):
+                continue
+            r = a.readings()
+            arw = r.get("arw_deg_rt_h")
+            extra = f", ARW {arw:.3g} deg/sqrt(h)" if arw is not None and np.isfinite(arw) else ""
+            ax.loglog(c.tau_s[used], c.adev[used] * a.display_scale, "o-", ms=3, lw=1.0, color=colors.get(name),
+                      label=f"{labels.get(name, name)}{extra}")
+        ideal = by_filter.get("ideal", {}).get(axis)
+        if ideal is not None and ideal.terms["white"].found:
+            tau = np.geomspace(ideal.curve.tau_s[0], ideal.curve.tau_s[-1], 50)
+            ax.loglog(tau, ideal.line("white", tau) * ideal.display_scale, "k--", lw=0.8,
+                      label="sensor ARW line (slope -1/2)")
+        ax.set_xlabel("averaging time tau (s)")
+        ax.set_title(f"gyro {axis}: output error (output - truth)")
+        ax.grid(True, which="both", lw=0.3, alpha=0.5)
+        ax.legend(fontsize=7, loc="upper right")
+    axs[0].set_ylabel("Allan deviation (deg/h)")
     if title:
         fig.suptitle(title)
     fig.savefig(path, dpi=120)

@@ -40,6 +40,14 @@ def plot_run(res, out, name: str) -> list:
         plot_gyro_error_spectrum(res, out / "gyro_error_spectrum.png",
                                  f"{name}: gyro-angle error (output - truth) amplitude density")
         figs.append("gyro_error_spectrum.png")
+    gyro_allan = {n: a for n, a in getattr(res, "allan", {}).items() if n in res.filters}
+    if gyro_allan:
+        from sins_sim.plots.allan import plot_allan_filters
+
+        plot_allan_filters(gyro_allan, out / "allan.png",
+                           f"{name}: Allan deviation of each filter's gyro error ({res.allan['record_s']:.4g} s at "
+                           f"{res.allan['rate_hz']:.3g} Hz)", NAV_COLORS, NAV_LABELS)
+        figs.append("allan.png")
     return figs
 
 

@@ -63,6 +63,12 @@ DEFAULT_SERIES_RATE_HZ = 10.0
 MAX_SERIES_BLOCKS = 7200
 #: An attitude error beyond this (rad) means the navigation of a filter has diverged.
 DIVERGED_ATTITUDE_RAD = 0.5
+#: Allan records (gyro-angle and velocity error at sample instants): at most this rate (Hz) and at most this many
+#: samples per axis and filter (1 h at 36 Hz; 3 MB per filter), so that memory stays flat in the mission length.
+ALLAN_RATE_HZ = 100.0
+ALLAN_MAX_SAMPLES = 2 ** 17
+#: Shortest Allan record analysed (samples): below it the curve has too few clusters to read a term.
+ALLAN_MIN_SAMPLES = 200
 
 
 @dataclass(frozen=True)
@@ -210,6 +216,14 @@ class SinsResult:
     filters : tuple of str
         The filters compared.
     nav : NavSettings or None
+    allan : dict
+        ``rate_hz``, ``record_s`` and per filter name (and ``accelerometers``) the Allan analyses of
+        each axis (:func:`sins_sim.navigation.allan.allan_axes`) of the sensor error over the
+        navigation period: the gyro-angle error (filter output minus the true gyro angle, sensor
+        errors included) and the accumulated velocity-increment error of the accelerometers,
+        sampled at ``rate_hz``. At rest this is the output's own noise; in motion the true motion
+        is removed and what remains is the sensor's and the filter's error. Empty without
+        navigation or when the record is shorter than :data:`ALLAN_MIN_SAMPLES`.
     """
 
     stats: dict
@@ -226,6 +240,7 @@ class SinsResult:
     filters: tuple
     nav: NavSettings | None
     outputs_last: dict
+    allan: dict = field(default_factory=dict)
 
 
 def axis_pool(threads: int, n_axes: int = 3):
@@ -427,7 +442,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     outs_buf = {name: _Ring((3,)) for name in filters if name != "ideal"}
     phi_buf = _Ring((3,))  # true gyro angles (the ideal output)
     tr_buf = {k: _Ring(w) for k, w in (("q", (4,)), ("lat", ()), ("lon", ()), ("h", ()), ("v", (3,)), ("dv", (3,)),
-                                       ("dth", (3,)), ("gerr", (3,)), ("gcum", (3,)))}
+                                       ("dth", (3,)), ("gerr", (3,)), ("gcum", (3,)), ("acum", (3,)))}
     navs = {}
     if nav is not None:
         k_start = int(round(nav.start_s * fs))
@@ -439,6 +454,11 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         n_spec = int(round(nav.spectrum_s * fs))
         spec_next = k_start
         n_align = min(k_start, int(round(nav.align_s * fs)))
+        allan_rate = min(ALLAN_RATE_HZ, ALLAN_MAX_SAMPLES / max(duration_s - nav.start_s, 1e-9))
+        allan_stride = max(1, int(math.ceil(fs / allan_rate - 1e-9)))
+        allan_next = k_start
+        allan_rec = {name: [] for name in filters}
+        allan_rec["accelerometers"] = []
     spectra = {name: [] for name in filters}
     truth_series = {"t_s": [], "lat_rad": [], "lon_rad": [], "h_m": []}
     diverged = {}
@@ -446,6 +466,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     pool = axis_pool(threads) if outs_buf else None
     last_out = {}
     g_cum = np.zeros(3)
+    a_cum = np.zeros(3)
 
     def stage(k_a, k_b):
         """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
@@ -466,7 +487,11 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
                              ("v", tc.v_ned_m_s), ("dth", tc.dtheta_rad)):
                 tr_buf[key].push(arr)
-            tr_buf["dv"].push(accel.process(tc.dv_m_s if accel_err is None else accel_err.apply(tc.dv_m_s)))
+            dv_meas = accel.process(tc.dv_m_s if accel_err is None else accel_err.apply(tc.dv_m_s))
+            tr_buf["dv"].push(dv_meas)
+            a_cum = a_cum + np.cumsum(dv_meas - tc.dv_m_s, axis=0)  # accumulated accelerometer error (Allan)
+            tr_buf["acum"].push(a_cum)
+            a_cum = a_cum[-1]
             g_e = (np.zeros_like(tc.dtheta_rad) if gyro_err is None
                    else gyro_err.apply(tc.dtheta_rad) - tc.dtheta_rad)
             tr_buf["gerr"].push(g_e)
@@ -486,11 +511,14 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                 spec_next = _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, min(k_start + n_spec, n_out),
                                           max_delay, filters)
                 _keep_truth_series(truth_series, tr_buf, k_prev, k1, k_start, truth_every, fs)
+                allan_next = _keep_allan(allan_rec, allan_next, allan_stride, outs_buf, phi_buf, tr_buf, delays, k1,
+                                         n_out, max_delay, filters)
                 # drop what no filter needs any more
                 keep = [nf.next_j if nf.next_j is not None else k_start - n_align for nf in navs.values()
                         if nf.diverged is None]
                 if spec_next < min(k_start + n_spec, n_out):
                     keep.append(spec_next)
+                keep.append(allan_next)
                 need = min(keep or [k1])
                 low = min(need, k1 - max_delay - 2) - 2
                 for r in tr_buf.values():
@@ -518,11 +546,13 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         spec = {n: (np.concatenate(spectra[n])[:n_sp] if spectra[n] else np.zeros((0, 3))) for n in filters}
         spec["t"] = (k_start + np.arange(n_sp)) / fs
     series = {n: nf.series.arrays() for n, nf in navs.items() if nf.series is not None}
+    allan = _allan_analyses(allan_rec, fs / allan_stride, diverged) if nav is not None else {}
     ts = {k: (np.concatenate(a) if a else np.zeros(0)) for k, a in truth_series.items()}
     return SinsResult(stats={n: nf.stats for n, nf in navs.items()}, series=series, truth_series=ts, spectra=spec,
                       delays=dict(delays, residual_eliminator=residual_delay), diverged=diverged, drives=drives,
                       filter_rate_hz=fs, duration_s=duration_s, nav_start_s=(nav.start_s if nav else 0.0),
-                      warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out)
+                      warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out,
+                      allan=allan)
 
 
 def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged, n_align):
@@ -619,6 +649,48 @@ def _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, k_end, max_
             d = delays[name]
             spectra[name].append(outs_buf[name].get(spec_next + d, hi + d) - truth)
     return hi
+
+
+def _keep_allan(rec, nxt, stride, outs_buf, phi_buf, tr_buf, delays, k1, n_out, max_delay, filters):
+    """Sample the gyro-angle and velocity errors every ``stride`` filter samples from truth index ``nxt`` on.
+
+    Returns the next truth index to sample."""
+    hi = min(n_out, k1 - max_delay - 1, tr_buf["acum"].end)
+    if hi <= nxt:
+        return nxt
+    idx = np.arange(nxt, hi, stride)
+    lo, top = int(idx[0]), int(idx[-1]) + 1
+    sel = idx - lo
+    gcum = tr_buf["gcum"].get(lo, top)[sel]
+    truth = phi_buf.get(lo, top)[sel]
+    for name in filters:
+        if name == "ideal":
+            rec[name].append(gcum.copy())
+        else:
+            d = delays[name]
+            rec[name].append(outs_buf[name].get(lo + d, top + d)[sel] - truth + gcum)
+    rec["accelerometers"].append(tr_buf["acum"].get(lo, top)[sel].copy())
+    return int(idx[-1]) + stride
+
+
+def _allan_analyses(rec, rate_hz, diverged) -> dict:
+    """Allan analyses of the sampled error records (see :attr:`SinsResult.allan`)."""
+    from sins_sim.navigation.allan import allan_axes
+
+    out = {}
+    for name, parts in rec.items():
+        if name in diverged or not parts:
+            continue
+        x = np.concatenate(parts)
+        if x.shape[0] < ALLAN_MIN_SAMPLES or not np.all(np.isfinite(x)):
+            continue
+        sensor = "accel" if name == "accelerometers" else "gyro"
+        data = "velocity" if sensor == "accel" else "angle"
+        out[name] = allan_axes(x, rate_hz, sensor=sensor, data=data)
+        out["record_s"] = (x.shape[0] - 1) / rate_hz
+    if out:
+        out["rate_hz"] = rate_hz
+    return out
 
 
 def _keep_truth_series(ts, tr_buf, k_prev, k1, k_start, every, fs):
