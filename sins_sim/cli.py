@@ -235,11 +235,7 @@ def _cmd_run(args) -> int:
     from sins_sim.jobs.output import atomic_output_dir
     from sins_sim.jobs.run import run_scenario
 
-    overrides = {}
-    if args.seed is not None:
-        overrides["seed"] = args.seed
-    if args.duration is not None:
-        overrides["duration_s"] = args.duration
+    overrides = _overrides(args)
     out = Path(args.out)
     with atomic_output_dir(out, "--out", inputs=[args.scenario]) as tmp, \
             _progress(Path(args.scenario).stem, args.quiet) as progress:
@@ -259,6 +255,47 @@ def _cmd_run(args) -> int:
     for name, d in metrics.get("diverged", {}).items():
         print(f"diverged: {name}, axis {d['axis']}, t = {d['time_s']:.4g} s: {d['reason']}")
     args.job_warnings.extend(metrics.get("warnings", []))
+    print(f"report: {out / 'report.md'}")
+    return EXIT_OK
+
+
+def _cmd_budget(args) -> int:
+    from pathlib import Path
+
+    from sins_sim.jobs.budget import run_budget
+    from sins_sim.jobs.output import atomic_output_dir
+
+    from tqdm import tqdm
+
+    out = Path(args.out)
+    bar = None
+
+    def progress(done, total):
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(total=total, desc=f"{Path(args.scenario).stem} budget", unit="run", file=sys.stderr,
+                       disable=args.quiet, dynamic_ncols=True)
+        bar.update(done - bar.n)
+
+    try:
+        with atomic_output_dir(out, "--out", inputs=[args.scenario]) as tmp:
+            b = run_budget(args.scenario, tmp, overrides=_overrides(args), workers=args.workers, progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    filters = [f for f in b["filters"] if b["total"].get(f)]
+    print(f"error budget after {b['duration_s']:g} s ({b['runs']} runs): final horizontal position error (m)")
+    print(f"{'source':<34}" + "".join(f"{f:>18}" for f in filters))
+
+    def line(label, d):
+        vals = [(d.get(f) or {}).get("horizontal_position_error_m") for f in filters]
+        print(f"{label:<34}" + "".join(f"{v:>18.4g}" if v is not None else f"{'n/a':>18}" for v in vals))
+
+    line("total", b["total"])
+    for src, d in b["sources"].items():
+        line(src, d)
+    line("floor (no source)", b["floor"])
+    line("remainder", b["remainder"])
     print(f"report: {out / 'report.md'}")
     return EXIT_OK
 
@@ -358,6 +395,24 @@ def _cmd_schema(args) -> int:
     return EXIT_OK
 
 
+def _unit_flags(p) -> None:
+    """``--duration``, ``--imu`` and ``--filter-parameters``: what a run or a budget may override."""
+    p.add_argument("--duration", type=_positive, default=None, help="override the scenario's duration_s (s)")
+    p.add_argument("--imu", default=None, help="override the scenario's IMU file (e.g. configs/nav-grade-rlg.yaml)")
+    p.add_argument("--filter-parameters", default=None, choices=("true", "nominal"),
+                   help="what the filters believe: the unit's true parameters or the datasheet's (nominal, f0 "
+                        "from the dither PLL) [the scenario's]")
+
+
+def _overrides(args) -> dict:
+    out = {}
+    for key, attr in (("seed", "seed"), ("duration_s", "duration"), ("imu", "imu"),
+                      ("filter_parameters", "filter_parameters")):
+        if getattr(args, attr, None) is not None:
+            out[key] = getattr(args, attr)
+    return out
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sins-sim", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"sins-sim {__version__}")
@@ -401,9 +456,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
     p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
     p.add_argument("--seed", type=_seed, default=None, help="override the scenario's seed")
-    p.add_argument("--duration", type=_positive, default=None, help="override the scenario's duration_s (s)")
+    _unit_flags(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("budget", help="the navigation error budget of a scenario, source by source",
+                       description="Run the scenario with everything on, with each error source switched off in "
+                                   "turn (each sensor-error term, readout quantisation and noise, accelerometer "
+                                   "quantisation, filter parameter mismatch, each effect) and with every source "
+                                   "off, in parallel; write budget.json, budget.png and report.md.")
+    p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
+    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the budget succeeds)")
+    p.add_argument("--seed", type=_seed, default=None, help="override the scenario's seed")
+    _unit_flags(p)
+    p.add_argument("--workers", type=_count, default=2, help="worker processes, one run each at a time [2]")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
+    p.set_defaults(func=_cmd_budget)
 
     p = sub.add_parser("reproduce", help="regenerate the paper's figures and numbers with sins-sim's own code",
                        description="Figures 1, 3-7, the Abel inversion, the sensitivity table, numbers.json and "

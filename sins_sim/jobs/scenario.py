@@ -488,17 +488,25 @@ def load_scenario(path, overrides: dict | None = None) -> Scenario:
     """Read and validate a scenario file (errors name the file, the key path and the rule).
 
     ``overrides`` replaces top-level keys before validation (``{"seed": 3, "duration_s": 60}``,
-    from the command line), so an override is checked like the file's own value.
+    from the command line), so an override is checked like the file's own value: ``seed``,
+    ``duration_s``, ``filter_parameters`` and ``imu`` (a path, taken relative to the working
+    directory like any command-line path, or a mapping).
     """
     path = Path(path)
     doc = load_yaml(path)
     if overrides:
         doc = dict(doc)
         for key, value in overrides.items():
-            if key not in ("seed", "duration_s"):
-                raise ConfigError(f"{path}: {key}: cannot be overridden (allowed: seed, duration_s)")
+            if key not in OVERRIDABLE:
+                raise ConfigError(f"{path}: {key}: cannot be overridden (allowed: {', '.join(OVERRIDABLE)})")
+            if key == "imu" and isinstance(value, (str, Path)):
+                value = str(Path(value).resolve())
             doc[key] = value
     return Scenario(doc, str(path), path.parent)
+
+
+#: Scenario keys that a command line (``--seed``, ``--duration``, ``--imu``, ``--filter-parameters``) may replace.
+OVERRIDABLE = ("seed", "duration_s", "imu", "filter_parameters")
 
 
 from sins_sim.jobs.run import run_scenario  # noqa: E402  (the run job re-exported where it always was)
