@@ -35,7 +35,7 @@ RULE_PAPER = 0
 RULE_MASING = 1
 #: Hysteresis rules by name, for the plant and the correcting filter alike.
 RULES = {"paper": RULE_PAPER, "masing": RULE_MASING}
-HYST_SIZE = 7
+HYST_SIZE = 10
 STACK_SIZE = 64
 #: Branches smaller than this (rad, 10 arcsec) are ignored by the regime counter: while the
 #: dither builds up from rest any motion makes the turning points, and eq. 10's term is then
@@ -133,13 +133,28 @@ def hyst_turn(hyst, stack, rule, d, t, fast_dt):
     well inside the current branch (``|d - c| < a/2``: the amplitude collapses)
     is counted, after the warm-up and above ``FAST_MIN_AMPLITUDE``: it marks
     the regime where vibration, not the dither, makes the turning points.
+    Like a Schmitt trigger, the counter confirms a turning point only when
+    the path then swings away from it by more than ``FAST_MIN_AMPLITUDE``: a
+    fast half-cycle is counted at the next turning point, if both its own
+    swing and the following one exceed the threshold. A noisy estimate of
+    delta (the correcting filter's D carries the readout quantum amplified by
+    eq. 5's gain near Nyquist, about 34) wiggles through spurious pairs of
+    turning points a few arcsec apart near its zero crossings: noise, not
+    vibration, and never confirmed. The turning points themselves, and hence
+    the filter's output and the plant, are unchanged.
     """
     hyst[0] = -hyst[0]
-    fast = t - hyst[4] < fast_dt and abs(d - hyst[2]) < 0.5 * hyst[1]
-    if fast and t > WARMUP_QUARTER_PERIODS * fast_dt and hyst[1] > FAST_MIN_AMPLITUDE:
+    swing = abs(d - hyst[7])
+    hyst[7] = d
+    if hyst[8] > 0.0 and swing > FAST_MIN_AMPLITUDE:  # the previous fast half-cycle is confirmed
         hyst[5] += 1.0
         if hyst[6] < 0.0:
-            hyst[6] = t
+            hyst[6] = hyst[9]
+    hyst[8] = 0.0
+    fast = t - hyst[4] < fast_dt and abs(d - hyst[2]) < 0.5 * hyst[1] and swing > FAST_MIN_AMPLITUDE
+    if fast and t > WARMUP_QUARTER_PERIODS * fast_dt and hyst[1] > FAST_MIN_AMPLITUDE:
+        hyst[8] = 1.0
+        hyst[9] = t
     hyst[4] = t
     if rule == RULE_PAPER:
         hyst[1] = abs(d)
