@@ -313,6 +313,19 @@ def _cmd_reproduce(args) -> int:
     return EXIT_OK
 
 
+def _cmd_compare_filters(args) -> int:
+    from pathlib import Path
+
+    from sins_sim.jobs.compare_filters import run_compare_filters
+    from sins_sim.jobs.output import atomic_output_dir
+
+    out = Path(args.out)
+    with atomic_output_dir(out, "--out") as tmp, _progress("compare-filters", args.quiet) as progress:
+        res = run_compare_filters(tmp, args.json, quick=args.quick, progress=progress)
+    print(f"best: {res['best']}; report: {out / 'report.md'}; numbers: {args.json}")
+    return EXIT_OK
+
+
 def _cmd_bench(args) -> int:
     import json
 
@@ -480,6 +493,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="every number at reduced resolution (< 90 s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_reproduce)
+
+    p = sub.add_parser("compare-filters", help="every correcting filter against the wideband targets (issue 15)",
+                       description="End-to-end gain on the nonlinear plant, noise, delay, cost, coning drift and "
+                                   "position error of eq. 5, the eliminator and the wideband designs; gain.png, "
+                                   "noise_tradeoff.png, details.json and report.md in --out, the numbers in --json.")
+    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
+    p.add_argument("--json", required=True, help="the numbers (issue 15 structure)")
+    p.add_argument("--quick", action="store_true", help="reduced resolution and a 30 s mission (a few minutes)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
+    p.set_defaults(func=_cmd_compare_filters)
 
     p = sub.add_parser("simulate-recording", help="write a sins-sim-recording/1 file from an experiment YAML",
                        description="Simulate an experiment (stationary, afc_sweep, rate_table) with any effects "

@@ -34,7 +34,8 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-__all__ = ["BUILTIN_FILTERS", "FilterContext", "register", "plugin_names", "build", "describe", "is_known"]
+__all__ = ["BUILTIN_FILTERS", "FilterContext", "register", "plugin_names", "shipped_plugin_names", "build", "describe",
+           "is_known"]
 
 #: Filters computed by the engine's fused kernel (plus ``ideal``, the true increments).
 BUILTIN_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
@@ -79,7 +80,14 @@ class FilterContext:
 
 _REGISTRY: dict = {}
 #: Plug-ins shipped with sins-sim: name -> ("module:builder", one-line description).
-_LAZY: dict = {}
+_LAZY: dict = {
+    "correcting_aligned": ("sins_sim.filters.wideband:build_aligned",
+                           "eq. 5 (unity DC) with Nonl and Diss solved on the output's own instant; delay 1 sample"),
+    "correcting_wideband": ("sins_sim.filters.wideband:build_wideband",
+                            "equalised second difference, flat to 2.6 kHz, band edge 3.2 kHz; delay 16 samples"),
+    "correcting_lownoise": ("sins_sim.filters.wideband:build_lownoise",
+                            "equalised second difference, flat to 1.5 kHz, band edge 2.2 kHz; delay 20 samples"),
+}
 
 
 def register(name: str, builder, description: str = "") -> None:
@@ -108,6 +116,11 @@ def _entry(name: str):
 def plugin_names() -> tuple:
     """Names of the registered plug-in filters (shipped and user-registered), sorted."""
     return tuple(sorted(set(_REGISTRY) | set(_LAZY)))
+
+
+def shipped_plugin_names() -> tuple:
+    """Names of the plug-ins shipped with sins-sim (those a reference lists), sorted."""
+    return tuple(sorted(_LAZY))
 
 
 def is_known(name: str) -> bool:

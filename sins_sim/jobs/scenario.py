@@ -166,6 +166,16 @@ TRAJECTORY_SCHEMA = Map({
     rules=("the trajectory must last at least duration_s + 0.1 s",
            "every segment lasts at least 2 transition_s (a smooth ramp in and one out)"))
 
+class _FilterName(Str):
+    """A filter name: built-in, shipped plug-in (the reference lists these) or registered at run time."""
+
+    def check(self, value, ctx, path):
+        if not isinstance(value, str) or not filter_registry.is_known(value):
+            known = list(SINS_FILTERS + filter_registry.plugin_names())
+            raise ConfigError(f"{ctx}: {path}: must be one of {known}, got {value!r}")
+        return value
+
+
 SCENARIO_SCHEMA = Map({
     "name": Str(required=True),
     "description": Str(default=""),
@@ -178,8 +188,8 @@ SCENARIO_SCHEMA = Map({
                      doc="the block's own motion on its mounts: parts that add up"),
     "linear_vibration": ListOf(LINEAR_SCHEMA, default=[], max_len=1000,
                                doc="the block's translational vibration (mount axes)"),
-    "filters": ListOf(Str(choices=SINS_FILTERS + filter_registry.plugin_names()), default=list(DEFAULT_FILTERS),
-                      min_len=1, max_len=20),
+    "filters": ListOf(_FilterName(choices=SINS_FILTERS + filter_registry.shipped_plugin_names()),
+                      default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
     "navigation": Map({
         "coning": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
         "sculling": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
