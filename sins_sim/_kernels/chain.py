@@ -220,3 +220,38 @@ def axis_chunk(i0, ang, rate, noise, uniforms, fpar, ipar, dstate, pstate, physt
                             c[C_DT], int(c[C_RULE]), c[C_FAST], fstate[f], fhyst[f], fstack[f], out)
     ksos.sos_filter(sos, x, zi, e_out)
     return used
+
+
+@jit
+def plant_run_rate(sins_angle, sins_rate, volts, h, w0sq, k1, k2, k3, k4, k5, zeta2_w0, rule, fast_dt,
+                   state, hyst, stack, out_delta, out_ddelta):
+    """``plant_exact.plant_run_exact`` one step at a time, also returning ``d delta/dt`` at every grid point.
+
+    The effect stages of :class:`~sins_sim.simulation.channel.ChannelChain` need the RLG rate at
+    the plant grid (lock-in integrates the Adler equation between grid points with a cubic
+    Hermite angle; a delayed readout interpolates with it). The exact integrator carries
+    ``d delta/dt`` in its state, so stepping it one step per call gives the rate exactly and
+    causally (no finite difference that would need the next chunk), with the same arithmetic per
+    step as the whole-array call (the plant is chunk-invariant bit for bit).
+
+    Parameters
+    ----------
+    sins_angle, sins_rate, volts, h, w0sq, k1, k2, k3, k4, k5, zeta2_w0, rule, fast_dt, state, hyst, stack
+        As ``plant_exact.plant_run_exact``.
+    out_delta, out_ddelta : float64[N]
+        ``delta`` (rad) and ``d delta/dt`` (rad/s) at the grid points ``t_{n+1} .. t_{n+N}``.
+    """
+    n = volts.shape[0]
+    consts = np.empty((1, kexact.N_CONSTS))
+    kexact._constants(consts, 0, h, w0sq, k1, k2, k3, k4, k5, zeta2_w0, fast_dt)
+    cs = consts[0]
+    q0s = np.empty(1)
+    q1s = np.empty(1)
+    for k in range(n):
+        aa = sins_angle[k:k + 1]
+        rr = sins_rate[k:k + 1]
+        vv = volts[k:k + 1]
+        kexact._forcing(aa, rr, vv, state[kexact.X_PHI], state[kexact.X_RATE], cs[kexact.C_IH], cs[kexact.C_IH2],
+                        cs[kexact.C_W0SQ], cs[kexact.C_K5], q0s, q1s)
+        kexact._run_axis(aa, rr, vv, q0s, q1s, cs, rule, state, hyst, stack, out_delta[k:k + 1])
+        out_ddelta[k] = state[kexact.X_DDELTA]

@@ -11,6 +11,8 @@ Layout (every key optional except ``channels``; units in the key names)::
               anti_alias: {cutoff_hz: 9000, numtaps: 21}}      # anti_alias: null = off
     correcting: {hysteresis: paper}
     eliminator: {width_hz: 40, rp_db: 0.1, rs_db: 60}
+    effects:                      # catalogue effects acting in the engine (sins_sim.jobs.effects_schema)
+      - {name: lock_in, axes: [x], threshold_rad_s: 2.0e-3}
     filter_parameters: nominal    # what the filters believe: true (default) | nominal | a mapping
                                   # (sins_sim.jobs.filter_params)
     channels:
@@ -36,6 +38,7 @@ from sins_sim.models.readout import AntiAliasParams, ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.units import ARCSEC
 from sins_sim.jobs import filter_params as _fparams
+from sins_sim.jobs.effects_schema import EffectsList
 from sins_sim.jobs.schema import ConfigError, Map, Num, Str, validate
 from sins_sim.jobs.yaml_io import load_yaml  # re-exported: other modules import it from here
 from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
@@ -130,6 +133,8 @@ IMU_SCHEMA = Map({
             "drive": Map(_drive_fields(False), default={}, doc="overrides of the shared drive"),
         }, required=True) for axis in ("x", "y", "z")
     }, required=True, rules=("the three f0_hz must differ",)),
+    "effects": EffectsList(doc="axis_coupling is refused in the SINS engine (it couples the axes within a plant "
+                               "step)"),
     # parsed by its own loader before the rest (true / nominal shorthands); listed here for the reference
     "filter_parameters": _fparams.FILTER_PARAMETERS_SCHEMA,
 })
@@ -210,7 +215,11 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
                 raise ConfigError(f"{ctx}: {where}: {exc}") from None
             channels.append(cfg)
         channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
-        return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors)
+        try:
+            return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors,
+                             effects=c["effects"] or ())
+        except ValueError as exc:  # an effect the engine cannot run (axis_coupling)
+            raise ConfigError(f"{ctx}: {pre}{exc}") from None
     except ConfigError:
         raise
     except ValueError as exc:  # a physical rule that needs several fields (Q > 0, fs > 2 f0, ...)

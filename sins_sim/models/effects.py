@@ -278,6 +278,21 @@ class PiezoLag(Effect):
         # exact mean of V_eff over each step with V held: V + (V_eff(start) - V) tau/h (1 - a)
         return volts + (y_start - volts) * (tau / h) * (1.0 - a)
 
+    def voltage_stream(self, axis, volts, h, state):
+        """:meth:`voltage` chunk by chunk: ``state[0]`` is ``V_eff`` at the chunk's start (0 at rest), updated.
+
+        Same recursion (``lfilter`` with its initial condition ``a V_eff(start)``), so a chunked run
+        equals the whole-array :meth:`voltage` to rounding.
+        """
+        tau = self.params["tau_s"]
+        if not self.acts_on(axis) or tau <= 0.0 or volts.shape[0] == 0:
+            return volts
+        a = math.exp(-h / tau)
+        y_end, _ = signal.lfilter([1.0 - a], [1.0, -a], volts, zi=[a * float(state[0])])
+        y_start = np.concatenate(([float(state[0])], y_end[:-1]))
+        state[0] = float(y_end[-1])
+        return volts + (y_start - volts) * (tau / h) * (1.0 - a)
+
 
 class AxisCoupling(Effect):
     """``coefficients = {target: {source: c}}``: gyro ``target``'s block angle gains ``c delta_source``."""
@@ -369,6 +384,39 @@ class BlockMode(Effect):
                  np.ascontiguousarray(e[:2, 2:6]), float(angle[0]), float(rate[0]), u, du)
         return (1.0 - g) * angle + g * u, (1.0 - g) * rate + g * du
 
+    def block_stream(self, axis, angle, rate, h, state):
+        """:meth:`block` chunk by chunk.
+
+        ``angle, rate``: the table at the grid points after the chunk's start; ``state`` =
+        ``[table angle, table rate, u, u']`` at the chunk's start (at rest: ``[phi0, rate0, phi0, rate0]``,
+        the mode's start of :meth:`block`), updated. The exact step of :func:`mode_run` does not depend
+        on where the chunks end.
+        """
+        if not self.acts_on(axis) or angle.shape[0] == 0:
+            return angle, rate
+        w = 2.0 * math.pi * self.params["frequency_hz"]
+        z = self.params["zeta"]
+        g = self.params["gain"]
+        key = (h,)
+        cache = self.__dict__.setdefault("_stream_cache", {})
+        if key not in cache:
+            m = np.zeros((6, 6))
+            m[0, 1] = 1.0
+            m[1, 0] = -w * w
+            m[1, 1] = -2.0 * z * w
+            m[1, 2] = 1.0
+            m[2, 3] = m[3, 4] = m[4, 5] = 1.0
+            e = linalg.expm(m * h)
+            cache[key] = (np.ascontiguousarray(e[:2, :2]), np.ascontiguousarray(e[:2, 2:6]))
+        phi_m, gam = cache[key]
+        a_ext = np.concatenate(([float(state[0])], angle))
+        r_ext = np.concatenate(([float(state[1])], rate))
+        u = np.empty_like(a_ext)
+        du = np.empty_like(a_ext)
+        mode_run(a_ext, r_ext, h, w, z, phi_m, gam, float(state[2]), float(state[3]), u, du)
+        state[:] = (a_ext[-1], r_ext[-1], u[-1], du[-1])
+        return (1.0 - g) * angle + g * u[1:], (1.0 - g) * rate + g * du[1:]
+
 
 class ViscousDamping(Effect):
     name = "viscous_damping"
@@ -432,6 +480,28 @@ class LockIn(Effect):
         lock_in_run(np.ascontiguousarray(phi), np.ascontiguousarray(rate), h, self.params["threshold_rad_s"], k,
                     self.params["phase_rad"], self.MAX_DPSI, 0.0, e)
         return phi + e
+
+    def sense_stream(self, axis, phi, rate, h, state):
+        """:meth:`sense` chunk by chunk; also the measured angle's rate.
+
+        ``phi, rate``: RLG angle and rate at the grid points after the chunk's start; ``state`` =
+        ``[phi, rate, e]`` at the chunk's start (at rest: ``[phi0, rate0, 0]``), updated. Returns
+        ``(phi_meas, e, de/dt)`` at those grid points, ``de/dt = -threshold sin(psi)`` (Adler). The
+        kernel steps each plant step on its own, so chunking does not change the result.
+        """
+        if not self.acts_on(axis) or self.params["threshold_rad_s"] == 0.0 or phi.shape[0] == 0:
+            z = np.zeros_like(phi)
+            return phi, z, z
+        p = self.params
+        k = 2.0 * math.pi / p["fringe_rad"]
+        p_ext = np.concatenate(([float(state[0])], phi))
+        r_ext = np.concatenate(([float(state[1])], rate))
+        e = np.empty_like(p_ext)
+        lock_in_run(p_ext, r_ext, h, p["threshold_rad_s"], k, p["phase_rad"], self.MAX_DPSI, float(state[2]), e)
+        state[:] = (p_ext[-1], r_ext[-1], e[-1])
+        meas = phi + e[1:]
+        de = -p["threshold_rad_s"] * np.sin(k * meas + p["phase_rad"])
+        return meas, e[1:], de
 
 
 class MainsPickup(Effect):

@@ -26,13 +26,14 @@ from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
 from sins_sim.filters import registry as filter_registry
 from sins_sim.models.drive import DriveParams, DriveSignal
+from sins_sim.models.effects import EFFECTS, Effect
 from sins_sim.models.motion import as_motion
 from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.readout import Decimator, Readout, ReadoutParams
 from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
 
 __all__ = ["EliminatorSettings", "ChannelConfig", "ChannelResult", "DriveControl", "ChannelChain",
-           "simulate_channel", "FILTER_NAMES"]
+           "simulate_channel", "FILTER_NAMES", "check_engine_effects"]
 
 #: Outputs of a channel run, in plotting order.
 FILTER_NAMES = ("raw", "eliminator", "correcting", "correcting_paper")
@@ -233,18 +234,28 @@ class ChannelChain:
         Plug-in filters (:mod:`sins_sim.filters.registry`) run on this chain's decimated readout
         and drive after each chunk, on the same thread.
     axis : str
-        The axis name given to the plug-ins.
+        The axis name given to the plug-ins, and the axis the ``effects`` act on.
+    effects : sequence of Effect
+        Catalogue effects (:mod:`sins_sim.models.effects`, see :class:`_EffectStages`). The
+        suspension stage (viscous damping) changes the plant at construction and keeps the fused
+        path; any other stage acting on ``axis`` runs the reference composition with the effect
+        stages inserted (``path="fused"`` is then refused).
     """
 
     def __init__(self, cfg: ChannelConfig, control: DriveControl, rng: np.random.Generator,
                  rng_modulation: np.random.Generator | None = None, path: str = "auto", plugins=(),
-                 axis: str = "x"):
+                 axis: str = "x", effects=()):
         v.choice("channel", "path", path, ("auto", "fused", "reference"))
         self.cfg = cfg
         self.control = control
         self.rng = rng
         self.rng_mod = rng_modulation if rng_modulation is not None else np.random.default_rng(0)
-        self.plant = Plant(cfg.suspension, cfg.plant)
+        self.effects = check_engine_effects(effects)
+        plant_suspension = cfg.suspension
+        for e in self.effects:
+            plant_suspension = e.suspension(axis, plant_suspension)
+        self.plant = Plant(plant_suspension, cfg.plant)
+        self._fx = _EffectStages.build(self.effects, axis, self.plant)
         self.readout = Readout(cfg.readout, rng)
         self.vdec = Decimator.from_readout(cfg.readout)
         self.drive = cfg.drive_signal()
@@ -262,10 +273,16 @@ class ChannelChain:
         }
         ctx = cfg.filter_context(axis) if plugins else None
         self.plugins = {name: filter_registry.build(name, ctx) for name in plugins}
+        if self._fx is not None and cfg.plant.integrator != "exact":
+            raise ValueError("effects: the effect stages of the engine need the exact plant integrator "
+                             "(plant rate of d delta/dt), got integrator 'rk4'")
         if path == "auto":
-            path = "fused" if cfg.plant.integrator == "exact" else "reference"
+            path = "fused" if cfg.plant.integrator == "exact" and self._fx is None else "reference"
         if path == "fused" and cfg.plant.integrator != "exact":
             raise ValueError("channel.path: the fused kernel runs the exact plant integrator only")
+        if path == "fused" and self._fx is not None:
+            raise ValueError(f"channel.path: the fused kernel has no effect stages; effects "
+                             f"{[e.name for e in self._fx.effects]} on axis {axis!r} run on the reference path")
         self.path = path
         self._pack()
         self.dstate = np.zeros(kchain.N_DSTATE)
@@ -273,7 +290,7 @@ class ChannelChain:
 
     # -- parameters of the fused kernel -------------------------------------------------------
     def _pack(self):
-        cfg, c, s = self.cfg, self.control, self.cfg.suspension
+        cfg, c, s = self.cfg, self.control, self.plant.suspension  # the plant's (viscous damping added)
         fp = np.zeros(kchain.N_FPAR)
         fp[kchain.P_H] = self.plant.h
         fp[kchain.P_W0SQ] = s.omega0 ** 2
@@ -325,6 +342,8 @@ class ChannelChain:
         d[kchain.D_CARRY] = angle0
         self._blocks_done = 0
         self._chunk_n = -1
+        if self._fx is not None:
+            self._fx.reset(angle0, rate0)
 
     # -- drive state, readable on both paths --------------------------------------------------
     @property
@@ -364,6 +383,8 @@ class ChannelChain:
         if n % self.r_dec:
             raise ValueError(f"channel.chunk: must be a multiple of the decimation {self.r_dec}, got {n}")
         uniforms = self._uniforms(i0, n)
+        if self._fx is not None:
+            return self._run_effects(i0, angle, rate, uniforms)
         if self.path == "reference":
             return self._run_reference(i0, angle, rate, uniforms)
         out = self.run_kernel(i0, angle, rate, uniforms)
@@ -470,6 +491,213 @@ class ChannelChain:
         self._run_plugins(out)
         out["delta"] = delta
         return out
+
+
+    def _run_effects(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray):
+        """:meth:`_run_reference` with the effect stages inserted (:class:`_EffectStages`).
+
+        Stages in the order of the experiment simulator (``sins_sim.simulation.experiment``): block
+        (block mode) on the block's angle and rate; per amplitude-control block the commanded DAC
+        voltage, then voltage (piezo lag) into the plant, which runs in drift blocks under
+        resonance drift and returns ``d delta/dt`` too; sense (lock-in) on ``phi_rlg = block +
+        delta`` with the RLG rate ``block rate + d delta/dt``; readout (delay, scale) on the angle
+        the counter sees, which is then quantised, filtered and decimated as on the reference path.
+        The drive control and the filters see the commanded voltage (what the electronics know).
+
+        Extra outputs at the plant rate: ``sensed`` (the angle the counter sees at grid points
+        ``i0 .. i0 + n - 1``, before quantisation: delay and scale included, rad) and
+        ``lock_in_error`` (``e = phi_meas - phi_rlg`` at ``i0 + 1 .. i0 + n``, rad).
+        """
+        fx = self._fx
+        n = angle.shape[0]
+        angle, rate = fx.block(angle, rate)
+        d = self.dstate
+        delta = np.empty(n)
+        ddelta = np.empty(n)
+        volts = np.empty(n)
+        used = 0
+        j = 0
+        while j < n:
+            left = int(d[kchain.D_LEFT])
+            m = min(left, n - j)
+            vv = np.empty(m)
+            kdrive.dac_cosine(i0 + j, self.r_dac, self.drive.frequency_hz / self.cfg.drive.dac_rate_hz,
+                              self.drive.phase_rad, float(d[kchain.D_VM]), vv)
+            fx.plant_run(self.plant, i0 + j, angle[j:j + m], rate[j:j + m], fx.voltage(vv), delta[j:j + m],
+                         ddelta[j:j + m])
+            volts[j:j + m] = vv
+            acc = d[kchain.D_ACC:kchain.D_ACC + 3]
+            kdrive.demod_accumulate(delta[j:j + m], i0 + j, self.drive.frequency_hz / self.cfg.plant.rate_hz,
+                                    self.block - left, self.block, acc)
+            left -= m
+            j += m
+            if left == 0:
+                kchain.end_block(self.fpar, d, uniforms[used])
+                used += 1
+                left = self.block
+            d[kchain.D_LEFT] = left
+        self.plant._check_regime()
+        phi_meas, rate_meas, err = fx.sense(angle + delta, rate + ddelta)
+        feed = fx.readout(i0, phi_meas, rate_meas)
+        d[kchain.D_CARRY] = float(phi_meas[-1]) if n else d[kchain.D_CARRY]
+        _, x = self.readout.process(feed)
+        vx = self.vdec.process(volts)
+        out = {"raw": x}
+        out["eliminator"] = self.filters["eliminator"].process(x)
+        out["correcting"] = self.filters["correcting"].process(x, vx)
+        out["correcting_paper"] = self.filters["correcting_paper"].process(x, vx)
+        out["volts"] = vx
+        self._run_plugins(out)
+        out["delta"] = delta
+        out["sensed"] = feed
+        out["lock_in_error"] = err
+        return out
+
+
+def check_engine_effects(effects) -> tuple:
+    """The effects a SINS engine can run, as a tuple; one line naming the rule otherwise.
+
+    Catalogue effects only (:data:`sins_sim.models.effects.EFFECTS`; the off-catalogue disturbances
+    exist for the blind evaluation of recordings). ``axis_coupling`` is refused: it feeds each
+    gyro's block angle with the other gyros' deflections *within the same plant step*, while the
+    engine advances each axis's chunk on its own (the experiment simulator iterates whole passes
+    over a recording instead; a per-chunk fixed-point iteration over the three chains would be
+    the way to add it).
+    """
+    if effects is None:
+        return ()
+    if isinstance(effects, Effect) or not isinstance(effects, (tuple, list)):
+        raise ValueError(f"effects: must be a list of catalogue Effect objects, got {effects!r}")
+    out = []
+    for i, e in enumerate(effects):
+        if not isinstance(e, Effect) or EFFECTS.get(e.name) is not type(e):
+            raise ValueError(f"effects[{i}]: must be a catalogue effect ({', '.join(EFFECTS)}), got {e!r}")
+        if e.name == "axis_coupling":
+            raise ValueError("effects[%d]: axis_coupling does not run in the SINS engine: it couples the three "
+                             "axes' plants within each plant step, while the engine advances each axis's chunk on "
+                             "its own (simulate-recording supports it)" % i)
+        out.append(e)
+    return tuple(out)
+
+
+class _EffectStages:
+    """The streaming state of the effects acting on one axis of a :class:`ChannelChain`.
+
+    Each stage does what ``sins_sim.simulation.experiment.simulate_axis`` does on a whole
+    recording, chunk by chunk with its state carried (``Effect.voltage_stream``,
+    ``block_stream``, ``sense_stream``; the plant's own ``d delta/dt`` instead of a finite
+    difference of ``delta``, which would need the next chunk):
+
+    * voltage: piezo lags in order, each with its ``V_eff``;
+    * block: block modes in order, each with its mode state;
+    * plant: under ``resonance_drift`` the plant steps in blocks of ``drift_block_s`` (the
+      experiment's default, 0.02 s) counted from t = 0, with f0 at each block's middle
+      (``f0 + rate t_mid``); the drive stays at its frequency, as a recording's drive does;
+    * sense: lock-ins in order, each on the previous one's output with the RLG rate;
+    * readout: the angle the counter sees at ``t - delay`` (cubic Hermite between grid points with
+      the sensed angle's rate, the rest angle before t = 0), times the product of the scales.
+    """
+
+    DRIFT_BLOCK_S = 0.02
+
+    def __init__(self, effects, axis, plant):
+        self.effects = tuple(effects)
+        self.axis = axis
+        self.h = plant.h
+        self.base = plant.suspension
+        self.lags = [e for e in effects if e.name == "piezo_lag" and e.acts_on(axis)]
+        self.modes = [e for e in effects if e.name == "block_mode" and e.acts_on(axis)]
+        self.locks = [e for e in effects if e.name == "lock_in" and e.acts_on(axis)]
+        self.drift = sum(e.f0_rate_hz_per_s(axis) for e in effects)
+        self.delay = sum(e.delay_s(axis) for e in effects)
+        self.scale = 1.0
+        for e in effects:
+            self.scale *= e.scale(axis)
+        self.drift_block = max(1, int(round(self.DRIFT_BLOCK_S / self.h)))
+        self.plant_rate = 1.0 / self.h
+        self.n_hist = int(math.ceil(self.delay / self.h)) + 3
+
+    @classmethod
+    def build(cls, effects, axis, plant):
+        """The stages, or None when no effect beyond the suspension stage acts on ``axis``."""
+        acting = [e for e in effects if e.acts_on(axis) and e.stage not in ("suspension",)]
+        return cls(acting, axis, plant) if acting else None
+
+    def reset(self, angle0, rate0):
+        self.lag_state = [np.zeros(1) for _ in self.lags]
+        self.mode_state = [np.array([angle0, rate0, angle0, rate0], dtype=np.float64) for _ in self.modes]
+        self.lock_state = [np.array([angle0, rate0, 0.0]) for _ in self.locks]
+        self.rest = float(angle0)
+        # sensed angle and rate at grid points hist_g0 .. (the last: the chunk's start)
+        self.hist_phi = np.array([float(angle0)])
+        self.hist_rate = np.array([float(rate0)])
+        self.hist_g0 = 0
+
+    def voltage(self, volts):
+        for e, st in zip(self.lags, self.lag_state):
+            volts = e.voltage_stream(self.axis, volts, self.h, st)
+        return np.ascontiguousarray(volts)
+
+    def block(self, angle, rate):
+        for e, st in zip(self.modes, self.mode_state):
+            angle, rate = e.block_stream(self.axis, angle, rate, self.h, st)
+        return np.ascontiguousarray(angle), np.ascontiguousarray(rate)
+
+    def plant_run(self, plant, g0, angle, rate, volts, out_delta, out_ddelta):
+        """Steps ``g0 .. g0 + len - 1`` of the plant (drift blocks counted from step 0)."""
+        n = volts.shape[0]
+        j = 0
+        while j < n:
+            if self.drift == 0.0:
+                j1, s = n, self.base
+            else:
+                b = (g0 + j) // self.drift_block
+                j1 = min(n, (b + 1) * self.drift_block - g0)
+                f0 = self.base.f0_hz + self.drift * 0.5 * (2 * b + 1) * self.drift_block * self.h
+                if not 0.0 < f0 < self.plant_rate / 8.0:
+                    raise ValueError(f"effects.resonance_drift.rate_hz_per_s: f0 leaves (0, plant rate / 8) at "
+                                     f"t = {(g0 + j) * self.h:.4g} s, got f0 = {f0:.6g} Hz")
+                s = self.base.replace(f0_hz=f0)
+            w0 = s.omega0
+            kchain.plant_run_rate(angle[j:j1], rate[j:j1], volts[j:j1], self.h, w0 * w0, s.k1, s.k2, s.k3, s.k4,
+                                  s.k5, 2.0 * s.zeta / w0, plant._rule, plant._fast_dt, plant.state, plant.hyst,
+                                  plant.stack, out_delta[j:j1], out_ddelta[j:j1])
+            j = j1
+
+    def sense(self, phi, rate):
+        err = np.zeros_like(phi)
+        for e, st in zip(self.locks, self.lock_state):
+            phi, de, dr = e.sense_stream(self.axis, phi, rate, self.h, st)
+            err = err + de
+            rate = rate + dr
+        return phi, rate, err
+
+    def readout(self, g0, phi, rate):
+        """The counter's input at grid points ``g0 .. g0 + n - 1`` (``phi``: grid ``g0 + 1 .. g0 + n``)."""
+        n = phi.shape[0]
+        p = np.concatenate((self.hist_phi, phi))
+        r = np.concatenate((self.hist_rate, rate))
+        base = self.hist_g0
+        if self.delay == 0.0:
+            out = p[g0 - base:g0 - base + n].copy()
+        else:
+            u = np.arange(g0, g0 + n) - self.delay / self.h
+            idx = np.floor(u).astype(np.int64)
+            before = idx < 0
+            idx = np.maximum(idx, base)
+            s = np.clip(u - idx, 0.0, 1.0)
+            k = idx - base
+            p0, p1 = p[k], p[k + 1]
+            m0, m1 = r[k] * self.h, r[k + 1] * self.h
+            s2 = s * s
+            s3 = s2 * s
+            out = (2 * s3 - 3 * s2 + 1) * p0 + (s3 - 2 * s2 + s) * m0 + (-2 * s3 + 3 * s2) * p1 + (s3 - s2) * m1
+            out[before] = self.rest
+        keep = min(self.n_hist, p.shape[0])
+        self.hist_phi = p[-keep:].copy()
+        self.hist_rate = r[-keep:].copy()
+        self.hist_g0 = base + p.shape[0] - keep
+        return out * self.scale if self.scale != 1.0 else out
 
 
 def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed: int = 0,

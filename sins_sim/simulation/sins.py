@@ -88,6 +88,11 @@ class ImuConfig:
     sensors : SensorErrorParams or None
         Gyro and accelerometer errors beyond the dither physics (bias, noise, scale factor,
         misalignment; :mod:`sins_sim.models.sensor_errors`); None: ideal sensors.
+    effects : tuple of Effect
+        Catalogue effects (:mod:`sins_sim.models.effects`) acting in the engine as in recordings
+        (:class:`~sins_sim.simulation.channel.ChannelChain`); each names its axes among x, y, z
+        (none: all three). ``axis_coupling`` is refused (see
+        :func:`~sins_sim.simulation.channel.check_engine_effects`).
     """
 
     channels: tuple
@@ -95,8 +100,14 @@ class ImuConfig:
     accelerometer: AccelerometerParams = field(default_factory=AccelerometerParams)
     name: str = "imu"
     sensors: SensorErrorParams | None = None
+    effects: tuple = ()
 
     def __post_init__(self):
+        from sins_sim.simulation.channel import check_engine_effects
+
+        object.__setattr__(self, "effects", check_engine_effects(self.effects))
+        for e in self.effects:
+            e.check_axes(AXES)
         if len(self.channels) != 3 or not all(isinstance(c, ChannelConfig) for c in self.channels):
             raise ValueError("imu.channels: must be three ChannelConfig (x, y, z)")
         rates = {(c.plant.rate_hz, c.readout.output_rate_hz) for c in self.channels}
@@ -414,7 +425,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     truth = MissionTruth(stream, motion, translation, fp, fs)
     # independent random streams per axis: readout noise [seed, axis], amplitude modulation [seed, axis, 1]
     chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]),
-                           plugins=plugins, axis=AXES[i])
+                           plugins=plugins, axis=AXES[i], effects=imu.effects)
               for i, c in enumerate(imu.channels)]
     accel = Accelerometer(imu.accelerometer, np.random.default_rng([seed, 3]))
     # sensor errors beyond the dither physics, generated at the filter rate from the true increments and added to
