@@ -392,8 +392,73 @@ def _cmd_diagnose_eval(args) -> int:
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     with ExitStack() as stack:
         json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
-        result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=json_tmp, progress=progress)
+        result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=json_tmp, progress=progress,
+                               jobs=args.jobs)
     print(format_eval(result))
+    return EXIT_OK
+
+
+class _TaskBar:
+    """A tqdm bar over a sweep's tasks on stderr (runs done, failed, rate and time left)."""
+
+    def __init__(self, label: str, disable: bool):
+        self.label, self.disable, self.bar = label, disable, None
+
+    def __call__(self, done: int, total: int, failed: int) -> None:
+        if self.bar is False:
+            return
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc=self.label, unit="run", file=sys.stderr, disable=self.disable,
+                            dynamic_ncols=True, smoothing=0.1)
+        if failed:
+            self.bar.set_postfix_str(f"{failed} failed", refresh=False)
+        self.bar.update(done - self.bar.n)
+        if done >= total:
+            self.close()
+
+    def close(self) -> None:
+        if self.bar:
+            self.bar.close()
+            self.bar = False  # closed: no second bar
+
+
+def _cmd_sweep(args) -> int:
+    from pathlib import Path
+
+    from sins_sim.jobs.sweep import run_sweep
+
+    bar = _TaskBar(Path(args.sweep).stem, args.quiet)
+    try:
+        res = run_sweep(args.sweep, args.out, scheduler=args.scheduler, workers=args.workers, progress=bar,
+                        log=lambda line: print(line, flush=True))
+    finally:
+        bar.close()
+    s = res["summary"]
+    if res["computed"] + res["failed"]:
+        print(f"ran {res['computed'] + res['failed']} runs in {res['wall_s']:.1f} s ({res['runs_per_s']:.3g} runs/s)"
+              + (f", {res['failed']} failed" if res["failed"] else ""))
+    else:
+        print("all runs were already done")
+    print(f"{s['runs']} runs in the table, {s['failed']} failed; final horizontal position error (m) over the units:")
+    print(f"{'scenario':<22}{'filter':<18}{'p50':>11}{'p95':>11}{'p99':>11}{'n':>6}")
+    for label, block in s["by_scenario"].items():
+        for f, q in block["percentiles"].get("horizontal_position_error_m_final", {}).items():
+            print(f"{label:<22}{f:<18}{q['p50']:>11.3g}{q['p95']:>11.3g}{q['p99']:>11.3g}{q['n']:>6}")
+    if res["warned_runs"]:
+        args.job_warnings.append(f"{res['warned_runs']} run(s) warned: see the warnings column of "
+                                 f"{Path(args.out) / 'runs.parquet'}")
+    print(f"wrote {args.out}: runs.parquet, summary.json, {len(res['files']) - 2} figure(s)")
+    return EXIT_OK
+
+
+def _cmd_lockin_study(args) -> int:
+    from sins_sim.jobs.lockin_study import lockin_study
+
+    res = lockin_study(args.out, quick=args.quick, seed=args.seed)
+    print(f"ARW vs lock-in rate: log-log slope {res['slope_vs_lockin']:.3f} (analytic 1)")
+    print(f"wrote {args.out}: lockin.json, arw_vs_lockin.png, dynamic_lockin.png, report.md")
     return EXIT_OK
 
 
@@ -518,7 +583,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("csv", help="lab export (CSV)")
     p.add_argument("--out", required=True, help="recording .npz to write")
     p.add_argument("--quantum-arcsec", type=_positive, required=True, help="readout quantum (arcsec)")
-    p.add_argument("--nominal", required=True, help="JSON or YAML file: axis -> {f0_hz, k1, k2, k3, k4, k5}")
+    p.add_argument("--nominal", required=True, help="JSON or YAML file: axis -> {f0_hz, k1, k2, k3, k4, k5} "
+                                                    "(or the configs/*.yaml names k2_rad, k4_per_rad, k5_rad_per_v)")
     p.add_argument("--experiment", default="stationary", help="experiment name [stationary]")
     p.add_argument("--initial-state", choices=("rest", "unknown"), default="rest", help="[rest]")
     p.add_argument("--description", default=None, help="free text for the header")
@@ -543,16 +609,42 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=_positive, default=1.0, help="length of each recording (s) [1]")
     p.add_argument("--json", help="write the result JSON here")
     p.add_argument("--quiet", action="store_true", help="no per-case progress lines")
+    p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in processes [1]")
     p.set_defaults(func=_cmd_diagnose_eval)
 
     p = sub.add_parser("schema", help="every key of an input format with its unit, range and default",
-                       description="Print the reference of an input format (scenario, imu, experiment, trajectory; "
+                       description="Print the reference of an input format (scenario, imu, experiment, trajectory, "
+                                   "sweep; "
                                    "default all), generated from the schemas; --markdown gives "
                                    "docs/scenario-reference.md.")
-    p.add_argument("format", nargs="?", choices=("scenario", "imu", "experiment", "trajectory"), default=None,
+    p.add_argument("format", nargs="?", choices=("scenario", "imu", "experiment", "trajectory", "sweep"),
+                   default=None,
                    help="the format [all]")
     p.add_argument("--markdown", action="store_true", help="Markdown tables (docs/scenario-reference.md)")
     p.set_defaults(func=_cmd_schema)
+
+    p = sub.add_parser("lockin-study", help="lock-in in the loop: dynamic lock-in and the ARW of dithered lock-in",
+                       description="Run the engine's chain with the lock_in effect: ARW vs lock-in rate, dither "
+                                   "amplitude and modulation depth beside N = Omega_L / sqrt(K a w_D), and the "
+                                   "dynamic lock-in zones of a constant-amplitude dither.")
+    p.add_argument("--out", required=True, help="result folder")
+    p.add_argument("--quick", action="store_true", help="shorter runs, fewer points (about 15 s)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the amplitude modulation [0]")
+    p.set_defaults(func=_cmd_lockin_study)
+
+    p = sub.add_parser("sweep", help="Monte Carlo over a population of units on dask.distributed",
+                       description="Run every (unit, scenario) of a sweep file (sins-sim schema sweep) as a "
+                                   "dask.distributed task; write one Parquet part per finished run, runs.parquet, "
+                                   "summary.json and figures into --out. A second invocation resumes: runs already "
+                                   "done are not run again.")
+    p.add_argument("sweep", help="sweep YAML file (see scenarios/sweep-*.yaml)")
+    p.add_argument("--out", required=True, help="sweep folder (created, or resumed when it holds this sweep)")
+    p.add_argument("--scheduler", default=None,
+                   help="address of a running dask scheduler (tcp://host:port) [a LocalCluster]")
+    p.add_argument("--workers", type=_count, default=None,
+                   help="LocalCluster worker processes, one thread each [the cores, at most the runs]")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
+    p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("bench", help="measure the per-sample cost of the kernels and the three-axis chain")
     p.add_argument("--quick", action="store_true", help="short inputs, few repeats")

@@ -25,10 +25,18 @@ def test_bundled_imu_configs_load(path):
     assert len(set(f0)) == 3 and all(300.0 <= f <= 450.0 for f in f0)
 
 
-@pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("*.yaml")))
+@pytest.mark.parametrize("path", sorted(p for p in (ROOT / "scenarios").glob("*.yaml") if not p.name.startswith("sweep-")))
 def test_bundled_scenarios_validate(path):
     sc = load_scenario(path)
     assert sc.duration_s > sc.nav.start_s
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("sweep-*.yaml")))
+def test_bundled_sweeps_validate(path):
+    from sins_sim.jobs.sweep.schema import load_sweep
+
+    sw = load_sweep(path)
+    assert sw.units >= 1
 
 
 @pytest.mark.parametrize(

@@ -79,6 +79,19 @@ def test_schema_command_all_formats_and_markdown(capsys):
 
 def test_schema_command_refuses_an_unknown_format(capsys):
     with pytest.raises(SystemExit) as exc:
-        main(["schema", "sweep"])
+        main(["schema", "nonsense"])
     assert exc.value.code == 2
     assert capsys.readouterr().err.startswith("sins-sim: error: argument format: invalid choice")
+
+
+def test_imu_reference_lists_every_sensor_key():
+    """The sensors section is parsed by its own loader; its reference rows come from the same field specs,
+    so every key the loader accepts is listed with a unit and a range."""
+    from sins_sim.jobs.reference import rows
+    from sins_sim.models.sensor_errors import _ACCEL_KEYS, _GYRO_KEYS
+
+    listed = {r["key"]: r for r in rows("imu")}
+    for section, keys in (("gyro", _GYRO_KEYS), ("accelerometer", _ACCEL_KEYS)):
+        for key in keys:
+            row = listed[f"sensors.{section}.{key}"]
+            assert row["range"] and row["doc"], key

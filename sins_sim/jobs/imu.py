@@ -80,6 +80,22 @@ _RATE = dict(min=_plant.RATE_RANGE_HZ[0], max=_plant.RATE_RANGE_HZ[1])
 _F0 = _sus.F0_RANGE_HZ
 
 
+class _SensorsReference:
+    """The ``sensors:`` section in the reference (parsed by :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`)."""
+
+    unit = None
+    default = None
+    required = False
+
+    def describe_rows(self, path):
+        from sins_sim.models.sensor_errors import reference_rows
+
+        return reference_rows(path)
+
+    def check(self, value, ctx, path):  # never reached: imu_from_dict takes the section out first
+        return value
+
+
 IMU_SCHEMA = Map({
     "name": Str(default="imu"),
     "description": Str(default=""),
@@ -135,8 +151,9 @@ IMU_SCHEMA = Map({
     }, required=True, rules=("the three f0_hz must differ",)),
     "effects": EffectsList(doc="axis_coupling is refused in the SINS engine (it couples the axes within a plant "
                                "step)"),
-    # parsed by its own loader before the rest (true / nominal shorthands); listed here for the reference
+    # parsed by their own loaders before the rest; listed here for the reference
     "filter_parameters": _fparams.FILTER_PARAMETERS_SCHEMA,
+    "sensors": _SensorsReference(),
 })
 
 

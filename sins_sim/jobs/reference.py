@@ -17,6 +17,7 @@ FORMATS = {
     "imu": "an IMU configuration (configs/*.yaml, or inline under a scenario's `imu` key)",
     "experiment": "an experiment for `sins-sim simulate-recording`",
     "trajectory": "a trajectory file (CSV or Parquet) named by a scenario's `trajectory.file`",
+    "sweep": "a Monte Carlo sweep for `sins-sim sweep` (scenarios/sweep-*.yaml)",
 }
 #: How to regenerate the checked-in reference.
 REGENERATE = "sins-sim schema --markdown > docs/scenario-reference.md"
@@ -35,6 +36,10 @@ def _schema(fmt: str):
         from sins_sim.jobs.recording_jobs import EXPERIMENT_SCHEMA
 
         return EXPERIMENT_SCHEMA
+    if fmt == "sweep":
+        from sins_sim.jobs.sweep.schema import SWEEP_SCHEMA
+
+        return SWEEP_SCHEMA
     raise ValueError(f"FORMAT: must be one of {list(FORMATS)}, got {fmt!r}")
 
 

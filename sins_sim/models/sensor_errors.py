@@ -114,7 +114,7 @@ from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G, STANDARD_GRAVITY
 
 __all__ = ["GyroErrorParams", "AccelErrorParams", "SensorErrorParams", "GyroErrors", "AccelErrors",
            "sensor_params_from_dict", "bias_instability_components", "gauss_markov_adev",
-           "FLICKER_FLOOR_FACTOR", "MISALIGNMENT_ORDER"]
+           "FLICKER_FLOOR_FACTOR", "MISALIGNMENT_ORDER", "reference_rows"]
 
 #: Allan-deviation floor of flicker (bias-instability) noise per unit of B: sqrt(2 ln 2 / pi) = 0.6643
 #: (IEEE Std 952-1997, Annex C).
@@ -288,21 +288,23 @@ class GyroErrorParams:
     misalignment_arcsec: object = (0.0,) * 6
 
     _OWNER = "gyro_errors"
+    #: (field, kind, limits) of every field: checked on construction, listed by :func:`reference_rows`
+    _FIELDS = (
+        ("bias_deg_h", "axes", {}),
+        ("turn_on_bias_deg_h", "axes", {"lo": 0.0}),
+        ("arw_deg_rt_h", "axes", {"lo": 0.0}),
+        ("bias_instability_deg_h", "axes", {"lo": 0.0}),
+        ("bias_instability_tau_s", "tau", {}),
+        ("rrw_deg_h_rt_h", "axes", {"lo": 0.0}),
+        ("scale_factor_ppm", "axes", {"max_abs": MAX_PPM}),
+        ("scale_factor_asymmetry_ppm", "axes", {"max_abs": MAX_PPM}),
+        ("scale_factor_nonlinearity_ppm", "axes", {"max_abs": MAX_PPM}),
+        ("full_scale_deg_s", "number", {"positive": True}),
+        ("misalignment_arcsec", "misalignment", {}),
+        )
 
     def __post_init__(self):
-        _check_fields(self, self._OWNER, (
-            ("bias_deg_h", "axes", {}),
-            ("turn_on_bias_deg_h", "axes", {"lo": 0.0}),
-            ("arw_deg_rt_h", "axes", {"lo": 0.0}),
-            ("bias_instability_deg_h", "axes", {"lo": 0.0}),
-            ("bias_instability_tau_s", "tau", {}),
-            ("rrw_deg_h_rt_h", "axes", {"lo": 0.0}),
-            ("scale_factor_ppm", "axes", {"max_abs": MAX_PPM}),
-            ("scale_factor_asymmetry_ppm", "axes", {"max_abs": MAX_PPM}),
-            ("scale_factor_nonlinearity_ppm", "axes", {"max_abs": MAX_PPM}),
-            ("full_scale_deg_s", "number", {"positive": True}),
-            ("misalignment_arcsec", "misalignment", {}),
-        ))
+        _check_fields(self, self._OWNER, self._FIELDS)
 
     @property
     def is_ideal(self) -> bool:
@@ -357,20 +359,22 @@ class AccelErrorParams:
     misalignment_arcsec: object = (0.0,) * 6
 
     _OWNER = "accel_errors"
+    #: (field, kind, limits) of every field: checked on construction, listed by :func:`reference_rows`
+    _FIELDS = (
+        ("bias_ug", "axes", {}),
+        ("turn_on_bias_ug", "axes", {"lo": 0.0}),
+        ("vrw_ug_rt_hz", "axes", {"lo": 0.0}),
+        ("bias_instability_ug", "axes", {"lo": 0.0}),
+        ("bias_instability_tau_s", "tau", {}),
+        ("rrw_ug_rt_h", "axes", {"lo": 0.0}),
+        ("scale_factor_ppm", "axes", {"max_abs": MAX_PPM}),
+        ("scale_factor_asymmetry_ppm", "axes", {"max_abs": MAX_PPM}),
+        ("nonlinearity_ug_g2", "axes", {"max_abs": MAX_PPM}),
+        ("misalignment_arcsec", "misalignment", {}),
+        )
 
     def __post_init__(self):
-        _check_fields(self, self._OWNER, (
-            ("bias_ug", "axes", {}),
-            ("turn_on_bias_ug", "axes", {"lo": 0.0}),
-            ("vrw_ug_rt_hz", "axes", {"lo": 0.0}),
-            ("bias_instability_ug", "axes", {"lo": 0.0}),
-            ("bias_instability_tau_s", "tau", {}),
-            ("rrw_ug_rt_h", "axes", {"lo": 0.0}),
-            ("scale_factor_ppm", "axes", {"max_abs": MAX_PPM}),
-            ("scale_factor_asymmetry_ppm", "axes", {"max_abs": MAX_PPM}),
-            ("nonlinearity_ug_g2", "axes", {"max_abs": MAX_PPM}),
-            ("misalignment_arcsec", "misalignment", {}),
-        ))
+        _check_fields(self, self._OWNER, self._FIELDS)
 
     @property
     def is_ideal(self) -> bool:
@@ -835,3 +839,56 @@ def sensor_params_from_dict(doc, ctx: str, path: str = "sensors") -> SensorError
         gyro=_section(doc.get("gyro"), GyroErrorParams, _GYRO_KEYS, ctx, f"{path}.gyro"),
         accelerometer=_section(doc.get("accelerometer"), AccelErrorParams, _ACCEL_KEYS, ctx,
                                f"{path}.accelerometer"))
+
+
+def _param_docs(cls) -> dict:
+    """First sentence of each parameter's description in the class docstring (numpydoc)."""
+    import inspect
+    import re
+
+    doc = inspect.getdoc(cls) or ""
+    body = doc.split("Parameters\n----------\n", 1)[-1].split("\n\n", 1)[0]
+    out, name = {}, None
+    for line in body.splitlines():
+        m = re.match(r"^(\w+) : ", line)
+        if m:
+            name = m.group(1)
+            out[name] = ""
+        elif name is not None and line.startswith("    "):
+            out[name] = (out[name] + " " + line.strip()).strip()
+    return {k: v.split(". ")[0].rstrip(".") for k, v in out.items()}
+
+
+def reference_rows(path: str = "sensors") -> list:
+    """The ``sensors:`` keys as rows of the input reference (``sins-sim schema imu``): key, kind, unit, range,
+    default and description, from the field specs the constructors check and the classes' docstrings."""
+    unit_of = (("_deg_h_rt_h", "deg/h/sqrt(h)"), ("_deg_rt_h", "deg/sqrt(h)"), ("_ug_rt_hz", "ug/sqrt(Hz)"),
+               ("_ug_rt_h", "ug/sqrt(h)"), ("_ug_g2", "ug/g^2"), ("_deg_h", "deg/h"), ("_deg_s", "deg/s"),
+               ("_ppm", "ppm"), ("_arcsec", "arcsec"), ("_ug", "ug"), ("_s", "s"))
+    rows = [{"key": path, "kind": "mapping", "unit": "", "range": "gyro, accelerometer", "default": "(none: ideal)",
+             "doc": "sensor errors beyond the dither physics (sins_sim.models.sensor_errors); per-axis keys take one "
+                    "number for x, y, z or a list of three"}]
+    for section, cls in (("gyro", GyroErrorParams), ("accelerometer", AccelErrorParams)):
+        docs = _param_docs(cls)
+        defaults = {f.name: f.default for f in fields(cls)}
+        rows.append({"key": f"{path}.{section}", "kind": "mapping", "unit": "", "range": "", "default": "(none)",
+                     "doc": ""})
+        for name, kind, kw in cls._FIELDS:
+            unit = next((label for suffix, label in unit_of if name.endswith(suffix)), "")
+            if kind == "axes":
+                rng = (f">= {kw['lo']:g}" if "lo" in kw else f"|x| <= {kw['max_abs']:g}" if "max_abs" in kw
+                       else "any") + ", per axis"
+                knd = "number or 3 numbers"
+            elif kind == "number":
+                rng, knd = "> 0", "number"
+            elif kind == "tau":
+                rng = f"0 < lower <= upper <= {MAX_TAU_S:g}, at most {MAX_PLATEAU_DECADES:g} decades"
+                knd = "2 numbers"
+            else:
+                rng = f"|x| <= {MAX_MISALIGNMENT_ARCSEC:g}; order {', '.join(MISALIGNMENT_ORDER)}"
+                knd = "6 numbers or 3x3"
+            d = defaults[name]
+            default = f"{d:g}" if isinstance(d, float) else ", ".join(f"{x:g}" for x in d)
+            rows.append({"key": f"{path}.{section}.{name}", "kind": knd, "unit": unit, "range": rng,
+                         "default": default, "doc": docs.get(name, "")})
+    return rows

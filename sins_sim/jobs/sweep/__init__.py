@@ -1,0 +1,16 @@
+"""Monte Carlo over unit populations on dask.distributed (``sins-sim sweep``).
+
+.. autosummary::
+
+   schema      the sweep file: scenarios, population, units, seed
+   population  seeded draws of each unit around the IMU file, applied to an IMU mapping
+   tasks       one task per (unit, scenario), its key, and the worker's run (flat metrics)
+   store       the sweep folder: Parquet parts written as runs finish, failures, resume
+   summary     summary.json: percentiles per metric and filter, drivers of the tail
+   job         run_sweep: validate, resume, submit, collect, summarise, plot
+"""
+
+from sins_sim.jobs.sweep.job import run_sweep
+from sins_sim.jobs.sweep.schema import SWEEP_SCHEMA, load_sweep
+
+__all__ = ["run_sweep", "load_sweep", "SWEEP_SCHEMA"]

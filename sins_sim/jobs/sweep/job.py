@@ -1,0 +1,269 @@
+"""``sins-sim sweep``: every (unit, scenario) run as a dask.distributed task, results on disk as they finish.
+
+:func:`run_sweep` validates the sweep file, every scenario and every unit's drawn IMU (:mod:`.tasks`)
+before anything starts, opens the output folder (:mod:`.store`), skips the runs whose key already has
+a part there, submits the rest to a dask cluster (a ``LocalCluster`` of ``workers`` single-threaded
+processes by default, or the scheduler at ``scheduler``), writes each part as its task finishes, and
+records a failed task (its parameters, error and traceback) without stopping the others. At the end
+it writes ``runs.parquet``, ``summary.json`` (:mod:`.summary`) and the plots.
+
+No batching of units inside a task: a run of a few simulated seconds already costs 30-100 ms against
+about 2 ms of dask overhead per task, so one run per task keeps the results streaming and the
+resume exact.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import time
+import traceback
+from contextlib import contextmanager
+from pathlib import Path
+
+from sins_sim.jobs.schema import ConfigError
+from sins_sim.jobs.sweep.schema import load_sweep
+from sins_sim.jobs.sweep.store import SweepStore
+from sins_sim.jobs.sweep.summary import metric_filters, parameter_names, spearman, summarize
+from sins_sim.jobs.sweep.tasks import (HEADLINE_METRICS, METRICS, PARAM_PREFIX, build_tasks, package_version,
+                                       run_task)
+
+__all__ = ["run_sweep", "prepare_sweep", "parameter_label", "CONNECT_TIMEOUT_S"]
+
+#: How long to wait for ``--scheduler`` to answer (s).
+CONNECT_TIMEOUT_S = 15.0
+#: Sensitivity figures show at most this many parameters (the strongest rank correlations first).
+MAX_SENSITIVITY_PANELS = 8
+#: The metrics drawn against the parameters (every headline metric's drivers are in summary.json).
+SENSITIVITY_METRICS = ("horizontal_position_error_m_final", "event_step_arcsec_max")
+
+_PARAM_LABELS = {
+    "f0_ppm": "f0 offset, axis {ax} (ppm)", "f0_hz": "f0 offset, axis {ax} (Hz)",
+    "k1_percent": "k1, axis {ax} (% from nominal)", "k2_percent": "k2, axis {ax} (% from nominal)",
+    "k3_percent": "k3, axis {ax} (% from nominal)", "k4_percent": "k4, axis {ax} (% from nominal)",
+    "k5_percent": "k5, axis {ax} (% from nominal)",
+    "temperature_coefficient_ppm_per_k": "f0 temperature coefficient, axis {ax} (ppm/K)",
+}
+
+
+def parameter_label(name: str) -> str:
+    """Axis label (with unit) of a drawn parameter (``f0_ppm.x``, ``temperature_k``, ``gyro.bias_deg_h.x``)."""
+    if name == "temperature_k":
+        return "temperature offset from calibration (K)"
+    key, _, ax = name.rpartition(".")
+    if key in _PARAM_LABELS:
+        return _PARAM_LABELS[key].format(ax=ax)
+    return f"{name} (score: draw / 1 sigma)"
+
+
+def prepare_sweep(path, units=None):
+    """The validated sweep, its tasks and scenario labels (nothing started, nothing written)."""
+    import warnings
+
+    sweep = load_sweep(path)
+    with warnings.catch_warnings():
+        # an unusual drawn value warns in its run too (the runs' warnings column): not once per unit here
+        warnings.simplefilter("ignore")
+        tasks, labels = build_tasks(sweep, units)
+    return sweep, tasks, labels
+
+
+@contextmanager
+def _quiet_dask():
+    """dask's own log lines (worker start and stop, closed streams) are not the user's business."""
+    loggers = [logging.getLogger(n) for n in ("distributed", "distributed.worker", "distributed.nanny",
+                                              "distributed.scheduler", "distributed.core", "distributed.comm",
+                                              "distributed.batched", "distributed.client")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        for lg, lv in zip(loggers, levels):
+            lg.setLevel(lv)
+
+
+@contextmanager
+def _dask_client(scheduler, workers, n_tasks):
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ConfigError(f"--scheduler: cannot reach {scheduler} within {CONNECT_TIMEOUT_S:g} s "
+                              f"({' '.join(str(exc).split()) or type(exc).__name__})") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    n = max(1, min(workers or os.cpu_count() or 1, n_tasks))
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    try:
+        client = Client(cluster)
+        try:
+            yield client
+        finally:
+            client.close()
+    finally:
+        cluster.close()
+
+
+def _failure_record(task, exc, tb) -> dict:
+    text = "".join(traceback.format_exception(type(exc), exc, tb)) if tb is not None else repr(exc)
+    return {"key": task.key, "unit": task.unit, "scenario": task.scenario, "seed": task.seed,
+            "params": task.params, "error": f"{type(exc).__name__}: {' '.join(str(exc).split())}",
+            "traceback": text}
+
+
+def _run_tasks(client, todo, store, progress, task_fn, version) -> tuple[int, int]:
+    from dask.distributed import as_completed
+
+    futures = {}
+    for t in todo:
+        fut = client.submit(task_fn, t.spec(version), key=f"sins-sim-run-{t.key}", pure=False)
+        futures[fut] = t
+    ok = failed = 0
+    if progress is not None:
+        progress(0, len(todo), 0)
+    try:
+        for fut in as_completed(list(futures)):
+            task = futures.pop(fut)
+            if fut.status == "finished":
+                store.write_row(fut.result())
+                ok += 1
+            else:
+                store.write_failure(_failure_record(task, fut.exception(), fut.traceback()))
+                failed += 1
+            fut.release()
+            if progress is not None:
+                progress(ok + failed, len(todo), failed)
+    except BaseException:
+        client.cancel(list(futures))
+        raise
+    return ok, failed
+
+
+def run_sweep(path, out, scheduler: str | None = None, workers: int | None = None, progress=None, log=print,
+              client=None, task_fn=run_task, plots: bool = True) -> dict:
+    """Run a sweep file; results into ``out`` (resumed if it holds this sweep's earlier results).
+
+    Parameters
+    ----------
+    path : path
+        The sweep YAML (``sins-sim schema sweep``).
+    out : path
+        The sweep folder (:mod:`sins_sim.jobs.sweep.store`): created, or taken up where it stopped.
+    scheduler : str, optional
+        Address of a running dask scheduler (``tcp://host:port``); default a ``LocalCluster``.
+    workers : int, optional
+        Worker processes of the ``LocalCluster`` (one thread each; default: the cores, at most the tasks).
+    progress : callable(done, total, failed), optional
+        Told the number of tasks to run at the start and after each finished task.
+    log : callable(str)
+        Where the one-line notes go (what was already done, what failed).
+    client : dask.distributed.Client, optional
+        Use this client instead of making one (``scheduler`` and ``workers`` are then ignored).
+    task_fn : callable(spec) -> row
+        The task (default :func:`sins_sim.jobs.sweep.tasks.run_task`).
+    plots : bool
+        Draw the figures (redrawn only when the table changed since they were drawn).
+
+    Returns
+    -------
+    dict
+        ``summary`` (as in ``summary.json``), ``tasks``, ``already_done``, ``computed``, ``failed``
+        (this invocation), ``wall_s`` (the tasks' phase), ``runs_per_s`` and ``files``.
+    """
+    store = SweepStore(out)
+    store.check()
+    sweep, tasks, labels = prepare_sweep(path)
+    keys = [t.key for t in tasks]
+    store.open({"name": sweep.name, "sweep_file": str(Path(path).resolve()), "version": package_version(),
+                "tasks": len(tasks), "units": sweep.units, "scenarios": labels},
+               Path(path).read_text())
+    done = store.done_keys()
+    todo = [t for t in tasks if t.key not in done]
+    already = len(tasks) - len(todo)
+    retry = len(store.failed_keys() & {t.key for t in todo})
+    stale = len(done - set(keys))
+    log(f"{sweep.name}: {len(tasks)} runs ({sweep.units} units x {len(labels)} scenarios): {already} already done, "
+        f"{len(todo)} to run" + (f" ({retry} failed before, tried again)" if retry else "")
+        + (f"; {stale} stored runs of an earlier sweep definition left aside" if stale else ""))
+    ok = failed = 0
+    wall = 0.0
+    if todo:
+        with _quiet_dask():
+            if client is not None:
+                t0 = time.perf_counter()
+                ok, failed = _run_tasks(client, todo, store, progress, task_fn, package_version())
+                wall = time.perf_counter() - t0
+            else:
+                with _dask_client(scheduler, workers, len(todo)) as cl:
+                    t0 = time.perf_counter()
+                    ok, failed = _run_tasks(cl, todo, store, progress, task_fn, package_version())
+                    wall = time.perf_counter() - t0
+    table = store.table(keys)
+    if len(table):
+        table = table.sort_values(["scenario_index", "unit"], kind="stable").reset_index(drop=True)
+    have = set(table["key"]) if len(table) else set()
+    failures = store.failures([k for k in keys if k not in have])
+    summary = summarize(table, failures, labels)
+    files = ["runs.parquet", "summary.json"]
+    text = json.dumps(summary, indent=2, allow_nan=False) + "\n"
+    drawn = store.root / ".figures-of-summary.json"  # the sweep name and summary the figures were drawn from
+    unchanged = drawn.is_file() and drawn.read_text() == sweep.name + "\n" + text
+    if len(table):
+        store.write_table(table)
+    store.write_text("summary.json", text)
+    if len(table) and plots:
+        if unchanged:
+            files += sorted(p.name for p in store.root.glob("*.png"))
+        else:
+            drawn.unlink(missing_ok=True)
+            for old in store.root.glob("*.png"):
+                old.unlink()
+            files += _plots(table, labels, store, sweep.name)
+            store.write_text(drawn.name, sweep.name + "\n" + text)
+    for rec in failures:
+        log(f"failed: unit {rec['unit']}, {rec['scenario']}: {rec['error']} (traceback in failed/{rec['key']}.json)")
+    return {"summary": summary, "tasks": len(tasks), "already_done": already, "computed": ok, "failed": failed,
+            "wall_s": wall, "runs_per_s": (ok + failed) / wall if wall > 0 else None, "files": files,
+            "warned_runs": int((table["warnings"].fillna("") != "").sum()) if len(table) else 0,
+            "table": table}
+
+
+def _plots(table, labels, store, name) -> list:
+    from sins_sim.plots import sweep as ps
+
+    filters = metric_filters(table)
+    files = []
+    head = {m: METRICS[m] for m in HEADLINE_METRICS}
+    tmp = store.root / ".distributions.tmp-.png"
+    if ps.plot_distributions(table, head, filters, labels, tmp,
+                             f"{name}: distribution over {table['unit'].nunique()} units (dots: 95th percentile)"):
+        os.replace(tmp, store.root / "distributions.png")
+        files.append("distributions.png")
+    for j, label in enumerate(labels):
+        sub = table[table["scenario"] == label]
+        params = parameter_names(sub)
+        if len(sub) < 3 or not params:
+            continue
+        for metric in SENSITIVITY_METRICS:
+            rho = {(PARAM_PREFIX + p, f): spearman(sub[PARAM_PREFIX + p], sub[f"{f}.{metric}"])
+                   for p in params for f in filters if f"{f}.{metric}" in sub}
+            strength = {p: max((abs(r) for (pc, _), r in rho.items() if pc == PARAM_PREFIX + p and r == r),
+                               default=0.0) for p in params}
+            top = sorted(params, key=lambda p: -strength[p])[:MAX_SENSITIVITY_PANELS]
+            fname = f"sensitivity_{j}_{metric}.png"
+            tmp = store.root / f".{fname}.tmp-.png"
+            if ps.plot_sensitivity(sub, metric, METRICS[metric], {PARAM_PREFIX + p: parameter_label(p) for p in top},
+                                   filters, tmp, f"{label}: {metric} against the drawn parameters "
+                                                 f"(rho: Spearman rank correlation)", rho):
+                os.replace(tmp, store.root / fname)
+                files.append(fname)
+    return files

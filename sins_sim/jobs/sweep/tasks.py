@@ -1,0 +1,259 @@
+"""The sweep's tasks: one per (unit, scenario), each a self-contained scenario document and its key.
+
+:func:`build_tasks` (on the client) reads every scenario and IMU file once, applies each unit's draws
+(:mod:`.population`), validates every unit's IMU before anything runs, and keys each run by a hash of
+what determines its result. :func:`run_task` (on a worker) runs one task through the INS loop with one
+thread and returns one flat row of metrics per filter, and nothing else (no plots, no files).
+
+The key is the first 20 hex digits of the SHA-256 of the canonical JSON of the run's scenario
+document with the unit's IMU inlined (its drawn parameters, the filter-parameter mode, the run seed
+and the duration are all in it), the SHA-256 of a trajectory file it names (its content, not its
+path), the package version, and the unit's index and scenario label (so that two units that happen
+to be identical still get a row each). Equal keys mean equal results; a resumed sweep skips every key
+already stored.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from sins_sim.jobs.schema import ConfigError
+
+__all__ = ["package_version", "Task", "build_tasks", "run_task", "run_key", "flatten_metrics", "METRICS",
+           "HEADLINE_METRICS", "ID_COLUMNS", "PARAM_PREFIX"]
+
+#: Columns that name a run (before the drawn parameters and the metrics).
+ID_COLUMNS = ("key", "scenario", "scenario_index", "unit", "seed")
+#: Prefix of the drawn-parameter columns (``param.f0_ppm.x``).
+PARAM_PREFIX = "param."
+_NED = ("north", "east", "down")
+#: Per-filter metric columns (``<filter>.<metric>``) with their axis labels (units in the names).
+METRICS = {
+    "horizontal_position_error_m_final": "final horizontal position error (m)",
+    "horizontal_position_error_m_max": "largest horizontal position error (m)",
+    "vertical_position_error_m_final": "final vertical position error (m)",
+    "velocity_error_m_s_final": "final velocity error (m/s)",
+    "velocity_error_m_s_max": "largest velocity error (m/s)",
+    **{f"attitude_error_arcsec_rms_{a}": f"RMS attitude error about {a} (arcsec)" for a in _NED},
+    "attitude_error_arcsec_rms_total": "RMS attitude error, root sum of squares N, E, D (arcsec)",
+    **{f"attitude_error_arcsec_final_{a}": f"final attitude error about {a} (arcsec)" for a in _NED},
+    "cep_rate_nmi_h": "CEP rate (nmi/h)",
+    **{f"drift_deg_per_h_{a}": f"drift about {a} (deg/h; only where a ramp explains it)" for a in _NED},
+    "event_step_arcsec_max": "largest attitude step across a shock or turn (arcsec)",
+    **{f"gyro_error_rms_arcsec_{a}": f"RMS gyro-angle error, axis {a} (arcsec)" for a in ("x", "y", "z")},
+}
+#: The metrics summarised in the plots (all of :data:`METRICS` are in ``summary.json``).
+HEADLINE_METRICS = ("horizontal_position_error_m_final", "velocity_error_m_s_final",
+                    "attitude_error_arcsec_rms_total", "event_step_arcsec_max")
+
+
+def package_version() -> str:
+    """sins-sim's version (part of every run's key: a new version recomputes every run)."""
+    import sins_sim
+
+    return sins_sim.__version__
+
+
+@dataclass
+class Task:
+    """One (unit, scenario) run."""
+
+    key: str
+    unit: int
+    scenario: str
+    scenario_index: int
+    seed: int
+    params: dict
+    doc: dict = field(repr=False)
+    ctx: str = ""
+    base_dir: str = ""
+
+    def spec(self, version: str) -> dict:
+        """What a worker needs (plain data: pickles to any worker of the same sins-sim version)."""
+        return {"key": self.key, "unit": self.unit, "scenario": self.scenario,
+                "scenario_index": self.scenario_index, "seed": self.seed, "params": self.params,
+                "doc": self.doc, "ctx": self.ctx, "base_dir": self.base_dir, "version": version}
+
+
+def _sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def run_key(doc: dict, files: dict, version: str, ident: dict | None = None) -> str:
+    """The run's key: SHA-256 of (scenario document with the unit inlined, file contents, version, ``ident``),
+    the first 20 hex digits. ``ident`` (unit index, scenario label) keeps two identical runs apart."""
+    text = json.dumps({"doc": doc, "files": files, "version": version, "ident": ident or {}}, sort_keys=True,
+                      separators=(",", ":"), allow_nan=False, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def _scenario_base(entry: dict) -> dict:
+    """Read one scenario of the sweep (and its IMU file), validate it once; what every unit's run starts from."""
+    from sins_sim.jobs.estimate import check_run
+    from sins_sim.jobs.imu import load_yaml
+    from sins_sim.jobs.scenario import Scenario
+
+    path = entry["path"]
+    doc = dict(load_yaml(path))
+    if entry["duration_s"] is not None:
+        doc["duration_s"] = entry["duration_s"]
+    doc["outputs"] = {"plots": False, "timeseries": False}
+    scenario = Scenario(doc, str(path), path.parent)  # the scenario as the sweep runs it, before any draw
+    check_run(scenario)  # refuse a run that cannot finish (48 h, 8 GiB), before any task starts
+    imu = doc.get("imu")
+    if isinstance(imu, str):
+        imu_path = (path.parent / imu).resolve()
+        imu_doc, imu_ctx = load_yaml(imu_path), str(imu_path)
+    else:
+        imu_doc, imu_ctx = imu, f"{path} (imu)"
+    files = {}
+    traj = doc.get("trajectory")
+    if isinstance(traj, dict) and traj.get("file"):
+        tpath = (path.parent / traj["file"]).resolve()
+        doc["trajectory"] = {**traj, "file": str(tpath)}
+        files["trajectory.file"] = _sha256_file(tpath)
+    label = entry["label"] or scenario.name
+    return {"doc": doc, "imu_doc": imu_doc, "imu_ctx": imu_ctx, "files": files, "label": label,
+            "scenario": scenario, "path": path}
+
+
+def build_tasks(sweep, units=None) -> tuple[list, list]:
+    """Every (unit, scenario) task of ``sweep``, validated; and the scenario labels in order.
+
+    Parameters
+    ----------
+    sweep : Sweep
+    units : iterable of int, optional
+        The unit indices (default: all ``range(sweep.units)``).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the unit and the key when a scenario or a unit's drawn IMU breaks a rule.
+    """
+    from sins_sim.jobs.imu import IMU_SCHEMA, imu_from_dict, load_yaml
+    from sins_sim.jobs.sweep.population import apply_unit, draw_unit
+
+    if sweep.filter_parameters not in ("true", True) and "filter_parameters" not in IMU_SCHEMA.fields:
+        raise ConfigError(f"{sweep.ctx}: filter_parameters: {sweep.filter_parameters!r} needs the IMU key "
+                          "filter_parameters, which this version of sins-sim does not have (use true)")
+    bases = [_scenario_base(entry) for entry in sweep.scenarios]
+    labels = [b["label"] for b in bases]
+    for j, label in enumerate(labels):
+        if label in labels[:j]:
+            raise ConfigError(f"{sweep.ctx}: scenarios[{j}].label: {label!r} is already the name of "
+                              f"scenarios[{labels.index(label)}]: give each a unique label")
+    preset = None
+    if sweep.sensor_preset is not None:
+        preset = load_yaml(sweep.sensor_preset).get("sensors")
+        if not preset:
+            raise ConfigError(f"{sweep.ctx}: population.sensors.preset: {sweep.sensor_preset} has no sensors: block")
+    tasks = []
+    checked: dict = {}
+    for i in (range(sweep.units) if units is None else units):
+        unit = draw_unit(sweep, i)
+        for j, base in enumerate(bases):
+            imu_doc = apply_unit(base["imu_doc"], unit, sweep.filter_parameters, preset, sweep.sensors["draw"])
+            ident = (base["imu_ctx"], json.dumps(imu_doc, sort_keys=True, default=str))
+            if ident not in checked:  # scenarios naming the same IMU file share the unit's check
+                imu_from_dict(imu_doc, f"{sweep.ctx}: unit {i}: {base['imu_ctx']}")
+                checked[ident] = True
+            doc = copy.deepcopy(base["doc"])
+            doc["imu"] = imu_doc
+            if "run_seed" in unit:
+                doc["seed"] = unit["run_seed"]
+            seed = int(doc.get("seed", base["scenario"].seed))
+            doc["seed"] = seed
+            keyed = doc
+            if base["files"]:  # a trajectory file enters the key by its content, not by where it lies
+                keyed = {**doc, "trajectory": {**doc["trajectory"], "file": "(content)"}}
+            key = run_key(keyed, base["files"], package_version(), {"unit": i, "scenario": base["label"]})
+            tasks.append(Task(key=key, unit=i, scenario=base["label"],
+                              scenario_index=j, seed=seed, params={k: v for k, v in unit.items() if k != "run_seed"},
+                              doc=doc, ctx=f"{base['path']} (unit {i})", base_dir=str(base["path"].parent)))
+    return tasks, labels
+
+
+def _num(x) -> float:
+    return float(x) if x is not None and math.isfinite(float(x)) else math.nan
+
+
+def flatten_metrics(filters: dict, gyro_rms: dict) -> dict:
+    """``<filter>.<metric>`` columns from ``scenario_metrics``' per-filter dict (missing values: NaN)."""
+    row = {}
+    for name, m in filters.items():
+        row[f"{name}.status"] = m["status"]
+        vals = dict.fromkeys(METRICS, math.nan)
+        if "horizontal_position_error_m" in m:
+            h, v = m["horizontal_position_error_m"], m["velocity_error_m_s"]
+            rms, fin = m["attitude_error_arcsec"]["rms"], m["attitude_error_arcsec"]["final"]
+            vals.update({
+                "horizontal_position_error_m_final": _num(h["final"]), "horizontal_position_error_m_max": _num(h["max"]),
+                "vertical_position_error_m_final": _num(m["vertical_position_error_m"]["final"]),
+                "velocity_error_m_s_final": _num(v["final"]), "velocity_error_m_s_max": _num(v["max"]),
+                **{f"attitude_error_arcsec_rms_{a}": _num(rms[a]) for a in _NED},
+                "attitude_error_arcsec_rms_total": math.sqrt(sum(_num(rms[a]) ** 2 for a in _NED)),
+                **{f"attitude_error_arcsec_final_{a}": _num(fin[a]) for a in _NED},
+                "cep_rate_nmi_h": _num(m.get("cep_rate_nmi_h")),
+            })
+            dr = m.get("drift_deg_per_h")
+            if dr:
+                vals.update({f"drift_deg_per_h_{a}": _num(x) for a, x in zip(dr["axes"], dr["value"])})
+            steps = [abs(s) for ev in m.get("events") or [] for s in ev.get("step_arcsec", [])]
+            if steps:
+                vals["event_step_arcsec_max"] = _num(max(steps))
+        for a, x in zip(("x", "y", "z"), gyro_rms.get(name, [math.nan] * 3)):
+            vals[f"gyro_error_rms_arcsec_{a}"] = _num(x)
+        row.update({f"{name}.{k}": val for k, val in vals.items()})
+    return row
+
+
+def run_task(spec: dict) -> dict:
+    """Run one task on a worker: the scenario through the INS loop, one thread; one flat row.
+
+    The row holds :data:`ID_COLUMNS`, the drawn parameters (``param.*``), ``<filter>.<metric>`` for every
+    filter and :data:`METRICS` entry, ``<filter>.status``, and ``wall_s``, ``worker`` and ``warnings``
+    (the run's warnings, one per line). Raises what the run raises (the client records it).
+    """
+    import os
+    import socket
+    import time
+
+    import numpy as np
+
+    from sins_sim.jobs.messages import format_warning_lines
+    from sins_sim.jobs.run import scenario_metrics
+    from sins_sim.jobs.scenario import Scenario
+    from sins_sim.simulation.sins import simulate_sins
+    from sins_sim.units import ARCSEC
+
+    if spec["version"] != package_version():
+        raise RuntimeError(f"worker {socket.gethostname()} runs sins-sim {package_version()}, the sweep was built "
+                           f"with {spec['version']}: install the same version on every worker")
+    t0 = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sc = Scenario(spec["doc"], spec["ctx"], Path(spec["base_dir"]))
+        res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
+                            threads=1, vehicle=sc.vehicle, translation=sc.translation)
+        filters = scenario_metrics(res, sc)
+    gyro_rms = {name: np.sqrt(np.mean((e - e.mean(axis=0)) ** 2, axis=0)) / ARCSEC
+                for name, e in res.spectra.items() if name != "t" and e.shape[0]}
+    row = {"key": spec["key"], "scenario": spec["scenario"], "scenario_index": spec["scenario_index"],
+           "unit": spec["unit"], "seed": spec["seed"]}
+    row.update({PARAM_PREFIX + k: float(v) for k, v in spec["params"].items()})
+    row.update(flatten_metrics(filters, gyro_rms))
+    lines = format_warning_lines([*res.warnings, *caught], prefix="")
+    row.update({"wall_s": time.perf_counter() - t0, "worker": f"{socket.gethostname()}:{os.getpid()}",
+                "warnings": "\n".join(lines)})
+    return row

@@ -1,0 +1,133 @@
+"""Figures of a Monte Carlo sweep (``sins-sim sweep``): metric distributions and what drives them.
+
+* :func:`plot_distributions`: per scenario (rows) and headline metric (columns), the empirical
+  cumulative distribution of each filter's metric over the units, on a log axis (the filters differ
+  by decades), with the 95th percentile marked.
+* :func:`plot_sensitivity`: one metric against each drawn parameter, per filter, with the Spearman
+  rank correlation in each panel's title: which parameter drives the tail.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sins_sim.plots.common import COLORS, LABELS, _pyplot
+
+__all__ = ["plot_distributions", "plot_sensitivity"]
+
+_COLORS = {"ideal": "k", **COLORS}
+_LABELS = {"ideal": "ideal increments", **LABELS}
+
+
+def _positive(x):
+    x = np.asarray(x, dtype=float)
+    return x[np.isfinite(x) & (x > 0.0)]
+
+
+def plot_distributions(table, metrics: dict, filters, scenarios, path, title: str = "") -> bool:
+    """ECDF of each metric per filter; ``metrics`` maps a metric column suffix to its axis label (units).
+
+    Returns False (and writes nothing) when no metric has a positive finite value.
+    """
+    panels = []
+    for sc in scenarios:
+        sub = table[table["scenario"] == sc]
+        for metric, label in metrics.items():
+            if any(_positive(sub.get(f"{f}.{metric}", [])).size for f in filters):
+                panels.append((sc, metric, label, sub))
+    if not panels:
+        return False
+    cols = len({m for _, m, _, _ in panels})
+    metric_cols = [m for m in metrics if any(m == pm for _, pm, _, _ in panels)]
+    rows = [sc for sc in scenarios if any(sc == ps for ps, _, _, _ in panels)]
+    plt = _pyplot()
+    fig, axes = plt.subplots(len(rows), cols, figsize=(4.6 * cols, 3.6 * len(rows)), squeeze=False,
+                             constrained_layout=True)
+    for ax in axes.flat:
+        ax.set_visible(False)
+    handles = {}
+    for sc, metric, label, sub in panels:
+        ax = axes[rows.index(sc), metric_cols.index(metric)]
+        ax.set_visible(True)
+        values = np.concatenate([_positive(sub[f"{f}.{metric}"]) for f in filters if f"{f}.{metric}" in sub])
+        log = values.max() > 20.0 * values.min()  # a log axis only where the filters differ by decades
+        for f in filters:
+            col = f"{f}.{metric}"
+            if col not in sub:
+                continue
+            x = np.sort(_positive(sub[col]))
+            if not x.size:
+                continue
+            p = np.arange(1, x.size + 1) / x.size
+            (h,) = ax.step(x, p, where="post", color=_COLORS.get(f), lw=1.4, label=_LABELS.get(f, f))
+            p95 = float(np.percentile(x, 95.0))
+            ax.plot([p95], [0.95], "o", color=_COLORS.get(f), ms=4)
+            handles[f] = h
+        if log:
+            ax.set_xscale("log")
+            ax.xaxis.set_minor_formatter(plt.NullFormatter())
+        else:
+            ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4))
+            ax.tick_params(axis="x", labelsize=8)
+        ax.set_ylim(0.0, 1.02)
+        ax.axhline(0.95, color="0.5", lw=0.6, ls=":")
+        ax.set_xlabel(label)
+        ax.set_ylabel("fraction of units")
+        ax.set_title(f"{sc}: {metric}", fontsize=9)
+        ax.grid(True, which="major", alpha=0.3)
+    fig.legend(list(handles.values()), [_LABELS.get(f, f) for f in handles], loc="outside lower center",
+               ncol=min(len(handles), 5), fontsize=8)
+    fig.suptitle(title or "distribution over the units (dots: 95th percentile)")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+def plot_sensitivity(table, metric: str, label: str, params: dict, filters, path, title: str = "",
+                     correlations: dict | None = None) -> bool:
+    """``metric`` against each drawn parameter (``params``: column -> axis label), one point per unit and filter.
+
+    ``correlations`` maps (parameter column, filter) to a rank correlation shown in the panel title.
+    Returns False when the metric has no positive finite value.
+    """
+    # a filter whose metric does not vary over the units (ideal increments) has nothing to show here
+    cols_y = [f for f in filters if f"{f}.{metric}" in table and np.unique(_positive(table[f"{f}.{metric}"])).size > 1]
+    if not cols_y or not params:
+        return False
+    n = len(params)
+    ncols = min(n, 4)
+    nrows = math.ceil(n / ncols)
+    plt = _pyplot()
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.8 * ncols, 3.0 * nrows), squeeze=False,
+                             constrained_layout=True, sharey=True)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    handles = {}
+    for ax, (pcol, plabel) in zip(axes.flat, params.items()):
+        x = table[pcol].to_numpy(dtype=float)
+        best = []
+        for f in cols_y:
+            y = table[f"{f}.{metric}"].to_numpy(dtype=float)
+            ok = np.isfinite(x) & np.isfinite(y) & (y > 0.0)
+            handles[f] = ax.scatter(x[ok], y[ok], s=9, color=_COLORS.get(f), alpha=0.7, lw=0,
+                                    label=_LABELS.get(f, f))
+            rho = (correlations or {}).get((pcol, f))
+            if rho is not None and math.isfinite(rho):
+                best.append(rho)
+        ax.set_yscale("log")
+        ax.yaxis.set_minor_formatter(plt.NullFormatter())
+        ax.set_xlabel(plabel, fontsize=8)
+        rho_text = f", max |rho| {max(abs(r) for r in best):.2f}" if best else ""
+        ax.set_title(f"{pcol.split('.', 1)[1]}{rho_text}", fontsize=8)
+        ax.grid(True, which="both", alpha=0.25)
+        ax.tick_params(labelsize=7)
+    for r in range(nrows):
+        axes[r, 0].set_ylabel(label, fontsize=8)
+    fig.legend(list(handles.values()), [_LABELS.get(f, f) for f in handles], loc="outside lower center",
+               ncol=min(len(handles), 5), fontsize=8)
+    fig.suptitle(title or f"{metric} against each drawn parameter (rho: Spearman rank correlation)")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return True
