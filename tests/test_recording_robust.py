@@ -157,3 +157,17 @@ def test_write_recording_replaces_in_one_step(tmp_path, monkeypatch):
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.npz"]
     assert read_recording(path).n_samples == 8
+
+
+# --- a member stored twice ---------------------------------------------------------------------------------
+def test_member_stored_twice_is_refused(tmp_path):
+    """zipfile keeps both copies and numpy.load reads one of them: which array the recording holds would be an
+    accident of the archive's layout, so the reader refuses it, naming the member."""
+    import warnings
+
+    path = _archive(tmp_path, _members())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # zipfile warns "Duplicate name"
+        with zipfile.ZipFile(path, "a") as zf:
+            zf.writestr("counts.npy", _npy(np.ones((20, 1), np.int64)))
+    _rejects(path, ": counts: ", "stored twice")

@@ -457,7 +457,14 @@ def _check_members(path: Path, where: str) -> None:
     except (OSError, zipfile.BadZipFile, ValueError, EOFError) as exc:
         _fail(where, "file", f"must be a NumPy .npz archive ({exc})")
     with zf:
+        seen = set()
         for info in zf.infolist():
+            if info.filename in seen:
+                # numpy.load would read one of the two copies (zipfile keeps the last): which array the
+                # recording holds would be an accident of the archive's layout
+                _fail(where, info.filename[:-4] if info.filename.endswith(".npy") else info.filename,
+                      "archive member stored twice: a recording holds each array once")
+            seen.add(info.filename)
             if not info.filename.endswith(".npy"):
                 continue
             key = info.filename[:-4]
