@@ -317,6 +317,9 @@ def _leaves(spec, path=(), out=None):
     if isinstance(spec, Map):
         for name, sub in spec.fields.items():
             _leaves(sub, path + (_key(name, sub),), out)
+    elif isinstance(spec, OneOf):  # a mapping whose key selects the variant (e.g. the temperature profile)
+        for kind, variant in spec.variants.items():
+            _leaves(variant, path + (("oneof", kind),), out)
     elif isinstance(spec, ListOf) and isinstance(spec.item, (OneOf, Map)):
         if isinstance(spec.item, OneOf):
             for kind, variant in spec.item.variants.items():
@@ -335,6 +338,8 @@ def _set(doc, schema, path, value):
     node, spec = doc, schema
     for i, step in enumerate(path):
         last = i == len(path) - 1
+        if isinstance(step, tuple) and step[0] == "oneof":  # the variant of the mapping entered just before
+            continue
         if isinstance(step, tuple):  # into a list: entry 0 of the given variant
             item = spec.item
             kind = step[1]
@@ -348,6 +353,10 @@ def _set(doc, schema, path, value):
             sub = spec.item
         if last:
             node[step] = value
+        elif isinstance(sub, OneOf):
+            kind = path[i + 1][1]
+            node[step] = {sub.key: kind, **_valid(sub.variants[kind])}
+            node, spec = node[step], sub.variants[kind]
         else:
             node.setdefault(step, [] if isinstance(sub, ListOf) else {})
             node, spec = node[step], sub
@@ -355,7 +364,8 @@ def _set(doc, schema, path, value):
 
 
 def _shown(path):
-    return ".".join(f"[{s[0]}]" if isinstance(s, tuple) else s for s in path).replace(".[", "[")
+    steps = [s for s in path if not (isinstance(s, tuple) and s[0] == "oneof")]
+    return ".".join(f"[{s[0]}]" if isinstance(s, tuple) else s for s in steps).replace(".[", "[")
 
 
 def _bad_values(spec):

@@ -62,7 +62,8 @@ P_BLOCK_S = 18  # block length (s)
 P_VMAX = 19  # drive saturation (multiple of V_m0)
 P_DEPTH = 20  # amplitude-modulation depth
 P_CLOSED = 21  # 1.0: closed loop, 0.0: open loop
-N_FPAR = 22
+P_DPHASE = 22  # phase of the synchronous detector's reference (rad; 0 unless a tracking PLL moved the frequency)
+N_FPAR = 23
 
 # integer parameters (``ipar``)
 I_RDAC = 0  # plant steps per DAC sample
@@ -189,7 +190,7 @@ def axis_chunk(i0, ang, rate, noise, uniforms, fpar, ipar, dstate, pstate, physt
                         cs[kexact.C_IH2], cs[kexact.C_W0SQ], cs[kexact.C_K5], q0s[:m], q1s[:m])
         kexact._run_axis(aa, rr, vv, q0s[:m], q1s[:m], cs, ipar[I_RULE], pstate, physt, pstack, dd)
         acc = dstate[D_ACC:D_ACC + 3]
-        kdrive.demod_accumulate(dd, i0 + j, fpar[P_CYC_STEP], block - left, block, acc)
+        kdrive.demod_accumulate(dd, i0 + j, fpar[P_CYC_STEP], block - left, block, acc, fpar[P_DPHASE])
         left -= m
         j += m
         if left == 0:

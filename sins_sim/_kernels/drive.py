@@ -55,8 +55,11 @@ def dac_cosine(i0, r_dac, cycles_per_dac, phase, scale, out):
 
 
 @jit
-def demod_accumulate(delta, i0, cycles_per_step, pos, block, acc):
+def demod_accumulate(delta, i0, cycles_per_step, pos, block, acc, phase):
     """Hann-windowed synchronous detection of ``delta`` at the drive frequency.
+
+    The reference is ``exp(i (2 pi frac(cycles_per_step k) + phase))`` at plant step ``k``; ``phase``
+    is 0 unless a tracking PLL changed the frequency (it then keeps the reference continuous).
 
     ``delta[j]`` is the deflection at plant step ``i0 + 1 + j`` and sits at position
     ``pos + j`` of a block of ``block`` steps. Adds ``sum w delta cos``, ``sum w delta sin``
@@ -80,7 +83,7 @@ def demod_accumulate(delta, i0, cycles_per_step, pos, block, acc):
     a2 = acc[2]
     for j in range(n):
         if j == 0 or (i0 + 1 + j) % _RESYNC == 0:  # resync on absolute indices: chunking-invariant
-            c, s = _rotated_phase(i0 + 1 + j, cycles_per_step, 0.0, cd, sd)
+            c, s = _rotated_phase(i0 + 1 + j, cycles_per_step, phase, cd, sd)
         if j == 0 or (pos + j) % _RESYNC == 0:  # the window, likewise on its position in the block
             base = ((pos + j) // _RESYNC) * _RESYNC
             arg = dwin * (base + 0.5)

@@ -15,6 +15,7 @@ into account a relative mismatch", the paper, section on Fig. 6). The IMU file's
       suspension: {k1: ..., k2_rad: ..., k3: ..., k4_per_rad: ..., k5_rad_per_v: ...}   # explicit, shared
       channels: {x: {f0_hz: 386.1, suspension: {k3: 4.5e-3}}}                          # explicit, per axis
       file: unit-17-diagnosis.json   # source: diagnose; a ``sins-sim diagnose --json`` file
+      track: false                   # true: the PLL follows the resonance over the mission (temperature)
 
 Sources of k1..k5 (eq. 9, 10, 14):
 
@@ -43,6 +44,11 @@ Source of omega0 (``f0``):
     The f0 of the source (``explicit``: ``channels.AXIS.f0_hz``, required; ``diagnose``: the
     refit's f0; ``nominal``: the channel's ``f0_hz`` of the IMU file, the design value).
 
+Tracking (``track: true``): the drive follows the unit's current ``F(a)`` block by block and the
+filters' f0 follows the drive by the same inversion (``sins_sim.simulation.channel._ThermalSchedule``);
+without it the drive and the filters keep their t = 0 values while a temperature profile or a
+resonance drift moves the plant.
+
 Defaults: ``true`` takes ``unit``; ``nominal`` and ``explicit`` take ``pll``; ``diagnose`` takes
 ``given``. ``f0_mismatch_ppm`` scales the result by ``1 + ppm 1e-6`` (the PLL's relative
 mismatch, Fig. 6).
@@ -54,7 +60,7 @@ import json
 import math
 from pathlib import Path
 
-from sins_sim.jobs.schema import ConfigError, Map, Num, Str, validate
+from sins_sim.jobs.schema import Bool, ConfigError, Map, Num, Str, validate
 from sins_sim.models.suspension import SuspensionParams
 
 __all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions"]
@@ -90,6 +96,10 @@ FILTER_PARAMETERS_SCHEMA = Map({
                                 "suspension": Map(_k_fields(), default={})}, default={})
                      for axis in ("x", "y", "z")}, default={}, doc="explicit: per-axis values"),
     "file": Str(default=None, doc="source: diagnose; a `sins-sim diagnose --json` file, relative to the IMU file"),
+    "track": Bool(default=False,
+                  doc="the dither PLL follows the unit's current resonance F(a) over the mission (under a scenario's "
+                      "temperature profile or resonance drift) and the filters' f0 follows the drive, f0_filter = "
+                      "f_drive f0_b / F_b(a); false: drive and filters stay at their t = 0 values"),
 }, default={}, doc="what the correcting filter and the plug-in filters believe: true (the unit's own values, the default), nominal (the datasheet, f0 from the dither PLL) or this mapping")
 
 
@@ -104,6 +114,8 @@ def parse_filter_parameters(value, ctx: str, path: str = "filter_parameters") ->
         value = {"source": value}
     elif value is None or value is False:
         raise ConfigError(f"{ctx}: {path}: must be true, nominal or a mapping, got {value!r}")
+    elif isinstance(value, dict) and value.get("source") is True:  # YAML reads `source: true` as a boolean
+        value = dict(value, source="true")
     c = validate(value, FILTER_PARAMETERS_SCHEMA, ctx, path)
     if c["f0"] is None:
         c["f0"] = _DEFAULT_F0[c["source"]]

@@ -260,7 +260,7 @@ def _with_filter_parameters(channels, fspec, c, ctx, where, base_dir):
     out = []
     for a, ch in zip(axes, channels):
         try:
-            out.append(dataclasses.replace(ch, filter_suspension=believed[a]))
+            out.append(dataclasses.replace(ch, filter_suspension=believed[a], pll_tracking=bool(fspec["track"])))
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {where} (axis {a}): {exc}") from None
     return out

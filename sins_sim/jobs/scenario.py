@@ -166,6 +166,67 @@ TRAJECTORY_SCHEMA = Map({
     rules=("the trajectory must last at least duration_s + 0.1 s",
            "every segment lasts at least 2 transition_s (a smooth ramp in and one out)"))
 
+_TEMP = dict(min=173.15, max=473.15)
+_COEFF = {
+    "f0": Num(unit="ppm_per_k", required=True, min=-1000.0, max=1000.0,
+              doc="relative change of each channel's f0 per kelvin: f0 (1 + c (T - reference_k)); f0 ~ sqrt(E), "
+                  "so about half the modulus' coefficient: spring steel -110 to -145, Elinvar / Ni-Span-C within "
+                  "+-20 (sins_sim.simulation.temperature)"),
+    "k_ppm_per_k": Map({name: Num(min=-1.0e4, max=1.0e4, default=0.0, doc=f"{name}, ppm/K")
+                        for name in ("k1", "k2", "k3", "k4", "k5")}, default={},
+                       doc="relative change of k1 .. k5 per kelvin, ppm/K (default 0: not measured; a PZT's k5 "
+                           "rises by roughly 1000-3000)"),
+    "reference": Num(unit="k", **_TEMP, default=None,
+                     doc="the temperature at which the IMU file's f0 and k's hold (default: the profile's at t = 0)"),
+    "update": Num(unit="s", min=1e-4, max=10.0, default=0.02,
+                  doc="interval of the plant's parameter updates, counted from t = 0 (rounded to whole filter "
+                      "samples)"),
+}
+_INITIAL = Num(unit="k", required=True, **_TEMP, doc="the temperature at t = 0")
+
+TEMPERATURE_SCHEMA = OneOf({
+    "constant": Map({"initial": _INITIAL, **_COEFF}, doc="a constant temperature (initial_k)"),
+    "ramp": Map({"initial": _INITIAL, "final": Num(unit="k", required=True, **_TEMP, doc="after the ramp"),
+                 "start": Num(unit="s", default=0.0, **_START, doc="when the ramp starts"),
+                 "duration": Num(unit="s", required=True, **_DUR, doc="how long the ramp takes"), **_COEFF},
+                doc="initial_k until start_s, linear to final_k over duration_s, then final_k"),
+    "step": Map({"initial": _INITIAL, "step": Num(unit="k", required=True, min=-300.0, max=300.0, doc="the jump"),
+                 "start": Num(unit="s", required=True, **_START, doc="when the temperature jumps"), **_COEFF},
+                doc="initial_k, then initial_k + step_k from start_s on"),
+    "table": Map({"table_s_k": ListOf(Vec(2, items=(Num(min=0.0, max=MAX_DURATION_S), Num(**_TEMP))),
+                                      required=True, min_len=2, max_len=100000,
+                                      doc="[[t_s, temp_k], ...], t increasing"),
+                  **_COEFF}, doc="linear between the rows, held before the first and after the last"),
+}, key="profile", default=None, rules={name: (
+    "the profile's extremes over the mission keep every channel physical (f0 range, steps per dither period, Q, "
+    "drive voltage; with filter_parameters.track the filters' f0 below the filter Nyquist)",)
+    for name in ("constant", "ramp", "step", "table")})
+
+
+def _thermal_model(c: dict, ctx: str):
+    """The scenario's ``temperature`` section -> ThermalModel (one line naming the key on a bad value)."""
+    from sins_sim.simulation.temperature import K_NAMES, TemperatureProfile, ThermalModel
+
+    kind = c["profile"]
+    try:
+        if kind == "table":
+            rows = c["table_s_k"]
+            prof = TemperatureProfile("table", start_k=rows[0][1], end_k=rows[-1][1], table=tuple(map(tuple, rows)))
+        elif kind == "ramp":
+            prof = TemperatureProfile("ramp", start_k=c["initial_k"], end_k=c["final_k"], start_s=c["start_s"],
+                                      duration_s=c["duration_s"])
+        elif kind == "step":
+            prof = TemperatureProfile("step", start_k=c["initial_k"], end_k=c["initial_k"] + c["step_k"],
+                                      step_k=c["step_k"], start_s=c["start_s"])
+        else:
+            prof = TemperatureProfile("constant", start_k=c["initial_k"], end_k=c["initial_k"])
+        return ThermalModel(prof, f0_per_k=1e-6 * c["f0_ppm_per_k"],
+                            k_per_k=tuple(1e-6 * c["k_ppm_per_k"][n] for n in K_NAMES),
+                            reference_k=c["reference_k"], update_s=c["update_s"])
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: {exc}") from None
+
+
 class _FilterName(Str):
     """A filter name: built-in, shipped plug-in (the reference lists these) or registered at run time."""
 
@@ -209,6 +270,7 @@ SCENARIO_SCHEMA = Map({
     }, default={}, rules=("timeseries_rate_hz <= the navigation update rate (readout.output_rate_hz / n_sub)",
                           "the stored series and spectra must fit in memory (checked with the run's estimate)")),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
+    "temperature": TEMPERATURE_SCHEMA,
 }, rules=("the run's estimated wall time must be <= 48 h (sins_sim.jobs.estimate; shown before the run starts)",))
 
 
@@ -279,6 +341,10 @@ class Scenario:
             if c["filter_parameters"] is not None:
                 imu = dict(imu, filter_parameters=c["filter_parameters"])
             self.imu = imu_from_dict(imu, ctx, "imu", base_dir=base_dir)
+        self.temperature = None
+        if c["temperature"] is not None:
+            self.temperature = _thermal_model(c["temperature"], ctx)
+            self.imu = _with_temperature(self.imu, self.temperature, self.duration_s, ctx)
         fs = self.imu.filter_rate_hz
         _check_motion(c["motion"], c["linear_vibration"], fs, ctx)
         nv = c["navigation"]
@@ -306,6 +372,23 @@ class Scenario:
         self.events = _events(c["motion"], self.vehicle)
         self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.outputs = c["outputs"]
+
+
+def _with_temperature(imu, model, duration_s, ctx):
+    """The unit with every channel following ``model`` (checked at the profile's extremes)."""
+    import dataclasses
+
+    from sins_sim.simulation.channel import check_thermal
+
+    channels = []
+    for axis, ch in zip(("x", "y", "z"), imu.channels):
+        ch = dataclasses.replace(ch, temperature=model)
+        try:
+            check_thermal(ch, duration_s, "temperature")
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {exc} (channel {axis})") from None
+        channels.append(ch)
+    return dataclasses.replace(imu, channels=tuple(channels))
 
 
 def _motion_frequencies(seg):

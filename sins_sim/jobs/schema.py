@@ -48,6 +48,8 @@ UNITS = {
     "m_s": ("m_s", 1.0),
     "m_s2": ("m_s2", 1.0),
     "ppm": ("ppm", 1.0),
+    "k": ("k", 1.0),
+    "ppm_per_k": ("ppm_per_k", 1.0),
 }
 
 
@@ -56,6 +58,7 @@ UNIT_LABELS = {
     "hz": "Hz", "s": "s", "ms": "ms", "rad": "rad", "arcmin": "arcmin", "arcsec": "arcsec", "deg": "deg",
     "deg_s": "deg/s", "rad_s": "rad/s", "deg2_s2_per_hz": "(deg/s)^2/Hz", "v": "V", "db": "dB", "per_rad": "1/rad",
     "rad_per_v": "rad/V", "m": "m", "m_s": "m/s", "m_s2": "m/s^2", "ppm": "ppm",
+    "k": "K", "ppm_per_k": "ppm/K",
 }
 
 

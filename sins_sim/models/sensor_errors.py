@@ -880,7 +880,7 @@ def reference_rows(path: str = "sensors") -> list:
                        else "any") + ", per axis"
                 knd = "number or 3 numbers"
             elif kind == "number":
-                rng, knd = "> 0", "number"
+                rng, knd = "> 0", "number for all axes"
             elif kind == "tau":
                 rng = f"0 < lower <= upper <= {MAX_TAU_S:g}, at most {MAX_PLATEAU_DECADES:g} decades"
                 knd = "2 numbers"

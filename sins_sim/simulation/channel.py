@@ -14,6 +14,7 @@ time each output describes.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -31,9 +32,10 @@ from sins_sim.models.motion import as_motion
 from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.readout import Decimator, Readout, ReadoutParams
 from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
+from sins_sim.simulation.temperature import ThermalModel
 
 __all__ = ["EliminatorSettings", "ChannelConfig", "ChannelResult", "DriveControl", "ChannelChain",
-           "simulate_channel", "FILTER_NAMES", "check_engine_effects"]
+           "simulate_channel", "FILTER_NAMES", "check_engine_effects", "check_thermal"]
 
 #: Outputs of a channel run, in plotting order.
 FILTER_NAMES = ("raw", "eliminator", "correcting", "correcting_paper")
@@ -80,6 +82,15 @@ class ChannelConfig:
     filter_hysteresis : {"paper", "masing"}
         Hysteresis rule inside the correcting filter.
     eliminator : EliminatorSettings
+    temperature : ThermalModel or None
+        The unit's temperature over the mission and the suspension's temperature coefficients
+        (:mod:`sins_sim.simulation.temperature`): the plant's f0 and k's follow it in blocks.
+        None: the suspension stays as given.
+    pll_tracking : bool
+        The dither PLL follows the unit's current resonance ``F(a)`` (the drive frequency, phase
+        continuous) and the correcting filters' f0 follows the drive (``f0_filter = f_drive f0_b /
+        F_b(a)``, as ``filter_parameters: {f0: pll}`` at t = 0). False: drive and filters stay where
+        they were at t = 0.
     """
 
     suspension: SuspensionParams = PAPER_SUSPENSION
@@ -89,8 +100,14 @@ class ChannelConfig:
     filter_suspension: SuspensionParams | None = None
     filter_hysteresis: str = "paper"
     eliminator: EliminatorSettings = field(default_factory=EliminatorSettings)
+    temperature: ThermalModel | None = None
+    pll_tracking: bool = False
 
     def __post_init__(self):
+        if self.temperature is not None and not isinstance(self.temperature, ThermalModel):
+            raise ValueError(f"channel.temperature: must be a ThermalModel or None, got {self.temperature!r}")
+        if not isinstance(self.pll_tracking, bool):
+            raise ValueError(f"channel.pll_tracking: must be true or false, got {self.pll_tracking!r}")
         if abs(self.readout.input_rate_hz - self.plant.rate_hz) > 1e-9 * self.plant.rate_hz:
             raise ValueError(
                 f"readout.input_rate_hz: must equal plant.rate_hz = {self.plant.rate_hz!r}, "
@@ -286,6 +303,7 @@ class ChannelChain:
         self.path = path
         self._pack()
         self.dstate = np.zeros(kchain.N_DSTATE)
+        self._thermal = _ThermalSchedule.build(self)
         self.reset(0.0, 0.0)
 
     # -- parameters of the fused kernel -------------------------------------------------------
@@ -326,6 +344,9 @@ class ChannelChain:
 
     def reset(self, angle0: float, rate0: float):
         """Back to rest at t = 0 with the block at ``angle0`` (rad) moving at ``rate0`` (rad/s)."""
+        if self._thermal is not None:  # the t = 0 suspension, drive and filters, then their packed copies
+            self._thermal.restore(self)
+            self._pack()
         self.plant.reset(angle0, rate0)
         self.readout.reset()
         self.vdec.reset()
@@ -350,6 +371,16 @@ class ChannelChain:
     def v_m(self) -> float:
         """Current drive amplitude (V)."""
         return float(self.dstate[kchain.D_VM])
+
+    @property
+    def drive_hz(self) -> float:
+        """Current drive frequency (Hz): the t = 0 value unless ``pll_tracking`` moved it."""
+        return self._thermal.f_drive if self._thermal is not None else self.drive.frequency_hz
+
+    @property
+    def thermal(self):
+        """The temperature / PLL schedule (:class:`_ThermalSchedule`), or None."""
+        return self._thermal
 
     @property
     def amp_meas(self) -> float:
@@ -382,22 +413,69 @@ class ChannelChain:
         n = angle.shape[0]
         if n % self.r_dec:
             raise ValueError(f"channel.chunk: must be a multiple of the decimation {self.r_dec}, got {n}")
-        uniforms = self._uniforms(i0, n)
+        if self._fx is None and self.path == "fused":
+            out = self.run_kernel(i0, angle, rate)
+            self.check_chunk(out)
+            return out
+        return self._in_blocks(i0, angle, rate, self._run_python)
+
+    def _run_python(self, i0: int, angle: np.ndarray, rate: np.ndarray):
+        uniforms = self._uniforms(i0, angle.shape[0])
         if self._fx is not None:
             return self._run_effects(i0, angle, rate, uniforms)
-        if self.path == "reference":
-            return self._run_reference(i0, angle, rate, uniforms)
-        out = self.run_kernel(i0, angle, rate, uniforms)
-        self.check_chunk(out)
-        return out
+        return self._run_reference(i0, angle, rate, uniforms)
+
+    def _in_blocks(self, i0: int, angle: np.ndarray, rate: np.ndarray, fn):
+        """``fn(i0, angle, rate)`` over the chunk, split at the temperature / PLL blocks (if any).
+
+        Each block's parameters are loaded (:meth:`_ThermalSchedule.enter`) before the piece of
+        the chunk inside it runs; blocks are counted from step 0, so results do not depend on
+        chunking. The pieces' outputs are concatenated.
+        """
+        th = self._thermal
+        if th is None or angle.shape[0] == 0:
+            return fn(i0, angle, rate)
+        if i0 % self.r_dec:
+            raise ValueError(f"channel.chunk: with a temperature profile or PLL tracking a chunk must start at a "
+                             f"multiple of the decimation {self.r_dec}, got step {i0}")
+        n = angle.shape[0]
+        pieces = []
+        j = 0
+        while j < n:
+            b = (i0 + j) // th.block
+            j1 = min(n, (b + 1) * th.block - i0)
+            th.enter(self, b)
+            out = fn(i0 + j, angle[j:j1], rate[j:j1])
+            out["delta"] = np.array(out["delta"])  # the fused path's work buffer is reused by the next piece
+            pieces.append(out)
+            j = j1
+        if len(pieces) == 1:
+            return pieces[0]
+        return {k: np.concatenate([p[k] for p in pieces]) for k in pieces[0]}
 
     def run_kernel(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray | None = None):
         """The fused kernel over one chunk, without the Python-side warning checks.
 
         Thread-safe across chains (each chain owns its state and random streams; the kernel
         releases the GIL). Call :meth:`check_chunk` on the result afterwards, in the thread
-        that collects warnings.
+        that collects warnings. With a temperature profile or PLL tracking the chunk runs as one
+        kernel call per parameter block (``fpar`` and ``cpar`` updated between the calls).
         """
+        if self._thermal is None:
+            return self._kernel_once(i0, angle, rate, uniforms)
+        if uniforms is None:
+            return self._in_blocks(i0, angle, rate, self._kernel_once)
+        parts = np.asarray(uniforms)
+
+        def with_given(k0, a, r):  # hand each piece the draws of the blocks that end inside it
+            nonlocal parts
+            nb = (k0 + a.shape[0]) // self.block - k0 // self.block
+            u, parts = parts[:nb], parts[nb:]
+            return self._kernel_once(k0, a, r, u)
+
+        return self._in_blocks(i0, angle, rate, with_given)
+
+    def _kernel_once(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray | None = None):
         n = angle.shape[0]
         if uniforms is None:
             uniforms = self._uniforms(i0, n)
@@ -464,13 +542,13 @@ class ChannelChain:
             left = int(d[kchain.D_LEFT])
             m = min(left, n - j)
             vv = np.empty(m)
-            kdrive.dac_cosine(i0 + j, self.r_dac, self.drive.frequency_hz / self.cfg.drive.dac_rate_hz,
-                              self.drive.phase_rad, float(d[kchain.D_VM]), vv)
+            kdrive.dac_cosine(i0 + j, self.r_dac, self.fpar[kchain.P_CYC_DAC], self.fpar[kchain.P_PHASE],
+                              float(d[kchain.D_VM]), vv)
             delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv, check=False)
             volts[j:j + m] = vv
             acc = d[kchain.D_ACC:kchain.D_ACC + 3]
-            kdrive.demod_accumulate(delta[j:j + m], i0 + j, self.drive.frequency_hz / self.cfg.plant.rate_hz,
-                                    self.block - left, self.block, acc)
+            kdrive.demod_accumulate(delta[j:j + m], i0 + j, self.fpar[kchain.P_CYC_STEP], self.block - left,
+                                    self.block, acc, self.fpar[kchain.P_DPHASE])
             left -= m
             j += m
             if left == 0:
@@ -521,14 +599,14 @@ class ChannelChain:
             left = int(d[kchain.D_LEFT])
             m = min(left, n - j)
             vv = np.empty(m)
-            kdrive.dac_cosine(i0 + j, self.r_dac, self.drive.frequency_hz / self.cfg.drive.dac_rate_hz,
-                              self.drive.phase_rad, float(d[kchain.D_VM]), vv)
+            kdrive.dac_cosine(i0 + j, self.r_dac, self.fpar[kchain.P_CYC_DAC], self.fpar[kchain.P_PHASE],
+                              float(d[kchain.D_VM]), vv)
             fx.plant_run(self.plant, i0 + j, angle[j:j + m], rate[j:j + m], fx.voltage(vv), delta[j:j + m],
                          ddelta[j:j + m])
             volts[j:j + m] = vv
             acc = d[kchain.D_ACC:kchain.D_ACC + 3]
-            kdrive.demod_accumulate(delta[j:j + m], i0 + j, self.drive.frequency_hz / self.cfg.plant.rate_hz,
-                                    self.block - left, self.block, acc)
+            kdrive.demod_accumulate(delta[j:j + m], i0 + j, self.fpar[kchain.P_CYC_STEP], self.block - left,
+                                    self.block, acc, self.fpar[kchain.P_DPHASE])
             left -= m
             j += m
             if left == 0:
@@ -698,6 +776,172 @@ class _EffectStages:
         self.hist_rate = r[-keep:].copy()
         self.hist_g0 = base + p.shape[0] - keep
         return out * self.scale if self.scale != 1.0 else out
+
+
+class _ThermalSchedule:
+    """The plant, drive and filter parameters of one chain over the mission, block by block.
+
+    Blocks of ``block`` plant steps (``ThermalModel.update_s`` rounded to whole multiples of the
+    decimation and the DAC period; 0.02 s under resonance drift alone) are counted from step 0.
+    Entering block ``b`` (:meth:`enter`, before any step of it runs):
+
+    * the plant gets the suspension at the temperature of the block's middle
+      (:meth:`ThermalModel.suspension_at`: ``p (1 + c_p (T - T_ref))``): ``Plant.suspension``
+      (reference path), ``fpar`` (fused kernel), the effect stages' base (their resonance drift
+      adds on top);
+    * with ``pll_tracking`` the drive moves to the resonance the plant has at the block's middle,
+      ``F(a_m)`` by harmonic balance (eq. 9, :meth:`SuspensionParams.resonance_hz`, as
+      ``DriveParams.resolve`` at t = 0; temperature and resonance drift both included). The PLL is
+      ideal: locked at every block, no loop dynamics. The DAC cosine and the synchronous detector
+      keep their instantaneous phase at the block's first sample (``phase += 2 pi (frac(c_old k) -
+      frac(c_new k))``, ``c`` the cycles per DAC sample or per plant step, ``k`` the absolute
+      index), so the waveform is continuous. Both correcting filters move their f0 with the drive,
+      ``f0_filter = f0_filter(0) f_drive / f_drive(0)``: the PLL inversion
+      ``f_drive f0_b / F_b(a)`` of :mod:`sins_sim.jobs.filter_params` with the believed k1, k2
+      held (for ``f0: pll`` the same number; for ``unit`` and ``given`` the t = 0 value carried
+      along). The eliminator (a 40 Hz-wide stop band) and plug-in filters keep their t = 0 design.
+
+    Without tracking the drive frequency and the filters stay at their t = 0 values.
+    """
+
+    def __init__(self, chain: "ChannelChain"):
+        cfg = chain.cfg
+        self.model = cfg.temperature
+        self.track = cfg.pll_tracking
+        self.drift = chain._fx.drift if chain._fx is not None else 0.0
+        self.base = chain.plant.suspension
+        self.h = chain.plant.h
+        self.r_dac = chain.r_dac
+        unit = chain.r_dec * chain.r_dac // math.gcd(chain.r_dec, chain.r_dac)
+        upd = self.model.update_s if self.model is not None else _EffectStages.DRIFT_BLOCK_S
+        self.block = unit * max(1, int(round(upd / (unit * self.h))))
+        self.a_m = cfg.drive.amplitude_rad
+        self.dac_rate = cfg.drive.dac_rate_hz
+        self.plant_rate = cfg.plant.rate_hz
+        self.f_drive0 = chain.drive.frequency_hz
+        self.designs0 = {name: chain.filters[name].design for name in _CORRECTING}
+        self.history = None  # a list of (block, t_mid_s, temp_k, plant f0_hz, drive_hz, filter f0_hz) when set
+        self.loaded = -1
+        self.f_drive = self.f_drive0
+        self.temp_k = self.model.profile.at(0.0) if self.model is not None else math.nan
+
+    @classmethod
+    def build(cls, chain):
+        cfg = chain.cfg
+        drift = chain._fx.drift if chain._fx is not None else 0.0
+        if cfg.temperature is None and not (cfg.pll_tracking and drift != 0.0):
+            return None
+        return cls(chain)
+
+    @property
+    def filter_f0_hz(self) -> float:
+        return self.designs0["correcting"].f0_hz * (self.f_drive / self.f_drive0)
+
+    def restore(self, chain):
+        """The t = 0 suspension, drive and filters (``ChannelChain.reset`` packs them again)."""
+        self._set_plant(chain, self.base, pack=False)
+        for name in _CORRECTING:
+            self._set_filter(chain.filters[name], self.designs0[name])
+        self.loaded = -1
+        self.f_drive = self.f_drive0
+        if self.history is not None:
+            self.history = []
+
+    def enter(self, chain, b: int) -> None:
+        """Load block ``b``'s parameters (a no-op when they are loaded)."""
+        if b == self.loaded:
+            return
+        t_mid = (b + 0.5) * self.block * self.h
+        s = self.base
+        if self.model is not None:
+            self.temp_k = self.model.profile.at(t_mid)
+            s = self.model.suspension_at(self.base, self.temp_k)
+        self._set_plant(chain, s)
+        if self.track:
+            now = s if self.drift == 0.0 else s.replace(f0_hz=s.f0_hz + self.drift * t_mid)
+            f = now.resonance_hz(self.a_m)
+            if f != self.f_drive:
+                self._set_drive(chain, b * self.block, f)
+        self.loaded = b
+        if self.history is not None:
+            self.history.append((b, t_mid, self.temp_k, s.f0_hz, self.f_drive, self.filter_f0_hz))
+
+    @staticmethod
+    def _set_filter(flt, design):
+        flt.design = design
+        flt._a2, flt._g = design.coefficients
+        flt._fast_dt = 0.25 / design.f0_hz
+
+    def _set_plant(self, chain, s, pack: bool = True):
+        p = chain.plant
+        if p.suspension == s and pack:
+            return
+        p.suspension = s
+        p._fast_dt = 0.25 / s.f0_hz
+        if chain._fx is not None:
+            chain._fx.base = s
+        if pack:
+            fp = chain.fpar
+            fp[kchain.P_W0SQ] = s.omega0 ** 2
+            fp[kchain.P_K1:kchain.P_K5 + 1] = (s.k1, s.k2, s.k3, s.k4, s.k5)
+            fp[kchain.P_Z] = 2.0 * s.zeta / s.omega0
+            fp[kchain.P_FAST] = 0.25 / s.f0_hz
+
+    def _set_drive(self, chain, i_b: int, f: float):
+        """Drive at ``f`` from plant step ``i_b`` on (a multiple of the DAC period), phase continuous."""
+        fp = chain.fpar
+        c_dac, c_step = f / self.dac_rate, f / self.plant_rate
+        k = i_b // self.r_dac  # the first DAC sample of the block
+        fp[kchain.P_PHASE] = _wrapped(fp[kchain.P_PHASE] + 2.0 * math.pi * (_frac(fp[kchain.P_CYC_DAC] * k)
+                                                                            - _frac(c_dac * k)))
+        k = i_b + 1  # the detector's first sample of the block (delta at the end of step i_b)
+        fp[kchain.P_DPHASE] = _wrapped(fp[kchain.P_DPHASE] + 2.0 * math.pi * (_frac(fp[kchain.P_CYC_STEP] * k)
+                                                                              - _frac(c_step * k)))
+        fp[kchain.P_CYC_DAC] = c_dac
+        fp[kchain.P_CYC_STEP] = c_step
+        self.f_drive = f
+        ratio = f / self.f_drive0
+        for row, name in enumerate(_CORRECTING):
+            d0 = self.designs0[name]
+            flt = chain.filters[name]
+            self._set_filter(flt, dataclasses.replace(d0, f0_hz=d0.f0_hz * ratio))
+            chain.cpar[row, kchain.C_A2], chain.cpar[row, kchain.C_G] = flt._a2, flt._g
+            chain.cpar[row, kchain.C_FAST] = flt._fast_dt
+
+
+_CORRECTING = ("correcting", "correcting_paper")
+
+
+def _frac(x: float) -> float:
+    return x - math.floor(x)
+
+
+def _wrapped(phase: float) -> float:
+    return phase - 2.0 * math.pi * math.floor(phase / (2.0 * math.pi))
+
+
+def check_thermal(cfg: ChannelConfig, duration_s: float, where: str = "temperature") -> None:
+    """A channel's temperature profile stays physical over ``duration_s``; one line naming the key otherwise.
+
+    At the profile's coldest and hottest points: the suspension's own ranges, the plant's steps per
+    dither period, the drive (Q in range, the voltage a piezo takes) and, with PLL tracking, the
+    correcting filter's f0 below the filter Nyquist (eq. 5 needs ``w = omega0 dT < pi``).
+    """
+    from sins_sim.models.plant import check_resolution
+
+    model = cfg.temperature
+    if model is None:
+        return
+    for s in model.check(cfg.suspension, duration_s, where):
+        try:
+            check_resolution(s, cfg.plant.rate_hz)
+            cfg.drive.resolve(s)
+            if cfg.pll_tracking:
+                d0 = cfg.correcting_design("unity")
+                ratio = s.resonance_hz(cfg.drive.amplitude_rad) / cfg.drive_signal().frequency_hz
+                dataclasses.replace(d0, f0_hz=d0.f0_hz * ratio)
+        except ValueError as exc:
+            raise ValueError(f"{where}: at f0 = {s.f0_hz:.6g} Hz (the profile's extreme): {exc}") from None
 
 
 def simulate_channel(config: ChannelConfig, duration_s: float, motion=None, seed: int = 0,
