@@ -20,12 +20,16 @@ GL_W1 = 8.0 / 18.0
 
 
 @jit
-def lagrange4(nodes, j0, h, t, q_col, out):
+def lagrange4(nodes, j0, h, t, q_col, out, full_every=1, c_lo=0, c_hi=0):
     """4-point Lagrange interpolation of node rows at times ``t`` (A&S 25.2.13).
 
     ``nodes[i]`` is the row at time ``(j0 + i) h``; for ``t`` in ``[t_j, t_{j+1})`` the cubic
     through nodes ``j - 1 .. j + 2`` is evaluated. ``out[n, c]`` receives the values; the four
     columns from ``q_col`` (a quaternion) are renormalised (``q_col < 0``: none).
+
+    Only rows ``n`` with ``n % full_every == full_every - 1`` get every column; the others get
+    columns ``c_lo .. c_hi - 1`` only (each column is interpolated on its own, so its values do
+    not depend on which others are formed) and NaN elsewhere. ``full_every=1``: every row full.
     """
     for n in range(t.shape[0]):
         x = t[n] / h
@@ -36,6 +40,13 @@ def lagrange4(nodes, j0, h, t, q_col, out):
         w1 = (u + 1.0) * (u - 1.0) * (u - 2.0) / 2.0
         w2 = -(u + 1.0) * u * (u - 2.0) / 2.0
         w3 = (u + 1.0) * u * (u - 1.0) / 6.0
+        if n % full_every != full_every - 1:
+            for c in range(nodes.shape[1]):
+                if c < c_lo or c >= c_hi:
+                    out[n, c] = math.nan
+                else:
+                    out[n, c] = w0 * nodes[i - 1, c] + w1 * nodes[i, c] + w2 * nodes[i + 1, c] + w3 * nodes[i + 2, c]
+            continue
         for c in range(nodes.shape[1]):
             out[n, c] = w0 * nodes[i - 1, c] + w1 * nodes[i, c] + w2 * nodes[i + 1, c] + w3 * nodes[i + 2, c]
         if q_col >= 0:
@@ -206,6 +217,60 @@ def hermite_plant(s_nodes, ds_nodes, herm, dherm, out_s, out_ds):
 
 
 @jit
+def hermite_plant_axes(s_nodes, ds_nodes, herm, dherm, ang_b, rate_b, out_s, out_ds):
+    """:func:`hermite_plant` written per axis: ``out_s[i, row] = ang_b[row, i] + (Hermite of S)``.
+
+    The same sums as :func:`hermite_plant` in the same order (bit-identical values), stored
+    axis-major (``out_s``, ``out_ds``: float64[3, n R]) so that each axis's plant input is one
+    contiguous row: the three channel kernels read it without a strided copy per chunk.
+    """
+    rr = herm.shape[0]
+    for i in range(3):
+        for n in range(s_nodes.shape[0] - 1):
+            a = s_nodes[n, i]
+            b = ds_nodes[n, i]
+            cc = s_nodes[n + 1, i]
+            d = ds_nodes[n + 1, i]
+            for r in range(rr):
+                row = n * rr + r
+                out_s[i, row] = ang_b[row, i] + (herm[r, 0] * a + herm[r, 1] * b + herm[r, 2] * cc + herm[r, 3] * d)
+                out_ds[i, row] = rate_b[row, i] + (dherm[r, 0] * a + dherm[r, 1] * b + dherm[r, 2] * cc
+                                                   + dherm[r, 3] * d)
+
+
+@jit
+def filter_increments(y, ref, use_ref, gerr, out):
+    """A filter's angle increments plus the sensor errors: ``out[k] = (y[k + 1] - y[k]) + gerr[k]``.
+
+    ``y`` (float64[n + 1, 3]): the filter output; with ``use_ref`` its first row is replaced by
+    ``ref`` (float64[3], the aligned reference of the first increment). The same operations as
+    ``np.diff(y, axis=0) + gerr`` without the temporaries.
+    """
+    for k in range(out.shape[0]):
+        for i in range(3):
+            y0 = ref[i] if (use_ref and k == 0) else y[k, i]
+            out[k, i] = (y[k + 1, i] - y0) + gerr[k, i]
+
+
+@jit
+def first_not_finite(dth, dv, h):
+    """``3 row + axis`` of the first non-finite ``dth`` entry (row-major), else -2 if ``dv`` has one,
+    -3 if ``h`` has one, -1 if all are finite."""
+    for k in range(dth.shape[0]):
+        for i in range(3):
+            if not math.isfinite(dth[k, i]):
+                return 3 * k + i
+    for k in range(dv.shape[0]):
+        for i in range(3):
+            if not math.isfinite(dv[k, i]):
+                return -2
+    for k in range(h.shape[0]):
+        if not math.isfinite(h[k]):
+            return -3
+    return -1
+
+
+@jit
 def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, v_t, q_t, e_body, free, att_limit, out):
     """Navigation errors against the truth, one row per update; returns the first bad row or -1.
 
@@ -261,6 +326,39 @@ def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, v_t, q_t, e_body, free, att
             if not ok:
                 bad = n
     return bad
+
+
+@jit
+def error_stats(rows, out):
+    """One chunk's full-rate statistics of error rows (columns as :func:`nav_errors`), one pass.
+
+    ``out`` (float64[6]) receives the largest horizontal error (column 2), the largest velocity
+    error norm, the sums of squares of the attitude error per axis (columns 7-9, summed in row
+    order) and the last row's velocity error norm. The norm is summed as
+    ``(v_n^2 + v_d^2) + v_e^2``, the order of ``numpy.einsum('ij,ij->i')`` over three columns,
+    so that the figures equal the numpy evaluation bit for bit. ``rows`` must have a row.
+    """
+    hmax = rows[0, 2]
+    vmax = 0.0
+    vn = 0.0
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    for n in range(rows.shape[0]):
+        if rows[n, 2] > hmax:
+            hmax = rows[n, 2]
+        vn = math.sqrt((rows[n, 4] * rows[n, 4] + rows[n, 6] * rows[n, 6]) + rows[n, 5] * rows[n, 5])
+        if n == 0 or vn > vmax:
+            vmax = vn
+        s0 += rows[n, 7] * rows[n, 7]
+        s1 += rows[n, 8] * rows[n, 8]
+        s2 += rows[n, 9] * rows[n, 9]
+    out[0] = hmax
+    out[1] = vmax
+    out[2] = s0
+    out[3] = s1
+    out[4] = s2
+    out[5] = vn
 
 
 @jit

@@ -490,16 +490,9 @@ class StrapdownNavigator:
                 raise ValueError(f"h_aid: only used with vertical='height_aid', got an array with "
                                  f"vertical={self._vertical!r}")
             ha = np.empty(0)
-        m = (self.pending_samples + n) // self._n_sub
-        out = np.empty((m, ksd.OUT_SIZE))
-        k1, k2, k3 = self._gains
-        written = ksd.strapdown_run(dth, dvel, ha, self._dt, self._n_sub, self._coning.code,
-                                    self._sculling.code, aided, k1, k2, k3, self._state, out)
-        if written != m:  # pragma: no cover - the kernel and this count share one rule
-            raise RuntimeError(f"strapdown kernel wrote {written} updates, expected {m}")
-        t = (self._n_updates + 1 + np.arange(m)) * self.update_period_s
-        self._n_samples += n
-        self._n_updates += m
+        out = self._run(dth, dvel, ha)
+        m = out.shape[0]
+        t = (self._n_updates - m + 1 + np.arange(m)) * self.update_period_s
         return NavSolution(
             t_s=t,
             lat_rad=out[:, ksd.OUT_LAT].copy(),
@@ -508,3 +501,22 @@ class StrapdownNavigator:
             v_ned_m_s=out[:, ksd.OUT_V:ksd.OUT_V + 3].copy(),
             q_nb=out[:, ksd.OUT_Q:ksd.OUT_Q + 4].copy(),
         )
+
+    def _run(self, dth, dvel, ha) -> np.ndarray:
+        """The kernel on checked inputs; returns its output rows (layout ``sins_sim._kernels.strapdown.OUT_*``).
+
+        ``dth``, ``dvel``: float64 (n, 3), finite, C-contiguous; ``ha``: float64 (n,) with the
+        height aid, else empty. The engine, which checks its increments itself, calls this
+        directly; :meth:`process` checks and wraps.
+        """
+        n = dth.shape[0]
+        m = (self.pending_samples + n) // self._n_sub
+        out = np.empty((m, ksd.OUT_SIZE))
+        k1, k2, k3 = self._gains
+        written = ksd.strapdown_run(dth, dvel, ha, self._dt, self._n_sub, self._coning.code,
+                                    self._sculling.code, self._vertical == "height_aid", k1, k2, k3, self._state, out)
+        if written != m:  # pragma: no cover - the kernel and this count share one rule
+            raise RuntimeError(f"strapdown kernel wrote {written} updates, expected {m}")
+        self._n_samples += n
+        self._n_updates += m
+        return out

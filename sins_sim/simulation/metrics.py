@@ -93,15 +93,15 @@ class NavErrorStats:
         if rows.shape[0] == 0:
             return
         self.n += rows.shape[0]
-        self.horizontal_max_m = max(self.horizontal_max_m, float(rows[:, 2].max()))
-        vn = np.sqrt(np.einsum("ij,ij->i", rows[:, 4:7], rows[:, 4:7]))
-        self.velocity_max_m_s = max(self.velocity_max_m_s, float(vn.max()))
-        att = rows[:, 7:10]
-        self.att_sum2 += np.einsum("ij,ij->j", att, att)
+        st = np.empty(6)
+        ktruth.error_stats(rows, st)  # one pass: maxima, attitude sums of squares, the last velocity norm
+        self.horizontal_max_m = max(self.horizontal_max_m, float(st[0]))
+        self.velocity_max_m_s = max(self.velocity_max_m_s, float(st[1]))
+        self.att_sum2 += st[2:5]
         r = rows[-1]
         self.last = {"t_s": float(t_s[-1]), "north_m": float(r[0]), "east_m": float(r[1]),
                      "horizontal_m": float(r[2]), "vertical_m": float(r[3]), "velocity_ned_m_s": r[4:7].copy(),
-                     "velocity_m_s": float(vn[-1]), "attitude_ned_rad": r[7:10].copy()}
+                     "velocity_m_s": float(st[5]), "attitude_ned_rad": r[7:10].copy()}
 
     @property
     def attitude_rms_rad(self) -> np.ndarray:

@@ -43,6 +43,7 @@ from sins_sim import _validate as v
 from sins_sim.models.accelerometer import Accelerometer, AccelerometerParams
 from sins_sim.models.sensor_errors import AccelErrors, GyroErrors, SensorErrorParams
 from sins_sim._kernels import truth as ktruth
+from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
 from sins_sim.filters import registry as filter_registry
 from sins_sim.navigation.strapdown import StrapdownNavigator
 from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl
@@ -322,26 +323,64 @@ def stationary_vehicle(duration_s: float, lat_deg: float = 45.0, lon_deg: float 
 
 
 class _Ring:
-    """A growing window of per-index rows ``[base, base + len)`` (filter-sample indices)."""
+    """A sliding window of per-index rows ``[base, base + len)`` (filter-sample indices).
 
-    def __init__(self, width):
+    Rows live in one preallocated buffer: a push writes behind the live rows, a drop moves the
+    start; the live rows are moved to the front (or the buffer doubled) only when a push would
+    run past its end. Views from :meth:`get` are valid until the next :meth:`push`.
+    """
+
+    def __init__(self, width, capacity=1024):
         self.base = 0
-        self.a = np.zeros((0,) + tuple(width))
+        self._buf = np.zeros((max(int(capacity), 16),) + tuple(width))
+        self._off = 0  # buffer row of index base
+        self._n = 0  # live rows
+
+    @property
+    def a(self):
+        """The live rows (a view)."""
+        return self._buf[self._off:self._off + self._n]
+
+    def _room(self, m):
+        """Make room for ``m`` rows behind the live ones; returns the buffer row to write at."""
+        n = self._n
+        if self._off + n + m > self._buf.shape[0]:
+            if n + m > self._buf.shape[0]:
+                buf = np.zeros((2 * (n + m),) + self._buf.shape[1:])
+                buf[:n] = self._buf[self._off:self._off + n]
+                self._buf = buf
+            elif n:
+                self._buf[:n] = self._buf[self._off:self._off + n].copy()
+            self._off = 0
+        return self._off + n
 
     def push(self, rows):
-        self.a = np.concatenate((self.a, rows))
+        m = rows.shape[0]
+        i = self._room(m)
+        self._buf[i:i + m] = rows
+        self._n += m
 
-    def get(self, j0, j1):
-        return self.a[j0 - self.base:j1 - self.base]
+    def push_columns(self, cols):
+        """Push rows given as one 1-D array per column (the per-axis outputs, without stacking them)."""
+        m = cols[0].shape[0]
+        i = self._room(m)
+        for c, x in enumerate(cols):
+            self._buf[i:i + m, c] = x
+        self._n += m
+
+    def get(self, j0, j1, step=1):
+        return self._buf[self._off:self._off + self._n][j0 - self.base:j1 - self.base:step]
 
     @property
     def end(self):
-        return self.base + self.a.shape[0]
+        return self.base + self._n
 
     def drop_before(self, j):
         k = j - self.base
         if k > 0:
-            self.a = self.a[k:]
+            k = min(k, self._n)
+            self._off += k
+            self._n -= k
             self.base = j
 
 
@@ -450,10 +489,12 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     max_delay = max(delays[n] for n in filters)
 
     # buffers indexed by filter sample
-    outs_buf = {name: _Ring((3,)) for name in filters if name != "ideal"}
-    phi_buf = _Ring((3,))  # true gyro angles (the ideal output)
-    tr_buf = {k: _Ring(w) for k, w in (("q", (4,)), ("lat", ()), ("lon", ()), ("h", ()), ("v", (3,)), ("dv", (3,)),
-                                       ("dth", (3,)), ("gerr", (3,)), ("gcum", (3,)), ("acum", (3,)))}
+    cap = 2 * chunk + max_delay + 16  # ring rows: a chunk and what the previous one left behind, without regrowing
+    outs_buf = {name: _Ring((3,), cap) for name in filters if name != "ideal"}
+    phi_buf = _Ring((3,), cap)  # true gyro angles (the ideal output)
+    tr_buf = {k: _Ring(w, cap) for k, w in (("q", (4,)), ("lat", ()), ("lon", ()), ("h", ()), ("v", (3,)),
+                                            ("dv", (3,)), ("dth", (3,)), ("gerr", (3,)), ("gcum", (3,)),
+                                            ("acum", (3,)))}
     navs = {}
     if nav is not None:
         k_start = int(round(nav.start_s * fs))
@@ -510,8 +551,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             tr_buf["gcum"].push(g_cum)
             g_cum = g_cum[-1]
             for name in outs_buf:
-                y = np.stack([o[name] for o in outs], axis=1)
-                outs_buf[name].push(y)
+                cols = [o[name] for o in outs]
+                outs_buf[name].push_columns(cols)
+                y = outs_buf[name].a[outs_buf[name].a.shape[0] - cols[0].shape[0]:]  # this chunk's rows (a view)
                 last_out[name] = y[-1].copy()
                 if name not in diverged and not np.all(np.isfinite(y)):
                     bad = np.argwhere(~np.isfinite(y))[0]
@@ -566,6 +608,10 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                       allan=allan)
 
 
+_NO_REF = np.zeros(3)
+_NO_AID = np.zeros(0)
+
+
 def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged, n_align):
     """Advance every filter's navigation as far as its aligned data reach."""
     for name, nf in navs.items():
@@ -597,51 +643,56 @@ def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs
         ja, jb = nf.next_j, j_end
         if jb <= ja:
             continue
+        gerr = tr_buf["gerr"].get(ja, jb)
         if name == "ideal":
-            dth = tr_buf["dth"].get(ja, jb) + tr_buf["gerr"].get(ja, jb)
+            dth = tr_buf["dth"].get(ja, jb) + gerr
         else:
             y = outs_buf[name].get(ja + nf.d - 1, jb + nf.d)
-            if ja == nf.j0 + 1:  # the first increment starts from the aligned reference
-                y = np.concatenate((nf.ref[None], y[1:]))
-            dth = np.diff(y, axis=0) + tr_buf["gerr"].get(ja, jb)
+            dth = np.empty(gerr.shape)
+            # the first increment starts from the aligned reference
+            ktruth.filter_increments(y, nf.ref if nf.ref is not None else _NO_REF, ja == nf.j0 + 1, gerr, dth)
         dv = tr_buf["dv"].get(ja + nf.dv_shift, jb + nf.dv_shift)
-        if not (np.all(np.isfinite(dth)) and np.all(np.isfinite(dv))):
-            bad = np.argwhere(~np.isfinite(dth))
-            ax = AXES[int(bad[0][1])] if bad.size else "-"
-            nf.diverged = diverged.setdefault(name, {"axis": ax, "time_s": (ja + (int(bad[0][0]) if bad.size else 0)) / fs,
+        h_aid = tr_buf["h"].get(ja, jb) if nav.vertical == "height_aid" else _NO_AID
+        bad = ktruth.first_not_finite(dth, dv, h_aid)
+        if bad in (-1, -3) and dv.shape[0] != dth.shape[0]:  # pragma: no cover - the ring windows share one rule
+            bad = -4
+        if bad >= 0 or bad == -2:
+            ax = AXES[bad % 3] if bad >= 0 else "-"
+            nf.diverged = diverged.setdefault(name, {"axis": ax, "time_s": (ja + (bad // 3 if bad >= 0 else 0)) / fs,
                                                      "reason": "angle increments not finite"})
             continue
         n_before = nf.nav.n_updates
-        h_aid = tr_buf["h"].get(ja, jb) if nav.vertical == "height_aid" else None
-        sol = nf.nav.process(dth, dv, h_aid)
+        if bad == -1:  # checked here: the kernel directly (StrapdownNavigator.process checks and copies)
+            out = nf.nav._run(dth, np.ascontiguousarray(dv), h_aid if nav.vertical == "height_aid" else _NO_AID)
+        else:  # a height aid that is not finite, or windows of unequal length: the public path raises its error
+            nf.nav.process(dth, dv, h_aid if nav.vertical == "height_aid" else None)
+            raise AssertionError("StrapdownNavigator.process accepted what the engine's check refused")
         nf.next_j = jb
-        m = len(sol)
+        m = out.shape[0]
         if m == 0:
             continue
-        jj = nf.j0 + nav.n_sub * (n_before + 1 + np.arange(m))  # truth index of each update
-        lo, hi = int(jj[0]), int(jj[-1]) + 1
-        sel = jj - lo
+        # truth index of each update: j0 + n_sub (n_before + 1 + i), i < m
+        lo = nf.j0 + nav.n_sub * (n_before + 1)
+        hi = lo + nav.n_sub * (m - 1) + 1
+        step = nav.n_sub
         # gyro-angle error (output minus truth) at the updates, for the free attitude error
-        e_body = tr_buf["gcum"].get(lo, hi)[sel]  # the sensor errors' angle, plus the filter's own error
+        e_body = tr_buf["gcum"].get(lo, hi, step)  # the sensor errors' angle, plus the filter's own error
         if name != "ideal":
-            e_body = e_body + outs_buf[name].get(lo + nf.d, hi + nf.d)[sel] - phi_buf.get(lo, hi)[sel]
+            e_body = e_body + outs_buf[name].get(lo + nf.d, hi + nf.d, step) - phi_buf.get(lo, hi, step)
         rows = np.empty((m, N_COLS))
-        bad = ktruth.nav_errors(sol.lat_rad, sol.lon_rad, sol.h_m, sol.v_ned_m_s, sol.q_nb,
-                                np.ascontiguousarray(tr_buf["lat"].get(lo, hi)[sel]),
-                                np.ascontiguousarray(tr_buf["lon"].get(lo, hi)[sel]),
-                                np.ascontiguousarray(tr_buf["h"].get(lo, hi)[sel]),
-                                np.ascontiguousarray(tr_buf["v"].get(lo, hi)[sel]),
-                                np.ascontiguousarray(tr_buf["q"].get(lo, hi)[sel]), np.ascontiguousarray(e_body),
+        bad = ktruth.nav_errors(out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H], out[:, OUT_V:OUT_V + 3],
+                                out[:, OUT_Q:OUT_Q + 4], tr_buf["lat"].get(lo, hi, step),
+                                tr_buf["lon"].get(lo, hi, step), tr_buf["h"].get(lo, hi, step),
+                                tr_buf["v"].get(lo, hi, step), tr_buf["q"].get(lo, hi, step), e_body,
                                 nf.free, DIVERGED_ATTITUDE_RAD, rows)
-        rows[:, 10] = sol.lat_rad
-        rows[:, 11] = sol.lon_rad
-        t = jj / fs
+        rows[:, 10] = out[:, OUT_LAT]
+        rows[:, 11] = out[:, OUT_LON]
         if bad >= 0:
-            nf.diverged = diverged.setdefault(name, {"axis": "-", "time_s": float(t[bad]),
+            nf.diverged = diverged.setdefault(name, {"axis": "-", "time_s": float((lo + step * bad) / fs),
                                                      "reason": "navigation solution diverged (attitude error beyond "
                                                                f"{DIVERGED_ATTITUDE_RAD} rad or not finite)"})
-            rows, t = rows[:bad], t[:bad]
-        nf.stats.add(rows, t)
+            rows = rows[:bad]
+        nf.stats.add(rows, (lo + step * np.arange(rows.shape[0])) / fs)
         nf.series.add(rows)
 
 

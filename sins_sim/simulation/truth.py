@@ -100,8 +100,13 @@ class VehicleSampler:
         self._nodes = np.concatenate((self._nodes, new))
         self._next = j_last + 1
 
-    def sample(self, t) -> np.ndarray:
-        """Interpolated rows (columns as :data:`VEHICLE_FIELDS`) at increasing times ``t`` (s)."""
+    def sample(self, t, full_every: int = 1, fields=()) -> np.ndarray:
+        """Interpolated rows (columns as :data:`VEHICLE_FIELDS`) at increasing times ``t`` (s).
+
+        With ``full_every > 1`` only every ``full_every``-th row (indices ``full_every - 1``,
+        ``2 full_every - 1``, ...) has every field; the others have ``fields`` (adjacent in
+        :data:`VEHICLE_FIELDS`) and NaN elsewhere. Each field's values are those of a full row.
+        """
         t = np.ascontiguousarray(t, dtype=np.float64)
         j_first = int(np.floor(t[0] / self.h))
         j_last = int(np.floor(t[-1] / self.h))
@@ -111,7 +116,11 @@ class VehicleSampler:
             self._nodes = self._nodes[drop:]
             self._j0 += drop
         out = np.empty((t.size, N_VEHICLE_COLS))
-        ktruth.lagrange4(self._nodes, self._j0, self.h, t, _COLS["q_nv"].start, out)
+        c_lo = min((_COLS[k].start for k in fields), default=0)
+        c_hi = max((_COLS[k].stop for k in fields), default=0)
+        if c_hi - c_lo != sum(_COLS[k].stop - _COLS[k].start for k in fields):
+            raise ValueError(f"truth.fields: must be adjacent in VEHICLE_FIELDS, got {fields!r}")
+        ktruth.lagrange4(self._nodes, self._j0, self.h, t, _COLS["q_nv"].start, out, int(full_every), c_lo, c_hi)
         return out
 
     @staticmethod
@@ -225,7 +234,8 @@ class MissionTruth:
         -------
         chunk : TruthChunk
         angle, rate : ndarray (n R, 3)
-            Gyro angles ``phi`` (rad) and rates (rad/s) at the ends of the plant steps.
+            Gyro angles ``phi`` (rad) and rates (rad/s) at the ends of the plant steps; stored
+            axis-major (Fortran order), so ``angle[:, i]`` is contiguous.
         """
         first = self._k < 0
         k_prev = max(self._k, 0)
@@ -240,7 +250,8 @@ class MissionTruth:
         if first:
             row0 = self.vehicle.sample(np.zeros(1))
             self._state[3:6] = f(row0, "omega_iv_v_rad_s")[0]
-        rows = self.vehicle.sample(grid).reshape(n, 4, N_VEHICLE_COLS)
+        # the rates and specific force at every node, the rest only at the sample's end (row 3 of 4)
+        rows = self.vehicle.sample(grid, 4, ("omega_iv_v_rad_s", "f_v_m_s2")).reshape(n, 4, N_VEHICLE_COLS)
         if self._grid_attitude is None:  # decided once per run
             self._grid_attitude = bool(plant and self.r % 2 == 0 and not self.block.has_closed_form_attitude)
         # the block's own motion on the plant grid (closed forms), then at the Gauss-Legendre nodes by cubic
@@ -258,10 +269,11 @@ class MissionTruth:
             phib = np.ascontiguousarray(self.block.gyro_angle(grid).reshape(n, 4, 3))
         if not self._grid_attitude:  # closed forms, or the Magnus integration of the motion itself
             q_vb = np.ascontiguousarray(self._att.advance(t_end))
-        om = np.ascontiguousarray(f(rows, "omega_iv_v_rad_s"))
-        fv = np.ascontiguousarray(f(rows, "f_v_m_s2"))
+        # strided views into the rows (the kernel reads them in place; a contiguous copy costs more than it saves)
+        om = f(rows, "omega_iv_v_rad_s")
+        fv = f(rows, "f_v_m_s2")
         end = rows[:, 3]
-        q_nv = np.ascontiguousarray(f(end, "q_nv"))
+        q_nv = f(end, "q_nv")
         if self.translation is not None:
             acc = np.ascontiguousarray(self.translation.accel(grid).reshape(n, 4, 3))
             dv_vib = np.ascontiguousarray(self.translation.velocity_increment(t_start, t_end))
@@ -278,8 +290,12 @@ class MissionTruth:
         # gyro inputs at the plant rate: block angle (closed form) + Hermite interpolant of S
         angle = rate = None
         if plant:  # block angle (closed form) + Hermite interpolant of S, in place
-            ktruth.hermite_plant(s_nodes, ds_nodes, self._herm, self._dherm, ang_b, rate_b)
-            angle, rate = ang_b, rate_b
+            # axis-major storage: each axis's column of the (n R, 3) views is contiguous (the channel kernels'
+            # input, no strided copy per axis and chunk)
+            ang_ax = np.empty((3, ang_b.shape[0]))
+            rate_ax = np.empty((3, ang_b.shape[0]))
+            ktruth.hermite_plant_axes(s_nodes, ds_nodes, self._herm, self._dherm, ang_b, rate_b, ang_ax, rate_ax)
+            angle, rate = ang_ax.T, rate_ax.T
         phi = phib[:, 3] + s_nodes[1:]
         lat, lon, h = f(end, "lat_rad"), f(end, "lon_rad"), f(end, "h_m")
         v_ned = self._v_ned(f(end, "v_ned_m_s"), q_nv, t_end)
