@@ -530,9 +530,14 @@ class ChannelChain:
             flt.hyst[:] = self._fh[f]
             flt.stack[:] = self._fk[f]
 
-    def _run_reference(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray):
-        """The chain composed of the public classes, block by block (same arithmetic as the kernel)."""
-        n = angle.shape[0]
+    def _drive_blocks(self, i0: int, n: int, uniforms: np.ndarray, plant_piece):
+        """The amplitude-control blocks of a chunk on the Python paths (same arithmetic as the kernel).
+
+        Per block: the DAC cosine held over ``r_dac`` steps (``drive.dac_cosine``), the plant over
+        the block's piece (``plant_piece(j, m, volts)`` writes the deflection of steps ``j .. j+m``),
+        the synchronous detector (``drive.demod_accumulate``) and, at the block's end, the PI
+        amplitude loop (``chain.end_block``). Returns the deflection and the commanded voltage.
+        """
         d = self.dstate
         delta = np.empty(n)
         volts = np.empty(n)
@@ -544,7 +549,7 @@ class ChannelChain:
             vv = np.empty(m)
             kdrive.dac_cosine(i0 + j, self.r_dac, self.fpar[kchain.P_CYC_DAC], self.fpar[kchain.P_PHASE],
                               float(d[kchain.D_VM]), vv)
-            delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv, check=False)
+            plant_piece(j, m, vv, delta)
             volts[j:j + m] = vv
             acc = d[kchain.D_ACC:kchain.D_ACC + 3]
             kdrive.demod_accumulate(delta[j:j + m], i0 + j, self.fpar[kchain.P_CYC_STEP], self.block - left,
@@ -556,9 +561,10 @@ class ChannelChain:
                 used += 1
                 left = self.block
             d[kchain.D_LEFT] = left
-        phi = angle + delta
-        feed = np.concatenate(([d[kchain.D_CARRY]], phi[:-1]))
-        d[kchain.D_CARRY] = float(phi[-1])
+        return delta, volts
+
+    def _readout_and_filters(self, feed: np.ndarray, volts: np.ndarray, delta: np.ndarray) -> dict:
+        """Quantise, decimate and filter the angle the counter sees (``feed``, grid points of the chunk)."""
         _, x = self.readout.process(feed)
         vx = self.vdec.process(volts)
         out = {"raw": x}
@@ -570,6 +576,17 @@ class ChannelChain:
         out["delta"] = delta
         return out
 
+    def _run_reference(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray):
+        """The chain composed of the public classes, block by block (same arithmetic as the kernel)."""
+        def piece(j, m, vv, delta):
+            delta[j:j + m] = self.plant.step(angle[j:j + m], rate[j:j + m], vv, check=False)
+
+        delta, volts = self._drive_blocks(i0, angle.shape[0], uniforms, piece)
+        d = self.dstate
+        phi = angle + delta
+        feed = np.concatenate(([d[kchain.D_CARRY]], phi[:-1]))
+        d[kchain.D_CARRY] = float(phi[-1])
+        return self._readout_and_filters(feed, volts, delta)
 
     def _run_effects(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray):
         """:meth:`_run_reference` with the effect stages inserted (:class:`_EffectStages`).
@@ -589,44 +606,19 @@ class ChannelChain:
         fx = self._fx
         n = angle.shape[0]
         angle, rate = fx.block(angle, rate)
-        d = self.dstate
-        delta = np.empty(n)
         ddelta = np.empty(n)
-        volts = np.empty(n)
-        used = 0
-        j = 0
-        while j < n:
-            left = int(d[kchain.D_LEFT])
-            m = min(left, n - j)
-            vv = np.empty(m)
-            kdrive.dac_cosine(i0 + j, self.r_dac, self.fpar[kchain.P_CYC_DAC], self.fpar[kchain.P_PHASE],
-                              float(d[kchain.D_VM]), vv)
+
+        def piece(j, m, vv, delta):
             fx.plant_run(self.plant, i0 + j, angle[j:j + m], rate[j:j + m], fx.voltage(vv), delta[j:j + m],
                          ddelta[j:j + m])
-            volts[j:j + m] = vv
-            acc = d[kchain.D_ACC:kchain.D_ACC + 3]
-            kdrive.demod_accumulate(delta[j:j + m], i0 + j, self.fpar[kchain.P_CYC_STEP], self.block - left,
-                                    self.block, acc, self.fpar[kchain.P_DPHASE])
-            left -= m
-            j += m
-            if left == 0:
-                kchain.end_block(self.fpar, d, uniforms[used])
-                used += 1
-                left = self.block
-            d[kchain.D_LEFT] = left
+
+        delta, volts = self._drive_blocks(i0, n, uniforms, piece)
+        d = self.dstate
         self.plant._check_regime()
         phi_meas, rate_meas, err = fx.sense(angle + delta, rate + ddelta)
         feed = fx.readout(i0, phi_meas, rate_meas)
         d[kchain.D_CARRY] = float(phi_meas[-1]) if n else d[kchain.D_CARRY]
-        _, x = self.readout.process(feed)
-        vx = self.vdec.process(volts)
-        out = {"raw": x}
-        out["eliminator"] = self.filters["eliminator"].process(x)
-        out["correcting"] = self.filters["correcting"].process(x, vx)
-        out["correcting_paper"] = self.filters["correcting_paper"].process(x, vx)
-        out["volts"] = vx
-        self._run_plugins(out)
-        out["delta"] = delta
+        out = self._readout_and_filters(feed, volts, delta)
         out["sensed"] = feed
         out["lock_in_error"] = err
         return out
