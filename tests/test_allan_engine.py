@@ -50,7 +50,7 @@ def test_allan_record_is_bounded_for_long_missions(monkeypatch):
     n = res.allan["record_s"] * res.allan["rate_hz"] + 1
     assert 1900 <= n <= 2000
     assert res.allan["rate_hz"] == pytest.approx(7200.0 / 213)  # the stride: ceil(7200 / (2000 / 59 s))
-    assert ALLAN_MAX_SAMPLES == 2 ** 17
+    assert ALLAN_MAX_SAMPLES == 2 ** 16
 
 
 def test_metrics_json_has_allan_per_filter_and_axis(tmp_path):

@@ -6,7 +6,8 @@
   frequency and voltage (the paper's Fig. 2/4), the fit of omega0, k1..k5 to
   such a set and the sensitivity table.
 - :mod:`sins_sim.identification.diagnose`: the sim-to-real diagnosis of a
-  recording, one module per step: :mod:`~sins_sim.identification.refit`,
+  recording, one module per step: :mod:`~sins_sim.identification.checks` (the data checks),
+  :mod:`~sins_sim.identification.refit`,
   :mod:`~sins_sim.identification.recording_inputs`,
   :mod:`~sins_sim.identification.localise`,
   :mod:`~sins_sim.identification.explain`,

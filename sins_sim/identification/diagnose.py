@@ -2,6 +2,10 @@
 
 Given a recording (``sins_sim.io.recording``), :func:`diagnose_recording`
 
+0. **checks the data** (:mod:`~sins_sim.identification.checks`): dead, saturated or noisy
+   channels, impossible jumps, counts that are no continuous angle, a sign convention opposite to
+   the header's. Each failure is a finding naming the axis and the time; a recording with a
+   finding gets no verdict (status ``invalid data``);
 1. **refits** the nominal parameters ``f0, k1..k5`` of every axis by
    simulating the same experiment (same drive, block motion and readout
    instants, ``sins_sim.simulation.experiment``, exact integrator at about
@@ -39,15 +43,21 @@ Given a recording (``sins_sim.io.recording``), :func:`diagnose_recording`
    floor it removes; the ``score`` is the RMS residual on held-out data
    (the recording is cut in blocks; even blocks fit, odd blocks score), so
    an extra parameter that only fits noise gains nothing;
-5. gives a **verdict**: ``none`` when the refit nominal model sits at the
-   floor (excess RMS below ``max(rel_tol * floor, abs_tol)``: a tolerance
-   that covers integration-method, interpolation and noise differences
-   between simulators); the best-scoring effect when it closes the gap
-   (leaves an excess within the tolerance, or below ``close_fraction`` of
-   the excess it started from, and removes at least ``min_gap_reduction``
-   of the power), with the effects that do as well within
-   ``ALTERNATIVE_MARGIN`` named as ``alternatives``; else ``unknown`` (the
-   localisation is then the answer).
+5. gives a **verdict** (:mod:`~sins_sim.identification.verdict`, where the criteria and their
+   sources are): ``none`` when the refit nominal model sits at the floor (excess RMS below
+   ``max(rel_tol * floor, abs_tol)``: a tolerance that covers integration-method, interpolation
+   and noise differences between simulators); else the best candidate when it is significant
+   against the baseline on held-out data (Diebold-Mariano) and by the nested F-test, with status
+   ``explained`` when it closes the gap (leaves an excess within the tolerance, or below
+   ``close_fraction`` of the excess it started from, and removes at least ``min_gap_reduction``
+   of the power; effects that do as well within ``ALTERNATIVE_MARGIN`` are named as
+   ``alternatives``) or ``partly explained`` when it closes at least a quarter of the gap and is
+   clearly ahead of the runner-up on held-out data (``explained_fraction`` and the ``remainder``:
+   axis, band, time window); else ``unknown`` (the localisation is then the answer);
+6. **selects further effects greedily**: with the selected effects in the model, the refit is
+   repeated with each remaining candidate added; the next one is selected when it is significant
+   against the selected model and removes at least ``MIN_STEP`` of what remains. The verdict lists
+   the selected effects in order, with the share of the gap each closes (``verdict.effects``).
 
 Conventions: the measured angle is ``counts * q + q / 2`` (the floor of the
 counter makes ``counts * q`` half a quantum low on average). A recording
@@ -84,18 +94,20 @@ Functions
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
 import numpy as np
 
+from sins_sim.identification.checks import check_recording
 from sins_sim.identification.explain import explain
 from sins_sim.identification.localise import localise, noise_floor, operating_points
 from sins_sim.identification.recording_inputs import (_coupling_sources, _masks, _model_inputs, _table_angles, _tau,
                                                       _truncate)
-from sins_sim.identification.refit import AxisFit, DiagnoseSettings, _Problem, _rms, fit_axis
+from sins_sim.identification.refit import CANCEL, AxisFit, DiagnoseSettings, _Problem, _rms, fit_axis, worker_pool
 from sins_sim.identification.report import Diagnosis, write_report
-from sins_sim.identification.verdict import ALTERNATIVE_MARGIN, give_verdict  # noqa: F401 (re-exported)
+from sins_sim.identification.verdict import (ALTERNATIVE_MARGIN, MAX_EFFECTS, MIN_STEP, _step,  # noqa: F401
+                                             assess, closes, first_step, give_verdict)
+from sins_sim.models.effects import EFFECTS
 from sins_sim.io.recording import Recording
 from sins_sim.simulation.experiment import suspension_from_nominal
 from sins_sim.units import ARCSEC
@@ -106,6 +118,11 @@ __all__ = ["DiagnoseSettings", "AxisFit", "Diagnosis", "noise_floor", "fit_axis"
 
 def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSettings(), progress=None) -> Diagnosis:
     """Refit, noise floor, localisation, candidate effects and verdict for a recording."""
+    CANCEL.clear()
+    return _diagnose(rec, settings, progress)
+
+
+def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diagnosis:
     import time
 
     t_start = time.perf_counter()
@@ -119,6 +136,16 @@ def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSett
     fs = rec.fs_hz
     sig0 = q / math.sqrt(12.0)
     table = _table_angles(rec)
+    if settings.checks:
+        # 0. the data checks: a recording with a finding gets no verdict
+        findings = check_recording(rec, table)
+        timing["checks"] = time.perf_counter() - t_start
+        if findings:
+            verdict = {"effect": "invalid_data", "status": "invalid data", "explained_fraction": None,
+                       "gap_reduction": None, "effects": [], "alternatives": [], "remainder": None,
+                       "findings": findings}
+            return Diagnosis(recording=rec, floors={}, baseline={}, gap={}, candidates=[], verdict=verdict,
+                             timing=timing, findings=findings)
     a_ref = {}
     for a in rec.axes:
         d = rec.angle(a) - table[a]
@@ -153,7 +180,7 @@ def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSett
         """``job(axis, settings)`` for every axis, in parallel threads when there are several."""
         if len(axes) > 1 and settings.threads > 1:
             inner = replace(settings, threads=max(1, settings.threads // len(axes)))
-            with ThreadPoolExecutor(max_workers=min(settings.threads, len(axes))) as ex:
+            with worker_pool(min(settings.threads, len(axes))) as ex:
                 return dict(zip(axes, ex.map(lambda a: job(a, inner), axes)))
         return {a: job(a, settings) for a in axes}
 
@@ -193,17 +220,67 @@ def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSett
     baseline = {"fits": fits, "rms_rad": base_rms}
     timing["localise"] = time.perf_counter() - t_start
 
-    # 4. candidates on the significant axes
-    def fit_effect(cls, starts):
-        """The fits with the effect ``cls`` on the significant axes, from the baseline and ``starts[axis]``."""
-        return per_axis(sig_axes, lambda a, sett: fit(a, cls, fits[a], starts[a], sett))
+    # 4. candidates on the significant axes, against the baseline
+    def fit_effect_from(start_fits):
+        def fit_effect(cls, starts):
+            """The fits with the effect ``cls`` on the significant axes, from ``start_fits`` and ``starts[axis]``."""
+            return per_axis(sig_axes, lambda a, sett: fit(a, cls, start_fits[a], starts[a], sett))
+        return fit_effect
 
     candidates, skipped = [], {}
+    steps = None
+    remainder = None
+    train = full[2]
+    n_nom = 6 + (2 if offset else 0)
     if significant:
-        candidates, skipped = explain(rec, settings, fits, floors, excess, tol, sig_axes, locs, fit_effect, timing,
-                                      progress)
-    # 5. the verdict
-    verdict = give_verdict(fits, sig_axes, candidates, settings)
+        candidates, skipped = explain(rec, settings, fits, floors, excess, tol, sig_axes, locs,
+                                      fit_effect_from(fits), timing, progress)
+        assess(candidates, fits, sig_axes, train, used, n_nom)
+        base_held = math.sqrt(np.mean([fits[a].heldout_rms ** 2 for a in sig_axes]))
+        steps = first_step(candidates, base_held, settings)
+        # 5. greedy forward selection: the next effect on what the selected ones leave
+        classes = [EFFECTS[s["effect"]] for s in steps]
+        base_total = sum(excess[a] for a in sig_axes)
+        while steps and len(steps) < MAX_EFFECTS and settings.max_effects > len(steps):
+            cur = steps[-1]["fits"]
+            rem = {a: max(0.0, cur[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in sig_axes}
+            if all(math.sqrt(rem[a]) <= tol[a] for a in sig_axes):
+                break  # at the floor
+            chosen = {s["effect"] for s in steps}
+            names = [c["effect"] for c in candidates if c["effect"] not in chosen and c["gap_reduction"] > 0.0]
+            names = names[:settings.greedy_candidates]
+            if not names:
+                break
+            cur_locs = {a: localise(cur[a].residual, floors[a]["floor_rad"], fs) for a in sig_axes}
+            more, _ = explain(rec, settings, cur, floors, rem, tol, sig_axes, {**locs, **cur_locs},
+                              fit_effect_from(cur), timing, progress, base=tuple(classes), names=names)
+            assess(more, cur, sig_axes, train, used, n_nom + sum(len(c.fit_space(sig_axes[0], rec.axes))
+                                                                for c in classes))
+            cur_held = math.sqrt(np.mean([cur[a].heldout_rms ** 2 for a in sig_axes])) / ARCSEC
+            pick = next((c for c in more if c["significant"] and c["gap_reduction"] >= MIN_STEP
+                         and c["score"] < cur_held), None)
+            if pick is None:
+                break
+            rem_total = sum(rem.values())
+            left = {a: math.sqrt(max(0.0, pick["fits"][a].rms ** 2 - floors[a]["floor_rad"] ** 2)) for a in sig_axes}
+            frac = pick["gap_reduction"] * rem_total / base_total if base_total > 0 else 0.0
+            steps.append(_step(pick, frac, closes(left, excess, tol, settings)))
+            classes.append(EFFECTS[pick["effect"]])
+        if len(steps) == 1 and steps[0].get("tentative"):
+            steps = []  # the best effect was not clearly ahead and no second effect joined it
+        if steps and not (steps[-1]["closes_gap"] and sum(s["explained_fraction"] for s in steps)
+                          >= settings.min_gap_reduction):
+            last = steps[-1]["fits"]
+            w = max(sig_axes, key=lambda a: last[a].rms ** 2 - floors[a]["floor_rad"] ** 2)
+            lw_ = localise(last[w].residual, floors[w]["floor_rad"], fs)
+            remainder = {"axis": w, "band_hz": lw_["band_hz"], "peaks_hz": lw_["peaks_hz"], "time_s": lw_["time_s"],
+                         "excess_rms_arcsec": {a: math.sqrt(max(0.0, last[a].rms ** 2 - floors[a]["floor_rad"] ** 2))
+                                               / ARCSEC for a in sig_axes}}
+        elif not steps:
+            remainder = {"axis": worst, "band_hz": lw["band_hz"], "peaks_hz": lw["peaks_hz"], "time_s": lw["time_s"],
+                         "excess_rms_arcsec": {a: math.sqrt(excess[a]) / ARCSEC for a in sig_axes}}
+    # 6. the verdict
+    verdict = give_verdict(fits, sig_axes, candidates, settings, steps, remainder)
     timing["total"] = time.perf_counter() - t_start
     return Diagnosis(recording=rec, floors=floors, baseline=baseline, gap=gap, candidates=candidates,
-                     verdict=verdict, localisation=locs, timing=timing, skipped=skipped)
+                     verdict=verdict, localisation=locs, timing=timing, skipped=skipped, steps=steps or [])

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from sins_sim.identification.refit import DiagnoseSettings
+from sins_sim.identification.refit import DiagnoseSettings, EffectSet, effects_of
 from sins_sim.io.recording import NOMINAL_KEYS, Recording
 from sins_sim.models.effects import EFFECTS
 from sins_sim.units import ARCSEC
@@ -53,8 +53,22 @@ def _effect_starts(cls, axis: str, loc: dict, fs_hz: float) -> list:
     return None
 
 
+def _prefixed(effect, axis: str) -> dict:
+    """A fitted effect's (or effect set's) values named ``"<effect>.<param>"``."""
+    return {f"{e.name}.{k}": val for e in effects_of(effect) for k, val in e.values(axis).items()}
+
+
+def _own(values: dict, name: str, in_set: bool) -> dict:
+    """The values of effect ``name`` alone (an effect set names its members' values ``"<effect>.<param>"``)."""
+    if not in_set:
+        return dict(values)
+    pre = name + "."
+    return {k[len(pre):]: val for k, val in values.items() if k.startswith(pre)}
+
+
 def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict, excess: dict, tol: dict,
-            sig_axes: list, locs: dict, fit_effect, timing: dict, progress=None) -> tuple:
+            sig_axes: list, locs: dict, fit_effect, timing: dict, progress=None, base: tuple = (),
+            names=None) -> tuple:
     """Fit every catalogue effect the experiment can show on the axes with a significant gap, best first.
 
     Parameters
@@ -77,6 +91,12 @@ def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict
     timing : dict
         The seconds each candidate took are added under its name.
     progress : callable(str) or None
+    base : tuple of Effect classes
+        Effects already selected (greedy forward selection): each candidate is fitted together with
+        them (an :class:`~sins_sim.identification.refit.EffectSet`), started from their values in
+        ``fits``; ``fits`` is then the refit with them, and the gap reduction is relative to it.
+    names : sequence of str or None
+        The effects to try (default ``settings.effects`` or the whole catalogue).
 
     Returns
     -------
@@ -88,7 +108,8 @@ def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict
     candidates = []
     skipped = {}
     moving = rec.sins_angle is not None and float(np.ptp(rec.sins_angle)) > 0.0
-    names = tuple(EFFECTS) if settings.effects is None else settings.effects
+    if names is None:
+        names = tuple(EFFECTS) if settings.effects is None else settings.effects
     base_ex = sum(excess[a] for a in sig_axes)
     fs = rec.fs_hz
     for name in names:
@@ -101,7 +122,17 @@ def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict
             continue
         t0 = time.perf_counter()
         cfits = dict(fits)
-        cfits.update(fit_effect(cls, {a: _effect_starts(cls, a, locs[a], fs) for a in sig_axes}))
+        if base:
+            fit_cls = EffectSet(tuple(base) + (cls,))
+            starts = {}
+            for a in sig_axes:
+                held = _prefixed(fits[a].effect, a)
+                new = _effect_starts(cls, a, locs[a], fs) or [{}]
+                starts[a] = [{**held, **{f"{name}.{k}": val for k, val in st.items()}} for st in new]
+        else:
+            fit_cls = cls
+            starts = {a: _effect_starts(cls, a, locs[a], fs) for a in sig_axes}
+        cfits.update(fit_effect(fit_cls, starts))
         cand_axes = {a: max(0.0, cfits[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in sig_axes}
         cand_ex = sum(cand_axes.values())
         red = 1.0 - cand_ex / base_ex if base_ex > 0 else 0.0
@@ -111,16 +142,17 @@ def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict
         closes = all(math.sqrt(cand_axes[a]) <= max(tol[a], settings.close_fraction * math.sqrt(excess[a]))
                      for a in sig_axes)
         candidates.append({
-            "effect": name, "fits": cfits,
+            "effect": name, "fits": cfits, "n_params": len(cls.fit_space(sig_axes[0], rec.axes)),
             "rms_rad": math.sqrt(np.mean([cfits[a].rms ** 2 for a in rec.axes])),
             "gap_reduction": float(red), "score": held / ARCSEC, "closes_gap": bool(closes),
             "remaining_excess_arcsec": {a: math.sqrt(cand_axes[a]) / ARCSEC for a in sig_axes},
-            "params": {a: cfits[a].effect.values(a) for a in sig_axes},
-            "uncertainty": {a: {k: val for k, val in cfits[a].sigma.items()
-                                if k not in NOMINAL_KEYS and not k.startswith("start_")} for a in sig_axes},
+            "params": {a: _own(cfits[a].effect.values(a), name, bool(base)) for a in sig_axes},
+            "uncertainty": {a: _own({k: val for k, val in cfits[a].sigma.items()
+                                     if k not in NOMINAL_KEYS and not k.startswith("start_")}, name, bool(base))
+                            for a in sig_axes},
             "nfev": sum(cfits[a].nfev for a in sig_axes),
         })
-        timing[name] = time.perf_counter() - t0
+        timing[fit_cls.name] = time.perf_counter() - t0
         if progress:
             progress(f"candidate {name}")
     candidates.sort(key=lambda c: c["score"])

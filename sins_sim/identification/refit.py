@@ -25,8 +25,10 @@ from __future__ import annotations
 
 import math
 import warnings
+import threading
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import optimize
@@ -38,7 +40,7 @@ from sins_sim.models.effects import EFFECTS, Effect, Param
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, ExperimentSettings, simulate_axis
 
-__all__ = ["DiagnoseSettings", "AxisFit", "fit_axis"]
+__all__ = ["DiagnoseSettings", "AxisFit", "EffectSet", "fit_axis"]
 
 #: Relative bounds of the nominal parameters in the fit (multiples of the nominal value).
 #: A unit's parameters differ from the nominal ones by per cent (f0) or tens of per cent (k); wider
@@ -95,6 +97,12 @@ class DiagnoseSettings:
         Catalogue effects to try (``None``: all).
     threads : int
         Simulations run in parallel for the Jacobian (the kernels release the GIL).
+    max_effects : int
+        Most effects the greedy forward selection names (1: the best effect only).
+    greedy_candidates : int
+        How many of the first round's best candidates each further greedy round tries.
+    checks : bool
+        Check the data before judging it (``sins_sim.identification.checks``).
     """
 
     experiment: ExperimentSettings = FIT_SETTINGS
@@ -111,6 +119,9 @@ class DiagnoseSettings:
     block_s: float | None = None
     effects: tuple | None = None
     threads: int = 2
+    max_effects: int = 3
+    greedy_candidates: int = 4
+    checks: bool = True
 
     def __post_init__(self):
         v.positive("diagnose", "prior_f0", self.prior_f0)
@@ -133,8 +144,87 @@ class DiagnoseSettings:
             v.positive("diagnose", "block_s", self.block_s)
         for name in self.effects or ():
             v.choice("diagnose", "effects", name, EFFECTS)
+        for name in ("max_effects", "greedy_candidates"):
+            val = getattr(self, name)
+            if int(val) != val or val < 1:
+                raise ValueError(f"diagnose.{name}: must be an integer >= 1, got {val!r}")
         if int(self.threads) != self.threads or self.threads < 1:
             raise ValueError(f"diagnose.threads: must be an integer >= 1, got {self.threads!r}")
+
+
+# --- interruption ----------------------------------------------------------------------------------------
+#: Set when the diagnosis is interrupted (Ctrl-C, SIGTERM): every model evaluation checks it first, so
+#: the worker threads stop after the kernel call they are in (each simulates one axis once: tens of ms
+#: for a 20 s recording) instead of finishing their fits.
+CANCEL = threading.Event()
+
+
+class Cancelled(Exception):
+    """A model evaluation refused because the diagnosis was interrupted."""
+
+
+@contextmanager
+def worker_pool(n: int):
+    """A thread pool that, when the body raises (an interrupt), cancels what is queued and does not wait.
+
+    Python runs signal handlers in the main thread only, between bytecodes; a ``with
+    ThreadPoolExecutor`` would then wait for every submitted fit to end before the interrupt could
+    propagate. Here the pending tasks are cancelled, :data:`CANCEL` stops the running ones at their
+    next model evaluation, and the exception goes on at once.
+    """
+    ex = ThreadPoolExecutor(max_workers=n)
+    try:
+        yield ex
+    except BaseException:
+        CANCEL.set()
+        ex.shutdown(wait=False, cancel_futures=True)
+        raise
+    ex.shutdown(wait=True)
+
+
+# --- several effects at once ------------------------------------------------------------------------
+class EffectSet:
+    """Several catalogue effect classes fitted together (the greedy forward selection of the verdict).
+
+    It follows the fitting protocol of :class:`sins_sim.models.effects.Effect`
+    (``fit_space``, ``build``, ``needs_motion``, ``min_axes``); its
+    parameters are the members' parameters named ``"<effect>.<param>"``.
+    """
+
+    def __init__(self, classes):
+        self.classes = tuple(classes)
+        if not self.classes:
+            raise ValueError("diagnose.effects: an effect set needs at least one effect")
+        self.name = "+".join(c.name for c in self.classes)
+        self.needs_motion = any(c.needs_motion for c in self.classes)
+        self.min_axes = max(c.min_axes for c in self.classes)
+
+    def fit_space(self, axis: str, axes) -> list:
+        return [replace(p, name=f"{c.name}.{p.name}") for c in self.classes for p in c.fit_space(axis, axes)]
+
+    def build(self, axis: str, axes, values: dict) -> "BuiltEffects":
+        parts = []
+        for c in self.classes:
+            pre = c.name + "."
+            parts.append(c.build(axis, axes, {k[len(pre):]: val for k, val in values.items() if k.startswith(pre)}))
+        return BuiltEffects(tuple(parts))
+
+
+@dataclass(frozen=True)
+class BuiltEffects:
+    """The effects of an :class:`EffectSet` built for one axis (what ``_Problem.model`` simulates)."""
+
+    effects: tuple
+
+    def values(self, axis: str) -> dict:
+        return {f"{e.name}.{k}": val for e in self.effects for k, val in e.values(axis).items()}
+
+
+def effects_of(effect) -> tuple:
+    """The Effect objects a fitted effect stands for: ``()``, ``(effect,)`` or a set's members."""
+    if effect is None:
+        return ()
+    return tuple(effect.effects) if isinstance(effect, BuiltEffects) else (effect,)
 
 
 # --- fitting -----------------------------------------------------------------------------------------
@@ -260,8 +350,10 @@ class _Problem:
 
     def model(self, sus: SuspensionParams, effect: Effect | None, start=None) -> np.ndarray:
         """Model angle at the recording's samples; ``start`` = (d_delta, d_rate) at t = 0 or None."""
+        if CANCEL.is_set():
+            raise Cancelled("diagnosis interrupted")
         self.nfev += 1
-        effects = () if effect is None else (effect,)
+        effects = effects_of(effect)
         kick = None if start is None else (self.kick_index, float(start[0]), float(start[1]))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -355,7 +447,7 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
             return (fun(zp) - f0) / hz[i]
 
         if threads > 1:
-            with ThreadPoolExecutor(max_workers=threads) as ex:
+            with worker_pool(threads) as ex:
                 cols = list(ex.map(col, range(z.size)))
         else:
             cols = [col(i) for i in range(z.size)]
@@ -417,9 +509,11 @@ def _drift_centred(prob: _Problem, effect_cls, xn: np.ndarray, values: dict) -> 
     ``t = 0``, before any pre-roll), so a drift start keeps the mean where
     the fit found it.
     """
-    if effect_cls is None or effect_cls.name != "resonance_drift":
+    # in an effect set, only a drift that is new (the last member) moves the start
+    last = effect_cls.classes[-1].name if isinstance(effect_cls, EffectSet) else getattr(effect_cls, "name", "")
+    if last != "resonance_drift":
         return xn
-    rate = float(values.get("rate_hz_per_s", 0.0))
+    rate = float(values.get("rate_hz_per_s", values.get("resonance_drift.rate_hz_per_s", 0.0)))
     t_mid = (prob.skip + 0.5 * prob.y.size) / prob.inputs.fs_hz
     sus = prob.suspension(xn)
     try:
@@ -486,7 +580,7 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
             except ValueError:
                 return math.inf
 
-        with ThreadPoolExecutor(max_workers=threads) as ex:
+        with worker_pool(threads) as ex:
             costs = list(ex.map(grid_cost, _F_GRID))
         x0_nom[0] = prob.x_c[0] * (1.0 + _F_GRID[int(np.argmin(costs))])
     nominal_starts = []
@@ -504,7 +598,7 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
 
         trials = [(_drift_centred(prob, effect_cls, x0_nom, st), st) for st in starts]
         if len(trials) > 1:
-            with ThreadPoolExecutor(max_workers=threads) as ex:
+            with worker_pool(threads) as ex:
                 costs = list(ex.map(cost, trials))
         else:
             costs = [math.inf]

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from sins_sim.identification.localise import localise
+from sins_sim.identification.refit import DiagnoseSettings
 from sins_sim.io.recording import NOMINAL_KEYS, Recording
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.units import ARCSEC
@@ -41,9 +42,15 @@ class Diagnosis:
     localisation: dict = field(default_factory=dict)
     timing: dict = field(default_factory=dict)
     skipped: dict = field(default_factory=dict)
+    steps: list = field(default_factory=list)
+    findings: list = field(default_factory=list)
 
     def to_json(self) -> dict:
         a = ARCSEC
+        if self.findings:
+            return _json_clean({"noise_floor_arcsec": None, "baseline": None, "gap": None, "candidates": [],
+                                "verdict": dict(self.verdict), "findings": list(self.findings),
+                                "skipped_effects": {}, "timing_s": dict(self.timing)})
         floor_all = math.sqrt(np.mean([fl["floor_rad"] ** 2 for fl in self.floors.values()]))
         base = self.baseline
         out = {
@@ -59,14 +66,67 @@ class Diagnosis:
             "candidates": [{"effect": c["effect"], "residual_rms_arcsec": c["rms_rad"] / a,
                             "gap_reduction": c["gap_reduction"], "score": c["score"],
                             "closes_gap": c["closes_gap"], "remaining_excess_arcsec": c["remaining_excess_arcsec"],
+                            "p_heldout": c.get("p_heldout"), "p_f": c.get("p_f"),
+                            "significant": c.get("significant"),
                             "params": c["params"], "uncertainty": c["uncertainty"],
                             "nominal": {ax: _susp_dict(f.suspension) for ax, f in c["fits"].items()}}
                            for c in self.candidates],
             "verdict": dict(self.verdict),
             "skipped_effects": dict(self.skipped),
+            "findings": list(self.findings),
+            "flags": plausibility_flags(self.recording, base["fits"]),
             "timing_s": dict(self.timing),
         }
         return _json_clean(out)
+
+
+#: A refit parameter this many times its nominal value (or this fraction of it) is flagged as implausible:
+#: a unit's k1..k5 differ from the data sheet by tens of per cent (the refit's prior is 30 %), not by a factor.
+IMPLAUSIBLE_FACTOR = 3.0
+
+
+def plausibility_flags(rec: Recording, fits: dict) -> list:
+    """Flags on refit parameters a unit cannot plausibly have, with the likely reason.
+
+    A sign flip of any ``k`` against the header's nominal value, or a ``k`` beyond
+    :data:`IMPLAUSIBLE_FACTOR` times (or below 1 / that) its nominal value, or ``f0`` at the refit's
+    bound (3 % off).
+    """
+    out = []
+    for a, f in fits.items():
+        nom = rec.nominal[a]
+        for k in NOMINAL_KEYS:
+            val = float(getattr(f.suspension, k))
+            ref = float(nom.get(k, 0.0))
+            if ref == 0.0:
+                continue
+            ratio = val / ref
+            why = None
+            if k == "f0_hz":
+                if abs(ratio - 1.0) > 0.029:
+                    why = "f0 at the refit's bound (3 % from nominal): a header for another unit, or a drift"
+            elif ratio < 0.0:
+                why = (f"sign flip of {k} against the nominal value: the refit bends it to absorb an unmodelled "
+                       "effect (see the candidates), or the header's sign convention differs")
+            elif ratio > IMPLAUSIBLE_FACTOR or ratio < 1.0 / IMPLAUSIBLE_FACTOR:
+                why = (f"{k} at {ratio:.2g} times nominal: the refit bends a weakly resolved parameter to absorb an "
+                       "unmodelled effect, or the nominal value is wrong")
+            if why:
+                out.append({"axis": a, "parameter": k, "value": val, "nominal": ref, "ratio": ratio,
+                            "message": f"axis {a}: {why}"})
+    return out
+
+
+def _pm(val: float, sd: float | None) -> str:
+    """``value +- sigma`` with the value rounded to the uncertainty's second significant digit."""
+    if sd is None or not math.isfinite(sd) or sd <= 0.0:
+        return f"{val:.4g}"
+    digits = max(0, 1 - int(math.floor(math.log10(sd))))
+    if abs(val) >= 1e4 or abs(val) < 1e-3:
+        e = int(math.floor(math.log10(abs(val)))) if val != 0 else 0
+        m = max(0, e - int(math.floor(math.log10(sd))) + 1)
+        return f"{val:.{m}e} +- {sd:.1e}"
+    return f"{val:.{digits}f} +- {sd:.2g}"
 
 
 def _susp_dict(s: SuspensionParams) -> dict:
@@ -149,34 +209,57 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
     names = [c["effect"] for c in diag.candidates]
     if names:
+        from sins_sim.identification.verdict import MIN_PARTIAL
+
         a1.barh(names[::-1], [c["gap_reduction"] for c in diag.candidates][::-1])
-        a1.axvline(0.6, color="k", ls="--")
+        a1.axvline(MIN_PARTIAL, color="0.5", ls=":", label=f"partly explained ({MIN_PARTIAL:g})")
+        g_min = DiagnoseSettings().min_gap_reduction
+        a1.axvline(g_min, color="k", ls="--", label=f"explained ({g_min:g}, default)")
+        a1.legend(fontsize=7)
         a2.barh(names[::-1], [c["score"] for c in diag.candidates][::-1])
         if diag.verdict.get("baseline_score"):
             a2.axvline(diag.verdict["baseline_score"], color="k", ls="--", label="baseline")
             a2.legend()
-    a1.set_xlabel("gap reduction")
+    a1.set_xlabel("gap reduction (fraction of the excess power)")
     a2.set_xlabel("held-out residual RMS (arcsec)")
-    a1.set_title("candidates")
+    a1.set_title("candidates: gap closed")
+    a2.set_title("candidates: held-out error")
     fig.tight_layout()
     fig.savefig(out / "ranking.png", dpi=110)
     plt.close(fig)
+    v = js["verdict"]
     lines = [f"# Sim-to-real diagnosis: {rec.source}", "",
              f"- experiment `{rec.experiment}`, axes {', '.join(rec.axes)}, {rec.n_samples} samples at "
              f"{fs:g} Hz ({rec.duration_s:.3g} s), initial state `{rec.initial_state}`",
              f"- noise floor {js['noise_floor_arcsec']:.4g} arcsec RMS "
              f"(quantisation {rec.quantum_rad / ARCSEC / math.sqrt(12):.4g})",
-             f"- verdict: **{js['verdict']['effect']}** (gap reduction {js['verdict']['gap_reduction']:.3f}"
-             + (f"; the data cannot tell it from {', '.join(js['verdict']['alternatives'])}"
-                if js["verdict"].get("alternatives") else "") + ")", "",
-             "## Baseline refit", "",
-             "| axis | residual RMS (arcsec) | excess (arcsec) | f0 (Hz) | k1 | k2 | k3 | k4 | k5 |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             f"- verdict: **{v['effect']}**, status **{v['status']}**, explained fraction "
+             f"{v['explained_fraction'] or 0.0:.3f}"
+             + (f"; the data cannot tell it from {', '.join(v['alternatives'])}" if v.get("alternatives") else ""),
+             f"- criterion: {v.get('criterion', '')}", ""]
+    if v.get("effects"):
+        lines += ["## Selected effects (in order)", "", "| effect | share of the gap | parameters (+- 1 sigma) | "
+                  "p held-out | p F-test |", "|---|---|---|---|---|"]
+        for e in v["effects"]:
+            pars = "; ".join(f"{ax}: " + ", ".join(f"{k} = {_pm(val, e['uncertainty'].get(ax, {}).get(k))}"
+                                                    for k, val in pv.items()) for ax, pv in e["params"].items())
+            lines.append(f"| {e['effect']} | {e['explained_fraction']:.3f} | {pars} | {e['p_heldout']:.2g} | "
+                         f"{e['p_f']:.2g} |")
+        lines.append("")
+    if v.get("remainder"):
+        r = v["remainder"]
+        lines += [f"- what remains sits on axis {r['axis']}, band {r['band_hz']} Hz, time window {r['time_s']} s", ""]
+    if js.get("flags"):
+        lines += ["## Implausible refit values", ""] + [f"- {f['message']}" for f in js["flags"]] + [""]
+    lines += ["## Baseline refit (+- 1 sigma)", "",
+              "| axis | residual RMS (arcsec) | excess (arcsec) | f0 (Hz) | k1 | k2 (rad) | k3 | k4 (1/rad) | "
+              "k5 (rad/V) |", "|---|---|---|---|---|---|---|---|---|"]
     for a in rec.axes:
         p = js["baseline"]["params"][a]
+        sd = js["baseline"]["uncertainty"][a]
         lines.append(f"| {a} | {js['baseline']['residual_rms_axes_arcsec'][a]:.4g} | "
-                     f"{js['gap']['excess_rms_arcsec'][a]:.4g} | {p['f0_hz']:.5f} | {p['k1']:.4g} | {p['k2']:.4g} | "
-                     f"{p['k3']:.4g} | {p['k4']:.4g} | {p['k5']:.4g} |")
+                     f"{js['gap']['excess_rms_arcsec'][a]:.4g} | "
+                     + " | ".join(_pm(p[k], sd[k]) for k in NOMINAL_KEYS) + " |")
     g = js["gap"]
     lines += ["", "## Gap", "", f"- significant: {g['significant']}, axis {g['axis']}, band {g['band_hz']} Hz, "
               f"peaks {g['peaks_hz']} Hz, time window {g['time_s']} s"]
@@ -186,12 +269,15 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
             lines.append(f"| {p['t_s'][0]:.3f}-{p['t_s'][1]:.3f} | {p['v_m']:.4g} | {p['frequency_hz']:.3f} | "
                          f"{p['excess_rms_arcsec']:.4g} |")
     lines += ["", "## Candidates (best first)", "", "| effect | residual RMS (arcsec) | gap reduction | "
-              "score (held-out RMS, arcsec) | parameters |", "|---|---|---|---|---|"]
+              "score (held-out RMS, arcsec) | p held-out | parameters (+- 1 sigma) |", "|---|---|---|---|---|---|"]
     for c in js["candidates"]:
+        pars = "; ".join(f"{ax}: " + ", ".join(f"{k} = {_pm(val, c['uncertainty'].get(ax, {}).get(k))}"
+                                                for k, val in pv.items()) for ax, pv in c["params"].items())
+        ph = f"{c['p_heldout']:.2g}" if c.get("p_heldout") is not None else "-"
         lines.append(f"| {c['effect']} | {c['residual_rms_arcsec']:.4g} | {c['gap_reduction']:.3f} | "
-                     f"{c['score']:.4g} | {json.dumps(c['params'])} |")
+                     f"{c['score']:.4g} | {ph} | {pars} |")
     for name, why in js["skipped_effects"].items():
-        lines.append(f"| {name} | - | - | - | skipped: {why} |")
+        lines.append(f"| {name} | - | - | - | - | skipped: {why} |")
     lines += ["", "![spectrum](spectrum.png)", "", "![envelope](envelope.png)", "", "![ranking](ranking.png)", ""]
     (out / "report.md").write_text("\n".join(lines))
     return js

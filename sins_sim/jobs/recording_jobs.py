@@ -9,7 +9,8 @@ Each function returns a dictionary and prints nothing:
 - :func:`diagnose` (``sins-sim diagnose REC.npz --json OUT.json --report DIR``);
 - :func:`diagnose_eval` (``sins-sim diagnose-eval --n N --seed S``).
 
-Experiment YAML (units in the key names; every key optional except ``experiment`` and ``duration_s``)::
+Experiment YAML (units in the key names; every key optional except ``experiment`` and ``duration_s``; a
+documented example ships as ``scenarios/experiments/experiment-example.yaml``)::
 
     experiment: stationary          # stationary | afc_sweep | rate_table
     description: "bench run 3"      # written to the recording
@@ -314,6 +315,28 @@ def simulate_recording(yaml_path, out_npz) -> dict:
             "initial_state": rec.initial_state, "effects": [e.to_dict() for e in spec["effects"]]}
 
 
+def _header_nominal(nominal):
+    """Per-axis nominal parameters with the IMU/experiment YAML names (``k2_rad``, ``k4_per_rad``,
+    ``k5_rad_per_v``) renamed to the recording header's (``k2``, ``k4``, ``k5``); giving both names of
+    one parameter is an error naming them."""
+    if not isinstance(nominal, dict):
+        return nominal
+    out = {}
+    for axis, entry in nominal.items():
+        if not isinstance(entry, dict):
+            out[axis] = entry
+            continue
+        clean = {}
+        for key, val in entry.items():
+            name = _YAML_SUSP.get(key, key) if key != "zeta" else key
+            if name in clean:
+                raise ValueError(f"import_csv: nominal.{axis}.{key}: gives {name} a second time (use one of "
+                                 f"{name} or {key})")
+            clean[name] = val
+        out[axis] = clean
+    return out
+
+
 def import_csv(csv_path, out_npz, **meta) -> dict:
     """Convert a lab CSV export into a recording.
 
@@ -322,7 +345,8 @@ def import_csv(csv_path, out_npz, **meta) -> dict:
     csv_path, out_npz : path
     **meta
         ``quantum_rad`` (or ``quantum_arcsec``), required; ``nominal``: a mapping axis ->
-        ``{f0_hz, k1, ..., k5}`` or the path of a JSON/YAML file holding one, required;
+        ``{f0_hz, k1, ..., k5}`` (or with the names of ``configs/*.yaml``: ``k2_rad``, ``k4_per_rad``,
+        ``k5_rad_per_v``) or the path of a JSON/YAML file holding one, required;
         optional ``experiment`` (default ``stationary``), ``initial_state`` (``rest``),
         ``description``, ``fs_hz`` (default from ``time_s``); anything else is stored in the header.
         Options given as ``None`` count as not given (so a CLI can pass its defaults through).
@@ -352,6 +376,7 @@ def import_csv(csv_path, out_npz, **meta) -> dict:
                 raise ValueError(f"import_csv: nominal: cannot read {p} ({exc})") from None
         else:
             nominal = load_yaml(p)
+    nominal = _header_nominal(nominal)
     rec = read_csv_recording(csv_path, nominal=nominal, **meta)
     out = write_recording(out_npz, rec)
     return {"path": str(out), "axes": list(rec.axes), "n_samples": rec.n_samples, "fs_hz": rec.fs_hz,
@@ -388,7 +413,7 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None) -> dict:
     return js
 
 
-def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None) -> dict:
+def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None, jobs: int = 1) -> dict:
     """Blind evaluation (``sins_sim.identification.blind.evaluate``); the result dictionary.
 
     Parameters
@@ -403,10 +428,12 @@ def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, pro
         Write the result as JSON too.
     progress : callable(str) or None
         Called after each case with a one-line summary.
+    jobs : int
+        Recordings diagnosed at once (separate processes).
     """
     from sins_sim.identification.blind import evaluate
 
-    res = evaluate(n, seed, duration_s=duration_s, progress=progress)
+    res = evaluate(n, seed, duration_s=duration_s, progress=progress, jobs=jobs)
     if json_out is not None:
         import json
 
@@ -418,8 +445,12 @@ def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, pro
 
 def format_diagnosis(js: dict) -> str:
     """A few lines summarising a diagnosis' JSON (for the CLI to print)."""
-    g = js["gap"]
     v = js["verdict"]
+    if js.get("findings"):
+        from sins_sim.identification.checks import format_findings
+
+        return format_findings(js["findings"]) + "\nverdict: none given (the data failed the checks above)"
+    g = js["gap"]
     lines = [f"noise floor {js['noise_floor_arcsec']:.4g} arcsec; baseline residual "
              f"{js['baseline']['residual_rms_arcsec']:.4g} arcsec RMS"]
     if g["significant"]:
@@ -430,7 +461,13 @@ def format_diagnosis(js: dict) -> str:
     else:
         lines.append("no significant gap: the refit nominal model sits at the noise floor")
     alts = f" (or: {', '.join(v['alternatives'])})" if v.get("alternatives") else ""
-    lines.append(f"verdict: {v['effect']}{alts}, gap reduction {v['gap_reduction']:.3f}")
+    lines.append(f"verdict: {v['effect']}{alts} [{v.get('status')}], explained fraction "
+                 f"{v.get('explained_fraction') or 0.0:.3f}")
+    if len(v.get("effects", [])) > 1:
+        lines.append("effects: " + ", ".join(f"{e['effect']} {e['explained_fraction']:.3f}" for e in v["effects"]))
+    r = v.get("remainder")
+    if r:
+        lines.append(f"remainder on axis {r['axis']}: band {r['band_hz']} Hz, time {r['time_s']} s")
     return "\n".join(lines)
 
 

@@ -65,9 +65,10 @@ MAX_SERIES_BLOCKS = 7200
 #: An attitude error beyond this (rad) means the navigation of a filter has diverged.
 DIVERGED_ATTITUDE_RAD = 0.5
 #: Allan records (gyro-angle and velocity error at sample instants): at most this rate (Hz) and at most this many
-#: samples per axis and filter (1 h at 36 Hz; 3 MB per filter), so that memory stays flat in the mission length.
+#: samples per axis and filter (10 min at 100 Hz, 1 h at 18 Hz; 1.6 MB per filter), so that memory, and the transient
+#: arrays of the Allan analysis at the end, stay flat in the mission length.
 ALLAN_RATE_HZ = 100.0
-ALLAN_MAX_SAMPLES = 2 ** 17
+ALLAN_MAX_SAMPLES = 2 ** 16
 #: Shortest Allan record analysed (samples): below it the curve has too few clusters to read a term.
 ALLAN_MIN_SAMPLES = 200
 
