@@ -1,6 +1,6 @@
 """The ``effects:`` list of IMU files: one schema node, checked by the effects catalogue.
 
-Item format (the same as an experiment file's ``effects:``, ``sins_sim.jobs.recording_jobs``)::
+Item format (IMU files and experiment files, ``sins_sim.jobs.recording_jobs``, share this node)::
 
     effects:
       - {name: lock_in, axes: [x], threshold_rad_s: 2.0e-3, phase_rad: 0.3}
@@ -27,8 +27,9 @@ class EffectsList:
 
     Parameters
     ----------
-    axes : tuple of str
-        Axis names the items may list under ``axes``.
+    axes : tuple of str or None
+        Axis names the items may list under ``axes`` (None: any; the file checks them against its
+        own axes, as an experiment does).
     catalogue_only : bool
         Refuse the off-catalogue disturbances (``mains_pickup``, ``drive_harmonic``).
     doc : str
@@ -40,7 +41,7 @@ class EffectsList:
     required = False
 
     def __init__(self, axes=ENGINE_AXES, catalogue_only: bool = True, doc: str = ""):
-        self.axes = tuple(axes)
+        self.axes = None if axes is None else tuple(axes)
         self.catalogue_only = catalogue_only
         self.doc = doc
 
@@ -66,7 +67,8 @@ class EffectsList:
             params = {k: v for k, v in item.items() if k != "name"}
             try:
                 eff = make_effect(item["name"], **params)
-                eff.check_axes(self.axes)
+                if self.axes is not None:
+                    eff.check_axes(self.axes)
             except (ValueError, TypeError) as exc:
                 raise ConfigError(f"{ctx}: {path}[{i}]: {exc}") from None
             out.append(eff)

@@ -53,7 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from sins_sim.io.recording import read_csv_recording, read_recording, write_recording
-from sins_sim.models.effects import make_effect
+from sins_sim.jobs.effects_schema import EffectsList
 from sins_sim.models.plant import check_resolution
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.jobs.imu import load_yaml
@@ -115,33 +115,6 @@ class _PerAxis:
         return {str(k): self.item.check(v, ctx, f"{path}.{k}") for k, v in value.items()}
 
 
-class _Effects:
-    """The effects list: ``{name: ..., axes: [...], <SI parameters>}`` per item, checked by the catalogue."""
-
-    unit = None
-    default = None
-    required = False
-
-    def describe_rows(self, path):
-        return [{"key": path, "kind": "list", "unit": "", "range": "catalogue effects", "default": "(none)",
-                 "doc": "[{name: EFFECT, axes: [...], SI parameters}, ...]; names and parameters: "
-                        "sins_sim.models.effects"}]
-
-    def check(self, value, ctx, path):
-        if not isinstance(value, list):
-            raise ConfigError(f"{ctx}: {path}: must be a list of effects, got {value!r}")
-        out = []
-        for i, item in enumerate(value):
-            if not isinstance(item, dict) or "name" not in item:
-                raise ConfigError(f"{ctx}: {path}[{i}]: must be a mapping with a 'name', got {item!r}")
-            params = {k: v for k, v in item.items() if k != "name"}
-            try:
-                out.append(make_effect(item["name"], **params))
-            except (ValueError, TypeError) as exc:
-                raise ConfigError(f"{ctx}: {path}[{i}]: {exc}") from None
-        return out
-
-
 _RATE = dict(min=100.0, max=1.0e6)
 EXPERIMENT_SCHEMA = Map({
     "name": Str(default=""),
@@ -183,7 +156,8 @@ EXPERIMENT_SCHEMA = Map({
                                  {"amplitude_arcmin": 1.0, "frequency_hz": 230.0, "phase_deg": 120.0}]),
         "axes": ListOf(Str(), min_len=1),
     }, default={}),
-    "effects": _Effects(),
+    "effects": EffectsList(axes=None, catalogue_only=False,
+                           doc="the off-catalogue disturbances mains_pickup and drive_harmonic too"),
 }, rules=(f"(duration_s + preroll_s) x plant_rate_hz x axes <= {MAX_EXPERIMENT_STEPS:.3g} plant steps (memory)",
           "plant_rate_hz >= 40 x f0_hz of every axis; rate_table sines below fs_hz / 2 and their peak rate "
           "<= 1000 deg/s"))
