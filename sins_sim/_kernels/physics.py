@@ -171,33 +171,6 @@ def hyst_turn(hyst, stack, rule, d, t, fast_dt):
 
 
 @jit
-def track_turning_point(hyst, stack, rule, newest, mid, oldest, started, t, fast_dt):
-    """Follow the branch of an estimated deflection sample by sample (the filters' eq. 10 bookkeeping).
-
-    ``oldest, mid, newest`` are three consecutive values of the estimate. A sign change of its
-    increments marks a turning point at ``mid`` (time ``t``), refined by the vertex of the parabola
-    through the three points, and applied with :func:`hyst_turn` when ``started`` (enough samples
-    seen); before the first turning point the direction is taken from the first non-zero increment.
-    Under the Masing rule the minor loop is closed once ``newest`` passes the branch's target.
-    """
-    inc1 = newest - mid
-    inc0 = mid - oldest
-    if started and inc1 * inc0 < 0.0:
-        curv = newest - 2.0 * mid + oldest
-        ext = mid
-        if curv != 0.0:
-            ext = mid - (newest - oldest) * (newest - oldest) / (8.0 * curv)
-        hyst_turn(hyst, stack, rule, ext, t, fast_dt)
-        hyst[0] = 1.0 if inc1 > 0.0 else -1.0
-    elif hyst[0] == 0.0 and inc1 != 0.0:
-        hyst[0] = 1.0 if inc1 > 0.0 else -1.0
-    if rule == RULE_MASING:
-        tgt = masing_target(hyst, stack)
-        if not math.isnan(tgt) and (newest - tgt) * hyst[0] > 0.0:
-            masing_close(hyst, stack)
-
-
-@jit
 def masing_close(hyst, stack):
     """The path passed the current target: close the minor loop (Masing)."""
     m = int(hyst[3])

@@ -19,7 +19,7 @@ paper's k1, k2, k3 (away from the turning points, where eq. 10's square root has
 but a value that goes to 0, so the iteration still converges, as ``|dD|^(1/2)``).
 
 Eq. 10's half-cycle amplitude is tracked from the filter's own ``D`` as in
-:mod:`sins_sim._kernels.correcting` (the same ``track_turning_point`` of
+:mod:`sins_sim._kernels.correcting` (the same ``hyst_turn``, ``masing_*`` of
 :mod:`sins_sim._kernels.physics`), one sample earlier: a turning point at ``n-1`` is seen from the
 sign change between ``D_{n-1} - D_{n-2}`` and ``P - D_{n-1}`` and refined by the parabola through
 ``D_{n-2}, D_{n-1}, P``.
@@ -31,10 +31,12 @@ chunking.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from sins_sim._kernels._config import jit
-from sins_sim._kernels.physics import diss_jit, nonl_jit, track_turning_point
+from sins_sim._kernels.physics import RULE_MASING, diss_jit, hyst_turn, masing_close, masing_target, nonl_jit
 
 # state layout of wideband_run
 W_D1 = 0  # D_{n-1}
@@ -134,7 +136,23 @@ def wideband_run(acc, xk, vk, k1, k2, k3, k4, k5, dt, rule, fast_dt, n_iter, sta
     for n in range(acc.shape[0]):
         rhs = -acc[n] - k5 * vk[n]
         p = rhs - f1
-        track_turning_point(hyst, stack, rule, p, d1, d2, nn >= 2.0, (nn - 1.0) * dt, fast_dt)
+        # eq. 10's branch from D's turning points, as in _kernels/correcting.py (kept inline in both sample
+        # loops: a shared jit function cost 3 ns per sample)
+        inc1 = p - d1
+        inc0 = d1 - d2
+        if nn >= 2.0 and inc1 * inc0 < 0.0:
+            curv = p - 2.0 * d1 + d2
+            ext = d1
+            if curv != 0.0:
+                ext = d1 - (p - d2) * (p - d2) / (8.0 * curv)
+            hyst_turn(hyst, stack, rule, ext, (nn - 1.0) * dt, fast_dt)
+            hyst[0] = 1.0 if inc1 > 0.0 else -1.0
+        elif hyst[0] == 0.0 and inc1 != 0.0:
+            hyst[0] = 1.0 if inc1 > 0.0 else -1.0
+        if rule == RULE_MASING:
+            tgt = masing_target(hyst, stack)
+            if not math.isnan(tgt) and (p - tgt) * hyst[0] > 0.0:
+                masing_close(hyst, stack)
         d = p
         f = f1
         for _ in range(n_iter):
