@@ -558,3 +558,39 @@ def test_correct_requires_volts():
     assert np.array_equal(correct(x, design, None, drive_free=True), correct(x, design, np.zeros_like(x)))
     free = CorrectingFilterDesign(k5=0.0)
     assert np.array_equal(correct(x, free, None), correct(x, free, volts))
+
+
+def test_sigterm_stops_a_diagnosis_within_a_second(tmp_path):
+    """SIGTERM during ``diagnose`` (worker threads inside long numba fits): the worker fits check a cancel flag
+    between model evaluations, so the command ends within a second with one line and status 130 (issue 12,
+    point 6; a Python signal handler alone would wait for every running fit to finish)."""
+    rec = tmp_path / "rec.npz"
+    exp = tmp_path / "exp.yaml"
+    example = Path(__file__).resolve().parent.parent / "scenarios" / "experiments" / "experiment-example.yaml"
+    text = example.read_text()
+    exp.write_text(text.replace("duration_s: 1.0", "duration_s: 4.0"))
+    subprocess.run([sys.executable, "-m", "sins_sim.cli", "simulate-recording", str(exp), "--out", str(rec)],
+                   check=True, capture_output=True, timeout=300)
+    err_path = tmp_path / "stderr.txt"
+    cmd = [sys.executable, "-c", "import sys; from sins_sim.cli import main; sys.exit(main())",
+           "diagnose", str(rec), "--json", str(tmp_path / "d.json")]
+    with open(err_path, "wb") as err:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, cwd=tmp_path)
+    try:
+        time.sleep(4.0)  # imports, the checks and the first refits are under way
+        assert proc.poll() is None, err_path.read_text(errors="replace")
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        rc = proc.wait(timeout=30)
+        waited = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    text = err_path.read_text(errors="replace")
+    proc.stdout.close()
+    assert rc == 130, text
+    assert text.splitlines()[-1] == "sins-sim: interrupted"
+    assert "Traceback" not in text
+    assert waited < 1.0, waited
+    assert not (tmp_path / "d.json").exists()

@@ -125,7 +125,10 @@ def _run_tasks(client, todo, store, progress, task_fn, version) -> tuple[int, in
 
     futures = {}
     for t in todo:
-        fut = client.submit(task_fn, t.spec(version), key=f"sins-sim-run-{t.key}", pure=False)
+        # longest runs first (dask runs higher priorities first): the short ones then fill the workers' tails
+        # instead of one long run finishing alone at the end (longest-processing-time-first scheduling)
+        prio = int(min(float(t.doc.get("duration_s") or 0.0), 1e9))
+        fut = client.submit(task_fn, t.spec(version), key=f"sins-sim-run-{t.key}", pure=False, priority=prio)
         futures[fut] = t
     ok = failed = 0
     if progress is not None:
