@@ -243,3 +243,38 @@ def test_gyro_bias_in_the_full_loop_gives_the_schuler_closed_form():
     got = ser["east_m"]
     sel = t > 1800.0
     assert np.max(np.abs(got[sel] - expected[sel]) / expected[sel]) < 0.02
+
+
+@pytest.mark.parametrize("kind", ["scale_factor", "misalignment"])
+def test_scale_factor_and_misalignment_give_the_closed_form_attitude_error_on_a_turn(kind):
+    """A level coordinated turn of +90 deg at 10 m/s (bank 4.6 deg, cos 0.997) with ideal increments and one
+    deterministic gyro error (first order in the error; Titterton & Weston 2004, sec. 12.2):
+
+    * scale factor S on the y and z gyros: the attitude error is S times the turn's rotation vector,
+      S pi/2 about down (324 arcsec for S = 1000 ppm);
+    * misalignment M_xz (the x gyro senses M times the z rate): an error about body x accumulated while the body
+      yaws from 0 to 90 deg, M (sin 90 - sin 0, cos 0 - cos 90) = M (1, 1) in north and east, nothing about down.
+
+    Tolerance 1 % of the closed form: the bank's cos (0.997) and second-order terms (S^2, M^2 ~ 1e-6)."""
+    import dataclasses
+
+    from sins_sim.models.sensor_errors import GyroErrorParams, SensorErrorParams
+
+    if kind == "scale_factor":
+        gyro = GyroErrorParams(scale_factor_ppm=(0.0, 1000.0, 1000.0))
+    else:
+        gyro = GyroErrorParams(misalignment_arcsec=(0.0, 200.0, 0.0, 0.0, 0.0, 0.0))  # order xy, xz, ...: M_xz
+    imu = dataclasses.replace(_imu(1200.0), sensors=SensorErrorParams(gyro=gyro))
+    veh = Trajectory(math.radians(45.0), 0.0, 100.0, 10.0, 0.0,
+                     (Cruise(3.0), CoordinatedTurn(20.0, math.radians(90.0)), Cruise(8.0)))
+    res = simulate_sins(imu, m3.Static(), 30.0, vehicle=veh, filters=("ideal",),
+                        nav=NavSettings(start_s=1.0, timeseries_rate_hz=10.0))
+    err = res.stats["ideal"].last["attitude_ned_rad"]
+    if kind == "scale_factor":
+        expect = 1000e-6 * math.pi / 2
+        assert abs(abs(err[2]) - expect) < 0.01 * expect, err / ARCSEC
+        assert np.all(np.abs(err[:2]) < 0.01 * expect)
+    else:
+        m = 200.0 * ARCSEC
+        assert np.allclose(np.abs(err[:2]), m, rtol=0.01), err / ARCSEC
+        assert abs(err[2]) < 0.01 * m
