@@ -40,6 +40,8 @@ The fixed-point forms (``quadratic_damping``, ``thermal_drift``) need the deflec
 
 from __future__ import annotations
 
+import abc
+
 import math
 import warnings
 
@@ -136,8 +138,12 @@ class StructuralMode(Effect):
         return angle + da, rate + dr
 
 
-class _FixedPoint(Effect):
-    """A form that acts through the drive on the axis' own deflection (``delta`` from the previous pass)."""
+class _FixedPoint(Effect, abc.ABC):
+    """A form that acts through the drive on the axis' own deflection (``delta`` from the previous pass).
+
+    Subclasses give the law as :meth:`_extra`: the drive voltage (V) that adds their force at the
+    mid-points of the plant steps.
+    """
 
     stage = "voltage"
 
@@ -146,8 +152,10 @@ class _FixedPoint(Effect):
         self.sus = suspension
         self.delta = None
 
+    @abc.abstractmethod
     def _extra(self, d_mid, r_mid, t_mid):
-        raise NotImplementedError
+        """Extra drive (V) at the step mid-points from the deflection ``d_mid`` (rad), its rate ``r_mid`` (rad/s)
+        and the time ``t_mid`` (s)."""
 
     def voltage(self, axis, volts, h):
         if not self.acts_on(axis) or self.delta is None:
