@@ -230,6 +230,22 @@ def _loglog_segment_integral(x0, x1, f_a, p_a, n_exp):
 # --- the interface ------------------------------------------------------------
 
 
+def superpose(a, b, family, sum_cls):
+    """``a + b`` for motions of one family (block motions, translations): one flat sum of their parts."""
+    if not isinstance(b, family):
+        return NotImplemented
+    left = a.parts if isinstance(a, sum_cls) else (a,)
+    right = b.parts if isinstance(b, sum_cls) else (b,)
+    return sum_cls(left + right)
+
+
+def radd_zero(a, other):
+    """``0 + a`` is ``a``, so that ``sum([...])``, which starts from 0, works on motions."""
+    if isinstance(other, (int, float)) and other == 0:
+        return a
+    return NotImplemented
+
+
 class Motion3D(abc.ABC):
     """Three-axis block motion: body rate, gyro angles (exact integrals) and attitude.
 
@@ -498,16 +514,10 @@ class Motion3D(abc.ABC):
     # -- composition ------------------------------------------------------------
 
     def __add__(self, other):
-        if not isinstance(other, Motion3D):
-            return NotImplemented
-        left = self.parts if isinstance(self, SumMotion3D) else (self,)
-        right = other.parts if isinstance(other, SumMotion3D) else (other,)
-        return SumMotion3D(left + right)
+        return superpose(self, other, Motion3D, SumMotion3D)
 
     def __radd__(self, other):
-        if isinstance(other, (int, float)) and other == 0:  # sum([...]) starts from 0
-            return self
-        return NotImplemented
+        return radd_zero(self, other)
 
 
 @dataclass(frozen=True)

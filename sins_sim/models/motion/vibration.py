@@ -145,7 +145,7 @@ import numpy as np
 from sins_sim import _validate as v
 from sins_sim._kernels.vibration import hermite5_coefficients, hermite5_slope, hermite5_value, hermite5_value_slope
 from sins_sim.models.motion.base import (_STATIC, Motion3D, _cos_diff, _loglog_segment_integral, _psd_table, _set,
-                                         _vec3)
+                                         _vec3, radd_zero, superpose)
 from sins_sim.models.motion.specific_force import STANDARD_GRAVITY
 
 __all__ = [
@@ -911,16 +911,10 @@ class Translation(abc.ABC):
         return self._velocity_increment(fa, fb).reshape(shape + (3,))
 
     def __add__(self, other):
-        if not isinstance(other, Translation):
-            return NotImplemented
-        left = self.parts if isinstance(self, SumTranslation) else (self,)
-        right = other.parts if isinstance(other, SumTranslation) else (other,)
-        return SumTranslation(left + right)
+        return superpose(self, other, Translation, SumTranslation)
 
     def __radd__(self, other):
-        if isinstance(other, (int, float)) and other == 0:  # sum([...]) starts from 0
-            return self
-        return NotImplemented
+        return radd_zero(self, other)
 
 
 @dataclass(frozen=True)
