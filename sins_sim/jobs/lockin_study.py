@@ -301,6 +301,14 @@ def lockin_study(out, quick: bool = False, seed: int = 0, progress=print) -> dic
     return res
 
 
+def _ratio_rows(points, vs_lockin, key, fmt) -> list:
+    """Table rows (``key``, measured ARW, analytic, ratio) of one series plus the reference point of the
+    lock-in series (Omega_L = 4e-3 rad/s), sorted by ``key``."""
+    ref = [q for q in vs_lockin if q["omega_l_rad_s"] == 4e-3]
+    return [f"| {format(p[key], fmt)} | {p['arw_increment_deg_rt_h']:.4g} | {p['arw_analytic_deg_rt_h']:.4g} | "
+            f"{p['ratio_increment_to_analytic']:.3f} |" for p in sorted(points + ref, key=lambda q: q[key])]
+
+
 def _report(res) -> str:
     c = res["correcting_filter"]
     lines = ["# Lock-in in the loop", "",
@@ -333,17 +341,11 @@ def _report(res) -> str:
     lines += ["", f"Log-log slope (Omega_L <= 1.6e-2 rad/s): **{res['slope_vs_lockin']:.3f}** (analytic 1).", "",
               "## ARW vs dither amplitude (Omega_L = 4e-3 rad/s)", "",
               "| a measured (arcmin) | ARW increment | analytic | ratio |", "|---|---|---|---|"]
-    for p in sorted(res["vs_amplitude"] + [q for q in res["vs_lockin"] if q["omega_l_rad_s"] == 4e-3],
-                    key=lambda q: q["amplitude_measured_arcmin"]):
-        lines.append(f"| {p['amplitude_measured_arcmin']:.3f} | {p['arw_increment_deg_rt_h']:.4g} | "
-                     f"{p['arw_analytic_deg_rt_h']:.4g} | {p['ratio_increment_to_analytic']:.3f} |")
+    lines += _ratio_rows(res["vs_amplitude"], res["vs_lockin"], "amplitude_measured_arcmin", ".3f")
     lines += ["", f"Log-log slope vs amplitude: **{res['slope_vs_amplitude']:.3f}** (analytic -0.5).", "",
               "## ARW vs modulation depth (Omega_L = 4e-3 rad/s, a = 3 arcmin)", "",
               "| depth | ARW increment | analytic | ratio |", "|---|---|---|---|"]
-    for p in sorted(res["vs_depth"] + [q for q in res["vs_lockin"] if q["omega_l_rad_s"] == 4e-3],
-                    key=lambda q: q["modulation_depth"]):
-        lines.append(f"| {p['modulation_depth']:g} | {p['arw_increment_deg_rt_h']:.4g} | "
-                     f"{p['arw_analytic_deg_rt_h']:.4g} | {p['ratio_increment_to_analytic']:.3f} |")
+    lines += _ratio_rows(res["vs_depth"], res["vs_lockin"], "modulation_depth", "g")
     lines += ["", "## Through the whole chain", "",
               f"Correcting filter (eq. 5, unity DC) output minus truth, Allan ARW term: {c['arw_allan_deg_rt_h']:.4g} "
               f"deg/rt h with lock-in Omega_L = {c['omega_l_rad_s']:g} rad/s (analytic {c['arw_analytic_deg_rt_h']:.4g}); "
