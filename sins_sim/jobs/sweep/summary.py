@@ -61,17 +61,15 @@ def _percentiles(table, filters) -> dict:
 
 
 def spearman(x, y) -> float:
-    """Spearman rank correlation of two samples over the pairs where both are finite (NaN if undefined)."""
-    import pandas as pd
+    """Spearman rank correlation (``scipy.stats.spearmanr``) of two samples over the pairs where both are
+    finite (NaN if fewer than 3 pairs or either sample is constant)."""
+    from scipy.stats import spearmanr
 
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     ok = np.isfinite(x) & np.isfinite(y)
-    if ok.sum() < 3:
+    if ok.sum() < 3 or np.ptp(x[ok]) == 0.0 or np.ptp(y[ok]) == 0.0:
         return math.nan
-    rx, ry = pd.Series(x[ok]).rank().to_numpy(), pd.Series(y[ok]).rank().to_numpy()
-    if rx.std() == 0.0 or ry.std() == 0.0:
-        return math.nan
-    return float(np.corrcoef(rx, ry)[0, 1])
+    return float(spearmanr(x[ok], y[ok]).statistic)
 
 
 def _drivers(table, filters, params) -> dict:
