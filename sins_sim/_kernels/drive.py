@@ -43,15 +43,20 @@ def dac_cosine(i0, r_dac, cycles_per_dac, phase, scale, out):
     k_prev = -1
     c = 0.0
     s = 0.0
+    k = i0 // r_dac  # DAC sample of step i0 + j, kept by a counter (no integer division per step)
+    rem = i0 - k * r_dac
     for j in range(out.shape[0]):
-        k = (i0 + j) // r_dac
         if k != k_prev:
-            if k_prev < 0 or k != k_prev + 1 or k % _RESYNC == 0:
+            if k_prev < 0 or k % _RESYNC == 0:
                 c, s = _rotated_phase(k, cycles_per_dac, phase, cd, sd)
             else:
                 c, s = c * cd - s * sd, s * cd + c * sd
             k_prev = k
         out[j] = scale * c
+        rem += 1
+        if rem == r_dac:
+            rem = 0
+            k += 1
 
 
 @jit

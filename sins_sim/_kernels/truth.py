@@ -31,6 +31,8 @@ def lagrange4(nodes, j0, h, t, q_col, out, full_every=1, c_lo=0, c_hi=0):
     columns ``c_lo .. c_hi - 1`` only (each column is interpolated on its own, so its values do
     not depend on which others are formed) and NaN elsewhere. ``full_every=1``: every row full.
     """
+    n_cols = nodes.shape[1]
+    phase = 0  # n % full_every, kept by a counter (no integer division per row)
     for n in range(t.shape[0]):
         x = t[n] / h
         j = math.floor(x)
@@ -40,14 +42,17 @@ def lagrange4(nodes, j0, h, t, q_col, out, full_every=1, c_lo=0, c_hi=0):
         w1 = (u + 1.0) * (u - 1.0) * (u - 2.0) / 2.0
         w2 = -(u + 1.0) * u * (u - 2.0) / 2.0
         w3 = (u + 1.0) * u * (u - 1.0) / 6.0
-        if n % full_every != full_every - 1:
-            for c in range(nodes.shape[1]):
-                if c < c_lo or c >= c_hi:
-                    out[n, c] = math.nan
-                else:
-                    out[n, c] = w0 * nodes[i - 1, c] + w1 * nodes[i, c] + w2 * nodes[i + 1, c] + w3 * nodes[i + 2, c]
+        phase += 1
+        if phase != full_every:
+            for c in range(c_lo):
+                out[n, c] = math.nan
+            for c in range(c_lo, c_hi):
+                out[n, c] = w0 * nodes[i - 1, c] + w1 * nodes[i, c] + w2 * nodes[i + 1, c] + w3 * nodes[i + 2, c]
+            for c in range(c_hi, n_cols):
+                out[n, c] = math.nan
             continue
-        for c in range(nodes.shape[1]):
+        phase = 0
+        for c in range(n_cols):
             out[n, c] = w0 * nodes[i - 1, c] + w1 * nodes[i, c] + w2 * nodes[i + 1, c] + w3 * nodes[i + 2, c]
         if q_col >= 0:
             qn = math.sqrt(out[n, q_col] ** 2 + out[n, q_col + 1] ** 2 + out[n, q_col + 2] ** 2 + out[n, q_col + 3] ** 2)
@@ -271,7 +276,25 @@ def first_not_finite(dth, dv, h):
 
 
 @jit
-def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, v_t, q_t, e_body, free, att_limit, out):
+def surface_scales(lat, h, out):
+    """Per truth row, what turns latitude and longitude errors into metres along the surface.
+
+    ``out[n] = [cos(lat), R_E + h, R_N + h]`` with the radii of curvature of
+    :func:`sins_sim.earth.radii` (WGS-84; Titterton & Weston 2004, sec. 3.7). Computed once per
+    truth row and shared by every filter's :func:`nav_errors`.
+    """
+    for n in range(lat.shape[0]):
+        sl = math.sin(lat[n])
+        w = 1.0 - WGS84_E2 * sl * sl
+        r_e = WGS84_A_M / math.sqrt(w)
+        r_n = r_e * (1.0 - WGS84_E2) / w
+        out[n, 0] = math.cos(lat[n])
+        out[n, 1] = r_e + h[n]
+        out[n, 2] = r_n + h[n]
+
+
+@jit
+def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, scales_t, v_t, q_t, e_body, free, att_limit, out):
     """Navigation errors against the truth, one row per update; returns the first bad row or -1.
 
     ``out[:, 0:3]``: north, east (m, along the surface at the true position: ``dlat (R_N + h)``,
@@ -281,19 +304,15 @@ def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, v_t, q_t, e_body, free, att
     ``out[:, 12:15]``: the free attitude error, the gyro-angle error ``e_body`` (output minus
     truth, body axes, rad) accumulated in the navigation frame, ``sum C_nb,true de_body``;
     ``free = [psi_free (3), e_body at the previous update (3)]`` carries it across calls.
-    Radii of curvature as :func:`sins_sim.earth.radii`. A row is bad when it is not finite or
+    ``scales_t``: the truth rows' :func:`surface_scales`. A row is bad when it is not finite or
     ``|psi|`` exceeds ``att_limit`` (rad): the first such row's index is returned (-1: none).
     """
     bad = -1
     for n in range(lat.shape[0]):
-        sl = math.sin(lat_t[n])
-        w = 1.0 - WGS84_E2 * sl * sl
-        r_e = WGS84_A_M / math.sqrt(w)
-        r_n = r_e * (1.0 - WGS84_E2) / w
-        dn = (lat[n] - lat_t[n]) * (r_n + h_t[n])
+        dn = (lat[n] - lat_t[n]) * scales_t[n, 2]
         dl = lon[n] - lon_t[n]
         dl = (dl + math.pi) % (2.0 * math.pi) - math.pi
-        de = dl * math.cos(lat_t[n]) * (r_e + h_t[n])
+        de = dl * scales_t[n, 0] * scales_t[n, 1]
         out[n, 0] = dn
         out[n, 1] = de
         out[n, 2] = math.sqrt(dn * dn + de * de)

@@ -495,7 +495,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     phi_buf = _Ring((3,), cap)  # true gyro angles (the ideal output)
     tr_buf = {k: _Ring(w, cap) for k, w in (("q", (4,)), ("lat", ()), ("lon", ()), ("h", ()), ("v", (3,)),
                                             ("dv", (3,)), ("dth", (3,)), ("gerr", (3,)), ("gcum", (3,)),
-                                            ("acum", (3,)))}
+                                            ("acum", (3,)), ("scales", (3,)))}
     navs = {}
     if nav is not None:
         k_start = int(round(nav.start_s * fs))
@@ -517,6 +517,11 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     diverged = {}
     caught = []
     pool = axis_pool(threads) if outs_buf else None
+    nav_pool = None
+    if nav is not None and threads > 1 and len(filters) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        nav_pool = ThreadPoolExecutor(max_workers=min(threads, len(filters)), thread_name_prefix="sins-nav")
     last_out = {}
     g_cum = np.zeros(3)
     a_cum = np.zeros(3)
@@ -535,22 +540,25 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             # axis) while this chunk's kernels run; this chunk is navigated while the next one's kernels run
             pending = stage(k1, min(k1 + chunk, n_out)) if k1 < n_out else None
             outs = collect_axes(chains, job, caught) if outs_buf else []
-            # truth rows for nodes tc.k0 .. k1
-            phi_buf.push(tc.phi_rad)
-            for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
-                             ("v", tc.v_ned_m_s), ("dth", tc.dtheta_rad)):
-                tr_buf[key].push(arr)
-            dv_meas = accel.process(tc.dv_m_s if accel_err is None else accel_err.apply(tc.dv_m_s))
-            tr_buf["dv"].push(dv_meas)
-            a_cum = a_cum + np.cumsum(dv_meas - tc.dv_m_s, axis=0)  # accumulated accelerometer error (Allan)
-            tr_buf["acum"].push(a_cum)
-            a_cum = a_cum[-1]
-            g_e = (np.zeros_like(tc.dtheta_rad) if gyro_err is None
-                   else gyro_err.apply(tc.dtheta_rad) - tc.dtheta_rad)
-            tr_buf["gerr"].push(g_e)
-            g_cum = g_cum + np.cumsum(g_e, axis=0)  # accumulated sensor error angle (for the free attitude error)
-            tr_buf["gcum"].push(g_cum)
-            g_cum = g_cum[-1]
+            if nav is not None:  # the truth rows for nodes tc.k0 .. k1 and the sensors feed only the navigation
+                phi_buf.push(tc.phi_rad)
+                for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
+                                 ("v", tc.v_ned_m_s), ("dth", tc.dtheta_rad)):
+                    tr_buf[key].push(arr)
+                scales = np.empty((tc.lat_rad.shape[0], 3))
+                ktruth.surface_scales(tc.lat_rad, tc.h_m, scales)  # once per truth row, for every filter
+                tr_buf["scales"].push(scales)
+                dv_meas = accel.process(tc.dv_m_s if accel_err is None else accel_err.apply(tc.dv_m_s))
+                tr_buf["dv"].push(dv_meas)
+                a_cum = a_cum + np.cumsum(dv_meas - tc.dv_m_s, axis=0)  # accumulated accelerometer error (Allan)
+                tr_buf["acum"].push(a_cum)
+                a_cum = a_cum[-1]
+                g_e = (np.zeros_like(tc.dtheta_rad) if gyro_err is None
+                       else gyro_err.apply(tc.dtheta_rad) - tc.dtheta_rad)
+                tr_buf["gerr"].push(g_e)
+                g_cum = g_cum + np.cumsum(g_e, axis=0)  # accumulated sensor error angle (for the free attitude error)
+                tr_buf["gcum"].push(g_cum)
+                g_cum = g_cum[-1]
             for name in outs_buf:
                 cols = [o[name] for o in outs]
                 outs_buf[name].push_columns(cols)
@@ -561,7 +569,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                     diverged[name] = {"axis": AXES[int(bad[1])], "time_s": (k_prev + int(bad[0])) / fs,
                                       "reason": "filter output not finite"}
             if nav is not None:
-                _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged, n_align)
+                _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k_start, fs, every, diverged, n_align, nav_pool)
                 spec_next = _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, min(k_start + n_spec, n_out),
                                           max_delay, filters)
                 _keep_truth_series(truth_series, tr_buf, k_prev, k1, k_start, truth_every, fs)
@@ -581,14 +589,13 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                 for name, r in outs_buf.items():
                     r.drop_before(low + delays[name] - 1)
             else:
-                for r in list(tr_buf.values()) + list(outs_buf.values()) + [phi_buf]:
+                for r in outs_buf.values():
                     r.drop_before(k1 - 2)
             if progress is not None:
                 progress(k1 / n_out)
     finally:
-        if pool is not None:
-            for ex in pool:
-                ex.shutdown(wait=True, cancel_futures=True)
+        for ex in (pool or []) + ([nav_pool] if nav_pool is not None else []):
+            ex.shutdown(wait=True, cancel_futures=True)
 
     drives = [{"axis": AXES[i], "f0_hz": ch.cfg.suspension.f0_hz, "frequency_hz": ch.drive.frequency_hz,
                "v_m_initial": ch.v_m0, "v_m_final": ch.v_m, "amplitude_measured_rad": ch.amp_meas,
@@ -613,88 +620,107 @@ _NO_REF = np.zeros(3)
 _NO_AID = np.zeros(0)
 
 
-def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k1, k_start, fs, every, diverged, n_align):
-    """Advance every filter's navigation as far as its aligned data reach."""
-    for name, nf in navs.items():
-        if nf.diverged is not None:
-            continue
-        out_end = (phi_buf.end if name == "ideal" else outs_buf[name].end)  # outputs available: [.., out_end)
-        j_end = min(out_end - nf.d, tr_buf["dv"].end - nf.dv_shift, tr_buf["q"].end)  # truth indices < j_end
-        if nf.nav is None:
-            j0 = k_start
-            if j_end <= j0 + 1:
-                continue
-            q0 = tr_buf["q"].get(j0, j0 + 1)[0]
-            nf.nav = StrapdownNavigator(float(tr_buf["lat"].get(j0, j0 + 1)[0]), float(tr_buf["lon"].get(j0, j0 + 1)[0]),
-                                        float(tr_buf["h"].get(j0, j0 + 1)[0]), tr_buf["v"].get(j0, j0 + 1)[0], q0,
-                                        1.0 / fs, coning=nav.coning, sculling=nav.sculling, n_sub=nav.n_sub,
-                                        vertical=nav.vertical, height_aid_tau_s=nav.height_aid_tau_s)
-            nf.j0 = j0
-            nf.next_j = j0 + 1
-            nf.free[3:6] = tr_buf["gcum"].get(j0, j0 + 1)[0]
-            if name != "ideal":
-                # alignment: the filter's gyro-angle offset from the truth, averaged over the alignment window
-                # (as a fine alignment averages its sensors), is the reference of the first increment; a single
-                # sample would carry its own residual (quantisation, dither) into the run as a tilt
-                w0 = max(outs_buf[name].base - nf.d, phi_buf.base, j0 - n_align)
-                off = (outs_buf[name].get(w0 + nf.d, j0 + nf.d + 1) - phi_buf.get(w0, j0 + 1)).mean(axis=0)
-                nf.ref = phi_buf.get(j0, j0 + 1)[0] + off
-                nf.free[3:6] = off + tr_buf["gcum"].get(j0, j0 + 1)[0]
-            nf.series = ErrorSeries(every, nav.n_sub / fs, j0 / fs)
-        ja, jb = nf.next_j, j_end
-        if jb <= ja:
-            continue
-        gerr = tr_buf["gerr"].get(ja, jb)
-        if name == "ideal":
-            dth = tr_buf["dth"].get(ja, jb) + gerr
-        else:
-            y = outs_buf[name].get(ja + nf.d - 1, jb + nf.d)
-            dth = np.empty(gerr.shape)
-            # the first increment starts from the aligned reference
-            ktruth.filter_increments(y, nf.ref if nf.ref is not None else _NO_REF, ja == nf.j0 + 1, gerr, dth)
-        dv = tr_buf["dv"].get(ja + nf.dv_shift, jb + nf.dv_shift)
-        h_aid = tr_buf["h"].get(ja, jb) if nav.vertical == "height_aid" else _NO_AID
-        bad = ktruth.first_not_finite(dth, dv, h_aid)
-        if bad in (-1, -3) and dv.shape[0] != dth.shape[0]:  # pragma: no cover - the ring windows share one rule
-            bad = -4
-        if bad >= 0 or bad == -2:
-            ax = AXES[bad % 3] if bad >= 0 else "-"
-            nf.diverged = diverged.setdefault(name, {"axis": ax, "time_s": (ja + (bad // 3 if bad >= 0 else 0)) / fs,
-                                                     "reason": "angle increments not finite"})
-            continue
-        n_before = nf.nav.n_updates
-        if bad == -1:  # checked here: the kernel directly (StrapdownNavigator.process checks and copies)
-            out = nf.nav._run(dth, np.ascontiguousarray(dv), h_aid if nav.vertical == "height_aid" else _NO_AID)
-        else:  # a height aid that is not finite, or windows of unequal length: the public path raises its error
-            nf.nav.process(dth, dv, h_aid if nav.vertical == "height_aid" else None)
-            raise AssertionError("StrapdownNavigator.process accepted what the engine's check refused")
-        nf.next_j = jb
-        m = out.shape[0]
-        if m == 0:
-            continue
-        # truth index of each update: j0 + n_sub (n_before + 1 + i), i < m
-        lo = nf.j0 + nav.n_sub * (n_before + 1)
-        hi = lo + nav.n_sub * (m - 1) + 1
-        step = nav.n_sub
-        # gyro-angle error (output minus truth) at the updates, for the free attitude error
-        e_body = tr_buf["gcum"].get(lo, hi, step)  # the sensor errors' angle, plus the filter's own error
+def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start, fs, every, diverged, n_align,
+              nav_pool=None):
+    """Advance every filter's navigation as far as its aligned data reach.
+
+    With ``nav_pool`` (an executor) the filters navigate on its threads: each touches only its
+    own navigator, statistics and series and reads the shared rings, which do not change until
+    every filter is done (the kernels release the GIL, so the filters use the spare cores while
+    the next chunk's channel kernels run). Divergences are recorded afterwards in filter order,
+    so the result does not depend on the threads.
+    """
+    live = [(name, nf) for name, nf in navs.items() if nf.diverged is None]
+    args = (nav, tr_buf, outs_buf, phi_buf, k_start, fs, every, n_align)
+    if nav_pool is None or len(live) < 2:
+        found = [_navigate_one(name, nf, *args) for name, nf in live]
+    else:
+        found = [f.result() for f in [nav_pool.submit(_navigate_one, name, nf, *args) for name, nf in live]]
+    for (name, nf), record in zip(live, found):
+        if record is not None:
+            nf.diverged = diverged.setdefault(name, record)
+
+
+def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start, fs, every, n_align):
+    """One filter's navigation over the data available; returns a divergence record or None."""
+    out_end = (phi_buf.end if name == "ideal" else outs_buf[name].end)  # outputs available: [.., out_end)
+    j_end = min(out_end - nf.d, tr_buf["dv"].end - nf.dv_shift, tr_buf["q"].end)  # truth indices < j_end
+    if nf.nav is None:
+        j0 = k_start
+        if j_end <= j0 + 1:
+            return None
+        q0 = tr_buf["q"].get(j0, j0 + 1)[0]
+        nf.nav = StrapdownNavigator(float(tr_buf["lat"].get(j0, j0 + 1)[0]), float(tr_buf["lon"].get(j0, j0 + 1)[0]),
+                                    float(tr_buf["h"].get(j0, j0 + 1)[0]), tr_buf["v"].get(j0, j0 + 1)[0], q0,
+                                    1.0 / fs, coning=nav.coning, sculling=nav.sculling, n_sub=nav.n_sub,
+                                    vertical=nav.vertical, height_aid_tau_s=nav.height_aid_tau_s)
+        nf.j0 = j0
+        nf.next_j = j0 + 1
+        nf.free[3:6] = tr_buf["gcum"].get(j0, j0 + 1)[0]
         if name != "ideal":
-            e_body = e_body + outs_buf[name].get(lo + nf.d, hi + nf.d, step) - phi_buf.get(lo, hi, step)
-        rows = np.empty((m, N_COLS))
-        bad = ktruth.nav_errors(out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H], out[:, OUT_V:OUT_V + 3],
-                                out[:, OUT_Q:OUT_Q + 4], tr_buf["lat"].get(lo, hi, step),
-                                tr_buf["lon"].get(lo, hi, step), tr_buf["h"].get(lo, hi, step),
-                                tr_buf["v"].get(lo, hi, step), tr_buf["q"].get(lo, hi, step), e_body,
-                                nf.free, DIVERGED_ATTITUDE_RAD, rows)
-        rows[:, 10] = out[:, OUT_LAT]
-        rows[:, 11] = out[:, OUT_LON]
-        if bad >= 0:
-            nf.diverged = diverged.setdefault(name, {"axis": "-", "time_s": float((lo + step * bad) / fs),
-                                                     "reason": "navigation solution diverged (attitude error beyond "
-                                                               f"{DIVERGED_ATTITUDE_RAD} rad or not finite)"})
-            rows = rows[:bad]
-        nf.stats.add(rows, (lo + step * np.arange(rows.shape[0])) / fs)
-        nf.series.add(rows)
+            # alignment: the filter's gyro-angle offset from the truth, averaged over the alignment window
+            # (as a fine alignment averages its sensors), is the reference of the first increment; a single
+            # sample would carry its own residual (quantisation, dither) into the run as a tilt
+            w0 = max(outs_buf[name].base - nf.d, phi_buf.base, j0 - n_align)
+            off = (outs_buf[name].get(w0 + nf.d, j0 + nf.d + 1) - phi_buf.get(w0, j0 + 1)).mean(axis=0)
+            nf.ref = phi_buf.get(j0, j0 + 1)[0] + off
+            nf.free[3:6] = off + tr_buf["gcum"].get(j0, j0 + 1)[0]
+        nf.series = ErrorSeries(every, nav.n_sub / fs, j0 / fs)
+    ja, jb = nf.next_j, j_end
+    if jb <= ja:
+        return None
+    gerr = tr_buf["gerr"].get(ja, jb)
+    if name == "ideal":
+        dth = tr_buf["dth"].get(ja, jb) + gerr
+    else:
+        y = outs_buf[name].get(ja + nf.d - 1, jb + nf.d)
+        dth = np.empty(gerr.shape)
+        # the first increment starts from the aligned reference
+        ktruth.filter_increments(y, nf.ref if nf.ref is not None else _NO_REF, ja == nf.j0 + 1, gerr, dth)
+    dv = tr_buf["dv"].get(ja + nf.dv_shift, jb + nf.dv_shift)
+    h_aid = tr_buf["h"].get(ja, jb) if nav.vertical == "height_aid" else _NO_AID
+    bad = ktruth.first_not_finite(dth, dv, h_aid)
+    if bad in (-1, -3) and dv.shape[0] != dth.shape[0]:  # pragma: no cover - the ring windows share one rule
+        bad = -4
+    if bad >= 0 or bad == -2:
+        ax = AXES[bad % 3] if bad >= 0 else "-"
+        return {"axis": ax, "time_s": (ja + (bad // 3 if bad >= 0 else 0)) / fs,
+                "reason": "angle increments not finite"}
+    n_before = nf.nav.n_updates
+    if bad == -1:  # checked here: the kernel directly (StrapdownNavigator.process checks and copies)
+        out = nf.nav._run(dth, np.ascontiguousarray(dv), h_aid if nav.vertical == "height_aid" else _NO_AID)
+    else:  # a height aid that is not finite, or windows of unequal length: the public path raises its error
+        nf.nav.process(dth, dv, h_aid if nav.vertical == "height_aid" else None)
+        raise AssertionError("StrapdownNavigator.process accepted what the engine's check refused")
+    nf.next_j = jb
+    m = out.shape[0]
+    if m == 0:
+        return None
+    # truth index of each update: j0 + n_sub (n_before + 1 + i), i < m
+    lo = nf.j0 + nav.n_sub * (n_before + 1)
+    hi = lo + nav.n_sub * (m - 1) + 1
+    step = nav.n_sub
+    # gyro-angle error (output minus truth) at the updates, for the free attitude error
+    e_body = tr_buf["gcum"].get(lo, hi, step)  # the sensor errors' angle, plus the filter's own error
+    if name != "ideal":
+        e_body = e_body + outs_buf[name].get(lo + nf.d, hi + nf.d, step) - phi_buf.get(lo, hi, step)
+    rows = np.empty((m, N_COLS))
+    bad = ktruth.nav_errors(out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H], out[:, OUT_V:OUT_V + 3],
+                            out[:, OUT_Q:OUT_Q + 4], tr_buf["lat"].get(lo, hi, step),
+                            tr_buf["lon"].get(lo, hi, step), tr_buf["h"].get(lo, hi, step),
+                            tr_buf["scales"].get(lo, hi, step), tr_buf["v"].get(lo, hi, step),
+                            tr_buf["q"].get(lo, hi, step), e_body, nf.free, DIVERGED_ATTITUDE_RAD, rows)
+    rows[:, 10] = out[:, OUT_LAT]
+    rows[:, 11] = out[:, OUT_LON]
+    record = None
+    if bad >= 0:
+        record = {"axis": "-", "time_s": float((lo + step * bad) / fs),
+                  "reason": f"navigation solution diverged (attitude error beyond {DIVERGED_ATTITUDE_RAD} rad or "
+                            "not finite)"}
+        rows = rows[:bad]
+    nf.stats.add(rows, (lo + step * np.arange(rows.shape[0])) / fs)
+    nf.series.add(rows)
+    return record
 
 
 def _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, k_end, max_delay, filters):

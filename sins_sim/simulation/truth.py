@@ -292,8 +292,14 @@ class MissionTruth:
         if plant:  # block angle (closed form) + Hermite interpolant of S, in place
             # axis-major storage: each axis's column of the (n R, 3) views is contiguous (the channel kernels'
             # input, no strided copy per axis and chunk)
-            ang_ax = np.empty((3, ang_b.shape[0]))
-            rate_ax = np.empty((3, ang_b.shape[0]))
+            if ang_b.flags.f_contiguous and rate_b.flags.f_contiguous and ang_b.flags.writeable \
+                    and rate_b.flags.writeable:
+                # the block's grid is already axis-major and ours (a fresh array per call): add S in place; every
+                # element is read once before it is written, so the values are those of a separate output
+                ang_ax, rate_ax = ang_b.T, rate_b.T
+            else:
+                ang_ax = np.empty((3, ang_b.shape[0]))
+                rate_ax = np.empty((3, ang_b.shape[0]))
             ktruth.hermite_plant_axes(s_nodes, ds_nodes, self._herm, self._dherm, ang_b, rate_b, ang_ax, rate_ax)
             angle, rate = ang_ax.T, rate_ax.T
         phi = phib[:, 3] + s_nodes[1:]

@@ -315,7 +315,9 @@ class Motion3D(abc.ABC):
         The engine's fast path: motions made of sinusoids override it with a recurrence
         (:func:`sins_sim._kernels.motion.sines_grid`); the result equals
         ``gyro_angle(t), body_rate(t)`` to rounding and does not depend on how the grid is
-        split into calls.
+        split into calls. The arrays are new on every call and belong to the caller: the engine
+        adds the Earth and vehicle terms to them in place when they are axis-major (Fortran order,
+        which the fast paths return).
 
         Returns
         -------
@@ -665,8 +667,8 @@ class SumMotion3D(Motion3D):
         return out
 
     def grid_angle_rate(self, i0: int, n: int, h: float):
-        angle = np.zeros((n, 3))
-        rate = np.zeros((n, 3))
+        angle = np.zeros((n, 3), order="F")  # axis-major, as the engine uses it (see _SineBank.grid_angle_rate)
+        rate = np.zeros((n, 3), order="F")
         for p in self.parts:
             a, r = p.grid_angle_rate(i0, n, h)
             angle += a

@@ -34,7 +34,7 @@ class Static(Motion3D):
         return np.zeros((ta.size, 3))
 
     def grid_angle_rate(self, i0: int, n: int, h: float):
-        return np.zeros((n, 3)), np.zeros((n, 3))
+        return np.zeros((n, 3), order="F"), np.zeros((n, 3), order="F")
 
     def _fixed_axis(self):
         return _STATIC

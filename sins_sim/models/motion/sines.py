@@ -61,8 +61,10 @@ class _SineBank(Motion3D):
         return out
 
     def grid_angle_rate(self, i0: int, n: int, h: float):
-        angle = np.empty((n, 3))
-        rate = np.empty((n, 3))
+        # axis-major (Fortran order): the kernel fills each axis's column contiguously, and the engine adds
+        # the Earth and vehicle terms in place and hands each column to its channel without a copy
+        angle = np.empty((n, 3), order="F")
+        rate = np.empty((n, 3), order="F")
         sines_grid(int(i0), int(n), float(h), self._amp, self._omega, self._phase, angle, rate)
         return angle, rate
 
