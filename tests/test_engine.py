@@ -91,10 +91,9 @@ def test_public_api_is_exported_and_documented():
 
 
 def test_navigation_on_threads_equals_the_serial_run_bit_for_bit():
-    """With threads the three axes' kernels and the filters' navigators run concurrently (the kernels
-    release the GIL); every navigator touches only its own state and reads rings that do not change
-    while they run. Statistics, series, spectra and divergence records (filter order, first time)
-    must equal the one-thread run exactly. The block spins at 100 deg/s about z so that the paper
+    """With threads the three axes' kernels run concurrently (they release the GIL) while the calling
+    thread prepares the next chunk's truth and navigates the previous one. Statistics, series, spectra
+    and divergence records (filter order, first time) must equal the one-thread run exactly. The block spins at 100 deg/s about z so that the paper
     form diverges inside the run (its D carries (1 - B) X), and vibrates about x and y."""
     from sins_sim.models.motion import ConstantRate
     from sins_sim.simulation.sins import NavSettings, simulate_sins

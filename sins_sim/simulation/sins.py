@@ -517,11 +517,6 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     diverged = {}
     caught = []
     pool = axis_pool(threads) if outs_buf else None
-    nav_pool = None
-    if nav is not None and threads > 1 and len(filters) > 1:
-        from concurrent.futures import ThreadPoolExecutor
-
-        nav_pool = ThreadPoolExecutor(max_workers=min(threads, len(filters)), thread_name_prefix="sins-nav")
     last_out = {}
     g_cum = np.zeros(3)
     a_cum = np.zeros(3)
@@ -569,7 +564,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                     diverged[name] = {"axis": AXES[int(bad[1])], "time_s": (k_prev + int(bad[0])) / fs,
                                       "reason": "filter output not finite"}
             if nav is not None:
-                _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k_start, fs, every, diverged, n_align, nav_pool)
+                _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k_start, fs, every, diverged, n_align)
                 spec_next = _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, min(k_start + n_spec, n_out),
                                           max_delay, filters)
                 _keep_truth_series(truth_series, tr_buf, k_prev, k1, k_start, truth_every, fs)
@@ -594,7 +589,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             if progress is not None:
                 progress(k1 / n_out)
     finally:
-        for ex in (pool or []) + ([nav_pool] if nav_pool is not None else []):
+        for ex in pool or []:
             ex.shutdown(wait=True, cancel_futures=True)
 
     drives = [{"axis": AXES[i], "f0_hz": ch.cfg.suspension.f0_hz, "frequency_hz": ch.drive.frequency_hz,
@@ -620,25 +615,17 @@ _NO_REF = np.zeros(3)
 _NO_AID = np.zeros(0)
 
 
-def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start, fs, every, diverged, n_align,
-              nav_pool=None):
-    """Advance every filter's navigation as far as its aligned data reach.
+def _navigate(navs, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start, fs, every, diverged, n_align):
+    """Advance every filter's navigation as far as its aligned data reach; record divergences.
 
-    With ``nav_pool`` (an executor) the filters navigate on its threads: each touches only its
-    own navigator, statistics and series and reads the shared rings, which do not change until
-    every filter is done (the kernels release the GIL, so the filters use the spare cores while
-    the next chunk's channel kernels run). Divergences are recorded afterwards in filter order,
-    so the result does not depend on the threads.
+    (Navigating the filters on a thread pool beside the next chunk's kernels was measured: no
+    faster on 2 cores, so they run in the calling thread, one after the other.)
     """
-    live = [(name, nf) for name, nf in navs.items() if nf.diverged is None]
-    args = (nav, tr_buf, outs_buf, phi_buf, k_start, fs, every, n_align)
-    if nav_pool is None or len(live) < 2:
-        found = [_navigate_one(name, nf, *args) for name, nf in live]
-    else:
-        found = [f.result() for f in [nav_pool.submit(_navigate_one, name, nf, *args) for name, nf in live]]
-    for (name, nf), record in zip(live, found):
-        if record is not None:
-            nf.diverged = diverged.setdefault(name, record)
+    for name, nf in navs.items():
+        if nf.diverged is None:
+            record = _navigate_one(name, nf, nav, tr_buf, outs_buf, phi_buf, k_start, fs, every, n_align)
+            if record is not None:
+                nf.diverged = diverged.setdefault(name, record)
 
 
 def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start, fs, every, n_align):
