@@ -46,7 +46,10 @@ Given a recording (``sins_sim.io.recording``), :func:`diagnose_recording`
 5. gives a **verdict** (:mod:`~sins_sim.identification.verdict`, where the criteria and their
    sources are): ``none`` when the refit nominal model sits at the floor (excess RMS below
    ``max(rel_tol * floor, abs_tol)``: a tolerance that covers integration-method, interpolation
-   and noise differences between simulators); else the best candidate when it is significant
+   and noise differences between simulators); else the best candidate (the one with the fewest
+   parameters among those the held-out data cannot tell from the best-scoring one, leaving out fits
+   that lack the feature defining their effect, such as a block mode without a resonance) when it is
+   significant
    against the baseline on held-out data (Diebold-Mariano) and by the nested F-test, with status
    ``explained`` when it closes the gap (leaves an excess within the tolerance, or below
    ``close_fraction`` of the excess it started from, and removes at least ``min_gap_reduction``
@@ -103,10 +106,11 @@ from sins_sim.identification.explain import explain
 from sins_sim.identification.localise import localise, noise_floor, operating_points
 from sins_sim.identification.recording_inputs import (_coupling_sources, _masks, _model_inputs, _table_angles, _tau,
                                                       _truncate)
-from sins_sim.identification.refit import CANCEL, AxisFit, DiagnoseSettings, _Problem, _rms, fit_axis, worker_pool
+from sins_sim.identification.refit import (CANCEL, AxisFit, DiagnoseSettings, _Problem, _rms, blas_threads, fit_axis,
+                                          worker_pool)
 from sins_sim.identification.report import Diagnosis, write_report
 from sins_sim.identification.verdict import (ALTERNATIVE_MARGIN, MAX_EFFECTS, MIN_STEP, _step,  # noqa: F401
-                                             assess, closes, first_step, give_verdict)
+                                             assess, closes, first_step, give_verdict, resolved_first)
 from sins_sim.models.effects import EFFECTS
 from sins_sim.io.recording import Recording
 from sins_sim.simulation.experiment import suspension_from_nominal
@@ -119,7 +123,8 @@ __all__ = ["DiagnoseSettings", "AxisFit", "Diagnosis", "noise_floor", "fit_axis"
 def diagnose_recording(rec: Recording, settings: DiagnoseSettings = DiagnoseSettings(), progress=None) -> Diagnosis:
     """Refit, noise floor, localisation, candidate effects and verdict for a recording."""
     CANCEL.clear()
-    return _diagnose(rec, settings, progress)
+    with blas_threads(1):  # the parallelism is the worker threads' (refit.blas_threads says why)
+        return _diagnose(rec, settings, progress)
 
 
 def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diagnosis:
@@ -257,7 +262,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
             assess(more, cur, sig_axes, train, used, n_nom + sum(len(c.fit_space(sig_axes[0], rec.axes))
                                                                 for c in classes))
             cur_held = math.sqrt(np.mean([cur[a].heldout_rms ** 2 for a in sig_axes])) / ARCSEC
-            pick = next((c for c in more if c["significant"] and c["gap_reduction"] >= MIN_STEP
+            pick = next((c for c in resolved_first(more) if c["significant"] and c["gap_reduction"] >= MIN_STEP
                          and c["score"] < cur_held), None)
             if pick is None:
                 break

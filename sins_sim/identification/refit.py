@@ -40,7 +40,7 @@ from sins_sim.models.effects import EFFECTS, Effect, Param
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, ExperimentSettings, simulate_axis
 
-__all__ = ["DiagnoseSettings", "AxisFit", "EffectSet", "fit_axis"]
+__all__ = ["DiagnoseSettings", "AxisFit", "EffectSet", "fit_axis", "blas_threads"]
 
 #: Relative bounds of the nominal parameters in the fit (multiples of the nominal value).
 #: A unit's parameters differ from the nominal ones by per cent (f0) or tens of per cent (k); wider
@@ -180,6 +180,24 @@ def worker_pool(n: int):
         ex.shutdown(wait=False, cancel_futures=True)
         raise
     ex.shutdown(wait=True)
+
+
+# --- BLAS threads -------------------------------------------------------------------------------------
+@contextmanager
+def blas_threads(n: int = 1):
+    """The BLAS libraries (numpy's and scipy's OpenBLAS) limited to ``n`` threads inside the block.
+
+    The least-squares solver's linear algebra is a few SVDs and products of a tall Jacobian (tens of
+    thousands of rows, under a dozen columns): milliseconds of work, on which OpenBLAS' own threads
+    mostly spin, and they compete with the diagnosis' worker threads. On the 20 s three-axis rate-table
+    recording (2 cores, ``threads = 2``) the diagnosis took 55 s of CPU and 32 s of wall time with
+    OpenBLAS' default threads, 29 s and 19 s with one. The limit is set and restored by
+    ``threadpoolctl`` (the maintained library scikit-learn uses for this).
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=int(n), user_api="blas"):
+        yield
 
 
 # --- several effects at once ------------------------------------------------------------------------
@@ -365,7 +383,7 @@ class _Problem:
         return m
 
 
-def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None):
+def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None, frozen_jac=False):
     """Least squares over (nominal, effect) parameters on the samples ``mask``.
 
     ``x0`` is the full start vector (nominal relative, then the start state
@@ -376,6 +394,13 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
     about one plausible variation of every parameter (a unit's f0 is off
     by 0.2 %, its k by tens of %), not ``|x0|``, which keeps the first
     steps of a badly started fit from jumping into nonsense.
+
+    ``frozen_jac``: the Jacobian is computed once, at ``x0``, and kept for
+    every step (the chord method, Kelley 1995, "Iterative Methods for Linear
+    and Nonlinear Equations", sec. 5.4): for a refinement that starts near
+    its solution, where one Jacobian costs as many model evaluations as there
+    are parameters and the steps only need its direction. Every step is still
+    accepted on the true cost.
 
     Returns ``(x, jac, unpack)``: the full solution, the Jacobian of the
     data residuals with respect to the free ``x`` (columns in ``free``
@@ -434,7 +459,11 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
         cache[key] = out
         return out
 
+    frozen = []
+
     def jac(z):
+        if frozen:
+            return frozen[0].copy()
         f0 = fun(z)
         x = full(z)
         hx = steps[free] * np.maximum(1.0, np.abs(x[free]))
@@ -451,7 +480,10 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
                 cols = list(ex.map(col, range(z.size)))
         else:
             cols = [col(i) for i in range(z.size)]
-        return np.column_stack(cols)
+        out = np.column_stack(cols)
+        if frozen_jac:
+            frozen.append(out.copy())
+        return out
 
     zlo = (lo[free] - x0[free]) / xs
     zhi = (hi[free] - x0[free]) / xs
@@ -495,10 +527,13 @@ def _cost(prob: _Problem, sus: SuspensionParams, effect, start=None) -> float:
         return math.inf
 
 
+#: Indices of (k1, k2, k4): what a steady dither resolves weakly (the valleys of ``(f0, k1, k2)`` and ``(k3, k4)``).
+_WEAK = [1, 2, 4]
+
+
 def _bent(prob: _Problem, xn: np.ndarray) -> bool:
     """Whether k1, k2 or k4 of ``xn`` sit more than the prior's width from the nominal values."""
-    idx = [1, 2, 4]
-    return bool(np.any(np.abs(xn[idx] - prob.x_c[idx]) > prob.settings.prior_k))
+    return bool(np.any(np.abs(xn[_WEAK] - prob.x_c[_WEAK]) > prob.settings.prior_k))
 
 
 def _drift_centred(prob: _Problem, effect_cls, xn: np.ndarray, values: dict) -> np.ndarray:
@@ -534,8 +569,10 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
     effect's parameters; (2) least squares over everything. Stages 1 and 2
     run from the start's nominal parameters and, when the start has bent
     the weakly resolved ``k1, k2, k4`` more than their prior's width
-    (a baseline absorbing what the effect explains), from the recording's
-    nominal ones too; the better result is kept.
+    (a baseline absorbing what the effect explains), also from the start
+    with ``k1, k2, k4`` at the recording's nominal values (``F(a_ref),
+    1/Q(a_ref), k5`` kept: the dither resolves them); the better result is
+    kept.
 
     Parameters
     ----------
@@ -549,7 +586,9 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
         Budget of the last stage (default ``settings.max_nfev``).
     polish : bool
         Only the last stage, from ``start`` (nominal and effect parameters):
-        the refinement on the whole recording of a fit made on its first window.
+        the refinement on the whole recording of a fit made on its first window,
+        with the Jacobian of its start kept for every step (``_solve``'s
+        ``frozen_jac``; the uncertainties are from that Jacobian).
     """
     n_nom = len(NOMINAL_KEYS)
     n_nui = len(prob.nuisance)
@@ -569,7 +608,7 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
             vals = start.effect.values(prob.axis)
             x0_eff = np.array([vals[p.name] / p.scale for p in eff_space])
         x, jac, unpack = _solve(prob, effect_cls, np.concatenate([x0_nom, x0_nui, x0_eff]), space,
-                                max_nfev or prob.settings.polish_nfev, threads, prob.train)
+                                max_nfev or prob.settings.polish_nfev, threads, prob.train, frozen_jac=True)
         return _finish(prob, x, jac, unpack, space)
     if effect_cls is None and start is None:
         def grid_cost(df):
@@ -606,7 +645,11 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
         x0_eff = np.array([best[1].get(p.name, 0.0) / p.scale for p in eff_space])
         x0_nom = best[0].copy()
         if start is not None and _bent(prob, x0_nom):
-            nominal_starts.append(_drift_centred(prob, effect_cls, prob.x_c, best[1]))
+            # k1, k2, k4 back at their nominal values; F(a_ref), 1/Q(a_ref) and k5, which the dither
+            # resolves, stay where the start has them (at the nominal F the dither would be far off phase)
+            xn = x0_nom.copy()
+            xn[_WEAK] = prob.x_c[_WEAK]
+            nominal_starts.append(xn)
     stage1 = list(_MAIN) + list(range(n_nom, n_nom + len(space)))
     budget = max_nfev or (prob.settings.max_nfev if effect_cls is None else prob.settings.candidate_nfev)
     best, best_cost = None, math.inf

@@ -67,7 +67,7 @@ class Diagnosis:
                             "gap_reduction": c["gap_reduction"], "score": c["score"],
                             "closes_gap": c["closes_gap"], "remaining_excess_arcsec": c["remaining_excess_arcsec"],
                             "p_heldout": c.get("p_heldout"), "p_f": c.get("p_f"),
-                            "significant": c.get("significant"),
+                            "significant": c.get("significant"), "unresolved": c.get("unresolved"),
                             "params": c["params"], "uncertainty": c["uncertainty"],
                             "nominal": {ax: _susp_dict(f.suspension) for ax, f in c["fits"].items()}}
                            for c in self.candidates],
@@ -278,6 +278,9 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
                      f"{c['score']:.4g} | {ph} | {pars} |")
     for name, why in js["skipped_effects"].items():
         lines.append(f"| {name} | - | - | - | - | skipped: {why} |")
+    unres = [c for c in js["candidates"] if c.get("unresolved")]
+    if unres:
+        lines += [""] + [f"- {c['effect']} comes after the other candidates: {c['unresolved']}" for c in unres]
     lines += ["", "![spectrum](spectrum.png)", "", "![envelope](envelope.png)", "", "![ranking](ranking.png)", ""]
     (out / "report.md").write_text("\n".join(lines))
     return js

@@ -40,9 +40,28 @@ selected so far) when both tests reject "no improvement" at level :data:`ALPHA`:
    independent samples (``L`` the residual's integrated correlation length, the same inflation as
    the parameter uncertainties), against ``F(k, n_eff - p)``.
 
-**Clearly ahead** (for ``partly explained``): the held-out test of the best candidate against the
-runner-up rejects at :data:`AHEAD_ALPHA`. Without that, two effects explain the data about as well:
-the best one is kept only if the greedy selection (below) adds a second effect to it (two effects
+**Resolved**: a candidate whose fit lacks the feature that defines its effect (:func:`unresolved`) comes
+after those whose fits show theirs. A block mode is a resonance of the mount; fitted with a damping ratio
+at or above ``1/sqrt(2)`` (:data:`MODE_ZETA_MAX`) its response has no resonant peak, and its three
+parameters only reshape the table motion smoothly (far above the table lines, a phase lead proportional
+to frequency), which damping laws and delays do as well. Such a fit is named only when the others give no
+verdict (:func:`first_step`, and :func:`resolved_first` in the greedy steps), and is no rival of one that
+does.
+
+**Parsimony** (the one-standard-error rule of Breiman, Friedman, Olshen & Stone 1984, "Classification
+and Regression Trees", sec. 3.4.3; Hastie, Tibshirani & Friedman 2009, "The Elements of Statistical
+Learning", sec. 7.10): the effect named first is the best-scoring candidate, unless a significant
+candidate with fewer parameters predicts the held-out blocks as well, i.e. the held-out test of the best
+against it does not reject at :data:`AHEAD_ALPHA`; then the one with the fewest parameters among those
+(:func:`parsimonious`). Extra parameters that do not predict better are not evidence for the effect that
+has them: on the rate table, a block mode's three parameters (a critically damped mode far above the
+table lines is a phase lead of the table motion) can reshape the table lines as well as a damping law
+does with one.
+
+**Clearly ahead** (for ``partly explained``): the held-out test of the named candidate against the
+runner-up rejects at :data:`AHEAD_ALPHA` (the runner-up: the best-scoring other candidate, leaving out
+those with more parameters that parsimony set aside). Without that, two effects explain the data about as
+well: the best one is kept only if the greedy selection (below) adds a second effect to it (two effects
 present at once each explain much of the gap alone); else the verdict stays ``unknown`` (the
 ranking is in the report).
 
@@ -72,7 +91,8 @@ from sins_sim.identification.refit import DiagnoseSettings, _correlation_length
 from sins_sim.units import ARCSEC
 
 __all__ = ["ALTERNATIVE_MARGIN", "ALPHA", "AHEAD_ALPHA", "MIN_PARTIAL", "MIN_STEP", "MAX_EFFECTS", "STATUSES",
-           "give_verdict", "heldout_block_losses", "dm_pvalue", "f_pvalue", "assess", "closes"]
+           "give_verdict", "heldout_block_losses", "dm_pvalue", "f_pvalue", "assess", "closes", "parsimonious",
+           "first_step", "unresolved", "resolved_first", "MODE_ZETA_MAX"]
 
 #: Candidates scoring within this fraction of the best one are named as alternatives of the verdict.
 ALTERNATIVE_MARGIN = 0.05
@@ -89,6 +109,10 @@ MIN_PARTIAL = 0.25
 MIN_STEP = 0.3
 #: Most effects the greedy selection names.
 MAX_EFFECTS = 3
+#: Largest damping ratio at which a second-order mode has a resonant peak: ``|H(j w)|`` of
+#: ``w_n^2 / (s^2 + 2 zeta w_n s + w_n^2)`` peaks, at ``w_n sqrt(1 - 2 zeta^2)``, only for ``zeta < 1/sqrt(2)``
+#: (Ogata, "Modern Control Engineering", 5th ed., sec. 8-2, the resonant peak).
+MODE_ZETA_MAX = 1.0 / math.sqrt(2.0)
 #: The statuses of a verdict.
 STATUSES = ("none", "explained", "partly explained", "unknown", "invalid data")
 
@@ -168,7 +192,29 @@ def assess(candidates: list, ref_fits: dict, sig_axes: list, train: np.ndarray, 
         c["_losses"] = loss
         c["p_heldout"] = dm_pvalue(ref_loss, loss)
         c["p_f"] = f_pvalue(ref_rss, rss, k, p, n_eff)
+        c["unresolved"] = unresolved(c, ref_fits, sig_axes)
         c["significant"] = bool(c["p_heldout"] < ALPHA and c["p_f"] < ALPHA and c["gap_reduction"] > 0.0)
+
+
+def resolved_first(candidates: list) -> list:
+    """``candidates`` (best first) with those lacking their effect's defining feature after the others."""
+    return [c for c in candidates if not c.get("unresolved")] + [c for c in candidates if c.get("unresolved")]
+
+
+def unresolved(c: dict, ref_fits: dict, axes) -> str | None:
+    """Why a candidate's fit lacks the feature that defines its effect, or ``None`` (see "Resolved").
+
+    On the axis where the candidate removes the most residual power: a ``block_mode`` with a damping
+    ratio at or above ``MODE_ZETA_MAX`` has no resonance.
+    """
+    if c["effect"] != "block_mode" or not axes:
+        return None
+    main = max(axes, key=lambda a: ref_fits[a].rms ** 2 - c["fits"][a].rms ** 2)
+    zeta = c["params"].get(main, {}).get("zeta")
+    if zeta is not None and zeta >= MODE_ZETA_MAX:
+        return (f"the block mode on axis {main} has damping ratio {zeta:.3g} >= 1/sqrt(2): no resonance, "
+                f"a smooth reshaping of the table motion rather than a mode")
+    return None
 
 
 def closes(remaining: dict, excess0: dict, tol: dict, settings: DiagnoseSettings) -> bool:
@@ -227,12 +273,13 @@ def give_verdict(fits: dict, sig_axes: list, candidates: list, settings: Diagnos
         return out
     total = float(sum(s["explained_fraction"] for s in steps))
     done = steps[-1]["closes_gap"] and total >= settings.min_gap_reduction
-    best = candidates[0]
+    best = next((c for c in candidates if c["effect"] == steps[0]["effect"]), candidates[0])
     alts = []
     if done and len(steps) == 1:
         # effects the data cannot tell from the best one: they close the gap as well and score
         # within ALTERNATIVE_MARGIN of it
-        alts = [c["effect"] for c in candidates[1:] if c["closes_gap"]
+        alts = [c["effect"] for c in candidates if c is not best and c["closes_gap"]
+                and (best.get("unresolved") or not c.get("unresolved"))
                 and c["score"] <= best["score"] * (1.0 + ALTERNATIVE_MARGIN)]
     out.update(effect=steps[0]["effect"], status="explained" if done else "partly explained",
                explained_fraction=min(1.0, total), gap_reduction=min(1.0, total), alternatives=alts,
@@ -242,11 +289,42 @@ def give_verdict(fits: dict, sig_axes: list, candidates: list, settings: Diagnos
     return out
 
 
+def parsimonious(candidates: list) -> dict | None:
+    """The candidate the verdict names first (see "Parsimony" in the module docstring).
+
+    ``candidates`` best-scoring first, with ``n_params``, ``significant`` and the held-out block losses
+    ``_losses`` (:func:`assess`). The best-scoring one, unless significant candidates with fewer parameters
+    are within reach of it (``dm_pvalue(theirs, best) >= AHEAD_ALPHA``): then the one among those with the
+    fewest parameters (then the best score).
+    """
+    if not candidates:
+        return None
+    best = candidates[0]
+    equal = [c for c in candidates[1:] if c.get("significant") and c.get("n_params", 1) < best.get("n_params", 1)
+             and dm_pvalue(c["_losses"], best["_losses"]) >= AHEAD_ALPHA]
+    if not equal:
+        return best
+    return min(equal, key=lambda c: (c.get("n_params", 1), c["score"]))
+
+
 def first_step(candidates: list, base_held: float, settings: DiagnoseSettings) -> list:
-    """The first effect of the selection (a one-element list) or ``[]`` (see the module docstring)."""
+    """The first effect of the selection (a one-element list) or ``[]`` (see the module docstring).
+
+    Candidates whose fit lacks the feature defining their effect are left out (they are no rivals
+    either); only when the others give no first step are they considered too.
+    """
+    resolved = [c for c in candidates if not c.get("unresolved")]
+    if len(resolved) < len(candidates):
+        step = _first_step(resolved, base_held, settings)
+        if step:
+            return step
+    return _first_step(candidates, base_held, settings)
+
+
+def _first_step(candidates: list, base_held: float, settings: DiagnoseSettings) -> list:
     if not candidates:
         return []
-    best = candidates[0]
+    best = parsimonious(candidates)
     if not best.get("significant") or best["score"] >= base_held / ARCSEC:
         return []
     frac = max(0.0, best["gap_reduction"])
@@ -254,7 +332,12 @@ def first_step(candidates: list, base_held: float, settings: DiagnoseSettings) -
     if not full:
         if frac < MIN_PARTIAL:
             return []
-        runner = candidates[1] if len(candidates) > 1 else None
+        i = next(j for j, c in enumerate(candidates) if c is best)
+        # the runner-up: the best-scoring other candidate, without those ahead of ``best`` that parsimony
+        # sets aside (more parameters and not clearly better)
+        rivals = [c for c in candidates[:i] if c.get("n_params", 1) <= best.get("n_params", 1)
+                  or dm_pvalue(best["_losses"], c["_losses"]) < AHEAD_ALPHA] + candidates[i + 1:]
+        runner = rivals[0] if rivals else None
         if runner is not None and dm_pvalue(runner["_losses"], best["_losses"]) >= AHEAD_ALPHA:
             # not clearly ahead: named only if the greedy selection then adds a second effect (a pair
             # whose members each explain much of the gap)

@@ -469,7 +469,8 @@ class LockIn(Effect):
               Param("phase_rad", "backscatter phase (rad)", -4.0 * math.pi, 4.0 * math.pi, 1.0, default=0.0),
               Param("fringe_rad", "rotation angle per Sagnac fringe (rad)", 1e-7, 1e-3, FRINGE_RAD,
                     default=FRINGE_RAD, fit=False))
-    #: Sub-interval control of the lock-in kernel: 8 x the largest deviation of the phase from its chord (rad).
+    #: Sub-interval control of the lock-in kernel (``_kernels.effects.lock_in_run``): the largest change of the
+    #: lock-in error's phase per piece (rad); the integrals are accurate to about ``MAX_DPSI**2 / 4`` per plant step.
     MAX_DPSI = 0.05
 
     def sense(self, axis, phi, rate, h):
