@@ -88,6 +88,7 @@ import numpy as np
 from scipy import stats
 
 from sins_sim.identification.refit import DiagnoseSettings, _correlation_length
+from sins_sim.models.effects import EFFECTS, BlockMode
 from sins_sim.units import ARCSEC
 
 __all__ = ["ALTERNATIVE_MARGIN", "ALPHA", "AHEAD_ALPHA", "MIN_PARTIAL", "MIN_STEP", "MAX_EFFECTS", "STATUSES",
@@ -109,10 +110,8 @@ MIN_PARTIAL = 0.25
 MIN_STEP = 0.3
 #: Most effects the greedy selection names.
 MAX_EFFECTS = 3
-#: Largest damping ratio at which a second-order mode has a resonant peak: ``|H(j w)|`` of
-#: ``w_n^2 / (s^2 + 2 zeta w_n s + w_n^2)`` peaks, at ``w_n sqrt(1 - 2 zeta^2)``, only for ``zeta < 1/sqrt(2)``
-#: (Ogata, "Modern Control Engineering", 5th ed., sec. 8-2, the resonant peak).
-MODE_ZETA_MAX = 1.0 / math.sqrt(2.0)
+#: The block mode's damping ratio beyond which it has no resonant peak (``BlockMode.ZETA_RESONANT_MAX``).
+MODE_ZETA_MAX = BlockMode.ZETA_RESONANT_MAX
 #: The statuses of a verdict.
 STATUSES = ("none", "explained", "partly explained", "unknown", "invalid data")
 
@@ -204,17 +203,14 @@ def resolved_first(candidates: list) -> list:
 def unresolved(c: dict, ref_fits: dict, axes) -> str | None:
     """Why a candidate's fit lacks the feature that defines its effect, or ``None`` (see "Resolved").
 
-    On the axis where the candidate removes the most residual power: a ``block_mode`` with a damping
-    ratio at or above ``MODE_ZETA_MAX`` has no resonance.
+    Asked of the effect class (``Effect.unresolved``) on the axis where the candidate removes the most
+    residual power.
     """
-    if c["effect"] != "block_mode" or not axes:
+    effect_cls = EFFECTS.get(c["effect"])
+    if effect_cls is None or not axes:
         return None
     main = max(axes, key=lambda a: ref_fits[a].rms ** 2 - c["fits"][a].rms ** 2)
-    zeta = c["params"].get(main, {}).get("zeta")
-    if zeta is not None and zeta >= MODE_ZETA_MAX:
-        return (f"the block mode on axis {main} has damping ratio {zeta:.3g} >= 1/sqrt(2): no resonance, "
-                f"a smooth reshaping of the table motion rather than a mode")
-    return None
+    return effect_cls.unresolved(main, c["params"].get(main, {}))
 
 
 def closes(remaining: dict, excess0: dict, tol: dict, settings: DiagnoseSettings) -> bool:

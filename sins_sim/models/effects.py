@@ -199,6 +199,13 @@ class Effect:
     def __hash__(self):
         return hash(repr(self))
 
+    @classmethod
+    def unresolved(cls, axis: str, values: dict) -> str | None:
+        """Why a fit with parameter ``values`` on ``axis`` lacks the feature that defines this effect
+        (the diagnosis then ranks it after fits that show theirs), or ``None``: by default every fit
+        shows it."""
+        return None
+
     def to_dict(self) -> dict:
         """``{"name": ..., "axes": [...], <params>}`` (what a scenario file holds)."""
         out = {"name": self.name, **dict(self.params)}
@@ -363,6 +370,20 @@ class BlockMode(Effect):
               Param("zeta", "mode damping ratio", 1e-4, 1.0, 0.05),
               Param("gain", "participation of the gyros' block in the mode", -2.0, 2.0, 0.3))
     needs_motion = True
+    #: Largest damping ratio at which a second-order mode has a resonant peak: ``|H(j w)|`` of
+    #: ``w_n^2 / (s^2 + 2 zeta w_n s + w_n^2)`` peaks, at ``w_n sqrt(1 - 2 zeta^2)``, only for
+    #: ``zeta < 1/sqrt(2)`` (Ogata, "Modern Control Engineering", 5th ed., sec. 8-2, the resonant peak).
+    ZETA_RESONANT_MAX = 1.0 / math.sqrt(2.0)
+
+    @classmethod
+    def unresolved(cls, axis, values):
+        """A mode fitted at a damping ratio of at least 1/sqrt(2) has no resonance: its three parameters
+        only reshape the table motion smoothly (a phase lead far above the table lines)."""
+        zeta = values.get("zeta")
+        if zeta is not None and zeta >= cls.ZETA_RESONANT_MAX:
+            return (f"the block mode on axis {axis} has damping ratio {zeta:.3g} >= 1/sqrt(2): no resonance, "
+                    f"a smooth reshaping of the table motion rather than a mode")
+        return None
 
     def block(self, axis, angle, rate, h):
         if not self.acts_on(axis):

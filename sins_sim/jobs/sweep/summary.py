@@ -43,21 +43,32 @@ def parameter_names(table) -> list:
     return [c[len(PARAM_PREFIX):] for c in cols if table[c].nunique() > 1]
 
 
-def _percentiles(table, filters) -> dict:
+def _per_metric(table, filters, metrics, stat) -> dict:
+    """``{metric: {filter: stat(column)}}`` over the columns ``FILTER.METRIC`` present in ``table``;
+    ``stat`` returns None where a column has nothing to report (then the entry is left out)."""
     out = {}
-    for metric in METRICS:
+    for metric in metrics:
         per = {}
         for f in filters:
             col = f"{f}.{metric}"
-            if col not in table:
-                continue
-            x = table[col].to_numpy(dtype=float)
-            x = x[np.isfinite(x)]
-            if x.size:
-                per[f] = {**{k: float(np.percentile(x, q)) for k, q in _QUANTILES.items()}, "n": int(x.size)}
+            if col in table:
+                value = stat(table[col])
+                if value is not None:
+                    per[f] = value
         if per:
             out[metric] = per
     return out
+
+
+def _percentiles(table, filters) -> dict:
+    def stat(column):
+        x = column.to_numpy(dtype=float)
+        x = x[np.isfinite(x)]
+        if not x.size:
+            return None
+        return {**{k: float(np.percentile(x, q)) for k, q in _QUANTILES.items()}, "n": int(x.size)}
+
+    return _per_metric(table, filters, METRICS, stat)
 
 
 def spearman(x, y) -> float:
@@ -73,21 +84,13 @@ def spearman(x, y) -> float:
 
 
 def _drivers(table, filters, params) -> dict:
-    out = {}
-    for metric in HEADLINE_METRICS:
-        per = {}
-        for f in filters:
-            col = f"{f}.{metric}"
-            if col not in table:
-                continue
-            ranks = [(p, spearman(table[PARAM_PREFIX + p], table[col])) for p in params]
-            ranks = [(p, r) for p, r in ranks if math.isfinite(r)]
-            ranks.sort(key=lambda pr: -abs(pr[1]))
-            if ranks:
-                per[f] = [{"parameter": p, "spearman": round(r, 4)} for p, r in ranks[:5]]
-        if per:
-            out[metric] = per
-    return out
+    def stat(column):
+        ranks = [(p, spearman(table[PARAM_PREFIX + p], column)) for p in params]
+        ranks = [(p, r) for p, r in ranks if math.isfinite(r)]
+        ranks.sort(key=lambda pr: -abs(pr[1]))
+        return [{"parameter": p, "spearman": round(r, 4)} for p, r in ranks[:5]] if ranks else None
+
+    return _per_metric(table, filters, HEADLINE_METRICS, stat)
 
 
 def summarize(table, failures: list, labels: list) -> dict:
