@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
 
@@ -100,7 +101,7 @@ def plot_sensitivity(table, metric: str, label: str, params: dict, filters, path
     ncols = min(n, 4)
     nrows = math.ceil(n / ncols)
     plt = _pyplot()
-    fig, axes = plt.subplots(nrows, ncols, figsize=(3.8 * ncols, 3.0 * nrows), squeeze=False,
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.0 * nrows), squeeze=False,
                              constrained_layout=True, sharey=True)
     for ax in axes.flat[n:]:
         ax.set_visible(False)
@@ -118,13 +119,12 @@ def plot_sensitivity(table, metric: str, label: str, params: dict, filters, path
                 best.append(rho)
         ax.set_yscale("log")
         ax.yaxis.set_minor_formatter(plt.NullFormatter())
-        ax.set_xlabel(plabel, fontsize=8)
+        ax.set_xlabel(textwrap.fill(plabel, 44), fontsize=8)  # long parameter names: two lines, not into the next panel
         rho_text = f", max |rho| {max(abs(r) for r in best):.2f}" if best else ""
         ax.set_title(f"{pcol.split('.', 1)[1]}{rho_text}", fontsize=8)
         ax.grid(True, which="both", alpha=0.25)
         ax.tick_params(labelsize=7)
-    for r in range(nrows):
-        axes[r, 0].set_ylabel(label, fontsize=8)
+    fig.supylabel(label, fontsize=9)  # one label for the shared axis (a long one per row overlaps the next row)
     fig.legend(list(handles.values()), [_LABELS.get(f, f) for f in handles], loc="outside lower center",
                ncol=min(len(handles), 5), fontsize=8)
     fig.suptitle(title or f"{metric} against each drawn parameter (rho: Spearman rank correlation)")
