@@ -183,6 +183,38 @@ def test_many_suspensions_together_equal_each_alone(rule):
         assert_array_equal(out[i], alone[i])
 
 
+@IGNORE_REGIME
+def test_three_suspensions_side_by_side_equal_each_alone_in_any_pieces():
+    # run_three steps three suspensions in turn (the engine's one-thread path); each lane must get the
+    # bits it gets alone, whatever its rule and however the steps are split into calls
+    suspensions = [P, P.replace(f0_hz=352.0, zeta=0.001), P.replace(f0_hz=421.0, k3=3e-3)]
+    rules = ["masing", "paper", "masing"]
+    n = int(0.05 * FS)
+    t = np.arange(n + 1) / FS
+    ang, rate = MOTION.angle_rate(t)
+    alone, q0s, q1s, consts = [], np.empty((3, n)), np.empty((3, n)), np.empty((3, kexact.N_CONSTS))
+    for i, (s, rule) in enumerate(zip(suspensions, rules)):
+        volts = DriveParams().resolve(s).samples(0, n)
+        plant = Plant(s, PlantSettings(hysteresis=rule))
+        plant.reset(ang[0], rate[0])
+        alone.append(plant.step(ang[1:], rate[1:], volts))
+        kexact._constants(consts, i, 1.0 / FS, s.omega0 ** 2, s.k1, s.k2, s.k3, s.k4, s.k5, 2.0 * s.zeta / s.omega0,
+                          0.25 / s.f0_hz)
+        kexact._forcing(ang[1:], rate[1:], volts, ang[0], rate[0], consts[i, kexact.C_IH], consts[i, kexact.C_IH2],
+                        consts[i, kexact.C_W0SQ], consts[i, kexact.C_K5], q0s[i], q1s[i])
+    state = np.zeros((3, kexact.STATE_SIZE))
+    hyst = np.zeros((3, kphys.HYST_SIZE))
+    stack = np.zeros((3, kphys.STACK_SIZE))
+    for i in range(3):
+        kphys.hyst_reset(hyst[i], stack[i])
+    out = np.empty((3, n))
+    rule_codes = np.array([kphys.RULES[r] for r in rules], dtype=np.int64)
+    for i, j in _uneven(n):
+        kexact.run_three(i, j, q0s, q1s, consts, rule_codes, state, hyst, stack, out)
+    for i in range(3):
+        assert_array_equal(out[i], alone[i])
+
+
 # --- event location -----------------------------------------------------------------------------
 
 

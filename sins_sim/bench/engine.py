@@ -7,8 +7,8 @@ closed-loop drives, every filter) under a 1 arcmin block vibration about each ax
 * :func:`engine_run`: ``simulate_sins`` without navigation (``nav=None``: truth at the
   plant rate, the three fused channel kernels, every filter) or with the full INS loop
   (every filter navigated by its own strapdown against the truth);
-* :func:`bare_kernels`: the same three channel kernels called directly on precomputed
-  inputs, nothing else: the floor the engine is compared with (a same-run ratio in CI, so
+* :class:`BareKernels`: the same three channels' kernels (side by side, as the one-thread
+  engine runs them) called directly on precomputed inputs, nothing else: the floor the engine is compared with (a same-run ratio in CI, so
   the user path cannot fall behind the kernels again);
 * :func:`peak_memory`: peak resident memory of engine runs of given lengths, each in a fresh
   process.
@@ -26,7 +26,7 @@ import numpy as np
 
 from sins_sim.models.motion import AxisSines
 from sins_sim.models.suspension import PAPER_SUSPENSION
-from sins_sim.simulation.channel import ChannelChain, ChannelConfig
+from sins_sim.simulation.channel import ChannelChain, ChannelConfig, SideBySide
 from sins_sim.simulation.sins import ImuConfig, NavSettings, simulate_sins
 from sins_sim.units import ARCMIN
 
@@ -67,18 +67,19 @@ class BareKernels:
         self.n_chunks = max(1, int(round(duration_s / chunk_s)))
         t = np.arange(1, self.n + 1) / fp
         w = 2.0 * math.pi * np.array(CHAIN_VIBRATION_HZ)
-        # the same input every chunk (the cost does not depend on the values' history)
-        self.ang = [np.ascontiguousarray(ARCMIN * np.sin(w[i] * t)) for i in range(3)]
-        self.rate = [np.ascontiguousarray(ARCMIN * w[i] * np.cos(w[i] * t)) for i in range(3)]
+        # the same input every chunk (the cost does not depend on the values' history), axis-major as the
+        # truth delivers it
+        self.ang = np.asfortranarray(ARCMIN * np.sin(w[None, :] * t[:, None]))
+        self.rate = np.asfortranarray(ARCMIN * w[None, :] * np.cos(w[None, :] * t[:, None]))
         self.simulated_s = self.n_chunks * self.n / fp
 
     def run(self) -> None:
         chains = [ChannelChain(c, self.control, np.random.default_rng(i)) for i, c in enumerate(self.cfgs)]
         for ch, w in zip(chains, CHAIN_VIBRATION_HZ):
             ch.reset(0.0, ARCMIN * 2.0 * math.pi * w)
+        three = SideBySide(chains)  # the kernels of the engine's one-thread path
         for k in range(self.n_chunks):
-            for i, ch in enumerate(chains):
-                ch.run_kernel(k * self.n, self.ang[i], self.rate[i])
+            three.run(k * self.n, self.ang, self.rate)
 
 
 def _peak_rss_mib() -> float:

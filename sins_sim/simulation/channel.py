@@ -477,20 +477,32 @@ class ChannelChain:
 
     def _kernel_once(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray | None = None):
         n = angle.shape[0]
+        noise, uniforms = self._kernel_draws(i0, n, uniforms)
+        delta, volts, feed = self._buffers(n)
+        angle = np.ascontiguousarray(angle)
+        p = self.plant
+        kchain.drive_plant(i0, angle, np.ascontiguousarray(rate), uniforms, self.fpar, self.ipar, self.dstate,
+                           p.state, p.hyst, p.stack, delta, volts)
+        return self._kernel_readout(angle, noise, delta, volts, feed)
+
+    def _kernel_draws(self, i0: int, n: int, uniforms: np.ndarray | None = None):
+        """The chunk's random draws, in stream order: readout noise and amplitude-modulation uniforms."""
         if uniforms is None:
             uniforms = self._uniforms(i0, n)
         sigma = self.cfg.readout.noise_rad
         noise = self.rng.standard_normal(n) if sigma > 0.0 else np.zeros(0)
-        delta, volts, feed = self._buffers(n)
-        m = n // self.r_dec
+        return noise, uniforms
+
+    def _kernel_readout(self, angle, noise, delta, volts, feed) -> dict:
+        """Readout and filters of a chunk whose deflection and drive are in ``delta`` and ``volts``."""
+        m = angle.shape[0] // self.r_dec
         out = {k: np.empty(m) for k in ("raw", "volts", "correcting", "correcting_paper", "eliminator")}
-        p, el = self.plant, self.filters["eliminator"]
-        kchain.axis_chunk(i0, np.ascontiguousarray(angle), np.ascontiguousarray(rate), noise, uniforms,
-                          self.fpar, self.ipar, self.dstate, p.state, p.hyst, p.stack,
-                          self.taps, self.readout.decimator._hist, self.vdec._hist, self.cpar,
-                          self._fstate(), self._fhyst(), self._fstack(), el._sos, el._zi,
-                          delta, volts, feed, out["raw"], out["volts"], out["correcting"],
-                          out["correcting_paper"], out["eliminator"])
+        el = self.filters["eliminator"]
+        kchain.readout_filters(angle, noise, self.fpar, self.ipar, self.dstate, self.taps,
+                               self.readout.decimator._hist, self.vdec._hist, self.cpar,
+                               self._fstate(), self._fhyst(), self._fstack(), el._sos, el._zi,
+                               delta, volts, feed, out["raw"], out["volts"], out["correcting"],
+                               out["correcting_paper"], out["eliminator"])
         self._sync_filters()
         self._run_plugins(out)
         out["delta"] = delta
@@ -622,6 +634,66 @@ class ChannelChain:
         out["sensed"] = feed
         out["lock_in_error"] = err
         return out
+
+
+def side_by_side(chains) -> bool:
+    """Whether :func:`run_three` can run these chains: three, each on the fused path, without a
+    temperature or PLL schedule (which splits a chunk into parameter blocks per channel)."""
+    return len(chains) == 3 and all(ch.path == "fused" and ch._fx is None and ch._thermal is None for ch in chains)
+
+
+class SideBySide:
+    """The three channels of a SINS over each chunk, their suspensions stepped side by side.
+
+    One call of ``_kernels.chain.drive_plant_three`` per chunk (the three suspensions advance
+    one step each in turn, so that the processor overlaps their dependency chains), then each
+    channel's readout and filters. :meth:`run` returns what :meth:`ChannelChain.run_kernel`
+    returns for each chain, bit for bit (``tests/test_engine.py``); call
+    :meth:`ChannelChain.check_chunk` on each afterwards. The plant-rate work buffers are kept
+    from one chunk to the next: a fresh 1.7 MB array per chunk costs its page faults (about
+    0.3 ms per simulated second each). Requires :func:`side_by_side`.
+    """
+
+    def __init__(self, chains):
+        if not side_by_side(chains):
+            raise ValueError("channel.side_by_side: needs three chains on the fused path without a temperature "
+                             "or PLL schedule")
+        self.chains = list(chains)
+        self._n = -1
+
+    def _work(self, n: int):
+        if n != self._n:
+            self._buf = np.empty((4, 3, n))  # deflection, drive, and the plant's forcing q0, q1
+            self._n = n
+        return self._buf
+
+    def run(self, i0: int, angle: np.ndarray, rate: np.ndarray) -> list:
+        """Advance the three chains over a chunk; ``angle, rate``: (n, 3) at the ends of the plant steps."""
+        chains = self.chains
+        n = angle.shape[0]
+        draws = [ch._kernel_draws(i0, n) for ch in chains]
+        uniforms = np.zeros((3, max(1, max(u.size for _, u in draws))))
+        for a, (_, u) in enumerate(draws):
+            uniforms[a, :u.size] = u
+        plants = [ch.plant for ch in chains]
+        dstate = np.stack([ch.dstate for ch in chains])
+        pstate = np.stack([p.state for p in plants])
+        physt = np.stack([p.hyst for p in plants])
+        pstack = np.stack([p.stack for p in plants])
+        angle_ax = np.ascontiguousarray(angle.T)  # axis-major input: a view, no copy
+        delta, volts, q0s, q1s = self._work(n)
+        used = np.zeros(3, dtype=np.int64)
+        kchain.drive_plant_three(i0, angle_ax, np.ascontiguousarray(rate.T), uniforms,
+                                 np.stack([ch.fpar for ch in chains]), np.stack([ch.ipar for ch in chains]),
+                                 dstate, pstate, physt, pstack, delta, volts, q0s, q1s, used)
+        outs = []
+        for a, ch in enumerate(chains):
+            ch.dstate[:] = dstate[a]
+            plants[a].state[:] = pstate[a]
+            plants[a].hyst[:] = physt[a]
+            plants[a].stack[:] = pstack[a]
+            outs.append(ch._kernel_readout(angle_ax[a], draws[a][0], delta[a], volts[a], ch._buffers(n)[2]))
+        return outs
 
 
 def check_engine_effects(effects) -> tuple:

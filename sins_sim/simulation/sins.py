@@ -46,7 +46,7 @@ from sins_sim._kernels import truth as ktruth
 from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
 from sins_sim.filters import registry as filter_registry
 from sins_sim.navigation.strapdown import StrapdownNavigator
-from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl
+from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl, SideBySide, side_by_side
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
 from sins_sim.simulation.truth import MissionTruth
 
@@ -269,8 +269,11 @@ def axis_pool(threads: int, n_axes: int = 3):
     return [ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"sins-axis-{AXES[i]}") for i in range(n_axes)]
 
 
-def submit_axes(chains, i0, ang, rate, pool):
-    """Start the three chains on one chunk: futures on ``pool``, or a deferred serial call."""
+def submit_axes(chains, i0, ang, rate, pool, three=None):
+    """Start the three chains on one chunk: futures on ``pool``, or a deferred call in this thread
+    (through ``three``, a :class:`~sins_sim.simulation.channel.SideBySide`, when given)."""
+    if pool is None and three is not None:
+        return ("three", three, i0, ang, rate)
     if pool is None or any(ch.path != "fused" for ch in chains):
         return ("serial", i0, ang, rate)
     return ("futures", [pool[i].submit(ch.run_kernel, i0, np.ascontiguousarray(ang[:, i]),
@@ -286,7 +289,10 @@ def collect_axes(chains, job, caught):
     import warnings as _warnings
 
     outs = []
-    if job[0] == "serial":
+    if job[0] == "three":  # one thread: the three suspensions side by side
+        _, runner, i0, ang, rate = job
+        outs = runner.run(i0, ang, rate)
+    elif job[0] == "serial":
         _, i0, ang, rate = job
         for i, ch in enumerate(chains):
             with _warnings.catch_warnings(record=True) as axis_w:
@@ -294,7 +300,8 @@ def collect_axes(chains, job, caught):
                 outs.append(ch.run(i0, np.ascontiguousarray(ang[:, i]), np.ascontiguousarray(rate[:, i])))
             caught.extend(f"axis {AXES[i]}: {w.message}" for w in axis_w)
         return outs
-    outs = [f.result() for f in job[1]]
+    else:
+        outs = [f.result() for f in job[1]]
     for i, ch in enumerate(chains):
         with _warnings.catch_warnings(record=True) as axis_w:
             _warnings.simplefilter("always")
@@ -517,6 +524,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     diverged = {}
     caught = []
     pool = axis_pool(threads) if outs_buf else None
+    three = SideBySide(chains) if outs_buf and pool is None and side_by_side(chains) else None
     last_out = {}
     g_cum = np.zeros(3)
     a_cum = np.zeros(3)
@@ -524,7 +532,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     def stage(k_a, k_b):
         """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
         tc, ang, rate = truth.advance(k_b, plant=bool(outs_buf))
-        job = submit_axes(chains, k_a * r_dec, ang, rate, pool) if outs_buf else None
+        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three) if outs_buf else None
         return k_a, k_b, tc, job
 
     try:
