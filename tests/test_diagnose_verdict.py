@@ -173,6 +173,20 @@ def test_two_effects_are_both_named_in_order():
         assert e["p_heldout"] < 0.01 and e["p_f"] < 0.01
 
 
+@pytest.mark.slow
+def test_an_effect_on_each_of_two_axes_is_named_on_its_own_axis():
+    """Lock-in on y and a piezo lag on x (the rate table, two axes): the greedy selection keeps each
+    effect on the axis it explains, so the second step is fitted on x alone and does not undo the first on
+    y (the whole-unit selection lost y's lock-in while it added x's lag)."""
+    effects = [make_effect("piezo_lag", tau_s=1.5e-4, axes=["x"]),
+               make_effect("lock_in", threshold_rad_s=2e-3, phase_rad=0.7, axes=["y"])]
+    v = diagnose_recording(_recording("rate_table", effects, duration=0.6, axes=("x", "y"))).to_json()["verdict"]
+    named = {e["effect"]: e["axes"] for e in v["effects"]}
+    assert named == {"lock_in": ["y"], "piezo_lag": ["x"]}, v
+    assert v["status"] == "explained", v
+    assert set(v["effects"][0]["params"]) == set(v["effects"][0]["axes"])
+
+
 def test_a_clean_recording_with_readout_noise_is_none():
     js = diagnose_recording(_recording("stationary", duration=0.6, noise_arcsec=0.1)).to_json()
     assert js["verdict"]["effect"] == "none" and js["verdict"]["status"] == "none"

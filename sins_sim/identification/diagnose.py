@@ -57,10 +57,13 @@ Given a recording (``sins_sim.io.recording``), :func:`diagnose_recording`
    ``alternatives``) or ``partly explained`` when it closes at least a quarter of the gap and is
    clearly ahead of the runner-up on held-out data (``explained_fraction`` and the ``remainder``:
    axis, band, time window); else ``unknown`` (the localisation is then the answer);
-6. **selects further effects greedily**: with the selected effects in the model, the refit is
-   repeated with each remaining candidate added; the next one is selected when it is significant
-   against the selected model and removes at least ``MIN_STEP`` of what remains. The verdict lists
-   the selected effects in order, with the share of the gap each closes (``verdict.effects``).
+6. **selects further effects greedily, per axis**: a selected effect is kept on the axes where it
+   removes at least ``MIN_STEP`` of what the model before it left there; with what each axis holds
+   in the model, each remaining candidate is added (on an axis holding nothing yet the first round's
+   fit is that model; axes at the floor are left alone); the next one is selected when it is
+   significant against the selected model and removes at least ``MIN_STEP`` of what remains. The
+   verdict lists the selected effects in order, with the share of the gap each closes and the axes
+   it is kept on (``verdict.effects``).
 
 Conventions: the measured angle is ``counts * q + q / 2`` (the floor of the
 counter makes ``counts * q`` half a quantum low on average). A recording
@@ -227,10 +230,29 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
 
     # 4. candidates on the significant axes, against the baseline
     def fit_effect_from(start_fits):
-        def fit_effect(cls, starts):
-            """The fits with the effect ``cls`` on the significant axes, from ``start_fits`` and ``starts[axis]``."""
-            return per_axis(sig_axes, lambda a, sett: fit(a, cls, start_fits[a], starts[a], sett))
+        def fit_effect(classes, starts, axes):
+            """The fits with ``classes[axis]`` on ``axes``, from ``start_fits`` and ``starts[axis]``."""
+            return per_axis(axes, lambda a, sett: fit(a, classes[a], start_fits[a], starts[a], sett))
         return fit_effect
+
+    def ex(f, a):
+        return max(0.0, f.rms ** 2 - floors[a]["floor_rad"] ** 2)
+
+    def hold(step, prev, prev_base):
+        """Keep the step's effect on the axes where it removes at least MIN_STEP of what the previous model
+        left there (if on none, where it removes anything); elsewhere the previous model stays. Returns the
+        selected model (axis -> fit) and its effects per axis, and updates the step to what is kept."""
+        gain = {a: ex(prev[a], a) - ex(step["fits"][a], a) for a in sig_axes}
+        keep = [a for a in sig_axes if gain[a] > 0.0 and gain[a] >= MIN_STEP * ex(prev[a], a)]
+        keep = keep or [a for a in sig_axes if gain[a] > 0.0] or list(sig_axes)
+        cur = {**prev, **{a: step["fits"][a] for a in keep}}
+        cur_base = {**prev_base, **{a: prev_base.get(a, ()) + (EFFECTS[step["effect"]],) for a in keep}}
+        left = {a: math.sqrt(ex(cur[a], a)) for a in sig_axes}
+        step.update(fits=cur, axes=keep, params={a: v for a, v in step["params"].items() if a in keep},
+                    uncertainty={a: v for a, v in step["uncertainty"].items() if a in keep},
+                    explained_fraction=float(sum(gain[a] for a in keep) / base_total) if base_total > 0 else 0.0,
+                    closes_gap=closes(left, excess, tol, settings))
+        return cur, cur_base
 
     candidates, skipped = [], {}
     steps = None
@@ -243,13 +265,17 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
         assess(candidates, fits, sig_axes, train, used, n_nom)
         base_held = math.sqrt(np.mean([fits[a].heldout_rms ** 2 for a in sig_axes]))
         steps = first_step(candidates, base_held, settings)
-        # 5. greedy forward selection: the next effect on what the selected ones leave
-        classes = [EFFECTS[s["effect"]] for s in steps]
+        # 5. greedy forward selection, per axis: the next effect on what the selected ones leave; an effect is
+        # kept on the axes where it helps (a recording can carry one effect on x and another on y)
         base_total = sum(excess[a] for a in sig_axes)
+        first_round = {c["effect"]: c["fits"] for c in candidates}
+        cur, cur_base = fits, {}
+        if steps:
+            cur, cur_base = hold(steps[0], cur, cur_base)
         while steps and len(steps) < MAX_EFFECTS and settings.max_effects > len(steps):
-            cur = steps[-1]["fits"]
-            rem = {a: max(0.0, cur[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in sig_axes}
-            if all(math.sqrt(rem[a]) <= tol[a] for a in sig_axes):
+            rem = {a: ex(cur[a], a) for a in sig_axes}
+            settled = [a for a in sig_axes if math.sqrt(rem[a]) <= tol[a]]
+            if len(settled) == len(sig_axes):
                 break  # at the floor
             chosen = {s["effect"] for s in steps}
             names = [c["effect"] for c in candidates if c["effect"] not in chosen and c["gap_reduction"] > 0.0]
@@ -258,19 +284,17 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
                 break
             cur_locs = {a: localise(cur[a].residual, floors[a]["floor_rad"], fs) for a in sig_axes}
             more, _ = explain(rec, settings, cur, floors, rem, tol, sig_axes, {**locs, **cur_locs},
-                              fit_effect_from(cur), timing, progress, base=tuple(classes), names=names)
-            assess(more, cur, sig_axes, train, used, n_nom + sum(len(c.fit_space(sig_axes[0], rec.axes))
-                                                                for c in classes))
+                              fit_effect_from(cur), timing, progress, base=cur_base, names=names, settled=settled,
+                              reuse=first_round)
+            n_ref = {a: n_nom + sum(len(c.fit_space(a, rec.axes)) for c in cur_base.get(a, ())) for a in sig_axes}
+            assess(more, cur, sig_axes, train, used, n_ref)
             cur_held = math.sqrt(np.mean([cur[a].heldout_rms ** 2 for a in sig_axes])) / ARCSEC
             pick = next((c for c in resolved_first(more) if c["significant"] and c["gap_reduction"] >= MIN_STEP
                          and c["score"] < cur_held), None)
             if pick is None:
                 break
-            rem_total = sum(rem.values())
-            left = {a: math.sqrt(max(0.0, pick["fits"][a].rms ** 2 - floors[a]["floor_rad"] ** 2)) for a in sig_axes}
-            frac = pick["gap_reduction"] * rem_total / base_total if base_total > 0 else 0.0
-            steps.append(_step(pick, frac, closes(left, excess, tol, settings)))
-            classes.append(EFFECTS[pick["effect"]])
+            steps.append(_step(pick, 0.0, False))
+            cur, cur_base = hold(steps[-1], cur, cur_base)
         if len(steps) == 1 and steps[0].get("tentative"):
             steps = []  # the best effect was not clearly ahead and no second effect joined it
         if steps and not (steps[-1]["closes_gap"] and sum(s["explained_fraction"] for s in steps)

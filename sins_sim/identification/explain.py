@@ -67,8 +67,8 @@ def _own(values: dict, name: str, in_set: bool) -> dict:
 
 
 def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict, excess: dict, tol: dict,
-            sig_axes: list, locs: dict, fit_effect, timing: dict, progress=None, base: tuple = (),
-            names=None) -> tuple:
+            sig_axes: list, locs: dict, fit_effect, timing: dict, progress=None, base: dict | None = None,
+            names=None, settled=(), reuse: dict | None = None) -> tuple:
     """Fit every catalogue effect the experiment can show on the axes with a significant gap, best first.
 
     Parameters
@@ -91,22 +91,30 @@ def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict
     timing : dict
         The seconds each candidate took are added under its name.
     progress : callable(str) or None
-    base : tuple of Effect classes
-        Effects already selected (greedy forward selection): each candidate is fitted together with
-        them (an :class:`~sins_sim.identification.refit.EffectSet`), started from their values in
-        ``fits``; ``fits`` is then the refit with them, and the gap reduction is relative to it.
+    base : dict or None
+        Axis -> the effect classes already selected on it (greedy forward selection, per axis): each
+        candidate is fitted together with them there (an
+        :class:`~sins_sim.identification.refit.EffectSet`), started from their values in ``fits``;
+        ``fits`` is then the selected model, and the gap reduction is relative to it.
     names : sequence of str or None
         The effects to try (default ``settings.effects`` or the whole catalogue).
+    settled : collection of str
+        Axes already at the floor: no candidate is fitted there (their fits stay).
+    reuse : dict or None
+        Effect name -> the first round's fits (axis -> ``AxisFit``): on an axis with nothing selected
+        the candidate's model is the first round's, so its fit is taken instead of repeated.
 
     Returns
     -------
     candidates : list of dict
-        Ranked by score (held-out RMS, arcsec), best first.
+        Ranked by score (held-out RMS, arcsec), best first; ``axes`` are those the effect was
+        fitted on (``sig_axes`` less ``settled``).
     skipped : dict
         Effect name -> why it was not tried.
     """
     candidates = []
     skipped = {}
+    base = base or {}
     moving = rec.sins_angle is not None and float(np.ptp(rec.sins_angle)) > 0.0
     if names is None:
         names = tuple(EFFECTS) if settings.effects is None else settings.effects
@@ -122,17 +130,25 @@ def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict
             continue
         t0 = time.perf_counter()
         cfits = dict(fits)
-        if base:
-            fit_cls = EffectSet(tuple(base) + (cls,))
-            starts = {}
-            for a in sig_axes:
+        classes, starts, applied = {}, {}, []
+        for a in sig_axes:
+            if a in settled:
+                continue  # at the floor already: the effect is not tried there (the fit stays)
+            applied.append(a)
+            held_cls = base.get(a, ())
+            if not held_cls and reuse is not None and name in reuse:
+                cfits[a] = reuse[name][a]  # nothing selected on this axis yet: the first round's fit is this model
+                continue
+            new = _effect_starts(cls, a, locs[a], fs)
+            if held_cls:
+                classes[a] = EffectSet(tuple(held_cls) + (cls,))
                 held = _prefixed(fits[a].effect, a)
-                new = _effect_starts(cls, a, locs[a], fs) or [{}]
-                starts[a] = [{**held, **{f"{name}.{k}": val for k, val in st.items()}} for st in new]
-        else:
-            fit_cls = cls
-            starts = {a: _effect_starts(cls, a, locs[a], fs) for a in sig_axes}
-        cfits.update(fit_effect(fit_cls, starts))
+                starts[a] = [{**held, **{f"{name}.{k}": val for k, val in st.items()}} for st in (new or [{}])]
+            else:
+                classes[a] = cls
+                starts[a] = new
+        if classes:
+            cfits.update(fit_effect(classes, starts, list(classes)))
         cand_axes = {a: max(0.0, cfits[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in sig_axes}
         cand_ex = sum(cand_axes.values())
         red = 1.0 - cand_ex / base_ex if base_ex > 0 else 0.0
@@ -143,16 +159,18 @@ def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict
                      for a in sig_axes)
         candidates.append({
             "effect": name, "fits": cfits, "n_params": len(cls.fit_space(sig_axes[0], rec.axes)),
+            "n_axes": len(applied),
             "rms_rad": math.sqrt(np.mean([cfits[a].rms ** 2 for a in rec.axes])),
             "gap_reduction": float(red), "score": held / ARCSEC, "closes_gap": bool(closes),
             "remaining_excess_arcsec": {a: math.sqrt(cand_axes[a]) / ARCSEC for a in sig_axes},
-            "params": {a: _own(cfits[a].effect.values(a), name, bool(base)) for a in sig_axes},
+            "params": {a: _own(cfits[a].effect.values(a), name, bool(base.get(a))) for a in applied},
             "uncertainty": {a: _own({k: val for k, val in cfits[a].sigma.items()
-                                     if k not in NOMINAL_KEYS and not k.startswith("start_")}, name, bool(base))
-                            for a in sig_axes},
-            "nfev": sum(cfits[a].nfev for a in sig_axes),
+                                     if k not in NOMINAL_KEYS and not k.startswith("start_")}, name,
+                                    bool(base.get(a))) for a in applied},
+            "axes": applied,
+            "nfev": sum(cfits[a].nfev for a in classes),
         })
-        timing[fit_cls.name] = time.perf_counter() - t0
+        timing[name if not any(base.values()) else f"{name} (greedy)"] = time.perf_counter() - t0
         if progress:
             progress(f"candidate {name}")
     candidates.sort(key=lambda c: c["score"])

@@ -238,12 +238,13 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
              + (f"; the data cannot tell it from {', '.join(v['alternatives'])}" if v.get("alternatives") else ""),
              f"- criterion: {v.get('criterion', '')}", ""]
     if v.get("effects"):
-        lines += ["## Selected effects (in order)", "", "| effect | share of the gap | parameters (+- 1 sigma) | "
-                  "p held-out | p F-test |", "|---|---|---|---|---|"]
+        lines += ["## Selected effects (in order)", "", "| effect | axes | share of the gap | parameters (+- 1 sigma) | "
+                  "p held-out | p F-test |", "|---|---|---|---|---|---|"]
         for e in v["effects"]:
             pars = "; ".join(f"{ax}: " + ", ".join(f"{k} = {_pm(val, e['uncertainty'].get(ax, {}).get(k))}"
                                                     for k, val in pv.items()) for ax, pv in e["params"].items())
-            lines.append(f"| {e['effect']} | {e['explained_fraction']:.3f} | {pars} | {e['p_heldout']:.2g} | "
+            axes = ", ".join(e.get("axes") or e["params"])
+            lines.append(f"| {e['effect']} | {axes} | {e['explained_fraction']:.3f} | {pars} | {e['p_heldout']:.2g} | "
                          f"{e['p_f']:.2g} |")
         lines.append("")
     if v.get("remainder"):

@@ -66,10 +66,14 @@ present at once each explain much of the gap alone); else the verdict stays ``un
 ranking is in the report).
 
 **Several effects** (greedy forward selection, Efroymson 1960 / Hocking 1976, "The analysis and
-selection of variables in linear regression", Biometrics 32): after the best effect is selected
-the refit is repeated with it and every remaining candidate is fitted together with it; the next
-effect is added when it is significant against the selected model and removes at least
-:data:`MIN_STEP` of the excess power that remains. At most :data:`MAX_EFFECTS` effects are selected.
+selection of variables in linear regression", Biometrics 32), per axis: a selected effect is kept
+on the axes where it removes at least :data:`MIN_STEP` of the excess the model before it left there
+(a unit can carry one effect on its x gyro and another on its y gyro); every remaining candidate is
+then fitted on top of what each axis holds (on an axis that holds nothing yet that is the first
+round's fit, not repeated; an axis at the floor is left alone), and the next effect is added when it
+is significant against the selected model and removes at least :data:`MIN_STEP` of the excess power
+that remains. At most :data:`MAX_EFFECTS` effects are selected; ``verdict.effects[i].axes`` names
+the axes each is kept on.
 
 .. autosummary::
 
@@ -176,18 +180,21 @@ def f_pvalue(rss_ref: float, rss_new: float, k: int, p: int, n_eff: float) -> fl
 
 
 def assess(candidates: list, ref_fits: dict, sig_axes: list, train: np.ndarray, used: np.ndarray,
-           n_ref_params: int) -> None:
+           n_ref_params) -> None:
     """Add the held-out and F-test p-values and ``significant`` to every candidate (in place).
 
-    ``ref_fits`` is the model the candidates extend; ``n_ref_params`` its fitted parameters per axis.
+    ``ref_fits`` is the model the candidates extend; ``n_ref_params`` its fitted parameters per axis
+    (a number, or axis -> number). A candidate adds ``n_params`` on each of its ``n_axes`` axes
+    (default: every axis of ``sig_axes``).
     """
     ref_loss = heldout_block_losses(ref_fits, sig_axes, train, used)
     ref_rss, _ = _train_rss(ref_fits, sig_axes, train)
+    n_ref = n_ref_params if isinstance(n_ref_params, dict) else {a: n_ref_params for a in sig_axes}
     for c in candidates:
         loss = heldout_block_losses(c["fits"], sig_axes, train, used)
         rss, n_eff = _train_rss(c["fits"], sig_axes, train)
-        k = c.get("n_params", 1) * len(sig_axes)
-        p = (n_ref_params + c.get("n_params", 1)) * len(sig_axes)
+        k = c.get("n_params", 1) * c.get("n_axes", len(sig_axes))
+        p = sum(n_ref[a] for a in sig_axes) + k
         c["_losses"] = loss
         c["p_heldout"] = dm_pvalue(ref_loss, loss)
         c["p_f"] = f_pvalue(ref_rss, rss, k, p, n_eff)
@@ -279,8 +286,8 @@ def give_verdict(fits: dict, sig_axes: list, candidates: list, settings: Diagnos
                 and c["score"] <= best["score"] * (1.0 + ALTERNATIVE_MARGIN)]
     out.update(effect=steps[0]["effect"], status="explained" if done else "partly explained",
                explained_fraction=min(1.0, total), gap_reduction=min(1.0, total), alternatives=alts,
-               effects=[{k: s[k] for k in ("effect", "explained_fraction", "params", "uncertainty", "p_heldout",
-                                           "p_f")} for s in steps],
+               effects=[{**{k: s[k] for k in ("effect", "explained_fraction", "params", "uncertainty", "p_heldout",
+                                              "p_f")}, "axes": list(s.get("axes") or s["params"])} for s in steps],
                remainder=None if done else remainder)
     return out
 
