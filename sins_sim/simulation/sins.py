@@ -7,8 +7,9 @@ One run is a pure function of (configuration, mission, duration, seed) and strea
    block motion on its mounts) gives each gyro's angle and rate at the plant rate, and the
    navigation truth, ideal gyro increments and accelerometer increments at the filter rate;
 2. each axis (reference-model.md, "Three axes": its own suspension, drive, readout, eq. 5 in
-   both forms and eliminator) runs in one fused kernel call
-   (:class:`~sins_sim.simulation.channel.ChannelChain`), the three axes on threads;
+   both forms and eliminator) runs in fused kernels
+   (:class:`~sins_sim.simulation.channel.ChannelChain`), the three suspensions stepped side by
+   side (:class:`~sins_sim.simulation.channel.SideBySide`) or the axes on threads;
 3. every filter's output is differenced into angle increments and navigated by its own
    :class:`~sins_sim.navigation.strapdown.StrapdownNavigator`, all fed by the same
    accelerometers, and compared with the truth (:mod:`~sins_sim.simulation.metrics`).
@@ -269,10 +270,13 @@ def axis_pool(threads: int, n_axes: int = 3):
     return [ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"sins-axis-{AXES[i]}") for i in range(n_axes)]
 
 
-def submit_axes(chains, i0, ang, rate, pool, three=None):
-    """Start the three chains on one chunk: futures on ``pool``, or a deferred call in this thread
-    (through ``three``, a :class:`~sins_sim.simulation.channel.SideBySide`, when given)."""
+def submit_axes(chains, i0, ang, rate, pool, three=None, worker=None):
+    """Start the three chains on one chunk: futures on ``pool`` (one thread per axis), or through
+    ``three`` (a :class:`~sins_sim.simulation.channel.SideBySide`, when given) on ``worker`` (one
+    thread) or deferred to this thread."""
     if pool is None and three is not None:
+        if worker is not None:
+            return ("future", worker.submit(three.run, i0, ang, rate))
         return ("three", three, i0, ang, rate)
     if pool is None or any(ch.path != "fused" for ch in chains):
         return ("serial", i0, ang, rate)
@@ -300,6 +304,8 @@ def collect_axes(chains, job, caught):
                 outs.append(ch.run(i0, np.ascontiguousarray(ang[:, i]), np.ascontiguousarray(rate[:, i])))
             caught.extend(f"axis {AXES[i]}: {w.message}" for w in axis_w)
         return outs
+    elif job[0] == "future":
+        outs = job[1].result()
     else:
         outs = [f.result() for f in job[1]]
     for i, ch in enumerate(chains):
@@ -434,7 +440,10 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         Chunk length (s): memory bound; results do not depend on it.
     progress : callable(fraction) or None
     threads : int or None
-        Threads for the three axes (None: :func:`default_threads`); results do not depend on it.
+        Threads (None: :func:`default_threads`); results do not depend on it. One: the three
+        suspensions stepped side by side in this thread. Several: with navigation the three side by
+        side on one worker while this thread prepares the truth and navigates; without, one thread
+        per axis.
     vehicle : trajectory or None
         The vehicle (``sins_sim.models.motion.trajectory``); None: at rest at 45 deg N, level,
         heading north.
@@ -523,8 +532,16 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     truth_series = {"t_s": [], "lat_rad": [], "lon_rad": [], "h_m": []}
     diverged = {}
     caught = []
-    pool = axis_pool(threads) if outs_buf else None
-    three = SideBySide(chains) if outs_buf and pool is None and side_by_side(chains) else None
+    # One thread: the three suspensions side by side. Several, with navigation: side by side on one worker
+    # while this thread prepares the next chunk's truth and navigates (they take about as long as the
+    # kernels); without navigation, one thread per axis (the truth alone is too light to fill this one).
+    three = SideBySide(chains) if outs_buf and side_by_side(chains) and (threads <= 1 or nav is not None) else None
+    pool = axis_pool(threads) if outs_buf and three is None else None
+    worker = None
+    if three is not None and threads > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sins-axes")
     last_out = {}
     g_cum = np.zeros(3)
     a_cum = np.zeros(3)
@@ -532,7 +549,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     def stage(k_a, k_b):
         """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
         tc, ang, rate = truth.advance(k_b, plant=bool(outs_buf))
-        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three) if outs_buf else None
+        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker) if outs_buf else None
         return k_a, k_b, tc, job
 
     try:
@@ -597,7 +614,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             if progress is not None:
                 progress(k1 / n_out)
     finally:
-        for ex in pool or []:
+        for ex in (pool or []) + ([worker] if worker is not None else []):
             ex.shutdown(wait=True, cancel_futures=True)
 
     drives = [{"axis": AXES[i], "f0_hz": ch.cfg.suspension.f0_hz, "frequency_hz": ch.drive.frequency_hz,
