@@ -629,7 +629,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "dynamic lock-in zones of a constant-amplitude dither.")
     p.add_argument("--out", required=True, help="result folder")
     p.add_argument("--quick", action="store_true", help="shorter runs, fewer points (about 15 s)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the amplitude modulation [0]")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the amplitude modulation [0]")
     p.set_defaults(func=_cmd_lockin_study)
 
     p = sub.add_parser("sweep", help="Monte Carlo over a population of units on dask.distributed",

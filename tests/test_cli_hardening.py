@@ -594,3 +594,13 @@ def test_sigterm_stops_a_diagnosis_within_a_second(tmp_path):
     assert "Traceback" not in text
     assert waited < 1.0, waited
     assert not (tmp_path / "d.json").exists()
+
+
+@pytest.mark.parametrize("command", ["channel", "lockin-study", "diagnose-eval"])
+def test_every_seed_flag_refuses_a_negative_seed_in_one_line(tmp_path, capsys, command):
+    status = _status([command, "--seed", "-3", "--out", str(tmp_path / "o")] if command != "diagnose-eval"
+                     else [command, "--seed", "-3"])
+    assert status == 2
+    line = _one_error_line(capsys.readouterr())
+    assert line.startswith("sins-sim: error: argument --seed: must be an integer >= 0, got '-3'"), line
+    assert not (tmp_path / "o").exists()
