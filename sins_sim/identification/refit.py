@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import optimize
+from scipy.fft import next_fast_len
 
 from sins_sim import _validate as v
 from sins_sim.identification.afc import hb_stiffness_ratio
@@ -504,8 +505,9 @@ def _correlation_length(r: np.ndarray) -> float:
     n = r.size
     if n < 8:
         return 1.0
-    f = np.fft.rfft(r, 2 * n)
-    ac = np.fft.irfft(f * np.conj(f))[:n]
+    size = next_fast_len(2 * n - 1, real=True)  # any length >= 2n - 1 gives the linear autocorrelation
+    f = np.fft.rfft(r, size)
+    ac = np.fft.irfft(f * np.conj(f), size)[:n]
     ac = ac / ac[0] if ac[0] > 0 else ac
     neg = np.flatnonzero(ac <= 0.0)
     m = int(neg[0]) if neg.size else n

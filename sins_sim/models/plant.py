@@ -24,6 +24,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 
 from sins_sim import _validate as v
@@ -150,13 +152,16 @@ class Plant:
         """Half-cycles shorter than a quarter dither period so far (the paper's rule breaks there)."""
         return int(self.hyst[5])
 
-    def step(self, sins_angle, sins_rate, volts, check: bool = True) -> np.ndarray:
+    def step(self, sins_angle, sins_rate, volts, check: bool = True, f0_hz: float | None = None) -> np.ndarray:
         """Advance ``len(volts)`` steps; return delta at the new grid points (rad).
 
         ``sins_angle`` and ``sins_rate`` are the block's angle and rate at the
         ends of the steps; ``volts`` the drive held over each step. ``check=False``
         skips the input checks for callers (the engine) that pass contiguous,
-        finite float64 arrays of equal length they made themselves.
+        finite float64 arrays of equal length they made themselves. ``f0_hz``
+        (checked by the caller) replaces the suspension's resonance for these
+        steps only: a resonance that drifts, stepped in short blocks, without a
+        new suspension object per block.
         """
         if check:
             volts = np.ascontiguousarray(v.finite_array("plant", "volts", volts))
@@ -170,7 +175,7 @@ class Plant:
             )
         out = np.empty(n)
         s = self.suspension
-        w0 = s.omega0
+        w0 = s.omega0 if f0_hz is None else 2.0 * math.pi * f0_hz  # SuspensionParams.omega0
         self._kernel(sins_angle, sins_rate, volts, self.h, w0 * w0, s.k1, s.k2, s.k3, s.k4, s.k5,
                      2.0 * s.zeta / w0, self._rule, self._fast_dt, self.state, self.hyst, self.stack, out)
         self._check_regime()

@@ -237,8 +237,9 @@ def _integrate(s: SuspensionParams, angle, rate, volts, settings: ExperimentSett
         if not 0.0 < f0 < plant_rate / 8.0:
             raise ValueError(f"effects.resonance_drift.rate_hz_per_s: f0 leaves (0, plant rate / 8) at "
                              f"t = {i0 * h:.4g} s, got f0 = {f0:.6g} Hz")
-        plant.suspension = s.replace(f0_hz=f0)
-        delta[i0 + 1:i1 + 1] = plant.step(angle[i0 + 1:i1 + 1], rate[i0 + 1:i1 + 1], volts[i0:i1])
+        # the grid's arrays are contiguous and finite (checked once); f0 for this block only
+        delta[i0 + 1:i1 + 1] = plant.step(angle[i0 + 1:i1 + 1], rate[i0 + 1:i1 + 1], volts[i0:i1], check=False,
+                                          f0_hz=f0)
     return delta
 
 
