@@ -656,6 +656,8 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
     budget = max_nfev or (prob.settings.max_nfev if effect_cls is None else prob.settings.candidate_nfev)
     best, best_cost = None, math.inf
     for xn in [x0_nom] + nominal_starts:
+        if best is not None and not _bent(prob, best[0][:n_nom]):
+            break  # the fit from the bent start came back to nominal k1, k2, k4: no restart needed
         x, _, _ = _solve(prob, effect_cls, np.concatenate([xn, x0_nui, x0_eff]), space, max(4, budget // 2),
                          threads, prob.train, free=stage1)
         x, jac, unpack = _solve(prob, effect_cls, x, space, budget, threads, prob.train)
