@@ -1,9 +1,9 @@
-"""One gyro channel over one chunk in a single kernel call: drive, suspension, readout, filters.
+"""One gyro channel over one chunk in two kernel calls: drive and suspension, then readout and filters.
 
 This is the engine's inner loop (``sins_sim.simulation.channel.ChannelChain``):
 everything a channel does at the plant rate and at the filter rate, fused so
-that a chunk costs one call per axis instead of a Python loop over amplitude
-control blocks. The arithmetic is that of the separate kernels, called in the
+that a chunk costs two calls per axis (:func:`drive_plant`, :func:`readout_filters`)
+instead of a Python loop over amplitude control blocks. The arithmetic is that of the separate kernels, called in the
 same order on the same numbers, so the result is bit-identical to composing
 the public classes (``Plant``, ``Readout``, ``Decimator``, ``CorrectingFilter``,
 ``Eliminator``) by hand (``tests/test_engine.py`` checks it):
@@ -21,10 +21,9 @@ the public classes (``Plant``, ``Readout``, ``Decimator``, ``CorrectingFilter``,
    (``correcting.correcting_run``) and the elliptic eliminator
    (``sos.sos_filter``).
 
-The kernel is ``nogil``: the engine runs the three axes of a SINS on threads. On one thread
-it runs them through :func:`drive_plant_three` instead, the three suspensions stepped side by
-side (the same bits, about 15 % less time per channel and step), then
-:func:`readout_filters` per channel.
+The kernels are ``nogil``: the engine can run the three axes of a SINS on threads. Or it runs
+them through :func:`drive_plant_three`, the three suspensions stepped side by side (the same
+bits, about 15 % less time per channel and step), then :func:`readout_filters` per channel.
 Random numbers (readout noise, amplitude-modulation draws) are drawn by the
 caller, per chunk, in stream order, so results do not depend on chunking.
 """
@@ -130,56 +129,6 @@ def end_block(fpar, dstate, u):
 
 
 @jit
-def axis_chunk(i0, ang, rate, noise, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
-               taps, fhist, vhist, cpar, fstate, fhyst, fstack, sos, zi,
-               delta, volts, feed, x, vx, y_unity, y_paper, e_out):
-    """Advance one channel by ``len(ang)`` plant steps from absolute step ``i0``.
-
-    :func:`drive_plant` then :func:`readout_filters`.
-
-    Parameters
-    ----------
-    i0 : int
-        Absolute index of the first plant step of the chunk.
-    ang, rate : float64[n]
-        Block angle about the sensitive axis (rad) and its rate (rad/s) at the ends of the
-        steps ``i0 + 1 .. i0 + n``.
-    noise : float64[n] or float64[0]
-        Standard normal draws for the readout noise (empty when ``sigma = 0``).
-    uniforms : float64[nb]
-        Uniform draws on [-1, 1], one per block that ends in this chunk, in order.
-    fpar, ipar : float64[N_FPAR], int64[N_IPAR]
-        Parameters (layouts above).
-    dstate : float64[N_DSTATE]
-        Drive and readout state, updated in place.
-    pstate, physt, pstack : float64 arrays
-        Suspension state and its hysteresis branch and reversal stack (``plant_exact``).
-    taps, fhist, vhist : float64 arrays
-        Anti-alias FIR taps and the histories of the readout and volts FIRs.
-    cpar : float64[2, N_CPAR]
-        Correcting-filter parameters, unity-DC form first, then the paper form.
-    fstate, fhyst, fstack : float64[2, ...]
-        Their states.
-    sos, zi : float64 arrays
-        Eliminator sections and state.
-    delta, volts, feed : float64[n]
-        Work buffers (deflection, drive, readout input), left filled.
-    x, vx, y_unity, y_paper, e_out : float64[m]
-        Filter-rate outputs (``m = n / R``, whole): readout angle, volts, the two
-        correcting forms, the eliminator.
-
-    Returns
-    -------
-    int
-        Number of uniforms consumed (blocks closed).
-    """
-    used = drive_plant(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt, pstack, delta, volts)
-    readout_filters(ang, noise, fpar, ipar, dstate, taps, fhist, vhist, cpar, fstate, fhyst, fstack, sos, zi,
-                    delta, volts, feed, x, vx, y_unity, y_paper, e_out)
-    return used
-
-
-@jit
 def _close_segment(i0, j, m, delta, fpar, ipar, dstate, uniforms, used):
     """The synchronous detector over a plant segment that ends at or before the block's end, and the
     amplitude loop when it ends there (step 1 of the module docstring). Returns the uniforms used."""
@@ -205,7 +154,28 @@ def _advance_block(m, fpar, ipar, dstate, uniforms, used):
 def drive_plant(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt, pstack, delta, volts):
     """Step 1 of the module docstring for one channel: drive, suspension, detector, amplitude loop.
 
-    Arguments as :func:`axis_chunk`; fills ``delta`` and ``volts``; returns the uniforms used.
+    Parameters
+    ----------
+    i0 : int
+        Absolute index of the first plant step of the chunk.
+    ang, rate : float64[n]
+        Block angle about the sensitive axis (rad) and its rate (rad/s) at the ends of the
+        steps ``i0 + 1 .. i0 + n``.
+    uniforms : float64[nb]
+        Uniform draws on [-1, 1], one per block that ends in this chunk, in order.
+    fpar, ipar : float64[N_FPAR], int64[N_IPAR]
+        Parameters (layouts above).
+    dstate : float64[N_DSTATE]
+        Drive and readout state, updated in place.
+    pstate, physt, pstack : float64 arrays
+        Suspension state and its hysteresis branch and reversal stack (``plant_exact``).
+    delta, volts : float64[n]
+        Filled: the deflection (rad) and the drive (V) at the plant steps.
+
+    Returns
+    -------
+    int
+        Number of uniforms consumed (blocks closed).
     """
     n = ang.shape[0]
     consts = np.empty((1, kexact.N_CONSTS))
@@ -277,7 +247,30 @@ def drive_plant_three(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt
 @jit
 def readout_filters(ang, noise, fpar, ipar, dstate, taps, fhist, vhist, cpar, fstate, fhyst, fstack, sos, zi,
                     delta, volts, feed, x, vx, y_unity, y_paper, e_out):
-    """Steps 2 and 3 of the module docstring for one channel (arguments as :func:`axis_chunk`)."""
+    """Steps 2 and 3 of the module docstring for one channel, after :func:`drive_plant`.
+
+    Parameters
+    ----------
+    ang, delta, volts : float64[n]
+        Block angle (rad), deflection (rad) and drive (V) at the plant steps of the chunk.
+    noise : float64[n] or float64[0]
+        Standard normal draws for the readout noise (empty when ``sigma = 0``).
+    fpar, ipar, dstate : arrays
+        As :func:`drive_plant` (the readout's carry and FIR phases live in ``dstate``).
+    taps, fhist, vhist : float64 arrays
+        Anti-alias FIR taps and the histories of the readout and volts FIRs.
+    cpar : float64[2, N_CPAR]
+        Correcting-filter parameters, unity-DC form first, then the paper form.
+    fstate, fhyst, fstack : float64[2, ...]
+        Their states.
+    sos, zi : float64 arrays
+        Eliminator sections and state.
+    feed : float64[n]
+        Work buffer (the readout input), left filled.
+    x, vx, y_unity, y_paper, e_out : float64[m]
+        Filter-rate outputs (``m = n / R``, whole): readout angle, volts, the two correcting
+        forms, the eliminator.
+    """
     n = ang.shape[0]
     # readout: fringe counts of phi_rlg = block angle + deflection, one plant step late
     q = fpar[P_Q]

@@ -229,9 +229,10 @@ class ChannelChain:
 
     Two paths give the same bits:
 
-    * ``fused`` (the default with the exact plant integrator): one call of
-      :func:`sins_sim._kernels.chain.axis_chunk` per chunk (``nogil``, so the SINS
-      engine runs its three axes on threads);
+    * ``fused`` (the default with the exact plant integrator): per chunk one call of
+      :func:`sins_sim._kernels.chain.drive_plant` and one of
+      :func:`~sins_sim._kernels.chain.readout_filters` (``nogil``, so the SINS engine can run
+      its three axes on threads; or it steps the three side by side, :class:`SideBySide`);
     * ``reference``: the straightforward composition of the public classes
       (:class:`~sins_sim.models.plant.Plant`, :class:`~sins_sim.models.readout.Readout`,
       :class:`~sins_sim.models.readout.Decimator`, the filters), block by block in
@@ -637,7 +638,7 @@ class ChannelChain:
 
 
 def side_by_side(chains) -> bool:
-    """Whether :func:`run_three` can run these chains: three, each on the fused path, without a
+    """Whether :class:`SideBySide` can run these chains: three, each on the fused path, without a
     temperature or PLL schedule (which splits a chunk into parameter blocks per channel)."""
     return len(chains) == 3 and all(ch.path == "fused" and ch._fx is None and ch._thermal is None for ch in chains)
 
@@ -668,7 +669,11 @@ class SideBySide:
         return self._buf
 
     def run(self, i0: int, angle: np.ndarray, rate: np.ndarray) -> list:
-        """Advance the three chains over a chunk; ``angle, rate``: (n, 3) at the ends of the plant steps."""
+        """Advance the three chains over a chunk; ``angle, rate``: (n, 3) at the ends of the plant steps.
+
+        Each output's ``delta`` is a view of a work buffer, valid until the next call (as on the
+        per-channel fused path).
+        """
         chains = self.chains
         n = angle.shape[0]
         draws = [ch._kernel_draws(i0, n) for ch in chains]
