@@ -20,7 +20,8 @@ What is measured (:func:`run_bench` keys):
 ``baseline_ns_per_sample``
     ``scipy_sosfilt`` (the machine's yardstick), ``correcting_python`` and
     ``plant_rk4_python`` (plain-Python references), ``bare_kernels_per_plant_step`` (the three
-    fused channel kernels on precomputed inputs, :class:`~sins_sim.bench.engine.BareKernels`).
+    channels' fused kernels on precomputed inputs, suspensions side by side as the one-thread
+    engine runs them, :class:`~sins_sim.bench.engine.BareKernels`).
 ``ratios``
     Same-run ratios checked by CI (``benchmarks/thresholds.json``).
 ``realtime_factor_3axis``
