@@ -3,8 +3,9 @@
 This is the engine's inner loop (``sins_sim.simulation.channel.ChannelChain``):
 everything a channel does at the plant rate and at the filter rate, fused so
 that a chunk costs two calls per axis (:func:`drive_plant`, :func:`readout_filters`)
-instead of a Python loop over amplitude control blocks. The arithmetic is that of the separate kernels, called in the
-same order on the same numbers, so the result is bit-identical to composing
+instead of a Python loop over amplitude control blocks. The arithmetic is that of
+the separate kernels, called in the same order on the same numbers, so the result
+is bit-identical to composing
 the public classes (``Plant``, ``Readout``, ``Decimator``, ``CorrectingFilter``,
 ``Eliminator``) by hand (``tests/test_engine.py`` checks it):
 
@@ -129,6 +130,15 @@ def end_block(fpar, dstate, u):
 
 
 @jit
+def _segment_forcing(i, ang, rate, volts, fpar, ipar, dstate, pstate, cs, q0s, q1s):
+    """The DAC over a plant segment from absolute step ``i`` (into ``volts``) and the plant's forcing
+    without ``F`` there (``plant_exact._forcing``, into ``q0s, q1s``; ``cs``: the ``_constants`` row)."""
+    kdrive.dac_cosine(i, ipar[I_RDAC], fpar[P_CYC_DAC], fpar[P_PHASE], dstate[D_VM], volts)
+    kexact._forcing(ang, rate, volts, pstate[kexact.X_PHI], pstate[kexact.X_RATE], cs[kexact.C_IH], cs[kexact.C_IH2],
+                    cs[kexact.C_W0SQ], cs[kexact.C_K5], q0s, q1s)
+
+
+@jit
 def _close_segment(i0, j, m, delta, fpar, ipar, dstate, uniforms, used):
     """The synchronous detector over a plant segment that ends at or before the block's end, and the
     amplitude loop when it ends there (step 1 of the module docstring). Returns the uniforms used."""
@@ -188,12 +198,10 @@ def drive_plant(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt, psta
     j = 0
     while j < n:
         m = min(int(dstate[D_LEFT]), n - j)
-        vv = volts[j:j + m]
-        kdrive.dac_cosine(i0 + j, ipar[I_RDAC], fpar[P_CYC_DAC], fpar[P_PHASE], dstate[D_VM], vv)
         aa = ang[j:j + m]
         rr = rate[j:j + m]
-        kexact._forcing(aa, rr, vv, pstate[kexact.X_PHI], pstate[kexact.X_RATE], cs[kexact.C_IH],
-                        cs[kexact.C_IH2], cs[kexact.C_W0SQ], cs[kexact.C_K5], q0s[:m], q1s[:m])
+        vv = volts[j:j + m]
+        _segment_forcing(i0 + j, aa, rr, vv, fpar, ipar, dstate, pstate, cs, q0s[:m], q1s[:m])
         kexact._run_axis(aa, rr, vv, q0s[:m], q1s[:m], cs, ipar[I_RULE], pstate, physt, pstack, delta[j:j + m])
         used = _close_segment(i0, j, m, delta[j:j + m], fpar, ipar, dstate, uniforms, used)
         j += m
@@ -231,12 +239,9 @@ def drive_plant_three(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt
         for a in range(3):
             m = min(m, int(dstate[a, D_LEFT]))
         for a in range(3):
-            vv = volts[a][j:j + m]
-            kdrive.dac_cosine(i0 + j, ipar[a, I_RDAC], fpar[a, P_CYC_DAC], fpar[a, P_PHASE], dstate[a, D_VM], vv)
-            kexact._forcing(ang[a][j:j + m], rate[a][j:j + m], vv, pstate[a, kexact.X_PHI], pstate[a, kexact.X_RATE],
-                            consts[a, kexact.C_IH], consts[a, kexact.C_IH2], consts[a, kexact.C_W0SQ],
-                            consts[a, kexact.C_K5], q0s[a][j:j + m], q1s[a][j:j + m])
-            pstate[a, kexact.X_PHI] = ang[a, j + m - 1]
+            _segment_forcing(i0 + j, ang[a][j:j + m], rate[a][j:j + m], volts[a][j:j + m], fpar[a], ipar[a], dstate[a],
+                             pstate[a], consts[a], q0s[a][j:j + m], q1s[a][j:j + m])
+            pstate[a, kexact.X_PHI] = ang[a, j + m - 1]  # run_three leaves the segment's end to the caller
             pstate[a, kexact.X_RATE] = rate[a, j + m - 1]
         kexact.run_three(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, delta)
         for a in range(3):

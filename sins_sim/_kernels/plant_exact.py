@@ -673,7 +673,8 @@ def _run_axis(sins_angle, sins_rate, volts, q0s, q1s, cs, rule, state, hyst, sta
 
     ``q0s, q1s``: the forcing without ``F`` of every step (``q0 + q1 tau``,
     see ``plant_run_exact_many``); ``cs``: the suspension's ``_constants``
-    row. The state lives in local variables over the chunk.
+    row. The state lives in local variables over the chunk (the lane tuples of
+    :func:`run_three` measured 10 % slower here, one suspension alone).
     """
     k = _lane_constants(cs.reshape((1, N_CONSTS)), 0)
     h = k[C_H]

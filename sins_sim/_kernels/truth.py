@@ -10,7 +10,7 @@ import math
 
 from sins_sim._kernels._config import jit
 from sins_sim._kernels.nav import error_rotvec
-from sins_sim.earth import WGS84_A_M, WGS84_E2
+from sins_sim._kernels.strapdown import radii
 
 #: 3-point Gauss-Legendre on [0, 1] (Abramowitz & Stegun 25.4.29).
 GL_X0 = 0.5 - 0.5 * math.sqrt(0.6)
@@ -284,10 +284,7 @@ def surface_scales(lat, h, out):
     truth row and shared by every filter's :func:`nav_errors`.
     """
     for n in range(lat.shape[0]):
-        sl = math.sin(lat[n])
-        w = 1.0 - WGS84_E2 * sl * sl
-        r_e = WGS84_A_M / math.sqrt(w)
-        r_n = r_e * (1.0 - WGS84_E2) / w
+        r_n, r_e = radii(lat[n])
         out[n, 0] = math.cos(lat[n])
         out[n, 1] = r_e + h[n]
         out[n, 2] = r_n + h[n]

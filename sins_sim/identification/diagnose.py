@@ -113,7 +113,8 @@ from sins_sim.identification.refit import (CANCEL, AxisFit, DiagnoseSettings, _P
                                           worker_pool)
 from sins_sim.identification.report import Diagnosis, write_report
 from sins_sim.identification.verdict import (ALTERNATIVE_MARGIN, MAX_EFFECTS, MIN_STEP, _step,  # noqa: F401
-                                             assess, closes, first_step, give_verdict, resolved_first)
+                                             assess, closes, excess_power, first_step, give_verdict,
+                                             resolved_first)
 from sins_sim.models.effects import EFFECTS
 from sins_sim.io.recording import Recording
 from sins_sim.simulation.experiment import suspension_from_nominal
@@ -200,7 +201,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
     # 2. noise floor and significance per axis
     floors = {a: noise_floor(fits[a].residual[used], q, fs) for a in rec.axes}
     tol = {a: max(settings.rel_tol * floors[a]["floor_rad"], settings.abs_tol_arcsec * ARCSEC) for a in rec.axes}
-    excess = {a: max(0.0, fits[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in rec.axes}
+    excess = {a: excess_power(fits[a], floors[a]) for a in rec.axes}
     sig_axes = [a for a in rec.axes if math.sqrt(excess[a]) > tol[a]]
     worst = max(rec.axes, key=lambda a: excess[a] / tol[a] ** 2)
     # 3. localisation on every axis; the gap on the worst one
@@ -236,7 +237,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
         return fit_effect
 
     def ex(f, a):
-        return max(0.0, f.rms ** 2 - floors[a]["floor_rad"] ** 2)
+        return excess_power(f, floors[a])
 
     def hold(step, prev, prev_base):
         """Keep the step's effect on the axes where it removes at least MIN_STEP of what the previous model
@@ -303,8 +304,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
             w = max(sig_axes, key=lambda a: last[a].rms ** 2 - floors[a]["floor_rad"] ** 2)
             lw_ = localise(last[w].residual, floors[w]["floor_rad"], fs)
             remainder = {"axis": w, "band_hz": lw_["band_hz"], "peaks_hz": lw_["peaks_hz"], "time_s": lw_["time_s"],
-                         "excess_rms_arcsec": {a: math.sqrt(max(0.0, last[a].rms ** 2 - floors[a]["floor_rad"] ** 2))
-                                               / ARCSEC for a in sig_axes}}
+                         "excess_rms_arcsec": {a: math.sqrt(ex(last[a], a)) / ARCSEC for a in sig_axes}}
         elif not steps:
             remainder = {"axis": worst, "band_hz": lw["band_hz"], "peaks_hz": lw["peaks_hz"], "time_s": lw["time_s"],
                          "excess_rms_arcsec": {a: math.sqrt(excess[a]) / ARCSEC for a in sig_axes}}

@@ -22,6 +22,7 @@ import time
 import numpy as np
 
 from sins_sim.identification.refit import DiagnoseSettings, EffectSet, effects_of
+from sins_sim.identification.verdict import closes, excess_power
 from sins_sim.io.recording import NOMINAL_KEYS, Recording
 from sins_sim.models.effects import EFFECTS
 from sins_sim.units import ARCSEC
@@ -149,19 +150,18 @@ def explain(rec: Recording, settings: DiagnoseSettings, fits: dict, floors: dict
                 starts[a] = new
         if classes:
             cfits.update(fit_effect(classes, starts, list(classes)))
-        cand_axes = {a: max(0.0, cfits[a].rms ** 2 - floors[a]["floor_rad"] ** 2) for a in sig_axes}
+        cand_axes = {a: excess_power(cfits[a], floors[a]) for a in sig_axes}
         cand_ex = sum(cand_axes.values())
         red = 1.0 - cand_ex / base_ex if base_ex > 0 else 0.0
         held = math.sqrt(np.mean([cfits[a].heldout_rms ** 2 for a in sig_axes]))
         # the gap is closed when what is left on every axis is within the tolerance, or a small
         # fraction of the excess it started from (a large effect leaves model error of its own size)
-        closes = all(math.sqrt(cand_axes[a]) <= max(tol[a], settings.close_fraction * math.sqrt(excess[a]))
-                     for a in sig_axes)
+        gap_closed = closes({a: math.sqrt(cand_axes[a]) for a in sig_axes}, excess, tol, settings)
         candidates.append({
             "effect": name, "fits": cfits, "n_params": len(cls.fit_space(sig_axes[0], rec.axes)),
             "n_axes": len(applied),
             "rms_rad": math.sqrt(np.mean([cfits[a].rms ** 2 for a in rec.axes])),
-            "gap_reduction": float(red), "score": held / ARCSEC, "closes_gap": bool(closes),
+            "gap_reduction": float(red), "score": held / ARCSEC, "closes_gap": bool(gap_closed),
             "remaining_excess_arcsec": {a: math.sqrt(cand_axes[a]) / ARCSEC for a in sig_axes},
             "params": {a: _own(cfits[a].effect.values(a), name, bool(base.get(a))) for a in applied},
             "uncertainty": {a: _own({k: val for k, val in cfits[a].sigma.items()

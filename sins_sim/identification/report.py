@@ -238,8 +238,8 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
              + (f"; the data cannot tell it from {', '.join(v['alternatives'])}" if v.get("alternatives") else ""),
              f"- criterion: {v.get('criterion', '')}", ""]
     if v.get("effects"):
-        lines += ["## Selected effects (in order)", "", "| effect | axes | share of the gap | parameters (+- 1 sigma) | "
-                  "p held-out | p F-test |", "|---|---|---|---|---|---|"]
+        lines += ["## Selected effects (in order)", "", "| effect | axes | share of the gap | parameters "
+                  "(+- 1 sigma) | p held-out | p F-test |", "|---|---|---|---|---|---|"]
         for e in v["effects"]:
             pars = "; ".join(f"{ax}: " + ", ".join(f"{k} = {_pm(val, e['uncertainty'].get(ax, {}).get(k))}"
                                                     for k, val in pv.items()) for ax, pv in e["params"].items())

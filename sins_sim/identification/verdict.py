@@ -96,8 +96,8 @@ from sins_sim.models.effects import EFFECTS, BlockMode
 from sins_sim.units import ARCSEC
 
 __all__ = ["ALTERNATIVE_MARGIN", "ALPHA", "AHEAD_ALPHA", "MIN_PARTIAL", "MIN_STEP", "MAX_EFFECTS", "STATUSES",
-           "give_verdict", "heldout_block_losses", "dm_pvalue", "f_pvalue", "assess", "closes", "parsimonious",
-           "first_step", "unresolved", "resolved_first", "MODE_ZETA_MAX"]
+           "give_verdict", "heldout_block_losses", "dm_pvalue", "f_pvalue", "assess", "closes", "excess_power",
+           "parsimonious", "first_step", "unresolved", "resolved_first", "MODE_ZETA_MAX"]
 
 #: Candidates scoring within this fraction of the best one are named as alternatives of the verdict.
 ALTERNATIVE_MARGIN = 0.05
@@ -218,6 +218,11 @@ def unresolved(c: dict, ref_fits: dict, axes) -> str | None:
         return None
     main = max(axes, key=lambda a: ref_fits[a].rms ** 2 - c["fits"][a].rms ** 2)
     return effect_cls.unresolved(main, c["params"].get(main, {}))
+
+
+def excess_power(fit, floor: dict) -> float:
+    """A fit's residual power above the noise floor (rad^2, at least 0); ``floor`` from ``noise_floor``."""
+    return max(0.0, fit.rms ** 2 - floor["floor_rad"] ** 2)
 
 
 def closes(remaining: dict, excess0: dict, tol: dict, settings: DiagnoseSettings) -> bool:
