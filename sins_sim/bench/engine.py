@@ -8,8 +8,9 @@ closed-loop drives, every filter) under a 1 arcmin block vibration about each ax
   plant rate, the three fused channel kernels, every filter) or with the full INS loop
   (every filter navigated by its own strapdown against the truth);
 * :class:`BareKernels`: the same three channels' kernels (side by side, as the one-thread
-  engine runs them) called directly on precomputed inputs, nothing else: the floor the engine is compared with (a same-run ratio in CI, so
-  the user path cannot fall behind the kernels again);
+  engine runs them) called directly on precomputed inputs, nothing else: the floor the engine
+  is compared with (a same-run ratio in CI, so the user path cannot fall behind the kernels
+  again);
 * :func:`peak_memory`: peak resident memory of engine runs of given lengths, each in a fresh
   process.
 """
