@@ -548,7 +548,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
 
     def stage(k_a, k_b):
         """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
-        tc, ang, rate = truth.advance(k_b, plant=bool(outs_buf))
+        tc, ang, rate = truth.advance(k_b, plant=bool(outs_buf), navigation=nav is not None or not outs_buf)
         job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker) if outs_buf else None
         return k_a, k_b, tc, job
 

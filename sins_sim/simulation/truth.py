@@ -108,13 +108,7 @@ class VehicleSampler:
         :data:`VEHICLE_FIELDS`) and NaN elsewhere. Each field's values are those of a full row.
         """
         t = np.ascontiguousarray(t, dtype=np.float64)
-        j_first = int(np.floor(t[0] / self.h))
-        j_last = int(np.floor(t[-1] / self.h))
-        self._extend(j_last + 2)
-        drop = (j_first - 1) - self._j0
-        if drop > 256:
-            self._nodes = self._nodes[drop:]
-            self._j0 += drop
+        self._window(t)
         out = np.empty((t.size, N_VEHICLE_COLS))
         c_lo = min((_COLS[k].start for k in fields), default=0)
         c_hi = max((_COLS[k].stop for k in fields), default=0)
@@ -122,6 +116,26 @@ class VehicleSampler:
             raise ValueError(f"truth.fields: must be adjacent in VEHICLE_FIELDS, got {fields!r}")
         ktruth.lagrange4(self._nodes, self._j0, self.h, t, _COLS["q_nv"].start, out, int(full_every), c_lo, c_hi)
         return out
+
+    def sample_field(self, t, name: str) -> np.ndarray:
+        """One field (not ``q_nv``) at increasing times ``t`` (s), ``(len(t), width)``: the values of
+        that field in :meth:`sample`'s rows, without the other columns."""
+        t = np.ascontiguousarray(t, dtype=np.float64)
+        self._window(t)
+        col = _COLS[name]
+        out = np.empty((t.size, col.stop - col.start))
+        ktruth.lagrange4_columns(self._nodes, self._j0, self.h, t, col.start, out)
+        return out
+
+    def _window(self, t):
+        """Nodes for the times ``t`` evaluated, and those no later call needs dropped."""
+        j_first = int(np.floor(t[0] / self.h))
+        j_last = int(np.floor(t[-1] / self.h))
+        self._extend(j_last + 2)
+        drop = (j_first - 1) - self._j0
+        if drop > 256:
+            self._nodes = self._nodes[drop:]
+            self._j0 += drop
 
     @staticmethod
     def field(rows: np.ndarray, name: str) -> np.ndarray:
@@ -223,16 +237,20 @@ class MissionTruth:
         """Last filter node computed (-1 before the first call)."""
         return self._k
 
-    def advance(self, k1: int, plant: bool = True):
+    def advance(self, k1: int, plant: bool = True, navigation: bool = True):
         """Truth at filter nodes ``k + 1 .. k1`` and gyro inputs at plant steps ``k R + 1 .. k1 R``.
 
         The first call also returns node 0 (the start; its increments are zero). With
         ``plant=False`` the plant-rate gyro inputs are not formed (``angle`` and ``rate`` are None):
         the block's angles are then evaluated at the filter grid and the Gauss-Legendre nodes only.
+        With ``navigation=False`` only the gyro inputs are formed (``chunk`` is None): the vehicle's
+        rate alone is interpolated, and neither the velocity increments nor the attitude, position
+        and velocity truth are computed (the same ``angle`` and ``rate``, bit for bit). A truth is
+        advanced in one mode throughout.
 
         Returns
         -------
-        chunk : TruthChunk
+        chunk : TruthChunk or None
         angle, rate : ndarray (n R, 3)
             Gyro angles ``phi`` (rad) and rates (rad/s) at the ends of the plant steps; stored
             axis-major (Fortran order), so ``angle[:, i]`` is contiguous.
@@ -241,6 +259,8 @@ class MissionTruth:
         k_prev = max(self._k, 0)
         if k1 <= k_prev:
             raise ValueError(f"truth.k1: must be > {k_prev}, got {k1}")
+        if not (navigation or plant):
+            raise ValueError("truth.advance: needs the plant inputs or the navigation truth, got neither")
         ks = np.arange(k_prev + 1, k1 + 1)
         n = ks.size
         t_end = ks * self.hf
@@ -250,8 +270,16 @@ class MissionTruth:
         if first:
             row0 = self.vehicle.sample(np.zeros(1))
             self._state[3:6] = f(row0, "omega_iv_v_rad_s")[0]
-        # the rates and specific force at every node, the rest only at the sample's end (row 3 of 4)
-        rows = self.vehicle.sample(grid, 4, ("omega_iv_v_rad_s", "f_v_m_s2")).reshape(n, 4, N_VEHICLE_COLS)
+        if navigation:  # the rates and specific force at every node, the rest only at the sample's end (row 3 of 4)
+            rows = self.vehicle.sample(grid, 4, ("omega_iv_v_rad_s", "f_v_m_s2")).reshape(n, 4, N_VEHICLE_COLS)
+            om = f(rows, "omega_iv_v_rad_s")  # strided views (the kernel reads them in place)
+            fv = f(rows, "f_v_m_s2")
+            end = rows[:, 3]
+            q_nv = f(end, "q_nv")
+        else:  # the rates alone
+            om = self.vehicle.sample_field(grid, "omega_iv_v_rad_s").reshape(n, 4, 3)
+            fv = om
+            q_nv = np.zeros((0, 4))
         if self._grid_attitude is None:  # decided once per run
             self._grid_attitude = bool(plant and self.r % 2 == 0 and not self.block.has_closed_form_attitude)
         # the block's own motion on the plant grid (closed forms), then at the Gauss-Legendre nodes by cubic
@@ -269,24 +297,19 @@ class MissionTruth:
             phib = np.ascontiguousarray(self.block.gyro_angle(grid).reshape(n, 4, 3))
         if not self._grid_attitude:  # closed forms, or the Magnus integration of the motion itself
             q_vb = np.ascontiguousarray(self._att.advance(t_end))
-        # strided views into the rows (the kernel reads them in place; a contiguous copy costs more than it saves)
-        om = f(rows, "omega_iv_v_rad_s")
-        fv = f(rows, "f_v_m_s2")
-        end = rows[:, 3]
-        q_nv = f(end, "q_nv")
-        if self.translation is not None:
+        if self.translation is not None and navigation:
             acc = np.ascontiguousarray(self.translation.accel(grid).reshape(n, 4, 3))
             dv_vib = np.ascontiguousarray(self.translation.velocity_increment(t_start, t_end))
         else:
             acc = np.zeros((0, 4, 3))
             dv_vib = np.zeros((0, 3))
         dth = np.empty((n, 3))
-        dv = np.empty((n, 3))
+        dv = np.empty((n if navigation else 0, 3))
         s_nodes = np.empty((n + 1, 3))
         ds_nodes = np.empty((n + 1, 3))
-        q_nb = np.empty((n, 4))
+        q_nb = np.empty((n if navigation else 0, 4))
         ktruth.truth_samples(self.hf, om, fv, acc, dv_vib, phib, q_vb, q_nv, self._state, dth, dv, s_nodes,
-                             ds_nodes, q_nb)
+                             ds_nodes, q_nb, not navigation)
         # gyro inputs at the plant rate: block angle (closed form) + Hermite interpolant of S
         angle = rate = None
         if plant:  # block angle (closed form) + Hermite interpolant of S, in place
@@ -302,6 +325,9 @@ class MissionTruth:
                 rate_ax = np.empty((3, ang_b.shape[0]))
             ktruth.hermite_plant_axes(s_nodes, ds_nodes, self._herm, self._dherm, ang_b, rate_b, ang_ax, rate_ax)
             angle, rate = ang_ax.T, rate_ax.T
+        if not navigation:
+            self._k = k1
+            return None, angle, rate
         phi = phib[:, 3] + s_nodes[1:]
         lat, lon, h = f(end, "lat_rad"), f(end, "lon_rad"), f(end, "h_m")
         v_ned = self._v_ned(f(end, "v_ned_m_s"), q_nv, t_end)
