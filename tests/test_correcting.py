@@ -149,6 +149,44 @@ def test_chunked_filter_equals_whole_array_bit_for_bit(form, rule):
     assert np.max(np.abs(whole - correct(x, _linear(form), v))) > 1.0 * ARCSEC
 
 
+@pytest.mark.filterwarnings("ignore::sins_sim.errors.HysteresisRegimeWarning")
+def test_filters_stepped_side_by_side_equal_each_filter_alone_bit_for_bit():
+    """``correcting_lanes`` (the engine's six filters of a SINS in turn) against ``correcting_run``
+    per filter: both forms, both hysteresis rules, a shared input and inputs of their own, in
+    uneven chunks (exact: the same operations in the same order on each filter's state)."""
+    from sins_sim._kernels import correcting as kcor
+
+    inputs = [_synthetic_readout(6000, seed=s) for s in (1, 2, 3)]
+    x = np.stack([i[0] for i in inputs])
+    volts = np.stack([i[1] for i in inputs])
+    lanes = [("unity", "paper", 0), ("paper", "paper", 0), ("unity", "masing", 1), ("paper", "masing", 2),
+             ("paper", "paper", 2)]
+    alone, par, rules = [], [], []
+    for form, rule, row in lanes:
+        flt = CorrectingFilter(CorrectingFilterDesign(form=form, hysteresis=rule), x0=0.0)
+        d = flt.design
+        par.append([flt._a2, flt._g, d.k1, d.k2, d.k3, d.k4, d.k5, 1.0 / d.fs_hz, flt._fast_dt])
+        rules.append(flt._rule)
+        alone.append((flt, flt.process(x[row], volts[row])))
+    state = np.zeros((len(lanes), kcor.STATE_SIZE))
+    hyst = np.stack([CorrectingFilter(CorrectingFilterDesign(), x0=0.0).hyst for _ in lanes])
+    stack = np.zeros((len(lanes), alone[0][0].stack.size))
+    rows = np.array([row for *_, row in lanes], dtype=np.int64)
+    pieces = []
+    for i, j in _uneven(x.shape[1]):
+        y = np.empty((len(lanes), j - i))
+        kcor.correcting_lanes(np.ascontiguousarray(x[:, i:j]), np.ascontiguousarray(volts[:, i:j]), rows,
+                              np.array(par), np.array(rules, dtype=np.int64), state, hyst, stack, y)
+        pieces.append(y)
+    together = np.concatenate(pieces, axis=1)
+    for lane, (flt, y) in enumerate(alone):
+        assert_array_equal(together[lane], y)
+        assert_array_equal(state[lane], flt.state)
+        assert_array_equal(hyst[lane], flt.hyst)
+        assert_array_equal(stack[lane], flt.stack)
+    assert hyst[2, 3] >= 1  # the Masing lanes used their reversal stacks
+
+
 # --- long runs ------------------------------------------------------------------------------------
 
 

@@ -24,7 +24,9 @@ the public classes (``Plant``, ``Readout``, ``Decimator``, ``CorrectingFilter``,
 
 The kernels are ``nogil``: the engine can run the three axes of a SINS on threads. Or it runs
 them through :func:`drive_plant_three`, the three suspensions stepped side by side (the same
-bits, about 15 % less time per channel and step), then :func:`readout_filters` per channel.
+bits, about 15 % less time per channel and step), then :func:`readout_fir` per channel, the six
+correcting filters side by side (``correcting.correcting_lanes``) and each eliminator: the
+steps of :func:`readout_filters`, bit for bit.
 Random numbers (readout noise, amplitude-modulation draws) are drawn by the
 caller, per chunk, in stream order, so results do not depend on chunking.
 """
@@ -276,6 +278,22 @@ def readout_filters(ang, noise, fpar, ipar, dstate, taps, fhist, vhist, cpar, fs
         Filter-rate outputs (``m = n / R``, whole): readout angle, volts, the two correcting
         forms, the eliminator.
     """
+    readout_fir(ang, noise, fpar, ipar, dstate, taps, fhist, vhist, delta, volts, feed, x, vx)
+    for f in range(2):
+        out = y_unity if f == 0 else y_paper
+        c = cpar[f]
+        kcor.correcting_run(x, vx, c[C_A2], c[C_G], c[C_K1], c[C_K1 + 1], c[C_K1 + 2], c[C_K1 + 3], c[C_K1 + 4],
+                            c[C_DT], int(c[C_RULE]), c[C_FAST], fstate[f], fhyst[f], fstack[f], out)
+    ksos.sos_filter(sos, x, zi, e_out)
+
+
+@jit
+def readout_fir(ang, noise, fpar, ipar, dstate, taps, fhist, vhist, delta, volts, feed, x, vx):
+    """Step 2 of the module docstring for one channel: the readout and its anti-alias FIRs.
+
+    Arguments as :func:`readout_filters`; ``x`` and ``vx`` receive the filter-rate readout angle
+    and drive, the inputs of the filters (step 3).
+    """
     n = ang.shape[0]
     # readout: fringe counts of phi_rlg = block angle + deflection, one plant step late
     q = fpar[P_Q]
@@ -293,12 +311,6 @@ def readout_filters(ang, noise, fpar, ipar, dstate, taps, fhist, vhist, cpar, fs
     dstate[D_PH_X] = ph
     _, ph = kfir.fir_decimate(taps, volts, vhist, int(dstate[D_PH_V]), vx, r)
     dstate[D_PH_V] = ph
-    for f in range(2):
-        out = y_unity if f == 0 else y_paper
-        c = cpar[f]
-        kcor.correcting_run(x, vx, c[C_A2], c[C_G], c[C_K1], c[C_K1 + 1], c[C_K1 + 2], c[C_K1 + 3], c[C_K1 + 4],
-                            c[C_DT], int(c[C_RULE]), c[C_FAST], fstate[f], fhyst[f], fstack[f], out)
-    ksos.sos_filter(sos, x, zi, e_out)
 
 
 @jit

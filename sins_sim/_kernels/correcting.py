@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from sins_sim._kernels._config import jit
 from sins_sim._kernels.physics import RULE_MASING, hyst_turn, masing_close, masing_target
 
@@ -129,3 +131,81 @@ def correcting_run(x, volts, a2, g, k1, k2, k3, k4, k5, dt, rule, fast_dt, state
     state[F_D3] = d3
     state[F_V1] = v1
     state[F_N] = nn
+
+
+@jit
+def correcting_lanes(x, volts, rows, par, rules, state, hyst, stack, out):
+    """:func:`correcting_run` for several filters at once, stepped in turn sample by sample.
+
+    Filter ``l`` reads row ``rows[l]`` of ``x`` and ``volts`` (float64[A, N]: several filters
+    can share an input, as the two forms of one channel do) and writes ``out[l]``. ``par[l]``:
+    ``a2, g, k1, k2, k3, k4, k5, dt, fast_dt``; ``rules[l]``: its hysteresis rule; ``state[l]``,
+    ``hyst[l]``, ``stack[l]``: its state as in :func:`correcting_run`, updated in place.
+
+    Every filter gets the arithmetic of :func:`correcting_run`, bit for bit (checked by
+    ``tests/test_correcting.py``). Eq. 5 is a dependency chain (``D_n`` needs ``D_{n-1}``
+    through a square root); stepping the six filters of a SINS (two forms per axis) in turn lets
+    the processor overlap their chains: 0.44 against 0.78 ms per simulated second for the six
+    (measured at 7.2 kHz). The sample's arithmetic is written out again here rather than shared
+    with :func:`correcting_run` through a step function: that cost the single filter 75 %
+    (its state left the registers), also with ``inline="always"``.
+    """
+    n_lanes = rows.shape[0]
+    k2inv = np.empty(n_lanes)
+    kl = np.empty(n_lanes)
+    a_cached = np.full(n_lanes, -1.0)
+    ainv = np.zeros(n_lanes)
+    for l in range(n_lanes):
+        k2inv[l] = 1.0 / par[l, 3]
+        kl[l] = par[l, 2] / (2.0 * par[l, 3])
+    for n in range(x.shape[1]):
+        for l in range(n_lanes):
+            d1 = state[l, F_D1]
+            d2 = state[l, F_D2]
+            d3 = state[l, F_D3]
+            nn = state[l, F_N]
+            # turning point of D at n-2 (as in correcting_run)
+            inc1 = d1 - d2
+            inc0 = d2 - d3
+            if nn >= 3.0 and inc1 * inc0 < 0.0:
+                curv = d1 - 2.0 * d2 + d3
+                ext = d2
+                if curv != 0.0:
+                    ext = d2 - (d1 - d3) * (d1 - d3) / (8.0 * curv)
+                hl = hyst[l]
+                hyst_turn(hl, stack[l], rules[l], ext, (nn - 2.0) * par[l, 7], par[l, 8])
+                hl[0] = 1.0 if inc1 > 0.0 else -1.0
+            elif hyst[l, 0] == 0.0 and inc1 != 0.0:
+                hyst[l, 0] = 1.0 if inc1 > 0.0 else -1.0
+            if rules[l] == RULE_MASING:
+                tgt = masing_target(hyst[l], stack[l])
+                if not math.isnan(tgt) and (d1 - tgt) * hyst[l, 0] > 0.0:
+                    masing_close(hyst[l], stack[l])
+            # eq. 9 without divisions and eq. 10 with a cached 1/a (as in correcting_run)
+            k1 = par[l, 2]
+            sq = math.sqrt(1.0 + abs(d1) * k2inv[l]) - 1.0
+            nl = (k1 * sq if d1 >= 0.0 else -k1 * sq) - kl[l] * d1
+            a = hyst[l, 1]
+            if a > 0.0:
+                if a != a_cached[l]:
+                    a_cached[l] = a
+                    ainv[l] = 1.0 / a
+                u = (d1 - hyst[l, 2]) * ainv[l]
+                r = 1.0 - u * u
+                if r > 0.0:
+                    nl += hyst[l, 0] * par[l, 4] * a * (1.0 + par[l, 5] * a) * math.sqrt(r)
+            nl += par[l, 6] * state[l, F_V1]
+            row = rows[l]
+            x1 = state[l, F_X1]
+            xn = x[row, n]
+            dx = xn - x1
+            g = par[l, 1]
+            small = par[l, 0] * (dx - state[l, F_DX1]) + g * nl
+            out[l, n] = g * x1 + small
+            state[l, F_D3] = d2
+            state[l, F_D2] = d1
+            state[l, F_D1] = dx - small + (1.0 - g) * x1
+            state[l, F_DX1] = dx
+            state[l, F_X1] = xn
+            state[l, F_V1] = volts[row, n]
+            state[l, F_N] = nn + 1.0

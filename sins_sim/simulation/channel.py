@@ -22,7 +22,9 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim._kernels import chain as kchain
+from sins_sim._kernels import correcting as kcor
 from sins_sim._kernels import drive as kdrive
+from sins_sim._kernels import sos as ksos
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
 from sins_sim.filters import registry as filter_registry
@@ -648,7 +650,8 @@ class SideBySide:
 
     One call of ``_kernels.chain.drive_plant_three`` per chunk (the three suspensions advance
     one step each in turn, so that the processor overlaps their dependency chains), then each
-    channel's readout and filters. :meth:`run` returns what :meth:`ChannelChain.run_kernel`
+    channel's readout (``readout_fir``), the six correcting filters side by side
+    (``_kernels.correcting.correcting_lanes``, for the same reason) and each eliminator. :meth:`run` returns what :meth:`ChannelChain.run_kernel`
     returns for each chain, bit for bit (``tests/test_engine.py``); call
     :meth:`ChannelChain.check_chunk` on each afterwards. The plant-rate work buffers are kept
     from one chunk to the next: a fresh 1.7 MB array per chunk costs its page faults (about
@@ -691,14 +694,42 @@ class SideBySide:
         kchain.drive_plant_three(i0, angle_ax, np.ascontiguousarray(rate.T), uniforms,
                                  np.stack([ch.fpar for ch in chains]), np.stack([ch.ipar for ch in chains]),
                                  dstate, pstate, physt, pstack, delta, volts, q0s, q1s, used)
-        outs = []
+        m = n // chains[0].r_dec
+        x = np.empty((2, 3, m))  # readout angle and drive at the filter rate, per axis
         for a, ch in enumerate(chains):
             ch.dstate[:] = dstate[a]
             plants[a].state[:] = pstate[a]
             plants[a].hyst[:] = physt[a]
             plants[a].stack[:] = pstack[a]
-            outs.append(ch._kernel_readout(angle_ax[a], draws[a][0], delta[a], volts[a], ch._buffers(n)[2]))
+            kchain.readout_fir(angle_ax[a], draws[a][0], ch.fpar, ch.ipar, ch.dstate, ch.taps,
+                               ch.readout.decimator._hist, ch.vdec._hist, delta[a], volts[a], ch._buffers(n)[2],
+                               x[0, a], x[1, a])
+        # the six correcting filters (two forms per axis) side by side, then each eliminator
+        cpar = np.concatenate([ch.cpar for ch in chains])
+        fstate = np.concatenate([ch._fstate() for ch in chains])
+        fhyst = np.concatenate([ch._fhyst() for ch in chains])
+        fstack = np.concatenate([ch._fstack() for ch in chains])
+        y = np.empty((6, m))
+        kcor.correcting_lanes(x[0], x[1], _LANE_ROWS, np.ascontiguousarray(cpar[:, :kchain.C_RULE]),
+                              cpar[:, kchain.C_RULE].astype(np.int64), fstate, fhyst, fstack, y)
+        outs = []
+        for a, ch in enumerate(chains):
+            ch._fs[:] = fstate[2 * a:2 * a + 2]
+            ch._fh[:] = fhyst[2 * a:2 * a + 2]
+            ch._fk[:] = fstack[2 * a:2 * a + 2]
+            ch._sync_filters()
+            el = ch.filters["eliminator"]
+            out = {"raw": x[0, a], "volts": x[1, a], "correcting": y[2 * a], "correcting_paper": y[2 * a + 1],
+                   "eliminator": np.empty(m)}
+            ksos.sos_filter(el._sos, out["raw"], el._zi, out["eliminator"])
+            ch._run_plugins(out)
+            out["delta"] = delta[a]
+            outs.append(out)
         return outs
+
+
+#: Input row of each correcting filter in :meth:`SideBySide.run`: the two forms of axis ``a`` read row ``a``.
+_LANE_ROWS = np.array([0, 0, 1, 1, 2, 2], dtype=np.int64)
 
 
 def check_engine_effects(effects) -> tuple:
