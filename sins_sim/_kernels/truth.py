@@ -548,14 +548,23 @@ def block_attitude_grid(ang, rate, blk, rr, hp, q, q_out):
         s0 = 0.0
         s1 = 0.0
         s2 = 0.0
-        for r in range(1, rr + 1):
+        for r in range(1, rr + 1, 2):  # Simpson weights 4 (odd r), then 2 (even r < rr) or 1 (r = rr)
             x0 = ang[base + r - 1, 0] - a0
             x1 = ang[base + r - 1, 1] - a1
             x2 = ang[base + r - 1, 2] - a2
             w0 = rate[base + r - 1, 0]
             w1 = rate[base + r - 1, 1]
             w2 = rate[base + r - 1, 2]
-            c = 4.0 if r % 2 == 1 else (1.0 if r == rr else 2.0)
+            s0 += 4.0 * (x1 * w2 - x2 * w1)
+            s1 += 4.0 * (x2 * w0 - x0 * w2)
+            s2 += 4.0 * (x0 * w1 - x1 * w0)
+            x0 = ang[base + r, 0] - a0
+            x1 = ang[base + r, 1] - a1
+            x2 = ang[base + r, 2] - a2
+            w0 = rate[base + r, 0]
+            w1 = rate[base + r, 1]
+            w2 = rate[base + r, 2]
+            c = 1.0 if r + 1 == rr else 2.0
             s0 += c * (x1 * w2 - x2 * w1)
             s1 += c * (x2 * w0 - x0 * w2)
             s2 += c * (x0 * w1 - x1 * w0)
