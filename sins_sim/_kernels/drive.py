@@ -86,7 +86,10 @@ def demod_accumulate(delta, i0, cycles_per_step, pos, block, acc, phase):
     a0 = acc[0]  # continue the running sums in order: the same bits however the block is split
     a1 = acc[1]
     a2 = acc[2]
-    for j in range(n):
+    j = 0
+    while j < n:
+        # resync where an absolute index or a block position is a multiple of 128 (or at the start), then
+        # rotate up to the next such point without a test per step
         if j == 0 or (i0 + 1 + j) % _RESYNC == 0:  # resync on absolute indices: chunking-invariant
             c, s = _rotated_phase(i0 + 1 + j, cycles_per_step, phase, cd, sd)
         if j == 0 or (pos + j) % _RESYNC == 0:  # the window, likewise on its position in the block
@@ -96,13 +99,16 @@ def demod_accumulate(delta, i0, cycles_per_step, pos, block, acc, phase):
             ws = math.sin(arg)
             for _ in range(pos + j - base):
                 wc, ws = wc * cw - ws * sw, ws * cw + wc * sw
-        w = 0.5 * (1.0 - wc)  # sin^2(pi (m + 1/2) / block)
-        wd = w * delta[j]
-        a0 += wd * c
-        a1 += wd * s
-        a2 += w
-        c, s = c * cd - s * sd, s * cd + c * sd
-        wc, ws = wc * cw - ws * sw, ws * cw + wc * sw
+        stop = min(n, j + _RESYNC - (i0 + 1 + j) % _RESYNC, j + _RESYNC - (pos + j) % _RESYNC)
+        for k in range(j, stop):
+            w = 0.5 * (1.0 - wc)  # sin^2(pi (m + 1/2) / block)
+            wd = w * delta[k]
+            a0 += wd * c
+            a1 += wd * s
+            a2 += w
+            c, s = c * cd - s * sd, s * cd + c * sd
+            wc, ws = wc * cw - ws * sw, ws * cw + wc * sw
+        j = stop
     acc[0] = a0
     acc[1] = a1
     acc[2] = a2
