@@ -58,6 +58,8 @@ _TYPICAL = np.array([386.0, 1.75e-4, 1.05e-3, 5e-3, 250.0, 1.2e-5])
 #: Bounds (in those typical units) of a parameter whose nominal value is 0.
 _ZERO_BOUNDS = {"f0_hz": (0.5, 2.0), "k1": (0.0, 5.0), "k2": (0.2, 5.0), "k3": (0.0, 5.0), "k4": (-1.0, 5.0),
                 "k5": (-5.0, 5.0)}
+#: Models each ``_Problem`` keeps by their parameters (the oldest goes first).
+_MEMO = 4
 #: Relative finite-difference steps of the Jacobian (F is resolved to 1e-6 and acts strongly).
 _STEPS = {"f0_hz": 2e-7, "k1": 1e-3, "k2": 1e-3, "k3": 1e-3, "k4": 1e-3, "k5": 1e-4}
 
@@ -328,6 +330,10 @@ class _Problem:
         self.lo = np.array(lo)
         self.hi = np.array(hi)
         self.nfev = 0
+        # the last few models by their parameters: a fit asks again for the model at a point it has
+        # just evaluated (the start of its next stage, its cost, its final residual)
+        self._memo = {}
+        self._memo_lock = threading.Lock()
         # a recording that starts mid-operation: the suspension's state at t = 0 is fitted too, as a
         # change (delta, rate) of the model's state there (``simulate_axis``'s kick)
         self.kick_index = self.skip * inputs.grid(settings.experiment).r
@@ -371,9 +377,14 @@ class _Problem:
         """Model angle at the recording's samples; ``start`` = (d_delta, d_rate) at t = 0 or None."""
         if CANCEL.is_set():
             raise Cancelled("diagnosis interrupted")
-        self.nfev += 1
         effects = effects_of(effect)
         kick = None if start is None else (self.kick_index, float(start[0]), float(start[1]))
+        key = (repr(sus), tuple(repr(e) for e in effects), kick)
+        with self._memo_lock:
+            hit = self._memo.get(key)
+        if hit is not None:
+            return hit.copy()
+        self.nfev += 1
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             m = simulate_axis(self.inputs, self.axis, sus, effects, self.settings.experiment, coupled=self.coupled,
@@ -381,7 +392,11 @@ class _Problem:
         m = m[self.skip:]
         if self.offset:
             m = m + float(np.mean((self.y - m)[self.used]))
-        return m
+        with self._memo_lock:
+            if len(self._memo) >= _MEMO:
+                self._memo.pop(next(iter(self._memo)))
+            self._memo[key] = m
+        return m.copy()
 
 
 def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None, frozen_jac=False):
