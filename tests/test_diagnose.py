@@ -110,6 +110,42 @@ def test_unknown_on_an_off_catalogue_disturbance():
     assert all(not c["closes_gap"] for c in js["candidates"])
 
 
+def test_secant_fit_uncertainty_jacobian_and_model_memo():
+    """The fit's solver updates its Jacobian by secants; the Jacobian it reports uncertainties from is a
+    finite-difference one at the solution, and a model asked for again is not simulated again (a copy)."""
+    from sins_sim.identification.recording_inputs import _masks, _model_inputs
+    from sins_sim.identification.refit import _Problem, _solve, fit_axis
+    from sins_sim.simulation.experiment import suspension_from_nominal
+
+    rec = _recording("rate_table", [make_effect("piezo_lag", tau_s=1.2e-4)], duration=0.4)
+    settings = DiagnoseSettings(threads=1)
+    nominal = suspension_from_nominal(rec.nominal["x"])
+    used, train = _masks(rec, settings, {"x": nominal})
+    q = rec.quantum_rad
+    prob = _Problem(_model_inputs(rec, 0), "x", rec.angle("x") + 0.5 * q, nominal, settings, used, train, False,
+                    q / math.sqrt(12.0), None, 3 * ARCMIN, 0)
+    cls = EFFECTS["piezo_lag"]
+    space = cls.fit_space("x", rec.axes)
+    x0 = np.concatenate([prob.x_c, [1e-4 / space[0].scale]])
+    x, jac, unpack, exact = _solve(prob, cls, x0, space, 8, 1, prob.train)
+    j_fd = exact()
+    # the finite-difference Jacobian at x, as the chord method takes it at its start
+    _, j_ref, _, _ = _solve(prob, cls, x, space, 2, 1, prob.train, frozen_jac=True)
+    assert np.allclose(j_fd, j_ref, rtol=1e-6, atol=1e-9 * np.abs(j_ref).max())
+    # the model memo: the same parameters give the same model without a simulation, and a caller
+    # changing what it got changes nothing kept
+    sus, eff, start = unpack(x)
+    m1 = prob.model(sus, eff, start)
+    n = prob.nfev
+    kept = m1.copy()
+    m1[:] = 0.0
+    m2 = prob.model(sus, eff, start)
+    assert prob.nfev == n and np.array_equal(m2, kept) and np.any(kept != 0.0)
+    fit = fit_axis(prob, cls, effect_starts=[{"tau_s": 1e-4}])
+    assert fit.effect.params["tau_s"] == pytest.approx(1.2e-4, rel=0.1)
+    assert 0.0 < fit.sigma["tau_s"] < 0.1 * fit.effect.params["tau_s"]
+
+
 #: Each effect on its own recording, in an experiment that can show it, and the parameter tolerance.
 CASES = {
     "piezo_lag": ("rate_table", {"tau_s": 1.2e-4}, 0.05),

@@ -180,7 +180,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
         """A fit on the whole recording, through its first window when it is long."""
         if win is None:
             return fit_axis(problem(a, full, sett), cls, start, starts)
-        fw = fit_axis(problem(a, win, sett), cls, start, starts)
+        fw = fit_axis(problem(a, win, sett), cls, start, starts, uncertainty=False)  # the polish has its own
         ff = fit_axis(problem(a, full, sett), cls, start=fw, polish=True)
         ff.nfev += fw.nfev
         return ff

@@ -58,6 +58,8 @@ _TYPICAL = np.array([386.0, 1.75e-4, 1.05e-3, 5e-3, 250.0, 1.2e-5])
 #: Bounds (in those typical units) of a parameter whose nominal value is 0.
 _ZERO_BOUNDS = {"f0_hz": (0.5, 2.0), "k1": (0.0, 5.0), "k2": (0.2, 5.0), "k3": (0.0, 5.0), "k4": (-1.0, 5.0),
                 "k5": (-5.0, 5.0)}
+#: Models each ``_Problem`` keeps by their parameters (the oldest goes first).
+_MEMO = 4
 #: Relative finite-difference steps of the Jacobian (F is resolved to 1e-6 and acts strongly).
 _STEPS = {"f0_hz": 2e-7, "k1": 1e-3, "k2": 1e-3, "k3": 1e-3, "k4": 1e-3, "k5": 1e-4}
 
@@ -328,6 +330,10 @@ class _Problem:
         self.lo = np.array(lo)
         self.hi = np.array(hi)
         self.nfev = 0
+        # the last few models by their parameters: a fit asks again for the model at a point it has
+        # just evaluated (the start of its next stage, its cost, its final residual)
+        self._memo = {}
+        self._memo_lock = threading.Lock()
         # a recording that starts mid-operation: the suspension's state at t = 0 is fitted too, as a
         # change (delta, rate) of the model's state there (``simulate_axis``'s kick)
         self.kick_index = self.skip * inputs.grid(settings.experiment).r
@@ -371,9 +377,14 @@ class _Problem:
         """Model angle at the recording's samples; ``start`` = (d_delta, d_rate) at t = 0 or None."""
         if CANCEL.is_set():
             raise Cancelled("diagnosis interrupted")
-        self.nfev += 1
         effects = effects_of(effect)
         kick = None if start is None else (self.kick_index, float(start[0]), float(start[1]))
+        key = (repr(sus), tuple(repr(e) for e in effects), kick)
+        with self._memo_lock:
+            hit = self._memo.get(key)
+        if hit is not None:
+            return hit.copy()
+        self.nfev += 1
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             m = simulate_axis(self.inputs, self.axis, sus, effects, self.settings.experiment, coupled=self.coupled,
@@ -381,7 +392,11 @@ class _Problem:
         m = m[self.skip:]
         if self.offset:
             m = m + float(np.mean((self.y - m)[self.used]))
-        return m
+        with self._memo_lock:
+            if len(self._memo) >= _MEMO:
+                self._memo.pop(next(iter(self._memo)))
+            self._memo[key] = m
+        return m.copy()
 
 
 def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None, frozen_jac=False):
@@ -403,9 +418,25 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
     are parameters and the steps only need its direction. Every step is still
     accepted on the true cost.
 
-    Returns ``(x, jac, unpack)``: the full solution, the Jacobian of the
-    data residuals with respect to the free ``x`` (columns in ``free``
-    order), and a function ``x -> (SuspensionParams, Effect or None, start state or None)``.
+    Otherwise the Jacobian is computed by finite differences at the start
+    and then, at every accepted step, updated by Broyden's rank-one secant
+    update (Broyden 1965, "A class of methods for solving nonlinear
+    simultaneous equations", Math. Comp. 19; for least squares Dennis &
+    Schnabel 1983, "Numerical Methods for Unconstrained Optimization and
+    Nonlinear Equations", sec. 10.3): the new residuals minus those
+    predicted from the previous Jacobian, along the step. One finite-difference
+    Jacobian costs one model evaluation per free parameter, the update none.
+    The finite differences are taken again after an iteration that needed more
+    than one trial step (a trial rejected: the linear model mispredicted the
+    cost, so the secant information is not to be trusted further).
+
+    Returns ``(x, jac, unpack, exact)``: the full solution, the solver's last
+    Jacobian of the data residuals with respect to the free ``x`` (columns in
+    ``free`` order; a secant update, or with ``frozen_jac`` the one at ``x0``),
+    a function ``x -> (SuspensionParams, Effect or None, start state or None)``,
+    and ``exact()``, the finite-difference Jacobian at the solution (what the
+    uncertainties are computed from; taken when asked for, unless the last one
+    was already that).
     """
     n_nom = len(NOMINAL_KEYS)
     n = n_nom + len(space)
@@ -461,11 +492,34 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
         return out
 
     frozen = []
+    # Broyden state: (z, f(z), J) of the last Jacobian, whether it is a finite-difference one, and the
+    # solver's residual evaluations (trial steps) in all and when the Jacobian was last asked for
+    last = []
+    trials = [0, 0]
+
+    def trial(z):
+        trials[0] += 1
+        return fun(z)
 
     def jac(z):
         if frozen:
             return frozen[0].copy()
+        n_trials = trials[0] - trials[1]
+        trials[1] = trials[0]
         f0 = fun(z)
+        if last and n_trials <= 1:
+            zl, fl, jl, _ = last[0]
+            step = z - zl
+            ss = float(step @ step)
+            if ss > 0.0:
+                out = jl + np.outer((f0 - fl) - jl @ step, step / ss)
+                last[:] = [(z.copy(), f0, out, False)]
+                return out.copy()
+        out = fd_jac(z, f0)
+        last[:] = [(z.copy(), f0, out, True)]
+        return out.copy()
+
+    def fd_jac(z, f0):
         x = full(z)
         hx = steps[free] * np.maximum(1.0, np.abs(x[free]))
         hx = np.where(x[free] + hx <= hi[free], hx, -hx)
@@ -488,9 +542,15 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
 
     zlo = (lo[free] - x0[free]) / xs
     zhi = (hi[free] - x0[free]) / xs
-    sol = optimize.least_squares(fun, np.zeros(free.size), jac=jac, bounds=(zlo, zhi), method="trf",
+    sol = optimize.least_squares(trial, np.zeros(free.size), jac=jac, bounds=(zlo, zhi), method="trf",
                                  x_scale=1.0, max_nfev=max_nfev, xtol=_TOL, ftol=_TOL, gtol=_TOL)
-    return full(sol.x), sol.jac / xs[None, :], unpack
+
+    def exact():
+        if frozen or (last and last[0][3] and np.array_equal(last[0][0], sol.x)):
+            return sol.jac / xs[None, :]
+        return fd_jac(sol.x, fun(sol.x)) / xs[None, :]
+
+    return full(sol.x), sol.jac / xs[None, :], unpack, exact
 
 
 def _rms(x):
@@ -560,7 +620,7 @@ def _drift_centred(prob: _Problem, effect_cls, xn: np.ndarray, values: dict) -> 
 
 
 def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effect_starts=None,
-             max_nfev: int | None = None, polish: bool = False) -> AxisFit:
+             max_nfev: int | None = None, polish: bool = False, uncertainty: bool = True) -> AxisFit:
     """Fit the nominal parameters (and an effect's) on one axis, on the training blocks.
 
     Stages: (0) without a start, the grid :data:`_F_GRID` of the
@@ -591,6 +651,10 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
         the refinement on the whole recording of a fit made on its first window,
         with the Jacobian of its start kept for every step (``_solve``'s
         ``frozen_jac``; the uncertainties are from that Jacobian).
+    uncertainty : bool
+        Compute the uncertainties from a finite-difference Jacobian at the solution (the solver's
+        own last Jacobian is a secant update, see ``_solve``). ``False`` for a fit that only starts
+        a polish (which computes its own): its ``sigma`` is then from the secant Jacobian.
     """
     n_nom = len(NOMINAL_KEYS)
     n_nui = len(prob.nuisance)
@@ -609,8 +673,8 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
         if effect_cls is not None:
             vals = start.effect.values(prob.axis)
             x0_eff = np.array([vals[p.name] / p.scale for p in eff_space])
-        x, jac, unpack = _solve(prob, effect_cls, np.concatenate([x0_nom, x0_nui, x0_eff]), space,
-                                max_nfev or prob.settings.polish_nfev, threads, prob.train, frozen_jac=True)
+        x, jac, unpack, _ = _solve(prob, effect_cls, np.concatenate([x0_nom, x0_nui, x0_eff]), space,
+                                   max_nfev or prob.settings.polish_nfev, threads, prob.train, frozen_jac=True)
         return _finish(prob, x, jac, unpack, space)
     if effect_cls is None and start is None:
         def grid_cost(df):
@@ -658,13 +722,14 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
     for xn in [x0_nom] + nominal_starts:
         if best is not None and not _bent(prob, best[0][:n_nom]):
             break  # the fit from the bent start came back to nominal k1, k2, k4: no restart needed
-        x, _, _ = _solve(prob, effect_cls, np.concatenate([xn, x0_nui, x0_eff]), space, max(4, budget // 2),
-                         threads, prob.train, free=stage1)
-        x, jac, unpack = _solve(prob, effect_cls, x, space, budget, threads, prob.train)
+        x, _, _, _ = _solve(prob, effect_cls, np.concatenate([xn, x0_nui, x0_eff]), space, max(4, budget // 2),
+                            threads, prob.train, free=stage1)
+        x, jac, unpack, exact = _solve(prob, effect_cls, x, space, budget, threads, prob.train)
         c = _cost(prob, *unpack(x))
         if best is None or c < best_cost:
-            best, best_cost = (x, jac, unpack), c
-    return _finish(prob, *best, space)
+            best, best_cost = (x, jac, unpack, exact), c
+    x, jac, unpack, exact = best
+    return _finish(prob, x, exact() if uncertainty else jac, unpack, space)
 
 
 def _finish(prob: _Problem, x, jac, unpack, space) -> AxisFit:
