@@ -28,7 +28,7 @@ import warnings
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import optimize
@@ -273,6 +273,11 @@ class AxisFit:
         RMS residual on the fit blocks, the held-out blocks and all used samples (rad).
     start_state : (d_delta, d_rate) or None
         The fitted state change at ``t = 0`` of a recording that starts mid-operation.
+    shared_jac : ndarray or None
+        A polish's Jacobian columns of the nominal parameters and the start state (``x`` units,
+        rows: training samples, then the prior), kept when asked for (``fit_axis``'s
+        ``keep_jac``) so that the polishes of candidate effects on the same axis can start from
+        them (``jac_hint``).
     """
 
     axis: str
@@ -286,6 +291,7 @@ class AxisFit:
     heldout_rms: float = math.nan
     rms: float = math.nan
     start_state: tuple | None = None
+    shared_jac: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
 class _Problem:
@@ -399,7 +405,8 @@ class _Problem:
         return m.copy()
 
 
-def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None, frozen_jac=False):
+def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None, frozen_jac=False,
+           jac_hint=None):
     """Least squares over (nominal, effect) parameters on the samples ``mask``.
 
     ``x0`` is the full start vector (nominal relative, then the start state
@@ -416,7 +423,13 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
     and Nonlinear Equations", sec. 5.4): for a refinement that starts near
     its solution, where one Jacobian costs as many model evaluations as there
     are parameters and the steps only need its direction. Every step is still
-    accepted on the true cost.
+    accepted on the true cost. ``jac_hint`` (with ``frozen_jac``, every
+    parameter free): the first columns of that Jacobian, taken from another
+    fit's (in ``x`` units, the rows of this problem): only the remaining
+    columns are computed. The chord method needs only an approximate Jacobian;
+    a polish of a candidate effect takes the nominal and start-state columns
+    of the baseline's polish on the same axis and differences only its
+    effect's parameters.
 
     Otherwise the Jacobian is computed by finite differences at the start
     and then, at every accepted step, updated by Broyden's rank-one secant
@@ -519,6 +532,11 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
         last[:] = [(z.copy(), f0, out, True)]
         return out.copy()
 
+    hint = None
+    if frozen_jac and jac_hint is not None and free.size == n and jac_hint.shape[1] <= n \
+            and jac_hint.shape[0] == int(mask.sum()) + n_nom:
+        hint = jac_hint * xs[None, :jac_hint.shape[1]]  # to z units
+
     def fd_jac(z, f0):
         x = full(z)
         hx = steps[free] * np.maximum(1.0, np.abs(x[free]))
@@ -530,12 +548,13 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
             zp[i] += hz[i]
             return (fun(zp) - f0) / hz[i]
 
+        first = 0 if hint is None else hint.shape[1]
         if threads > 1:
             with worker_pool(threads) as ex:
-                cols = list(ex.map(col, range(z.size)))
+                cols = list(ex.map(col, range(first, z.size)))
         else:
-            cols = [col(i) for i in range(z.size)]
-        out = np.column_stack(cols)
+            cols = [col(i) for i in range(first, z.size)]
+        out = np.column_stack(([hint] if hint is not None else []) + cols)
         if frozen_jac:
             frozen.append(out.copy())
         return out
@@ -620,7 +639,8 @@ def _drift_centred(prob: _Problem, effect_cls, xn: np.ndarray, values: dict) -> 
 
 
 def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effect_starts=None,
-             max_nfev: int | None = None, polish: bool = False, uncertainty: bool = True) -> AxisFit:
+             max_nfev: int | None = None, polish: bool = False, uncertainty: bool = True, jac_hint=None,
+             keep_jac: bool = False) -> AxisFit:
     """Fit the nominal parameters (and an effect's) on one axis, on the training blocks.
 
     Stages: (0) without a start, the grid :data:`_F_GRID` of the
@@ -655,6 +675,14 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
         Compute the uncertainties from a finite-difference Jacobian at the solution (the solver's
         own last Jacobian is a secant update, see ``_solve``). ``False`` for a fit that only starts
         a polish (which computes its own): its ``sigma`` is then from the secant Jacobian.
+    jac_hint : ndarray, optional
+        With ``polish``: Jacobian columns of the nominal parameters and the start state from
+        another polish on the same axis and samples (:attr:`AxisFit.shared_jac`), reused as the
+        first columns of this one (``_solve``); the uncertainties are then from that mixed
+        Jacobian (a polish's are from its start's Jacobian in any case).
+    keep_jac : bool
+        With ``polish``: keep those columns of this polish's Jacobian in
+        :attr:`AxisFit.shared_jac`.
     """
     n_nom = len(NOMINAL_KEYS)
     n_nui = len(prob.nuisance)
@@ -674,8 +702,12 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
             vals = start.effect.values(prob.axis)
             x0_eff = np.array([vals[p.name] / p.scale for p in eff_space])
         x, jac, unpack, _ = _solve(prob, effect_cls, np.concatenate([x0_nom, x0_nui, x0_eff]), space,
-                                   max_nfev or prob.settings.polish_nfev, threads, prob.train, frozen_jac=True)
-        return _finish(prob, x, jac, unpack, space)
+                                   max_nfev or prob.settings.polish_nfev, threads, prob.train, frozen_jac=True,
+                                   jac_hint=jac_hint)
+        fit = _finish(prob, x, jac, unpack, space)
+        if keep_jac:
+            fit.shared_jac = np.ascontiguousarray(jac[:, :n_nom + n_nui])
+        return fit
     if effect_cls is None and start is None:
         def grid_cost(df):
             x = x0_nom.copy()
