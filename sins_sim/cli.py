@@ -367,7 +367,7 @@ def _cmd_import_csv(args) -> int:
 
 def _cmd_diagnose(args) -> int:
     from sins_sim.jobs.output import atomic_output_dir, atomic_output_file
-    from sins_sim.jobs.recording_jobs import diagnose, format_diagnosis
+    from sins_sim.jobs.recording_jobs import diagnose, diagnose_many, format_diagnosis
 
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     if args.json is not None and args.report is not None:
@@ -376,11 +376,24 @@ def _cmd_diagnose(args) -> int:
             # the report folder is replaced as a whole when the run succeeds: the JSON would go with it
             raise ConfigError(f"--json: must not be inside --report {args.report} (the folder is replaced as a "
                               "whole); write it beside the folder")
+    if len(args.recording) > 1:  # several: --json and --report name folders, one entry per recording
+        progress = lambda line: print(line, file=sys.stderr, flush=True)  # noqa: E731
+        with ExitStack() as stack:
+            json_tmp = (stack.enter_context(atomic_output_dir(args.json, "--json", inputs=args.recording))
+                        if args.json is not None else None)
+            report_tmp = (stack.enter_context(atomic_output_dir(args.report, "--report", inputs=args.recording))
+                          if args.report is not None else None)
+            results = diagnose_many(args.recording, json_dir=json_tmp, report_dir=report_tmp, effects=effects,
+                                    jobs=args.jobs, progress=progress)
+        for path, result in zip(args.recording, results):
+            print(f"== {path}")
+            print(format_diagnosis(result))
+        return EXIT_OK
     with ExitStack() as stack:
         json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
-        report_tmp = (stack.enter_context(atomic_output_dir(args.report, "--report", inputs=[args.recording]))
+        report_tmp = (stack.enter_context(atomic_output_dir(args.report, "--report", inputs=args.recording))
                       if args.report is not None else None)
-        result = diagnose(args.recording, json_out=json_tmp, report_dir=report_tmp, effects=effects)
+        result = diagnose(args.recording[0], json_out=json_tmp, report_dir=report_tmp, effects=effects)
     print(format_diagnosis(result))
     return EXIT_OK
 
@@ -594,10 +607,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("diagnose", help="where a recording and the model disagree, and which effect explains it",
                        description="Refit the nominal parameters per axis, localise the residual above the noise "
                                    "floor, fit each catalogue effect, rank them (penalised) and give a verdict.")
-    p.add_argument("recording", help="sins-sim-recording/1 .npz")
-    p.add_argument("--json", help="write the diagnosis JSON here")
-    p.add_argument("--report", help="write report.md and PNGs into this directory")
+    p.add_argument("recording", nargs="+", help="sins-sim-recording/1 .npz (several: diagnosed in turn, or --jobs "
+                                                "at once)")
+    p.add_argument("--json", help="write the diagnosis JSON here (several recordings: a folder of STEM.json)")
+    p.add_argument("--report", help="write report.md and PNGs into this directory (several recordings: a folder "
+                                    "of STEM/)")
     p.add_argument("--effects", help="comma-separated subset of the catalogue to try (default: all)")
+    p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in separate processes [1]")
     p.set_defaults(func=_cmd_diagnose)
 
     p = sub.add_parser("diagnose-eval", help="blind evaluation of the diagnosis on generated recordings",

@@ -327,3 +327,39 @@ def test_diagnose_eval_small_fixed_set():
     assert res["n"] == 4 and sum(sum(r.values()) for r in res["confusion"].values()) == 4
     assert res["accuracy"] >= 0.75, format_result(res)
     assert "accuracy" in format_result(res) == recording_jobs.format_eval(res)
+
+
+def test_several_recordings_in_parallel_give_what_each_gives_alone(tmp_path, capsys):
+    """``sins-sim diagnose A B --jobs 2``: one JSON and one report folder per recording, named by the file
+    stem, each equal to the diagnosis of that recording alone (the verdicts and every gap reduction: the
+    recordings are independent, and a diagnosis does not depend on its thread count); a second recording
+    with the same stem is refused in one line before any work."""
+    import json
+
+    from sins_sim.cli import main
+    from sins_sim.io.recording import write_recording
+
+    recs = {"piezo": _recording("rate_table", [make_effect("piezo_lag", tau_s=1.2e-4)], duration=0.4),
+            "clean": _recording("stationary", duration=0.4, seed=3)}
+    paths = []
+    for name, rec in recs.items():
+        paths.append(str(write_recording(tmp_path / f"{name}.npz", rec)))
+    assert main(["diagnose", *paths, "--jobs", "2", "--json", str(tmp_path / "js"), "--report",
+                 str(tmp_path / "rep")]) == 0
+    for name, path in zip(recs, paths):
+        both = json.loads((tmp_path / "js" / f"{name}.json").read_text())
+        assert (tmp_path / "rep" / name / "report.md").is_file()
+        assert main(["diagnose", path, "--json", str(tmp_path / f"{name}-alone.json")]) == 0
+        alone = json.loads((tmp_path / f"{name}-alone.json").read_text())
+        assert both["verdict"]["effect"] == alone["verdict"]["effect"]
+        assert both["verdict"]["status"] == alone["verdict"]["status"]
+        assert [c["gap_reduction"] for c in both["candidates"]] == [c["gap_reduction"] for c in alone["candidates"]]
+    assert json.loads((tmp_path / "js" / "piezo.json").read_text())["verdict"]["effect"] == "piezo_lag"
+    assert json.loads((tmp_path / "js" / "clean.json").read_text())["verdict"]["effect"] == "none"
+    capsys.readouterr()
+    (tmp_path / "other").mkdir()
+    same = write_recording(tmp_path / "other" / "piezo.npz", recs["piezo"])
+    assert main(["diagnose", paths[0], str(same), "--json", str(tmp_path / "js2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "share the name 'piezo'" in err[0]
+    assert not (tmp_path / "js2").exists()

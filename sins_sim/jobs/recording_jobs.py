@@ -7,6 +7,8 @@ Each function returns a dictionary and prints nothing:
 - :func:`import_csv` (``sins-sim import-csv LAB.csv --out REC.npz ...``): a lab export into the format
   (columns in ``sins_sim.io.recording``);
 - :func:`diagnose` (``sins-sim diagnose REC.npz --json OUT.json --report DIR``);
+- :func:`diagnose_many` (``sins-sim diagnose A.npz B.npz ... --jobs N --json DIR --report DIR``): several
+  recordings, in parallel across recordings;
 - :func:`diagnose_eval` (``sins-sim diagnose-eval --n N --seed S``).
 
 Experiment YAML (units in the key names; every key optional except ``experiment`` and ``duration_s``; a
@@ -48,6 +50,7 @@ The drive runs at the amplitude-dependent resonance of the *nominal* suspension 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -63,7 +66,7 @@ from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings
 from sins_sim.units import ARCSEC
 
 __all__ = ["EXPERIMENT_SCHEMA", "DEFAULT_F0_HZ", "experiment_from_dict", "simulate_recording", "import_csv",
-           "diagnose", "diagnose_eval", "format_diagnosis", "format_eval"]
+           "diagnose", "diagnose_many", "diagnose_eval", "format_diagnosis", "format_eval"]
 
 #: Default small-amplitude resonances per axis (reference-model.md "Three axes": 300-450 Hz, all different).
 DEFAULT_F0_HZ = {"x": 386.0, "y": 352.0, "z": 421.0}
@@ -357,7 +360,7 @@ def import_csv(csv_path, out_npz, **meta) -> dict:
             "duration_s": rec.duration_s, "has_sins_angle": rec.sins_angle is not None}
 
 
-def diagnose(rec_path, json_out=None, report_dir=None, effects=None) -> dict:
+def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: int | None = None) -> dict:
     """Diagnose a recording; write the JSON and the report directory when given; return the JSON dict.
 
     Parameters
@@ -370,11 +373,15 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None) -> dict:
         Where to write ``report.md``, ``spectrum.png``, ``envelope.png``, ``ranking.png``.
     effects : list of str, optional
         Catalogue effects to try (default all).
+    threads : int, optional
+        Worker threads of the diagnosis (default ``DiagnoseSettings``'s: the cores it may use).
     """
     from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording, write_report
 
     rec = read_recording(rec_path)
     settings = DiagnoseSettings(effects=tuple(effects) if effects else None)
+    if threads is not None:
+        settings = replace(settings, threads=int(threads))
     diag = diagnose_recording(rec, settings)
     if report_dir is not None:
         return write_report(diag, report_dir, json_out)
@@ -385,6 +392,73 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None) -> dict:
         Path(json_out).parent.mkdir(parents=True, exist_ok=True)
         Path(json_out).write_text(json.dumps(js, indent=2) + "\n")
     return js
+
+
+def _diagnose_task(task) -> dict:
+    path, json_out, report_dir, effects, threads = task
+    return diagnose(path, json_out=json_out, report_dir=report_dir, effects=effects, threads=threads)
+
+
+def diagnose_many(rec_paths, json_dir=None, report_dir=None, effects=None, jobs: int = 1, progress=None) -> list:
+    """Diagnose several recordings, ``jobs`` at once in separate processes; their JSON dicts in input order.
+
+    Every recording is read (and so checked) before any diagnosis starts, so a wrong file fails at
+    once. Outputs are named by each recording's file stem: ``json_dir/STEM.json`` and
+    ``report_dir/STEM/`` (stems must differ). With ``jobs > 1`` each diagnosis runs on one thread
+    (the recordings are the parallel work); a diagnosis's result does not depend on ``jobs``.
+
+    Parameters
+    ----------
+    rec_paths : sequence of paths
+    json_dir, report_dir : path, optional
+        Existing (or creatable) folders for the JSON files and the report folders.
+    effects : list of str, optional
+    jobs : int
+        Recordings diagnosed at once (>= 1).
+    progress : callable(str) or None
+        Called with a line as each diagnosis ends.
+    """
+    jobs = int(jobs)
+    if jobs < 1:
+        raise ValueError(f"diagnose.jobs: must be >= 1, got {jobs!r}")
+    paths = [Path(p) for p in rec_paths]
+    if not paths:
+        raise ValueError("diagnose.recording: needs at least one recording")
+    seen = {}
+    for p in paths:
+        if p.stem in seen:
+            raise ValueError(f"diagnose.recording: {seen[p.stem]} and {p} share the name {p.stem!r}; their outputs "
+                             "would collide (rename one)")
+        seen[p.stem] = p
+    for p in paths:
+        read_recording(p)  # a wrong file fails here, before hours of work on the others
+    threads = 1 if jobs > 1 and len(paths) > 1 else None
+    tasks = [(str(p), None if json_dir is None else str(Path(json_dir) / f"{p.stem}.json"),
+              None if report_dir is None else str(Path(report_dir) / p.stem), effects, threads) for p in paths]
+    out = [None] * len(tasks)
+
+    def done(i, js):
+        out[i] = js
+        if progress is not None:
+            v = js["verdict"]
+            progress(f"{paths[i]}: {v['effect']} ({v['status']})")
+
+    if threads is None:
+        for i, task in enumerate(tasks):
+            done(i, _diagnose_task(task))
+        return out
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=multiprocessing.get_context("spawn")) as ex:
+        futs = {ex.submit(_diagnose_task, task): i for i, task in enumerate(tasks)}
+        try:
+            for fut in as_completed(futs):
+                done(futs[fut], fut.result())
+        except BaseException:
+            ex.shutdown(wait=False, cancel_futures=True)
+            raise
+    return out
 
 
 def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None, jobs: int = 1) -> dict:
