@@ -197,6 +197,29 @@ def test_accelerometer_delay_mismatch_costs_what_sculling_theory_says():
     assert abs(rate["matched"]) < 0.03 * expected
 
 
+def test_truth_without_navigation_gives_the_same_gyro_inputs():
+    """The engine's run without navigation advances a truth that forms only the plant's gyro inputs
+    (the vehicle's rate alone, no velocity increments or attitude truth): its angles and rates equal
+    those of the full truth bit for bit, on a turning, climbing vehicle with block coning and a
+    translational vibration, in uneven chunks; it returns no navigation chunk."""
+    from sins_sim.models.motion import LinearSines
+
+    veh = Trajectory(math.radians(45.0), 0.0, 1000.0, 150.0, 0.0, (Cruise(0.3), CoordinatedTurn(0.5, math.radians(30.0)),
+                                                                 Climb(0.5, 20.0)), transition_s=0.2)
+    block = m3.Coning(amplitude_rad=1.0 * ARCMIN, frequency_hz=300.0)
+    lin = LinearSines((0.1, 0.2, 0.3), (150.0, 170.0, 190.0), (0.0, 0.5, 1.0))
+    full = MissionTruth(veh.stream(), block, lin, 72000.0, 7200.0)
+    gyro = MissionTruth(veh.stream(), block, lin, 72000.0, 7200.0, navigation=False)
+    for k in (1, 7, 1000, 3601, 7200):
+        chunk, ang, rate = full.advance(k)
+        none, ang_g, rate_g = gyro.advance(k)
+        assert chunk is not None and none is None
+        np.testing.assert_array_equal(ang_g, ang)
+        np.testing.assert_array_equal(rate_g, rate)
+    with pytest.raises(ValueError, match="truth.advance"):
+        gyro.advance(7300, plant=False)
+
+
 @pytest.mark.parametrize("f_hz, bound_rad", [(100.0, 1e-14), (600.0, 3e-11), (1600.0, 3e-9)])
 def test_block_attitude_from_the_plant_grid_matches_magnus(f_hz, bound_rad):
     """The engine's block attitude (Bortz with Simpson over the 72 kHz grid, one rotation vector per

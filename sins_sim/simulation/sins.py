@@ -478,7 +478,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         raise ValueError(f"run.duration_s: the trajectory lasts {vehicle.duration_s:g} s, shorter than the run "
                          f"({duration_s:g} s) plus 0.1 s")
     stream = vehicle.stream() if hasattr(vehicle, "stream") else vehicle
-    truth = MissionTruth(stream, motion, translation, fp, fs)
+    plant_inputs = any(name != "ideal" for name in filters)  # a filter to feed: the plant runs
+    # without navigation the truth forms only the plant's gyro inputs
+    truth = MissionTruth(stream, motion, translation, fp, fs, navigation=nav is not None or not plant_inputs)
     # independent random streams per axis: readout noise [seed, axis], amplitude modulation [seed, axis, 1]
     chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]),
                            plugins=plugins, axis=AXES[i], effects=imu.effects)
@@ -548,7 +550,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
 
     def stage(k_a, k_b):
         """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
-        tc, ang, rate = truth.advance(k_b, plant=bool(outs_buf), navigation=nav is not None or not outs_buf)
+        tc, ang, rate = truth.advance(k_b, plant=plant_inputs)
         job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker) if outs_buf else None
         return k_a, k_b, tc, job
 

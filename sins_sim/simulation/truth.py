@@ -193,15 +193,22 @@ class MissionTruth:
         Node rate of the vehicle interpolation.
     substeps : int
         Magnus substeps of the block attitude per filter sample.
+    navigation : bool
+        Form the navigation truth. False: only the plant-rate gyro inputs (:meth:`advance` returns
+        no chunk): the vehicle's rate alone is interpolated, and neither the velocity increments
+        nor the attitude, position and velocity truth are computed (the same gyro angles and
+        rates, bit for bit).
 
     :meth:`advance` moves the truth forward to filter node ``k1``: it returns the truth at the
     new nodes and the gyro angles and rates at the plant steps up to ``k1 R``.
     """
 
     def __init__(self, vehicle, block: Motion3D, translation=None, plant_rate_hz: float = 72000.0,
-                 filter_rate_hz: float = 7200.0, vehicle_rate_hz: float = 200.0, substeps: int = 2):
+                 filter_rate_hz: float = 7200.0, vehicle_rate_hz: float = 200.0, substeps: int = 2,
+                 navigation: bool = True):
         if not isinstance(block, Motion3D):
             raise ValueError(f"truth.block: must be a Motion3D, got {type(block).__name__}")
+        self.navigation = bool(navigation)
         self.vehicle = VehicleSampler(vehicle, vehicle_rate_hz)
         self.block = block
         self.translation = translation
@@ -237,16 +244,13 @@ class MissionTruth:
         """Last filter node computed (-1 before the first call)."""
         return self._k
 
-    def advance(self, k1: int, plant: bool = True, navigation: bool = True):
+    def advance(self, k1: int, plant: bool = True):
         """Truth at filter nodes ``k + 1 .. k1`` and gyro inputs at plant steps ``k R + 1 .. k1 R``.
 
         The first call also returns node 0 (the start; its increments are zero). With
         ``plant=False`` the plant-rate gyro inputs are not formed (``angle`` and ``rate`` are None):
         the block's angles are then evaluated at the filter grid and the Gauss-Legendre nodes only.
-        With ``navigation=False`` only the gyro inputs are formed (``chunk`` is None): the vehicle's
-        rate alone is interpolated, and neither the velocity increments nor the attitude, position
-        and velocity truth are computed (the same ``angle`` and ``rate``, bit for bit). A truth is
-        advanced in one mode throughout.
+        Without navigation (the constructor's ``navigation``) ``chunk`` is None.
 
         Returns
         -------
@@ -259,6 +263,7 @@ class MissionTruth:
         k_prev = max(self._k, 0)
         if k1 <= k_prev:
             raise ValueError(f"truth.k1: must be > {k_prev}, got {k1}")
+        navigation = self.navigation
         if not (navigation or plant):
             raise ValueError("truth.advance: needs the plant inputs or the navigation truth, got neither")
         ks = np.arange(k_prev + 1, k1 + 1)
