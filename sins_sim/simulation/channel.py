@@ -41,6 +41,8 @@ __all__ = ["EliminatorSettings", "ChannelConfig", "ChannelResult", "DriveControl
 
 #: Outputs of a channel run, in plotting order.
 FILTER_NAMES = ("raw", "eliminator", "correcting", "correcting_paper")
+#: The correcting filters (eq. 5) of a channel, in the order of its ``cpar`` rows: unity-DC form, then paper form.
+_CORRECTING = ("correcting", "correcting_paper")
 
 
 @dataclass(frozen=True)
@@ -334,7 +336,7 @@ class ChannelChain:
         self.fpar = fp
         self.ipar = np.array([self.r_dac, self.block, self.plant._rule, self.r_dec], dtype=np.int64)
         cp = np.zeros((2, kchain.N_CPAR))
-        for f, name in enumerate(("correcting", "correcting_paper")):
+        for f, name in enumerate(_CORRECTING):
             flt = self.filters[name]
             d = flt.design
             cp[f, kchain.C_A2], cp[f, kchain.C_G] = flt._a2, flt._g
@@ -353,7 +355,7 @@ class ChannelChain:
         self.plant.reset(angle0, rate0)
         self.readout.reset()
         self.vdec.reset()
-        for name in ("correcting", "correcting_paper"):
+        for name in _CORRECTING:
             self.filters[name].reset(0.0)
         self.filters["eliminator"].reset()
         for flt in self.plugins.values():
@@ -539,7 +541,7 @@ class ChannelChain:
         return self._fk
 
     def _sync_filters(self):
-        for f, name in enumerate(("correcting", "correcting_paper")):
+        for f, name in enumerate(_CORRECTING):
             flt = self.filters[name]
             flt.state[:] = self._fs[f]
             flt.hyst[:] = self._fh[f]
@@ -704,20 +706,22 @@ class SideBySide:
             kchain.readout_fir(angle_ax[a], draws[a][0], ch.fpar, ch.ipar, ch.dstate, ch.taps,
                                ch.readout.decimator._hist, ch.vdec._hist, delta[a], volts[a], ch._buffers(n)[2],
                                x[0, a], x[1, a])
-        # the six correcting filters (two forms per axis) side by side, then each eliminator
+        # the six correcting filters (two forms per axis, rows of cpar) side by side, their state read from
+        # and written back to the filter objects; then each eliminator
+        eq5 = [ch.filters[name] for ch in chains for name in _CORRECTING]
         cpar = np.concatenate([ch.cpar for ch in chains])
-        fstate = np.concatenate([ch._fstate() for ch in chains])
-        fhyst = np.concatenate([ch._fhyst() for ch in chains])
-        fstack = np.concatenate([ch._fstack() for ch in chains])
+        fstate = np.stack([f.state for f in eq5])
+        fhyst = np.stack([f.hyst for f in eq5])
+        fstack = np.stack([f.stack for f in eq5])
         y = np.empty((6, m))
         kcor.correcting_lanes(x[0], x[1], _LANE_ROWS, np.ascontiguousarray(cpar[:, :kchain.C_RULE]),
                               cpar[:, kchain.C_RULE].astype(np.int64), fstate, fhyst, fstack, y)
+        for f, st, hy, sk in zip(eq5, fstate, fhyst, fstack):
+            f.state[:] = st
+            f.hyst[:] = hy
+            f.stack[:] = sk
         outs = []
         for a, ch in enumerate(chains):
-            ch._fs[:] = fstate[2 * a:2 * a + 2]
-            ch._fh[:] = fhyst[2 * a:2 * a + 2]
-            ch._fk[:] = fstack[2 * a:2 * a + 2]
-            ch._sync_filters()
             el = ch.filters["eliminator"]
             out = {"raw": x[0, a], "volts": x[1, a], "correcting": y[2 * a], "correcting_paper": y[2 * a + 1],
                    "eliminator": np.empty(m)}
@@ -1007,9 +1011,6 @@ class _ThermalSchedule:
             self._set_filter(flt, dataclasses.replace(d0, f0_hz=d0.f0_hz * ratio))
             chain.cpar[row, kchain.C_A2], chain.cpar[row, kchain.C_G] = flt._a2, flt._g
             chain.cpar[row, kchain.C_FAST] = flt._fast_dt
-
-
-_CORRECTING = ("correcting", "correcting_paper")
 
 
 def _frac(x: float) -> float:
