@@ -36,6 +36,7 @@ from dataclasses import replace
 import numpy as np
 
 from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording
+from sins_sim.identification.refit import in_processes
 from sins_sim.models.effects import EFFECTS, make_effect
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.simulation import alt_effects as alt
@@ -346,18 +347,8 @@ def evaluate(n: int, seed: int, duration_s: float = 1.0, labels=None, settings: 
     else:
         # recordings are independent: one process per recording at a time (the kernels inside a
         # diagnosis use threads too, so each process gets one thread)
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
         one = [(lab, sd, i, dur, form, replace(sett, threads=1)) for lab, sd, i, dur, form, sett in tasks]
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as ex:
-            futs = {ex.submit(_run_case, task): task[2] for task in one}
-            try:
-                for fut in as_completed(futs):
-                    report(futs[fut], fut.result())
-            except BaseException:
-                ex.shutdown(wait=False, cancel_futures=True)
-                raise
+        in_processes(_run_case, one, jobs, report)
     predicted = sorted({c["verdict"] for c in cases} | {"none", "unknown"})
     true_labels = [lab for lab in LABELS if any(c["label"] == lab for c in cases)]
     confusion = {t: {p: sum(1 for c in cases if c["label"] == t and c["verdict"] == p) for p in predicted}

@@ -41,7 +41,7 @@ from sins_sim.models.effects import EFFECTS, Effect, Param
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, ExperimentSettings, simulate_axis
 
-__all__ = ["DiagnoseSettings", "AxisFit", "EffectSet", "fit_axis", "blas_threads"]
+__all__ = ["DiagnoseSettings", "AxisFit", "EffectSet", "fit_axis", "blas_threads", "in_processes"]
 
 #: Relative bounds of the nominal parameters in the fit (multiples of the nominal value).
 #: A unit's parameters differ from the nominal ones by per cent (f0) or tens of per cent (k); wider
@@ -183,6 +183,23 @@ def worker_pool(n: int):
         ex.shutdown(wait=False, cancel_futures=True)
         raise
     ex.shutdown(wait=True)
+
+
+def in_processes(fn, tasks, jobs: int, done) -> None:
+    """``fn(task)`` for every task, ``jobs`` at once in separate (spawned) processes: whole diagnoses of
+    independent recordings. ``done(i, result)`` is called in this process as task ``i`` ends, in any
+    order. An error or an interrupt cancels what is queued and goes on at once."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=multiprocessing.get_context("spawn")) as ex:
+        futs = {ex.submit(fn, task): i for i, task in enumerate(tasks)}
+        try:
+            for fut in as_completed(futs):
+                done(futs[fut], fut.result())
+        except BaseException:
+            ex.shutdown(wait=False, cancel_futures=True)
+            raise
 
 
 # --- BLAS threads -------------------------------------------------------------------------------------

@@ -447,17 +447,9 @@ def diagnose_many(rec_paths, json_dir=None, report_dir=None, effects=None, jobs:
         for i, task in enumerate(tasks):
             done(i, _diagnose_task(task))
         return out
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from sins_sim.identification.refit import in_processes
 
-    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=multiprocessing.get_context("spawn")) as ex:
-        futs = {ex.submit(_diagnose_task, task): i for i, task in enumerate(tasks)}
-        try:
-            for fut in as_completed(futs):
-                done(futs[fut], fut.result())
-        except BaseException:
-            ex.shutdown(wait=False, cancel_futures=True)
-            raise
+    in_processes(_diagnose_task, tasks, jobs, done)
     return out
 
 
