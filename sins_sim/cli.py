@@ -243,7 +243,7 @@ def _cmd_run(args) -> int:
     print(f"navigation error against truth after {metrics['duration_s']:g} s "
           f"(navigation from {metrics['navigation']['start_s']:g} s):")
     print(f"{'filter':<18}{'horizontal m':>14}{'max m':>11}{'vertical m':>12}{'velocity m/s':>14}"
-          f"{'attitude RMS N,E,D arcsec':>30}  status")
+          f"{'phi RMS N,E,D arcsec':>30}  status")
     for name, m in metrics["filters"].items():
         if "horizontal_position_error_m" not in m:
             print(f"{name:<18}{'':>81}  {m['status']}")

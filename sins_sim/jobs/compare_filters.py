@@ -12,7 +12,8 @@ plug-in, by default the wideband designs of :mod:`sins_sim.filters.wideband`) it
   readout 1000 times finer (same plant, same seed), RMS, for q = 2.42 arcsec (one fringe) and q/16;
 - the group delay of the filter itself at DC (the readout's common delay excluded) and its cost per sample;
 - the coning drift error at 100-1500 Hz on the three-axis unit (1 arcmin per axis on x and y, 90 deg):
-  the heading drift (down axis) of the navigated output, from a least-squares ramp over the navigated span;
+  the effective heading drift (down axis) of the navigated output: a least-squares ramp over the navigated span of
+  the accumulated attitude drift angle (psi with its Earth-rate coupling removed, `metrics.drift_angle_of_series`);
 - the horizontal position error after the stationary-with-vibration mission (``nav-stationary-1h``).
 
 Results: ``OUT`` (``--json``) with exactly the structure of issue 15, and ``DIR`` with ``gain.png``,
@@ -41,7 +42,7 @@ from sins_sim.jobs.reproduce.responses import fir_response, mechanical_response
 from sins_sim.models.motion import SineMotion, StaticMotion
 from sins_sim.models.readout import ReadoutParams
 from sins_sim.simulation.channel import simulate_channel
-from sins_sim.simulation.metrics import ramp_fit
+from sins_sim.simulation.metrics import drift_angle_of_series, ramp_fit
 from sins_sim.simulation.sins import simulate_sins
 from sins_sim.units import ARCMIN, ARCSEC
 
@@ -293,7 +294,7 @@ def _coning(names, st, progress, p0, p1):
                             vehicle=sc.vehicle, translation=sc.translation)
         for n in out:
             ser = res.series[n]
-            fit = ramp_fit(ser["t_s"], ser["attitude_ned_rad"][:, 2])
+            fit = ramp_fit(ser["t_s"], drift_angle_of_series(ser, res.truth_series)[1][:, 2])
             out[n][f"{f:g}"] = float(fit["slope"] / DEG * 3600.0)
         progress(p0 + (p1 - p0) * (i + 1) / len(CONING_HZ))
     return out

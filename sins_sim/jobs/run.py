@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.simulation.metrics import drift_metrics, event_steps
+from sins_sim.simulation.metrics import drift_angle_of_series, drift_metrics, event_steps, gyro_drift
 from sins_sim.simulation.sins import simulate_sins
 from sins_sim.units import ARCMIN, ARCSEC
 
-__all__ = ["run_scenario", "scenario_metrics", "NMI_M", "CEP_RATE_MIN_S"]
+__all__ = ["run_scenario", "scenario_metrics", "excess_over_ideal", "NMI_M", "CEP_RATE_MIN_S", "DEFINITIONS"]
 
 #: One international nautical mile (m).
 NMI_M = 1852.0
@@ -35,6 +35,24 @@ NMI_M = 1852.0
 #: error rate.
 CEP_RATE_MIN_S = 1800.0
 _NED = ("north", "east", "down")
+#: What the per-filter figures of ``metrics.json`` are (written under ``definitions``).
+DEFINITIONS = {
+    "attitude_error_arcsec": (
+        "phi, per NED axis: the rotation vector of q_est (x) q_true*, the computed body attitude against the true "
+        "NED frame at the true position (C_nb_est = (I + [phi x]) C_nb_true); bounded by the Schuler loop. 'final' "
+        "and 'rms' (full rate) are phi; 'final_psi' is psi = phi + (dlon cos L, -dlat, -dlon sin L), the attitude "
+        "error against the NED frame at the computed position, whose dynamics carry no velocity error"),
+    "attitude_drift_deg_h": (
+        "the effective attitude drift the navigation sees, per NED axis: the slope of psi(t) - psi(t0) + "
+        "int (Omega_ie + w_en) x psi dt (psi-angle equations; Earth- and transport-rate coupling removed), where a "
+        "ramp explains it; coning and sculling losses of the attitude integration show here and in no gyro axis"),
+    "gyro_drift_deg_h": (
+        "the drift of each filter's increments per body axis: the slope of its gyro-angle error (output minus the "
+        "true increments, accumulated), where a ramp explains it; a gyro bias shows here"),
+    "excess_over_ideal": "a filter's cost: the norm of the difference of its and ideal's final error vectors",
+    "allan": ("noise terms read only on the longest span at rest, a line removed, where the power-law model "
+              "describes the curve and the term's region shows its own slope; otherwise null with the reason"),
+}
 
 
 def _ned(vec) -> dict:
@@ -73,12 +91,12 @@ def scenario_metrics(res, scenario) -> dict:
                                if res.duration_s >= CEP_RATE_MIN_S and not div else None),
         }
         if ideal is not None and ideal.n and name != "ideal":
-            m["excess_over_ideal"] = {
-                "horizontal_position_error_final_m": last["horizontal_m"] - ideal.last["horizontal_m"],
-                "attitude_error_rms_arcsec": _ned((st.attitude_rms_rad - ideal.attitude_rms_rad) / ARCSEC)}
+            m["excess_over_ideal"] = excess_over_ideal(last, ideal.last)
         t = ser["t_s"]
         if t.size >= 8:
-            m["drift_deg_per_h"] = drift_metrics(t, ser["attitude_ned_rad"])
+            psi, drift_angle = drift_angle_of_series(ser, res.truth_series)
+            m["attitude_error_arcsec"]["final_psi"] = _ned(psi[-1] / ARCSEC)
+            m["attitude_drift_deg_h"] = drift_metrics(t, drift_angle, _NED)
             m["events"] = event_steps(t, ser["attitude_ned_rad"], events)
             lat0 = float(scenario.site["lat_rad"])
             lin = position_error_from_attitude_error(t - t[0], ser["attitude_free_ned_rad"] - ser["attitude_free_ned_rad"][0],
@@ -89,12 +107,34 @@ def scenario_metrics(res, scenario) -> dict:
                         "ch. 12) at rest, driven by the filter's gyro-angle error accumulated in the navigation "
                         "frame (its free attitude error)"}
         else:
-            m["drift_deg_per_h"] = None
+            m["attitude_drift_deg_h"] = None
             m["events"] = []
+        m["gyro_drift_deg_h"] = gyro_drift(res.records, name)
         if name in res.allan:
             m["allan"] = {ax: a.to_dict() for ax, a in res.allan[name].items()}
         out[name] = m
     return out
+
+
+def excess_over_ideal(last: dict, ideal_last: dict) -> dict:
+    """A filter's cost: the vector difference of its final errors and the ideal increments' (never negative).
+
+    The difference of two error magnitudes can be negative (two errors of equal size in different
+    directions differ by up to twice their size); the magnitude of the difference of the two error
+    vectors cannot. The two solutions share the truth, the accelerometers and the seed, so the
+    difference is what the filter alone adds (paired). Both final rows are at the last navigation
+    update each filter reached (they differ by the filter's delay, a few samples).
+    """
+    d_pos = np.array([last["north_m"] - ideal_last["north_m"], last["east_m"] - ideal_last["east_m"]])
+    d_vel = np.asarray(last["velocity_ned_m_s"]) - np.asarray(ideal_last["velocity_ned_m_s"])
+    d_att = np.asarray(last["attitude_ned_rad"]) - np.asarray(ideal_last["attitude_ned_rad"])
+    return {"horizontal_position_error_final_m": float(np.hypot(*d_pos)),
+            "position_error_final_north_east_m": [float(x) for x in d_pos],
+            "vertical_position_error_final_m": float(last["vertical_m"] - ideal_last["vertical_m"]),
+            "velocity_error_final_m_s": float(np.linalg.norm(d_vel)),
+            "attitude_error_final_arcsec": float(np.linalg.norm(d_att) / ARCSEC),
+            "definition": "norm of the difference of the filter's and ideal's final error vectors (paired: same "
+                          "truth, accelerometers and seed)"}
 
 
 def _events_ned(scenario):
@@ -157,6 +197,7 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
                        "update_rate_hz": res.filter_rate_hz / scenario.nav.n_sub,
                        "vertical": scenario.nav.vertical, "accel_delay": scenario.nav.accel_delay},
         "imu": scenario.imu.name,
+        "definitions": DEFINITIONS,
         "filters": scenario_metrics(res, scenario),
         "gyro_error_rms_arcsec": {name: [float(x) for x in np.sqrt(np.mean((e - e.mean(axis=0)) ** 2, axis=0)) / ARCSEC]
                                   for name, e in res.spectra.items() if name != "t" and e.shape[0]},
@@ -189,10 +230,13 @@ def _allan_section(res) -> dict | None:
         return None
     acc = res.allan.get("accelerometers")
     return {"rate_hz": res.allan["rate_hz"], "record_s": res.allan["record_s"],
+            "rest_span_s": res.allan.get("rest_span_s"),
             "what": "overlapping Allan deviation (allantools) of each filter's gyro-angle error (output minus the "
                     "true gyro angle, sensor errors included) and of the accelerometers' accumulated velocity "
                     "error, sampled over the navigation period; terms read by sins_sim.navigation.allan.fit_allan "
-                    "(IEEE Std 952-1997 Annex C); null where a term does not dominate anywhere on the curve",
+                    "(IEEE Std 952-1997 Annex C) on the longest span at rest (rest_span_s), a line removed, and kept "
+                    "by sins_sim.navigation.allan.screen_noise; null where a term is not determinable (reason given) "
+                    "or does not dominate anywhere on the curve",
             "accelerometers": {ax: a.to_dict() for ax, a in acc.items()} if acc else None}
 
 
@@ -208,6 +252,24 @@ def _fmt(x, spec=".3g"):
     return "n/a" if x is None else format(x, spec)
 
 
+def _drift_cells(dr, axes) -> str:
+    """'v +- ci' where a drift, '< bound' where not, per axis."""
+    if not dr:
+        return "n/a"
+    cells = []
+    for ax in axes:
+        d = dr[ax]
+        if d["value"] is not None:
+            cells.append(f"{d['value']:.3g} +- {d['ci95']:.2g}")
+        elif d["bound_95"] == 0.0:
+            cells.append("0")
+        elif d["bound_95"] is not None:
+            cells.append(f"< {d['bound_95']:.2g}")
+        else:
+            cells.append("n/a")
+    return ", ".join(cells)
+
+
 def _report(scenario, metrics, figures) -> str:
     nv = metrics["navigation"]
     lines = [f"# {scenario.name}", "", scenario.description or "", "",
@@ -217,58 +279,84 @@ def _report(scenario, metrics, figures) -> str:
              f"`{nv['coning']}` coning, `{nv['sculling']}` sculling, vertical channel `{nv['vertical']}`, "
              f"accelerometers `{nv['accel_delay']}` to each filter's delay", "",
              "## Navigation error of the integrated solution against the truth", "",
-             "| filter | horizontal final (m) | horizontal max (m) | vertical final (m) | velocity final (m/s) | "
-             "attitude RMS N, E, D (arcsec) | CEP rate (nmi/h) | status |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| filter | horizontal final (m) | horizontal max (m) | excess over ideal (m) | vertical final (m) | "
+             "velocity final (m/s) | attitude error phi RMS N, E, D (arcsec) | CEP rate (nmi/h) | status |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for name, m in metrics["filters"].items():
         if "horizontal_position_error_m" not in m:
-            lines.append(f"| {name} | | | | | | | {m['status']} |")
+            lines.append(f"| {name} | | | | | | | | {m['status']} |")
             continue
         rms = m["attitude_error_arcsec"]["rms"]
+        exc = m.get("excess_over_ideal")
         lines.append(f"| {name} | {m['horizontal_position_error_m']['final']:.3g} | "
-                     f"{m['horizontal_position_error_m']['max']:.3g} | {m['vertical_position_error_m']['final']:.3g} | "
+                     f"{m['horizontal_position_error_m']['max']:.3g} | "
+                     f"{_fmt(exc['horizontal_position_error_final_m']) if exc else ''} | "
+                     f"{m['vertical_position_error_m']['final']:.3g} | "
                      f"{m['velocity_error_m_s']['final']:.3g} | {rms['north']:.3g}, {rms['east']:.3g}, {rms['down']:.3g} | "
                      f"{_fmt(m['cep_rate_nmi_h'])} | {m['status']} |")
     lines += ["", "`ideal` runs the true gyro increments through the same navigation: the algorithm's and the "
-              "accelerometers' floor. Every other filter's excess over it is that filter's cost. The CEP rate is "
+              "accelerometers' floor. Every other filter's excess over it (the norm of the difference of the two final "
+              "horizontal error vectors) is that filter's cost. phi is the attitude error against the true NED frame "
+              "(tilt and heading; the Schuler loop bounds its tilt). The CEP rate is "
               f"the final horizontal error over the mission time, for missions of {CEP_RATE_MIN_S / 60:.0f} min or more.",
-              "", "## What the attitude error is", ""]
+              "", "## Drift", "",
+              "Two different quantities. The **gyro drift** is the slope of each filter's gyro-angle error (output "
+              "minus the true increments, accumulated) per body axis: a gyro bias shows here. The **attitude drift** "
+              "is the slope of the navigation's accumulated attitude drift angle per NED axis (the psi angle with its "
+              "Earth- and transport-rate coupling removed): coning losses of the attitude integration show here and "
+              "in no gyro axis. The tilt phi of the table above is bounded by the Schuler loop and is never read as "
+              "a drift.", "",
+              "| filter | gyro drift x, y, z (deg/h) | attitude drift N, E, D (deg/h) |", "|---|---|---|"]
     for name, m in metrics["filters"].items():
-        dr = m.get("drift_deg_per_h")
-        if not dr:
+        if "horizontal_position_error_m" not in m:
             continue
-        parts = []
-        for ax, val, ci, r2 in zip(dr["axes"], dr["value"], dr["ci95"], dr["r2"]):
-            parts.append(f"{ax} {val:.3g} +- {ci:.2g} deg/h" if val is not None else f"{ax}: no ramp (R^2 {r2})")
-        lines.append(f"- **{name}**: drift " + "; ".join(parts))
-        for ev in m.get("events", []):
+        lines.append(f"| {name} | {_drift_cells(m.get('gyro_drift_deg_h'), 'xyz')} | "
+                     f"{_drift_cells(m.get('attitude_drift_deg_h'), _NED)} |")
+    lines += ["", "A value with its 95 % interval is a drift: a ramp explains at least 90 % of the variance and the "
+              "slope exceeds its interval (residual autocorrelation taken into account) and the resolution "
+              "(1e-4 deg/h). Otherwise `< b` gives the largest ramp the record allows at 95 %.", ""]
+    for name, m in metrics["filters"].items():
+        evs = m.get("events") or []
+        lm = m.get("linear_model")
+        if not evs and not lm:
+            continue
+        lines.append(f"- **{name}**:")
+        for ev in evs:
             step = ", ".join(f"{x:.3g}" for x in ev["step_arcsec"])
             extra = (f", scale-factor error {ev['scale_factor_error_ppm']:.4g} ppm"
                      if "scale_factor_error_ppm" in ev else "")
             lines.append(f"  - {ev['kind']} at {ev['start_s']:g} s: step N, E, D = {step} arcsec{extra}")
-        lm = m.get("linear_model")
         if lm:
             lines.append(f"  - linear error model cross-check: horizontal error "
                          f"{lm['horizontal_position_error_final_m']:.3g} m at the end "
                          f"(integrated solution: {m['horizontal_position_error_m']['final']:.3g} m)")
-    lines += ["", "Drift is reported only where a ramp explains at least 90 % of the attitude error's variance and "
-              "its slope exceeds its 95 % confidence interval (residual autocorrelation taken into account); "
-              "otherwise the attitude error is bounded or a step, and is reported as such.", "",
+    lines += ["",
               "## Gyro-angle error of each filter (output minus truth, full rate, over the spectrum window)", "",
               "| filter | RMS x, y, z (arcsec) |", "|---|---|"]
     for name, r in metrics["gyro_error_rms_arcsec"].items():
         lines.append(f"| {name} | {', '.join(f'{x:.3g}' for x in r)} |")
     al = metrics.get("allan")
     if al:
-        lines += ["", f"## Allan deviation of each filter's gyro error ({al['record_s']:.4g} s at {al['rate_hz']:.3g} Hz)",
-                  "", "| filter | axis | ARW (deg/sqrt(h)) | bias instability (deg/h) | rate random walk "
+        span = al.get("rest_span_s")
+        where = (f"{al['record_s']:.4g} s at rest from t = {span[0]:.4g} s, at {al['rate_hz']:.3g} Hz" if span else
+                 "no span at rest")
+        lines += ["", f"## Allan deviation of each filter's gyro error ({where})", "",
+                  "| filter | axis | ARW (deg/sqrt(h)) | bias instability (deg/h) | rate random walk "
                   "(deg/h/sqrt(h)) | quantisation (arcsec) |", "|---|---|---|---|---|---|"]
+        reasons = {}
         for name, m in metrics["filters"].items():
             for ax, r in (m.get("allan") or {}).items():
+                if not r.get("determinable", True):
+                    reasons.setdefault(r.get("reason", ""), []).append(f"{name} {ax}")
+                    lines.append(f"| {name} | {ax} | not determinable | | | |")
+                    continue
                 lines.append(f"| {name} | {ax} | {_fmt(r['arw_deg_rt_h'])} | {_fmt(r['bias_instability_deg_h'])} | "
                              f"{_fmt(r['rrw_deg_h_rt_h'])} | {_fmt(r['quantization_arcsec'])} |")
-        lines += ["", "n/a: the term does not dominate anywhere on the curve of this record (a filter's own "
-                  "quantisation noise, slope -1, can hide the sensor's ARW up to tens of seconds)."]
+        lines += ["", "Noise terms are read only on the longest span at rest, a line removed, where the power-law "
+                  "model describes the curve (goodness of fit) and a term's region shows its own slope; n/a: the term "
+                  "does not dominate anywhere on a curve that is noise."]
+        for why, who in reasons.items():
+            lines.append(f"- not determinable ({', '.join(who)}): {why}")
     lines += ["", "## Drives (closed-loop amplitude at the amplitude-dependent resonance)", "",
               "| axis | f0 (Hz) | drive (Hz) | V_m start -> end (V) | amplitude (arcmin) |", "|---|---|---|---|---|"]
     for d in metrics["drives"]:

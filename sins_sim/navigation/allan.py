@@ -8,6 +8,8 @@ Arrays in, numbers out. The overlapping Allan deviation is computed by ``allanto
 
    allan_deviation
    fit_allan
+   screen_noise
+   not_determinable
    gyro_allan
    accel_allan
    allan_axes
@@ -64,7 +66,7 @@ Analysis*, NIST Special Publication 1065, 2008. A. Wallin et al., allantools
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from numbers import Real
 
 import numpy as np
@@ -72,8 +74,8 @@ from scipy.optimize import nnls
 
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
-__all__ = ["AllanCurve", "AllanTerm", "AllanAnalysis", "allan_deviation", "fit_allan", "gyro_allan", "accel_allan",
-           "allan_axes", "TERMS", "FLICKER_FLOOR_FACTOR"]
+__all__ = ["AllanCurve", "AllanTerm", "AllanAnalysis", "allan_deviation", "fit_allan", "screen_noise", "gyro_allan",
+           "accel_allan", "allan_axes", "not_determinable", "TERMS", "FLICKER_FLOOR_FACTOR"]
 
 #: Allan-deviation floor of bias instability per unit of B, sqrt(2 ln 2 / pi) (IEEE Std 952-1997, Annex C).
 FLICKER_FLOOR_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
@@ -89,6 +91,13 @@ TERMS = {
 #: power-law sum by a few per cent (e.g. a Gauss-Markov bias plateau outside its decade range), so the
 #: short-tau points, estimated to 0.1 %, must not pin the fit alone.
 REL_FLOOR = 0.05
+#: :func:`screen_noise`: points a term's region must hold, the largest departure of its measured slope from the
+#: nominal one (half the spacing of neighbouring power laws), the smallest goodness-of-fit p-value, and the
+#: largest fraction of the reliable points the robust fit may leave out.
+MIN_REGION_POINTS = 3
+SLOPE_TOLERANCE = 0.25
+GOF_P_MIN = 1e-3
+MAX_DROPPED_FRACTION = 0.1
 _DATA = {"gyro": ("rate", "increment", "angle"), "accel": ("specific_force", "increment", "velocity")}
 
 
@@ -195,6 +204,16 @@ class AllanAnalysis:
         Name -> :class:`AllanTerm`.
     min_clusters : float
         The reliability threshold used.
+    goodness_of_fit : dict or None
+        How well the power-law sum describes the reliable points (:func:`fit_allan`): ``points``,
+        ``dropped`` (points the robust fit had to leave out), ``chi2``, ``dof``, ``p_value``.
+    determinable : bool
+        False when the record cannot support noise terms at all (:func:`screen_noise`): then every
+        term reads NaN and ``reason`` says why.
+    reason : str
+        Why the record supports no noise term (empty when it does).
+    rejected : dict
+        Term name -> why a term that the fit found was not accepted (:func:`screen_noise`).
     """
 
     curve: AllanCurve
@@ -202,6 +221,10 @@ class AllanAnalysis:
     coefficients: dict
     terms: dict
     min_clusters: float
+    goodness_of_fit: dict | None = None
+    determinable: bool = True
+    reason: str = ""
+    rejected: dict = field(default_factory=dict)
 
     @property
     def display_unit(self) -> str:
@@ -262,6 +285,13 @@ class AllanAnalysis:
         out = {k: (float(v) if np.isfinite(v) else None) for k, v in r.items()}
         out["tau_range_s"] = {key_of[n]: (list(self.terms[n].tau_range_s) if self.terms[n].tau_range_s else None)
                               for n in key_of}
+        out["determinable"] = self.determinable
+        if self.reason:
+            out["reason"] = self.reason
+        if self.rejected:
+            out["rejected"] = {key_of.get(n, n): why for n, why in self.rejected.items()}
+        if self.goodness_of_fit is not None:
+            out["goodness_of_fit"] = dict(self.goodness_of_fit)
         return out
 
 
@@ -410,6 +440,7 @@ def fit_allan(curve: AllanCurve, sensor: str = "gyro", min_clusters: float = 10.
             break
         use[int(np.argmax(dev))] = False
     consistent = np.abs(s2 / model - 1.0) <= 3.0 * rel
+    gof = _goodness_of_fit(s2, model, rel, coef, use)
     w = 1.0 / (np.maximum(model, 0.25 * s2) * rel) ** 2
     terms = {}
     for k, name in enumerate(names):
@@ -428,7 +459,86 @@ def fit_allan(curve: AllanCurve, sensor: str = "gyro", min_clusters: float = 10.
             slope = float(np.polyfit(np.log(tau[sel]), 0.5 * np.log(s2[sel]), 1)[0])
         terms[name] = AllanTerm(name, TERMS[name][1], _coefficient_from_c(name, c_k),
                                 (float(tau[a]), float(tau[b - 1])), b - a, slope)
-    return AllanAnalysis(curve, sensor, {n: float(c) for n, c in zip(names, coef)}, terms, float(min_clusters))
+    return AllanAnalysis(curve, sensor, {n: float(c) for n, c in zip(names, coef)}, terms, float(min_clusters),
+                         goodness_of_fit=gof)
+
+
+def _goodness_of_fit(s2, model, rel, coef, use) -> dict:
+    """Chi-square of the reliable points against the fitted power-law sum (every point, dropped ones too).
+
+    Each point's relative standard deviation is ``rel`` (see :func:`fit_allan`). The overlapping
+    estimator's points are correlated, so the statistic is not exactly chi-square distributed: its
+    p-value is a screen (used with a small threshold, :data:`GOF_P_MIN`), not an exact probability.
+    """
+    from scipy.stats import chi2 as chi2_dist
+
+    z = (s2 / model - 1.0) / rel
+    stat = float(np.sum(z * z))
+    dof = max(int(s2.size) - int(np.count_nonzero(coef > 0.0)), 1)
+    return {"points": int(s2.size), "dropped": int(s2.size - int(np.count_nonzero(use))), "chi2": stat,
+            "dof": dof, "p_value": float(chi2_dist.sf(stat, dof))}
+
+
+def screen_noise(analysis: AllanAnalysis, min_region_points: int = MIN_REGION_POINTS,
+                 slope_tolerance: float = SLOPE_TOLERANCE, p_min: float = GOF_P_MIN,
+                 max_dropped_fraction: float = MAX_DROPPED_FRACTION) -> AllanAnalysis:
+    """Keep only the noise terms the curve supports; say why the others are not determinable.
+
+    The IEEE model (Std 952-1997, Annex C) describes a record made of independent noise processes. A
+    curve it does not describe, or a term read off one or two points, is not a noise term and must not
+    be reported as one (a manoeuvre's or a vibration's deterministic error read as an ARW or a rate
+    random walk). The rules, in order:
+
+    1. the fit must describe the curve: at least 4 reliable points, at most ``max_dropped_fraction``
+       of them left out by the robust fit, and the goodness-of-fit p-value (:func:`_goodness_of_fit`)
+       at least ``p_min``; otherwise nothing is determinable;
+    2. a term is kept only when its region holds at least ``min_region_points`` points (two points
+       make a line of any slope) and the slope measured there lies within ``slope_tolerance`` of its
+       nominal slope: 0.25 is half the spacing of neighbouring power laws, so a region kept is closer to
+       its own law than to any other;
+    3. the rate ramp (slope +1) is deterministic, never a noise term.
+
+    Parameters
+    ----------
+    analysis : AllanAnalysis
+        From :func:`fit_allan`.
+    min_region_points, slope_tolerance, p_min, max_dropped_fraction
+        The rules above.
+
+    Returns
+    -------
+    AllanAnalysis
+        The same analysis with the terms that fail set to NaN, and ``determinable``, ``reason`` and
+        ``rejected`` filled in.
+    """
+    gof = analysis.goodness_of_fit
+    empty = {n: AllanTerm(n, TERMS[n][1], math.nan, None, 0, math.nan) for n in TERMS}
+    if gof is None or gof["points"] < 4:
+        n = 0 if gof is None else gof["points"]
+        return replace(analysis, terms=empty, determinable=False,
+                       reason=f"too few reliable points on the curve ({n}, need 4): the record is too short")
+    dropped_ok = gof["dropped"] <= max_dropped_fraction * gof["points"]
+    if gof["p_value"] < p_min or not dropped_ok:
+        return replace(analysis, terms=empty, determinable=False,
+                       reason=(f"the noise model does not describe the curve (chi2/dof {gof['chi2'] / gof['dof']:.3g}, "
+                               f"p {gof['p_value']:.2g}; {gof['dropped']} of {gof['points']} points left out): "
+                               "deterministic errors dominate this record"))
+    terms, rejected = dict(analysis.terms), {}
+    for name, term in analysis.terms.items():
+        if not term.found:
+            continue
+        why = None
+        if name == "ramp":
+            why = "a rate ramp is deterministic, not noise"
+        elif term.n_points < min_region_points:
+            why = f"read off {term.n_points} point(s) (need {min_region_points})"
+        elif not abs(term.slope_measured - term.slope) <= slope_tolerance:
+            why = (f"slope {term.slope_measured:.2f} where it dominates, not {term.slope:+.1f} "
+                   f"(tolerance {slope_tolerance})")
+        if why is not None:
+            terms[name] = empty[name]
+            rejected[name] = why
+    return replace(analysis, terms=terms, rejected=rejected)
 
 
 def gyro_allan(x, rate_hz: float, data: str = "rate", min_clusters: float = 10.0, share: float = 0.5,
@@ -528,3 +638,12 @@ def allan_axes(x, rate_hz: float, sensor: str = "gyro", data: str | None = None,
     else:
         raise ValueError(f"allan.sensor: must be one of ['accel', 'gyro'], got {sensor!r}")
     return {ax: fn(arr[:, i], rate_hz, data or default, **kwargs) for i, ax in enumerate("xyz")}
+
+
+def not_determinable(sensor: str, reason: str, rate_hz: float = math.nan) -> AllanAnalysis:
+    """An analysis that reads no term, with the reason (e.g. no stationary span in a record)."""
+    if sensor not in _DATA:
+        raise ValueError(f"allan.sensor: must be one of ['accel', 'gyro'], got {sensor!r}")
+    curve = AllanCurve(np.zeros(0), np.zeros(0), np.zeros(0), 0, float(rate_hz))
+    empty = {n: AllanTerm(n, TERMS[n][1], math.nan, None, 0, math.nan) for n in TERMS}
+    return AllanAnalysis(curve, sensor, {n: 0.0 for n in TERMS}, empty, 10.0, determinable=False, reason=reason)

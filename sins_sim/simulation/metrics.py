@@ -18,10 +18,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sins_sim import earth
 from sins_sim._kernels import truth as ktruth
-from sins_sim.units import ARCSEC, DEG
+from sins_sim.units import ARCSEC, DEG_PER_H
 
-__all__ = ["ErrorSeries", "NavErrorStats", "ramp_fit", "drift_metrics", "event_steps", "SERIES_FIELDS", "N_COLS"]
+__all__ = ["ErrorSeries", "NavErrorStats", "ramp_fit", "drift_metrics", "gyro_drift", "psi_angle",
+           "attitude_drift_angle", "track_on_series", "drift_angle_of_series", "event_steps", "SERIES_FIELDS", "N_COLS", "DRIFT_RESOLUTION_RAD_S"]
+
+#: Smallest drift reported as a drift (rad/s): 1e-4 deg/h, a tenth of the bias stability of the best
+#: navigation-grade gyros (0.001 deg/h). Below it a ramp is the simulation's own numerical floor (the ideal
+#: increments through the strapdown algorithm drift by about 1e-6 deg/h), reported as "below resolution".
+DRIFT_RESOLUTION_RAD_S = 1e-4 * DEG_PER_H
 
 #: Stored channels (columns of the error rows of :func:`sins_sim._kernels.truth.nav_errors` plus
 #: the solution's position): name -> columns.
@@ -143,19 +150,138 @@ def ramp_fit(t_s, y, r2_min: float = 0.9):
     return {"slope": b, "ci95": ci, "r2": r2, "n_eff": n_eff, "explains": bool(r2 >= r2_min and abs(b) > ci)}
 
 
-def drift_metrics(t_s, att_ned):
-    """``drift_deg_per_h`` per NED axis: the ramp's slope and 95 % interval where a ramp explains the
-    attitude error, else None (with the R^2 that was found)."""
-    out = {"value": [], "ci95": [], "r2": []}
-    for i in range(3):
-        f = ramp_fit(t_s, att_ned[:, i])
-        ok = f["explains"]
-        out["value"].append(f["slope"] / DEG * 3600.0 if ok else None)
-        out["ci95"].append(f["ci95"] / DEG * 3600.0 if ok else None)
-        out["r2"].append(None if math.isnan(f["r2"]) else round(f["r2"], 4))
-    out["axes"] = ["north", "east", "down"]
-    out["rule"] = "reported where a ramp a + b t explains >= 90 % of the variance and |b| > its 95 % interval"
+def drift_metrics(t_s, angle, axes, resolution_rad_s: float = DRIFT_RESOLUTION_RAD_S) -> dict:
+    """Drift per axis of an accumulated angle error, reported as a drift only where a ramp explains it.
+
+    Parameters
+    ----------
+    t_s : array (N,)
+        Times (s).
+    angle : array (N, 3)
+        An accumulated angle error (rad) whose slope is a drift: a filter's gyro-angle error in body
+        axes (:func:`gyro_drift`), or the navigation's accumulated attitude drift angle
+        (:func:`attitude_drift_angle`). Never the tilt phi, which the Schuler loop bounds.
+    axes : sequence of 3 str
+        Axis names.
+    resolution_rad_s : float
+        Slopes below this are "below resolution" (:data:`DRIFT_RESOLUTION_RAD_S`).
+
+    Returns
+    -------
+    dict
+        Per axis ``{"value", "ci95"}`` (deg/h; None unless a drift), ``"r2"``, ``"status"`` (``drift``: a
+        ramp explains at least 90 % of the variance, its slope exceeds its 95 % interval (:func:`ramp_fit`)
+        and the resolution; ``no ramp``: the error is bounded, a step or noise; ``below resolution``) and
+        ``"bound_95"`` (deg/h): the largest ramp the record allows at 95 %, ``|slope| + ci95``, where
+        no drift is reported. Plus ``"rule"``.
+    """
+    out = {}
+    for i, ax in enumerate(axes):
+        f = ramp_fit(t_s, angle[:, i])
+        r2 = None if math.isnan(f["r2"]) else round(f["r2"], 4)
+        slope, ci = f["slope"] / DEG_PER_H, f["ci95"] / DEG_PER_H
+        if not math.isfinite(slope):
+            out[ax] = {"value": None, "ci95": None, "r2": r2, "status": "too short", "bound_95": None}
+        elif f["explains"] and abs(f["slope"]) >= resolution_rad_s:
+            out[ax] = {"value": slope, "ci95": ci, "r2": r2, "status": "drift", "bound_95": None}
+        else:
+            status = "below resolution" if f["explains"] else "no ramp"
+            out[ax] = {"value": None, "ci95": None, "r2": r2, "status": status, "bound_95": abs(slope) + ci}
+    out["rule"] = (f"a drift where a ramp a + b t explains >= 90 % of the variance, |b| > its 95 % interval and "
+                   f"|b| >= {resolution_rad_s / DEG_PER_H:g} deg/h (the resolution); otherwise bound_95 = |b| + ci95")
     return out
+
+
+def gyro_drift(records: dict, name: str) -> dict | None:
+    """``gyro_drift_deg_h``: the drift of a filter's output per body axis, from its gyro-angle error.
+
+    The record is the filter's output minus the true gyro angle, sensor errors included, accumulated in
+    body axes and sampled over the navigated period (:attr:`SinsResult.records`). Its slope is what the
+    filter's increments add to the true rotation per second on that axis: a gyro bias, or a filter's
+    gain error against the Earth rate at rest. Coning losses do not appear here (they live in the
+    attitude integration: :func:`attitude_drift_angle`).
+    """
+    x = records.get(name) if records else None
+    if x is None:
+        return None
+    return drift_metrics(records["t_s"], x, ("x", "y", "z"))
+
+
+def psi_angle(ser: dict) -> np.ndarray:
+    """The psi attitude error (rad, NED) from the stored series: ``psi = phi + dtheta``.
+
+    ``phi`` (``attitude_ned_rad``) is the rotation vector of ``q_est (x) q_true*``: the computed body
+    attitude against the true NED frame at the true position. ``dtheta = (dlon cos L, -dlat, -dlon sin
+    L)`` is the rotation from the true NED frame to the NED frame at the computed position (position
+    error angle; Titterton & Weston 2004, sec. 12.3.3, with ``dlat = north / (R_N + h)``, ``dlon cos L =
+    east / (R_E + h)``); with phi's sign convention (phi = psi - dtheta in Titterton & Weston's), psi
+    is the attitude error against the computed position's frame. Its dynamics carry no velocity or
+    position error (``psi' = -w_in x psi - eps``: the psi-angle equations, Benson 1975), so an
+    accelerometer error leaves it at zero while phi follows the Schuler loop. Block means in, block
+    means out (the relation is linear).
+    """
+    lat = ser["lat_rad"]
+    r_n, r_e = earth.radii(lat)
+    h = ser.get("h_m")
+    h = 0.0 if h is None else h
+    dth = np.stack([ser["east_m"] / (r_e + h), -ser["north_m"] / (r_n + h),
+                    -ser["east_m"] * np.tan(lat) / (r_e + h)], axis=1)
+    return ser["attitude_ned_rad"] + dth
+
+
+def track_on_series(truth_series: dict, t_s) -> dict:
+    """The truth's latitude, height and transport rate at the stored error series' times ``t_s``.
+
+    The velocity comes from the truth's stored positions (central differences of latitude, longitude
+    and height; ``v_N = lat' (R_N + h)``, ``v_E = lon' cos L (R_E + h)``), the transport rate from
+    :func:`sins_sim.earth.transport_rate_ned`. Used for the psi angle's radii and the drift angle's
+    coupling term, where metre-level detail does not matter.
+    """
+    tt = np.asarray(truth_series.get("t_s", ()), dtype=np.float64)
+    t_s = np.asarray(t_s, dtype=np.float64)
+    if tt.size < 3:
+        return {"h_m": np.zeros_like(t_s), "w_en_ned": None}
+    lat, lon, h = truth_series["lat_rad"], np.unwrap(truth_series["lon_rad"]), truth_series["h_m"]
+    r_n, r_e = earth.radii(lat)
+    v = np.stack([np.gradient(lat, tt) * (r_n + h), np.gradient(lon, tt) * np.cos(lat) * (r_e + h),
+                  -np.gradient(h, tt)], axis=1)
+    w = earth.transport_rate_ned(lat, h, v)
+    return {"h_m": np.interp(t_s, tt, h),
+            "w_en_ned": np.stack([np.interp(t_s, tt, w[:, i]) for i in range(3)], axis=1)}
+
+
+def drift_angle_of_series(ser: dict, truth_series: dict) -> tuple:
+    """``(psi, D)`` of one filter's stored series: :func:`psi_angle` and :func:`attitude_drift_angle` along the
+    truth's track (:func:`track_on_series`), both (N, 3) rad in NED at ``ser["t_s"]``."""
+    t = ser["t_s"]
+    track = track_on_series(truth_series, t)
+    psi = psi_angle({**ser, "h_m": track["h_m"]})
+    return psi, attitude_drift_angle(t, psi, ser["lat_rad"], track["w_en_ned"])
+
+
+def attitude_drift_angle(t_s, psi, lat_rad, w_en_ned=None) -> np.ndarray:
+    """The navigation's accumulated attitude drift angle (rad, NED): ``psi(t) - psi(t0) + int w_in x psi dt``.
+
+    From the psi-angle equation ``psi' = -w_in x psi + eps`` (phi's sign convention): integrating gives
+    ``int eps dt``, the attitude the navigation has gained or lost, without the Earth-rate and
+    transport-rate coupling between axes (which turns a north tilt into an east one over an hour).
+    ``w_in = Omega_ie + w_en`` (NED); trapezoidal integration over the stored series.
+
+    Parameters
+    ----------
+    t_s : array (N,)
+    psi : array (N, 3)
+        :func:`psi_angle`.
+    lat_rad : array (N,)
+    w_en_ned : array (N, 3) or None
+        Transport rate (rad/s); None: the vehicle at rest.
+    """
+    w = earth.earth_rate_ned(lat_rad)
+    if w_en_ned is not None:
+        w = w + w_en_ned
+    c = np.cross(w, psi)
+    integral = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (c[1:] + c[:-1]) * np.diff(t_s)[:, None], axis=0)])
+    return psi - psi[0] + integral
 
 
 def event_steps(t_s, att_ned, events, window_s: float = 0.5, settle_s: float = 0.2):

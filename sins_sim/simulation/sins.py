@@ -72,6 +72,12 @@ ALLAN_RATE_HZ = 100.0
 ALLAN_MAX_SAMPLES = 2 ** 16
 #: Shortest Allan record analysed (samples): below it the curve has too few clusters to read a term.
 ALLAN_MIN_SAMPLES = 200
+#: The vehicle counts as at rest (for the Allan analysis) below this true speed (m/s): well above the mm/s of a
+#: block vibrating on its mounts, well below any deliberate motion.
+REST_SPEED_M_S = 0.05
+#: An Allan record whose RMS, once a line is removed, is below this (rad or m/s) holds only rounding: no noise term.
+#: (1e-10 rad is 2e-5 arcsec, a thousandth of the smallest readout quantum in use.)
+ALLAN_NOISE_FLOOR = 1e-10
 
 
 @dataclass(frozen=True)
@@ -238,6 +244,11 @@ class SinsResult:
         sampled at ``rate_hz``. At rest this is the output's own noise; in motion the true motion
         is removed and what remains is the sensor's and the filter's error. Empty without
         navigation or when the record is shorter than :data:`ALLAN_MIN_SAMPLES`.
+    records : dict
+        The sampled sensor-level error records behind :attr:`allan` and the gyro drift
+        (:func:`_error_records`): ``t_s``, ``rate_hz``, ``speed_m_s`` (the vehicle's true speed at
+        each sample), and per filter (and ``accelerometers``) an ``(N, 3)`` array in body axes of the
+        accumulated gyro-angle error (rad) or velocity-increment error (m/s). Empty without navigation.
     """
 
     stats: dict
@@ -255,6 +266,7 @@ class SinsResult:
     nav: NavSettings | None
     outputs_last: dict
     allan: dict = field(default_factory=dict)
+    records: dict = field(default_factory=dict)
 
 
 def axis_pool(threads: int, n_axes: int = 3):
@@ -530,6 +542,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         allan_next = k_start
         allan_rec = {name: [] for name in filters}
         allan_rec["accelerometers"] = []
+        allan_rec["speed_m_s"] = []
     spectra = {name: [] for name in filters}
     truth_series = {"t_s": [], "lat_rad": [], "lon_rad": [], "h_m": []}
     diverged = {}
@@ -629,13 +642,14 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         spec = {n: (np.concatenate(spectra[n])[:n_sp] if spectra[n] else np.zeros((0, 3))) for n in filters}
         spec["t"] = (k_start + np.arange(n_sp)) / fs
     series = {n: nf.series.arrays() for n, nf in navs.items() if nf.series is not None}
-    allan = _allan_analyses(allan_rec, fs / allan_stride, diverged) if nav is not None else {}
+    records = _error_records(allan_rec, fs / allan_stride, k_start / fs, diverged) if nav is not None else {}
+    allan = _allan_analyses(records, diverged) if nav is not None else {}
     ts = {k: (np.concatenate(a) if a else np.zeros(0)) for k, a in truth_series.items()}
     return SinsResult(stats={n: nf.stats for n, nf in navs.items()}, series=series, truth_series=ts, spectra=spec,
                       delays=dict(delays, residual_eliminator=residual_delay), diverged=diverged, drives=drives,
                       filter_rate_hz=fs, duration_s=duration_s, nav_start_s=(nav.start_s if nav else 0.0),
                       warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out,
-                      allan=allan)
+                      allan=allan, records=records)
 
 
 _NO_REF = np.zeros(3)
@@ -773,26 +787,80 @@ def _keep_allan(rec, nxt, stride, outs_buf, phi_buf, tr_buf, delays, k1, n_out, 
             d = delays[name]
             rec[name].append(outs_buf[name].get(lo + d, top + d)[sel] - truth + gcum)
     rec["accelerometers"].append(tr_buf["acum"].get(lo, top)[sel].copy())
+    rec["speed_m_s"].append(np.linalg.norm(tr_buf["v"].get(lo, top)[sel], axis=1))
     return int(idx[-1]) + stride
 
 
-def _allan_analyses(rec, rate_hz, diverged) -> dict:
-    """Allan analyses of the sampled error records (see :attr:`SinsResult.allan`)."""
-    from sins_sim.navigation.allan import allan_axes
-
-    out = {}
+def _error_records(rec, rate_hz, t0_s, diverged) -> dict:
+    """The sampled error records as arrays (see :attr:`SinsResult.records`); filters that diverged are left out."""
+    speed = rec.get("speed_m_s") or []
+    n = sum(x.shape[0] for x in speed)
+    if n == 0:
+        return {}
+    out = {"rate_hz": rate_hz, "t_s": t0_s + np.arange(n) / rate_hz, "speed_m_s": np.concatenate(speed)}
     for name, parts in rec.items():
-        if name in diverged or not parts:
+        if name == "speed_m_s" or name in diverged or not parts:
             continue
         x = np.concatenate(parts)
-        if x.shape[0] < ALLAN_MIN_SAMPLES or not np.all(np.isfinite(x)):
-            continue
+        if x.shape[0] == n and np.all(np.isfinite(x)):
+            out[name] = x
+    return out
+
+
+def rest_span(speed_m_s, rest_speed_m_s: float = REST_SPEED_M_S):
+    """``(start, stop)`` sample indices of the longest span where the vehicle is at rest, or None."""
+    at_rest = np.concatenate([[False], np.asarray(speed_m_s) < rest_speed_m_s, [False]])
+    edges = np.flatnonzero(np.diff(at_rest.astype(np.int8)))
+    if edges.size == 0:
+        return None
+    starts, stops = edges[0::2], edges[1::2]
+    k = int(np.argmax(stops - starts))
+    return int(starts[k]), int(stops[k])
+
+
+def _allan_analyses(records, diverged) -> dict:
+    """Allan analyses of the sampled error records (see :attr:`SinsResult.allan`).
+
+    Noise terms are read only where they can mean something: on the longest span where the vehicle
+    is at rest (a manoeuvre's errors are deterministic, not noise), with the deterministic part that
+    the rest span can carry removed (a least-squares line through the accumulated error: a constant
+    bias, which the Allan variance does not see either, and the alignment offset), and only where the
+    power-law model describes the curve (:func:`sins_sim.navigation.allan.screen_noise`). Otherwise
+    every term of that record is "not determinable", with the reason.
+    """
+    from sins_sim.navigation.allan import allan_axes, not_determinable, screen_noise
+
+    if not records:
+        return {}
+    rate_hz = records["rate_hz"]
+    names = [k for k in records if k not in ("rate_hz", "t_s", "speed_m_s")]
+    span = rest_span(records["speed_m_s"])
+    n_rest = 0 if span is None else span[1] - span[0]
+    out = {"rate_hz": rate_hz, "record_s": n_rest / rate_hz if n_rest else 0.0,
+           "rest_span_s": ([float(records["t_s"][span[0]]), float(records["t_s"][span[1] - 1])] if span else None)}
+    for name in names:
         sensor = "accel" if name == "accelerometers" else "gyro"
+        if n_rest < ALLAN_MIN_SAMPLES:
+            why = (f"the vehicle is at rest for {n_rest / rate_hz:.3g} s at most (need {ALLAN_MIN_SAMPLES} samples, "
+                   f"{ALLAN_MIN_SAMPLES / rate_hz:.3g} s): noise terms are read only at rest, where the error is not "
+                   "the deterministic response to a manoeuvre")
+            out[name] = {ax: not_determinable(sensor, why, rate_hz) for ax in AXES}
+            continue
+        x = records[name][span[0]:span[1]]
+        t = np.arange(x.shape[0]) / rate_hz
+        coef = np.polyfit(t, x, 1)  # the deterministic part: offset and constant bias (a line in angle/velocity)
+        x = x - (coef[0][None, :] * t[:, None] + coef[1][None, :])
         data = "velocity" if sensor == "accel" else "angle"
-        out[name] = allan_axes(x, rate_hz, sensor=sensor, data=data)
-        out["record_s"] = (x.shape[0] - 1) / rate_hz
-    if out:
-        out["rate_hz"] = rate_hz
+        rms = np.sqrt(np.mean(x * x, axis=0))
+        quiet = rms < ALLAN_NOISE_FLOOR
+        x[:, quiet] = 0.0  # (not analysed; keeps allantools away from a rounding-only record)
+        res = {ax: screen_noise(a) for ax, a in allan_axes(x, rate_hz, sensor=sensor, data=data).items()}
+        for i, ax in enumerate(AXES):
+            if quiet[i]:
+                res[ax] = not_determinable(sensor, f"the record carries no noise: {rms[i]:.2g} RMS once a line is "
+                                                   f"removed, below the rounding floor {ALLAN_NOISE_FLOOR:g} (SI)",
+                                           rate_hz)
+        out[name] = res
     return out
 
 

@@ -44,7 +44,11 @@ METRICS = {
     "attitude_error_arcsec_rms_total": "RMS attitude error, root sum of squares N, E, D (arcsec)",
     **{f"attitude_error_arcsec_final_{a}": f"final attitude error about {a} (arcsec)" for a in _NED},
     "cep_rate_nmi_h": "CEP rate (nmi/h)",
-    **{f"drift_deg_per_h_{a}": f"drift about {a} (deg/h; only where a ramp explains it)" for a in _NED},
+    **{f"attitude_drift_deg_h_{a}": f"effective attitude drift about {a} (deg/h; only where a ramp explains it)"
+       for a in _NED},
+    **{f"gyro_drift_deg_h_{a}": f"gyro drift of the filter's output, axis {a} (deg/h; only where a ramp explains it)"
+       for a in ("x", "y", "z")},
+    "excess_over_ideal_horizontal_m": "final horizontal error beyond ideal's: norm of the vector difference (m)",
     "event_step_arcsec_max": "largest attitude step across a shock or turn (arcsec)",
     **{f"gyro_error_rms_arcsec_{a}": f"RMS gyro-angle error, axis {a} (arcsec)" for a in ("x", "y", "z")},
 }
@@ -206,9 +210,13 @@ def flatten_metrics(filters: dict, gyro_rms: dict) -> dict:
                 **{f"attitude_error_arcsec_final_{a}": _num(fin[a]) for a in _NED},
                 "cep_rate_nmi_h": _num(m.get("cep_rate_nmi_h")),
             })
-            dr = m.get("drift_deg_per_h")
-            if dr:
-                vals.update({f"drift_deg_per_h_{a}": _num(x) for a, x in zip(dr["axes"], dr["value"])})
+            for key, axes in (("attitude_drift_deg_h", _NED), ("gyro_drift_deg_h", ("x", "y", "z"))):
+                dr = m.get(key)
+                if dr:
+                    vals.update({f"{key}_{a}": _num(dr[a]["value"]) for a in axes})
+            exc = m.get("excess_over_ideal")
+            if exc:
+                vals["excess_over_ideal_horizontal_m"] = _num(exc["horizontal_position_error_final_m"])
             steps = [abs(s) for ev in m.get("events") or [] for s in ev.get("step_arcsec", [])]
             if steps:
                 vals["event_step_arcsec_max"] = _num(max(steps))
