@@ -60,7 +60,7 @@ def test_a_diverging_filter_is_reported_and_the_run_goes_on(tmp_path, capsys):
         assert m["status"] == "ok" and m["diverged"] is None
         # complete: every metric of the filter is there and finite, navigated to the end
         for key in ("horizontal_position_error_m", "vertical_position_error_m", "velocity_error_m_s",
-                    "attitude_error_arcsec", "drift_deg_per_h", "events"):
+                    "attitude_error_arcsec", "attitude_drift_deg_h", "gyro_drift_deg_h", "events"):
             assert key in m, (name, key)
         assert m["navigated_s"] == pytest.approx(14.0, abs=0.01)
         assert all(math.isfinite(x) for x in _finite_numbers(m)), name

@@ -522,7 +522,8 @@ def screen_noise(analysis: AllanAnalysis, min_region_points: int = MIN_REGION_PO
         return replace(analysis, terms=empty, determinable=False,
                        reason=(f"the noise model does not describe the curve (chi2/dof {gof['chi2'] / gof['dof']:.3g}, "
                                f"p {gof['p_value']:.2g}; {gof['dropped']} of {gof['points']} points left out): "
-                               "deterministic errors dominate this record"))
+                               "the record holds deterministic errors (a periodic residual, a quantiser's pattern) "
+                               "or noise outside the power-law model"))
     terms, rejected = dict(analysis.terms), {}
     for name, term in analysis.terms.items():
         if not term.found:
