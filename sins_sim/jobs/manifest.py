@@ -334,7 +334,7 @@ def record_run(manifest: Manifest, scenario, path, overrides: dict | None, folde
 
     res = resolve_run_inputs(path, overrides)
     inputs = Path(folder) / INPUTS
-    inputs.mkdir(exist_ok=True)
+    inputs.mkdir(parents=True, exist_ok=True)
     note = "written by sins-sim run: the {} as run, every default filled in (sins-sim run --rerun reads it)"
     (inputs / res["copies"]["scenario"]).write_text(_dump_yaml(res["scenario"], note.format("scenario")))
     (inputs / res["copies"]["imu"]).write_text(_dump_yaml(res["imu"], note.format("IMU")))
