@@ -13,7 +13,9 @@ Every command ends in one of four ways:
 
 Never a traceback, and never a half-written result: outputs are written to a
 temporary sibling and moved into place when the job has finished
-(:mod:`sins_sim.jobs.output`). Python warnings raised by a job are printed as
+(:mod:`sins_sim.jobs.output`). Never a silent loss: an existing result folder is
+replaced only with ``--force``, and every result folder holds ``manifest.json``
+(:mod:`sins_sim.jobs.manifest`; ``run --rerun DIR`` runs a ``run`` folder again). Python warnings raised by a job are printed as
 one ``warning: <message>`` line each, once (:mod:`sins_sim.jobs.messages`),
 also with ``--quiet`` (which silences only the progress bar).
 """
@@ -329,6 +331,7 @@ def _cmd_budget(args) -> int:
     from pathlib import Path
 
     from sins_sim.jobs.budget import run_budget
+    from sins_sim.jobs.manifest import record_scenario
 
     from tqdm import tqdm
 
@@ -342,9 +345,11 @@ def _cmd_budget(args) -> int:
                        disable=args.quiet, dynamic_ncols=True)
         bar.update(done - bar.n)
 
+    manifest = _manifest(args)
     try:
-        with _result_dir(args, out, inputs=[args.scenario]) as tmp:
+        with _result_dir(args, out, inputs=[args.scenario], manifest=manifest) as tmp:
             b = run_budget(args.scenario, tmp, overrides=_overrides(args), workers=args.workers, progress=progress)
+            record_scenario(manifest, args.scenario, _overrides(args))  # validated by the budget's first load
     finally:
         if bar is not None:
             bar.close()
@@ -614,7 +619,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run a three-axis SINS scenario (YAML) end to end",
                        description="Run a scenario file: three dithered channels, their filters, attitude "
                                    "integration and navigation error; writes metrics.json, timeseries.npz, "
-                                   "attitude_error.png, spectrum.png and report.md.")
+                                   "the figures, report.md, manifest.json (versions, command line, timings, "
+                                   "input hashes, the parameters each filter used) and inputs/ (the scenario "
+                                   "and IMU as run, for --rerun).")
     p.add_argument("scenario", nargs="?", default=None, help="scenario YAML file (see scenarios/)")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     p.add_argument("--rerun", metavar="DIR", default=None,

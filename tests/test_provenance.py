@@ -266,3 +266,21 @@ def test_a_sweep_folder_resumes_the_same_sweep_and_refuses_another_without_force
                                           r"pass --force"):
         store.check_same("lot-b")
     store.check_same("lot-b", force=True)
+
+
+def test_budget_manifest_holds_the_scenario_as_run(tmp_path, monkeypatch):
+    """budget runs its scenario in variants: its manifest records the files' hashes and the scenario as run."""
+    scen = _inputs(tmp_path / "in")
+
+    def fake_budget(path, out, overrides=None, workers=2, progress=None):
+        load_scenario(path, overrides)  # the real job validates the scenario first
+        (Path(out) / "budget.json").write_text("{}")
+        return {"filters": [], "total": {}, "sources": {}, "floor": {}, "remainder": {}, "duration_s": 1.5, "runs": 0}
+
+    monkeypatch.setattr("sins_sim.jobs.budget.run_budget", fake_budget)
+    assert main(["budget", str(scen), "--out", str(tmp_path / "b"), "--duration", "1.2", "--quiet"]) == 0
+    m = json.loads((tmp_path / "b" / "manifest.json").read_text())
+    assert m["command"] == "budget" and m["overrides"] == {"duration_s": 1.2}
+    assert m["scenario"]["duration_s"] == 1.2 and m["imu"]["channels"]["x"]["f0_hz"] == 386
+    for role, name in (("scenario", "s.yaml"), ("imu", "imu-file.yaml"), ("trajectory", "traj.csv")):
+        assert m["inputs"][role]["sha256"] == _sha(tmp_path / "in" / name)

@@ -50,7 +50,7 @@ from pathlib import Path
 from sins_sim.jobs.schema import ConfigError
 
 __all__ = ["MANIFEST", "MANIFEST_SCHEMA", "INPUTS", "Manifest", "result_dir", "sha256_file", "environment",
-           "read_manifest", "describe_folder", "record_run", "rerun_scenario", "resolve_run_inputs"]
+           "read_manifest", "describe_folder", "record_run", "record_scenario", "rerun_scenario", "resolve_run_inputs"]
 
 #: The manifest's file name in every result folder.
 MANIFEST = "manifest.json"
@@ -326,6 +326,19 @@ def _dump_yaml(doc, title: str) -> str:
     import yaml
 
     return f"# {title}\n" + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=120)
+
+
+def record_scenario(manifest: Manifest, path, overrides: dict | None = None) -> dict:
+    """Record a (validated) scenario's files with their hashes and the scenario and IMU as run (no copies).
+
+    For commands that run a scenario in several variants (``budget``): ``scenario`` and ``imu`` of the
+    manifest hold the documents of :func:`resolve_run_inputs`. Returns them.
+    """
+    res = resolve_run_inputs(path, overrides)
+    for role, original in res["files"].items():
+        manifest.add_input(role, original)
+    manifest.doc.update(scenario=res["scenario"], imu=res["imu"], overrides=dict(overrides or {}))
+    return res
 
 
 def record_run(manifest: Manifest, scenario, path, overrides: dict | None, folder) -> None:

@@ -39,7 +39,7 @@ from sins_sim.jobs.schema import ConfigError
 __all__ = ["MARKER", "MIN_FREE_BYTES", "check_out_dir", "check_out_file", "atomic_output_dir",
            "atomic_output_file", "atomic_write_bytes", "atomic_write_text"]
 
-#: File that marks a folder as a sins-sim result (so that a later run may replace it).
+#: File that marks a folder as a sins-sim result (so that a later run with ``--force`` may replace it).
 MARKER = ".sins-sim-output"
 #: Free space (bytes) required where an output goes: room for a few plots and arrays.
 MIN_FREE_BYTES = 16 * 2 ** 20
@@ -225,7 +225,7 @@ def atomic_output_dir(out_path, flag: str = "--out", min_free_bytes: int = MIN_F
         raise ConfigError(f"{flag}: cannot create {target}: {exc.strerror or exc}") from None
     try:
         yield tmp
-        (tmp / MARKER).write_text("written by sins-sim; a later run may replace this folder\n")
+        (tmp / MARKER).write_text("written by sins-sim; a later run with --force may replace this folder\n")
         os.chmod(tmp, 0o777 & ~_umask())
         _commit_dir(tmp, target)
     except BaseException:
