@@ -219,10 +219,16 @@ def _diagnosis(path: Path) -> None:
 
 
 @pytest.mark.parametrize("path", sorted(p for p in (ROOT / "scenarios").glob("*.yaml")
-                                        if not p.name.startswith("sweep-")) + ["diagnose", "inline"])
+                                        if not p.name.startswith("sweep-")) + ["diagnose", "inline", "sensors"])
 def test_the_inputs_as_run_load_to_the_same_scenario(path, tmp_path):
     """inputs/scenario.yaml (every default filled in, files copied) builds the very scenario the file built."""
-    if path == "diagnose":  # a diagnosis file named relative to the IMU file, copied into inputs/
+    overrides = None
+    if path == "sensors":  # --imu: a unit with sensor errors and a lock-in effect, from the command line
+        path = _inputs(tmp_path / "in")
+        imu = (ROOT / "configs" / "nav-grade-rlg.yaml").read_text()
+        (tmp_path / "in" / "ng.yaml").write_text(imu + "effects:\n  - {name: lock_in, axes: [x], threshold_rad_s: 2.0e-3}\n")
+        overrides = {"imu": str(tmp_path / "in" / "ng.yaml"), "seed": 9}
+    elif path == "diagnose":  # a diagnosis file named relative to the IMU file, copied into inputs/
         path = _inputs(tmp_path / "in", "filter_parameters: {source: diagnose, file: unit.json}\n")
         _diagnosis(tmp_path / "in" / "unit.json")
     elif path == "inline":  # the IMU inline in the scenario, the short form of filter_parameters
@@ -231,9 +237,11 @@ def test_the_inputs_as_run_load_to_the_same_scenario(path, tmp_path):
         path.write_text(f"name: inline\nduration_s: 5\nfilter_parameters: nominal\nimu:\n  {imu}\n")
     with warnings.catch_warnings():  # bundled scenarios may warn (a motion near the Nyquist): not this test's
         warnings.simplefilter("ignore")
-        sc = load_scenario(path)
-        record_run(Manifest("run"), sc, path, None, tmp_path / "out")
+        sc = load_scenario(path, overrides)
+        record_run(Manifest("run"), sc, path, overrides, tmp_path / "out")
         again = load_scenario(tmp_path / "out" / "inputs" / "scenario.yaml")
+    if overrides:  # the case exercises what it means to: sensor errors and an effect, and the --seed override
+        assert sc.imu.sensors is not None and len(sc.imu.effects) == 1 and again.seed == 9
     assert again.imu == sc.imu and again.filter_spec["file"] in (None, "diagnosis.json")
     assert {k: v for k, v in again.filter_spec.items() if k != "file"} == \
            {k: v for k, v in sc.filter_spec.items() if k != "file"}
