@@ -40,7 +40,6 @@ import os
 import platform
 import shutil
 import subprocess
-import sys
 import time
 import warnings
 from contextlib import contextmanager
@@ -58,9 +57,9 @@ MANIFEST = "manifest.json"
 MANIFEST_SCHEMA = "sins-sim-manifest/1"
 #: Folder of the input copies inside a ``run`` folder.
 INPUTS = "inputs"
-#: Packages whose versions the manifest records (those that exist).
-_PACKAGES = ("numpy", "scipy", "numba", "matplotlib", "pandas", "dask", "distributed", "allantools", "pyarrow",
-             "yaml")
+#: Distributions whose versions the manifest records (those installed; read from their metadata, not imported).
+_PACKAGES = ("numpy", "scipy", "numba", "llvmlite", "matplotlib", "pandas", "dask", "distributed", "allantools",
+             "pyarrow", "PyYAML")
 
 
 def sha256_file(path) -> str:
@@ -73,29 +72,34 @@ def sha256_file(path) -> str:
 
 
 def _git(*args) -> str | None:
-    here = Path(__file__).resolve().parent
-    try:
-        done = subprocess.run(["git", "-C", str(here), *args], capture_output=True, text=True, timeout=5)
-    except (OSError, subprocess.SubprocessError):
+    """git's answer in the checkout holding this package (None: no git, or the package is not in a checkout)."""
+    package = Path(__file__).resolve().parents[1]
+
+    def ask(*a):
+        try:
+            done = subprocess.run(["git", "-C", str(package), *a], capture_output=True, text=True, timeout=5)
+        except (OSError, subprocess.SubprocessError):
+            return None
+        return done.stdout.strip() if done.returncode == 0 else None
+
+    top = ask("rev-parse", "--show-toplevel")
+    if not top or not (Path(top) / package.name).resolve() == package:  # e.g. a venv inside another repository
         return None
-    return done.stdout.strip() if done.returncode == 0 else None
+    return ask(*args)
 
 
 def environment() -> dict:
     """sins-sim's version, Python's and the numerical packages', the platform, and the git commit if any."""
-    import importlib
+    from importlib import metadata
 
     from sins_sim import __version__
 
     versions = {"python": platform.python_version()}
     for name in _PACKAGES:
-        mod = sys.modules.get(name)
-        if mod is None:
-            try:
-                mod = importlib.import_module(name)
-            except Exception:  # noqa: BLE001 - an optional package that is absent or broken: not recorded
-                continue
-        versions[name] = getattr(mod, "__version__", None)
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
     commit = _git("rev-parse", "HEAD")
     dirty = None
     if commit:
