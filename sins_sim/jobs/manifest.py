@@ -228,7 +228,7 @@ def describe_folder(folder) -> str:
     """What an existing result folder holds, in a few words (for the refusal of an existing ``--out``)."""
     folder = Path(folder)
     try:
-        n = sum(1 for p in folder.rglob("*") if p.is_file())
+        n = sum(1 for p in folder.rglob("*") if p.is_file() and not p.name.startswith("."))
     except OSError:
         n = None
     files = f" ({n} files)" if n is not None else ""
