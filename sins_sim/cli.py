@@ -306,7 +306,7 @@ def _rerun_source(args, overrides: dict, out):
         flags = {"seed": "--seed", "duration_s": "--duration", "imu": "--imu", "filter_parameters": "--filter-parameters"}
         raise ConfigError(f"--rerun: reproduces {args.rerun} as it was run; {flags[next(iter(overrides))]} would "
                           f"change it (run {os.path.join(args.rerun, 'inputs', 'scenario.yaml')} with it instead)")
-    if os.path.exists(out) and os.path.samefile(out, args.rerun):
+    if os.path.exists(out) and os.path.exists(args.rerun) and os.path.samefile(out, args.rerun):
         raise ConfigError(f"--out: {out} is the folder being rerun; the rerun goes into a new folder, so that "
                           "the two can be compared")
     return rerun_scenario(args.rerun, "--rerun")

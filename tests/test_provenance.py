@@ -148,6 +148,8 @@ def test_rerun_refuses_its_own_folder_a_scenario_and_overrides(baseline, capsys)
         assert part in _err_line(capsys)
     assert main(["run", "--out", a + "-x", "--quiet"]) == 2
     assert "name a scenario file, or --rerun DIR" in _err_line(capsys)
+    assert main(["run", "--rerun", a + "-missing", "--out", a + "-x", "--quiet"]) == 2
+    assert _err_line(capsys) == f"sins-sim: error: --rerun: {a}-missing is not a folder"
     assert (baseline["out"] / "manifest.json").read_bytes() == before and not Path(a + "-x").exists()
 
 
