@@ -310,10 +310,11 @@ def resolve_run_inputs(path, overrides: dict | None = None) -> dict:
         files["diagnosis"] = diag if diag.is_absolute() else imu_base / diag
         copies["diagnosis"] = "diagnosis" + (diag.suffix or ".json")
         fpar["file"] = copies["diagnosis"]
+    has_sensors = "sensors" in imu_doc  # parsed by its own reader: kept as written (null included)
     sensors = imu_doc.pop("sensors", None)
     imu_doc = fill_defaults(imu_doc, IMU_SCHEMA)
     imu_doc["filter_parameters"] = fpar
-    if sensors is not None:
+    if has_sensors:
         imu_doc["sensors"] = sensors
     doc["imu"] = copies["imu"]
     doc = fill_defaults(doc, SCENARIO_SCHEMA)
