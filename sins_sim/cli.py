@@ -13,7 +13,9 @@ Every command ends in one of four ways:
 
 Never a traceback, and never a half-written result: outputs are written to a
 temporary sibling and moved into place when the job has finished
-(:mod:`sins_sim.jobs.output`). Python warnings raised by a job are printed as
+(:mod:`sins_sim.jobs.output`). Never a silent loss: an existing result folder is
+replaced only with ``--force``, and every result folder holds ``manifest.json``
+(:mod:`sins_sim.jobs.manifest`; ``run --rerun DIR`` runs a ``run`` folder again). Python warnings raised by a job are printed as
 one ``warning: <message>`` line each, once (:mod:`sins_sim.jobs.messages`),
 also with ``--quiet`` (which silences only the progress bar).
 """
@@ -188,6 +190,27 @@ def _progress(label: str, quiet: bool):
         bar.close()
 
 
+# --- result folders: refused when they exist (unless --force), each with its manifest.json -----------------
+#: parsed-argument names that are not the command's settings
+_NOT_SETTINGS = ("func", "flags", "job_warnings", "argv")
+
+
+def _manifest(args):
+    """The command's :class:`~sins_sim.jobs.manifest.Manifest`: command line and parsed flags."""
+    from sins_sim.jobs.manifest import Manifest
+
+    settings = {k: v for k, v in vars(args).items() if k not in _NOT_SETTINGS}
+    return Manifest(args.command, getattr(args, "argv", None), settings=settings)
+
+
+def _result_dir(args, path, flag: str = "--out", inputs=(), manifest=None):
+    """The atomic result folder of a command (refused when it exists, unless ``--force``), with its manifest."""
+    from sins_sim.jobs.manifest import result_dir
+
+    return result_dir(path, manifest if manifest is not None else _manifest(args), flag, inputs=inputs,
+                      force=getattr(args, "force", False))
+
+
 # --- commands -------------------------------------------------------------------------------------
 def _cmd_channel(args) -> int:
     from sins_sim.models.drive import DriveParams
@@ -195,7 +218,6 @@ def _cmd_channel(args) -> int:
     from sins_sim.models.readout import AntiAliasParams, ReadoutParams
     from sins_sim.models.suspension import SuspensionParams
     from sins_sim.jobs.channel import default_settle_s, make_motion, run_channel_job
-    from sins_sim.jobs.output import atomic_output_dir
     from sins_sim.simulation.channel import ChannelConfig
     from sins_sim.units import ARCMIN, ARCSEC
 
@@ -218,7 +240,7 @@ def _cmd_channel(args) -> int:
     settle = default_settle_s(args.duration) if args.settle is None else args.settle
     if not settle < args.duration:
         raise ConfigError(f"--settle: must be < --duration = {args.duration:g} s, got {settle:g}")
-    with atomic_output_dir(args.out, "--out") as tmp, _progress("channel", args.quiet) as progress:
+    with _result_dir(args, args.out) as tmp, _progress("channel", args.quiet) as progress:
         metrics = run_channel_job(config, args.duration, motion, tmp, settle_s=settle, seed=args.seed,
                                   progress=progress)
     rms = metrics["residual_rms_arcsec"]
@@ -232,14 +254,25 @@ def _cmd_channel(args) -> int:
 def _cmd_run(args) -> int:
     from pathlib import Path
 
-    from sins_sim.jobs.output import atomic_output_dir
     from sins_sim.jobs.run import run_scenario
 
     overrides = _overrides(args)
     out = Path(args.out)
-    with atomic_output_dir(out, "--out", inputs=[args.scenario]) as tmp, \
-            _progress(Path(args.scenario).stem, args.quiet) as progress:
-        metrics = run_scenario(args.scenario, tmp, progress=progress, overrides=overrides)
+    rerun = None
+    if args.rerun is not None:
+        rerun = _rerun_source(args, overrides, out)
+        args.scenario = str(rerun[0])
+    elif args.scenario is None:
+        raise ConfigError("scenario: name a scenario file, or --rerun DIR to run a result folder again")
+    manifest = _manifest(args)
+    if rerun is not None:
+        manifest.doc["rerun_of"] = {"folder": str(Path(args.rerun).resolve()),
+                                    "started_utc": rerun[1].get("started_utc"),
+                                    "sins_sim_version": rerun[1].get("sins_sim_version")}
+    with _result_dir(args, out, inputs=[args.scenario], manifest=manifest) as tmp, \
+            _progress(Path(args.scenario).stem if rerun is None else f"rerun {Path(args.rerun).name}",
+                      args.quiet) as progress:
+        metrics = run_scenario(args.scenario, tmp, progress=progress, overrides=overrides, manifest=manifest)
     print(f"navigation error against truth after {metrics['duration_s']:g} s "
           f"(navigation from {metrics['navigation']['start_s']:g} s):")
     print(f"{'filter':<18}{'horizontal m':>14}{'max m':>11}{'vertical m':>12}{'velocity m/s':>14}"
@@ -255,15 +288,50 @@ def _cmd_run(args) -> int:
     for name, d in metrics.get("diverged", {}).items():
         print(f"diverged: {name}, axis {d['axis']}, t = {d['time_s']:.4g} s: {d['reason']}")
     args.job_warnings.extend(metrics.get("warnings", []))
+    if rerun is not None:
+        _compare_rerun(args, rerun[1], out)
     print(f"report: {out / 'report.md'}")
     return EXIT_OK
+
+
+def _rerun_source(args, overrides: dict, out):
+    """``run --rerun DIR``: the checked ``DIR/inputs/scenario.yaml`` and DIR's manifest."""
+    import os
+
+    from sins_sim.jobs.manifest import rerun_scenario
+
+    if args.scenario is not None:
+        raise ConfigError(f"--rerun: runs {args.rerun} as it was run; give no scenario file (got {args.scenario})")
+    if overrides:
+        flags = {"seed": "--seed", "duration_s": "--duration", "imu": "--imu", "filter_parameters": "--filter-parameters"}
+        raise ConfigError(f"--rerun: reproduces {args.rerun} as it was run; {flags[next(iter(overrides))]} would "
+                          f"change it (run {os.path.join(args.rerun, 'inputs', 'scenario.yaml')} with it instead)")
+    if os.path.exists(out) and os.path.exists(args.rerun) and os.path.samefile(out, args.rerun):
+        raise ConfigError(f"--out: {out} is the folder being rerun; the rerun goes into a new folder, so that "
+                          "the two can be compared")
+    return rerun_scenario(args.rerun, "--rerun")
+
+
+def _compare_rerun(args, old: dict, out) -> None:
+    """Say whether the rerun's metrics.json equals the original's (the manifest holds both hashes)."""
+    from sins_sim.jobs.manifest import sha256_file
+
+    before = (old.get("outputs") or {}).get("metrics.json")
+    if before is None:
+        args.job_warnings.append(f"--rerun: {args.rerun}'s manifest has no hash of metrics.json: nothing to "
+                                 "compare with")
+    elif sha256_file(out / "metrics.json") == before:
+        print(f"rerun: metrics.json is identical to {args.rerun}'s (SHA-256 {before[:12]}...)")
+    else:
+        args.job_warnings.append(f"--rerun: metrics.json differs from {args.rerun}'s (SHA-256 of the original "
+                                 f"{before[:12]}...): compare the two folders")
 
 
 def _cmd_budget(args) -> int:
     from pathlib import Path
 
     from sins_sim.jobs.budget import run_budget
-    from sins_sim.jobs.output import atomic_output_dir
+    from sins_sim.jobs.manifest import record_scenario
 
     from tqdm import tqdm
 
@@ -277,9 +345,11 @@ def _cmd_budget(args) -> int:
                        disable=args.quiet, dynamic_ncols=True)
         bar.update(done - bar.n)
 
+    manifest = _manifest(args)
     try:
-        with atomic_output_dir(out, "--out", inputs=[args.scenario]) as tmp:
+        with _result_dir(args, out, inputs=[args.scenario], manifest=manifest) as tmp:
             b = run_budget(args.scenario, tmp, overrides=_overrides(args), workers=args.workers, progress=progress)
+            record_scenario(manifest, args.scenario, _overrides(args))  # validated by the budget's first load
     finally:
         if bar is not None:
             bar.close()
@@ -303,11 +373,10 @@ def _cmd_budget(args) -> int:
 def _cmd_reproduce(args) -> int:
     from pathlib import Path
 
-    from sins_sim.jobs.output import atomic_output_dir
     from sins_sim.jobs.reproduce import run_reproduce
 
     out = Path(args.out)
-    with atomic_output_dir(out, "--out") as tmp, _progress("reproduce", args.quiet) as progress:
+    with _result_dir(args, out) as tmp, _progress("reproduce", args.quiet) as progress:
         run_reproduce(tmp, quick=args.quick, progress=progress)
     print(f"report: {out / 'report.md'}; numbers: {out / 'numbers.json'}")
     return EXIT_OK
@@ -317,10 +386,9 @@ def _cmd_compare_filters(args) -> int:
     from pathlib import Path
 
     from sins_sim.jobs.compare_filters import run_compare_filters
-    from sins_sim.jobs.output import atomic_output_dir
 
     out = Path(args.out)
-    with atomic_output_dir(out, "--out") as tmp, _progress("compare-filters", args.quiet) as progress:
+    with _result_dir(args, out) as tmp, _progress("compare-filters", args.quiet) as progress:
         res = run_compare_filters(tmp, args.json, quick=args.quick, progress=progress)
     print(f"best: {res['best']}; report: {out / 'report.md'}; numbers: {args.json}")
     return EXIT_OK
@@ -366,7 +434,7 @@ def _cmd_import_csv(args) -> int:
 
 
 def _cmd_diagnose(args) -> int:
-    from sins_sim.jobs.output import atomic_output_dir, atomic_output_file
+    from sins_sim.jobs.output import atomic_output_file
     from sins_sim.jobs.recording_jobs import diagnose, diagnose_many, format_diagnosis
 
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
@@ -379,9 +447,9 @@ def _cmd_diagnose(args) -> int:
     if len(args.recording) > 1:  # several: --json and --report name folders, one entry per recording
         progress = lambda line: print(line, file=sys.stderr, flush=True)  # noqa: E731
         with ExitStack() as stack:
-            json_tmp = (stack.enter_context(atomic_output_dir(args.json, "--json", inputs=args.recording))
+            json_tmp = (stack.enter_context(_result_dir(args, args.json, "--json", inputs=args.recording))
                         if args.json is not None else None)
-            report_tmp = (stack.enter_context(atomic_output_dir(args.report, "--report", inputs=args.recording))
+            report_tmp = (stack.enter_context(_result_dir(args, args.report, "--report", inputs=args.recording))
                           if args.report is not None else None)
             results = diagnose_many(args.recording, json_dir=json_tmp, report_dir=report_tmp, effects=effects,
                                     jobs=args.jobs, progress=progress)
@@ -391,7 +459,7 @@ def _cmd_diagnose(args) -> int:
         return EXIT_OK
     with ExitStack() as stack:
         json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
-        report_tmp = (stack.enter_context(atomic_output_dir(args.report, "--report", inputs=args.recording))
+        report_tmp = (stack.enter_context(_result_dir(args, args.report, "--report", inputs=args.recording))
                       if args.report is not None else None)
         result = diagnose(args.recording[0], json_out=json_tmp, report_dir=report_tmp, effects=effects)
     print(format_diagnosis(result))
@@ -445,7 +513,7 @@ def _cmd_sweep(args) -> int:
     bar = _TaskBar(Path(args.sweep).stem, args.quiet)
     try:
         res = run_sweep(args.sweep, args.out, scheduler=args.scheduler, workers=args.workers, progress=bar,
-                        log=lambda line: print(line, flush=True))
+                        log=lambda line: print(line, flush=True), force=args.force, manifest=_manifest(args))
     finally:
         bar.close()
     s = res["summary"]
@@ -468,8 +536,10 @@ def _cmd_sweep(args) -> int:
 
 def _cmd_lockin_study(args) -> int:
     from sins_sim.jobs.lockin_study import lockin_study
+    from sins_sim.jobs.output import check_out_dir
 
-    res = lockin_study(args.out, quick=args.quick, seed=args.seed)
+    check_out_dir(args.out, "--out", force=args.force)  # before minutes of computation
+    res = lockin_study(args.out, quick=args.quick, seed=args.seed, force=args.force, manifest=_manifest(args))
     print(f"ARW vs lock-in rate: log-log slope {res['slope_vs_lockin']:.3f} (analytic 1)")
     print(f"wrote {args.out}: lockin.json, arw_vs_lockin.png, dynamic_lockin.png, report.md")
     return EXIT_OK
@@ -493,6 +563,11 @@ def _unit_flags(p) -> None:
     p.add_argument("--filter-parameters", default=None, choices=("true", "nominal"),
                    help="what the filters believe: the unit's true parameters or the datasheet's (nominal, f0 "
                         "from the dither PLL) [the scenario's]")
+
+
+def _force_flag(p) -> None:
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing result folder (only once the new result is complete)")
 
 
 def _overrides(args) -> dict:
@@ -537,17 +612,24 @@ def build_parser() -> argparse.ArgumentParser:
                    help="eq. 10 half-cycle rule in plant and filter [paper]")
     p.add_argument("--seed", type=_seed, default=0, help="seed of the readout noise [0]")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
-    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
+    p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
+    _force_flag(p)
     p.set_defaults(func=_cmd_channel, flags=CHANNEL_FLAGS)
 
     p = sub.add_parser("run", help="run a three-axis SINS scenario (YAML) end to end",
                        description="Run a scenario file: three dithered channels, their filters, attitude "
                                    "integration and navigation error; writes metrics.json, timeseries.npz, "
-                                   "attitude_error.png, spectrum.png and report.md.")
-    p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
-    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
+                                   "the figures, report.md, manifest.json (versions, command line, timings, "
+                                   "input hashes, the parameters each filter used) and inputs/ (the scenario "
+                                   "and IMU as run, for --rerun).")
+    p.add_argument("scenario", nargs="?", default=None, help="scenario YAML file (see scenarios/)")
+    p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
+    p.add_argument("--rerun", metavar="DIR", default=None,
+                   help="run the result folder DIR again from its manifest.json and inputs/ (no scenario file, no "
+                        "overrides; --out must be another folder); says whether metrics.json is identical")
     p.add_argument("--seed", type=_seed, default=None, help="override the scenario's seed")
     _unit_flags(p)
+    _force_flag(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_run)
 
@@ -557,7 +639,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "quantisation, filter parameter mismatch, each effect) and with every source "
                                    "off, in parallel; write budget.json, budget.png and report.md.")
     p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
-    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the budget succeeds)")
+    p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
+    _force_flag(p)
     p.add_argument("--seed", type=_seed, default=None, help="override the scenario's seed")
     _unit_flags(p)
     p.add_argument("--workers", type=_count, default=2, help="worker processes, one run each at a time [2]")
@@ -567,7 +650,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("reproduce", help="regenerate the paper's figures and numbers with sins-sim's own code",
                        description="Figures 1, 3-7, the Abel inversion, the sensitivity table, numbers.json and "
                                    "a report.md comparing sins-sim with the paper.")
-    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
+    p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
+    _force_flag(p)
     p.add_argument("--quick", action="store_true", help="every number at reduced resolution (< 90 s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_reproduce)
@@ -576,7 +660,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="End-to-end gain on the nonlinear plant, noise, delay, cost, coning drift and "
                                    "position error of eq. 5, the eliminator and the wideband designs; gain.png, "
                                    "noise_tradeoff.png, details.json and report.md in --out, the numbers in --json.")
-    p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
+    p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
+    _force_flag(p)
     p.add_argument("--json", required=True, help="the numbers (issue 15 structure)")
     p.add_argument("--quick", action="store_true", help="reduced resolution and a 30 s mission (a few minutes)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
@@ -614,6 +699,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "of STEM/)")
     p.add_argument("--effects", help="comma-separated subset of the catalogue to try (default: all)")
     p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in separate processes [1]")
+    _force_flag(p)
     p.set_defaults(func=_cmd_diagnose)
 
     p = sub.add_parser("diagnose-eval", help="blind evaluation of the diagnosis on generated recordings",
@@ -643,7 +729,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run the engine's chain with the lock_in effect: ARW vs lock-in rate, dither "
                                    "amplitude and modulation depth beside N = Omega_L / sqrt(K a w_D), and the "
                                    "dynamic lock-in zones of a constant-amplitude dither.")
-    p.add_argument("--out", required=True, help="result folder")
+    p.add_argument("--out", required=True, help="result folder (created; an existing one only with --force)")
+    _force_flag(p)
     p.add_argument("--quick", action="store_true", help="shorter runs, fewer points (about 15 s)")
     p.add_argument("--seed", type=_seed, default=0, help="seed of the amplitude modulation [0]")
     p.set_defaults(func=_cmd_lockin_study)
@@ -655,6 +742,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "done are not run again.")
     p.add_argument("sweep", help="sweep YAML file (see scenarios/sweep-*.yaml)")
     p.add_argument("--out", required=True, help="sweep folder (created, or resumed when it holds this sweep)")
+    p.add_argument("--force", action="store_true",
+                   help="run in a folder that holds another sweep (its stored runs stay as a cache; its table, "
+                        "summary and figures are replaced)")
     p.add_argument("--scheduler", default=None,
                    help="address of a running dask scheduler (tcp://host:port) [a LocalCluster]")
     p.add_argument("--workers", type=_count, default=None,
@@ -711,6 +801,7 @@ def main(argv=None) -> int:
     """Run the command line; return the exit status (argparse's ``--help``/``--version`` exit via SystemExit)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
     args.job_warnings = []
     debug = os.environ.get(DEBUG_ENV, "").strip() not in ("", "0")
     try:

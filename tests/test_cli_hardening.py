@@ -212,13 +212,14 @@ def test_unwritable_parent_is_refused(tmp_path):
 
 
 def test_success_replaces_the_earlier_result_whole(tmp_path, capsys, fake_channel):
+    """With --force (issue 22, point 5: never without it) the new result replaces the earlier one whole."""
     out = tmp_path / "ch"
     fake_channel(files={"metrics.json": "first", "stale.txt": "only in the first run"})
     assert main(_channel(out)) == 0
     assert (out / "stale.txt").exists()
     fake_channel(files={"metrics.json": "second"})
-    assert main(_channel(out)) == 0
-    assert sorted(p.name for p in out.iterdir()) == [MARKER, "metrics.json"]  # never a mix of two runs
+    assert main(_channel(out, "--force")) == 0
+    assert sorted(p.name for p in out.iterdir()) == [MARKER, "manifest.json", "metrics.json"]  # never a mix
     assert (out / "metrics.json").read_text() == "second"
     assert _leftovers(tmp_path) == []
 
@@ -238,13 +239,13 @@ def test_failed_run_leaves_the_earlier_result_untouched(tmp_path, capsys, fake_c
     assert main(_channel(out)) == 0
     capsys.readouterr()
     fake = fake_channel(files={"metrics.json": "half", "channel.png": "half"}, raise_=exc)
-    assert main(_channel(out)) == status
+    assert main(_channel(out, "--force")) == status
     captured = capsys.readouterr()
     lines = captured.err.splitlines()
     assert len(lines) == 1 and lines[0].startswith(last), captured.err
     assert "Traceback" not in captured.err
     assert fake.calls[0]["out_dir"].parent == tmp_path and fake.calls[0]["out_dir"] != out  # a sibling
-    assert sorted(p.name for p in out.iterdir()) == [MARKER, "metrics.json"]
+    assert sorted(p.name for p in out.iterdir()) == [MARKER, "manifest.json", "metrics.json"]
     assert (out / "metrics.json").read_text() == "good"
     assert _leftovers(tmp_path) == []
 
@@ -272,7 +273,7 @@ def test_atomic_output_dir_directly(tmp_path):
     mode = target.stat().st_mode & 0o777
     assert mode == 0o777 & ~_umask()  # not mkdtemp's 0o700
     with pytest.raises(KeyboardInterrupt):
-        with atomic_output_dir(target) as tmp:
+        with atomic_output_dir(target, force=True) as tmp:
             (tmp / "y").write_text("2")
             raise KeyboardInterrupt
     assert sorted(p.name for p in target.iterdir()) == [MARKER, "x"]
@@ -292,7 +293,7 @@ def test_commit_puts_the_old_result_back_when_the_rename_fails(tmp_path, monkeyp
 
     monkeypatch.setattr(output.os, "rename", rename)
     with pytest.raises(OSError):
-        with atomic_output_dir(target) as tmp:
+        with atomic_output_dir(target, force=True) as tmp:
             (tmp / "x").write_text("new")
     monkeypatch.undo()
     assert (target / "x").read_text() == "old"
@@ -400,7 +401,7 @@ def _install_run(monkeypatch, func):
 
 
 def _fake_run(record):
-    def run_scenario(path, out_dir, progress=None, overrides=None):
+    def run_scenario(path, out_dir, progress=None, overrides=None, manifest=None):
         record.append({"path": path, "out_dir": Path(out_dir), "overrides": overrides})
         (Path(out_dir) / "report.md").write_text("r")
         progress(1.0)
@@ -496,7 +497,7 @@ def test_progress_bar_shows_rate_and_time_left_on_stderr(tmp_path, capsys, fake_
     assert "channel: 100%" in captured.err and "%/s" in captured.err and "<" in captured.err
     assert "%" not in captured.out
     fake_channel(progress=(0.25, 0.5, 1.0))
-    assert main(_channel(tmp_path / "ch")) == 0
+    assert main(_channel(tmp_path / "ch", "--force")) == 0
     assert capsys.readouterr().err == ""
 
 

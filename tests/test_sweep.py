@@ -7,6 +7,7 @@ are compared exactly: a run is a pure function of its scenario document and seed
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import socket
@@ -228,6 +229,10 @@ def test_resume_after_an_interruption_runs_only_what_is_missing(tiny, local, tmp
     assert main(["sweep", str(tiny), "--out", str(out), "--quiet"]) == 0
     assert "6 already done, 0 to run" in capsys.readouterr().out
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")} == figures
+    # the manifest is the last invocation's (issue 22, point 5): its command line, what it found done
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["command"] == "sweep" and m["argv"][-1] == "--quiet" and m["sweep"]["already_done"] == 6
+    assert m["outputs"]["runs.parquet"] == hashlib.sha256((out / "runs.parquet").read_bytes()).hexdigest()
 
 
 def _fails_for_unit_1(spec):

@@ -63,7 +63,8 @@ from pathlib import Path
 from sins_sim.jobs.schema import Bool, ConfigError, Map, Num, Str, validate
 from sins_sim.models.suspension import SuspensionParams
 
-__all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions"]
+__all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions",
+           "filters_used"]
 
 SOURCES = ("true", "nominal", "explicit", "diagnose")
 F0_SOURCES = ("pll", "unit", "given")
@@ -222,4 +223,62 @@ def filter_suspensions(spec: dict, true_by_axis: dict, nominal: dict, design_f0:
             out[axis] = SuspensionParams(f0_hz=f0, zeta=true.zeta, **ks)
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {where}: {exc}") from None
+    return out
+
+
+#: eq. 5's two forms (``sins_sim.simulation.channel``): ``correcting`` is unity at DC, ``correcting_paper`` as printed.
+_EQ5_FORMS = {"correcting": "unity", "correcting_paper": "paper"}
+
+
+def filters_used(channels, spec: dict, filters, axes=("x", "y", "z")) -> dict:
+    """The parameters each filter of a run actually used, per axis, in SI with the unit in the key.
+
+    Parameters
+    ----------
+    channels : sequence of ChannelConfig
+        The unit's channels as the run built them (``filter_suspension`` set by :func:`filter_suspensions`).
+    spec : dict
+        :func:`parse_filter_parameters` output (where the values came from).
+    filters : sequence of str
+        The run's filters.
+
+    Returns
+    -------
+    dict
+        ``filter -> axis -> {...}``. eq. 5 (``correcting``, ``correcting_paper``) and plug-ins: ``f0_hz``,
+        ``k1``, ``k2_rad``, ``k3``, ``k4_per_rad``, ``k5_rad_per_v``, ``fs_hz``, ``hysteresis``, the unit's own
+        ``unit_f0_hz`` and ``f0_error_ppm`` = (f0_hz / unit_f0_hz - 1) 1e6 (the mismatch the filter runs with,
+        the PLL's inversion included), and the ``source``, ``f0_source``, ``f0_mismatch_ppm`` and ``track`` of
+        ``filter_parameters``; ``eliminator``: the elliptic design (``band_hz``, ``order``, ``rp_db``,
+        ``rs_db``, ``fs_hz``) centred on ``drive_hz``; ``ideal`` and ``raw``: nothing to believe (``{}``).
+    """
+    import dataclasses
+
+    origin = {"source": spec["source"], "f0_source": spec["f0"], "f0_mismatch_ppm": float(spec["f0_mismatch_ppm"]),
+              "track": bool(spec["track"])}
+    out = {}
+    for name in filters:
+        per_axis = {}
+        for axis, ch in zip(axes, channels):
+            if name in ("ideal", "raw"):
+                per_axis[axis] = {}
+                continue
+            if name == "eliminator":
+                d = ch.eliminator_design()
+                per_axis[axis] = {"band_hz": [float(x) for x in d.band_hz], "order": int(d.order),
+                                  "rp_db": float(d.rp_db), "rs_db": float(d.rs_db), "fs_hz": float(d.fs_hz),
+                                  "drive_hz": float(ch.drive_signal().frequency_hz)}
+                continue
+            if name in _EQ5_FORMS:
+                b = dataclasses.asdict(ch.correcting_design(_EQ5_FORMS[name]))
+            else:
+                b = dataclasses.asdict(ch.filter_context(axis))
+            unit_f0 = ch.suspension.f0_hz
+            row = {"f0_hz": b["f0_hz"], "k1": b["k1"], "k2_rad": b["k2"], "k3": b["k3"], "k4_per_rad": b["k4"],
+                   "k5_rad_per_v": b["k5"], "fs_hz": b["fs_hz"], "hysteresis": b["hysteresis"]}
+            if "form" in b:
+                row["form"] = b["form"]
+            row.update(unit_f0_hz=unit_f0, f0_error_ppm=(b["f0_hz"] / unit_f0 - 1.0) * 1e6, **origin)
+            per_axis[axis] = row
+        out[name] = per_axis
     return out

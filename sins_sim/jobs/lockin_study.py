@@ -206,7 +206,7 @@ def _arw_point(omega_l, amplitude_rad, depth, duration_s, seed):
             "windows": m["windows"]}
 
 
-def lockin_study(out, quick: bool = False, seed: int = 0, progress=print) -> dict:
+def lockin_study(out, quick: bool = False, seed: int = 0, progress=print, force: bool = False, manifest=None) -> dict:
     """Run the study and write ``lockin.json``, two figures and ``report.md`` into ``out``.
 
     Parameters
@@ -218,14 +218,21 @@ def lockin_study(out, quick: bool = False, seed: int = 0, progress=print) -> dic
     seed : int
         Seed of the amplitude-modulation draws.
     progress : callable(str) or None
+    force : bool
+        Replace an existing result folder ``out`` (default: refuse it).
+    manifest : sins_sim.jobs.manifest.Manifest, optional
+        Written into the folder as ``manifest.json`` (default: one without a command line).
 
     Returns
     -------
     dict
         What ``lockin.json`` holds.
     """
-    from sins_sim.jobs.output import atomic_output_dir
+    from sins_sim.jobs.manifest import Manifest, result_dir
     from sins_sim.plots.lockin import plot_arw_vs_lockin, plot_dynamic_lockin
+
+    if manifest is None:
+        manifest = Manifest("lockin-study", settings={"quick": quick, "seed": seed})
 
     say = progress or (lambda s: None)
     dur = 20.0 if quick else 120.0
@@ -278,7 +285,7 @@ def lockin_study(out, quick: bool = False, seed: int = 0, progress=print) -> dic
                        "grid_step_rad_s": float(rates[1] - rates[0]), **sw})
     res["dynamic_lockin"] = sweeps
 
-    with atomic_output_dir(out) as tmp:
+    with result_dir(out, manifest, force=force) as tmp:
         tmp = Path(tmp)
         ols = np.geomspace(min(lockins) / 1.5, max(lockins) * 1.5, 50)
         f_ref = res["vs_lockin"][0]

@@ -16,9 +16,14 @@ mixed in one folder.
 - :func:`atomic_write_bytes`, :func:`atomic_write_text`: write a file in one step
   (temporary file in the same folder, then ``os.replace``).
 
-A folder that sins-sim wrote carries the marker file :data:`MARKER`. An
-existing, non-empty target folder without it is refused rather than
-replaced: ``--out .`` or ``--out ~`` must not delete what is there.
+A folder that sins-sim wrote carries the marker file :data:`MARKER` (and its
+``manifest.json``, :mod:`sins_sim.jobs.manifest`). An existing, non-empty
+target folder is never replaced silently: without ``force`` (the ``--force``
+flag) it is refused with one line naming the flag, the folder and what it
+holds (the command, scenario and date from its manifest); with ``force`` an
+earlier sins-sim result is replaced once the new one is complete. A folder
+without the marker is refused even with ``force``: ``--out .`` or ``--out ~``
+must not delete what is there.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from sins_sim.jobs.schema import ConfigError
 __all__ = ["MARKER", "MIN_FREE_BYTES", "check_out_dir", "check_out_file", "atomic_output_dir",
            "atomic_output_file", "atomic_write_bytes", "atomic_write_text"]
 
-#: File that marks a folder as a sins-sim result (so that a later run may replace it).
+#: File that marks a folder as a sins-sim result (so that a later run with ``--force`` may replace it).
 MARKER = ".sins-sim-output"
 #: Free space (bytes) required where an output goes: room for a few plots and arrays.
 MIN_FREE_BYTES = 16 * 2 ** 20
@@ -86,11 +91,13 @@ def _inside(path: Path, folder: Path) -> bool:
     return os.path.commonpath([path, folder]) == folder
 
 
-def check_out_dir(path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTES, inputs=()) -> Path:
+def check_out_dir(path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTES, inputs=(),
+                  force: bool = False) -> Path:
     """Check that ``path`` can become a result folder; return it as a Path.
 
     Rules: not empty; not an existing file; if an existing folder, either
-    empty or written by sins-sim (it holds :data:`MARKER`), and holding
+    empty, or written by sins-sim (it holds :data:`MARKER`) and ``force``
+    given, and holding
     neither the current directory nor any of ``inputs`` (it is replaced as a
     whole); its parent exists or can be created, and can be written to; at
     least ``min_free_bytes`` free there. Nothing is created.
@@ -105,6 +112,8 @@ def check_out_dir(path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTE
         Free space required where it goes.
     inputs : iterable of paths
         Files the job reads, which must not live inside the folder.
+    force : bool
+        Replace an earlier sins-sim result (the user said ``--force``).
 
     Raises
     ------
@@ -129,7 +138,12 @@ def check_out_dir(path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTE
             raise ConfigError(f"{flag}: {p} cannot be listed ({exc.strerror})") from None
         if entries and MARKER not in entries:
             raise ConfigError(f"{flag}: {p} exists and holds files that sins-sim did not write (no {MARKER}); "
-                              "remove it or choose another directory")
+                              "remove it or choose another directory (--force does not replace it)")
+        if entries and not force:
+            from sins_sim.jobs.manifest import describe_folder
+
+            raise ConfigError(f"{flag}: {p} already holds {describe_folder(p)}; pass --force to replace it (once "
+                              "the new result is complete) or choose another folder")
     parent = _existing_ancestor(p, flag)
     _check_space(parent, p, flag, min_free_bytes)
     return p
@@ -169,7 +183,8 @@ def _remove(path: Path) -> None:
 
 
 @contextmanager
-def atomic_output_dir(out_path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTES, inputs=()):
+def atomic_output_dir(out_path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTES, inputs=(),
+                      force: bool = False):
     """Give a job a temporary folder; on success it becomes ``out_path``.
 
     Parameters
@@ -182,6 +197,8 @@ def atomic_output_dir(out_path, flag: str = "--out", min_free_bytes: int = MIN_F
         Free space required beside it.
     inputs : iterable of paths
         Files the job reads (they must not live inside an existing ``out_path``).
+    force : bool
+        Replace an earlier sins-sim result at ``out_path`` (default: refuse it).
 
     Yields
     ------
@@ -196,11 +213,11 @@ def atomic_output_dir(out_path, flag: str = "--out", min_free_bytes: int = MIN_F
     Notes
     -----
     On success the temporary folder is renamed to ``out_path``. An earlier
-    result folder there is first renamed aside, and deleted only after the new
+    result folder there (only with ``force``) is first renamed aside, and deleted only after the new
     one is in place. On any exception (``KeyboardInterrupt`` included) the
     temporary folder is removed and ``out_path`` is left as it was.
     """
-    target = check_out_dir(out_path, flag, min_free_bytes, inputs)
+    target = check_out_dir(out_path, flag, min_free_bytes, inputs, force)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.tmp-", dir=target.parent))
@@ -208,7 +225,7 @@ def atomic_output_dir(out_path, flag: str = "--out", min_free_bytes: int = MIN_F
         raise ConfigError(f"{flag}: cannot create {target}: {exc.strerror or exc}") from None
     try:
         yield tmp
-        (tmp / MARKER).write_text("written by sins-sim; a later run may replace this folder\n")
+        (tmp / MARKER).write_text("written by sins-sim; a later run with --force may replace this folder\n")
         os.chmod(tmp, 0o777 & ~_umask())
         _commit_dir(tmp, target)
     except BaseException:

@@ -11,7 +11,10 @@ Writes into the output folder:
   decimated sample), the truth path, and the gyro-angle errors at the full filter rate over
   ``navigation.spectrum_s``;
 * ``navigation_error.png``, ``attitude_error.png``, ``trajectory.png``,
-  ``gyro_error_spectrum.png`` and ``report.md``.
+  ``gyro_error_spectrum.png`` and ``report.md`` (with the parameters each filter used);
+* ``manifest.json`` and ``inputs/`` (:mod:`sins_sim.jobs.manifest`): versions, command line,
+  timings, the scenario and IMU as run with every default filled in, input hashes, the seed
+  and the parameters each filter used; ``sins-sim run --rerun`` runs the folder again.
 """
 
 from __future__ import annotations
@@ -158,7 +161,8 @@ def _rotate(q, x):
     return (c @ x).tolist()
 
 
-def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, threads: int | None = None) -> dict:
+def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, threads: int | None = None,
+                 manifest=None) -> dict:
     """Run a scenario file end to end; write the results into ``out_dir``; return the metrics.
 
     Parameters
@@ -172,8 +176,15 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
         Top-level keys replacing the file's (``seed``, ``duration_s``).
     threads : int, optional
         Threads for the three axes (default: the cores available, at most 3).
+    manifest : sins_sim.jobs.manifest.Manifest, optional
+        The command's manifest (default: one without a command line); completed and written into
+        ``out_dir`` with ``inputs/``.
     """
+    from sins_sim.jobs.manifest import Manifest, record_run
     from sins_sim.jobs.scenario import load_scenario
+
+    if manifest is None:
+        manifest = Manifest("run", settings={"overrides": dict(overrides or {})})
 
     scenario = load_scenario(path, overrides)
     from sins_sim.jobs.estimate import check_run
@@ -181,6 +192,7 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
     check_run(scenario, progress)  # refuse a run that cannot finish, before the engine starts (issue 12, point 3)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    record_run(manifest, scenario, path, overrides, out)
     res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
                         filters=scenario.filters, progress=progress, threads=threads, vehicle=scenario.vehicle,
                         translation=scenario.translation)
@@ -220,8 +232,30 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
         from sins_sim.plots import navigation as pn
 
         figures = pn.plot_run(res, out, scenario.name)
-    (out / "report.md").write_text(_report(scenario, metrics, figures))
+    (out / "report.md").write_text(_report(scenario, metrics, figures)
+                                   + _filter_parameters_report(manifest.doc["run"]["filter_parameters"]))
+    manifest.write(out)
     return metrics
+
+
+def _filter_parameters_report(fp: dict) -> str:
+    """The report's table of the parameters each filter used (from the manifest's ``run.filter_parameters``)."""
+    lines = ["", "## Filter parameters (what each filter believed; `manifest.json` holds them in SI)", "",
+             f"Source `{fp['source']}`, f0 from `{fp['f0_source']}`, f0 mismatch {fp['f0_mismatch_ppm']:g} ppm, "
+             f"PLL tracking {'on' if fp['track'] else 'off'} (sins_sim.jobs.filter_params).", "",
+             "| filter | axis | f0 (Hz) | f0 error vs unit (ppm) | k1 | k2 (rad) | k3 | k4 (1/rad) | k5 (rad/V) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    other = []
+    for name, axes in fp["filters"].items():
+        for axis, r in axes.items():
+            if "f0_hz" in r:
+                lines.append(f"| {name} | {axis} | {r['f0_hz']:.9g} | {r['f0_error_ppm']:.4g} | {r['k1']:.6g} | "
+                             f"{r['k2_rad']:.6g} | {r['k3']:.6g} | {r['k4_per_rad']:.6g} | {r['k5_rad_per_v']:.6g} |")
+            elif "band_hz" in r:
+                other.append(f"- {name}, axis {axis}: elliptic band-stop {r['band_hz'][0]:.6g}-{r['band_hz'][1]:.6g} "
+                             f"Hz (order {r['order']}, {r['rp_db']:g} dB ripple, {r['rs_db']:g} dB stop) around the "
+                             f"drive at {r['drive_hz']:.6g} Hz")
+    return "\n".join(lines + ([""] + other if other else []) + [""])
 
 
 def _allan_section(res) -> dict | None:

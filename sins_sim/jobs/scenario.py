@@ -20,7 +20,8 @@ from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str
 from sins_sim.filters import registry as filter_registry
 from sins_sim.simulation.sins import DEFAULT_FILTERS, SINS_FILTERS, NavSettings
 
-__all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "run_scenario", "Scenario"]
+__all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "scenario_document", "run_scenario",
+           "Scenario"]
 
 _POS = dict(min=0.0, min_exclusive=True)
 
@@ -341,6 +342,10 @@ class Scenario:
             if c["filter_parameters"] is not None:
                 imu = dict(imu, filter_parameters=c["filter_parameters"])
             self.imu = imu_from_dict(imu, ctx, "imu", base_dir=base_dir)
+            imu_doc = imu
+        #: what the filters believe (sins_sim.jobs.filter_params): source, f0, f0_mismatch_ppm, track
+        fp = imu_doc.get("filter_parameters", True) if isinstance(imu_doc, dict) else True
+        self.filter_spec = _fparams.parse_filter_parameters(fp, ctx)
         self.temperature = None
         if c["temperature"] is not None:
             self.temperature = _thermal_model(c["temperature"], ctx)
@@ -586,6 +591,12 @@ def load_scenario(path, overrides: dict | None = None) -> Scenario:
     directory like any command-line path, or a mapping).
     """
     path = Path(path)
+    return Scenario(scenario_document(path, overrides), str(path), path.parent)
+
+
+def scenario_document(path, overrides: dict | None = None) -> dict:
+    """The scenario file's mapping with the command line's ``overrides`` applied (not yet validated)."""
+    path = Path(path)
     doc = load_yaml(path)
     if overrides:
         doc = dict(doc)
@@ -595,7 +606,7 @@ def load_scenario(path, overrides: dict | None = None) -> Scenario:
             if key == "imu" and isinstance(value, (str, Path)):
                 value = str(Path(value).resolve())
             doc[key] = value
-    return Scenario(doc, str(path), path.parent)
+    return doc
 
 
 #: Scenario keys that a command line (``--seed``, ``--duration``, ``--imu``, ``--filter-parameters``) may replace.

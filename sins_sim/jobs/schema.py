@@ -21,7 +21,7 @@ from typing import Any, Callable
 from sins_sim.units import ARCMIN, ARCSEC, DEG
 
 __all__ = ["ConfigError", "Num", "Str", "Bool", "Vec", "Map", "ListOf", "OneOf", "UNITS", "UNIT_LABELS", "validate",
-           "describe", "format_range"]
+           "fill_defaults", "describe", "format_range"]
 
 
 class ConfigError(ValueError):
@@ -266,6 +266,44 @@ def _unknown_rule(key, known):
 def validate(doc, schema, ctx: str, path: str = ""):
     """Check ``doc`` (parsed YAML) against ``schema``; return it in SI units."""
     return schema.check(doc, ctx, path)
+
+
+def fill_defaults(doc, schema):
+    """``doc`` with every default the schema would fill in written out, in the file's own keys and units.
+
+    The result is a document a person can read and sins-sim can load again: validating it gives
+    exactly what validating ``doc`` gives (the user's values are kept as written, each default is
+    the schema's own literal, which :func:`validate` converts the same way). Keys whose default is
+    "none" (computed later, or switched off) stay absent. Parts the schema does not describe
+    (entries checked by their own parsers) are kept as written. ``doc`` is assumed valid.
+
+    Examples
+    --------
+    >>> fill_defaults({"a_hz": 3}, Map({"a": Num(unit="hz"), "b": Num(unit="s", default=2.0)}))
+    {'a_hz': 3, 'b_s': 2.0}
+    """
+    import copy
+
+    if isinstance(schema, Map):
+        if not isinstance(doc, dict):
+            return doc  # null where allowed
+        out = dict(doc)
+        for name, spec in schema.fields.items():
+            key = _yaml_key(name, getattr(spec, "unit", None))
+            if key in doc:
+                out[key] = fill_defaults(doc[key], spec)
+            elif not getattr(spec, "required", False) and getattr(spec, "default", None) is not None:
+                out[key] = fill_defaults(copy.deepcopy(spec.default), spec)
+        return out
+    if isinstance(schema, OneOf):
+        variant = schema.variants.get(doc.get(schema.key)) if isinstance(doc, dict) else None
+        if variant is None:
+            return doc
+        rest = fill_defaults({k: v for k, v in doc.items() if k != schema.key}, variant)
+        return {schema.key: doc[schema.key], **rest}
+    if isinstance(schema, ListOf) and isinstance(doc, list):
+        return [fill_defaults(x, schema.item) for x in doc]
+    return doc
 
 
 # --- the reference: every key with its unit, range and default, from the schema objects themselves ---------------

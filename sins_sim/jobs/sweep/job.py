@@ -152,7 +152,7 @@ def _run_tasks(client, todo, store, progress, task_fn, version) -> tuple[int, in
 
 
 def run_sweep(path, out, scheduler: str | None = None, workers: int | None = None, progress=None, log=print,
-              client=None, task_fn=run_task, plots: bool = True) -> dict:
+              client=None, task_fn=run_task, plots: bool = True, force: bool = False, manifest=None) -> dict:
     """Run a sweep file; results into ``out`` (resumed if it holds this sweep's earlier results).
 
     Parameters
@@ -175,6 +175,12 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
         The task (default :func:`sins_sim.jobs.sweep.tasks.run_task`).
     plots : bool
         Draw the figures (redrawn only when the table changed since they were drawn).
+    force : bool
+        Take up a folder that holds another sweep (another name): its stored runs stay in ``runs/`` as a
+        cache, its table, summary and figures are replaced. Without it such a folder is refused; a folder
+        of the same sweep is always resumed.
+    manifest : sins_sim.jobs.manifest.Manifest, optional
+        Completed and written as ``manifest.json`` when the sweep ends (default: one without a command line).
 
     Returns
     -------
@@ -182,9 +188,15 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
         ``summary`` (as in ``summary.json``), ``tasks``, ``already_done``, ``computed``, ``failed``
         (this invocation), ``wall_s`` (the tasks' phase), ``runs_per_s`` and ``files``.
     """
+    from sins_sim.jobs.manifest import Manifest
+
+    if manifest is None:
+        manifest = Manifest("sweep")
     store = SweepStore(out)
     store.check()
     sweep, tasks, labels = prepare_sweep(path)
+    store.check_same(sweep.name, force)
+    manifest.add_input("sweep", path)
     keys = [t.key for t in tasks]
     store.open({"name": sweep.name, "sweep_file": str(Path(path).resolve()), "version": package_version(),
                 "tasks": len(tasks), "units": sweep.units, "scenarios": labels},
@@ -234,6 +246,9 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
             store.write_text(drawn.name, sweep.name + "\n" + text)
     for rec in failures:
         log(f"failed: unit {rec['unit']}, {rec['scenario']}: {rec['error']} (traceback in failed/{rec['key']}.json)")
+    manifest.doc["sweep"] = {"name": sweep.name, "tasks": len(tasks), "already_done": already, "computed": ok,
+                             "failed": failed}
+    manifest.write(store.root)  # the folder grows over resumes: the manifest is the last invocation's
     return {"summary": summary, "tasks": len(tasks), "already_done": already, "computed": ok, "failed": failed,
             "wall_s": wall, "runs_per_s": (ok + failed) / wall if wall > 0 else None, "files": files,
             "warned_runs": int((table["warnings"].fillna("") != "").sum()) if len(table) else 0,

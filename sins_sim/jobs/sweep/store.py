@@ -71,6 +71,19 @@ class SweepStore:
         if not os.access(parent if not p.exists() else p, os.W_OK | os.X_OK):
             raise ConfigError(f"{flag}: cannot write in {p if p.exists() else parent}")
 
+    def check_same(self, name: str, force: bool = False) -> None:
+        """A folder that holds another sweep (another name) is refused unless ``force``; the same one resumes."""
+        try:
+            state = json.loads((self.root / "sweep.json").read_text())
+        except (OSError, ValueError):
+            return  # a new folder (check() refused an unreadable sweep.json)
+        other = state.get("name")
+        if other != name and not force:
+            raise ConfigError(f"{self.flag}: {self.root} holds the sweep {other!r} ({state.get('sweep_file')}, "
+                              f"{state.get('tasks')} runs), not {name!r}; pass --force to run {name!r} in it (the "
+                              f"stored runs stay as a cache; the table, summary and figures are replaced) or choose "
+                              f"another folder")
+
     def open(self, state: dict, sweep_text: str) -> None:
         """Create the folder (or take up an existing sweep folder); drop temporary files a killed sweep left."""
         self.runs.mkdir(parents=True, exist_ok=True)
