@@ -232,8 +232,8 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
         from sins_sim.plots import navigation as pn
 
         figures = pn.plot_run(res, out, scenario.name)
-    (out / "report.md").write_text(_report(scenario, metrics, figures)
-                                   + _filter_parameters_report(manifest.doc["run"]["filter_parameters"]))
+    (out / "report.md").write_text(_report(scenario, metrics, figures,
+                                           _filter_parameters_report(manifest.doc["run"]["filter_parameters"])))
     manifest.write(out)
     return metrics
 
@@ -304,7 +304,7 @@ def _drift_cells(dr, axes) -> str:
     return ", ".join(cells)
 
 
-def _report(scenario, metrics, figures) -> str:
+def _report(scenario, metrics, figures, filter_table: str = "") -> str:
     nv = metrics["navigation"]
     lines = [f"# {scenario.name}", "", scenario.description or "", "",
              f"- mission: {metrics['duration_s']:g} s, {metrics['mission']['trajectory']}",
@@ -402,5 +402,6 @@ def _report(scenario, metrics, figures) -> str:
             lines.append(f"- {name}: axis {d['axis']}, t = {d['time_s']:.4g} s: {d['reason']}")
     if metrics["warnings"]:
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in metrics["warnings"]]
+    lines += [filter_table] if filter_table else []
     lines += [""] + [f"![{f}]({f})" for f in figures] + [""]
     return "\n".join(lines)
