@@ -436,8 +436,8 @@ class _TaskBar:
         done, total = self.bar.n, self.bar.total
         parts = []
         since = time.monotonic() - self.t_first if self.t_first is not None else 0.0
-        if done >= 2 and since >= 1.0:
-            rate = (done - 1) / since  # runs/s after the first (class docstring)
+        if done >= 2 and (since >= 1.0 or done >= total):  # not from a few ms between two workers' first runs
+            rate = (done - 1) / max(since, 1e-3)  # runs/s after the first (class docstring)
             parts.append(f"{60.0 * rate:.3g} runs/min")
             if done < total:
                 parts.append(f"about {format_duration((total - done) / rate)} left")
