@@ -527,12 +527,17 @@ def _print_drivers(summary: dict, metric: str) -> None:
         return
     print(f"drivers (Spearman rho; p adjusted over all {m['tests']} driver tests, Westfall-Young maxT, "
           f"family-wise error {m['alpha']:g}):")
+    floor = 1.0 / (1.0 + m["permutations"])  # the smallest p-value the permutations give: "at most"
+
+    def p_text(name, p):
+        return f"{name} <= {floor:.2g}" if p <= floor else f"{name} {p:.2g}"
+
     for label, per in blocks.items():
         quiet: dict = {}
         for f, d in per.items():
             if d["significant"]:
-                shown = "; ".join(f"{r['parameter']} rho {r['spearman']:+.2f} p {r['p']:.2g} p_adj {r['p_adjusted']:.2g}"
-                                  f" n {r['n']}" for r in d["significant"][:3])
+                shown = "; ".join(f"{r['parameter']} rho {r['spearman']:+.2f}, {p_text('p', r['p'])}, "
+                                  f"{p_text('p_adj', r['p_adjusted'])}, n {r['n']}" for r in d["significant"][:3])
                 more = f" (+{len(d['significant']) - 3} in summary.json)" if len(d["significant"]) > 3 else ""
                 print(f"  {label:<20}{f:<18}{shown}{more}")
             else:
