@@ -48,7 +48,7 @@ Testing*, 1993, algorithm 4.1; Ge, Dudoit & Speed, *TEST* 12, 2003, box 2) with
 controls the family-wise error rate (the chance of reporting any parameter that does not act) at
 :data:`DRIVER_ALPHA` in the strong sense. Chosen over Holm on ``scipy.stats.spearmanr``'s p-values because
 (1) spearmanr's p-value is a Student-t approximation that is 1.5-2.9 times too small at p ~ 1e-4 for
-10-30 units (measured against 4 million random permutations), exactly where Holm's thresholds over a
+10-30 units (measured against 2-4 million random permutations of the ranks), exactly where Holm's thresholds over a
 family of a few thousand tests lie; (2) the permutation null is exact for ties (a grid parameter) and
 keeps the dependence between the metrics and filters, which Holm can only bound. Only the drivers with
 ``p_adjusted <= alpha`` are listed, with ``spearman`` (rho, ``scipy.stats.spearmanr``), ``p`` (the
@@ -67,7 +67,7 @@ import numpy as np
 
 from sins_sim.jobs.sweep.tasks import HEADLINE_METRICS, METRICS, PARAM_PREFIX
 
-__all__ = ["summarize", "metric_filters", "parameter_names", "spearman", "quantile_n_required",
+__all__ = ["summarize", "metric_filters", "parameter_names", "quantile_n_required",
            "order_statistic_interval", "quantile_summary", "driver_tests", "CONFIDENCE", "DRIVER_ALPHA",
            "BOOTSTRAP_RESAMPLES", "DRIVER_PERMUTATIONS"]
 
@@ -128,6 +128,18 @@ def quantile_n_required(q: float, confidence: float = CONFIDENCE) -> int:
     The smallest value is a lower confidence bound at ``1 - (1-confidence)/2`` when ``(1-q)^n <= (1-confidence)/2``
     and the largest an upper bound when ``q^n <= (1-confidence)/2`` (module docstring).
 
+    Parameters
+    ----------
+    q : float
+        The quantile's probability, in (0, 1).
+    confidence : float
+        Two-sided confidence level.
+
+    Returns
+    -------
+    int
+        The smallest sample size that supports the quantile.
+
     Examples
     --------
     >>> [quantile_n_required(q) for q in (0.5, 0.95, 0.99)]
@@ -144,9 +156,24 @@ def quantile_n_required(q: float, confidence: float = CONFIDENCE) -> int:
 
 
 def order_statistic_interval(n: int, q: float, confidence: float = CONFIDENCE) -> tuple[int, int] | None:
-    """1-based ranks ``(l, u)`` of the distribution-free equal-tailed interval ``[X_(l), X_(u)]`` of the ``q``
-    quantile from ``n`` values (``P(B < l) <= tail``, ``P(B >= u) <= tail``, ``B ~ Binomial(n, q)``, ``l`` as
-    large and ``u`` as small as that allows), or None when the order statistics cannot bracket it."""
+    """Ranks of the distribution-free equal-tailed confidence interval of a quantile (Hahn & Meeker 1991, 5.2).
+
+    Parameters
+    ----------
+    n : int
+        Sample size.
+    q : float
+        The quantile's probability, in (0, 1).
+    confidence : float
+        Two-sided confidence level; each tail holds at most half of ``1 - confidence``.
+
+    Returns
+    -------
+    tuple of int or None
+        1-based ranks ``(l, u)`` of ``[X_(l), X_(u)]`` with ``P(B < l) <= tail`` and ``P(B >= u) <= tail``,
+        ``B ~ Binomial(n, q)``, ``l`` as large and ``u`` as small as that allows; None when the order
+        statistics cannot bracket the quantile (``n < quantile_n_required(q)``).
+    """
     from scipy.stats import binom
 
     tail = 0.5 * (1.0 - confidence)
@@ -175,7 +202,18 @@ def _bootstrap(x: np.ndarray, qs: list) -> np.ndarray:
 
 
 def quantile_summary(values) -> dict | None:
-    """The ``percentiles`` entry of one column (module docstring); None without a finite value."""
+    """The ``percentiles`` entry of one column (module docstring).
+
+    Parameters
+    ----------
+    values : array_like
+        The column; NaN and inf are left out (``n`` counts the rest).
+
+    Returns
+    -------
+    dict or None
+        ``{"n": n, "p50": {...}, "p95": {...}, "p99": {...}}``; None without a finite value.
+    """
     x = np.asarray(values, dtype=float)
     x = np.sort(x[np.isfinite(x)])
     n = int(x.size)
@@ -202,18 +240,6 @@ def _percentiles(table, filters) -> dict:
 
 
 # --- drivers ----------------------------------------------------------------------------------------------------
-def spearman(x, y) -> float:
-    """Spearman rank correlation (``scipy.stats.spearmanr``) of two samples over the pairs where both are
-    finite (NaN if fewer than 3 pairs or either sample is constant)."""
-    from scipy.stats import spearmanr
-
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-    ok = np.isfinite(x) & np.isfinite(y)
-    if ok.sum() < _MIN_PAIRS or np.ptp(x[ok]) == 0.0 or np.ptp(y[ok]) == 0.0:
-        return math.nan
-    return float(spearmanr(x[ok], y[ok]).statistic)
-
-
 def _zranks(a: np.ndarray, axis: int) -> np.ndarray:
     """Average ranks along ``axis``, centred and scaled to unit norm (so a dot product is Spearman's rho);
     a constant column becomes NaN."""
