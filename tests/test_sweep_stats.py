@@ -234,11 +234,12 @@ def lot10(tmp_path_factory):
 def test_a_ten_unit_lot_prints_and_stores_no_p95_or_p99(lot10):
     out, text, _ = lot10
     s = json.loads((out / "summary.json").read_text())
+    need = _binomial_n_required(0.99)
     for block in [s["percentiles"], *(b["percentiles"] for b in s["by_scenario"].values())]:
         for per in block.values():
             for q in per.values():
                 assert q["n"] <= 10 and "value" not in q["p99"] and "value" not in q["p95"]
-                assert q["p99"] == {"supported": False, "n_required": _binomial_n_required(0.99), "n": q["n"]}
+                assert q["p99"] == {"supported": False, "n_required": need, "n": q["n"]}
     lines = text.splitlines()
     head = next(i for i, ln in enumerate(lines) if ln.startswith("scenario"))
     assert "p50 [95% CI]" in lines[head] and "p95" not in lines[head] and "p99" not in lines[head]
