@@ -480,10 +480,56 @@ def _cmd_diagnose_eval(args) -> int:
 
 
 class _TaskBar:
-    """A tqdm bar over a sweep's tasks on stderr (runs done, failed, rate and time left)."""
+    """A tqdm bar over a sweep's runs on stderr: it moves per finished run and shows the rate and the time left.
+
+    Before the first run finishes the bar says what is happening (``phase``: the cluster starting, the
+    first runs compiling). The rate (runs/min) counts the runs after the first over the time since the first
+    finished: the first run carries the cluster's start-up and the workers' compilation (minutes on a busy
+    machine), which the others do not, so a mean from the start would predict hours for a sweep that ends in
+    seconds. The time left is the runs left over that rate. On a terminal a clock thread redraws the bar every
+    second, so the elapsed time and the rate move between finished runs.
+    """
 
     def __init__(self, label: str, disable: bool):
         self.label, self.disable, self.bar = label, disable, None
+        self.text, self.failed, self.t_first = "", 0, None
+        self._stop = threading.Event()
+        self._clock = None
+
+    def _postfix(self) -> str:
+        import time
+
+        from sins_sim.jobs.estimate import format_duration
+
+        done, total = self.bar.n, self.bar.total
+        parts = []
+        since = time.monotonic() - self.t_first if self.t_first is not None else 0.0
+        if done >= 2 and (since >= 1.0 or done >= total):  # not from a few ms between two workers' first runs
+            rate = (done - 1) / max(since, 1e-3)  # runs/s after the first (class docstring)
+            parts.append(f"{60.0 * rate:.3g} runs/min")
+            if done < total:
+                parts.append(f"about {format_duration((total - done) / rate)} left")
+        elif done and done < total:
+            parts.append(f"first run finished after {format_duration(self.bar.format_dict['elapsed'])}; "
+                         "measuring the rate")
+        elif not done and self.text:
+            parts.append(self.text)
+        if self.failed:
+            parts.append(f"{self.failed} failed")
+        return ", ".join(parts)
+
+    def _refresh(self) -> None:
+        if self.bar:
+            self.bar.set_postfix_str(self._postfix(), refresh=True)
+
+    def _tick(self) -> None:
+        while not self._stop.wait(1.0):
+            self._refresh()
+
+    def phase(self, text: str) -> None:
+        """What happens before the first run finishes (shown until then)."""
+        self.text = text
+        self._refresh()
 
     def __call__(self, done: int, total: int, failed: int) -> None:
         if self.bar is False:
@@ -491,18 +537,81 @@ class _TaskBar:
         if self.bar is None:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=total, desc=self.label, unit="run", file=sys.stderr, disable=self.disable,
-                            dynamic_ncols=True, smoothing=0.1)
-        if failed:
-            self.bar.set_postfix_str(f"{failed} failed", refresh=False)
+            self.bar = tqdm(total=total, desc=self.label, file=sys.stderr, disable=self.disable, dynamic_ncols=True,
+                            bar_format="{desc}: {n_fmt}/{total_fmt} runs |{bar}| {elapsed}{postfix}")
+            if not self.disable and sys.stderr.isatty():
+                self._clock = threading.Thread(target=self._tick, name="sweep-progress-clock", daemon=True)
+                self._clock.start()
+        if done and self.t_first is None:
+            import time
+
+            self.t_first = time.monotonic()
+        self.failed = failed
         self.bar.update(done - self.bar.n)
+        self._refresh()
         if done >= total:
             self.close()
 
     def close(self) -> None:
+        self._stop.set()
+        if self._clock is not None:
+            self._clock.join()
+            self._clock = None
         if self.bar:
             self.bar.close()
             self.bar = False  # closed: no second bar
+
+
+def _quantile_cell(q: dict) -> str:
+    """``1.23 [1.01, 1.50]``: a supported quantile and its bootstrap 95 % interval."""
+    lo, hi = q["ci95"]
+    return f"{q['value']:.3g} [{lo:.3g}, {hi:.3g}]"
+
+
+def _print_percentiles(summary: dict, metric: str) -> None:
+    """Per scenario and filter: each quantile that the sample supports with its interval, and n; one line on
+    each quantile left out."""
+    rows = [(label, f, q) for label, block in summary["by_scenario"].items()
+            for f, q in block["percentiles"].get(metric, {}).items()]
+    keys = [k for k in ("p50", "p95", "p99") if any(q[k]["supported"] for _, _, q in rows)]
+    width = max([len(_quantile_cell(q[k])) for _, _, q in rows for k in keys if q[k]["supported"]] + [11]) + 2
+    print(f"{'scenario':<22}{'filter':<18}" + "".join(f"{k + ' [95% CI]':>{width}}" for k in keys) + f"{'n':>6}")
+    for label, f, q in rows:
+        cells = "".join(f"{_quantile_cell(q[k]) if q[k]['supported'] else '-':>{width}}" for k in keys)
+        print(f"{label:<22}{f:<18}{cells}{q['n']:>6}")
+    for k in ("p50", "p95", "p99"):
+        short = sorted({q["n"] for _, _, q in rows if not q[k]["supported"]})
+        if short:
+            need = next(q[k]["n_required"] for _, _, q in rows if not q[k]["supported"])
+            print(f"{k} not shown where n < {need} (n = {', '.join(map(str, short))} here): fewer values cannot "
+                  f"bracket the {k[1:]}th percentile in a 95 % interval (distribution-free, order statistics)")
+
+
+def _print_drivers(summary: dict, metric: str) -> None:
+    """The significant drivers of ``metric`` per scenario and filter, or that there is none at that n."""
+    m = summary["methods"]["drivers"]
+    blocks = {label: d[metric] for label, d in summary["drivers"].items() if metric in d}
+    if not blocks:
+        return
+    print(f"drivers (Spearman rho; p adjusted over all {m['tests']} driver tests, Westfall-Young maxT, "
+          f"family-wise error {m['alpha']:g}):")
+    floor = 1.0 / (1.0 + m["permutations"])  # the smallest p-value the permutations give: "at most"
+
+    def p_text(name, p):
+        return f"{name} <= {floor:.2g}" if p <= floor else f"{name} {p:.2g}"
+
+    for label, per in blocks.items():
+        quiet: dict = {}
+        for f, d in per.items():
+            if d["significant"]:
+                shown = "; ".join(f"{r['parameter']} rho {r['spearman']:+.2f}, {p_text('p', r['p'])}, "
+                                  f"{p_text('p_adj', r['p_adjusted'])}, n {r['n']}" for r in d["significant"][:3])
+                more = f" (+{len(d['significant']) - 3} in summary.json)" if len(d["significant"]) > 3 else ""
+                print(f"  {label:<20}{f:<18}{shown}{more}")
+            else:
+                quiet.setdefault(d["n"], []).append(f)
+        for n, fs in quiet.items():
+            print(f"  {label:<20}no significant driver at n = {n} ({', '.join(fs)})")
 
 
 def _cmd_sweep(args) -> int:
@@ -513,20 +622,21 @@ def _cmd_sweep(args) -> int:
     bar = _TaskBar(Path(args.sweep).stem, args.quiet)
     try:
         res = run_sweep(args.sweep, args.out, scheduler=args.scheduler, workers=args.workers, progress=bar,
-                        log=lambda line: print(line, flush=True), force=args.force, manifest=_manifest(args))
+                        phase=bar.phase, log=lambda line: print(line, flush=True), force=args.force,
+                        manifest=_manifest(args))
     finally:
         bar.close()
     s = res["summary"]
     if res["computed"] + res["failed"]:
-        print(f"ran {res['computed'] + res['failed']} runs in {res['wall_s']:.1f} s ({res['runs_per_s']:.3g} runs/s)"
-              + (f", {res['failed']} failed" if res["failed"] else ""))
+        print(f"ran {res['computed'] + res['failed']} runs in {res['wall_s']:.1f} s "
+              f"({60.0 * res['runs_per_s']:.3g} runs/min)" + (f", {res['failed']} failed" if res["failed"] else ""))
     else:
         print("all runs were already done")
-    print(f"{s['runs']} runs in the table, {s['failed']} failed; final horizontal position error (m) over the units:")
-    print(f"{'scenario':<22}{'filter':<18}{'p50':>11}{'p95':>11}{'p99':>11}{'n':>6}")
-    for label, block in s["by_scenario"].items():
-        for f, q in block["percentiles"].get("horizontal_position_error_m_final", {}).items():
-            print(f"{label:<22}{f:<18}{q['p50']:>11.3g}{q['p95']:>11.3g}{q['p99']:>11.3g}{q['n']:>6}")
+    metric = "horizontal_position_error_m_final"
+    print(f"{s['runs']} runs in the table, {s['failed']} failed; final horizontal position error (m) over the units "
+          f"(95 % CI: percentile bootstrap):")
+    _print_percentiles(s, metric)
+    _print_drivers(s, metric)
     if res["warned_runs"]:
         args.job_warnings.append(f"{res['warned_runs']} run(s) warned: see the warnings column of "
                                  f"{Path(args.out) / 'runs.parquet'}")

@@ -6,7 +6,7 @@
    population  seeded draws of each unit around the IMU file, applied to an IMU mapping
    tasks       one task per (unit, scenario), its key, and the worker's run (flat metrics)
    store       the sweep folder: Parquet parts written as runs finish, failures, resume
-   summary     summary.json: percentiles per metric and filter, drivers of the tail
+   summary     summary.json: percentiles with intervals where n supports them, drivers that pass a family-wise test
    job         run_sweep: validate, resume, submit, collect, summarise, plot
 """
 

@@ -25,7 +25,8 @@ from pathlib import Path
 from sins_sim.jobs.schema import ConfigError
 from sins_sim.jobs.sweep.schema import load_sweep
 from sins_sim.jobs.sweep.store import SweepStore
-from sins_sim.jobs.sweep.summary import metric_filters, parameter_names, spearman, summarize
+from sins_sim.jobs.sweep.summary import (DRIVER_ALPHA, driver_tests, metric_filters, parameter_names,
+                                        quantile_n_required, summarize)
 from sins_sim.jobs.sweep.tasks import (HEADLINE_METRICS, METRICS, PARAM_PREFIX, build_tasks, package_version,
                                        run_task)
 
@@ -33,6 +34,9 @@ __all__ = ["run_sweep", "prepare_sweep", "parameter_label", "CONNECT_TIMEOUT_S"]
 
 #: How long to wait for ``--scheduler`` to answer (s).
 CONNECT_TIMEOUT_S = 15.0
+#: About how long a worker's first run spends compiling the numba kernels without a cache (s; measured on the
+#: 2-core machine of the README, said to the user while the first run is under way).
+FIRST_COMPILE_S = 30.0
 #: Sensitivity figures show at most this many parameters (the strongest rank correlations first).
 MAX_SENSITIVITY_PANELS = 8
 #: The metrics drawn against the parameters (every headline metric's drivers are in summary.json).
@@ -85,6 +89,11 @@ def _quiet_dask():
             lg.setLevel(lv)
 
 
+def _local_workers(workers, n_tasks) -> int:
+    """Worker processes of the LocalCluster: ``workers``, else the cores; at most the tasks."""
+    return max(1, min(workers or os.cpu_count() or 1, n_tasks))
+
+
 @contextmanager
 def _dask_client(scheduler, workers, n_tasks):
     from dask.distributed import Client, LocalCluster
@@ -100,7 +109,7 @@ def _dask_client(scheduler, workers, n_tasks):
         finally:
             client.close()
         return
-    n = max(1, min(workers or os.cpu_count() or 1, n_tasks))
+    n = _local_workers(workers, n_tasks)
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                            silence_logs=logging.ERROR)
     try:
@@ -120,7 +129,7 @@ def _failure_record(task, exc, tb) -> dict:
             "traceback": text}
 
 
-def _run_tasks(client, todo, store, progress, task_fn, version) -> tuple[int, int]:
+def _run_tasks(client, todo, store, progress, task_fn, version, phase=None) -> tuple[int, int]:
     from dask.distributed import as_completed
 
     futures = {}
@@ -131,8 +140,10 @@ def _run_tasks(client, todo, store, progress, task_fn, version) -> tuple[int, in
         fut = client.submit(task_fn, t.spec(version), key=f"sins-sim-run-{t.key}", pure=False, priority=prio)
         futures[fut] = t
     ok = failed = 0
-    if progress is not None:
-        progress(0, len(todo), 0)
+    if phase is not None:
+        workers = len(client.scheduler_info().get("workers", {}))
+        phase(f"waiting for the first run ({workers} worker(s); each compiles the numba kernels on its first "
+              f"run: about {FIRST_COMPILE_S:.0f} s on an idle core)")
     try:
         for fut in as_completed(list(futures)):
             task = futures.pop(fut)
@@ -152,7 +163,8 @@ def _run_tasks(client, todo, store, progress, task_fn, version) -> tuple[int, in
 
 
 def run_sweep(path, out, scheduler: str | None = None, workers: int | None = None, progress=None, log=print,
-              client=None, task_fn=run_task, plots: bool = True, force: bool = False, manifest=None) -> dict:
+              client=None, task_fn=run_task, plots: bool = True, force: bool = False, manifest=None,
+              phase=None) -> dict:
     """Run a sweep file; results into ``out`` (resumed if it holds this sweep's earlier results).
 
     Parameters
@@ -166,7 +178,10 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
     workers : int, optional
         Worker processes of the ``LocalCluster`` (one thread each; default: the cores, at most the tasks).
     progress : callable(done, total, failed), optional
-        Told the number of tasks to run at the start and after each finished task.
+        Told the number of tasks to run before the cluster starts, and after each finished task.
+    phase : callable(str), optional
+        Told, in one line, what happens before the first task finishes (the cluster starting, the first
+        runs compiling).
     log : callable(str)
         Where the one-line notes go (what was already done, what failed).
     client : dask.distributed.Client, optional
@@ -212,22 +227,29 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
     ok = failed = 0
     wall = 0.0
     if todo:
+        if progress is not None:
+            progress(0, len(todo), 0)
         with _quiet_dask():
             if client is not None:
                 t0 = time.perf_counter()
-                ok, failed = _run_tasks(client, todo, store, progress, task_fn, package_version())
+                ok, failed = _run_tasks(client, todo, store, progress, task_fn, package_version(), phase)
                 wall = time.perf_counter() - t0
             else:
+                if phase is not None:
+                    phase(f"connecting to the Dask scheduler at {scheduler}" if scheduler else
+                          f"starting a Dask cluster of {_local_workers(workers, len(todo))} "
+                          "worker process(es)")
                 with _dask_client(scheduler, workers, len(todo)) as cl:
                     t0 = time.perf_counter()
-                    ok, failed = _run_tasks(cl, todo, store, progress, task_fn, package_version())
+                    ok, failed = _run_tasks(cl, todo, store, progress, task_fn, package_version(), phase)
                     wall = time.perf_counter() - t0
     table = store.table(keys)
     if len(table):
         table = table.sort_values(["scenario_index", "unit"], kind="stable").reset_index(drop=True)
     have = set(table["key"]) if len(table) else set()
     failures = store.failures([k for k in keys if k not in have])
-    summary = summarize(table, failures, labels)
+    tests = driver_tests(table, labels) if len(table) else []
+    summary = summarize(table, failures, labels, tests)
     files = ["runs.parquet", "summary.json"]
     text = json.dumps(summary, indent=2, allow_nan=False) + "\n"
     drawn = store.root / ".figures-of-summary.json"  # the sweep name and summary the figures were drawn from
@@ -242,7 +264,7 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
             drawn.unlink(missing_ok=True)
             for old in store.root.glob("*.png"):
                 old.unlink()
-            files += _plots(table, labels, store, sweep.name)
+            files += _plots(table, labels, store, sweep.name, tests)
             store.write_text(drawn.name, sweep.name + "\n" + text)
     for rec in failures:
         log(f"failed: unit {rec['unit']}, {rec['scenario']}: {rec['error']} (traceback in failed/{rec['key']}.json)")
@@ -255,15 +277,15 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
             "table": table}
 
 
-def _plots(table, labels, store, name) -> list:
+def _plots(table, labels, store, name, tests) -> list:
     from sins_sim.plots import sweep as ps
 
     filters = metric_filters(table)
     files = []
     head = {m: METRICS[m] for m in HEADLINE_METRICS}
     tmp = store.root / ".distributions.tmp-.png"
-    if ps.plot_distributions(table, head, filters, labels, tmp,
-                             f"{name}: distribution over {table['unit'].nunique()} units (dots: 95th percentile)"):
+    if ps.plot_distributions(table, head, filters, labels, tmp, f"{name}: distribution over {table['unit'].nunique()} units",
+                             p95_min_n=quantile_n_required(0.95)):
         os.replace(tmp, store.root / "distributions.png")
         files.append("distributions.png")
     for j, label in enumerate(labels):
@@ -272,16 +294,22 @@ def _plots(table, labels, store, name) -> list:
         if len(sub) < 3 or not params:
             continue
         for metric in SENSITIVITY_METRICS:
-            rho = {(PARAM_PREFIX + p, f): spearman(sub[PARAM_PREFIX + p], sub[f"{f}.{metric}"])
-                   for p in params for f in filters if f"{f}.{metric}" in sub}
-            strength = {p: max((abs(r) for (pc, _), r in rho.items() if pc == PARAM_PREFIX + p and r == r),
-                               default=0.0) for p in params}
-            top = sorted(params, key=lambda p: -strength[p])[:MAX_SENSITIVITY_PANELS]
+            # the summary's tests (one family, corrected): a panel names a driver only where it is significant
+            found = {(PARAM_PREFIX + t["parameter"], t["filter"]): t for t in tests
+                     if t["scenario"] == label and t["metric"] == metric}
+            # significant drivers first (smallest adjusted p), then the others by their largest |rho|
+            rank = {p: min(((not t["significant"], t["p_adjusted"] if t["significant"] else 1.0, -abs(t["spearman"]))
+                            for (pc, _), t in found.items() if pc == PARAM_PREFIX + p), default=(True, 1.0, 0.0))
+                    for p in params}
+            top = sorted(params, key=lambda p: rank[p])[:MAX_SENSITIVITY_PANELS]
             fname = f"sensitivity_{j}_{metric}.png"
             tmp = store.root / f".{fname}.tmp-.png"
+            n_tests = len(tests)
             if ps.plot_sensitivity(sub, metric, METRICS[metric], {PARAM_PREFIX + p: parameter_label(p) for p in top},
-                                   filters, tmp, f"{label}: {metric} against the drawn parameters "
-                                                 f"(rho: Spearman rank correlation)", rho):
+                                   filters, tmp, f"{label}: {metric} against the drawn parameters\n"
+                                                 f"(rho: Spearman; p: adjusted over all {n_tests} driver tests "
+                                                 f"of the sweep, Westfall-Young maxT; n.s.: not significant "
+                                                 f"at {DRIVER_ALPHA:g})", found):
                 os.replace(tmp, store.root / fname)
                 files.append(fname)
     return files
