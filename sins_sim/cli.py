@@ -543,7 +543,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run a three-axis SINS scenario (YAML) end to end",
                        description="Run a scenario file: three dithered channels, their filters, attitude "
                                    "integration and navigation error; writes metrics.json, timeseries.npz, "
-                                   "attitude_error.png, spectrum.png and report.md.")
+                                   "report.md and the figures that have data: navigation_error.png, "
+                                   "attitude_error.png, trajectory.png, gyro_error_spectrum.png and allan.png (the "
+                                   "last two only for filters other than ideal). report.md lists the figures "
+                                   "written.")
     p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
     p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
     p.add_argument("--seed", type=_seed, default=None, help="override the scenario's seed")
@@ -565,8 +568,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_budget)
 
     p = sub.add_parser("reproduce", help="regenerate the paper's figures and numbers with sins-sim's own code",
-                       description="Figures 1, 3-7, the Abel inversion, the sensitivity table, numbers.json and "
-                                   "a report.md comparing sins-sim with the paper.")
+                       description="Figures 1, 3-7 and the Abel inversion (fig1_correcting_afc.png, "
+                                   "fig3_resonance_vs_amplitude.png, fig3_abel_nonl.png, fig4_afc_fit.png, "
+                                   "fig5_end_to_end_afc.png, fig6_mismatch.png, fig7_impact.png), the sensitivity "
+                                   "table, numbers.json and a report.md comparing sins-sim with the paper.")
     p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
     p.add_argument("--quick", action="store_true", help="every number at reduced resolution (< 90 s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
@@ -610,8 +615,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recording", nargs="+", help="sins-sim-recording/1 .npz (several: diagnosed in turn, or --jobs "
                                                 "at once)")
     p.add_argument("--json", help="write the diagnosis JSON here (several recordings: a folder of STEM.json)")
-    p.add_argument("--report", help="write report.md and PNGs into this directory (several recordings: a folder "
-                                    "of STEM/)")
+    p.add_argument("--report", help="write report.md, spectrum.png, envelope.png and (when an effect was tried) "
+                                    "ranking.png into this directory (several recordings: a folder of STEM/)")
     p.add_argument("--effects", help="comma-separated subset of the catalogue to try (default: all)")
     p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in separate processes [1]")
     p.set_defaults(func=_cmd_diagnose)
@@ -642,7 +647,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("lockin-study", help="lock-in in the loop: dynamic lock-in and the ARW of dithered lock-in",
                        description="Run the engine's chain with the lock_in effect: ARW vs lock-in rate, dither "
                                    "amplitude and modulation depth beside N = Omega_L / sqrt(K a w_D), and the "
-                                   "dynamic lock-in zones of a constant-amplitude dither.")
+                                   "dynamic lock-in zones of a constant-amplitude dither; writes lockin.json, "
+                                   "arw_vs_lockin.png, dynamic_lockin.png and report.md.")
     p.add_argument("--out", required=True, help="result folder")
     p.add_argument("--quick", action="store_true", help="shorter runs, fewer points (about 15 s)")
     p.add_argument("--seed", type=_seed, default=0, help="seed of the amplitude modulation [0]")
@@ -652,7 +658,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run every (unit, scenario) of a sweep file (sins-sim schema sweep) as a "
                                    "dask.distributed task; write one Parquet part per finished run, runs.parquet, "
                                    "summary.json and figures into --out. A second invocation resumes: runs already "
-                                   "done are not run again.")
+                                   "done are not run again. Figures: distributions.png and, for scenarios with at "
+                                   "least 3 runs and drawn parameters, sensitivity_<scenario>_<metric>.png.")
     p.add_argument("sweep", help="sweep YAML file (see scenarios/sweep-*.yaml)")
     p.add_argument("--out", required=True, help="sweep folder (created, or resumed when it holds this sweep)")
     p.add_argument("--scheduler", default=None,

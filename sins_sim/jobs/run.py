@@ -10,8 +10,9 @@ Writes into the output folder:
 * ``timeseries.npz``: the stored error series (block means with min/max envelopes, never a
   decimated sample), the truth path, and the gyro-angle errors at the full filter rate over
   ``navigation.spectrum_s``;
-* ``navigation_error.png``, ``attitude_error.png``, ``trajectory.png``,
-  ``gyro_error_spectrum.png`` and ``report.md``.
+* the figures that have data (``navigation_error.png``, ``attitude_error.png``, ``trajectory.png``,
+  ``gyro_error_spectrum.png``, ``allan.png``: see :func:`sins_sim.plots.navigation.plot_run`) and
+  ``report.md``, which lists them.
 """
 
 from __future__ import annotations

@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sins_sim.plots.common import _pyplot
-from sins_sim.plots.navigation import NAV_COLORS, NAV_LABELS
+from sins_sim.plots.common import _pyplot, filter_color, filter_label
 
 __all__ = ["plot_budget"]
 
@@ -40,7 +39,7 @@ def plot_budget(budget: dict, path, title: str = "") -> None:
             y = np.arange(n) + (j - (m - 1) / 2) * height
             x = np.array([r[j] if r[j] and np.isfinite(r[j]) and r[j] > 0 else np.nan for r in vals])
             x = np.where(x > lo, x, np.nan)
-            ax.barh(y, x - lo, left=lo, height=height * 0.95, color=NAV_COLORS.get(f), label=NAV_LABELS.get(f, f))
+            ax.barh(y, x - lo, left=lo, height=height * 0.95, color=filter_color(f), label=filter_label(f))
         ax.set_xscale("log")
         ax.set_xlim(left=lo)
         ax.set_xlabel("final horizontal position error (m)" if unit == "m" else

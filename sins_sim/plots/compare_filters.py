@@ -6,25 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.plots.common import COLORS, LABELS, _pyplot
+from sins_sim.plots.common import _pyplot, filter_color, filter_label
 
 __all__ = ["plot_gain", "plot_tradeoff"]
 
-_EXTRA_LABELS = {
-    "correcting_aligned": "time-aligned eq. 5 (delay 1)",
-    "correcting_wideband": "equalised, flat to 2.6 kHz (delay 16)",
-    "correcting_lownoise": "equalised, flat to 1.5 kHz (delay 20)",
-}
-_EXTRA_COLORS = {"correcting_aligned": "tab:purple", "correcting_wideband": "tab:green",
-                 "correcting_lownoise": "tab:orange"}
-
-
-def _label(name):
-    return LABELS.get(name) or _EXTRA_LABELS.get(name, name)
-
-
-def _color(name):
-    return COLORS.get(name) or _EXTRA_COLORS.get(name, None)
+_label = filter_label
+_color = filter_color
 
 
 def plot_gain(gain: dict, path, top_db: float = 2.0, bottom_db: float = -6.0) -> str:

@@ -10,7 +10,7 @@ from sins_sim.units import ARCMIN, ARCSEC
 __all__ = ["plot_fig1", "plot_fig3", "plot_fig4", "plot_fig5", "plot_fig6", "plot_fig7"]
 
 _LABELS = {**LABELS, "pickoff": "pickoff stripping (LMS gain)", "raw": "raw RLG readout (mechanical filter)"}
-_COLORS = {**COLORS, "pickoff": "tab:green"}
+_COLORS = COLORS
 
 
 def _db(x):
