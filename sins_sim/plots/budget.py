@@ -50,7 +50,8 @@ def plot_budget(budget: dict, path, title: str = "") -> None:
     axes[0].set_yticks(np.arange(n))
     axes[0].set_yticklabels([r for r, _ in rows])
     axes[0].invert_yaxis()
-    axes[0].legend(fontsize=8, loc="lower right")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(handles)), fontsize=8, frameon=False)
     if title:
         fig.suptitle(title)
     fig.savefig(path, dpi=120)
