@@ -142,50 +142,124 @@ class _Progress:
     """A tqdm bar on stderr behind the jobs' ``progress(fraction)`` callback (rate and time left shown).
 
     A job that estimates its run (:mod:`sins_sim.jobs.estimate`) calls :meth:`estimate` before the engine
-    starts: the bar then counts simulated seconds (rate in ``s/s``, so the time left is the simulated
-    time left over the measured speed) and shows the estimated wall time; otherwise it counts percent.
+    starts, with the estimate calibrated on this machine. When numba's cache is cold a first bar,
+    "compiling (first run only)", counts the wall seconds against the compile estimate until the first
+    progress report; then the run's bar counts simulated seconds (rate in ``s/s``, so the time left is the
+    simulated time left over the measured speed) with the calibrated wall-time estimate. Without an
+    estimate the bar counts percent. When the run finishes, its timing calibrates the next estimate
+    (:func:`sins_sim.jobs.estimate.record_timing`).
     """
 
     def __init__(self, label: str, disable: bool):
         self.label = label
         self.disable = disable
         self.bar = None  # made when the job reports its estimate or its first progress: no bar before an error
+        self.est = None
+        self._compile = None  # (bar, stop event, thread) while the kernels compile
+        self._times = {}
 
-    def _open(self, total: float, unit: str, postfix: str = ""):
+    def _open(self, total: float, unit: str, postfix: str = "", initial: float = 0.0):
         from tqdm import tqdm
 
         self.bar = tqdm(total=total, desc=self.label, unit=unit, file=sys.stderr, disable=self.disable, leave=True,
-                        dynamic_ncols=True, postfix=postfix or None,
+                        dynamic_ncols=True, postfix=postfix or None, initial=initial,
                         bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.4g}/{total:.4g} {unit} "
                                    "[{elapsed}<{remaining}, {rate_fmt}{postfix}]")
 
-    def estimate(self, est: dict) -> None:
-        """Count simulated seconds and show the estimated wall time (called by the job before the engine starts)."""
+    def _run_postfix(self) -> str:
         from sins_sim.jobs.estimate import format_duration
 
-        total = float(est["simulated_s"])
-        if self.bar is None and total > 0.0:
-            self._open(total, "s", f"estimate {format_duration(est['wall_s'])}")
+        est = self.est
+        cal = est.get("calibration", {})
+        return f"estimate {format_duration(est.get('wall_display_s', est['wall_s']))}" + (
+            "" if cal.get("runs") else " (not yet calibrated)")
+
+    def estimate(self, est: dict) -> None:
+        """Show the compile phase (cold cache) or the run's bar (called by the job before the engine starts)."""
+        import time
+
+        from sins_sim.jobs.estimate import format_duration
+
+        if self.bar is not None or self._compile is not None or not float(est["simulated_s"]) > 0.0:
+            return
+        self.est = est
+        self._times["start"] = time.perf_counter()
+        compile_s = float(est.get("compile_s", 0.0))
+        if compile_s <= 0.0:
+            self._open(float(est["simulated_s"]), "s", self._run_postfix())
+            return
+        from tqdm import tqdm
+
+        bar = tqdm(total=compile_s, desc=f"{self.label}: compiling (first run only)", unit="s", file=sys.stderr,
+                   disable=self.disable, leave=True, dynamic_ncols=True,
+                   postfix=f"estimate {format_duration(compile_s)}",
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]")
+        stop = threading.Event()
+        t0 = self._times["start"]
+
+        def tick():  # the wall clock against the estimate, held below 100 % until the kernels are ready
+            while not stop.wait(0.5):
+                target = min(time.perf_counter() - t0, 0.99 * bar.total)
+                if target > bar.n:
+                    bar.update(target - bar.n)
+
+        thread = threading.Thread(target=tick, name="sins-sim-compile-progress", daemon=True)
+        thread.start()
+        self._compile = (bar, stop, thread)
+
+    def _end_compile(self) -> None:
+        if self._compile is None:
+            return
+        bar, stop, thread = self._compile
+        self._compile = None
+        stop.set()
+        thread.join()
+        bar.total = bar.n if bar.n > 0 else bar.total  # done: the bar shows the time it took
+        bar.set_postfix_str("done", refresh=False)
+        bar.close()
 
     def __call__(self, fraction: float) -> None:
+        import time
+
+        now = time.perf_counter()
+        fraction = min(max(float(fraction), 0.0), 1.0)
+        if "first" not in self._times:
+            self._times["first"] = (now, fraction)
+        self._times["last"] = (now, fraction)
         if self.bar is None:
-            self._open(100.0, "%")
-        done = self.bar.total * min(max(float(fraction), 0.0), 1.0)
+            if self._compile is not None:
+                self._end_compile()
+                total = float(self.est["simulated_s"])
+                self._open(total, "s", self._run_postfix(), initial=total * fraction)  # rate from here on
+            else:
+                self._open(100.0, "%")
+        done = self.bar.total * fraction
         if done > self.bar.n:
             self.bar.update(done - self.bar.n)
 
-    def close(self) -> None:
+    def close(self, record: bool = True) -> None:
+        """Close the bars; ``record``: the job succeeded, so its timing calibrates the next estimate."""
+        self._end_compile()
         if self.bar is not None:
             self.bar.close()
+        if record and self.est is not None and "first" in self._times:
+            from sins_sim.jobs.estimate import record_timing
+
+            import time
+
+            (t1, f1), (t2, f2) = self._times["first"], self._times["last"]
+            record_timing(self.est, self._times["start"], t1, f1, t2, f2, t_end=time.perf_counter())
 
 
 @contextmanager
 def _progress(label: str, quiet: bool):
     bar = _Progress(label, disable=quiet)
+    ok = False
     try:
         yield bar
+        ok = True
     finally:
-        bar.close()
+        bar.close(record=ok)
 
 
 # --- commands -------------------------------------------------------------------------------------
