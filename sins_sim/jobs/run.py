@@ -23,8 +23,6 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.simulation.metrics import drift_metrics, event_steps
-from sins_sim.simulation.sins import simulate_sins
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["run_scenario", "scenario_metrics", "NMI_M", "CEP_RATE_MIN_S"]
@@ -46,6 +44,7 @@ def scenario_metrics(res, scenario) -> dict:
     """The ``filters`` section of ``metrics.json`` from a :class:`~sins_sim.simulation.sins.SinsResult`."""
     from sins_sim import earth
     from sins_sim.navigation.error import position_error_from_attitude_error
+    from sins_sim.simulation.metrics import drift_metrics, event_steps
 
     out = {}
     mission_s = res.duration_s - res.nav_start_s
@@ -140,6 +139,8 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
     from sins_sim.jobs.estimate import check_run
 
     check_run(scenario, progress)  # refuse a run that cannot finish, before the engine starts (issue 12, point 3)
+    from sins_sim.simulation.sins import simulate_sins  # the engine, once the scenario is known to be valid
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
