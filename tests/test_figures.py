@@ -216,7 +216,8 @@ def test_attitude_figure_names_phi_and_its_scale(tmp_path):
         z = np.zeros_like(t)
         d = {"t_s": t, "attitude_ned_rad": a, "attitude_ned_rad_min": a - 1e-6, "attitude_ned_rad_max": a + 1e-6,
              "horizontal_m": t * scale, "horizontal_m_min": t * scale * 0.9, "horizontal_m_max": t * scale * 1.1,
-             "vertical_m": np.sin(t) * scale, "vertical_m_min": np.sin(t) * scale - 1, "vertical_m_max": np.sin(t) * scale + 1,
+             "vertical_m": np.sin(t) * scale, "vertical_m_min": np.sin(t) * scale - 1,
+             "vertical_m_max": np.sin(t) * scale + 1,
              "velocity_ned_m_s": np.column_stack([t, z, z]) * scale, "north_m": t * scale, "east_m": -t * scale}
         return d
 

@@ -45,7 +45,9 @@ The brief quoted 60x real time without navigation and 42x with four filters for 
 attitude moved onto the plant grid (measured here then: 64x and 43x); the README's bench quotes 72x and 46x.
 An ``ideal``-only run was quoted at 5 us per filter sample and measures 1.2-1.3 us here. The model is
 linear in the simulated time and ignores the axes running on threads (up to 3x faster on 3 cores), so
-it errs long.
+it errs long. Memory: one 1 s chunk at the plant rate (about 480 B per plant step for 3 axes), the
+stored error series (360 B per block and filter), the spectra (48 B per filter sample and filter over
+``spectrum_s``), and for the ``channel`` job its whole record (about 120 B per filter sample).
 
 Calibration on the machine that runs
 -------------------------------------
@@ -58,9 +60,7 @@ medians of the last :data:`CALIBRATION_KEEP` of each per job kind are kept in
 ``~/.cache/sins-sim``). Before the first run has been measured the built-in costs are used, and the
 display says so. The first run after an install or an upgrade compiles the numba kernels (about
 :data:`COMPILE_S` here); :func:`kernels_cold` tells whether that is due, so the display shows a
-"compiling (first run only)" phase with its own estimate (the last measured compile time). Memory: one 1 s chunk at the plant rate (about 480 B per plant step for 3 axes), the
-stored error series (360 B per block and filter), the spectra (48 B per filter sample and filter over
-``spectrum_s``), and for the ``channel`` job its whole record (about 120 B per filter sample).
+"compiling (first run only)" phase with its own estimate (the last measured compile time).
 """
 
 from __future__ import annotations
@@ -383,8 +383,9 @@ def calibrate(est: dict) -> dict:
     """``est`` with what the display shows: the wall time calibrated on this machine, and the compile phase.
 
     Adds ``wall_display_s`` (the model's variable part times the median measured ratio of this job kind,
-    plus the median measured time after the last progress report, or the model's fixed part), ``calibration`` (``ratio``, ``runs`` measured, ``text``) and ``compile_s`` (the
-    estimated compilation, 0 when the kernels' cache is warm).
+    plus the median measured time after the last progress report, or the model's fixed part),
+    ``calibration`` (``ratio``, ``runs`` measured, ``text``) and ``compile_s`` (the estimated
+    compilation, 0 when the kernels' cache is warm).
     """
     cal = load_calibration()
     kind = est.get("kind", "run")

@@ -106,31 +106,35 @@ def plot_channel(result, path, window_s: float = 0.03, settle_s: float = 0.0, ti
     t = result.t
     sel = t >= max(t[-1] - window_s, settle_s)
     tm = (t[sel] - t[sel][0]) * 1e3
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True, constrained_layout=True)
+    fig, axes = plt.subplots(3, 1, figsize=(12.5, 9), sharex=True, constrained_layout=True)
+    side = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": 8}  # legends beside the data, not on it
+    # eq. 5's two forms differ by their DC gain only: the paper form dashed on top, the unity form shows through
+    style = {n: {**line_style(n), "lw": 1.0, **({"ls": (0, (4, 2)), "zorder": 5} if n == "correcting_paper" else {})}
+             for n in ("eliminator", "correcting", "correcting_paper")}
     ax = axes[0]
     ax.plot(tm, result.outputs["raw"][sel] / ARCMIN, color=COLORS["raw"], lw=1.0, label=LABELS["raw"])
     ax.plot(tm, result.truth("raw")[sel] / ARCMIN, color="k", lw=1.2, ls="--", label=LABELS["truth"])
     ax.set_ylabel("angle (arcmin)")
     ax.set_title("RLG readout: dither on top of the SINS motion")
-    ax.legend(loc="upper right")
+    ax.legend(**side)
     ax = axes[1]
     ax.plot(tm, result.truth("correcting")[sel] / ARCSEC, color="k", lw=2.2, alpha=0.35,
             label=LABELS["truth"] + " (aligned)")
     for name in ("eliminator", "correcting", "correcting_paper"):
-        ax.plot(tm, result.outputs[name][sel] / ARCSEC, color=COLORS[name], lw=1.0, label=LABELS[name])
+        ax.plot(tm, result.outputs[name][sel] / ARCSEC, label=LABELS[name], **style[name])
     ax.set_ylabel("angle (arcsec)")
     ax.set_title("Dither removed: filter outputs and the true SINS angle")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.legend(**side)
     ax = axes[2]
     rms = result.residual_rms(settle_s)
     for name in ("eliminator", "correcting", "correcting_paper"):
-        ax.plot(tm, result.residual(name)[sel] / ARCSEC, color=COLORS[name], lw=1.0,
-                label=f"{LABELS[name]}: RMS {rms[name] / ARCSEC:.3g} arcsec")
+        ax.plot(tm, result.residual(name)[sel] / ARCSEC, label=f"{LABELS[name]}:\nRMS {rms[name] / ARCSEC:.3g} arcsec",
+                **style[name])
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_ylabel("output - truth (arcsec)")
     ax.set_xlabel(f"time from t = {t[sel][0]:.3f} s (ms)")
     ax.set_title("Residual after time alignment (RMS over the whole run after settling)")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.legend(**side)
     if title:
         fig.suptitle(title)
     fig.savefig(path, dpi=120)

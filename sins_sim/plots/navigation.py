@@ -280,12 +280,12 @@ def plot_gyro_error_spectrum(res, path, title: str = "") -> None:
         ax.grid(True, which="major", alpha=0.3)
         for d in res.drives[i:i + 1]:
             ax.axvline(d["frequency_hz"], color="0.5", ls=":", lw=1.0, zorder=0)
-            ax.annotate(f" dither {d['frequency_hz']:.0f} Hz", (d["frequency_hz"], 1.0), xycoords=("data", "axes fraction"),
-                        fontsize=7, color="0.35", va="top")
+            ax.annotate(f" dither {d['frequency_hz']:.0f} Hz", (d["frequency_hz"], 1.0),
+                        xycoords=("data", "axes fraction"), fontsize=7, color="0.35", va="top")
     axes[-1].set_xlabel("frequency (Hz)")
     axes[0].set_title(f"{title}\n(Welch: {cfg['window']} window of {nper} samples = {cfg['segment_s']:.3g} s, "
-                      f"{cfg['overlap']:.0%} overlap, linear detrend; record t = {cfg['t0_s']:.4g}-{cfg['t1_s']:.4g} s, "
-                      f"{cfg['span_s']:.3g} s at {fs:g} Hz)", fontsize=10)
+                      f"{cfg['overlap']:.0%} overlap, linear detrend; record t = {cfg['t0_s']:.4g}-"
+                      f"{cfg['t1_s']:.4g} s, {cfg['span_s']:.3g} s at {fs:g} Hz)", fontsize=10)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(handles)), fontsize=8, frameon=False)
     fig.savefig(path, dpi=110)
