@@ -618,9 +618,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run a scenario file: three dithered channels, their filters, attitude "
                                    "integration and navigation error; writes metrics.json, timeseries.npz, "
                                    "report.md and the figures that have data: navigation_error.png, "
-                                   "attitude_error.png, trajectory.png, gyro_error_spectrum.png and allan.png (the "
-                                   "last two only for filters other than ideal). report.md lists the figures "
-                                   "written.")
+                                   "attitude_error.png, trajectory.png, gyro_error_spectrum.png (for filters other "
+                                   "than ideal) and allan.png (where a filter's gyro error has an Allan curve). "
+                                   "report.md lists the figures written.")
     p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
     p.add_argument("--out", required=True, help="output directory (replaced as a whole when the run succeeds)")
     p.add_argument("--seed", type=_seed, default=None, help="override the scenario's seed")

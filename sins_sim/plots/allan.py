@@ -53,9 +53,15 @@ def _determined(analysis, name) -> bool:
     return key is None or _finite(analysis.readings().get(key))
 
 
+def _drawable(a):
+    """The points of analysis ``a`` that are drawn: enough clusters and a positive finite deviation (log axes)."""
+    c = a.curve
+    return (c.clusters >= a.min_clusters) & np.isfinite(c.adev) & (c.adev > 0.0)
+
+
 def has_curves(by_filter: dict) -> bool:
-    """Whether :func:`plot_allan_filters` has a point to draw (a curve with enough clusters)."""
-    return any(np.any(a.curve.clusters >= a.min_clusters) for per_axis in by_filter.values()
+    """Whether :func:`plot_allan_filters` has a point to draw (e.g. not for an error that is zero throughout)."""
+    return any(np.count_nonzero(_drawable(a)) >= 2 for per_axis in by_filter.values()
                for a in per_axis.values() if a is not None)
 
 
@@ -173,7 +179,7 @@ def plot_allan_filters(by_filter: dict, path, title: str = "", colors: dict | No
             if a is None:
                 continue
             c = a.curve
-            used = c.clusters >= a.min_clusters
+            used = _drawable(a)
             if not np.any(used):
                 continue
             r = a.readings()
