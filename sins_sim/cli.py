@@ -144,50 +144,124 @@ class _Progress:
     """A tqdm bar on stderr behind the jobs' ``progress(fraction)`` callback (rate and time left shown).
 
     A job that estimates its run (:mod:`sins_sim.jobs.estimate`) calls :meth:`estimate` before the engine
-    starts: the bar then counts simulated seconds (rate in ``s/s``, so the time left is the simulated
-    time left over the measured speed) and shows the estimated wall time; otherwise it counts percent.
+    starts, with the estimate calibrated on this machine. When numba's cache is cold a first bar,
+    "compiling (first run only)", counts the wall seconds against the compile estimate until the first
+    progress report; then the run's bar counts simulated seconds (rate in ``s/s``, so the time left is the
+    simulated time left over the measured speed) with the calibrated wall-time estimate. Without an
+    estimate the bar counts percent. When the run finishes, its timing calibrates the next estimate
+    (:func:`sins_sim.jobs.estimate.record_timing`).
     """
 
     def __init__(self, label: str, disable: bool):
         self.label = label
         self.disable = disable
         self.bar = None  # made when the job reports its estimate or its first progress: no bar before an error
+        self.est = None
+        self._compile = None  # (bar, stop event, thread) while the kernels compile
+        self._times = {}
 
-    def _open(self, total: float, unit: str, postfix: str = ""):
+    def _open(self, total: float, unit: str, postfix: str = "", initial: float = 0.0):
         from tqdm import tqdm
 
         self.bar = tqdm(total=total, desc=self.label, unit=unit, file=sys.stderr, disable=self.disable, leave=True,
-                        dynamic_ncols=True, postfix=postfix or None,
+                        dynamic_ncols=True, postfix=postfix or None, initial=initial,
                         bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.4g}/{total:.4g} {unit} "
                                    "[{elapsed}<{remaining}, {rate_fmt}{postfix}]")
 
-    def estimate(self, est: dict) -> None:
-        """Count simulated seconds and show the estimated wall time (called by the job before the engine starts)."""
+    def _run_postfix(self) -> str:
         from sins_sim.jobs.estimate import format_duration
 
-        total = float(est["simulated_s"])
-        if self.bar is None and total > 0.0:
-            self._open(total, "s", f"estimate {format_duration(est['wall_s'])}")
+        est = self.est
+        cal = est.get("calibration", {})
+        return f"estimate {format_duration(est.get('wall_display_s', est['wall_s']))}" + (
+            "" if cal.get("runs") else " (not yet calibrated)")
+
+    def estimate(self, est: dict) -> None:
+        """Show the compile phase (cold cache) or the run's bar (called by the job before the engine starts)."""
+        import time
+
+        from sins_sim.jobs.estimate import format_duration
+
+        if self.bar is not None or self._compile is not None or not float(est["simulated_s"]) > 0.0:
+            return
+        self.est = est
+        self._times["start"] = time.perf_counter()
+        compile_s = float(est.get("compile_s", 0.0))
+        if compile_s <= 0.0:
+            self._open(float(est["simulated_s"]), "s", self._run_postfix())
+            return
+        from tqdm import tqdm
+
+        bar = tqdm(total=compile_s, desc=f"{self.label}: compiling (first run only)", unit="s", file=sys.stderr,
+                   disable=self.disable, leave=True, dynamic_ncols=True,
+                   postfix=f"estimate {format_duration(compile_s)}",
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]")
+        stop = threading.Event()
+        t0 = self._times["start"]
+
+        def tick():  # the wall clock against the estimate, held below 100 % until the kernels are ready
+            while not stop.wait(0.5):
+                target = min(time.perf_counter() - t0, 0.99 * bar.total)
+                if target > bar.n:
+                    bar.update(target - bar.n)
+
+        thread = threading.Thread(target=tick, name="sins-sim-compile-progress", daemon=True)
+        thread.start()
+        self._compile = (bar, stop, thread)
+
+    def _end_compile(self) -> None:
+        if self._compile is None:
+            return
+        bar, stop, thread = self._compile
+        self._compile = None
+        stop.set()
+        thread.join()
+        bar.total = bar.n if bar.n > 0 else bar.total  # done: the bar shows the time it took
+        bar.set_postfix_str("done", refresh=False)
+        bar.close()
 
     def __call__(self, fraction: float) -> None:
+        import time
+
+        now = time.perf_counter()
+        fraction = min(max(float(fraction), 0.0), 1.0)
+        if "first" not in self._times:
+            self._times["first"] = (now, fraction)
+        self._times["last"] = (now, fraction)
         if self.bar is None:
-            self._open(100.0, "%")
-        done = self.bar.total * min(max(float(fraction), 0.0), 1.0)
+            if self._compile is not None:
+                self._end_compile()
+                total = float(self.est["simulated_s"])
+                self._open(total, "s", self._run_postfix(), initial=total * fraction)  # rate from here on
+            else:
+                self._open(100.0, "%")
+        done = self.bar.total * fraction
         if done > self.bar.n:
             self.bar.update(done - self.bar.n)
 
-    def close(self) -> None:
+    def close(self, record: bool = True) -> None:
+        """Close the bars; ``record``: the job succeeded, so its timing calibrates the next estimate."""
+        self._end_compile()
         if self.bar is not None:
             self.bar.close()
+        if record and self.est is not None and "first" in self._times:
+            from sins_sim.jobs.estimate import record_timing
+
+            import time
+
+            (t1, f1), (t2, f2) = self._times["first"], self._times["last"]
+            record_timing(self.est, self._times["start"], t1, f1, t2, f2, t_end=time.perf_counter())
 
 
 @contextmanager
 def _progress(label: str, quiet: bool):
     bar = _Progress(label, disable=quiet)
+    ok = False
     try:
         yield bar
+        ok = True
     finally:
-        bar.close()
+        bar.close(record=ok)
 
 
 # --- result folders: refused when they exist (unless --force), each with its manifest.json -----------------
@@ -729,9 +803,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run a three-axis SINS scenario (YAML) end to end",
                        description="Run a scenario file: three dithered channels, their filters, attitude "
                                    "integration and navigation error; writes metrics.json, timeseries.npz, "
-                                   "the figures, report.md, manifest.json (versions, command line, timings, "
-                                   "input hashes, the parameters each filter used) and inputs/ (the scenario "
-                                   "and IMU as run, for --rerun).")
+                                   "report.md and the figures that have data: navigation_error.png, "
+                                   "attitude_error.png, trajectory.png, gyro_error_spectrum.png (for filters other "
+                                   "than ideal) and allan.png (where a filter's gyro error has an Allan curve); "
+                                   "report.md lists the figures written. Also manifest.json (versions, command "
+                                   "line, timings, input hashes, the parameters each filter used) and inputs/ (the "
+                                   "scenario and IMU as run, for --rerun).")
     p.add_argument("scenario", nargs="?", default=None, help="scenario YAML file (see scenarios/)")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     p.add_argument("--rerun", metavar="DIR", default=None,
@@ -758,8 +835,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_budget)
 
     p = sub.add_parser("reproduce", help="regenerate the paper's figures and numbers with sins-sim's own code",
-                       description="Figures 1, 3-7, the Abel inversion, the sensitivity table, numbers.json and "
-                                   "a report.md comparing sins-sim with the paper.")
+                       description="Figures 1, 3-7 and the Abel inversion (fig1_correcting_afc.png, "
+                                   "fig3_resonance_vs_amplitude.png, fig3_abel_nonl.png, fig4_afc_fit.png, "
+                                   "fig5_end_to_end_afc.png, fig6_mismatch.png, fig7_impact.png), the sensitivity "
+                                   "table, numbers.json and a report.md comparing sins-sim with the paper.")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     _force_flag(p)
     p.add_argument("--quick", action="store_true", help="every number at reduced resolution (< 90 s)")
@@ -805,8 +884,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recording", nargs="+", help="sins-sim-recording/1 .npz (several: diagnosed in turn, or --jobs "
                                                 "at once)")
     p.add_argument("--json", help="write the diagnosis JSON here (several recordings: a folder of STEM.json)")
-    p.add_argument("--report", help="write report.md and PNGs into this directory (several recordings: a folder "
-                                    "of STEM/)")
+    p.add_argument("--report", help="write report.md, spectrum.png, envelope.png and (when an effect was tried) "
+                                    "ranking.png into this directory (several recordings: a folder of STEM/)")
     p.add_argument("--effects", help="comma-separated subset of the catalogue to try (default: all)")
     p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in separate processes [1]")
     _force_flag(p)
@@ -838,7 +917,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("lockin-study", help="lock-in in the loop: dynamic lock-in and the ARW of dithered lock-in",
                        description="Run the engine's chain with the lock_in effect: ARW vs lock-in rate, dither "
                                    "amplitude and modulation depth beside N = Omega_L / sqrt(K a w_D), and the "
-                                   "dynamic lock-in zones of a constant-amplitude dither.")
+                                   "dynamic lock-in zones of a constant-amplitude dither; writes lockin.json, "
+                                   "arw_vs_lockin.png, dynamic_lockin.png and report.md.")
     p.add_argument("--out", required=True, help="result folder (created; an existing one only with --force)")
     _force_flag(p)
     p.add_argument("--quick", action="store_true", help="shorter runs, fewer points (about 15 s)")
@@ -849,7 +929,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run every (unit, scenario) of a sweep file (sins-sim schema sweep) as a "
                                    "dask.distributed task; write one Parquet part per finished run, runs.parquet, "
                                    "summary.json and figures into --out. A second invocation resumes: runs already "
-                                   "done are not run again.")
+                                   "done are not run again. Figures: distributions.png and, for scenarios with at "
+                                   "least 3 runs and drawn parameters, sensitivity_<scenario>_<metric>.png.")
     p.add_argument("sweep", help="sweep YAML file (see scenarios/sweep-*.yaml)")
     p.add_argument("--out", required=True, help="sweep folder (created, or resumed when it holds this sweep)")
     p.add_argument("--force", action="store_true",

@@ -78,11 +78,12 @@ def test_huge_durations_give_one_clear_line_fast(tmp_path, capsys, duration, exp
 
 def test_the_refusal_comes_before_the_engine(tmp_path, monkeypatch):
     from sins_sim.jobs import run
+    from sins_sim.simulation import sins  # run_scenario imports the engine from here once the scenario is valid
 
     def engine(*args, **kwargs):
         raise AssertionError("the engine started")
 
-    monkeypatch.setattr(run, "simulate_sins", engine)
+    monkeypatch.setattr(sins, "simulate_sins", engine)
     with pytest.raises(ConfigError, match=r"s\.yaml: duration_s: 1e\+07 s would take about .* shorten duration_s"):
         run.run_scenario(_scenario(tmp_path, duration_s=1e7), tmp_path / "o")
     assert not (tmp_path / "o").exists()

@@ -39,6 +39,9 @@ __all__ = ["BUILTIN_FILTERS", "FilterContext", "register", "plugin_names", "ship
 
 #: Filters computed by the engine's fused kernel (plus ``ideal``, the true increments).
 BUILTIN_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
+#: The filters a scenario navigates by default: the dither filters and the ideal floor (``raw``, the readout
+#: with the dither still in it, on request).
+DEFAULT_FILTERS = ("ideal", "eliminator", "correcting", "correcting_paper")
 
 
 @dataclass(frozen=True)

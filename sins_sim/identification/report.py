@@ -151,6 +151,9 @@ def _json_clean(x):
 def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     """Write ``report.md`` with ``spectrum.png``, ``envelope.png``, ``ranking.png`` (and the JSON if asked).
 
+    ``ranking.png`` is written only when at least one effect was fitted (no empty figure); ``report.md``
+    links exactly the figures written.
+
     Returns the JSON dictionary.
     """
     out = Path(report_dir)
@@ -205,10 +208,11 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     fig.tight_layout()
     fig.savefig(out / "envelope.png", dpi=110)
     plt.close(fig)
-    # ranking
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
+    # ranking (only when an effect was fitted: no empty figure)
     names = [c["effect"] for c in diag.candidates]
+    figures = ["spectrum.png", "envelope.png"]
     if names:
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
         from sins_sim.identification.verdict import MIN_PARTIAL
 
         a1.barh(names[::-1], [c["gap_reduction"] for c in diag.candidates][::-1])
@@ -220,13 +224,14 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
         if diag.verdict.get("baseline_score"):
             a2.axvline(diag.verdict["baseline_score"], color="k", ls="--", label="baseline")
             a2.legend()
-    a1.set_xlabel("gap reduction (fraction of the excess power)")
-    a2.set_xlabel("held-out residual RMS (arcsec)")
-    a1.set_title("candidates: gap closed")
-    a2.set_title("candidates: held-out error")
-    fig.tight_layout()
-    fig.savefig(out / "ranking.png", dpi=110)
-    plt.close(fig)
+        a1.set_xlabel("gap reduction (fraction of the excess power)")
+        a2.set_xlabel("held-out residual RMS (arcsec)")
+        a1.set_title("candidates: gap closed")
+        a2.set_title("candidates: held-out error")
+        fig.tight_layout()
+        fig.savefig(out / "ranking.png", dpi=110)
+        plt.close(fig)
+        figures.append("ranking.png")
     v = js["verdict"]
     lines = [f"# Sim-to-real diagnosis: {rec.source}", "",
              f"- experiment `{rec.experiment}`, axes {', '.join(rec.axes)}, {rec.n_samples} samples at "
@@ -282,6 +287,8 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     unres = [c for c in js["candidates"] if c.get("unresolved")]
     if unres:
         lines += [""] + [f"- {c['effect']} comes after the other candidates: {c['unresolved']}" for c in unres]
-    lines += ["", "![spectrum](spectrum.png)", "", "![envelope](envelope.png)", "", "![ranking](ranking.png)", ""]
+    for f in figures:
+        lines += ["", f"![{f[:-4]}]({f})"]
+    lines.append("")
     (out / "report.md").write_text("\n".join(lines))
     return js

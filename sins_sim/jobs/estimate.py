@@ -48,18 +48,38 @@ linear in the simulated time and ignores the axes running on threads (up to 3x f
 it errs long. Memory: one 1 s chunk at the plant rate (about 480 B per plant step for 3 axes), the
 stored error series (360 B per block and filter), the spectra (48 B per filter sample and filter over
 ``spectrum_s``), and for the ``channel`` job its whole record (about 120 B per filter sample).
+
+Calibration on the machine that runs
+-------------------------------------
+The constants above decide what is refused (a deterministic rule). What the progress bar shows is
+calibrated on the machine that runs it (:func:`calibrate`): every finished run's speed is measured
+between its first and its last progress report (compilation and start-up excluded) as a ratio to the
+model, with the time from the last report to the job's end (analyses, figures, report), and the
+medians of the last :data:`CALIBRATION_KEEP` of each per job kind are kept in
+``calibration.json`` under the user cache folder (:func:`cache_dir`: ``$XDG_CACHE_HOME/sins-sim`` or
+``~/.cache/sins-sim``). Before the first run has been measured the built-in costs are used, and the
+display says so. The first run after an install or an upgrade compiles the numba kernels (about
+:data:`COMPILE_S` here); :func:`kernels_cold` tells whether that is due, so the display shows a
+"compiling (first run only)" phase with its own estimate (the last measured compile time).
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import os
+import statistics
+import sys
+from pathlib import Path
 
 from sins_sim.jobs.schema import ConfigError
 
 __all__ = ["estimate_run", "check_run", "estimate_channel", "check_channel", "announce", "format_duration",
            "MAX_WALL_S", "MAX_MEMORY_BYTES", "PLANT_STEP_AXIS_S", "NAV_SAMPLE_FILTER_S", "TRUTH_SAMPLE_S",
            "TRUTH_ONLY_SAMPLE_S", "TONE_STEP_AXIS_S", "FILTERED_NOISE_STEP_AXIS_S", "CHANNEL_PLANT_STEP_S",
-           "CHANNEL_OUTPUT_SAMPLE_S", "FIXED_S"]
+           "CHANNEL_OUTPUT_SAMPLE_S", "FIXED_S", "COMPILE_S", "CALIBRATION_KEEP", "cache_dir", "kernels_cold",
+           "calibrate", "record_timing", "load_calibration"]
 
 #: Longest estimated wall time a run may take (s): 48 h.
 MAX_WALL_S = 48 * 3600.0
@@ -75,6 +95,15 @@ FILTERED_NOISE_STEP_AXIS_S = 33e-9
 CHANNEL_PLANT_STEP_S = 60e-9
 CHANNEL_OUTPUT_SAMPLE_S = 2.8e-6
 FIXED_S = 3.0
+
+#: Compilation of the numba kernels of a run, first run after an install or an upgrade (s): 20-30 s on the
+#: development machine (``sins-sim run scenarios/nav-trajectory-file.yaml`` with an empty cache: 49 s in all,
+#: 8-9 s with the cache warm). Replaced by the last compile time measured on this machine.
+COMPILE_S = 30.0
+#: Ratios of measured to modelled speed kept per job kind (their median calibrates the display).
+CALIBRATION_KEEP = 5
+#: Least modelled time (s) between the first and the last progress report for a run's speed to be measured.
+_MIN_MEASURED_S = 0.5
 
 #: Memory per plant step of one 1 s chunk (3 axes), per stored block and filter, per spectrum sample and
 #: filter, per channel-job filter sample (bytes).
@@ -174,7 +203,7 @@ def estimate_run(scenario) -> dict:
         "filter_samples": int(samples), "filters": list(filters), "tones": tones,
         "wall_s": wall, "breakdown": breakdown, "x_real_time": T / max(wall - FIXED_S, 1e-12),
         "memory_bytes": float(sum(memory.values())), "memory_breakdown": memory, "stored_blocks": blocks,
-        "limits": {"wall_s": MAX_WALL_S, "memory_bytes": MAX_MEMORY_BYTES}, "what": what,
+        "limits": {"wall_s": MAX_WALL_S, "memory_bytes": MAX_MEMORY_BYTES}, "what": what, "kind": "run",
     }
     out["text"] = (f"{T:g} s simulated ({out['filter_samples']:.3g} filter samples x {len(filters)} filter(s)): "
                    f"about {format_duration(wall)} of wall time ({what}, one core)")
@@ -242,7 +271,7 @@ def estimate_channel(config, duration_s: float) -> dict:
            "tones": 0, "wall_s": wall, "breakdown": breakdown, "x_real_time": T / max(wall - FIXED_S, 1e-12),
            "memory_bytes": _CHANNEL_B_PER_SAMPLE * samples, "limits": {"wall_s": MAX_WALL_S,
                                                                        "memory_bytes": MAX_MEMORY_BYTES},
-           "what": what}
+           "what": what, "kind": "channel"}
     out["memory_breakdown"] = {"record_bytes": out["memory_bytes"]}
     out["text"] = f"{T:g} s simulated: about {format_duration(wall)} of wall time ({what}, one core)"
     return out
@@ -263,7 +292,163 @@ def check_channel(config, duration_s: float, progress=None) -> dict:
 
 
 def announce(progress, est: dict) -> None:
-    """Hand the estimate to a progress display that takes one (``progress.estimate(est)``); others are left alone."""
+    """Hand the estimate, calibrated on this machine (:func:`calibrate`), to a progress display that takes one
+    (``progress.estimate(est)``); others are left alone."""
     hook = getattr(progress, "estimate", None)
     if callable(hook):
-        hook(est)
+        hook(calibrate(est))
+
+
+# --- calibration on the machine that runs ----------------------------------------------------------
+def cache_dir() -> Path:
+    """The user cache folder of sins-sim: ``$XDG_CACHE_HOME/sins-sim``, else ``~/.cache/sins-sim``."""
+    base = os.environ.get("XDG_CACHE_HOME", "").strip()
+    return (Path(base) if base else Path.home() / ".cache") / "sins-sim"
+
+
+def _calibration_path() -> Path:
+    return cache_dir() / "calibration.json"
+
+
+def load_calibration() -> dict:
+    """What earlier runs measured on this machine (empty when nothing was measured or the file is unreadable)."""
+    try:
+        doc = json.loads(_calibration_path().read_text())
+    except (OSError, ValueError):
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def _save_calibration(doc: dict) -> None:
+    """Write ``calibration.json`` atomically; a cache that cannot be written is skipped (it only calibrates)."""
+    path = _calibration_path()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(doc, indent=1) + "\n")
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
+def _kernel_sources() -> list:
+    """The kernel modules that hold numba functions (``sins_sim/_kernels/*.py`` but ``_config``/``__init__``)."""
+    root = Path(__file__).resolve().parents[1] / "_kernels"
+    return sorted(p for p in root.glob("*.py") if not p.name.startswith("_"))
+
+
+def _kernel_stamp() -> str:
+    """What decides whether numba's cached machine code is valid: the kernels' sources, numba, Python."""
+    try:
+        from importlib.metadata import version
+
+        nb = version("numba")
+    except Exception:  # noqa: BLE001 - no metadata: the stamp only changes less often
+        nb = "?"
+    h = hashlib.sha1(f"{nb} {sys.version_info[:3]} {os.environ.get('NUMBA_CACHE_DIR', '')}".encode())
+    for p in _kernel_sources():
+        st = p.stat()
+        h.update(f"{p.name} {st.st_size} {st.st_mtime_ns}".encode())
+    return h.hexdigest()
+
+
+def _index_fresh(src: Path) -> bool:
+    """Whether numba's cache holds an index (``.nbi``) for a function of module ``src`` written after it."""
+    base = os.environ.get("NUMBA_CACHE_DIR", "").strip()
+    if base:  # numba mirrors the source folder under NUMBA_CACHE_DIR
+        folder = Path(base) / src.parent.resolve().relative_to(src.parent.resolve().anchor)
+    else:
+        folder = src.parent / "__pycache__"
+    try:
+        mtime = src.stat().st_mtime
+        return any(p.stat().st_mtime >= mtime for p in folder.glob(f"{src.stem}.*.nbi"))
+    except OSError:
+        return False
+
+
+def kernels_cold(kind: str = "run") -> bool:
+    """Whether the next job of ``kind`` compiles the numba kernels (first run after an install, an upgrade or a
+    cleared cache).
+
+    Warm when a job of that kind finished with the same kernel sources, numba and Python (recorded in
+    the calibration file) or when numba's cache holds a fresh index for every kernel module; cold otherwise.
+    """
+    stamps = load_calibration().get("kernels_stamp")
+    if isinstance(stamps, dict) and stamps.get(kind) == _kernel_stamp():
+        return False
+    return not all(_index_fresh(p) for p in _kernel_sources())
+
+
+def calibrate(est: dict) -> dict:
+    """``est`` with what the display shows: the wall time calibrated on this machine, and the compile phase.
+
+    Adds ``wall_display_s`` (the model's variable part times the median measured ratio of this job kind,
+    plus the median measured time after the last progress report, or the model's fixed part),
+    ``calibration`` (``ratio``, ``runs`` measured, ``text``) and ``compile_s`` (the estimated
+    compilation, 0 when the kernels' cache is warm).
+    """
+    cal = load_calibration()
+    kind = est.get("kind", "run")
+    ratios = [float(r) for r in (cal.get("ratios") or {}).get(kind, []) if isinstance(r, (int, float)) and r > 0]
+    ratio = statistics.median(ratios) if ratios else 1.0
+    tails = [float(x) for x in (cal.get("tails") or {}).get(kind, []) if isinstance(x, (int, float)) and x >= 0]
+    model_fixed = float(est.get("breakdown", {}).get("fixed_s", FIXED_S))
+    fixed = statistics.median(tails) if tails else model_fixed
+    out = dict(est)
+    out["wall_display_s"] = fixed + ratio * max(float(est["wall_s"]) - model_fixed, 0.0)
+    out["calibration"] = {"ratio": ratio, "runs": len(ratios),
+                          "text": f"calibrated on this machine ({len(ratios)} run(s))" if ratios
+                          else "built-in costs, not yet calibrated on this machine"}
+    cold = kernels_cold(kind)
+    out["compile_s"] = float(cal.get("compile_s", COMPILE_S)) if cold else 0.0
+    return out
+
+
+def record_timing(est: dict, t_start: float, t_first: float, f_first: float, t_last: float, f_last: float,
+                  t_end: float | None = None) -> dict:
+    """Remember what a run measured: its speed against the model and, on a cold cache, the compile time.
+
+    Parameters
+    ----------
+    est : dict
+        The calibrated estimate handed to the display (:func:`calibrate`).
+    t_start : float
+        When the estimate was announced (s, ``time.perf_counter``), just before the engine starts.
+    t_first, f_first : float
+        Time and fraction of the first progress report (the first chunk done, compilation included).
+    t_last, f_last : float
+        Time and fraction of the last report.
+    t_end : float, optional
+        When the job finished (its analyses, figures and report written after the last report).
+
+    Returns
+    -------
+    dict
+        The calibration file's new content (also written; unchanged when nothing could be measured).
+    """
+    cal = load_calibration()
+    kind = est.get("kind", "run")
+    fixed = float(est.get("breakdown", {}).get("fixed_s", FIXED_S))
+    variable = max(float(est["wall_s"]) - fixed, 0.0)  # the model's time for the whole simulation
+    between = (f_last - f_first) * variable
+    measured_ratio = None
+    if f_last >= 1.0 - 1e-9 and between >= _MIN_MEASURED_S and t_last > t_first:
+        measured_ratio = (t_last - t_first) / between
+        ratios = dict(cal.get("ratios") or {})
+        ratios[kind] = ([r for r in ratios.get(kind, []) if isinstance(r, (int, float))] + [measured_ratio])[
+            -CALIBRATION_KEEP:]
+        cal["ratios"] = ratios
+    if f_last >= 1.0 - 1e-9 and t_end is not None and t_end >= t_last:
+        tails = dict(cal.get("tails") or {})
+        tails[kind] = ([x for x in tails.get(kind, []) if isinstance(x, (int, float))] + [t_end - t_last])[
+            -CALIBRATION_KEEP:]
+        cal["tails"] = tails
+    if f_last >= 1.0 - 1e-9:
+        if est.get("compile_s", 0.0) > 0.0:
+            # the first chunk's own computing time at the measured (or the model's) speed, taken off
+            per_fraction = variable * (measured_ratio or float(est.get("calibration", {}).get("ratio", 1.0)))
+            cal["compile_s"] = max(t_first - t_start - f_first * per_fraction, 0.0)
+        stamps = cal.get("kernels_stamp") if isinstance(cal.get("kernels_stamp"), dict) else {}
+        cal["kernels_stamp"] = {**stamps, kind: _kernel_stamp()}
+        _save_calibration(cal)
+    return cal

@@ -61,7 +61,6 @@ import math
 from pathlib import Path
 
 from sins_sim.jobs.schema import Bool, ConfigError, Map, Num, Str, validate
-from sins_sim.models.suspension import SuspensionParams
 
 __all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions",
            "filters_used"]
@@ -173,6 +172,8 @@ def filter_suspensions(spec: dict, true_by_axis: dict, nominal: dict, design_f0:
     drive_hz, amplitude_rad : dict axis -> float
         Each drive's frequency (Hz) and target amplitude (rad): the PLL's lock point.
     """
+    from sins_sim.models.suspension import SuspensionParams  # here: parsing a file stays light (no scipy, numba)
+
     src, f0_src, ppm = spec["source"], spec["f0"], spec["f0_mismatch_ppm"]
     if src == "true" and f0_src == "unit" and ppm == 0.0:
         return {a: None for a in true_by_axis}

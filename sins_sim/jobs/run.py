@@ -10,8 +10,9 @@ Writes into the output folder:
 * ``timeseries.npz``: the stored error series (block means with min/max envelopes, never a
   decimated sample), the truth path, and the gyro-angle errors at the full filter rate over
   ``navigation.spectrum_s``;
-* ``navigation_error.png``, ``attitude_error.png``, ``trajectory.png``,
-  ``gyro_error_spectrum.png`` and ``report.md`` (with the parameters each filter used);
+* the figures that have data (``navigation_error.png``, ``attitude_error.png``, ``trajectory.png``,
+  ``gyro_error_spectrum.png``, ``allan.png``: see :func:`sins_sim.plots.navigation.plot_run`) and
+  ``report.md``, which lists them and the parameters each filter used;
 * ``manifest.json`` and ``inputs/`` (:mod:`sins_sim.jobs.manifest`): versions, command line,
   timings, the scenario and IMU as run with every default filled in, input hashes, the seed
   and the parameters each filter used; ``sins-sim run --rerun`` runs the folder again.
@@ -25,8 +26,6 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.simulation.metrics import drift_angle_of_series, drift_metrics, event_steps, gyro_drift
-from sins_sim.simulation.sins import simulate_sins
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["run_scenario", "scenario_metrics", "excess_over_ideal", "NMI_M", "CEP_RATE_MIN_S", "DEFINITIONS"]
@@ -66,6 +65,7 @@ def scenario_metrics(res, scenario) -> dict:
     """The ``filters`` section of ``metrics.json`` from a :class:`~sins_sim.simulation.sins.SinsResult`."""
     from sins_sim import earth
     from sins_sim.navigation.error import position_error_from_attitude_error
+    from sins_sim.simulation.metrics import drift_angle_of_series, drift_metrics, event_steps, gyro_drift
 
     out = {}
     mission_s = res.duration_s - res.nav_start_s
@@ -190,6 +190,8 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
     from sins_sim.jobs.estimate import check_run
 
     check_run(scenario, progress)  # refuse a run that cannot finish, before the engine starts (issue 12, point 3)
+    from sins_sim.simulation.sins import simulate_sins  # the engine, once the scenario is known to be valid
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     record_run(manifest, scenario, path, overrides, out)

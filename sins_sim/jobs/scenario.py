@@ -15,10 +15,15 @@ from pathlib import Path
 import numpy as np
 
 from sins_sim.jobs import filter_params as _fparams
-from sins_sim.jobs.imu import imu_from_dict, load_yaml
 from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
+from sins_sim.jobs.yaml_io import load_yaml
 from sins_sim.filters import registry as filter_registry
-from sins_sim.simulation.sins import DEFAULT_FILTERS, SINS_FILTERS, NavSettings
+
+# The scenario's own schema needs no model, engine or numba: a scenario file is checked before those are
+# imported (they are imported where the IMU, the motion and the navigation are built), so a configuration
+# error is reported in well under 2 s (issue 22, point 8).
+SINS_FILTERS = filter_registry.BUILTIN_FILTERS
+DEFAULT_FILTERS = filter_registry.DEFAULT_FILTERS
 
 __all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "scenario_document", "run_scenario",
            "Scenario"]
@@ -322,6 +327,13 @@ class Scenario:
 
     def __init__(self, doc: dict, ctx: str, base_dir: Path):
         c = validate(doc, SCENARIO_SCHEMA, ctx)
+        if c["navigation"]["start_s"] >= c["duration_s"]:  # before the models are imported: a light check
+            raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {c['duration_s']:g}, "
+                              f"got {c['navigation']['start_s']:g}")
+        # the IMU, the motion and the navigation are built from here on: the models and the engine are needed
+        from sins_sim.jobs.imu import imu_from_dict
+        from sins_sim.simulation.sins import NavSettings
+
         self.ctx = ctx
         self.name = c["name"]
         self.description = c["description"]
@@ -368,9 +380,6 @@ class Scenario:
                                    timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"])
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {exc}") from None
-        if self.nav.start_s >= self.duration_s:
-            raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {self.duration_s:g}, "
-                              f"got {self.nav.start_s:g}")
         self.site = c["site"]
         self.trajectory_spec = c["trajectory"]
         self.vehicle = _build_vehicle(c["site"], c["trajectory"], self.duration_s, ctx, base_dir)
@@ -613,4 +622,10 @@ def scenario_document(path, overrides: dict | None = None) -> dict:
 OVERRIDABLE = ("seed", "duration_s", "imu", "filter_parameters")
 
 
-from sins_sim.jobs.run import run_scenario  # noqa: E402  (the run job re-exported where it always was)
+def __getattr__(name):
+    """``run_scenario`` re-exported where it always was, imported on first use (it imports the engine)."""
+    if name == "run_scenario":
+        from sins_sim.jobs.run import run_scenario
+
+        return run_scenario
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -15,9 +15,9 @@ import math
 
 import numpy as np
 
-from sins_sim.plots.common import _pyplot
+from sins_sim.plots.common import _pyplot, filter_color, filter_label
 
-__all__ = ["plot_allan", "plot_allan_filters", "TERM_STYLE"]
+__all__ = ["plot_allan", "plot_allan_filters", "has_curves", "TERM_STYLE"]
 
 #: name -> (label for a gyro, label for an accelerometer, colour, the tau (s) at which the reading is taken)
 TERM_STYLE = {
@@ -32,6 +32,39 @@ TERM_STYLE = {
 }
 
 
+def _finite(x) -> bool:
+    return x is not None and np.isfinite(x)
+
+
+def _reading_key(sensor: str, name: str):
+    if sensor == "gyro":
+        return {"quantization": "quantization_arcsec", "white": "arw_deg_rt_h", "flicker": "bias_instability_deg_h",
+                "random_walk": "rrw_deg_h_rt_h"}.get(name)
+    return {"quantization": "quantization_m_s", "white": "vrw_ug_rt_hz", "flicker": "bias_instability_ug",
+            "random_walk": "rrw_ug_rt_h"}.get(name)
+
+
+def _determined(analysis, name) -> bool:
+    """A term is drawn only when it was found and its reading is determined (not null) in the results."""
+    term = analysis.terms.get(name)
+    if term is None or not term.found:
+        return False
+    key = _reading_key(analysis.sensor, name)
+    return key is None or _finite(analysis.readings().get(key))
+
+
+def _drawable(a):
+    """The points of analysis ``a`` that are drawn: enough clusters and a positive finite deviation (log axes)."""
+    c = a.curve
+    return (c.clusters >= a.min_clusters) & np.isfinite(c.adev) & (c.adev > 0.0)
+
+
+def has_curves(by_filter: dict) -> bool:
+    """Whether :func:`plot_allan_filters` has a point to draw (e.g. not for an error that is zero throughout)."""
+    return any(np.count_nonzero(_drawable(a)) >= 2 for per_axis in by_filter.values()
+               for a in per_axis.values() if a is not None)
+
+
 def _reading_text(analysis, name) -> str:
     r = analysis.readings()
     if analysis.sensor == "gyro":
@@ -43,7 +76,7 @@ def _reading_text(analysis, name) -> str:
     if name not in key:
         return ""
     k, sym, unit = key[name]
-    return f"{sym} = {r[k]:.3g} {unit}"
+    return f"{sym} = {r[k]:.3g} {unit}" if _finite(r.get(k)) else ""
 
 
 def plot_allan(analyses, path, title: str = "") -> None:
@@ -87,7 +120,7 @@ def plot_allan(analyses, path, title: str = "") -> None:
         if any(v > 0.0 for v in a.coefficients.values()):
             ax.loglog(tau, a.model_adev(tau) * scale, color="k", lw=0.7, alpha=0.6, label="fitted power-law sum")
         for name, term in a.terms.items():
-            if not term.found or name not in TERM_STYLE:
+            if name not in TERM_STYLE or not _determined(a, name):
                 continue
             gyro_text, accel_text, color, at = TERM_STYLE[name]
             text = gyro_text if a.sensor == "gyro" else accel_text
@@ -125,7 +158,7 @@ def plot_allan_filters(by_filter: dict, path, title: str = "", colors: dict | No
     title : str
         Figure title.
     colors, labels : dict, optional
-        Per filter name.
+        Per filter name (default: the shared map of :mod:`sins_sim.plots.common`).
 
     Notes
     -----
@@ -136,6 +169,8 @@ def plot_allan_filters(by_filter: dict, path, title: str = "", colors: dict | No
     """
     plt = _pyplot()
     colors, labels = colors or {}, labels or {}
+    color_of = lambda n: colors.get(n) or filter_color(n)  # noqa: E731
+    label_of = lambda n: labels.get(n) or filter_label(n)  # noqa: E731
     axes_names = ("x", "y", "z")
     fig, axs = plt.subplots(1, 3, figsize=(15, 4.8), sharey=True, constrained_layout=True)
     for ax, axis in zip(axs, axes_names):
@@ -144,23 +179,23 @@ def plot_allan_filters(by_filter: dict, path, title: str = "", colors: dict | No
             if a is None:
                 continue
             c = a.curve
-            used = c.clusters >= a.min_clusters
+            used = _drawable(a)
             if not np.any(used):
                 continue
             r = a.readings()
             arw = r.get("arw_deg_rt_h")
             extra = f", ARW {arw:.3g} deg/sqrt(h)" if arw is not None and np.isfinite(arw) else ""
-            ax.loglog(c.tau_s[used], c.adev[used] * a.display_scale, "o-", ms=3, lw=1.0, color=colors.get(name),
-                      label=f"{labels.get(name, name)}{extra}")
+            ax.loglog(c.tau_s[used], c.adev[used] * a.display_scale, "o-", ms=3, lw=1.0, color=color_of(name),
+                      label=f"{label_of(name)}{extra}", zorder=5 if name == "ideal" else 3)
         ideal = by_filter.get("ideal", {}).get(axis)
-        if ideal is not None and ideal.terms["white"].found:
+        if ideal is not None and _determined(ideal, "white"):
             tau = np.geomspace(ideal.curve.tau_s[0], ideal.curve.tau_s[-1], 50)
-            ax.loglog(tau, ideal.line("white", tau) * ideal.display_scale, "k--", lw=0.8,
+            ax.loglog(tau, ideal.line("white", tau) * ideal.display_scale, "--", color="0.45", lw=0.9,
                       label="sensor ARW line (slope -1/2)")
         ax.set_xlabel("averaging time tau (s)")
         ax.set_title(f"gyro {axis}: output error (output - truth)")
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
-        ax.legend(fontsize=7, loc="upper right")
+        ax.legend(fontsize=7, loc="best")
     axs[0].set_ylabel("Allan deviation (deg/h)")
     if title:
         fig.suptitle(title)

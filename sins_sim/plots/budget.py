@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sins_sim.plots.common import _pyplot
-from sins_sim.plots.navigation import NAV_COLORS, NAV_LABELS
+from sins_sim.plots.common import _pyplot, filter_color, filter_label
 
 __all__ = ["plot_budget"]
 
@@ -40,7 +39,7 @@ def plot_budget(budget: dict, path, title: str = "") -> None:
             y = np.arange(n) + (j - (m - 1) / 2) * height
             x = np.array([r[j] if r[j] and np.isfinite(r[j]) and r[j] > 0 else np.nan for r in vals])
             x = np.where(x > lo, x, np.nan)
-            ax.barh(y, x - lo, left=lo, height=height * 0.95, color=NAV_COLORS.get(f), label=NAV_LABELS.get(f, f))
+            ax.barh(y, x - lo, left=lo, height=height * 0.95, color=filter_color(f), label=filter_label(f))
         ax.set_xscale("log")
         ax.set_xlim(left=lo)
         ax.set_xlabel("final horizontal position error (m)" if unit == "m" else
@@ -51,7 +50,8 @@ def plot_budget(budget: dict, path, title: str = "") -> None:
     axes[0].set_yticks(np.arange(n))
     axes[0].set_yticklabels([r for r, _ in rows])
     axes[0].invert_yaxis()
-    axes[0].legend(fontsize=8, loc="lower right")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(handles)), fontsize=8, frameon=False)
     if title:
         fig.suptitle(title)
     fig.savefig(path, dpi=120)

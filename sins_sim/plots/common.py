@@ -6,15 +6,89 @@ import numpy as np
 
 from sins_sim.units import ARCMIN, ARCSEC
 
-LABELS = {
+#: One label per filter (and the truth), used by every figure.
+FILTER_LABELS = {
+    "ideal": "ideal increments (algorithm floor)",
     "raw": "raw readout",
     "eliminator": "elliptic eliminator",
     "correcting": "correcting eq. 5, unity DC",
     "correcting_paper": "correcting eq. 5, paper form",
+    "correcting_aligned": "time-aligned eq. 5 (delay 1)",
+    "correcting_wideband": "equalised, flat to 2.6 kHz (delay 16)",
+    "correcting_lownoise": "equalised, flat to 1.5 kHz (delay 20)",
+    "pickoff": "pickoff stripping (LMS gain)",
     "truth": "true SINS angle",
 }
-COLORS = {"raw": "0.6", "eliminator": "tab:red", "correcting": "tab:blue", "correcting_paper": "tab:cyan",
-          "truth": "k"}
+#: One colour per filter, the same in every figure: the colour-blind-safe palette of Okabe & Ito (2008),
+#: "Color Universal Design" (black, orange #E69F00, sky blue #56B4E9, bluish green #009E73, yellow
+#: #F0E442 (left out: unreadable on white), blue #0072B2, vermillion #D55E00, reddish purple #CC79A7),
+#: with grey for the raw readout. ``ideal`` and the truth are black and drawn dashed on top.
+FILTER_COLORS = {
+    "ideal": "#000000",
+    "truth": "#000000",
+    "raw": "#999999",
+    "eliminator": "#D55E00",
+    "correcting": "#0072B2",
+    "correcting_paper": "#009E73",
+    "correcting_aligned": "#E69F00",
+    "correcting_wideband": "#CC79A7",
+    "correcting_lownoise": "#56B4E9",
+    "pickoff": "#E69F00",
+}
+#: Colours for filters without an entry (plug-ins): Tol's "muted" scheme (colour-blind safe), picked by
+#: a stable hash of the name so a plug-in has the same colour in every figure.
+_EXTRA_COLORS = ("#882255", "#44AA99", "#999933", "#AA4499", "#332288", "#117733")
+#: Transparency of a min/max envelope: light, so the mean lines in front stay readable.
+ENVELOPE_ALPHA = 0.13
+#: Backwards-compatible names (the figures of the channel and the paper use these).
+LABELS = FILTER_LABELS
+COLORS = FILTER_COLORS
+
+
+def filter_color(name: str) -> str:
+    """The colour of filter ``name`` (:data:`FILTER_COLORS`, else a stable pick for a plug-in)."""
+    if name in FILTER_COLORS:
+        return FILTER_COLORS[name]
+    import zlib
+
+    return _EXTRA_COLORS[zlib.crc32(name.encode()) % len(_EXTRA_COLORS)]
+
+
+def filter_label(name: str) -> str:
+    """The legend label of filter ``name`` (its name when it has none)."""
+    return FILTER_LABELS.get(name, name)
+
+
+def line_style(name: str) -> dict:
+    """Keyword arguments of a filter's mean line: its colour; ``ideal``/truth dashed and on top of the rest."""
+    if name in ("ideal", "truth"):
+        return {"color": filter_color(name), "lw": 1.3, "ls": (0, (4, 2)), "zorder": 5}
+    # the unity-DC correcting filter (the recommended one) in front of the other filters
+    return {"color": filter_color(name), "lw": 1.1, "zorder": 4 if name == "correcting" else 3}
+
+
+def draw_envelope(ax, x, lo, hi, name: str) -> None:
+    """The min/max band of filter ``name`` behind every mean line: a light fill (:data:`ENVELOPE_ALPHA`) with
+    thin edges of the filter's colour, so overlapping bands can still be told apart."""
+    c = filter_color(name)
+    ax.fill_between(x, lo, hi, color=c, alpha=ENVELOPE_ALPHA, lw=0, zorder=1)
+    for edge in (lo, hi):
+        ax.plot(x, edge, color=c, lw=0.5, alpha=0.45, zorder=2)
+
+
+def symlog_threshold(values, quantile: float = 0.5, floor: float = 1e-12) -> float:
+    """The linear half-width of a symmetric-log axis chosen from the data.
+
+    The ``quantile`` (default: the median) of the non-zero finite magnitudes of ``values`` (the plotted
+    means), rounded down to a power of ten. Values that change sign around zero at a level below it are
+    drawn linearly (a symmetric-log axis with a tiny linear part spreads such values over decades), and
+    the larger half of the data lies on the logarithmic part.
+    """
+    a = np.abs(np.concatenate([np.ravel(np.asarray(v, dtype=float)) for v in values])) if len(values) else np.zeros(0)
+    a = a[np.isfinite(a) & (a > floor)]
+    if a.size == 0:
+        return 1.0
+    return float(10.0 ** np.floor(np.log10(np.quantile(a, quantile))))
 
 
 def _pyplot():
@@ -32,111 +106,36 @@ def plot_channel(result, path, window_s: float = 0.03, settle_s: float = 0.0, ti
     t = result.t
     sel = t >= max(t[-1] - window_s, settle_s)
     tm = (t[sel] - t[sel][0]) * 1e3
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True, constrained_layout=True)
+    fig, axes = plt.subplots(3, 1, figsize=(12.5, 9), sharex=True, constrained_layout=True)
+    side = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": 8}  # legends beside the data, not on it
+    # eq. 5's two forms differ by their DC gain only: the paper form dashed on top, the unity form shows through
+    style = {n: {**line_style(n), "lw": 1.0, **({"ls": (0, (4, 2)), "zorder": 5} if n == "correcting_paper" else {})}
+             for n in ("eliminator", "correcting", "correcting_paper")}
     ax = axes[0]
     ax.plot(tm, result.outputs["raw"][sel] / ARCMIN, color=COLORS["raw"], lw=1.0, label=LABELS["raw"])
     ax.plot(tm, result.truth("raw")[sel] / ARCMIN, color="k", lw=1.2, ls="--", label=LABELS["truth"])
     ax.set_ylabel("angle (arcmin)")
     ax.set_title("RLG readout: dither on top of the SINS motion")
-    ax.legend(loc="upper right")
+    ax.legend(**side)
     ax = axes[1]
     ax.plot(tm, result.truth("correcting")[sel] / ARCSEC, color="k", lw=2.2, alpha=0.35,
             label=LABELS["truth"] + " (aligned)")
     for name in ("eliminator", "correcting", "correcting_paper"):
-        ax.plot(tm, result.outputs[name][sel] / ARCSEC, color=COLORS[name], lw=1.0, label=LABELS[name])
+        ax.plot(tm, result.outputs[name][sel] / ARCSEC, label=LABELS[name], **style[name])
     ax.set_ylabel("angle (arcsec)")
     ax.set_title("Dither removed: filter outputs and the true SINS angle")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.legend(**side)
     ax = axes[2]
     rms = result.residual_rms(settle_s)
     for name in ("eliminator", "correcting", "correcting_paper"):
-        ax.plot(tm, result.residual(name)[sel] / ARCSEC, color=COLORS[name], lw=1.0,
-                label=f"{LABELS[name]}: RMS {rms[name] / ARCSEC:.3g} arcsec")
+        ax.plot(tm, result.residual(name)[sel] / ARCSEC, label=f"{LABELS[name]}:\nRMS {rms[name] / ARCSEC:.3g} arcsec",
+                **style[name])
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_ylabel("output - truth (arcsec)")
     ax.set_xlabel(f"time from t = {t[sel][0]:.3f} s (ms)")
     ax.set_title("Residual after time alignment (RMS over the whole run after settling)")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.legend(**side)
     if title:
         fig.suptitle(title)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def spectrum_db(x, fs):
-    """One-sided amplitude spectrum (Hann window) in dB re 1 arcsec: (f, dB)."""
-    x = np.asarray(x, dtype=np.float64)
-    x = x - x.mean()
-    w = np.hanning(x.size)
-    spec = np.abs(np.fft.rfft(x * w)) * 2.0 / w.sum()
-    f = np.fft.rfftfreq(x.size, 1.0 / fs)
-    return f, 20.0 * np.log10(np.maximum(spec / ARCSEC, 1e-12))
-
-
-SINS_LABELS = {"ideal": "ideal increments (algorithm floor)", **LABELS}
-SINS_COLORS = {"ideal": "k", **COLORS}
-
-
-def plot_attitude_error(result, path, title: str = "") -> None:
-    """Roll, pitch, yaw error (arcsec) vs time for each filter."""
-    plt = _pyplot()
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True, constrained_layout=True)
-    for i, comp in enumerate(("roll", "pitch", "yaw")):
-        ax = axes[i]
-        order = sorted(result.attitude_error, key=lambda n: n == "correcting")  # unity form on top
-        for name in order:
-            y = result.attitude_error[name][:, i] / ARCSEC
-            if name == "raw":  # the dither itself, hundreds of arcsec: named in the legend, not drawn
-                ax.plot([], [], color=SINS_COLORS["raw"],
-                        label=f"{SINS_LABELS['raw']}: not drawn, RMS {np.sqrt(np.mean(y * y)):.3g} arcsec")
-                continue
-            ax.plot(result.t, y, color=SINS_COLORS.get(name, None), lw=1.0, label=SINS_LABELS.get(name, name))
-        ax.set_ylabel(f"{comp} error (arcsec)")
-        ax.grid(alpha=0.3)
-    axes[0].legend(loc="upper left", fontsize=8, ncol=2)
-    axes[-1].set_xlabel("time (s)")
-    axes[0].set_title(title or "Attitude error of the strapdown solution, per dither filter")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def _welch_amplitude_db(x, fs):
-    """Welch-averaged amplitude spectrum (Hann, 'spectrum' scaling) in dB re 1 arcsec: a sine of
-    amplitude A reads 20 log10(A / 1 arcsec) at its frequency."""
-    from scipy import signal
-
-    x = np.asarray(x, dtype=np.float64)
-    nper = int(min(4096, x.size))
-    f, p = signal.welch(x - x.mean(), fs=fs, window="hann", nperseg=nper, scaling="spectrum")
-    return f, 20.0 * np.log10(np.maximum(np.sqrt(2.0 * p) / ARCSEC, 1e-12))
-
-
-def plot_output_spectra(result, path, title: str = "") -> None:
-    """Amplitude spectrum of each filter's gyro-angle output vs the truth, per axis (Welch, log frequency)."""
-    plt = _pyplot()
-    spec = result.spectra
-    fs = result.filter_rate_hz
-    fig, axes = plt.subplots(3, 1, figsize=(10, 10), sharex=True, constrained_layout=True)
-    drives = {d["axis"]: d["frequency_hz"] for d in getattr(result, "drives", [])}
-    for i, axis in enumerate(("x", "y", "z")):
-        ax = axes[i]
-        if spec["truth"].shape[0] < 64:
-            continue
-        for name in [n for n in ("raw", "eliminator", "correcting_paper", "correcting") if n in spec]:
-            f, db = _welch_amplitude_db(spec[name][:, i], fs)
-            ax.semilogx(f[1:], db[1:], color=SINS_COLORS.get(name), lw=1.6 if name == "correcting" else 1.0,
-                        alpha=0.5 if name == "raw" else 1.0, label=SINS_LABELS.get(name, name))
-        f, db = _welch_amplitude_db(spec["truth"][:, i], fs)
-        ax.semilogx(f[1:], db[1:], color="k", lw=1.2, ls="--", label="true SINS angle")
-        if axis in drives:
-            ax.axvline(drives[axis], color="0.5", lw=0.8, ls=":")
-            ax.text(drives[axis], 52, f" dither {drives[axis]:.0f} Hz", fontsize=8, color="0.4", va="top")
-        ax.set_ylabel(f"gyro {axis}: amplitude\n(dB re 1 arcsec)")
-        ax.set_ylim(-90, 60)
-        ax.set_xlim(f[1], fs / 2)
-        ax.grid(alpha=0.3, which="both")
-    axes[0].legend(loc="lower left", fontsize=8, ncol=2)
-    axes[-1].set_xlabel("frequency (Hz)")
-    axes[0].set_title(title or "Spectrum of each filter's output against the true block angle")
     fig.savefig(path, dpi=120)
     plt.close(fig)

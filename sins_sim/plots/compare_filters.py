@@ -6,25 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.plots.common import COLORS, LABELS, _pyplot
+from sins_sim.plots.common import _pyplot, filter_color, filter_label
 
 __all__ = ["plot_gain", "plot_tradeoff"]
 
-_EXTRA_LABELS = {
-    "correcting_aligned": "time-aligned eq. 5 (delay 1)",
-    "correcting_wideband": "equalised, flat to 2.6 kHz (delay 16)",
-    "correcting_lownoise": "equalised, flat to 1.5 kHz (delay 20)",
-}
-_EXTRA_COLORS = {"correcting_aligned": "tab:purple", "correcting_wideband": "tab:green",
-                 "correcting_lownoise": "tab:orange"}
-
-
-def _label(name):
-    return LABELS.get(name) or _EXTRA_LABELS.get(name, name)
-
-
-def _color(name):
-    return COLORS.get(name) or _EXTRA_COLORS.get(name, None)
+_label = filter_label
+_color = filter_color
 
 
 def plot_gain(gain: dict, path, top_db: float = 2.0, bottom_db: float = -6.0) -> str:
@@ -34,7 +21,7 @@ def plot_gain(gain: dict, path, top_db: float = 2.0, bottom_db: float = -6.0) ->
     """
     plt = _pyplot()
     f = np.asarray(gain["freqs"])
-    fig, axes = plt.subplots(1, 2, figsize=(14, 5.5))
+    fig, axes = plt.subplots(1, 2, figsize=(14, 6.2), layout="constrained")
     for ax, (lo, hi) in zip(axes, ((bottom_db, top_db), (-1.0, 1.0))):
         for n, g in gain["measured"].items():
             g = np.asarray(g)
@@ -46,10 +33,11 @@ def plot_gain(gain: dict, path, top_db: float = 2.0, bottom_db: float = -6.0) ->
                         color=c, alpha=0.8)
         for fd in gain["dithers"]:
             ax.axvline(fd, color="0.8", lw=0.8, ls=":")
-        ax.axhspan(20 * np.log10(0.99), 20 * np.log10(1.01), color="tab:green", alpha=0.12)
-        ax.axhspan(20 * np.log10(0.95), 20 * np.log10(1.05), color="tab:green", alpha=0.06)
-        ax.axvline(1500.0, color="tab:green", lw=0.8, ls="--")
-        ax.axvline(2500.0, color="tab:green", lw=0.8, ls="--")
+        # the targets in grey: the filters' colours stay theirs alone
+        ax.axhspan(20 * np.log10(0.99), 20 * np.log10(1.01), color="0.55", alpha=0.18, lw=0, zorder=0)
+        ax.axhspan(20 * np.log10(0.95), 20 * np.log10(1.05), color="0.55", alpha=0.08, lw=0, zorder=0)
+        ax.axvline(1500.0, color="0.3", lw=0.8, ls="--", zorder=0)
+        ax.axvline(2500.0, color="0.3", lw=0.8, ls="--", zorder=0)
         ax.set_xscale("log")
         ax.set_ylim(lo, hi)
         ax.set_xlim(70.0, f.max() * 1.02)
@@ -58,8 +46,8 @@ def plot_gain(gain: dict, path, top_db: float = 2.0, bottom_db: float = -6.0) ->
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_title("gain to Nyquist: markers measured (nonlinear plant, dither on), lines analytic (linear)")
     axes[1].set_title("zoom: shaded 1 % and 5 % targets; dashed 1.5 and 2.5 kHz; dotted: dithers")
-    axes[0].legend(fontsize=8, loc="lower left")
-    fig.tight_layout()
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return Path(path).name
@@ -73,7 +61,8 @@ def plot_tradeoff(trade: dict, filters: dict, path, q_key: str) -> str:
         pts = np.asarray(pts)
         # designs that reach their own pass edge (shorter equalisers fail at wide pass bands: left out)
         ok = pts[:, 1] >= pts[:, 0] - 150.0
-        ax.plot(pts[ok, 1], pts[ok, 2], "-", marker=".", color=f"C{k + 4}",
+        # design curves in Tol's colour-blind-safe indigo, wine, teal: none of them a filter's colour
+        ax.plot(pts[ok, 1], pts[ok, 2], "-", marker=".", color=("#332288", "#882255", "#44AA99")[k % 3],
                 label=f"equalised second difference, {name} (delay {name[2:]} samples), stop edge = pass + 600 Hz")
     ax.plot(trade["bound_f_hz"], trade["bound_arcsec"], "k--", lw=1.2,
             label="bound: exact inversion to the band, nothing above it")

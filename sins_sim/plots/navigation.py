@@ -1,8 +1,10 @@
 """Figures of a navigation run (``sins-sim run``): errors against time, path, gyro-error spectra.
 
 The stored series are block means with their min/max envelope (see
-:mod:`sins_sim.simulation.metrics`): lines show the means, shaded bands the envelopes, so
-nothing between two stored samples is hidden or aliased.
+:mod:`sins_sim.simulation.metrics`): lines show the means, light bands behind them the envelopes in
+the same colour, so nothing between two stored samples is hidden or aliased. Colours and labels
+come from :mod:`sins_sim.plots.common` (one map for every figure); a figure without data is not
+written.
 """
 
 from __future__ import annotations
@@ -11,14 +13,19 @@ import math
 
 import numpy as np
 
-from sins_sim.plots.common import COLORS, LABELS, _pyplot
+from sins_sim.plots.common import (ENVELOPE_ALPHA, draw_envelope, filter_color, filter_label, line_style,
+                                   _pyplot, symlog_threshold)
 from sins_sim.units import ARCSEC
 
-__all__ = ["plot_run", "plot_navigation_error", "plot_attitude_error", "plot_trajectory", "plot_gyro_error_spectrum"]
+__all__ = ["plot_run", "plot_navigation_error", "plot_attitude_error", "plot_trajectory", "plot_gyro_error_spectrum",
+           "spectrum_settings", "RUN_FIGURES"]
 
-NAV_LABELS = {"ideal": "ideal increments (algorithm floor)", **LABELS}
-NAV_COLORS = {"ideal": "k", **COLORS}
-_NED = ("north", "east", "down (heading)")
+#: Every figure ``sins-sim run`` can write, in the order written; each only when it has data.
+RUN_FIGURES = ("navigation_error.png", "attitude_error.png", "trajectory.png", "gyro_error_spectrum.png",
+               "allan.png")
+_NED = ("north", "east", "down")
+#: Welch segment length of the gyro-error spectrum (s), when the record is long enough; 50 % overlap.
+SPECTRUM_SEGMENT_S = 0.25
 
 
 def _time_axis(t):
@@ -28,150 +35,258 @@ def _time_axis(t):
     return t, "time (s)"
 
 
+def _positive(x):
+    """``x`` with its non-positive values masked (NaN) for a logarithmic axis."""
+    x = np.asarray(x, dtype=float)
+    return np.where(x > 0.0, x, np.nan)
+
+
+def _drawn(res):
+    """The filters whose navigation series are drawn (not ``raw``: its dither swamps every other curve)."""
+    return [n for n, ser in res.series.items() if n != "raw" and ser["t_s"].size]
+
+
+def _spectrum_filters(res):
+    """The filters whose gyro-angle error has a spectrum: not ``ideal`` (its error is zero by construction)."""
+    sp = res.spectra or {}
+    return [n for n, e in sp.items() if n not in ("t", "ideal") and e.shape[0] and np.any(e != 0.0)]
+
+
+def spectrum_settings(res) -> dict | None:
+    """The Welch settings of the gyro-error spectrum of ``res``, or None when there is nothing to analyse.
+
+    Returns
+    -------
+    dict or None
+        ``nperseg`` (samples), ``segment_s``, ``overlap`` (fraction), ``window`` and the analysed span
+        ``t0_s``, ``t1_s``, ``span_s``; None when no filter other than ``ideal`` has an error record of at
+        least 64 samples.
+    """
+    sp = res.spectra or {}
+    t = sp.get("t")
+    if t is None or t.size < 64 or not _spectrum_filters(res):
+        return None
+    fs = float(res.filter_rate_hz)
+    nper = int(min(t.size, 2 ** int(round(math.log2(max(64.0, SPECTRUM_SEGMENT_S * fs))))))
+    return {"nperseg": nper, "segment_s": nper / fs, "overlap": 0.5, "window": "Hann", "t0_s": float(t[0]),
+            "t1_s": float(t[-1] + 1.0 / fs), "span_s": t.size / fs}
+
+
 def plot_run(res, out, name: str) -> list:
-    """All figures of a run into folder ``out``; returns their file names."""
+    """The figures of a run that have data, into folder ``out``; returns their file names.
+
+    A figure without data is not written (e.g. ``filters: [ideal]`` has no gyro-error spectrum:
+    the ideal increments have no error).
+    """
     figs = []
-    if res.series:
+    if _drawn(res):
         plot_navigation_error(res, out / "navigation_error.png", f"{name}: navigation error against truth")
-        plot_attitude_error(res, out / "attitude_error.png", f"{name}: attitude error psi (NED) against truth")
-        plot_trajectory(res, out / "trajectory.png", f"{name}: path and horizontal error")
+        plot_attitude_error(res, out / "attitude_error.png", f"{name}: attitude error phi (NED) against truth")
+        plot_trajectory(res, out / "trajectory.png", f"{name}: path and horizontal position error")
         figs += ["navigation_error.png", "attitude_error.png", "trajectory.png"]
-    if res.spectra and res.spectra.get("t") is not None and res.spectra["t"].size > 64:
+    if spectrum_settings(res) is not None:
         plot_gyro_error_spectrum(res, out / "gyro_error_spectrum.png",
-                                 f"{name}: gyro-angle error (output - truth) amplitude density")
+                                 f"{name}: gyro-angle error (output - truth), amplitude spectral density")
         figs.append("gyro_error_spectrum.png")
     gyro_allan = {n: a for n, a in getattr(res, "allan", {}).items() if n in res.filters}
     if gyro_allan:
-        from sins_sim.plots.allan import plot_allan_filters
+        from sins_sim.plots.allan import has_curves, plot_allan_filters
 
-        plot_allan_filters(gyro_allan, out / "allan.png",
-                           f"{name}: Allan deviation of each filter's gyro error ({res.allan['record_s']:.4g} s at "
-                           f"{res.allan['rate_hz']:.3g} Hz)", NAV_COLORS, NAV_LABELS)
-        figs.append("allan.png")
+        if has_curves(gyro_allan):
+            plot_allan_filters(gyro_allan, out / "allan.png",
+                               f"{name}: Allan deviation of each filter's gyro error ({res.allan['record_s']:.4g} s "
+                               f"at {res.allan['rate_hz']:.3g} Hz)")
+            figs.append("allan.png")
     return figs
 
 
+def _legend_below(fig, axes, extra: str = "") -> None:
+    """One legend for the figure, outside the data area (below the panels), with the envelope explained."""
+    handles, labels = [], []
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            if lab not in labels and not lab.startswith("_"):
+                handles.append(h)
+                labels.append(lab)
+    if not handles:
+        return
+    from matplotlib.patches import Patch
+
+    handles.append(Patch(color="0.5", alpha=ENVELOPE_ALPHA * 3, lw=0))
+    labels.append("band: min to max within each stored interval (filter's colour)" + extra)
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(3, len(handles)), fontsize=8, frameon=False)
+
+
 def plot_navigation_error(res, path, title: str = "") -> None:
-    """Horizontal position error (log), vertical error and velocity error against time, per filter."""
+    """Horizontal position error (log), height error (symmetric log) and velocity error (log) per filter.
+
+    Lines are the means over each stored interval, bands (light, behind) the min/max within it.
+    """
     plt = _pyplot()
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
-    for name, ser in res.series.items():
+    fig, axes = plt.subplots(3, 1, figsize=(10, 10), sharex=True, layout="constrained")
+    names = _drawn(res)
+    xlabel = "time (s)"
+    for name in names:
+        ser = res.series[name]
         t, xlabel = _time_axis(ser["t_s"])
-        c = NAV_COLORS.get(name)
-        lab = NAV_LABELS.get(name, name)
-        h, hmin, hmax = ser["horizontal_m"], ser["horizontal_m_min"], ser["horizontal_m_max"]
-        floor = 1e-6
-        axes[0].plot(t, np.maximum(h, floor), color=c, lw=1.2, label=lab)
-        axes[0].fill_between(t, np.maximum(hmin, floor), np.maximum(hmax, floor), color=c, alpha=0.15, lw=0)
-        axes[1].plot(t, ser["vertical_m"], color=c, lw=1.0, label=lab)
+        st = line_style(name)
+        lab = filter_label(name)
+        # log axes: a zero (the aligned start) is left out, not clipped to an invented floor
+        draw_envelope(axes[0], t, _positive(ser["horizontal_m_min"]), _positive(ser["horizontal_m_max"]), name)
+        axes[0].plot(t, _positive(ser["horizontal_m"]), label=lab, **st)
+        draw_envelope(axes[1], t, ser["vertical_m_min"], ser["vertical_m_max"], name)
+        axes[1].plot(t, ser["vertical_m"], label=lab, **st)
         vel = np.linalg.norm(ser["velocity_ned_m_s"], axis=1)
-        axes[2].plot(t, np.maximum(vel, floor), color=c, lw=1.0, label=lab)
+        axes[2].plot(t, _positive(vel), label=lab, **st)
+    lin = symlog_threshold([res.series[n]["vertical_m"] for n in names])
     axes[0].set_yscale("log")
-    axes[0].set_ylabel("horizontal position\nerror (m)")
-    axes[1].set_yscale("symlog", linthresh=1e-3, linscale=0.5)
-    axes[1].set_ylabel("height error (m, up)\n(symmetric log, linear within 1 mm)")
+    axes[0].set_ylabel("horizontal position error (m)\n(log scale)")
+    axes[1].set_yscale("symlog", linthresh=lin, linscale=1.0)
+    axes[1].set_ylabel(f"height error, up (m)\n(symmetric log: linear within +-{lin:g} m)")
     axes[2].set_yscale("log")
-    axes[2].set_ylabel("velocity error |dv| (m/s)\n(block means)")
+    axes[2].set_ylabel("velocity error |dv| (m/s)\n(log scale, means only)")
     axes[2].set_xlabel(xlabel)
     for ax in axes:
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=8, loc="best")
-    axes[0].set_title(title + "\n(lines: means over each stored interval; bands: min to max)", fontsize=10)
-    fig.tight_layout()
+        ax.grid(True, which="major", alpha=0.3)
+    axes[0].set_title(title + "\n(lines: means over each stored interval)", fontsize=10)
+    _legend_below(fig, axes[:1])
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
 def plot_attitude_error(res, path, title: str = "") -> None:
-    """Attitude error psi about north, east and down against time, per filter, in arcsec."""
+    """Attitude error phi about north, east and down against time, per filter, in arcsec.
+
+    phi is the rotation vector of q_est (x) q_true*: the misalignment of the computed NED frame against
+    the true NED frame at the true position, per NED axis. The axis is symmetric-logarithmic with its
+    linear half-width taken from the data (:func:`sins_sim.plots.common.symlog_threshold`), and says so.
+    """
     plt = _pyplot()
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
-    hidden = []
-    for name, ser in res.series.items():
+    fig, axes = plt.subplots(3, 1, figsize=(10, 10), sharex=True, layout="constrained")
+    hidden = ""
+    if "raw" in res.series and res.series["raw"]["t_s"].size:
+        a = res.series["raw"]["attitude_ned_rad"] / ARCSEC
+        hidden = f"; raw readout not drawn (its dither swamps the filters): RMS {np.sqrt(np.mean(a * a)):.3g} arcsec"
+    names = _drawn(res)
+    xlabel = "time (s)"
+    for name in names:
+        ser = res.series[name]
         t, xlabel = _time_axis(ser["t_s"])
         a = ser["attitude_ned_rad"] / ARCSEC
-        if name == "raw":  # the raw readout carries the dither: its error would swamp the filters'
-            hidden.append(f"raw readout not drawn: RMS {np.sqrt(np.mean(a * a)):.3g} arcsec")
-            continue
         lo, hi = ser["attitude_ned_rad_min"] / ARCSEC, ser["attitude_ned_rad_max"] / ARCSEC
         for i, ax in enumerate(axes):
-            ax.plot(t, a[:, i], color=NAV_COLORS.get(name), lw=1.0, label=NAV_LABELS.get(name, name))
-            ax.fill_between(t, lo[:, i], hi[:, i], color=NAV_COLORS.get(name), alpha=0.12, lw=0)
+            draw_envelope(ax, t, lo[:, i], hi[:, i], name)
+            ax.plot(t, a[:, i], label=filter_label(name), **line_style(name))
+    lin = symlog_threshold([res.series[n]["attitude_ned_rad"] / ARCSEC for n in names])
     for i, ax in enumerate(axes):
-        # filters differ by decades: symmetric log scale, linear within +-0.1 arcsec
-        ax.set_yscale("symlog", linthresh=0.1, linscale=0.5)
-        ax.set_ylabel(f"psi {_NED[i]} (arcsec)")
+        ax.set_yscale("symlog", linthresh=lin, linscale=1.0)
+        ax.set_ylabel(f"phi {_NED[i]} (arcsec)")
         ax.grid(True, which="major", alpha=0.3)
     axes[-1].set_xlabel(xlabel)
-    axes[0].legend(fontsize=8, loc="best", title="; ".join(hidden) if hidden else None, title_fontsize=8)
-    axes[0].set_title(title + "\n(symmetric log scale, linear within +-0.1 arcsec; bands: min to max)", fontsize=10)
-    fig.tight_layout()
+    axes[0].set_title(f"{title}\nphi: rotation vector of q_est x q_true*, the computed NED frame against the true "
+                      f"one\n(symmetric log scale: linear within +-{lin:g} arcsec, logarithmic outside; "
+                      f"lines: means over each stored interval)", fontsize=10)
+    _legend_below(fig, axes[:1], hidden)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
+def _length_unit(extent_m: float):
+    """(unit, metres per unit) so that ``extent_m`` reads between 1 and 1000."""
+    for unit, size in (("km", 1e3), ("m", 1.0), ("cm", 1e-2), ("mm", 1e-3), ("um", 1e-6)):
+        if extent_m >= size:
+            return unit, size
+    return "nm", 1e-9
+
+
 def plot_trajectory(res, path, title: str = "") -> None:
-    """Left: the true path (north/east from the start); right: each filter's horizontal error (north, east)."""
+    """Left: the true path (north/east of the start); right: each filter's horizontal error track in its own panel.
+
+    Every panel keeps the geometry: linear axes with equal aspect, the unit chosen per panel (stated on
+    its axes) because the filters' errors differ by decades.
+    """
     plt = _pyplot()
     from sins_sim import earth
 
-    fig, (a0, a1) = plt.subplots(1, 2, figsize=(12, 5.5))
+    names = _drawn(res)
+    ncol = max(1, math.ceil(len(names) / 2))
+    fig = plt.figure(figsize=(6.0 + 3.6 * ncol, 6.4), layout="constrained")
+    gs = fig.add_gridspec(2, 1 + ncol, width_ratios=[1.7] + [1.0] * ncol)
+    a0 = fig.add_subplot(gs[:, 0])
     ts = res.truth_series
     if ts["t_s"].size:
         lat0, lon0 = ts["lat_rad"][0], ts["lon_rad"][0]
         n, e, _ = earth.horizontal_error_m(ts["lat_rad"], ts["lon_rad"], lat0, lon0, ts["h_m"][0])
-        span = max(float(np.ptp(n)), float(np.ptp(e)))
-        unit, scale = ("km", 1e-3) if span > 5e3 else ("m", 1.0)
-        a0.plot(e * scale, n * scale, color="k", lw=1.5, label="truth")
-        a0.plot(e[:1] * scale, n[:1] * scale, "o", color="k", label="start")
+        span = max(float(np.ptp(n)), float(np.ptp(e)), 1e-3)
+        unit, size = ("km", 1e3) if span > 5e3 else _length_unit(span)
+        a0.plot(e / size, n / size, color="k", lw=1.5, label="true path")
+        a0.plot(e[:1] / size, n[:1] / size, "o", color="k", label="start")
+        a0.plot(e[-1:] / size, n[-1:] / size, "s", color="k", mfc="none", label="end")
         a0.set_xlabel(f"east of the start ({unit})")
         a0.set_ylabel(f"north of the start ({unit})")
         a0.set_aspect("equal", adjustable="datalim")
-        a0.legend(fontsize=8)
-        a0.set_title("true path", fontsize=10)
-        a0.grid(True, alpha=0.3)
-    for name, ser in res.series.items():
-        if name == "raw":
-            continue
-        a1.plot(ser["east_m"], ser["north_m"], color=NAV_COLORS.get(name), lw=1.0, label=NAV_LABELS.get(name, name))
-        a1.plot(ser["east_m"][-1:], ser["north_m"][-1:], "o", color=NAV_COLORS.get(name), ms=4)
-    a1.set_xscale("symlog", linthresh=0.01, linscale=0.5)
-    a1.set_yscale("symlog", linthresh=0.01, linscale=0.5)
-    a1.set_xlabel("east error (m, symmetric log, linear within +-1 cm)")
-    a1.set_ylabel("north error (m, symmetric log)")
-    a1.set_title("each filter's position minus truth (dot: end)", fontsize=10)
-    a1.grid(True, alpha=0.3)
-    a1.legend(fontsize=8)
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+        a0.legend(fontsize=8, loc="best")
+    a0.set_title("true path (equal scales)", fontsize=10)
+    a0.grid(True, alpha=0.3)
+    for k, name in enumerate(names):
+        ax = fig.add_subplot(gs[k % 2, 1 + k // 2])
+        ser = res.series[name]
+        east, north = ser["east_m"], ser["north_m"]
+        extent = max(float(np.max(np.abs(east))), float(np.max(np.abs(north))), 1e-9)
+        unit, size = _length_unit(extent)
+        st = line_style(name)
+        ax.plot(east / size, north / size, **st)
+        ax.plot([0.0], [0.0], "o", color="0.4", ms=4)
+        ax.plot(east[-1:] / size, north[-1:] / size, "s", color=st["color"], ms=5)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel(f"east error ({unit})", fontsize=8)
+        ax.set_ylabel(f"north error ({unit})", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.set_title(f"{filter_label(name)}\nend: {math.hypot(east[-1], north[-1]):.3g} m", fontsize=8,
+                     color=st["color"] if name != "ideal" else "k")
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(title + "\nright: each filter's position minus truth from the navigation start (dot) to the end "
+                 "(square), equal scales, unit per panel", fontsize=10)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
 def plot_gyro_error_spectrum(res, path, title: str = "") -> None:
-    """Amplitude spectral density of each filter's gyro-angle error, per axis (arcsec/sqrt(Hz))."""
+    """Amplitude spectral density of each filter's gyro-angle error, per axis (arcsec/sqrt(Hz)).
+
+    Welch's method (Hann window, 50 % overlap, linear detrend, one-sided density) over the stored
+    full-rate record; the window length and the time span analysed are stated on the figure.
+    """
     plt = _pyplot()
     from scipy import signal
 
+    cfg = spectrum_settings(res)
+    if cfg is None:
+        raise ValueError("plot_gyro_error_spectrum: no gyro-error record to analyse")
     fs = res.filter_rate_hz
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
-    nper = int(min(res.spectra["t"].size, 2 ** int(math.log2(max(64, fs / 2)))))
-    for name, err in res.spectra.items():
-        if name in ("t", "ideal") or err.shape[0] < nper:
-            continue
-        f, p = signal.welch(err / ARCSEC, fs=fs, nperseg=nper, axis=0, detrend="linear")
+    nper = cfg["nperseg"]
+    fig, axes = plt.subplots(3, 1, figsize=(10, 10), sharex=True, layout="constrained")
+    for name in _spectrum_filters(res):
+        err = res.spectra[name]
+        f, p = signal.welch(err / ARCSEC, fs=fs, window="hann", nperseg=nper, noverlap=nper // 2, axis=0,
+                            detrend="linear")
         for i, ax in enumerate(axes):
-            ax.loglog(f[1:], np.sqrt(p[1:, i]), color=NAV_COLORS.get(name), lw=1.0, label=NAV_LABELS.get(name, name))
+            y = np.sqrt(p[1:, i])
+            ok = y > 0
+            if np.any(ok):
+                ax.loglog(f[1:][ok], y[ok], label=filter_label(name), **line_style(name))
     for i, ax in enumerate(axes):
-        ax.set_ylabel(f"gyro {'xyz'[i]}\n(arcsec/sqrt(Hz))")
-        ax.grid(True, which="both", alpha=0.3)
+        ax.set_ylabel(f"gyro {'xyz'[i]}: error ASD\n(arcsec/sqrt(Hz))")
+        ax.grid(True, which="major", alpha=0.3)
         for d in res.drives[i:i + 1]:
-            ax.axvline(d["frequency_hz"], color="0.5", ls=":", lw=1.0)
-            ax.text(d["frequency_hz"], ax.get_ylim()[1], " dither", fontsize=7, color="0.4", va="top")
+            ax.axvline(d["frequency_hz"], color="0.5", ls=":", lw=1.0, zorder=0)
+            ax.annotate(f" dither {d['frequency_hz']:.0f} Hz", (d["frequency_hz"], 1.0),
+                        xycoords=("data", "axes fraction"), fontsize=7, color="0.35", va="top")
     axes[-1].set_xlabel("frequency (Hz)")
-    axes[0].legend(fontsize=8, loc="lower left")
-    axes[0].set_title(title + f"\n(Welch, {nper} samples per segment, over {res.spectra['t'].size / fs:g} s)",
-                      fontsize=10)
-    fig.tight_layout()
+    axes[0].set_title(f"{title}\n(Welch: {cfg['window']} window of {nper} samples = {cfg['segment_s']:.3g} s, "
+                      f"{cfg['overlap']:.0%} overlap, linear detrend; record t = {cfg['t0_s']:.4g}-"
+                      f"{cfg['t1_s']:.4g} s, {cfg['span_s']:.3g} s at {fs:g} Hz)", fontsize=10)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(handles)), fontsize=8, frameon=False)
     fig.savefig(path, dpi=110)
     plt.close(fig)

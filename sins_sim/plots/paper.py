@@ -10,7 +10,7 @@ from sins_sim.units import ARCMIN, ARCSEC
 __all__ = ["plot_fig1", "plot_fig3", "plot_fig4", "plot_fig5", "plot_fig6", "plot_fig7"]
 
 _LABELS = {**LABELS, "pickoff": "pickoff stripping (LMS gain)", "raw": "raw RLG readout (mechanical filter)"}
-_COLORS = {**COLORS, "pickoff": "tab:green"}
+_COLORS = COLORS
 
 
 def _db(x):
@@ -34,7 +34,7 @@ def plot_fig1(d: dict, path) -> None:
     ax.set_xlim(0, fs)
     ax.set_ylim(1e-3, 2e3)
     ax.set_xlabel("frequency (Hz)")
-    ax.set_ylabel("|gain|")
+    ax.set_ylabel("|gain| (ratio)")
     ax.set_title(f"AFCs at f0 = {f0:g} Hz, dT = 0.139 ms (fs = {fs:.0f} Hz)")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8)
     ax.grid(True, which="both", alpha=0.3)

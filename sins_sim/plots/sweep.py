@@ -15,12 +15,11 @@ import textwrap
 
 import numpy as np
 
-from sins_sim.plots.common import COLORS, LABELS, _pyplot
+from sins_sim.plots.common import FILTER_LABELS, _pyplot, filter_color
 
 __all__ = ["plot_distributions", "plot_sensitivity"]
 
-_COLORS = {"ideal": "k", **COLORS}
-_LABELS = {"ideal": "ideal increments", **LABELS}
+_LABELS = {**FILTER_LABELS, "ideal": "ideal increments"}
 
 
 def _positive(x):
@@ -64,10 +63,10 @@ def plot_distributions(table, metrics: dict, filters, scenarios, path, title: st
             if not x.size:
                 continue
             p = np.arange(1, x.size + 1) / x.size
-            (h,) = ax.step(x, p, where="post", color=_COLORS.get(f), lw=1.4, label=_LABELS.get(f, f))
+            (h,) = ax.step(x, p, where="post", color=filter_color(f), lw=1.4, label=_LABELS.get(f, f))
             if x.size >= p95_min_n:
                 p95 = float(np.percentile(x, 95.0))
-                ax.plot([p95], [0.95], "o", color=_COLORS.get(f), ms=4)
+                ax.plot([p95], [0.95], "o", color=filter_color(f), ms=4)
             handles[f] = h
         if log:
             ax.set_xscale("log")
@@ -133,7 +132,7 @@ def plot_sensitivity(table, metric: str, label: str, params: dict, filters, path
         for f in cols_y:
             y = table[f"{f}.{metric}"].to_numpy(dtype=float)
             ok = np.isfinite(x) & np.isfinite(y) & (y > 0.0)
-            handles[f] = ax.scatter(x[ok], y[ok], s=9, color=_COLORS.get(f), alpha=0.7, lw=0,
+            handles[f] = ax.scatter(x[ok], y[ok], s=9, color=filter_color(f), alpha=0.7, lw=0,
                                     label=_LABELS.get(f, f))
         found = [t for (pc, f), t in (tests or {}).items() if pc == pcol]
         ax.set_yscale("log")

@@ -58,7 +58,7 @@ __all__ = ["DriveControl", "ImuConfig", "NavSettings", "SinsResult", "simulate_s
 SINS_FILTERS = filter_registry.BUILTIN_FILTERS
 #: The filters navigated by default: the dither filters and the ideal floor (``raw``, the readout with the
 #: dither still in it, on request).
-DEFAULT_FILTERS = ("ideal", "eliminator", "correcting", "correcting_paper")
+DEFAULT_FILTERS = filter_registry.DEFAULT_FILTERS
 AXES = ("x", "y", "z")
 #: Default rate of the stored error series (Hz) and the most blocks stored per filter by default.
 DEFAULT_SERIES_RATE_HZ = 10.0
