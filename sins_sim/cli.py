@@ -150,6 +150,7 @@ class _Progress:
         self.label = label
         self.disable = disable
         self.bar = None  # made when the job reports its estimate or its first progress: no bar before an error
+        self.printed = set()  # warnings already printed by advise(), not repeated at the end
 
     def _open(self, total: float, unit: str, postfix: str = ""):
         from tqdm import tqdm
@@ -173,6 +174,18 @@ class _Progress:
         done = self.bar.total * min(max(float(fraction), 0.0), 1.0)
         if done > self.bar.n:
             self.bar.update(done - self.bar.n)
+
+    def advise(self, message: str) -> None:
+        """Print a job's configuration-time warning now, one line (before the engine runs), and remember it."""
+        from sins_sim.jobs.messages import format_warning_lines
+
+        for line in format_warning_lines([message]):
+            if self.bar is not None:
+                self.bar.write(line, file=sys.stderr)
+            else:
+                sys.stderr.write(line + "\n")
+                sys.stderr.flush()
+        self.printed.add(message)
 
     def close(self) -> None:
         if self.bar is not None:
@@ -254,7 +267,7 @@ def _cmd_run(args) -> int:
               f"{m['status']}")
     for name, d in metrics.get("diverged", {}).items():
         print(f"diverged: {name}, axis {d['axis']}, t = {d['time_s']:.4g} s: {d['reason']}")
-    args.job_warnings.extend(metrics.get("warnings", []))
+    args.job_warnings.extend(w for w in metrics.get("warnings", []) if w not in progress.printed)
     print(f"report: {out / 'report.md'}")
     return EXIT_OK
 

@@ -252,7 +252,8 @@ def drive_advisories(drives, imu, duration_s: float) -> list[str]:
         if target > 0.0 and math.isfinite(meas) and abs(meas / target - 1.0) > tol:
             out.append(f"drive {ax}: dither amplitude {meas / ARCMIN:.4g} arcmin against its target "
                        f"{target / ARCMIN:.4g} arcmin ({100.0 * (meas / target - 1.0):+.1f} %, tolerance "
-                       f"{100.0 * tol:.3g} %): the amplitude loop does not hold the dither"
+                       f"{100.0 * tol:.3g} %): the amplitude loop does not hold the dither (block motion near the "
+                       f"resonance, or a disturbance faster than the loop)"
                        + ("" if closed else " (drive control is open loop)"))
         sus = ch.suspension
         temp = getattr(ch, "temperature", None)
@@ -266,8 +267,9 @@ def drive_advisories(drives, imu, duration_s: float) -> list[str]:
         if closed and expected != 0.0 and math.isfinite(vm) and abs(vm / expected - 1.0) > VOLTAGE_TOLERANCE:
             out.append(f"drive {ax}: V_m = {vm:.4g} V is {100.0 * (vm / expected - 1.0):+.1f} % off the eq. 17 "
                        f"voltage {expected:.4g} V of the unit's parameters at {target / ARCMIN:.3g} arcmin (tolerance "
-                       f"{100.0 * VOLTAGE_TOLERANCE:g} %): the suspension's Q or k5, or the drive frequency, is not "
-                       f"what the unit says")
+                       f"{100.0 * VOLTAGE_TOLERANCE:g} %): the loop makes up for a loss or a detuning the unit's "
+                       f"parameters do not hold (block motion near the resonance or adding hysteretic loss at its "
+                       f"turning points, extra damping, a drive off the resonance)")
     return out
 
 
@@ -322,7 +324,28 @@ def _track_vs_yaw(t, lat, lon, h, yaw):
     yaw_mid = np.interp(tm, t, np.unwrap(yaw))
     diff = np.degrees(np.angle(np.exp(1j * (track - yaw_mid))))
     return {"median_deg": float(np.median(np.abs(diff))), "moving_s": moving_s, "speed": dist / dt,
-            "track": np.unwrap(track), "t_mid": tm}
+            "track": np.unwrap(track), "t_mid": tm, "v_ne": np.stack((dn / dt, de / dt), axis=1)}
+
+
+def _roll_fit(cmp, t, lat, h, roll):
+    """Roll against the coordinated-turn bank ``atan(v psi_dot / g)`` (a level coordinated turn: lift balances
+    gravity and the centripetal force) over the turns: (relative misfit as written, misfit read as radians,
+    median |roll| deg, median |bank| deg), or None without :data:`MIN_MOVING_S` / 2 of turning."""
+    tm, trk, v = cmp["t_mid"], cmp["track"], cmp["speed"]
+    if tm.size < 3:
+        return None
+    rate = np.gradient(trk, tm)
+    g = float(earth.gravity_down(float(np.mean(lat)), float(np.mean(h))))  # Somigliana normal gravity
+    bank = np.arctan(v * rate / g)
+    turning = np.abs(bank) >= math.radians(MIN_BANK_DEG)
+    if turning.sum() * float(np.median(np.diff(t))) < MIN_MOVING_S / 2.0:
+        return None
+    r = np.interp(tm[turning], t, roll)
+    b = bank[turning]
+    scale = 180.0 / math.pi
+    size = float(np.median(np.abs(b)))
+    return (float(np.median(np.abs(r - b))) / size, float(np.median(np.abs(r * scale - b))) / size,
+            math.degrees(float(np.median(np.abs(r)))), math.degrees(size))
 
 
 def trajectory_advisories(data, name: str) -> list[str]:
@@ -343,69 +366,63 @@ def trajectory_advisories(data, name: str) -> list[str]:
     Raises
     ------
     ConfigError
-        When the file fits only with its angle columns read as radians: the yaw column follows the ground
-        track within :data:`RADIANS_FIT_DEG` once multiplied by 180/pi but not as written, the roll column
-        is the coordinated-turn bank in radians, or the positions move at pi/180 of the velocity columns.
+        When the file fits only with angle columns read as radians: the yaw column follows the ground track
+        within :data:`RADIANS_FIT_DEG` once multiplied by 180/pi but not as written (lat_deg, lon_deg named too
+        when rescaling them makes the fit better, roll_deg when it then is the coordinated bank in radians);
+        the roll column alone is the coordinated-turn bank in radians; or the positions move at pi/180 of the
+        velocity columns.
     """
     t = np.asarray(data.t_s)
     lat, lon, h = np.asarray(data.lat_rad), np.asarray(data.lon_rad), np.asarray(data.h_m)
     roll, yaw = np.asarray(data.roll_rad), np.asarray(data.yaw_rad)
-    file_val = {c: np.degrees(np.asarray(getattr(data, f))) for c, f in
-                (("lat_deg", "lat_rad"), ("lon_deg", "lon_rad"), ("roll_deg", "roll_rad"),
-                 ("pitch_deg", "pitch_rad"), ("yaw_deg", "yaw_rad"))}
-    in_rad_range = [c for c, v in file_val.items() if np.all(np.abs(v) <= 2.0 * math.pi)]
+    # what the file holds (deg): a column can be in radians only if every value lies within one turn in rad
+    bound = {"lat_deg": math.pi / 2.0, "lon_deg": 2.0 * math.pi, "roll_deg": 2.0 * math.pi, "yaw_deg": 2.0 * math.pi}
+    radians_ok = {c for c, f in (("lat_deg", lat), ("lon_deg", lon), ("roll_deg", roll), ("yaw_deg", yaw))
+                  if np.all(np.abs(np.degrees(f)) <= bound[c])}
     scale = 180.0 / math.pi
+    head = f"trajectory.file ({name}): "
     out = []
     cmp = _track_vs_yaw(t, lat, lon, h, yaw)
-    refuse = (f"trajectory.file ({name}): columns {', '.join(in_rad_range)} look like radians, not degrees: ")
-    if cmp is not None and cmp["moving_s"] >= MIN_MOVING_S and cmp["median_deg"] > MAX_CRAB_DEG:
-        fits = []
-        if "yaw_deg" in in_rad_range:
-            fits.append(_track_vs_yaw(t, lat, lon, h, yaw * scale))
-            if "lat_deg" in in_rad_range and "lon_deg" in in_rad_range:
-                fits.append(_track_vs_yaw(t, lat * scale, lon * scale, h, yaw * scale))
-        best = min((f["median_deg"] for f in fits if f is not None and f["moving_s"] >= MIN_MOVING_S),
-                   default=math.inf)
-        if best <= RADIANS_FIT_DEG:
-            raise ConfigError(refuse + f"the ground track from lat_deg/lon_deg differs from yaw_deg by "
-                                       f"{cmp['median_deg']:.3g} deg (median over {cmp['moving_s']:.4g} s moving) "
-                                       f"but by {best:.2g} deg with the angles read as radians; write degrees "
-                                       f"(multiply by 180/pi)")
-        out.append(f"trajectory.file ({name}): yaw_deg differs from the ground track (from lat_deg/lon_deg) by "
-                   f"{cmp['median_deg']:.3g} deg (median over {cmp['moving_s']:.4g} s moving), more than the "
-                   f"{MAX_CRAB_DEG:g} deg of a crab in a strong cross wind: check the yaw column's unit and "
-                   f"convention (deg, from north towards east, body x forward)")
-    # roll against the coordinated-turn bank atan(v psi_dot / g) (level coordinated turn: lift balances gravity and the centripetal force)
-    if cmp is not None and "roll_deg" in in_rad_range:
-        tm, trk, v = cmp["t_mid"], cmp["track"], cmp["speed"]
-        if tm.size >= 3:
-            rate = np.gradient(trk, tm)
-            g = float(earth.gravity_down(float(np.mean(lat)), float(np.mean(h))))  # Somigliana normal gravity
-            bank = np.arctan(v * rate / g)
-            turning = np.abs(bank) >= math.radians(MIN_BANK_DEG)
-            dt_med = float(np.median(np.diff(t)))
-            if turning.sum() * dt_med >= MIN_MOVING_S / 2.0:
-                r = np.interp(tm[turning], t, roll)
-                b = bank[turning]
-                as_deg = float(np.median(np.abs(r - b)) / np.median(np.abs(b)))
-                as_rad = float(np.median(np.abs(r * scale - b)) / np.median(np.abs(b)))
-                if as_rad <= 0.25 and as_deg > 0.5:
-                    raise ConfigError(refuse + f"in the turns roll_deg is {np.degrees(np.median(np.abs(r))):.3g} "
-                                               f"deg where the coordinated bank atan(v yaw_rate / g) is "
-                                               f"{np.degrees(np.median(np.abs(b))):.3g} deg, and matches it "
-                                               f"within {100 * as_rad:.2g} % read as radians; write degrees "
-                                               f"(multiply by 180/pi)")
-    if data.v_ned_m_s is not None and cmp is not None and cmp["moving_s"] >= MIN_MOVING_S:
-        vh = np.hypot(data.v_ned_m_s[:, 0], data.v_ned_m_s[:, 1])
-        vmid = np.interp(cmp["t_mid"], t, vh)
-        ok = vmid >= 1.0
-        if ok.sum() >= 3:
-            ratio = float(np.median(cmp["speed"][ok] / vmid[ok]))
-            if abs(ratio * scale - 1.0) <= 0.25 and {"lat_deg", "lon_deg"} <= set(in_rad_range):
-                raise ConfigError(f"trajectory.file ({name}): columns lat_deg, lon_deg look like radians, not "
-                                  f"degrees: the positions move at {ratio:.3g} of the speed in vn_m_s/ve_m_s "
-                                  f"(pi/180 = {1 / scale:.3g}); write degrees (multiply by 180/pi)")
-            if not 0.5 <= ratio <= 2.0:
-                out.append(f"trajectory.file ({name}): the positions (lat_deg, lon_deg) move at {ratio:.3g} times "
-                           f"the horizontal speed of the velocity columns (vn_m_s, ve_m_s): check their units")
+    moving = cmp is not None and cmp["moving_s"] >= MIN_MOVING_S
+    if moving and cmp["median_deg"] > MAX_CRAB_DEG:
+        fit, cols, pos = None, [], 1.0
+        if "yaw_deg" in radians_ok:
+            fit, cols = _track_vs_yaw(t, lat, lon, h, yaw * scale), ["yaw_deg"]
+            if {"lat_deg", "lon_deg"} <= radians_ok:
+                both = _track_vs_yaw(t, lat * scale, lon * scale, h, yaw * scale)
+                if both is not None and (fit is None or both["median_deg"] < fit["median_deg"] - 0.5):
+                    fit, cols, pos = both, ["lat_deg", "lon_deg", "yaw_deg"], scale
+        if fit is not None and fit["moving_s"] >= MIN_MOVING_S and fit["median_deg"] <= RADIANS_FIT_DEG:
+            if "roll_deg" in radians_ok:
+                rf = _roll_fit(fit, t, lat * pos, h, roll)
+                if rf is not None and rf[1] <= 0.25:
+                    cols.insert(-1, "roll_deg")
+            raise ConfigError(f"{head}columns {', '.join(cols)} look like radians, not degrees: the ground track "
+                              f"from lat_deg/lon_deg differs from yaw_deg by {cmp['median_deg']:.3g} deg (median "
+                              f"over {cmp['moving_s']:.4g} s moving) but by {fit['median_deg']:.2g} deg with "
+                              f"{', '.join(cols)} read as radians; write every angle column in degrees (multiply "
+                              f"radians by 180/pi)")
+        out.append(f"{head}yaw_deg differs from the ground track (from lat_deg/lon_deg) by {cmp['median_deg']:.3g} "
+                   f"deg (median over {cmp['moving_s']:.4g} s moving), more than the {MAX_CRAB_DEG:g} deg of a crab "
+                   f"in a strong cross wind: check the yaw column's unit and convention (deg, from north towards "
+                   f"east, body x forward)")
+    elif moving and "roll_deg" in radians_ok:
+        rf = _roll_fit(cmp, t, lat, h, roll)
+        if rf is not None and rf[1] <= 0.25 and rf[0] > 0.5:
+            raise ConfigError(f"{head}columns roll_deg look like radians, not degrees: in the turns roll_deg is "
+                              f"{rf[2]:.3g} deg where the coordinated bank atan(v yaw_rate / g) is {rf[3]:.3g} deg, "
+                              f"and it matches that within {100 * rf[1]:.2g} % read as radians; write degrees "
+                              f"(multiply by 180/pi)")
+    if data.v_ned_m_s is not None and moving and {"lat_deg", "lon_deg"} <= radians_ok:
+        def misfit(c):  # median |position rate - velocity columns| / median |velocity columns|, horizontal
+            v_col = np.stack([np.interp(c["t_mid"], t, data.v_ned_m_s[:, k]) for k in (0, 1)], axis=1)
+            size = float(np.median(np.hypot(v_col[:, 0], v_col[:, 1])))
+            return float(np.median(np.hypot(*(c["v_ne"] - v_col).T))) / size if size >= 1.0 else 0.0
+
+        as_rad = _track_vs_yaw(t, lat * scale, lon * scale, h, yaw)
+        if misfit(cmp) > 0.5 and as_rad is not None and misfit(as_rad) <= 0.1:
+            raise ConfigError(f"{head}columns lat_deg, lon_deg look like radians, not degrees: the positions move "
+                              f"at {np.median(cmp['speed']):.3g} m/s where the velocity columns (vn_m_s, ve_m_s) "
+                              f"say {np.median(as_rad['speed']):.4g} m/s, and match them within "
+                              f"{100 * misfit(as_rad):.2g} % read as radians; write degrees (multiply by 180/pi)")
     return out
