@@ -90,8 +90,8 @@ def test_line_below_one_readout_quantum_is_silent(tmp_path):
 
 
 def test_line_just_outside_the_band_warns_only_for_the_dither_zone(tmp_path):
-    # the y dither band is 352-392 Hz; 10 bandwidths of 2 Hz reach 20 Hz, so 393 Hz is outside both but 388 Hz
-    # is outside the band only when the band is narrower: use a narrow eliminator to separate the two checks
+    # a 6 Hz eliminator (369-375 Hz) leaves 382 Hz outside its band, but 382 Hz is still within 10 bandwidths
+    # (10 x 2 Hz) of the 372 Hz dither: only the dither-zone reason is given
     imu = _imu()
     imu["eliminator"] = {"width_hz": 6.0}
     doc = {"name": "t", "duration_s": 1.3, "imu": imu, "motion": _line(382.0), "navigation": {"start_s": 1.0}}
@@ -126,6 +126,20 @@ def test_bundled_scenarios_load_without_new_warnings():
             assert [m.split(" (")[0] for m in msgs] == [f"random vibration 20-2000 Hz on {ax}" for ax in "xyz"]
         else:
             assert msgs == [], (path.name, msgs)
+
+
+def test_cli_prints_the_configuration_warning_before_the_engine_runs_and_once(tmp_path, capsys, monkeypatch):
+    import sins_sim.jobs.run as run_mod
+
+    def engine(*args, **kwargs):  # the engine never starts: what is printed came before it
+        raise RuntimeError("engine stopped by the test")
+
+    monkeypatch.setattr(run_mod, "simulate_sins", engine)
+    rc = main(["run", str(_scenario(tmp_path, _line(380.0))), "--out", str(tmp_path / "o"), "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1
+    assert [i for i, e in enumerate(err) if e.startswith("warning: vibration line 380 Hz on y")] == [0]
+    assert "engine stopped by the test" in err[-1]
 
 
 # --- drives ----------------------------------------------------------------------------------------------
@@ -204,14 +218,16 @@ def test_trajectory_csv_in_radians_is_refused(tmp_path):
 
 def test_yaw_alone_in_radians_is_refused(tmp_path):
     csv = _rewrite(tmp_path, "yaw.csv", radians=("yaw_rad",))
-    with pytest.raises(ConfigError, match=r"columns yaw_deg look like radians, not degrees: the ground track from lat_deg/lon_deg "
+    with pytest.raises(ConfigError, match=r"columns yaw_deg look like radians, not degrees: the ground track from "
+                                          r"lat_deg/lon_deg "
                                           r"differs from yaw_deg"):
         load_scenario(_file_scenario(tmp_path, csv))
 
 
 def test_roll_alone_in_radians_is_refused_by_the_coordinated_bank(tmp_path):
     csv = _rewrite(tmp_path, "roll.csv", radians=("roll_rad",))
-    with pytest.raises(ConfigError, match=r"columns roll_deg look like radians, not degrees: in the turns roll_deg is .* where the "
+    with pytest.raises(ConfigError, match=r"columns roll_deg look like radians, not degrees: in the turns roll_deg "
+                                          r"is .* where the "
                                           r"coordinated bank atan\(v yaw_rate / g\) is"):
         load_scenario(_file_scenario(tmp_path, csv))
 
@@ -219,7 +235,8 @@ def test_roll_alone_in_radians_is_refused_by_the_coordinated_bank(tmp_path):
 def test_positions_in_radians_against_velocity_columns_are_refused(tmp_path):
     csv = _rewrite(tmp_path, "pos.csv", radians=("lat_rad", "lon_rad"), velocity=True)
     with pytest.raises(ConfigError, match=r"columns lat_deg, lon_deg look like radians, not degrees: the positions "
-                                          r"move at [\d.]+ m/s where the velocity columns \(vn_m_s, ve_m_s\) say 1[2-5]\d(\.\d*)? m/s"):
+                                          r"move at [\d.]+ m/s where the velocity columns \(vn_m_s, ve_m_s\) "
+                                          r"say 1[2-5]\d(\.\d*)? m/s"):
         load_scenario(_file_scenario(tmp_path, csv))
 
 
@@ -287,3 +304,15 @@ def test_anti_alias_error_names_plant_rate_hz():
     with pytest.raises(ConfigError, match=r"readout\.anti_alias\.cutoff_hz: must be < plant\.rate_hz / 2") as info:
         imu_from_dict(doc, "imu.yaml")
     assert "input_rate_hz" not in str(info.value)
+
+
+@pytest.mark.parametrize("name, warns", [("correcting_lownoise", True), ("correcting_wideband", False)])
+def test_line_above_a_wideband_filters_pass_band_warns(tmp_path, name, warns):
+    # sins_sim.filters.wideband: correcting_lownoise is flat to 1.5 kHz, correcting_wideband to 2.6 kHz (at 7.2 kHz)
+    _, msgs = _load(_scenario(tmp_path, _line(2000.0, amp_arcmin=0.05), filters=["ideal", name]))
+    hits = [m for m in msgs if m.startswith("vibration line 2000 Hz on y")]
+    if warns:
+        assert len(hits) == 1 and f"lies above {name}'s pass band on y (flat to 1500 Hz, rolled off from 2200 Hz)" \
+            in hits[0]
+    else:
+        assert hits == []

@@ -172,7 +172,7 @@ def _check_shared(c: dict, ctx: str, path: str) -> None:
                                   k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
         DriveParams(amplitude_rad=c["drive"]["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]).resolve(shared)
     except ValueError as exc:
-        raise ConfigError(f"{ctx}: {where} (shared, with channels.x.f0_hz): {exc}") from None
+        raise ConfigError(f"{ctx}: {where} (shared, with channels.x.f0_hz): {_user_keys(str(exc))}") from None
 
 
 #: Field names of the model objects -> the IMU file's keys, for messages: an error names the key the user wrote
@@ -187,6 +187,7 @@ _USER_KEYS = {
     "suspension.k4": "suspension.k4_per_rad",
     "suspension.k5": "suspension.k5_rad_per_v",
     "suspension.f0_hz": "f0_hz",
+    "eliminator.band_hz": "eliminator.width_hz (the band centred on the dither)",
 }
 _USER_KEY_RE = re.compile(r"(?<![\w.])(" + "|".join(re.escape(k) for k in sorted(_USER_KEYS, key=len, reverse=True))
                           + r")(?![\w])")
