@@ -112,7 +112,7 @@ def test_random_band_in_the_stop_band_reports_the_lost_angle(tmp_path):
     lo, hi = sc.imu.channels[1].eliminator_design().band_hz
     # angle PSD = rate PSD / (2 pi f)^2, integrated by scipy's quad over the band
     var, _ = integrate.quad(lambda f: psd * DEG ** 2 / (2 * math.pi * f) ** 2, lo, hi)
-    assert f"puts {math.sqrt(var) / ARCSEC:.3g} arcsec RMS into the y eliminator's band" in hits[0]
+    assert f"puts {math.sqrt(var) / ARCSEC:.3g} arcsec RMS into the y eliminator's stop band" in hits[0]
 
 
 def test_bundled_scenarios_load_without_new_warnings():

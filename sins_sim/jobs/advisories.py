@@ -41,7 +41,7 @@ AXES = ("x", "y", "z")
 # --- vibration -------------------------------------------------------------------------------------------
 #: "A few resonance bandwidths": a line within ``N_BANDWIDTHS * f0 / Q`` of a dither is warned about. The
 #: dither mode (eq. 2 linearised at the dither amplitude, Q from eq. 16) answers a block motion at a
-#: distance ``df`` from its resonance with ``|H| = r^2 / |1 - r^2 + j r / Q|`` (``r = f / f0``), about
+#: distance ``df`` from its resonance with ``|H| = r^2 / |1 - r^2 + j r / Q|`` (``r = f / f_dither``), about
 #: ``f0 / (2 df) = Q / (2 N)`` at N bandwidths: at N = 10 the mode still amplifies the line ``Q / 20``
 #: times (9x, 19 dB at the paper's Q = 187), the correcting filters must invert that gain through the f0
 #: and Q they believe (a relative f0 error eps becomes an error of about ``eps Q / N`` of the line), and the
@@ -103,8 +103,9 @@ def motion_content(motion_spec):
 def _stop_bands(imu, filters):
     """Per axis, ``(filter, lo_hz, hi_hz, what, gain_db(f))`` of every filter in ``filters`` that removes a band.
 
-    The eliminator: its band handed to ``scipy.signal.ellip`` (where its gain leaves the pass-band ripple;
-    the 60 dB stop band lies inside). A plug-in whose design has an equaliser band edge (``correcting_wideband``,
+    The eliminator: its band handed to ``scipy.signal.ellip``, called its stop band in the messages (where its
+    gain leaves the pass-band ripple; the part ``rs_db`` down lies inside it, and the whole band alters the
+    motion's amplitude or phase). A plug-in whose design has an equaliser band edge (``correcting_wideband``,
     ``correcting_lownoise``): everything above its pass band, which it rolls off towards its stop band.
     """
     from sins_sim.filters import registry as filter_registry
@@ -159,7 +160,7 @@ def vibration_advisories(imu, motion_spec, filters) -> list[str]:
         for name, lo, hi, what, gain_db in stops[ax]:
             if lo <= f <= hi:
                 if what == "band":
-                    reasons.append(f"lies inside the {ax} {name}'s band ({lo:.0f}-{hi:.0f} Hz; gain "
+                    reasons.append(f"lies inside the {ax} {name}'s stop band ({lo:.0f}-{hi:.0f} Hz; gain "
                                    f"{gain_db(f):.0f} dB at {f:g} Hz): the {name} removes it with the dither")
                 else:
                     reasons.append(f"lies above {name}'s pass band on {ax} ({what}): {name} attenuates it")
@@ -177,7 +178,7 @@ def vibration_advisories(imu, motion_spec, filters) -> list[str]:
             a, b = max(f_lo, lo), min(f_hi, hi)
             rms = _angle_rms_rad(table, w, a, b)
             if b > a and rms >= q:
-                where = f"the {ax} {name}'s band ({lo:.0f}-{hi:.0f} Hz)" if what == "band" else \
+                where = f"the {ax} {name}'s stop band ({lo:.0f}-{hi:.0f} Hz)" if what == "band" else \
                     f"the band above {name}'s pass band on {ax} ({what})"
                 does = "removes it with the dither" if what == "band" else "attenuates it"
                 reasons.append(f"puts {rms / ARCSEC:.3g} arcsec RMS into {where}, which {does}")
@@ -207,10 +208,10 @@ def _dither_zone(ch, ax, f):
     df = abs(f - fd)
     if df > N_BANDWIDTHS * bw:
         return ""
-    r = f / ch.suspension.f0_hz
+    r = f / fd  # the mode as the drive sees it: resonant at the dither frequency, Q of eq. 16
     q = ch.suspension.f0_hz / bw
     mag = r * r / math.hypot(1.0 - r * r, r / q)
-    return (f"{df:.3g} Hz (= {df / bw:.2g} resonance bandwidths f0/Q = {bw:.3g} Hz; warned within "
+    return (f"lies {df:.3g} Hz (= {df / bw:.2g} resonance bandwidths f0/Q = {bw:.3g} Hz; warned within "
             f"{N_BANDWIDTHS:g}) from the {ax} dither at {fd:.4g} Hz: the suspension amplifies it {mag:.3g} "
             f"times and the drive's amplitude beats at {df:.3g} Hz")
 
