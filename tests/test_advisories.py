@@ -216,27 +216,21 @@ def test_trajectory_csv_in_radians_is_refused(tmp_path):
     assert "\n" not in str(info.value) and "multiply radians by 180/pi" in str(info.value)
 
 
-def test_yaw_alone_in_radians_is_refused(tmp_path):
-    csv = _rewrite(tmp_path, "yaw.csv", radians=("yaw_rad",))
-    with pytest.raises(ConfigError, match=r"columns yaw_deg look like radians, not degrees: the ground track from "
-                                          r"lat_deg/lon_deg "
-                                          r"differs from yaw_deg"):
-        load_scenario(_file_scenario(tmp_path, csv))
-
-
-def test_roll_alone_in_radians_is_refused_by_the_coordinated_bank(tmp_path):
-    csv = _rewrite(tmp_path, "roll.csv", radians=("roll_rad",))
-    with pytest.raises(ConfigError, match=r"columns roll_deg look like radians, not degrees: in the turns roll_deg "
-                                          r"is .* where the "
-                                          r"coordinated bank atan\(v yaw_rate / g\) is"):
-        load_scenario(_file_scenario(tmp_path, csv))
-
-
-def test_positions_in_radians_against_velocity_columns_are_refused(tmp_path):
-    csv = _rewrite(tmp_path, "pos.csv", radians=("lat_rad", "lon_rad"), velocity=True)
-    with pytest.raises(ConfigError, match=r"columns lat_deg, lon_deg look like radians, not degrees: the positions "
-                                          r"move at [\d.]+ m/s where the velocity columns \(vn_m_s, ve_m_s\) "
-                                          r"say 1[2-5]\d(\.\d*)? m/s"):
+@pytest.mark.parametrize("columns, velocity, match", [
+    # the yaw alone: the ground track fits it only in radians
+    (("yaw_rad",), False, r"columns yaw_deg look like radians, not degrees: the ground track from lat_deg/lon_deg "
+                          r"differs from yaw_deg"),
+    # the roll alone: in the turns it is the coordinated bank atan(v yaw_rate / g) in radians
+    (("roll_rad",), False, r"columns roll_deg look like radians, not degrees: in the turns roll_deg is .* where the "
+                           r"coordinated bank atan\(v yaw_rate / g\) is"),
+    # the positions alone, caught by the velocity columns (the flight's 120-150 m/s)
+    (("lat_rad", "lon_rad"), True, r"columns lat_deg, lon_deg look like radians, not degrees: the positions move at "
+                                   r"[\d.]+ m/s where the velocity columns \(vn_m_s, ve_m_s\) "
+                                   r"say 1[2-5]\d(\.\d*)? m/s"),
+])
+def test_one_slip_in_radians_is_refused(tmp_path, columns, velocity, match):
+    csv = _rewrite(tmp_path, "one.csv", radians=columns, velocity=velocity)
+    with pytest.raises(ConfigError, match=match):
         load_scenario(_file_scenario(tmp_path, csv))
 
 
