@@ -234,6 +234,17 @@ def test_one_slip_in_radians_is_refused(tmp_path, columns, velocity, match):
         load_scenario(_file_scenario(tmp_path, csv))
 
 
+def test_velocity_columns_off_the_positions_name_the_columns_and_row(tmp_path):
+    d = read_trajectory(FLIGHT)
+    data = TrajectoryData(t_s=d.t_s, lat_rad=d.lat_rad, lon_rad=d.lon_rad, h_m=d.h_m, roll_rad=d.roll_rad,
+                          pitch_rad=d.pitch_rad, yaw_rad=d.yaw_rad, v_ned_m_s=3.0 * np.asarray(d.v_ned_m_s))
+    csv = write_trajectory(tmp_path / "vel.csv", data)
+    with pytest.raises(ConfigError, match=r"trajectory\.file \(vel\.csv\): row \d+: the velocity columns \(vn_m_s, "
+                                          r"ve_m_s, vd_m_s\) differ from the velocity of the positions") as info:
+        load_scenario(_file_scenario(tmp_path, csv))
+    assert "SampledTrajectory" not in str(info.value) and "v_tol" not in str(info.value)
+
+
 def test_yaw_far_from_the_track_but_not_radians_warns(tmp_path):
     csv = _rewrite(tmp_path, "crab.csv", yaw_offset_deg=45.0)
     _, msgs = _load(_file_scenario(tmp_path, csv))

@@ -9,6 +9,7 @@ the seed; :func:`sins_sim.jobs.run.run_scenario` runs it and writes the results.
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from pathlib import Path
 
@@ -589,6 +590,12 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
     except ConfigError:
         raise
     except ValueError as exc:
+        if spec["file"]:  # the model's names -> the file's columns and rows
+            msg = re.sub(r"SampledTrajectory\.v_ned_m_s: sample (\d+) differs from the velocity of the position spline",
+                         lambda m: f"trajectory.file ({spec['file']}): row {int(m.group(1)) + 1}: the velocity columns "
+                                   f"(vn_m_s, ve_m_s, vd_m_s) differ from the velocity of the positions (lat_deg, "
+                                   f"lon_deg, height_m, interpolated)", str(exc))
+            raise ConfigError(f"{ctx}: {msg.replace('v_tol_m_s = ', 'the tolerance (m/s) ')}") from None
         raise ConfigError(f"{ctx}: trajectory: {exc}") from None
     if vehicle.duration_s < need:  # the segments with their hold always cover the run; kept as the last guard
         raise ConfigError(f"{ctx}: {duration_key}: must be <= the {where}'s length {vehicle.duration_s:g} s minus "
