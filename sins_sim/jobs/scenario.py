@@ -324,7 +324,12 @@ SCENARIO_SCHEMA.fields["filter_parameters"] = _FilterParameters()
 
 
 class Scenario:
-    """A validated scenario: IMU, motion, filters, navigation settings, seed."""
+    """A validated scenario: IMU, motion, filters, navigation settings, seed.
+
+    ``duration_key`` is how a refusal names the run's length (``duration_s``, or ``--duration`` when the
+    command line set it). Configuration-time advisories (:mod:`sins_sim.jobs.advisories`) are issued as
+    :class:`UserWarning` and kept in :attr:`advisories`.
+    """
 
     def __init__(self, doc: dict, ctx: str, base_dir: Path, duration_key: str = "duration_s"):
         c = validate(doc, SCENARIO_SCHEMA, ctx)
@@ -555,11 +560,6 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
                 warnings.warn(msg, UserWarning, stacklevel=3)
             vehicle = tj.SampledTrajectory.from_data(data)
             where = f"trajectory.file ({spec['file']})"
-            if vehicle.duration_s < need:
-                raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of {where}, which "
-                                  f"lasts {vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of "
-                                  f"trajectory): set {duration_key} <= {vehicle.duration_s - 0.1:g} or give a "
-                                  f"longer file")
         else:
             segs = []
             for seg in spec["segments"]:
@@ -597,9 +597,10 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
                                    f"lon_deg, height_m, interpolated)", str(exc))
             raise ConfigError(f"{ctx}: {msg.replace('v_tol_m_s = ', 'the tolerance (m/s) ')}") from None
         raise ConfigError(f"{ctx}: trajectory: {exc}") from None
-    if vehicle.duration_s < need:  # the segments with their hold always cover the run; kept as the last guard
-        raise ConfigError(f"{ctx}: {duration_key}: must be <= the {where}'s length {vehicle.duration_s:g} s minus "
-                          f"0.1 s, got {duration_s:g}")
+    if vehicle.duration_s < need:  # a file (segments are refused above or held to the end)
+        raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of {where}, which lasts "
+                          f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): set "
+                          f"{duration_key} <= {vehicle.duration_s - 0.1:g} or give a longer file")
     return vehicle
 
 
