@@ -269,9 +269,9 @@ def drive_advisories(drives, imu, duration_s: float) -> list[str]:
         if closed and expected != 0.0 and math.isfinite(vm) and abs(vm / expected - 1.0) > VOLTAGE_TOLERANCE:
             out.append(f"drive {ax}: V_m = {vm:.4g} V is {100.0 * (vm / expected - 1.0):+.1f} % off the eq. 17 "
                        f"voltage {expected:.4g} V of the unit's parameters at {target / ARCMIN:.3g} arcmin (tolerance "
-                       f"{100.0 * VOLTAGE_TOLERANCE:g} %): the loop makes up for a loss or a detuning the unit's "
-                       f"parameters do not hold (block motion near the resonance or adding hysteretic loss at its "
-                       f"turning points, extra damping, a drive off the resonance)")
+                       f"{100.0 * VOLTAGE_TOLERANCE:g} %): the suspension's loss or tuning is not what the unit's "
+                       f"parameters say (block motion near the resonance, or moving the turning points of the "
+                       f"hysteretic loss; extra damping; a drive off the resonance)")
     return out
 
 
