@@ -159,6 +159,7 @@ class _Progress:
         self.est = None
         self._compile = None  # (bar, stop event, thread) while the kernels compile
         self._times = {}
+        self.printed = set()  # warnings already printed by advise(), not repeated at the end
 
     def _open(self, total: float, unit: str, postfix: str = "", initial: float = 0.0):
         from tqdm import tqdm
@@ -238,6 +239,18 @@ class _Progress:
         done = self.bar.total * fraction
         if done > self.bar.n:
             self.bar.update(done - self.bar.n)
+
+    def advise(self, message: str) -> None:
+        """Print a job's configuration-time warning now, one line (before the engine runs), and remember it."""
+        from sins_sim.jobs.messages import format_warning_lines
+
+        for line in format_warning_lines([message]):
+            if self.bar is not None:
+                self.bar.write(line, file=sys.stderr)
+            else:
+                sys.stderr.write(line + "\n")
+                sys.stderr.flush()
+        self.printed.add(message)
 
     def close(self, record: bool = True) -> None:
         """Close the bars; ``record``: the job succeeded, so its timing calibrates the next estimate."""
@@ -361,7 +374,7 @@ def _cmd_run(args) -> int:
               f"{m['status']}")
     for name, d in metrics.get("diverged", {}).items():
         print(f"diverged: {name}, axis {d['axis']}, t = {d['time_s']:.4g} s: {d['reason']}")
-    args.job_warnings.extend(metrics.get("warnings", []))
+    args.job_warnings.extend(w for w in metrics.get("warnings", []) if w not in progress.printed)
     if rerun is not None:
         _compare_rerun(args, rerun[1], out)
     print(f"report: {out / 'report.md'}")

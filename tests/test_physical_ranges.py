@@ -130,9 +130,10 @@ def test_an_unstable_eliminator_design_is_refused(monkeypatch):
 # --- the YAML layer: the same rules, named by the key path ------------------------------------------------
 @pytest.mark.parametrize("change, match", [
     ({"suspension": {"k5_rad_per_v": 1e-30}},
-     r"suspension \(shared, with channels\.x\.f0_hz\): suspension\.k5: \|k5\| must be in \[1e-09, 0\.01\]"),
+     r"suspension \(shared, with channels\.x\.f0_hz\): suspension\.k5_rad_per_v: \|k5\| must be in "
+     r"\[1e-09, 0\.01\]"),
     ({"channels": {**CHANNELS, "y": {"f0_hz": 352, "suspension": {"k5_rad_per_v": 1e-30}}}},
-     r"channels\.y: suspension\.k5: \|k5\| must be in \[1e-09, 0\.01\]"),
+     r"channels\.y: suspension\.k5_rad_per_v: \|k5\| must be in \[1e-09, 0\.01\]"),
     ({"suspension": {"k5_rad_per_v": 1.0}}, r"suspension\.k5_rad_per_v: must be <= 0\.01"),
     ({"drive": {"amplitude_arcmin": 1e-30}}, r"drive\.amplitude_arcmin: must be >= 0\.01"),
     ({"drive": {"amplitude_arcmin": 10000}}, r"drive\.amplitude_arcmin: must be <= 60"),
@@ -144,7 +145,7 @@ def test_an_unstable_eliminator_design_is_refused(monkeypatch):
     ({"channels": {**CHANNELS, "z": {"f0_hz": 421, "suspension": {"k1": 3e-3}}}},
      r"channels\.z: suspension\.k1: must be < 2 k2"),
     ({"eliminator": {"width_hz": 5000}}, r"eliminator\.width_hz: must be <= 1000"),
-    ({"eliminator": {"width_hz": 800}}, r"channels\.x: eliminator\.band_hz: must satisfy 0 < lo < hi"),
+    ({"eliminator": {"width_hz": 800}}, r"channels\.x: eliminator\.width_hz \(the band centred on the dither\): must satisfy 0 < lo < hi"),
 ])
 def test_imu_files_report_the_rules_with_the_key_path(change, match):
     doc = {"channels": CHANNELS, **change}

@@ -27,6 +27,9 @@ the unit's own.
 
 from __future__ import annotations
 
+import math
+import re
+
 from sins_sim.filters import eliminator as _elim
 from sins_sim.models import drive as _drive
 from sins_sim.models import plant as _plant
@@ -169,7 +172,43 @@ def _check_shared(c: dict, ctx: str, path: str) -> None:
                                   k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
         DriveParams(amplitude_rad=c["drive"]["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]).resolve(shared)
     except ValueError as exc:
-        raise ConfigError(f"{ctx}: {where} (shared, with channels.x.f0_hz): {exc}") from None
+        raise ConfigError(f"{ctx}: {where} (shared, with channels.x.f0_hz): {_user_keys(str(exc))}") from None
+
+
+#: Field names of the model objects -> the IMU file's keys, for messages: an error names the key the user wrote
+#: (``readout.output_rate_hz: ... plant.rate_hz ...``, never the readout's internal ``input_rate_hz``).
+_USER_KEYS = {
+    "readout.input_rate_hz": "plant.rate_hz",
+    "input_rate_hz": "plant.rate_hz",
+    "readout.quantum_rad": "readout.quantum_arcsec",
+    "readout.noise_rad": "readout.noise_arcsec",
+    "drive.amplitude_rad": "drive.amplitude_arcmin",
+    "suspension.k2": "suspension.k2_rad",
+    "suspension.k4": "suspension.k4_per_rad",
+    "suspension.k5": "suspension.k5_rad_per_v",
+    "suspension.f0_hz": "f0_hz",
+    "eliminator.band_hz": "eliminator.width_hz (the band centred on the dither)",
+}
+_USER_KEY_RE = re.compile(r"(?<![\w.])(" + "|".join(re.escape(k) for k in sorted(_USER_KEYS, key=len, reverse=True))
+                          + r")(?![\w])")
+
+
+def _user_keys(message: str) -> str:
+    """``message`` with the model's field names replaced by the IMU file's keys (:data:`_USER_KEYS`)."""
+    return _USER_KEY_RE.sub(lambda m: _USER_KEYS[m.group(1)], message)
+
+
+def _check_rates(plant_hz: float, output_hz: float, ctx: str, pre: str) -> None:
+    """plant.rate_hz / readout.output_rate_hz must be a whole number (the readout keeps every n-th plant sample)."""
+    ratio = plant_hz / output_hz
+    n = round(ratio)
+    if n >= 1 and abs(ratio - n) <= 1e-9 * ratio:
+        return
+    options = sorted({plant_hz / k for k in (math.floor(ratio), math.ceil(ratio)) if k >= 1})
+    hint = " or ".join(f"{x:g}" for x in options)
+    raise ConfigError(f"{ctx}: {pre}readout.output_rate_hz: plant.rate_hz / output_rate_hz must be a whole number "
+                      f"(the readout keeps every n-th plant sample), got {plant_hz:g} / {output_hz:g} = {ratio:.6g}; "
+                      f"e.g. output_rate_hz {hint} Hz, or a plant.rate_hz that is a multiple of {output_hz:g}")
 
 
 def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConfig:
@@ -199,6 +238,7 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
     c = validate(doc, IMU_SCHEMA, ctx, path)
     ro = c["readout"]
     anti = ro["anti_alias"]
+    _check_rates(c["plant"]["rate_hz"], ro["output_rate_hz"], ctx, pre)
     try:
         readout = ReadoutParams(
             quantum_rad=ro["quantum_rad"], noise_rad=ro["noise_rad"], input_rate_hz=c["plant"]["rate_hz"],
@@ -229,7 +269,7 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
                 cfg.eliminator_design().sos  # the band fits and the design is stable, checked before any kernel
                 cfg.correcting_design("paper")
             except ValueError as exc:
-                raise ConfigError(f"{ctx}: {where}: {exc}") from None
+                raise ConfigError(f"{ctx}: {where}: {_user_keys(str(exc))}") from None
             channels.append(cfg)
         channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
         try:
@@ -240,7 +280,7 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
     except ConfigError:
         raise
     except ValueError as exc:  # a physical rule that needs several fields (Q > 0, fs > 2 f0, ...)
-        raise ConfigError(f"{ctx}: {path + ': ' if path else ''}{exc}") from None
+        raise ConfigError(f"{ctx}: {path + ': ' if path else ''}{_user_keys(str(exc))}") from None
 
 
 def _with_filter_parameters(channels, fspec, c, ctx, where, base_dir):

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -180,13 +181,23 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
         The command's manifest (default: one without a command line); completed and written into
         ``out_dir`` with ``inputs/``.
     """
+    from sins_sim.jobs import advisories
     from sins_sim.jobs.manifest import Manifest, record_run
+    from sins_sim.jobs.messages import warning_text
     from sins_sim.jobs.scenario import load_scenario
 
     if manifest is None:
         manifest = Manifest("run", settings={"overrides": dict(overrides or {})})
 
-    scenario = load_scenario(path, overrides)
+    with warnings.catch_warnings(record=True) as caught:  # configuration-time warnings: told now, kept for metrics
+        scenario = load_scenario(path, overrides)
+    config_warnings = list(dict.fromkeys(t for t in map(warning_text, caught) if t))
+    advise = getattr(progress, "advise", None)
+    for text in config_warnings:
+        if advise is not None:  # the CLI prints it now, before the engine runs
+            advise(text)
+        else:
+            warnings.warn(text, UserWarning, stacklevel=2)
     from sins_sim.jobs.estimate import check_run
 
     check_run(scenario, progress)  # refuse a run that cannot finish, before the engine starts (issue 12, point 3)
@@ -220,7 +231,8 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
         "drives": [{**d, "amplitude_measured_arcmin": d["amplitude_measured_rad"] / ARCMIN,
                     "amplitude_target_arcmin": d["amplitude_target_rad"] / ARCMIN} for d in res.drives],
         "diverged": res.diverged,
-        "warnings": res.warnings,
+        "warnings": list(dict.fromkeys([*config_warnings, *res.warnings,
+                                        *advisories.drive_advisories(res.drives, scenario.imu, scenario.duration_s)])),
     }
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False, default=_json_default) + "\n")
     if scenario.outputs["timeseries"]:

@@ -9,11 +9,13 @@ the seed; :func:`sins_sim.jobs.run.run_scenario` runs it and writes the results.
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from sins_sim.jobs import advisories
 from sins_sim.jobs import filter_params as _fparams
 from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.jobs.yaml_io import load_yaml
@@ -168,9 +170,14 @@ TRAJECTORY_SCHEMA = Map({
     "segments": ListOf(SEGMENT_SCHEMA, default=[], max_len=10000, doc="flown in order after the start"),
     "file": Str(default="", doc="CSV or Parquet trajectory file (format: sins-sim schema trajectory), relative to "
                                 "the scenario"),
+    "extend": Str(choices=("none", "hold"), default="none",
+                  doc="none: a run longer than the segments is refused; hold: after the last segment the vehicle "
+                      "holds its state (at rest if it ended at rest, else straight and level at its speed) until "
+                      "the run ends (segments only)"),
 }, default={}, doc="how the vehicle moves (segments, or a file); without either it sits at the site",
-    rules=("the trajectory must last at least duration_s + 0.1 s",
-           "every segment lasts at least 2 transition_s (a smooth ramp in and one out)"))
+    rules=("the trajectory must last at least duration_s + 0.1 s (segments: unless extend is hold)",
+           "every segment lasts at least 2 transition_s (a smooth ramp in and one out)",
+           "a file's yaw must fit its ground track and its roll its turns (a file in radians is refused)"))
 
 _TEMP = dict(min=173.15, max=473.15)
 _COEFF = {
@@ -323,9 +330,14 @@ SCENARIO_SCHEMA.fields["filter_parameters"] = _FilterParameters()
 
 
 class Scenario:
-    """A validated scenario: IMU, motion, filters, navigation settings, seed."""
+    """A validated scenario: IMU, motion, filters, navigation settings, seed.
 
-    def __init__(self, doc: dict, ctx: str, base_dir: Path):
+    ``duration_key`` is how a refusal names the run's length (``duration_s``, or ``--duration`` when the
+    command line set it). Configuration-time advisories (:mod:`sins_sim.jobs.advisories`) are issued as
+    :class:`UserWarning` and kept in :attr:`advisories`.
+    """
+
+    def __init__(self, doc: dict, ctx: str, base_dir: Path, duration_key: str = "duration_s"):
         c = validate(doc, SCENARIO_SCHEMA, ctx)
         if c["navigation"]["start_s"] >= c["duration_s"]:  # before the models are imported: a light check
             raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {c['duration_s']:g}, "
@@ -382,10 +394,15 @@ class Scenario:
             raise ConfigError(f"{ctx}: {exc}") from None
         self.site = c["site"]
         self.trajectory_spec = c["trajectory"]
-        self.vehicle = _build_vehicle(c["site"], c["trajectory"], self.duration_s, ctx, base_dir)
+        self.vehicle = _build_vehicle(c["site"], c["trajectory"], self.duration_s, ctx, base_dir,
+                                      duration_key)
         self.events = _events(c["motion"], self.vehicle)
         self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.outputs = c["outputs"]
+        #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
+        self.advisories = advisories.vibration_advisories(self.imu, c["motion"], self.filters)
+        for msg in self.advisories:
+            warnings.warn(msg, UserWarning, stacklevel=2)
 
 
 def _with_temperature(imu, model, duration_s, ctx):
@@ -530,16 +547,31 @@ def _build_translation(segments, seed, ctx):
     return total
 
 
-def _build_vehicle(site, spec, duration_s, ctx, base_dir):
-    """The vehicle: a trajectory file, segments after the start, or at rest at the site."""
+def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration_s"):
+    """The vehicle: a trajectory file, segments after the start, or at rest at the site.
+
+    A run longer than its trajectory (``duration_s`` + 0.1 s past the end of the file or of the segments) is
+    refused naming ``duration_key`` (``duration_s``, or ``--duration`` when the command line set it), unless
+    the segments' ``extend`` is ``hold``. A file is checked by :func:`sins_sim.jobs.advisories.trajectory_advisories`.
+    """
     from sins_sim.models.motion import trajectory as tj
 
+    need = duration_s + 0.1
+    if spec["file"] and spec["extend"] != "none":
+        raise ConfigError(f"{ctx}: trajectory.extend: applies to segments only (a file holds what it holds), "
+                          f"got {spec['extend']!r} with trajectory.file")
     try:
         if spec["file"]:
             from sins_sim.io.trajectory import read_trajectory
 
             path = (base_dir / spec["file"]).resolve()
             data = read_trajectory(path)
+            try:
+                msgs = advisories.trajectory_advisories(data, spec["file"])
+            except ConfigError as exc:
+                raise ConfigError(f"{ctx}: {exc}") from None
+            for msg in msgs:
+                warnings.warn(msg, UserWarning, stacklevel=3)
             vehicle = tj.SampledTrajectory.from_data(data)
             where = f"trajectory.file ({spec['file']})"
         else:
@@ -557,17 +589,32 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir):
                 else:
                     segs.append(tj.Climb(seg["duration_s"], seg["delta_height_m"]))
             flown = sum(sg.duration_s for sg in segs)
+            if segs and flown < need and spec["extend"] == "none":
+                raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of the trajectory's "
+                                  f"segments, which last {flown:g} s (the run needs {duration_key} + 0.1 s of "
+                                  f"trajectory): set {duration_key} <= {flown - 0.1:g}, add a segment (e.g. "
+                                  f"{{type: cruise, duration_s: {math.ceil(need - flown):g}}}), or set "
+                                  f"trajectory.extend: hold to hold the last state")
             tail = duration_s + 1.0 - flown  # after the last segment the vehicle holds its state
             if tail > 0:
                 segs.append(tj.Stationary(tail) if _ends_at_rest(spec, segs) else tj.Cruise(tail))
             vehicle = tj.Trajectory(site["lat_rad"], site["lon_rad"], site["height_m"], spec["speed_m_s"],
                                     site["heading_rad"], tuple(segs), transition_s=spec["transition_s"])
             where = "trajectory"
+    except ConfigError:
+        raise
     except ValueError as exc:
+        if spec["file"]:  # the model's names -> the file's columns and rows
+            msg = re.sub(r"SampledTrajectory\.v_ned_m_s: sample (\d+) differs from the velocity of the position spline",
+                         lambda m: f"trajectory.file ({spec['file']}): row {int(m.group(1)) + 1}: the velocity columns "
+                                   f"(vn_m_s, ve_m_s, vd_m_s) differ from the velocity of the positions (lat_deg, "
+                                   f"lon_deg, height_m, interpolated)", str(exc))
+            raise ConfigError(f"{ctx}: {msg.replace('v_tol_m_s = ', 'the tolerance (m/s) ')}") from None
         raise ConfigError(f"{ctx}: trajectory: {exc}") from None
-    if vehicle.duration_s < duration_s + 0.1:
-        raise ConfigError(f"{ctx}: duration_s: must be <= the {where}'s length {vehicle.duration_s:g} s minus "
-                          f"0.1 s, got {duration_s:g}")
+    if vehicle.duration_s < need:  # a file (segments are refused above or held to the end)
+        raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of {where}, which lasts "
+                          f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): set "
+                          f"{duration_key} <= {vehicle.duration_s - 0.1:g} or give a longer file")
     return vehicle
 
 
@@ -600,7 +647,8 @@ def load_scenario(path, overrides: dict | None = None) -> Scenario:
     directory like any command-line path, or a mapping).
     """
     path = Path(path)
-    return Scenario(scenario_document(path, overrides), str(path), path.parent)
+    key = "--duration" if overrides and "duration_s" in overrides else "duration_s"
+    return Scenario(scenario_document(path, overrides), str(path), path.parent, duration_key=key)
 
 
 def scenario_document(path, overrides: dict | None = None) -> dict:
