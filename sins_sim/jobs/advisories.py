@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import trapezoid
 
 from sins_sim import earth
 from sins_sim.jobs.schema import ConfigError
@@ -63,6 +62,8 @@ def _angle_rms_rad(table_rad, weight, f_lo, f_hi):
         return 0.0
     f = np.geomspace(f_lo, f_hi, 2001)
     dens = weight ** 2 * _loglog(table_rad, f) / (2.0 * math.pi * f) ** 2
+    from scipy.integrate import trapezoid  # (lazy: a scenario's errors come before scipy is imported)
+
     return float(math.sqrt(max(float(trapezoid(dens, f)), 0.0)))
 
 
