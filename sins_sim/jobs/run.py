@@ -384,10 +384,14 @@ def _report(scenario, metrics, figures, filter_table: str = "") -> str:
     for name, r in metrics["gyro_error_rms_arcsec"].items():
         lines.append(f"| {name} | {', '.join(f'{x:.3g}' for x in r)} |")
     al = metrics.get("allan")
-    if al:
-        span = al.get("rest_span_s")
-        where = (f"{al['record_s']:.4g} s at rest from t = {span[0]:.4g} s, at {al['rate_hz']:.3g} Hz" if span else
-                 "no span at rest")
+    if al and not al.get("rest_span_s"):
+        lines += ["", "## Allan deviation of each filter's gyro error", "",
+                  "No noise term is determinable: the vehicle is never at rest long enough for an Allan curve. Noise "
+                  "terms are read only at rest, where the error is not the deterministic response to a manoeuvre "
+                  "(`allan` in metrics.json gives each record's reason)."]
+    elif al:
+        span = al["rest_span_s"]
+        where = f"{al['record_s']:.4g} s at rest from t = {span[0]:.4g} s, at {al['rate_hz']:.3g} Hz"
         lines += ["", f"## Allan deviation of each filter's gyro error ({where})", "",
                   "| filter | axis | ARW (deg/sqrt(h)) | bias instability (deg/h) | rate random walk "
                   "(deg/h/sqrt(h)) | quantisation (arcsec) |", "|---|---|---|---|---|---|"]
