@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.2.0"
+from sins_sim._version import __version__
 
 _API = {
     "simulate_sins": "sins_sim.simulation.sins",

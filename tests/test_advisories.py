@@ -129,12 +129,12 @@ def test_bundled_scenarios_load_without_new_warnings():
 
 
 def test_cli_prints_the_configuration_warning_before_the_engine_runs_and_once(tmp_path, capsys, monkeypatch):
-    import sins_sim.jobs.run as run_mod
+    import sins_sim.simulation.sins as sins_mod
 
     def engine(*args, **kwargs):  # the engine never starts: what is printed came before it
         raise RuntimeError("engine stopped by the test")
 
-    monkeypatch.setattr(run_mod, "simulate_sins", engine)
+    monkeypatch.setattr(sins_mod, "simulate_sins", engine)  # run_scenario imports it once the scenario is valid
     rc = main(["run", str(_scenario(tmp_path, _line(380.0))), "--out", str(tmp_path / "o"), "--quiet"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 1

@@ -92,7 +92,7 @@ def environment() -> dict:
     """sins-sim's version, Python's and the numerical packages', the platform, and the git commit if any."""
     from importlib import metadata
 
-    from sins_sim import __version__
+    from sins_sim._version import __version__
 
     versions = {"python": platform.python_version()}
     for name in _PACKAGES:
@@ -201,7 +201,7 @@ def read_manifest(folder, flag: str = "--rerun") -> dict:
     A manifest of another schema is refused; one written by another sins-sim version is accepted with a
     one-line warning (the rerun may then differ).
     """
-    from sins_sim import __version__
+    from sins_sim._version import __version__
 
     folder = Path(folder)
     path = folder / MANIFEST

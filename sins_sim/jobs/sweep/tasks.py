@@ -59,9 +59,9 @@ HEADLINE_METRICS = ("horizontal_position_error_m_final", "velocity_error_m_s_fin
 
 def package_version() -> str:
     """sins-sim's version (part of every run's key: a new version recomputes every run)."""
-    import sins_sim
+    from sins_sim._version import __version__
 
-    return sins_sim.__version__
+    return __version__
 
 
 @dataclass
