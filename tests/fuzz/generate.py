@@ -193,7 +193,15 @@ def _npz(meta, arrays, compressed=True, meta_text=None) -> bytes:
     items = dict(arrays)
     items["meta"] = np.array(meta_text if meta_text is not None else json.dumps(meta))
     (np.savez_compressed if compressed else np.savez)(buf, **items)
-    return buf.getvalue()
+    return _fixed_time(buf.getvalue())
+
+
+def _fixed_time(data: bytes) -> bytes:
+    """The same zip with every member dated 1980-01-01: numpy stamps the wall clock into each member, so two
+    generations a second apart differed byte for byte (a seed must give the same files)."""
+    src = zipfile.ZipFile(io.BytesIO(data))
+    return _zip({info.filename: src.read(info) for info in src.infolist()},
+                src.infolist()[0].compress_type if src.infolist() else zipfile.ZIP_DEFLATED)
 
 
 # --- walking a YAML document with its schema ----------------------------------------------------------------------
@@ -630,11 +638,15 @@ def _npy_claiming(arr: np.ndarray, rows: int) -> bytes:
     return data[:10] + new.encode("latin1") + data[10 + hlen:]
 
 
+#: The date of every zip member the generator writes (the wall clock would make a seed's files differ).
+_ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+
+
 def _zip(members: dict, compression=zipfile.ZIP_DEFLATED) -> bytes:
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression) as zf:
         for name, data in members.items():
-            zf.writestr(name, data)
+            zf.writestr(zipfile.ZipInfo(name, date_time=_ZIP_DATE), data, compress_type=compression)
     return buf.getvalue()
 
 
@@ -700,7 +712,7 @@ def _recording_case(rng: random.Random, cls: str) -> tuple:
             if k == "meta":
                 buf = io.BytesIO()
                 np.savez_compressed(buf, **arrays)
-                return "invalid", "recording: no meta array", buf.getvalue(), None
+                return "invalid", "recording: no meta array", _fixed_time(buf.getvalue()), None
             del arrays[k]
         return "invalid", f"recording: {how} missing", _npz(meta, arrays), None
     if cls == "unknown_key":
@@ -798,12 +810,12 @@ def _recording_case(rng: random.Random, cls: str) -> tuple:
         buf = io.BytesIO()
         with zipfile.ZipFile(buf, "w") as zf:
             for name, data in members.items():
-                zf.writestr(name, data)
+                zf.writestr(zipfile.ZipInfo(name, date_time=_ZIP_DATE), data)
             import warnings
 
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                zf.writestr("counts.npy", _npy(arrays["counts"][:5]))
+                zf.writestr(zipfile.ZipInfo("counts.npy", date_time=_ZIP_DATE), _npy(arrays["counts"][:5]))
         return "invalid", "recording: counts stored twice in the archive", buf.getvalue(), None
     if cls == "malformed":
         how = rng.choice(["text", "empty", "npy", "no_members", "meta_not_json", "meta_array_2d"])
