@@ -57,7 +57,7 @@ numpydoc_validation_checks: set[str] = set()
 # --- references ------------------------------------------------------------------------------------
 bibtex_bibfiles = ["references.bib"]
 bibtex_default_style = "plain"
-bibtex_reference_style = "author_year"
+bibtex_reference_style = "label"  # numbered: the paper and the spec have no author to cite by
 
 # --- gallery: every example runs at every build ----------------------------------------------------
 sys.path.insert(0, str(DOCS))
