@@ -11,9 +11,9 @@ Conventions (the full page, with every column name: ``docs/conventions.md``)
 * **Quaternions** are Hamilton, scalar first ``[q0, q1, q2, q3]``, body to navigation
   (``v_n = q v_b q*``). **Euler angles** are roll, pitch, yaw of the body against NED in the 3-2-1
   sequence (yaw about down first), yaw from north towards east, ``|pitch| < 90 deg``.
-* **Attitude errors.** ``phi`` is the rotation vector of ``q_est q_true*`` in NED (against the true
-  frame); ``psi`` is taken against the frame of the computed position,
-  ``C_nb_est = (I + [psi x]) C_nb_true`` (Benson 1975).
+* **Attitude errors.** ``phi`` is the rotation vector of ``q_est q_true*`` in NED, the attitude
+  against the true NED frame (``C_nb_est = (I + [phi x]) C_nb_true``); ``psi = phi + (dlon cos L,
+  -dlat, -dlon sin L)`` is taken against the NED frame at the computed position (Benson 1975).
 * **Increments** are raw and uncompensated: the gyro increment is the body's angle w.r.t. inertial
   space over one filter sample (vehicle, Earth and transport rate and the block's own motion), the
   accelerometer increment the integral of specific force over the same sample, both per body axis
