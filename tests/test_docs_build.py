@@ -5,6 +5,7 @@ Builds a throw-away Sphinx project with the gallery settings of ``docs/conf.py``
 failing example, with ``-W`` as CI builds. Needs the ``docs`` extra; skipped without it.
 """
 
+import os
 import runpy
 import subprocess
 import sys
@@ -41,7 +42,7 @@ def _project(tmp_path: Path, example: str) -> Path:
 def _build(src: Path) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-b", "html", str(src),
                            str(src / "_build")], capture_output=True, text=True, timeout=300,
-                          env={"PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"})
+                          env={**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"})
 
 
 def test_gallery_settings_execute_every_example():
