@@ -1,14 +1,29 @@
 """sins-sim: a strapdown INS on mechanically dithered ring laser gyros, down to the suspension physics.
 
-Frames and signals (reference-model.md): for each gyro channel, ``phi_sins`` is the block's
-angle about the gyro's sensitive axis, ``phi_rlg`` the RLG body's angle w.r.t. inertial space,
-and ``delta = phi_rlg - phi_sins`` the dither suspension's deflection. The navigation frame is
-local-level north-east-down on WGS-84; attitude quaternions are Hamilton, scalar first, body to
-navigation.
+Conventions (the full page, with every column name: ``docs/conventions.md``)
+
+* **Frames.** Body axes x, y, z are the three gyros' sensitive axes and the accelerometers' (for a
+  vehicle x forward, y right, z down); the navigation frame is local-level north-east-down (NED) on
+  WGS-84; gyros measure rotation with respect to inertial space. For each gyro channel
+  (reference-model.md) ``phi_sins`` is the block's angle about the gyro's sensitive axis, ``phi_rlg``
+  the RLG body's angle w.r.t. inertial space, and ``delta = phi_rlg - phi_sins`` the dither
+  suspension's deflection.
+* **Quaternions** are Hamilton, scalar first ``[q0, q1, q2, q3]``, body to navigation
+  (``v_n = q v_b q*``). **Euler angles** are roll, pitch, yaw of the body against NED in the 3-2-1
+  sequence (yaw about down first), yaw from north towards east, ``|pitch| < 90 deg``.
+* **Attitude errors.** ``phi`` is the rotation vector of ``q_est q_true*`` in NED, the attitude
+  against the true NED frame (``C_nb_est = (I + [phi x]) C_nb_true``); ``psi = phi + (dlon cos L,
+  -dlat, -dlon sin L)`` is taken against the NED frame at the computed position (Benson 1975).
+* **Increments** are raw and uncompensated: the gyro increment is the body's angle w.r.t. inertial
+  space over one filter sample (vehicle, Earth and transport rate and the block's own motion), the
+  accelerometer increment the integral of specific force over the same sample, both per body axis
+  and with the unit's sensor errors in them. Coning and sculling corrections live inside the
+  strapdown algorithm. The filter ``raw`` is the decimated readout with the dither still in it.
 
 Units: SI inside, angles in rad, rates in rad/s, frequencies in Hz (``omega`` in rad/s),
 voltages in V. arcsec / arcmin / deg and deg/h appear only at the edges (configuration, plots,
-reports); see :mod:`sins_sim.units`.
+reports), and a key always carries its unit (``amplitude_arcmin``, ``rate_deg_s``, ``time_s``);
+see :mod:`sins_sim.units`.
 
 Layers (imports point one way, checked by import-linter, contracts in ``pyproject.toml``)::
 
