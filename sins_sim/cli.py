@@ -753,6 +753,13 @@ def _cmd_schema(args) -> int:
     return EXIT_OK
 
 
+def _cmd_completion(args) -> int:
+    from sins_sim.jobs.completion import completion_script
+
+    sys.stdout.write(completion_script(build_parser(), args.shell))
+    return EXIT_OK
+
+
 def _unit_flags(p) -> None:
     """``--duration``, ``--imu`` and ``--filter-parameters``: what a run or a budget may override."""
     p.add_argument("--duration", type=_positive, default=None, help="override the scenario's duration_s (s)")
@@ -955,6 +962,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="LocalCluster worker processes, one thread each [the cores, at most the runs]")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("completion", help="print a shell completion script (bash or zsh)",
+                       description="Print a completion script for sins-sim's commands, flags and choices, "
+                                   "generated from this parser. Install it with eval \"$(sins-sim completion "
+                                   "bash)\" in ~/.bashrc, or eval \"$(sins-sim completion zsh)\" in ~/.zshrc.")
+    p.add_argument("shell", choices=("bash", "zsh"), help="the shell")
+    p.set_defaults(func=_cmd_completion)
 
     p = sub.add_parser("bench", help="measure the per-sample cost of the kernels and the three-axis chain")
     p.add_argument("--quick", action="store_true", help="short inputs, few repeats")
