@@ -746,6 +746,15 @@ def _cmd_schema(args) -> int:
     from sins_sim.jobs.reference import FORMATS, render_markdown, render_text
 
     formats = [args.format] if args.format else list(FORMATS)
+    if args.json_schema:
+        from sins_sim.jobs.reference import render_json_schema
+
+        if args.markdown:
+            raise ConfigError("--json-schema: give either --json-schema or --markdown")
+        if not args.format:
+            raise ConfigError("--json-schema: name the format (scenario, imu, experiment or sweep)")
+        sys.stdout.write(render_json_schema(args.format))
+        return EXIT_OK
     if args.markdown:
         sys.stdout.write(render_markdown(formats))
     else:
@@ -932,6 +941,9 @@ def build_parser() -> argparse.ArgumentParser:
                    default=None,
                    help="the format [all]")
     p.add_argument("--markdown", action="store_true", help="Markdown tables (docs/scenario-reference.md)")
+    p.add_argument("--json-schema", action="store_true",
+                   help="the format's JSON Schema (draft 2020-12) for editors: save it and put '# "
+                        "yaml-language-server: $schema=PATH' on the first line of a YAML file")
     p.set_defaults(func=_cmd_schema)
 
     p = sub.add_parser("lockin-study", help="lock-in in the loop: dynamic lock-in and the ARW of dithered lock-in",

@@ -299,6 +299,13 @@ class _Any:
                  "default": "required", "doc": "the unit: a path relative to the scenario, or the IMU keys inline "
                                               "(sins-sim schema imu)"}]
 
+    def json_schema(self):
+        from sins_sim.jobs.imu import IMU_SCHEMA
+        from sins_sim.jobs.schema import json_schema
+
+        return {"anyOf": [{"type": "string"}, json_schema(IMU_SCHEMA)],
+                "description": "the unit: a path relative to the scenario, or the IMU keys inline"}
+
     def check(self, value, ctx, path):
         if not isinstance(value, (str, dict)):
             raise ConfigError(f"{ctx}: {path}: must be a path to an IMU file or an IMU mapping, got {value!r}")
@@ -317,6 +324,11 @@ class _FilterParameters:
                  "default": "(the IMU file's)", "doc": "what the filters believe about each unit: the true "
                  "parameters, the datasheet (nominal, f0 from the dither PLL), explicit values or a diagnosis; "
                  "replaces the IMU file's filter_parameters"}]
+
+    def json_schema(self):
+        from sins_sim.jobs.schema import json_schema
+
+        return json_schema(_fparams.FILTER_PARAMETERS_SCHEMA)
 
     def check(self, value, ctx, path):
         if value is None:
