@@ -17,7 +17,8 @@ import numpy as np
 
 from sins_sim.jobs import advisories
 from sins_sim.jobs import filter_params as _fparams
-from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
+from sins_sim.jobs.schema import (Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, alias_marks, forget_mark,
+                                  validate)
 from sins_sim.jobs.yaml_io import load_yaml
 from sins_sim.filters import registry as filter_registry
 
@@ -372,6 +373,7 @@ class Scenario:
             imu_doc = load_yaml(imu_path)
             if c["filter_parameters"] is not None and isinstance(imu_doc, dict):
                 imu_doc = dict(imu_doc, filter_parameters=c["filter_parameters"])
+            alias_marks(f"{ctx} -> {imu_path.name}", str(imu_path))  # its errors give the IMU file's lines
             self.imu = imu_from_dict(imu_doc, f"{ctx} -> {imu_path.name}", base_dir=imu_path.parent)
         else:
             self.imu_source = "inline"
@@ -675,6 +677,7 @@ def scenario_document(path, overrides: dict | None = None) -> dict:
             if key == "imu" and isinstance(value, (str, Path)):
                 value = str(Path(value).resolve())
             doc[key] = value
+            forget_mark(str(path), key)  # the value is the command line's: no line in the file
     return doc
 
 
