@@ -769,6 +769,20 @@ def _cmd_completion(args) -> int:
     return EXIT_OK
 
 
+class _Version(argparse.Action):
+    """``--version``: the version, then where to read what changed (argparse's own action rewraps lines)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from sins_sim._version import CHANGELOG
+
+        sys.stdout.write(f"sins-sim {__version__}\nWhat changed in each version: {CHANGELOG} in the source "
+                         "distribution and the repository.\n")
+        parser.exit()
+
+
 def _unit_flags(p) -> None:
     """``--duration``, ``--imu`` and ``--filter-parameters``: what a run or a budget may override."""
     p.add_argument("--duration", type=_positive, default=None, help="override the scenario's duration_s (s)")
@@ -794,7 +808,7 @@ def _overrides(args) -> dict:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sins-sim", description=__doc__.splitlines()[0])
-    parser.add_argument("--version", action="version", version=f"sins-sim {__version__}")
+    parser.add_argument("--version", action=_Version, help="print the version and where to read what changed")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("channel", help="simulate one dithered RLG channel and both dither filters",
