@@ -762,6 +762,30 @@ def _cmd_schema(args) -> int:
     return EXIT_OK
 
 
+def _cmd_navigate(args) -> int:
+    from sins_sim.jobs.navigate import navigate_file
+
+    metrics = navigate_file(args.increments, args.truth, args.out, name=args.name, coning=args.coning,
+                            sculling=args.sculling, vertical=args.vertical, height_aid_tau_s=args.height_aid_tau,
+                            force=args.force)
+    m, nav = metrics["filters"][args.name], metrics["navigation"]
+    print(f"navigated {nav['end_s'] - nav['start_s']:.6g} s of increments at {nav['rate_hz']:.6g} Hz against "
+          f"{args.truth} ({m['status']})")
+    if m["status"] == "ok":
+        att = m["attitude_error_arcsec"]["final"]
+        print(f"final errors: horizontal {m['horizontal_position_error_m']['final']:.4g} m, vertical "
+              f"{m['vertical_position_error_m']['final']:.4g} m, velocity {m['velocity_error_m_s']['final']:.4g} m/s, "
+              f"attitude N,E,D {att['north']:.4g}, {att['east']:.4g}, {att['down']:.4g} arcsec")
+        for key, label in (("gyro_drift_deg_h", "gyro drift x,y,z"), ("attitude_drift_deg_h", "attitude drift N,E,D")):
+            d = m.get(key)
+            if d:
+                cells = [f"{d[ax]['value']:.4g}" if d[ax]["value"] is not None else d[ax]["status"]
+                         for ax in d if ax != "rule"]
+                print(f"{label} [deg/h]: {', '.join(cells)}")
+    print(f"wrote {args.out}: metrics.json")
+    return EXIT_OK
+
+
 def _cmd_completion(args) -> int:
     from sins_sim.jobs.completion import completion_script
 
@@ -988,6 +1012,29 @@ def build_parser() -> argparse.ArgumentParser:
                    help="LocalCluster worker processes, one thread each [the cores, at most the runs]")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("navigate", help="navigate external angle and velocity increments against a trajectory",
+                       description="Navigate increments from another simulator or a logged IMU (CSV or Parquet: "
+                                   "time_s, dtheta_x_rad, dtheta_y_rad, dtheta_z_rad, dv_x_m_s, dv_y_m_s, dv_z_m_s; "
+                                   "body axes x forward, y right, z down; raw, not coning- or sculling-compensated; "
+                                   "time_s is the end of each interval on the trajectory file's time axis, uniformly "
+                                   "spaced) with sins-sim's strapdown navigator, aligned to the truth one period "
+                                   "before the first row; write metrics.json with the error metrics of run "
+                                   "(position, velocity, attitude, psi and attitude drift, gyro drift per axis).")
+    p.add_argument("increments", help="increments file (.csv, .parquet)")
+    p.add_argument("--truth", required=True, help="trajectory file (sins-sim schema trajectory) the increments "
+                                                  "were taken along")
+    p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
+    p.add_argument("--name", default="external", help="the name of the result in metrics.json [external]")
+    p.add_argument("--coning", choices=("none", "two_sample", "three_sample"), default="two_sample",
+                   help="coning compensation [two_sample]")
+    p.add_argument("--sculling", choices=("none", "two_sample", "three_sample"), default="two_sample",
+                   help="sculling compensation [two_sample]")
+    p.add_argument("--vertical", choices=("height_aid", "free"), default="height_aid",
+                   help="vertical channel: aided by the truth's height, or free [height_aid]")
+    p.add_argument("--height-aid-tau", type=_positive, default=100.0, help="height-aid time constant (s) [100]")
+    _force_flag(p)
+    p.set_defaults(func=_cmd_navigate)
 
     p = sub.add_parser("completion", help="print a shell completion script (bash or zsh)",
                        description="Print a completion script for sins-sim's commands, flags and choices, "
