@@ -146,6 +146,7 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
     """
     from sins_sim.io import read_trajectory
     from sins_sim.jobs.output import atomic_output_dir, atomic_write_text
+    from sins_sim.jobs.run import _json_default
     from sins_sim.models.motion import SampledTrajectory
 
     t, dth, dv = read_increments(increments)
@@ -167,11 +168,3 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
     with atomic_output_dir(out_dir, inputs=(increments, truth_file), force=force) as tmp:
         atomic_write_text(Path(tmp) / "metrics.json", json.dumps(metrics, indent=2, default=_json_default) + "\n")
     return metrics
-
-
-def _json_default(x):
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    raise TypeError(f"not JSON serialisable: {type(x).__name__}")

@@ -506,7 +506,7 @@ def _walk_fields(spec: Map, path, rows):
 JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
 
 
-def _json_default(spec) -> dict:
+def _json_schema_default(spec) -> dict:
     d = getattr(spec, "default", None)
     if d is None or getattr(spec, "required", False) or isinstance(d, tuple):
         return {}
@@ -564,20 +564,20 @@ def json_schema(spec) -> dict:
     if isinstance(spec, Map) and spec.json is not None:
         return spec.json()
     if isinstance(spec, Num):
-        return {**_json_number(spec), **_json_default(spec), **_json_description(spec, spec.unit)}
+        return {**_json_number(spec), **_json_schema_default(spec), **_json_description(spec, spec.unit)}
     if isinstance(spec, Str):
         out = {"type": "string"}
         if spec.choices is not None:
             out["enum"] = list(spec.choices)
-        return {**out, **_json_default(spec), **_json_description(spec)}
+        return {**out, **_json_schema_default(spec), **_json_description(spec)}
     if isinstance(spec, Bool):
-        return {"type": "boolean", **_json_default(spec), **_json_description(spec)}
+        return {"type": "boolean", **_json_schema_default(spec), **_json_description(spec)}
     if isinstance(spec, Vec):
         if spec.items is not None:
             items = {"prefixItems": [json_schema(it) for it in spec.items], "items": False}
         else:
             items = {"items": _json_number(Num(min=spec.min, min_exclusive=spec.min_exclusive, max=spec.max))}
-        return {"type": "array", "minItems": spec.n, "maxItems": spec.n, **items, **_json_default(spec),
+        return {"type": "array", "minItems": spec.n, "maxItems": spec.n, **items, **_json_schema_default(spec),
                 **_json_description(spec, spec.unit)}
     if isinstance(spec, ListOf):
         out = {"type": "array", "items": json_schema(spec.item)}
@@ -585,7 +585,7 @@ def json_schema(spec) -> dict:
             out["minItems"] = spec.min_len
         if spec.max_len is not None:
             out["maxItems"] = spec.max_len
-        return {**out, **_json_default(spec), **_json_description(spec)}
+        return {**out, **_json_schema_default(spec), **_json_description(spec)}
     if isinstance(spec, OneOf):
         branches = []
         for kind in sorted(spec.variants):
