@@ -9,7 +9,8 @@ Nothing here is written by hand twice: the YAML formats come from their schema o
 
 from __future__ import annotations
 
-__all__ = ["FORMATS", "JSON_SCHEMA_FORMATS", "rows", "render_text", "render_markdown", "render_json_schema", "REGENERATE"]
+__all__ = ["FORMATS", "JSON_SCHEMA_FORMATS", "rows", "render_text", "render_markdown", "render_json_schema",
+           "REGENERATE"]
 
 #: The formats, in the order the reference lists them, with one line on what each file is.
 FORMATS = {
