@@ -71,3 +71,28 @@ def finite_array(owner: str, field: str, value, ndim: int = 1) -> np.ndarray:
         bad = int(np.flatnonzero(~np.isfinite(arr.ravel()))[0])
         raise ValueError(f"{_name(owner, field)}: must be finite everywhere (NaN/inf at index {bad})")
     return arr
+
+
+def unknown_key(key: str, allowed, names=None) -> str:
+    """The rule for an unknown key: ``unknown key; did you mean 'coning'? (allowed: ...)``.
+
+    The suggestion is the closest allowed key by :func:`difflib.get_close_matches` (ratio >= 0.6,
+    the library's default cut-off); ``names`` optionally maps more spellings to an allowed key (a
+    key's name without its unit suffix, so ``amplitud_arcmin`` still finds ``amplitude_arcmin``).
+    No suggestion when nothing is that close.
+
+    Examples
+    --------
+    >>> unknown_key("conig", ["coning", "sculling"])
+    "unknown key; did you mean 'coning'? (allowed: coning, sculling)"
+    >>> unknown_key("xyz", ["coning"])
+    'unknown key (allowed: coning)'
+    """
+    import difflib
+
+    allowed = sorted(allowed)
+    spellings = {a: a for a in allowed}
+    spellings.update({k: v for k, v in (names or {}).items() if k not in spellings})
+    close = difflib.get_close_matches(key, list(spellings), n=1)
+    hint = f"; did you mean {spellings[close[0]]!r}?" if close else ""
+    return f"unknown key{hint} (allowed: {', '.join(allowed)})"

@@ -746,11 +746,65 @@ def _cmd_schema(args) -> int:
     from sins_sim.jobs.reference import FORMATS, render_markdown, render_text
 
     formats = [args.format] if args.format else list(FORMATS)
+    if args.json_schema:
+        from sins_sim.jobs.reference import render_json_schema
+
+        if args.markdown:
+            raise ConfigError("--json-schema: give either --json-schema or --markdown")
+        if not args.format:
+            raise ConfigError("--json-schema: name the format (scenario, imu, experiment or sweep)")
+        sys.stdout.write(render_json_schema(args.format))
+        return EXIT_OK
     if args.markdown:
         sys.stdout.write(render_markdown(formats))
     else:
         sys.stdout.write("\n".join(render_text(f) for f in formats))
     return EXIT_OK
+
+
+def _cmd_navigate(args) -> int:
+    from sins_sim.jobs.navigate import navigate_file
+
+    metrics = navigate_file(args.increments, args.truth, args.out, name=args.name, coning=args.coning,
+                            sculling=args.sculling, vertical=args.vertical, height_aid_tau_s=args.height_aid_tau,
+                            force=args.force)
+    m, nav = metrics["filters"][args.name], metrics["navigation"]
+    print(f"navigated {nav['end_s'] - nav['start_s']:.6g} s of increments at {nav['rate_hz']:.6g} Hz against "
+          f"{args.truth} ({m['status']})")
+    if m["status"] == "ok":
+        att = m["attitude_error_arcsec"]["final"]
+        print(f"final errors: horizontal {m['horizontal_position_error_m']['final']:.4g} m, vertical "
+              f"{m['vertical_position_error_m']['final']:.4g} m, velocity {m['velocity_error_m_s']['final']:.4g} m/s, "
+              f"attitude N,E,D {att['north']:.4g}, {att['east']:.4g}, {att['down']:.4g} arcsec")
+        for key, label in (("gyro_drift_deg_h", "gyro drift x,y,z"), ("attitude_drift_deg_h", "attitude drift N,E,D")):
+            d = m.get(key)
+            if d:
+                cells = [f"{d[ax]['value']:.4g}" if d[ax]["value"] is not None else d[ax]["status"]
+                         for ax in d if ax != "rule"]
+                print(f"{label} [deg/h]: {', '.join(cells)}")
+    print(f"wrote {args.out}: metrics.json")
+    return EXIT_OK
+
+
+def _cmd_completion(args) -> int:
+    from sins_sim.jobs.completion import completion_script
+
+    sys.stdout.write(completion_script(build_parser(), args.shell))
+    return EXIT_OK
+
+
+class _Version(argparse.Action):
+    """``--version``: the version, then where to read what changed (argparse's own action rewraps lines)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from sins_sim._version import CHANGELOG
+
+        sys.stdout.write(f"sins-sim {__version__}\nWhat changed in each version: {CHANGELOG} in the source "
+                         "distribution and the repository.\n")
+        parser.exit()
 
 
 def _unit_flags(p) -> None:
@@ -778,7 +832,7 @@ def _overrides(args) -> dict:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sins-sim", description=__doc__.splitlines()[0])
-    parser.add_argument("--version", action="version", version=f"sins-sim {__version__}")
+    parser.add_argument("--version", action=_Version, help="print the version and where to read what changed")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("channel", help="simulate one dithered RLG channel and both dither filters",
@@ -925,6 +979,9 @@ def build_parser() -> argparse.ArgumentParser:
                    default=None,
                    help="the format [all]")
     p.add_argument("--markdown", action="store_true", help="Markdown tables (docs/scenario-reference.md)")
+    p.add_argument("--json-schema", action="store_true",
+                   help="the format's JSON Schema (draft 2020-12) for editors: save it and put '# "
+                        "yaml-language-server: $schema=PATH' on the first line of a YAML file")
     p.set_defaults(func=_cmd_schema)
 
     p = sub.add_parser("lockin-study", help="lock-in in the loop: dynamic lock-in and the ARW of dithered lock-in",
@@ -955,6 +1012,36 @@ def build_parser() -> argparse.ArgumentParser:
                    help="LocalCluster worker processes, one thread each [the cores, at most the runs]")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("navigate", help="navigate external angle and velocity increments against a trajectory",
+                       description="Navigate increments from another simulator or a logged IMU (CSV or Parquet: "
+                                   "time_s, dtheta_x_rad, dtheta_y_rad, dtheta_z_rad, dv_x_m_s, dv_y_m_s, dv_z_m_s; "
+                                   "body axes x forward, y right, z down; raw, not coning- or sculling-compensated; "
+                                   "time_s is the end of each interval on the trajectory file's time axis, uniformly "
+                                   "spaced) with sins-sim's strapdown navigator, aligned to the truth one period "
+                                   "before the first row; write metrics.json with the error metrics of run "
+                                   "(position, velocity, attitude, psi and attitude drift, gyro drift per axis).")
+    p.add_argument("increments", help="increments file (.csv, .parquet)")
+    p.add_argument("--truth", required=True, help="trajectory file (sins-sim schema trajectory) the increments "
+                                                  "were taken along")
+    p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
+    p.add_argument("--name", default="external", help="the name of the result in metrics.json [external]")
+    p.add_argument("--coning", choices=("none", "two_sample", "three_sample"), default="two_sample",
+                   help="coning compensation [two_sample]")
+    p.add_argument("--sculling", choices=("none", "two_sample", "three_sample"), default="two_sample",
+                   help="sculling compensation [two_sample]")
+    p.add_argument("--vertical", choices=("height_aid", "free"), default="height_aid",
+                   help="vertical channel: aided by the truth's height, or free [height_aid]")
+    p.add_argument("--height-aid-tau", type=_positive, default=100.0, help="height-aid time constant (s) [100]")
+    _force_flag(p)
+    p.set_defaults(func=_cmd_navigate)
+
+    p = sub.add_parser("completion", help="print a shell completion script (bash or zsh)",
+                       description="Print a completion script for sins-sim's commands, flags and choices, "
+                                   "generated from this parser. Install it with eval \"$(sins-sim completion "
+                                   "bash)\" in ~/.bashrc, or eval \"$(sins-sim completion zsh)\" in ~/.zshrc.")
+    p.add_argument("shell", choices=("bash", "zsh"), help="the shell")
+    p.set_defaults(func=_cmd_completion)
 
     p = sub.add_parser("bench", help="measure the per-sample cost of the kernels and the three-axis chain")
     p.add_argument("--quick", action="store_true", help="short inputs, few repeats")

@@ -210,7 +210,7 @@ def test_bundled_flight_log_passes_silently(tmp_path):
 
 def test_trajectory_csv_in_radians_is_refused(tmp_path):
     csv = _rewrite(tmp_path, "rad.csv", radians=("lat_rad", "lon_rad", "roll_rad", "pitch_rad", "yaw_rad"))
-    with pytest.raises(ConfigError, match=r"f\.yaml: trajectory\.file \(rad\.csv\): columns lat_deg, lon_deg, "
+    with pytest.raises(ConfigError, match=r"f\.yaml:\d+:\d+: trajectory\.file \(rad\.csv\): columns lat_deg, lon_deg, "
                                           r"roll_deg, yaw_deg look like radians") as info:
         load_scenario(_file_scenario(tmp_path, csv))
     assert "\n" not in str(info.value) and "multiply radians by 180/pi" in str(info.value)
@@ -274,7 +274,7 @@ def test_duration_past_the_segments_is_refused_through_the_cli(tmp_path, capsys)
     assert rc == 2 and len(err) == 1, err
     assert ("--duration: 1300 s runs past the end of the trajectory's segments, which last 1220 s" in err[0]
             and "trajectory.extend: hold" in err[0])
-    with pytest.raises(ConfigError, match=r"s\.yaml: duration_s: 1300 s runs past"):
+    with pytest.raises(ConfigError, match=r"s\.yaml:\d+:\d+: duration_s: 1300 s runs past"):
         load_scenario(_scenario(tmp_path, [{"type": "static"}], trajectory=SEGMENTS, duration_s=1300.0))
 
 

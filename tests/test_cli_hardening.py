@@ -83,12 +83,28 @@ def _channel(out, *extra):
 
 # --- --version ------------------------------------------------------------------------------------------
 def test_version(capsys):
-    from importlib.metadata import version
+    """The version, then a pointer to the changelog, which has a section for it (or Unreleased for a .dev)."""
+    import re
+    from importlib.metadata import distribution
 
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0
-    assert capsys.readouterr().out.strip() == f"sins-sim {sins_sim.__version__}" == f"sins-sim {version('sins-sim')}"
+    first, second = capsys.readouterr().out.splitlines()
+    assert first == f"sins-sim {sins_sim.__version__}"
+    assert "CHANGELOG.md" in second
+    root = Path(__file__).resolve().parents[1]
+    changelog = (root / "CHANGELOG.md").read_text()
+    release = re.fullmatch(r"(\d+\.\d+\.\d+)(\.dev\d+)?", sins_sim.__version__)
+    assert release, sins_sim.__version__
+    heading = "## [Unreleased]" if release.group(2) else f"## [{release.group(1)}]"
+    assert heading in changelog
+    # the installed metadata says the same, where the installed distribution is this tree (pyproject reads
+    # the version from sins_sim/_version.py; another checkout's install has its own)
+    dist = distribution("sins-sim")
+    direct = json.loads(dist.read_text("direct_url.json") or "{}")
+    if direct.get("url", "").rstrip("/") == root.as_uri():
+        assert dist.version == sins_sim.__version__
 
 
 # --- channel: defaults and flags ----------------------------------------------------------------------------

@@ -84,7 +84,7 @@ def test_the_refusal_comes_before_the_engine(tmp_path, monkeypatch):
         raise AssertionError("the engine started")
 
     monkeypatch.setattr(sins, "simulate_sins", engine)
-    with pytest.raises(ConfigError, match=r"s\.yaml: duration_s: 1e\+07 s would take about .* shorten duration_s"):
+    with pytest.raises(ConfigError, match=r"s\.yaml:\d+:\d+: duration_s: 1e\+07 s would take about .* shorten duration_s"):
         run.run_scenario(_scenario(tmp_path, duration_s=1e7), tmp_path / "o")
     assert not (tmp_path / "o").exists()
 

@@ -52,6 +52,15 @@ class EffectsList:
                  "doc": f"[{{name: EFFECT, axes: [...], SI parameters}}, ...]; EFFECT one of {names}; parameters: "
                         f"sins_sim.models.effects{'; ' + self.doc if self.doc else ''}"}]
 
+    def json_schema(self):
+        """JSON Schema for editors: a list of mappings with a catalogue ``name`` (parameters checked by the loader)."""
+        item = {"type": "object", "required": ["name"],
+                "properties": {"name": {"enum": list(EFFECTS)} if self.catalogue_only else {"type": "string"}}}
+        if self.axes is not None:
+            item["properties"]["axes"] = {"type": "array", "items": {"enum": list(self.axes)}}
+        return {"type": ["array", "null"], "items": item,
+                "description": "catalogue effects; parameters: sins_sim.models.effects"}
+
     def check(self, value, ctx, path):
         """Validate the list; one line naming the item and the rule on error."""
         if value is None:

@@ -60,7 +60,7 @@ import json
 import math
 from pathlib import Path
 
-from sins_sim.jobs.schema import Bool, ConfigError, Map, Num, Str, validate
+from sins_sim.jobs.schema import Bool, ConfigError, Map, Num, Str, json_schema, validate
 
 __all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions",
            "filters_used"]
@@ -101,6 +101,17 @@ FILTER_PARAMETERS_SCHEMA = Map({
                       "temperature profile or resonance drift) and the filters' f0 follows the drive, f0_filter = "
                       "f_drive f0_b / F_b(a); false: drive and filters stay at their t = 0 values"),
 }, default={}, doc="what the correcting filter and the plug-in filters believe: true (the unit's own values, the default), nominal (the datasheet, f0 from the dither PLL) or this mapping")
+
+
+def _json_schema() -> dict:
+    """``filter_parameters`` for editors: ``true``, a source name, or the mapping (``source: true`` too)."""
+    mapping = json_schema(Map(FILTER_PARAMETERS_SCHEMA.fields))
+    mapping["properties"]["source"] = {"anyOf": [{"const": True}, mapping["properties"]["source"]]}
+    shorthands = [s for s in SOURCES if s not in ("explicit", "diagnose")]
+    return {"anyOf": [{"const": True}, {"enum": shorthands}, mapping], "description": FILTER_PARAMETERS_SCHEMA.doc}
+
+
+FILTER_PARAMETERS_SCHEMA.json = _json_schema
 
 
 def parse_filter_parameters(value, ctx: str, path: str = "filter_parameters") -> dict:

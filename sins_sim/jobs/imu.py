@@ -95,6 +95,10 @@ class _SensorsReference:
 
         return reference_rows(path)
 
+    def json_schema(self):
+        """Open: the sensors section is parsed by :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`."""
+        return {"type": "object", "description": "sensor errors (sins-sim schema imu, sensors rows)"}
+
     def check(self, value, ctx, path):  # never reached: imu_from_dict takes the section out first
         return value
 

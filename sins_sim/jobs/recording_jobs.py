@@ -112,6 +112,12 @@ class _PerAxis:
                 "doc": "per axis (a name of axes), the suspension keys of the IMU format"}
         return [head] + describe(self.item, f"{path}.AXIS")
 
+    def json_schema(self):
+        from sins_sim.jobs.schema import json_schema
+
+        return {"type": "object", "additionalProperties": json_schema(self.item),
+                "description": "per axis (a name of axes), the suspension keys of the IMU format"}
+
     def check(self, value, ctx, path):
         if not isinstance(value, dict):
             raise ConfigError(f"{ctx}: {path}: must be a mapping axis -> parameters, got {value!r}")

@@ -17,7 +17,8 @@ import numpy as np
 
 from sins_sim.jobs import advisories
 from sins_sim.jobs import filter_params as _fparams
-from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, validate
+from sins_sim.jobs.schema import (Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, alias_marks, forget_mark,
+                                  validate)
 from sins_sim.jobs.yaml_io import load_yaml
 from sins_sim.filters import registry as filter_registry
 
@@ -299,6 +300,13 @@ class _Any:
                  "default": "required", "doc": "the unit: a path relative to the scenario, or the IMU keys inline "
                                               "(sins-sim schema imu)"}]
 
+    def json_schema(self):
+        from sins_sim.jobs.imu import IMU_SCHEMA
+        from sins_sim.jobs.schema import json_schema
+
+        return {"anyOf": [{"type": "string"}, json_schema(IMU_SCHEMA)],
+                "description": "the unit: a path relative to the scenario, or the IMU keys inline"}
+
     def check(self, value, ctx, path):
         if not isinstance(value, (str, dict)):
             raise ConfigError(f"{ctx}: {path}: must be a path to an IMU file or an IMU mapping, got {value!r}")
@@ -317,6 +325,11 @@ class _FilterParameters:
                  "default": "(the IMU file's)", "doc": "what the filters believe about each unit: the true "
                  "parameters, the datasheet (nominal, f0 from the dither PLL), explicit values or a diagnosis; "
                  "replaces the IMU file's filter_parameters"}]
+
+    def json_schema(self):
+        from sins_sim.jobs.schema import json_schema
+
+        return json_schema(_fparams.FILTER_PARAMETERS_SCHEMA)
 
     def check(self, value, ctx, path):
         if value is None:
@@ -360,6 +373,7 @@ class Scenario:
             imu_doc = load_yaml(imu_path)
             if c["filter_parameters"] is not None and isinstance(imu_doc, dict):
                 imu_doc = dict(imu_doc, filter_parameters=c["filter_parameters"])
+            alias_marks(f"{ctx} -> {imu_path.name}", str(imu_path))  # its errors give the IMU file's lines
             self.imu = imu_from_dict(imu_doc, f"{ctx} -> {imu_path.name}", base_dir=imu_path.parent)
         else:
             self.imu_source = "inline"
@@ -663,6 +677,7 @@ def scenario_document(path, overrides: dict | None = None) -> dict:
             if key == "imu" and isinstance(value, (str, Path)):
                 value = str(Path(value).resolve())
             doc[key] = value
+            forget_mark(str(path), key)  # the value is the command line's: no line in the file
     return doc
 
 

@@ -15,17 +15,90 @@ e.g. amplitude_arcmin``).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from sins_sim._validate import unknown_key
 from sins_sim.units import ARCMIN, ARCSEC, DEG
 
 __all__ = ["ConfigError", "Num", "Str", "Bool", "Vec", "Map", "ListOf", "OneOf", "UNITS", "UNIT_LABELS", "validate",
-           "fill_defaults", "describe", "format_range"]
+           "fill_defaults", "describe", "format_range",
+           "json_schema", "JSON_SCHEMA_DIALECT"]
 
 
 class ConfigError(ValueError):
-    """A configuration file broke a rule; the message names the file, the key path and the rule."""
+    """A configuration file broke a rule; the message names the file, the key path and the rule.
+
+    When the message starts with a file :func:`sins_sim.jobs.yaml_io.load_yaml` has read
+    (``scenarios/x.yaml: navigation.conig: ...``) and the key path is in that file, the error locates
+    itself: the file is followed by the line and column of the key (or list item), the form editors
+    and terminals turn into a link, ``scenarios/x.yaml:7:3: navigation.conig: ...``. A path the file
+    does not hold (a default, a key that is missing) points at its nearest enclosing key that is there;
+    a key the command line overrode points nowhere.
+    """
+
+    def __init__(self, message="", *args):
+        if isinstance(message, str) and not args:
+            message = _locate(message)
+        super().__init__(message, *args)
+
+
+# --- where a key is: file -> key path -> (line, column), filled by yaml_io.load_yaml ------------------------------
+_FILE_MARKS: dict = {}
+#: files whose key positions are remembered (the oldest is forgotten first)
+_MAX_FILES = 256
+_KEY_PATH = re.compile(r"([^\s:\[\]().]+(?:\[\d+\]|\.[^\s:\[\]().]+)*)(?=: | \()")
+_PATH_PART = re.compile(r"\[(\d+)\]|\.?([^.\[\]]+)")
+
+
+def register_marks(where: str, marks: dict) -> None:
+    """Remember the positions of the keys of the file named ``where`` (``{key path tuple: (line, column)}``)."""
+    _FILE_MARKS.pop(where, None)
+    _FILE_MARKS[where] = marks
+    while len(_FILE_MARKS) > _MAX_FILES:
+        _FILE_MARKS.pop(next(iter(_FILE_MARKS)))
+
+
+def alias_marks(alias: str, where: str) -> None:
+    """Errors that name the file ``where`` as ``alias`` (``scenario.yaml -> imu.yaml``) locate themselves too."""
+    if where in _FILE_MARKS:
+        register_marks(alias, _FILE_MARKS[where])
+
+
+def forget_mark(where: str, key: str) -> None:
+    """Forget a top-level key's position (and its children's): its value no longer comes from the file."""
+    marks = _FILE_MARKS.get(where)
+    if marks:
+        for path in [p for p in marks if p and p[0] == key]:
+            del marks[path]
+
+
+def key_position(where: str, path: str):
+    """``(line, column)`` (1-based) of the key path ``path`` (``motion[0].amplitude_arcmin``) in the file
+    ``where``, or of its nearest enclosing key the file holds; None when unknown."""
+    marks = _FILE_MARKS.get(where)
+    if not marks:
+        return None
+    parts = [int(i) if i else k for i, k in _PATH_PART.findall(path)]
+    while parts:
+        pos = marks.get(tuple(parts))
+        if pos is not None:
+            return pos
+        parts.pop()
+    return None
+
+
+def _locate(message: str) -> str:
+    for where in reversed(_FILE_MARKS):
+        if message.startswith(where + ": "):
+            rest = message[len(where) + 2:]
+            m = _KEY_PATH.match(rest)
+            pos = key_position(where, m.group(1)) if m else None
+            if pos is None:
+                return message
+            return f"{where}:{pos[0]}:{pos[1]}: {rest}"
+    return message
 
 
 #: unit suffix -> (SI suffix, factor to SI)
@@ -183,6 +256,9 @@ class Map:
     doc: str = ""
     #: rules that involve several keys (checked by the loader), listed in the reference
     rules: tuple = ()
+    #: optional: a function returning this entry's JSON Schema instead of the generic one (an entry whose loader
+    #: also takes shorthands, e.g. ``filter_parameters: nominal``)
+    json: Callable | None = None
 
     def check(self, value, ctx, path):
         if value is None and self.allow_null:
@@ -260,7 +336,7 @@ def _unknown_rule(key, known):
             return f"needs a unit: write {ykey}"
         if key.startswith(base + "_") and ykey != key:
             return f"unknown unit in {key!r}: write {ykey}"
-    return f"unknown key (allowed: {', '.join(sorted(known))})"
+    return unknown_key(key, known, {known[y][0]: y for y in known})
 
 
 def validate(doc, schema, ctx: str, path: str = ""):
@@ -423,3 +499,111 @@ def _walk(spec, path, rows, key_name=None):
 def _walk_fields(spec: Map, path, rows):
     for name, sub in spec.fields.items():
         _walk(sub, _join(path, _yaml_key(name, getattr(sub, "unit", None))), rows)
+
+
+# --- JSON Schema for editors: the same schema objects, exported ----------------------------------------------------
+#: the JSON Schema dialect of :func:`json_schema`
+JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
+
+
+def _json_schema_default(spec) -> dict:
+    d = getattr(spec, "default", None)
+    if d is None or getattr(spec, "required", False) or isinstance(d, tuple):
+        return {}
+    return {"default": d}
+
+
+def _json_description(spec, unit=None) -> dict:
+    doc = getattr(spec, "doc", "") or ""
+    if unit:
+        doc = f"[{UNIT_LABELS.get(unit, unit)}] {doc}".rstrip()
+    return {"description": doc} if doc else {}
+
+
+def _json_number(spec: Num) -> dict:
+    out = {"type": "integer" if spec.integer else "number"}
+    if spec.min is not None:
+        out["exclusiveMinimum" if spec.min_exclusive else "minimum"] = spec.min
+    if spec.max is not None:
+        out["maximum"] = spec.max
+    if spec.nonzero:
+        out["not"] = {"const": 0}
+    return out
+
+
+def _json_map_body(spec: Map) -> tuple:
+    props, required = {}, []
+    for name, sub in spec.fields.items():
+        ykey = _yaml_key(name, getattr(sub, "unit", None))
+        props[ykey] = json_schema(sub)
+        if getattr(sub, "required", False):
+            required.append(ykey)
+    return props, required
+
+
+def json_schema(spec) -> dict:
+    """The JSON Schema (draft 2020-12) of a schema entry, for editors (yaml-language-server) and other tools.
+
+    Generated from the very objects :func:`validate` checks with, so the two cannot drift apart:
+    keys carry their unit suffix as in the YAML, ranges become ``minimum``/``maximum``,
+    ``exclusiveMinimum`` and ``not: {const: 0}``, choices ``enum``, unknown keys are refused
+    (``additionalProperties: false``), a :class:`OneOf` selects its variant with ``if``/``then`` on
+    its ``type`` key. Entries of other classes describe themselves with a ``json_schema()`` method;
+    one without it is left open (``{}``). Rules across keys (``Map.rules``) stay with the loader:
+    the export is a necessary condition, the loader the sufficient one.
+
+    Examples
+    --------
+    >>> json_schema(Map({"rate": Num(unit="hz", min=0.0, min_exclusive=True, required=True)}))["properties"]
+    {'rate_hz': {'type': 'number', 'exclusiveMinimum': 0.0, 'description': '[Hz]'}}
+    """
+    if spec is None:
+        return {}
+    if hasattr(spec, "json_schema"):
+        return spec.json_schema()
+    if isinstance(spec, Map) and spec.json is not None:
+        return spec.json()
+    if isinstance(spec, Num):
+        return {**_json_number(spec), **_json_schema_default(spec), **_json_description(spec, spec.unit)}
+    if isinstance(spec, Str):
+        out = {"type": "string"}
+        if spec.choices is not None:
+            out["enum"] = list(spec.choices)
+        return {**out, **_json_schema_default(spec), **_json_description(spec)}
+    if isinstance(spec, Bool):
+        return {"type": "boolean", **_json_schema_default(spec), **_json_description(spec)}
+    if isinstance(spec, Vec):
+        if spec.items is not None:
+            items = {"prefixItems": [json_schema(it) for it in spec.items], "items": False}
+        else:
+            items = {"items": _json_number(Num(min=spec.min, min_exclusive=spec.min_exclusive, max=spec.max))}
+        return {"type": "array", "minItems": spec.n, "maxItems": spec.n, **items, **_json_schema_default(spec),
+                **_json_description(spec, spec.unit)}
+    if isinstance(spec, ListOf):
+        out = {"type": "array", "items": json_schema(spec.item)}
+        if spec.min_len:
+            out["minItems"] = spec.min_len
+        if spec.max_len is not None:
+            out["maxItems"] = spec.max_len
+        return {**out, **_json_schema_default(spec), **_json_description(spec)}
+    if isinstance(spec, OneOf):
+        branches = []
+        for kind in sorted(spec.variants):
+            props, required = _json_map_body(spec.variants[kind])
+            then = {"properties": {spec.key: {"const": kind}, **props}, "additionalProperties": False}
+            if required:
+                then["required"] = required
+            then.update(_json_description(spec.variants[kind]))
+            branches.append({"if": {"properties": {spec.key: {"const": kind}}, "required": [spec.key]},
+                             "then": then})
+        return {"type": "object", "required": [spec.key],
+                "properties": {spec.key: {"enum": sorted(spec.variants)}}, "allOf": branches,
+                **_json_description(spec)}
+    if isinstance(spec, Map):
+        props, required = _json_map_body(spec)
+        out = {"type": ["object", "null"] if spec.allow_null else "object", "properties": props,
+               "additionalProperties": False}
+        if required:
+            out["required"] = required
+        return {**out, **_json_description(spec)}
+    return {}  # pragma: no cover - every schema class is handled above

@@ -35,9 +35,9 @@ from pathlib import Path
 
 import yaml
 
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.jobs.schema import ConfigError, register_marks
 
-__all__ = ["StrictLoader", "DuplicateKeyError", "FLOAT_PATTERN", "load_yaml", "parse_yaml"]
+__all__ = ["StrictLoader", "DuplicateKeyError", "FLOAT_PATTERN", "load_yaml", "parse_yaml", "key_marks"]
 
 _FLOAT_TAG = "tag:yaml.org,2002:float"
 _MERGE_TAG = "tag:yaml.org,2002:merge"
@@ -102,8 +102,18 @@ def parse_yaml(text: str, where: str = "<string>"):
 
     The top level may be anything here (:func:`load_yaml` requires a mapping).
     """
+    return _parse(text, where)[0]
+
+
+def _parse(text: str, where: str):
+    """``(document, root node)``: what ``yaml.load`` does, keeping the node tree for the key positions."""
     try:
-        return yaml.load(text, Loader=StrictLoader)
+        loader = StrictLoader(text)
+        try:
+            node = loader.get_single_node()
+            return (loader.construct_document(node) if node is not None else None), node
+        finally:
+            loader.dispose()
     except DuplicateKeyError as exc:
         raise ConfigError(f"{where}: duplicate key {exc.key!r} at lines {exc.first_line} and {exc.line}") from None
     except yaml.MarkedYAMLError as exc:
@@ -115,6 +125,34 @@ def parse_yaml(text: str, where: str = "<string>"):
         raise ConfigError(f"{where}: malformed YAML: {_one_line(exc)}") from None
     except RecursionError:
         raise ConfigError(f"{where}: malformed YAML: nested too deeply") from None
+
+
+def key_marks(node) -> dict:
+    """Where each key and list item of a composed document starts: ``{("motion", 0, "type"): (line, column)}``.
+
+    Lines and columns are 1-based (PyYAML's marks are 0-based). Keys brought in by a merge (``<<``)
+    point at the anchored mapping they come from, unless the mapping overrides them. A node reached
+    twice through an alias is walked once (so an alias bomb costs nothing here).
+    """
+    out: dict = {}
+    seen: set = set()
+    stack = [((), node)]
+    while stack:
+        path, n = stack.pop()
+        if n is None or id(n) in seen:
+            continue
+        seen.add(id(n))
+        if isinstance(n, yaml.MappingNode):
+            children = [((*path, k.value), k, v) for k, v in n.value
+                        if isinstance(k, yaml.ScalarNode) and k.tag != _MERGE_TAG]
+        elif isinstance(n, yaml.SequenceNode):
+            children = [((*path, i), v, v) for i, v in enumerate(n.value)]
+        else:
+            continue
+        for p, mark_node, value in children:
+            out[p] = (mark_node.start_mark.line + 1, mark_node.start_mark.column + 1)
+            stack.append((p, value))
+    return out
 
 
 def load_yaml(path) -> dict:
@@ -148,7 +186,9 @@ def load_yaml(path) -> dict:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: cannot read: not UTF-8 text (byte {exc.start})") from None
-    doc = parse_yaml(text, str(path))
+    doc, node = _parse(text, str(path))
+    if isinstance(doc, dict):
+        register_marks(str(path), key_marks(node))
     if not isinstance(doc, dict):
         got = "an empty file" if doc is None else type(doc).__name__
         raise ConfigError(f"{path}: the top level must be a mapping, got {got}")

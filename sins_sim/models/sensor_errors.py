@@ -110,6 +110,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 from sins_sim._kernels import sensor_errors as kse
+from sins_sim._validate import unknown_key
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G, STANDARD_GRAVITY
 
 __all__ = ["GyroErrorParams", "AccelErrorParams", "SensorErrorParams", "GyroErrors", "AccelErrors",
@@ -773,7 +774,7 @@ def _unknown_key_rule(key, known: dict) -> str:
             return f"needs a unit: write {right}"
         if all(w in _UNIT_WORDS for w in key[len(base) + 1:].split("_")):
             return f"unknown unit in {key!r}: write {right}"
-    return f"unknown key (allowed: {', '.join(sorted(known))})"
+    return unknown_key(key, known, {b: k for k, b in known.items()})
 
 
 def _section(doc, cls, known, ctx, where):
@@ -834,7 +835,7 @@ def sensor_params_from_dict(doc, ctx: str, path: str = "sensors") -> SensorError
         raise ValueError(f"{ctx}: {path}: must be a mapping, got {type(doc).__name__} {doc!r}")
     for key in doc:
         if key not in ("gyro", "accelerometer"):
-            raise ValueError(f"{ctx}: {path}.{key}: unknown key (allowed: accelerometer, gyro)")
+            raise ValueError(f"{ctx}: {path}.{key}: {unknown_key(str(key), ('accelerometer', 'gyro'))}")
     return SensorErrorParams(
         gyro=_section(doc.get("gyro"), GyroErrorParams, _GYRO_KEYS, ctx, f"{path}.gyro"),
         accelerometer=_section(doc.get("accelerometer"), AccelErrorParams, _ACCEL_KEYS, ctx,

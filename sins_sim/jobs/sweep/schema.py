@@ -98,6 +98,12 @@ class _FilterParameters:
         return [{"key": path, "kind": "string, bool or mapping", "unit": "", "range": "true, nominal or a mapping",
                  "default": "true", "doc": self.doc}]
 
+    def json_schema(self):
+        from sins_sim.jobs.schema import json_schema
+        from sins_sim.jobs.filter_params import FILTER_PARAMETERS_SCHEMA
+
+        return {**json_schema(FILTER_PARAMETERS_SCHEMA), "description": self.doc}
+
     def check(self, value, ctx, path):
         if value is True or value == "true":
             return "true"
