@@ -767,7 +767,7 @@ def _cmd_navigate(args) -> int:
 
     metrics = navigate_file(args.increments, args.truth, args.out, name=args.name, coning=args.coning,
                             sculling=args.sculling, vertical=args.vertical, height_aid_tau_s=args.height_aid_tau,
-                            force=args.force)
+                            force=args.force, manifest=_manifest(args))
     m, nav = metrics["filters"][args.name], metrics["navigation"]
     print(f"navigated {nav['end_s'] - nav['start_s']:.6g} s of increments at {nav['rate_hz']:.6g} Hz against "
           f"{args.truth} ({m['status']})")
@@ -782,7 +782,7 @@ def _cmd_navigate(args) -> int:
                 cells = [f"{d[ax]['value']:.4g}" if d[ax]["value"] is not None else d[ax]["status"]
                          for ax in d if ax != "rule"]
                 print(f"{label} [deg/h]: {', '.join(cells)}")
-    print(f"wrote {args.out}: metrics.json")
+    print(f"wrote {args.out}: metrics.json, manifest.json")
     return EXIT_OK
 
 

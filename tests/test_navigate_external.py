@@ -117,6 +117,8 @@ def test_cli_navigate_writes_the_metrics_of_the_api(tmp_path, flight, capsys):
     assert (written["filters"]["external"]["horizontal_position_error_m"]
             == pytest.approx(api["filters"]["external"]["horizontal_position_error_m"]))
     assert written["navigation"]["rate_hz"] == pytest.approx(100.0)
+    manifest = json.loads((tmp_path / "nav" / "manifest.json").read_text())  # the folder says what produced it
+    assert manifest["command"] == "navigate" and set(manifest["inputs"]) >= {"increments", "truth"}
     pq = tmp_path / "inc.parquet"
     write_increments(pq, t, dth, dv)
     assert np.array_equal(read_increments(pq)[1], dth)

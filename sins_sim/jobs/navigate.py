@@ -138,14 +138,16 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
 
 def navigate_file(increments, truth_file, out_dir, *, name: str = "external", coning: str = "two_sample",
                   sculling: str = "two_sample", vertical: str = "height_aid", height_aid_tau_s: float = 100.0,
-                  force: bool = False) -> dict:
-    """``sins-sim navigate``: read the increments and the trajectory file, navigate, write ``metrics.json``.
+                  force: bool = False, manifest=None) -> dict:
+    """``sins-sim navigate``: read the increments and the trajectory file, navigate, write ``metrics.json``
+    and ``manifest.json`` (the command, versions, the two inputs' hashes; ``manifest`` from the CLI).
 
     The increments' ``time_s`` is on the trajectory file's time axis (its own ``time_s`` column).
     Returns the metrics written.
     """
     from sins_sim.io import read_trajectory
-    from sins_sim.jobs.output import atomic_output_dir, atomic_write_text
+    from sins_sim.jobs.manifest import Manifest, result_dir
+    from sins_sim.jobs.output import atomic_write_text
     from sins_sim.jobs.run import _json_default
     from sins_sim.models.motion import SampledTrajectory
 
@@ -165,6 +167,11 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
     nav["start_s"] += offset  # back on the files' time axis
     nav["end_s"] += offset
     metrics = {"increments": str(increments), "truth": str(truth_file), **metrics}
-    with atomic_output_dir(out_dir, inputs=(increments, truth_file), force=force) as tmp:
+    if manifest is None:
+        manifest = Manifest("navigate", settings={"name": name, "coning": coning, "sculling": sculling,
+                                                  "vertical": vertical, "height_aid_tau_s": height_aid_tau_s})
+    manifest.add_input("increments", increments)
+    manifest.add_input("truth", truth_file)
+    with result_dir(out_dir, manifest, inputs=(increments, truth_file), force=force) as tmp:
         atomic_write_text(Path(tmp) / "metrics.json", json.dumps(metrics, indent=2, default=_json_default) + "\n")
     return metrics
