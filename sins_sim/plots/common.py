@@ -91,13 +91,26 @@ def symlog_threshold(values, quantile: float = 0.5, floor: float = 1e-12) -> flo
     return float(10.0 ** np.floor(np.log10(np.quantile(a, quantile))))
 
 
-def _pyplot():
+def _pyplot(headless: bool = True):
+    """pyplot; ``headless`` (figures written to files) selects Agg, otherwise the session's own backend
+    (a notebook's inline one) is kept."""
     import matplotlib
 
-    matplotlib.use("Agg", force=False)
+    if headless:
+        matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def finish_figure(fig, path, dpi: int = 110):
+    """Write ``fig`` to ``path`` and close it, or, with ``path`` None, leave it open for the caller; returns it."""
+    if path is not None:
+        import matplotlib.pyplot as plt
+
+        fig.savefig(path, dpi=dpi)
+        plt.close(fig)
+    return fig
 
 
 def plot_channel(result, path, window_s: float = 0.03, settle_s: float = 0.0, title: str = "") -> None:
