@@ -181,11 +181,11 @@ class MissionResult:
         head = (f"MissionResult: scenario '{self.name}', {self.duration_s:g} s, seed {self.seed}, "
                 f"IMU '{self.metrics['imu']}'")
         width = max([len("filter")] + [len(n) for n in self.filters])
-        lines = [head, f"  {'filter':<{width}}  horizontal final (m)  phi RMS N, E, D (arcsec)  status"]
+        lines = [head, f"  {'filter':<{width}}  horizontal final (m)  {'phi RMS N, E, D (arcsec)':<30}  status"]
         for name, hor, rms, status in self._headline():
             h = "" if hor is None else f"{hor:.4g}"
             r = "" if rms is None else ", ".join(f"{x:.3g}" for x in rms)
-            lines.append(f"  {name:<{width}}  {h:>20}  {r:<24}  {status}")
+            lines.append(f"  {name:<{width}}  {h:>20}  {r:<30}  {status}")
         if self.metrics.get("warnings"):
             lines.append(f"  {len(self.metrics['warnings'])} warning(s): .metrics['warnings']")
         return "\n".join(lines)
@@ -324,13 +324,13 @@ class MissionResult:
         ``phi``, ``phi_free``, ``lat``, ``lon``), on ``(time, filter)`` or ``(time, filter, axis)``, with
         ``<name>_min`` and ``<name>_max`` the envelopes; ``truth_lat``, ``truth_lon``, ``truth_h`` on
         ``time_truth``; ``gyro_error`` on ``(time_gyro, filter, gyro_axis)``; and the headline figures of
-        ``metrics.json`` on ``filter`` (``horizontal_final``, ``horizontal_max``, ``vertical_final``,
+        ``metrics.json`` on ``filter`` (``horizontal_final``, ``horizontal_peak`` (its ``max``: over every
+        navigation update, not only the stored means), ``vertical_final``,
         ``velocity_final``, ``cep_rate``, ``status``) and ``(filter, axis)`` (``phi_final``, ``phi_rms``).
 
         Attributes: ``scenario``, ``seed``, ``duration_s``, ``sins_sim_version`` and ``configuration``
         (JSON text of :meth:`configuration`).
         """
-        import pandas as pd
         import xarray as xr
 
         from sins_sim._version import __version__
@@ -352,8 +352,9 @@ class MissionResult:
                                                                        "_min": " (minimum within the interval)",
                                                                        "_max": " (maximum within the interval)"}[stat]})
             per_filter.append(xr.Dataset(data, coords={"time": np.asarray(ser["t_s"], dtype=float), "axis": list(_NED)}))
-        ds = (xr.concat(per_filter, dim=pd.Index(names, name="filter"), join="outer")
-              if per_filter else xr.Dataset())
+        ds = xr.Dataset()
+        if per_filter:
+            ds = xr.concat(per_filter, dim="filter", join="outer").assign_coords(filter=np.array(names, dtype=str))
         ts = res.truth_series
         for k, (col, how) in TRUTH_COLUMNS.items():
             stem, unit = col.split("_", 1)
@@ -370,7 +371,7 @@ class MissionResult:
                                 attrs={"units": "arcsec", "long_name": "gyro-angle error (output minus truth)"})
             ds = ds.merge(gyro.to_dataset(name="gyro_error"), join="outer")
         summ = self.summary().reindex(ds["filter"].values if "filter" in ds.dims else self.filters)
-        scal = {"horizontal_final": ("horizontal_final_m", "m"), "horizontal_max": ("horizontal_max_m", "m"),
+        scal = {"horizontal_final": ("horizontal_final_m", "m"), "horizontal_peak": ("horizontal_max_m", "m"),
                 "vertical_final": ("vertical_final_m", "m"), "velocity_final": ("velocity_final_m_s", "m/s"),
                 "cep_rate": ("cep_rate_nmi_h", "nmi/h")}
         for var, (col, unit) in scal.items():
