@@ -304,3 +304,123 @@ fig = r.plot("navigation_error")
     import matplotlib.pyplot as plt
 
     plt.close(ns["fig"])
+
+
+# --- the sweep, the budget and the diagnosis: the same shape, smaller ----------------------------------------------
+SWEEP = f"""
+name: tiny-notebook
+seed: 5
+units: 3
+scenarios:
+  - {{path: {ROOT / 'scenarios' / 'stationary.yaml'}, duration_s: 1.5}}
+population:
+  f0_ppm: {{width: 2000}}
+"""
+
+
+@pytest.fixture(scope="module")
+def sweep(tmp_path_factory):
+    """The rows of a 3-unit sweep, computed serially (the tasks a cluster would run: test_sweep.py shows they
+    are equal), as run_sweep hands them back."""
+    from sins_sim.jobs.results import SweepResult
+    from sins_sim.jobs.sweep.job import prepare_sweep
+    from sins_sim.jobs.sweep.tasks import run_task
+
+    p = tmp_path_factory.mktemp("sweep") / "tiny.yaml"
+    p.write_text(SWEEP)
+    _, tasks, _ = prepare_sweep(p)
+    table = pd.DataFrame([run_task(t.spec(sins_sim.__version__)) for t in tasks])
+    return SweepResult(name="tiny-notebook", summary={}, table=table)
+
+
+def test_sweep_to_pandas_is_one_row_per_run_and_to_xarray_has_a_run_dimension(sweep, tmp_path):
+    from sins_sim.jobs.results import SweepResult
+    from sins_sim.jobs.sweep.summary import metric_filters
+
+    df = sweep.to_pandas()
+    assert len(df) == 3 and df["unit"].tolist() == [0, 1, 2]
+    filters = metric_filters(df)
+    ds = sweep.to_xarray()
+    assert ds.sizes["run"] == 3 and list(ds["filter"].values) == filters
+    metric = "horizontal_position_error_m_final"
+    for f in filters:
+        assert np.array_equal(ds[metric].sel(filter=f).values, df[f"{f}.{metric}"].to_numpy())
+    assert np.array_equal(ds["param.f0_ppm.x"].values, df["param.f0_ppm.x"].to_numpy())
+    # the percentile envelope over the population, per scenario and filter
+    env = ds[metric].groupby(ds["scenario"]).quantile([0.05, 0.5, 0.95], dim="run")
+    assert env.sizes == {"scenario": 1, "quantile": 3, "filter": len(filters)}
+    assert ds.attrs["sweep"] == "tiny-notebook"
+    # from a folder: runs.parquet and summary.json
+    df.to_parquet(tmp_path / "runs.parquet", index=False)
+    (tmp_path / "summary.json").write_text("{}")
+    pd.testing.assert_frame_equal(SweepResult.from_folder(tmp_path).to_pandas(), df)
+
+
+def test_sweep_plot_is_the_distribution_figure(sweep):
+    import matplotlib.pyplot as plt
+
+    fig = sweep.plot()
+    try:
+        assert any(ln.get_xdata().size for ax in fig.axes for ln in ax.get_lines())
+    finally:
+        plt.close(fig)
+
+
+def _budget():
+    """A budget of two sources over two filters, assembled from made-up final error vectors."""
+    from sins_sim.jobs.budget import _assemble
+    from sins_sim.jobs.results import BudgetResult
+
+    def e(n, ea, att):
+        return {"position_ne_m": [n, ea], "attitude_ned_arcsec": att}
+
+    runs = {"all": {"ideal": e(3.0, 4.0, [1.0, 2.0, 2.0]), "correcting": e(6.0, 8.0, [2.0, 4.0, 4.0])},
+            "floor": {"ideal": e(0.3, 0.4, [0.1, 0.2, 0.2]), "correcting": e(0.6, 0.8, [0.2, 0.4, 0.4])},
+            "off:gyro_bias": {"ideal": e(1.0, 1.0, [1.0, 1.0, 1.0]), "correcting": e(2.0, 2.0, [1.0, 1.0, 1.0])},
+            "off:quantum": {"ideal": e(3.0, 4.0, [1.0, 2.0, 2.0]), "correcting": e(5.0, 8.0, [2.0, 4.0, 4.0])}}
+    b = _assemble(runs, ["gyro_bias", "quantum"], ("ideal", "correcting"))
+    b.update(scenario="made-up", duration_s=60.0, filters=["ideal", "correcting"])
+    return BudgetResult(b)
+
+
+def test_budget_to_pandas_rows_are_the_terms_per_filter():
+    b = _budget()
+    df = b.to_pandas()
+    terms = ["total", "dither_residual", "gyro_bias", "quantum", "floor", "remainder"]
+    assert list(df.index.get_level_values("term").unique()) == terms
+    assert df.shape == (len(terms) * 2, 7)
+    # total for correcting: |(6, 8)| = 10 m; gyro_bias's share: |(6 - 2, 8 - 2)| = sqrt(52) m (closed forms)
+    assert df.loc[("total", "correcting"), "horizontal_position_error_m"] == pytest.approx(10.0, rel=1e-15)
+    assert df.loc[("gyro_bias", "correcting"), "horizontal_position_error_m"] == pytest.approx(52 ** 0.5, rel=1e-15)
+    assert df.loc[("quantum", "correcting"), "position_north_m"] == pytest.approx(1.0, rel=1e-15)
+    assert df.loc[("floor", "ideal"), "attitude_error_arcsec"] == pytest.approx(0.3, rel=1e-14)
+
+
+def test_budget_plot_returns_the_budget_figure():
+    import matplotlib.pyplot as plt
+
+    fig = _budget().plot()
+    try:
+        assert len(fig.axes) == 2 and any(len(ax.patches) for ax in fig.axes)
+    finally:
+        plt.close(fig)
+
+
+def test_diagnosis_to_pandas_tables():
+    from sins_sim.jobs.results import DiagnosisResult
+
+    js = DiagnosisResult({
+        "noise_floor_arcsec": 0.01, "noise_floor_axes_arcsec": {"x": 0.01, "y": 0.02},
+        "baseline": {"residual_rms_arcsec": 0.5, "residual_rms_axes_arcsec": {"x": 0.4, "y": 0.6}},
+        "candidates": [{"effect": "backlash", "residual_rms_arcsec": 0.02, "gap_reduction": 0.9, "score": 3.0,
+                        "closes_gap": True, "remaining_excess_arcsec": 0.001, "p_heldout": 0.001, "p_f": 1e-6,
+                        "significant": True, "unresolved": False, "params": {}},
+                       {"effect": "stiction", "residual_rms_arcsec": 0.3, "gap_reduction": 0.1, "score": 0.2,
+                        "closes_gap": False, "remaining_excess_arcsec": 0.2, "p_heldout": 0.4, "p_f": 0.3,
+                        "significant": False, "unresolved": False, "params": {}}]})
+    t = js.to_pandas()
+    assert list(t["candidates"].index) == ["backlash", "stiction"]
+    assert t["candidates"].loc["stiction", "gap_reduction"] == 0.1
+    assert t["axes"].loc["y"].tolist() == [0.02, 0.6]
+    empty = DiagnosisResult({"candidates": [], "findings": [{"check": "x"}]}).to_pandas()
+    assert empty["candidates"].shape == (0, 9) and empty["axes"].empty

@@ -32,7 +32,8 @@ import numpy as np
 from sins_sim.jobs.schema import ConfigError
 from sins_sim.units import ARCSEC
 
-__all__ = ["MissionResult", "StoredRun", "run", "load", "FIGURE_KINDS", "SERIES_COLUMNS"]
+__all__ = ["MissionResult", "StoredRun", "BudgetResult", "SweepResult", "DiagnosisResult", "run", "load",
+           "FIGURE_KINDS", "SERIES_COLUMNS"]
 
 #: The figures :meth:`MissionResult.plot` draws (the CLI's ``<kind>.png``).
 FIGURE_KINDS = ("navigation_error", "attitude_error", "trajectory", "gyro_error_spectrum", "allan")
@@ -538,3 +539,152 @@ def load(folder) -> MissionResult:
     out = MissionResult(scenario, metrics, StoredRun(arrays, metrics), folder=folder)
     out.manifest = doc
     return out
+
+
+# --- the other jobs' results: the dict each job returns (and writes as JSON), with notebook views -----------------
+class BudgetResult(dict):
+    """The error budget of a scenario (:func:`sins_sim.jobs.budget.run_budget`): the content of ``budget.json``
+    as a dict, with :meth:`to_pandas` and :meth:`plot`.
+
+    Each term (``total``, every source, ``dither_residual``, ``floor``, ``remainder``) holds per filter the
+    final north/east position error vector (m) and NED attitude error vector (arcsec) and their magnitudes
+    (``note`` says how each is formed).
+    """
+
+    def terms(self) -> list:
+        """The rows in the order of ``budget.png``: total, the sources, floor, remainder."""
+        return ["total", *self["sources"], "floor", "remainder"]
+
+    def _term(self, term) -> dict:
+        return self["sources"][term] if term in self["sources"] else self[term]
+
+    def to_pandas(self):
+        """One row per (term, filter): ``horizontal_position_error_m``, ``position_north_m``,
+        ``position_east_m``, ``attitude_error_arcsec`` and ``attitude_<north|east|down>_arcsec``
+        (NaN where the budget has no entry)."""
+        import pandas as pd
+
+        rows, index = [], []
+        for term in self.terms():
+            for f in self["filters"]:
+                e = self._term(term).get(f) or {}
+                pos = e.get("position_ne_m") or [np.nan, np.nan]
+                att = e.get("attitude_ned_arcsec") or [np.nan] * 3
+                rows.append({"horizontal_position_error_m": e.get("horizontal_position_error_m", np.nan),
+                             "position_north_m": pos[0], "position_east_m": pos[1],
+                             "attitude_error_arcsec": e.get("attitude_error_arcsec", np.nan),
+                             **{f"attitude_{a}_arcsec": x for a, x in zip(_NED, att)}})
+                index.append((term, f))
+        df = pd.DataFrame(rows, index=pd.MultiIndex.from_tuples(index, names=["term", "filter"]))
+        return df.astype(float)
+
+    def plot(self):
+        """``budget.png``'s figure, returned (not written)."""
+        from sins_sim.plots.budget import plot_budget
+
+        return plot_budget(self, None, f"{self['scenario']}: error budget after {self['duration_s']:g} s")
+
+    @classmethod
+    def from_folder(cls, folder) -> "BudgetResult":
+        """The budget of a ``sins-sim budget`` folder (its ``budget.json``)."""
+        return cls(_read_json(Path(folder) / "budget.json", "budget"))
+
+
+class SweepResult(dict):
+    """A sweep (:func:`sins_sim.jobs.sweep.run_sweep`): its dict (``summary``, ``table``, counts) with
+    :meth:`to_pandas` (one row per run) and :meth:`to_xarray` (a ``run`` dimension)."""
+
+    def to_pandas(self):
+        """``runs.parquet``: one row per run (unit x scenario), the drawn parameters (``param.*``) and per
+        filter its metrics (``<filter>.<metric>``, the unit in the metric's name)."""
+        return self["table"].copy()
+
+    def to_xarray(self):
+        """The runs as a Dataset with dimensions ``run`` and ``filter``.
+
+        Each per-filter metric (``<filter>.<metric>`` columns) becomes one variable ``<metric>`` on
+        ``(run, filter)``; every other column (``unit``, ``scenario``, ``seed``, ``param.*``, ...) a
+        variable on ``run``. Percentiles over the population are then
+        ``ds.groupby("scenario").quantile([0.05, 0.5, 0.95], dim="run")``. Attributes: the sweep's name and
+        sins-sim's version.
+        """
+        import xarray as xr
+
+        from sins_sim._version import __version__
+        from sins_sim.jobs.sweep.summary import metric_filters
+
+        table = self["table"].reset_index(drop=True)
+        filters = metric_filters(table)
+        data, metrics = {}, {}
+        for col in table.columns:
+            name, dot, metric = col.partition(".")
+            if dot and name in filters:
+                metrics.setdefault(metric, {})[name] = table[col].to_numpy()
+            else:
+                data[col] = ("run", table[col].to_numpy())
+        for metric, per in metrics.items():
+            cols = [per.get(f, np.full(len(table), np.nan)) for f in filters]
+            data[metric] = (("run", "filter"), np.stack(cols, axis=1))
+        return xr.Dataset(data, coords={"run": np.arange(len(table)), "filter": np.array(filters, dtype=str)},
+                          attrs={"sweep": str(self.get("name", "")), "sins_sim_version": __version__})
+
+    def plot(self):
+        """``distributions.png``'s figure (the ECDF of the headline metrics per filter), returned."""
+        from sins_sim.jobs.sweep.summary import metric_filters, quantile_n_required
+        from sins_sim.jobs.sweep.tasks import HEADLINE_METRICS, METRICS
+        from sins_sim.plots.sweep import plot_distributions
+
+        table = self["table"]
+        labels = list(dict.fromkeys(table["scenario"])) if len(table) else []
+        fig = plot_distributions(table, {m: METRICS[m] for m in HEADLINE_METRICS}, metric_filters(table), labels,
+                                 None, f"{self.get('name', 'sweep')}: distribution over "
+                                       f"{table['unit'].nunique() if len(table) else 0} units",
+                                 p95_min_n=quantile_n_required(0.95))
+        if fig is None:
+            raise ValueError("plot: the sweep has no positive finite headline metric to draw")
+        return fig
+
+    @classmethod
+    def from_folder(cls, folder) -> "SweepResult":
+        """A sweep folder's ``runs.parquet`` and ``summary.json``."""
+        import pandas as pd
+
+        folder = Path(folder)
+        if not (folder / "runs.parquet").is_file():
+            raise ConfigError(f"load: {folder} has no runs.parquet (not a finished sweep)")
+        name = _read_json(folder / "sweep.json", "sweep").get("name") if (folder / "sweep.json").is_file() else None
+        return cls(name=name, summary=_read_json(folder / "summary.json", "sweep"),
+                   table=pd.read_parquet(folder / "runs.parquet"))
+
+
+class DiagnosisResult(dict):
+    """A recording's diagnosis (:func:`sins_sim.jobs.recording_jobs.diagnose`): its JSON as a dict, with
+    :meth:`to_pandas` of its tables. Its figures are those of the report folder (``report_dir``)."""
+
+    def to_pandas(self) -> dict:
+        """``candidates``: one row per effect tried (index ``effect``), in the diagnosis' order (best first):
+        ``residual_rms_arcsec``, ``gap_reduction``, ``score``, ``closes_gap``, ``remaining_excess_arcsec``,
+        ``p_heldout``, ``p_f``, ``significant``, ``unresolved``; ``axes``: per axis (index ``axis``) the
+        ``noise_floor_arcsec`` and the nominal refit's ``baseline_residual_rms_arcsec`` (empty when the
+        data failed the checks: see ``findings``)."""
+        import pandas as pd
+
+        cols = ["residual_rms_arcsec", "gap_reduction", "score", "closes_gap", "remaining_excess_arcsec",
+                "p_heldout", "p_f", "significant", "unresolved"]
+        cand = pd.DataFrame([{k: c.get(k) for k in cols} for c in self.get("candidates") or []], columns=cols,
+                            index=pd.Index([c["effect"] for c in self.get("candidates") or []], name="effect"))
+        floors = self.get("noise_floor_axes_arcsec") or {}
+        base = (self.get("baseline") or {}).get("residual_rms_axes_arcsec") or {}
+        axes = pd.DataFrame({"noise_floor_arcsec": pd.Series(floors, dtype=float),
+                             "baseline_residual_rms_arcsec": pd.Series(base, dtype=float)})
+        axes.index.name = "axis"
+        return {"candidates": cand, "axes": axes}
+
+
+def _read_json(path: Path, what: str) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"load: {path.parent} has no {path.name} (not a {what} result)") from None
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"load: {path} cannot be read ({type(exc).__name__})") from None
