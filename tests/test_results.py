@@ -424,3 +424,22 @@ def test_diagnosis_to_pandas_tables():
     assert t["axes"].loc["y"].tolist() == [0.02, 0.6]
     empty = DiagnosisResult({"candidates": [], "findings": [{"check": "x"}]}).to_pandas()
     assert empty["candidates"].shape == (0, 9) and empty["axes"].empty
+
+
+def test_saving_from_a_session_with_pyplot_keeps_its_backend_and_figures(mission, tmp_path):
+    """A notebook has pyplot loaded with its own backend: writing the CLI's figures must not switch it to Agg
+    (switching closes every open figure of the session)."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    before = matplotlib.get_backend()
+    plt.switch_backend("svg")  # a non-interactive stand-in for a notebook's inline backend
+    try:
+        mine = plt.figure()
+        mission.save(tmp_path / "from-a-session")
+        assert plt.fignum_exists(mine.number)
+        assert matplotlib.get_backend() == "svg"
+        assert (tmp_path / "from-a-session" / "navigation_error.png").is_file()
+    finally:
+        plt.close("all")
+        plt.switch_backend(before)

@@ -92,11 +92,15 @@ def symlog_threshold(values, quantile: float = 0.5, floor: float = 1e-12) -> flo
 
 
 def _pyplot(headless: bool = True):
-    """pyplot; ``headless`` (figures written to files) selects Agg, otherwise the session's own backend
-    (a notebook's inline one) is kept."""
+    """pyplot; ``headless`` (figures written to files) selects Agg when pyplot is not loaded yet (a command
+    line run opens no window). A session that already has pyplot (a notebook, whose inline backend shows
+    the figures :meth:`sins_sim.jobs.results.MissionResult.plot` returns) keeps its backend: switching it
+    would close the session's open figures."""
+    import sys
+
     import matplotlib
 
-    if headless:
+    if headless and "matplotlib.pyplot" not in sys.modules:
         matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
