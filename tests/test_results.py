@@ -445,3 +445,22 @@ def test_saving_from_a_session_with_pyplot_keeps_its_backend_and_figures(mission
     finally:
         plt.close("all")
         plt.switch_backend(before)
+
+
+def test_load_dispatches_on_the_folders_command(tmp_path):
+    from sins_sim.jobs.manifest import Manifest
+    from sins_sim.jobs.results import BudgetResult
+
+    b = _budget()
+    folder = tmp_path / "budget"
+    folder.mkdir()
+    (folder / "budget.json").write_text(json.dumps(b))
+    Manifest("budget").write(folder)
+    back = sins_sim.load(folder)
+    assert isinstance(back, BudgetResult) and back == b
+    pd.testing.assert_frame_equal(back.to_pandas(), b.to_pandas())
+    other = tmp_path / "channel"
+    other.mkdir()
+    Manifest("channel").write(other)
+    with pytest.raises(ConfigError, match="holds a 'sins-sim channel' result, not a run, budget or sweep"):
+        sins_sim.load(other)

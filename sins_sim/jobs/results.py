@@ -497,8 +497,10 @@ def run(scenario, *, seed: int | None = None, duration_s: float | None = None, i
     return MissionResult(sc, metrics, res, source=source, overrides=overrides, manifest=manifest)
 
 
-def load(folder) -> MissionResult:
-    """A :class:`MissionResult` from a ``sins-sim run`` folder (or one :meth:`MissionResult.save` wrote).
+def load(folder):
+    """A result folder as its object: a :class:`MissionResult` from a ``sins-sim run`` folder (or one
+    :meth:`MissionResult.save` wrote); a :class:`BudgetResult` from a ``sins-sim budget`` folder and a
+    :class:`SweepResult` from a ``sins-sim sweep`` folder (by the command in its ``manifest.json``).
 
     Restored: :attr:`~MissionResult.metrics` (``metrics.json``), the stored series (``timeseries.npz``),
     hence :meth:`~MissionResult.to_pandas`, :meth:`~MissionResult.to_xarray` and every figure but
@@ -518,8 +520,13 @@ def load(folder) -> MissionResult:
 
     folder = Path(folder)
     doc = read_manifest(folder, "load")
+    if doc.get("command") == "budget":
+        return BudgetResult.from_folder(folder)
+    if doc.get("command") == "sweep":
+        return SweepResult.from_folder(folder)
     if doc.get("command") != "run":
-        raise ConfigError(f"load: {folder} holds a 'sins-sim {doc.get('command')}' result, not a run")
+        raise ConfigError(f"load: {folder} holds a 'sins-sim {doc.get('command')}' result, not a run, budget "
+                          "or sweep")
     try:
         metrics = json.loads((folder / "metrics.json").read_text())
     except (OSError, ValueError) as exc:
