@@ -38,7 +38,9 @@ Public API (imported lazily, so ``import sins_sim`` stays light and never loads 
   :class:`Eliminator`, :class:`EliminatorDesign`;
 * the physics: :class:`SuspensionParams`, :data:`PAPER_SUSPENSION`;
 * navigation: :class:`StrapdownNavigator`;
-* configuration: :func:`load_imu`, :func:`load_scenario`, :func:`run_scenario`.
+* configuration: :func:`load_imu`, :func:`load_scenario` (a file or a dict), :func:`run_scenario`;
+* notebooks: :func:`run` (a scenario file, dict or object -> :class:`MissionResult` with tables,
+  figures and ``save``), :func:`load` (a result folder -> :class:`MissionResult`).
 """
 
 from __future__ import annotations
@@ -65,6 +67,9 @@ _API = {
     "load_imu": "sins_sim.jobs.imu",
     "load_scenario": "sins_sim.jobs.scenario",
     "run_scenario": "sins_sim.jobs.run",
+    "run": "sins_sim.jobs.results",
+    "load": "sins_sim.jobs.results",
+    "MissionResult": "sins_sim.jobs.results",
 }
 
 __all__ = sorted(_API) + ["__version__"]

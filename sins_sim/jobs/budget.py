@@ -216,8 +216,8 @@ def run_budget(path, out_dir, overrides: dict | None = None, workers: int = 2, p
 
     Returns
     -------
-    dict
-        The content of ``budget.json``.
+    BudgetResult
+        The content of ``budget.json`` (a dict, with ``to_pandas()`` and ``plot()``).
     """
     from sins_sim.jobs.scenario import load_scenario
 
@@ -240,7 +240,9 @@ def run_budget(path, out_dir, overrides: dict | None = None, workers: int = 2, p
 
     plot_budget(budget, out / "budget.png", f"{sc.name}: error budget after {sc.duration_s:g} s")
     (out / "report.md").write_text(_report(budget))
-    return budget
+    from sins_sim.jobs.results import BudgetResult
+
+    return BudgetResult(budget)
 
 
 def _run_tasks(path, overrides, tasks: dict, workers: int, progress) -> dict:

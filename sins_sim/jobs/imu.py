@@ -310,14 +310,16 @@ def _with_filter_parameters(channels, fspec, c, ctx, where, base_dir):
     return out
 
 
-def load_imu(path) -> ImuConfig:
-    """Load and validate an IMU file (``configs/*.yaml``).
+def load_imu(source) -> ImuConfig:
+    """Load and validate an IMU file (``configs/*.yaml``) or the same content as a mapping.
 
     Parameters
     ----------
-    path : path
+    source : path or mapping
         The YAML file: suspension, drive, plant, readout, filters and per-axis channels (the keys
-        carry their units; see ``configs/default-imu.yaml``).
+        carry their units; see ``configs/default-imu.yaml``); or a dict with the same keys (a
+        notebook needs no file), validated the same way, its relative paths (a diagnosis file)
+        taken from the working directory.
 
     Returns
     -------
@@ -326,10 +328,19 @@ def load_imu(path) -> ImuConfig:
     Raises
     ------
     ConfigError
-        One line naming the file, the key path and the rule.
+        One line naming the file (``IMU (dict)`` for a mapping), the key path and the rule.
     """
+    from collections.abc import Mapping
     from pathlib import Path
 
-    return imu_from_dict(load_yaml(path), str(path), base_dir=Path(path).parent)
+    if isinstance(source, Mapping):
+        import copy
+
+        return imu_from_dict(copy.deepcopy(dict(source)), IMU_DICT_CONTEXT, base_dir=Path.cwd())
+    if not isinstance(source, (str, Path)):
+        raise ConfigError(f"load_imu: expected a path or a mapping, got {type(source).__name__}")
+    return imu_from_dict(load_yaml(source), str(source), base_dir=Path(source).parent)
 
 
+#: How configuration errors name an IMU given as a mapping.
+IMU_DICT_CONTEXT = "IMU (dict)"

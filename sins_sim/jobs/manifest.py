@@ -146,20 +146,29 @@ class Manifest:
         self._t0 = time.perf_counter()
         self._times0 = os.times()
         self.written_to: set = set()
+        self.clock_stopped = False
 
     def add_input(self, role: str, path, **extra) -> None:
         """Record a file the job read: its absolute path and SHA-256 (plus ``extra`` keys)."""
         p = Path(path)
         self.doc["inputs"][role] = {"path": str(p.resolve()), "sha256": sha256_file(p), **extra}
 
-    def write(self, folder) -> Path:
-        """Finish the timings, hash the folder's files and write ``manifest.json`` there."""
-        folder = Path(folder)
+    def stop_clock(self) -> None:
+        """Finish the timings now, for a job computed in memory and written later (a notebook's
+        :meth:`~sins_sim.jobs.results.MissionResult.save`): its wall time is the run's, not the session's."""
         t = os.times()
         self.doc.update(finished_utc=_utc_now(), wall_s=time.perf_counter() - self._t0,
                         cpu_s=(t.user - self._times0.user) + (t.system - self._times0.system),
                         cpu_children_s=(t.children_user - self._times0.children_user)
                         + (t.children_system - self._times0.children_system))
+        self.clock_stopped = True
+
+    def write(self, folder) -> Path:
+        """Finish the timings (unless :meth:`stop_clock` did), hash the folder's files and write ``manifest.json``."""
+        folder = Path(folder)
+        if not self.clock_stopped:
+            self.stop_clock()
+            self.clock_stopped = False
         outputs = {}
         for p in sorted(folder.rglob("*")):
             rel = p.relative_to(folder).as_posix()
@@ -268,15 +277,19 @@ def _filter_parameters_doc(value) -> dict:
     return out
 
 
-def resolve_run_inputs(path, overrides: dict | None = None) -> dict:
+def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> dict:
     """The scenario and IMU as run (every default written out) and the files they name.
 
     Parameters
     ----------
-    path : path
-        The scenario file (already validated by :func:`sins_sim.jobs.scenario.load_scenario`).
+    path : path or mapping
+        The scenario file, or the scenario as a mapping (already validated by
+        :func:`sins_sim.jobs.scenario.load_scenario`).
     overrides : dict, optional
         The command line's replacements.
+    base_dir : path, optional
+        Where the scenario's relative paths are taken from (default: the file's folder, or the working
+        directory for a mapping).
 
     Returns
     -------
@@ -289,10 +302,16 @@ def resolve_run_inputs(path, overrides: dict | None = None) -> dict:
     from sins_sim.jobs.scenario import SCENARIO_SCHEMA, scenario_document
     from sins_sim.jobs.schema import fill_defaults
 
-    path = Path(path)
-    base = path.parent
+    from collections.abc import Mapping
+
+    if isinstance(path, Mapping):  # no scenario file: inputs/scenario.yaml is the only copy
+        base = Path(base_dir) if base_dir is not None else Path.cwd()
+        files = {}
+    else:
+        path = Path(path)
+        base = Path(base_dir) if base_dir is not None else path.parent
+        files = {"scenario": path}
     doc = dict(scenario_document(path, overrides))
-    files = {"scenario": path}
     imu = doc.get("imu")
     if isinstance(imu, str):
         imu_path = (base / imu).resolve()
@@ -347,10 +366,14 @@ def record_scenario(manifest: Manifest, path, overrides: dict | None = None) -> 
 
 
 def record_run(manifest: Manifest, scenario, path, overrides: dict | None, folder) -> None:
-    """Write ``inputs/`` into a run's folder and the run's part of the manifest (module docstring)."""
+    """Write ``inputs/`` into a run's folder and the run's part of the manifest (module docstring).
+
+    ``path`` is the scenario file or, for a scenario given as a mapping, that mapping (its relative
+    paths taken from ``scenario.base_dir``).
+    """
     from sins_sim.jobs.filter_params import filters_used
 
-    res = resolve_run_inputs(path, overrides)
+    res = resolve_run_inputs(path, overrides, getattr(scenario, "base_dir", None))
     inputs = Path(folder) / INPUTS
     inputs.mkdir(parents=True, exist_ok=True)
     note = "written by sins-sim run: the {} as run, every default filled in (sins-sim run --rerun reads it)"

@@ -381,6 +381,11 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
         Catalogue effects to try (default all).
     threads : int, optional
         Worker threads of the diagnosis (default ``DiagnoseSettings``'s: the cores it may use).
+
+    Returns
+    -------
+    DiagnosisResult
+        The JSON as a dict, with ``to_pandas()`` (:class:`sins_sim.jobs.results.DiagnosisResult`).
     """
     from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording, write_report
 
@@ -388,16 +393,18 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
     settings = DiagnoseSettings(effects=tuple(effects) if effects else None)
     if threads is not None:
         settings = replace(settings, threads=int(threads))
+    from sins_sim.jobs.results import DiagnosisResult
+
     diag = diagnose_recording(rec, settings)
     if report_dir is not None:
-        return write_report(diag, report_dir, json_out)
+        return DiagnosisResult(write_report(diag, report_dir, json_out))
     js = diag.to_json()
     if json_out is not None:
         import json
 
         Path(json_out).parent.mkdir(parents=True, exist_ok=True)
         Path(json_out).write_text(json.dumps(js, indent=2) + "\n")
-    return js
+    return DiagnosisResult(js)
 
 
 def _diagnose_task(task) -> dict:

@@ -29,7 +29,7 @@ import numpy as np
 
 from sins_sim.units import ARCMIN, ARCSEC
 
-__all__ = ["run_scenario", "scenario_metrics", "excess_over_ideal", "NMI_M", "CEP_RATE_MIN_S", "DEFINITIONS"]
+__all__ = ["run_scenario", "prepare_run", "compute_run", "write_run", "timeseries_arrays", "scenario_metrics", "excess_over_ideal", "NMI_M", "CEP_RATE_MIN_S", "DEFINITIONS"]
 
 #: One international nautical mile (m).
 NMI_M = 1852.0
@@ -166,10 +166,14 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
                  manifest=None) -> dict:
     """Run a scenario file end to end; write the results into ``out_dir``; return the metrics.
 
+    The steps are :func:`prepare_run` (validate), :func:`compute_run` (the engine and the metrics, in
+    memory) and :func:`write_run` (the folder); :func:`sins_sim.jobs.results.run` does the first two
+    for a notebook and :meth:`~sins_sim.jobs.results.MissionResult.save` the last.
+
     Parameters
     ----------
-    path : path
-        The scenario YAML.
+    path : path or mapping
+        The scenario YAML (or its content as a dict).
     out_dir : path
         Folder for the results (created).
     progress : callable(fraction) or None
@@ -181,31 +185,60 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
         The command's manifest (default: one without a command line); completed and written into
         ``out_dir`` with ``inputs/``.
     """
-    from sins_sim.jobs import advisories
     from sins_sim.jobs.manifest import Manifest, record_run
-    from sins_sim.jobs.messages import warning_text
-    from sins_sim.jobs.scenario import load_scenario
 
     if manifest is None:
         manifest = Manifest("run", settings={"overrides": dict(overrides or {})})
+    scenario, config_warnings = prepare_run(path, overrides, progress)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    record_run(manifest, scenario, path, overrides, out)  # before the engine: a missing input copy fails now
+    res, metrics = compute_run(scenario, config_warnings, progress, threads)
+    write_run(out, scenario, res, metrics, manifest)
+    return metrics
+
+
+def prepare_run(source, overrides: dict | None = None, progress=None, base_dir=None):
+    """The scenario validated and checked to finish (:func:`sins_sim.jobs.estimate.check_run`).
+
+    Configuration-time warnings are told now (through ``progress.advise`` where the CLI gives one, else as
+    one :class:`UserWarning` each) and returned, for ``metrics.json``.
+
+    ``base_dir`` is where a mapping's relative paths are taken from (default: the working directory).
+
+    Returns
+    -------
+    (Scenario, list of str)
+    """
+    from sins_sim.jobs.messages import warning_text
+    from sins_sim.jobs.scenario import load_scenario
 
     with warnings.catch_warnings(record=True) as caught:  # configuration-time warnings: told now, kept for metrics
-        scenario = load_scenario(path, overrides)
+        warnings.simplefilter("always")
+        scenario = load_scenario(source, overrides, base_dir=base_dir)
     config_warnings = list(dict.fromkeys(t for t in map(warning_text, caught) if t))
     advise = getattr(progress, "advise", None)
     for text in config_warnings:
         if advise is not None:  # the CLI prints it now, before the engine runs
             advise(text)
         else:
-            warnings.warn(text, UserWarning, stacklevel=2)
+            warnings.warn(text, UserWarning, stacklevel=3)
     from sins_sim.jobs.estimate import check_run
 
     check_run(scenario, progress)  # refuse a run that cannot finish, before the engine starts (issue 12, point 3)
+    return scenario, config_warnings
+
+
+def compute_run(scenario, config_warnings=(), progress=None, threads: int | None = None):
+    """The engine on a validated scenario and the run's metrics (the content of ``metrics.json``), in memory.
+
+    Returns
+    -------
+    (SinsResult, dict)
+    """
+    from sins_sim.jobs import advisories
     from sins_sim.simulation.sins import simulate_sins  # the engine, once the scenario is known to be valid
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    record_run(manifest, scenario, path, overrides, out)
     res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
                         filters=scenario.filters, progress=progress, threads=threads, vehicle=scenario.vehicle,
                         translation=scenario.translation)
@@ -234,13 +267,26 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
         "warnings": list(dict.fromkeys([*config_warnings, *res.warnings,
                                         *advisories.drive_advisories(res.drives, scenario.imu, scenario.duration_s)])),
     }
+    return res, metrics
+
+
+def timeseries_arrays(res) -> dict:
+    """The arrays of ``timeseries.npz``: ``truth_<key>``, ``<filter>__<key>`` and ``gyro_error_<filter>`` / ``_t``."""
+    arrays = {f"truth_{k}": val for k, val in res.truth_series.items()}
+    for name, ser in res.series.items():
+        arrays.update({f"{name}__{k}": val for k, val in ser.items()})
+    arrays.update({f"gyro_error_{k}": val for k, val in res.spectra.items()})
+    return arrays
+
+
+def write_run(out, scenario, res, metrics: dict, manifest) -> list:
+    """Write a computed run into folder ``out`` (``inputs/`` already recorded by
+    :func:`sins_sim.jobs.manifest.record_run`): ``metrics.json``, ``timeseries.npz``, the figures,
+    ``report.md`` and ``manifest.json``. Returns the figures' file names."""
+    out = Path(out)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False, default=_json_default) + "\n")
     if scenario.outputs["timeseries"]:
-        arrays = {f"truth_{k}": val for k, val in res.truth_series.items()}
-        for name, ser in res.series.items():
-            arrays.update({f"{name}__{k}": val for k, val in ser.items()})
-        arrays.update({f"gyro_error_{k}": val for k, val in res.spectra.items()})
-        np.savez_compressed(out / "timeseries.npz", **arrays)
+        np.savez_compressed(out / "timeseries.npz", **timeseries_arrays(res))
     figures = []
     if scenario.outputs["plots"]:
         from sins_sim.plots import navigation as pn
@@ -249,7 +295,7 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
     (out / "report.md").write_text(_report(scenario, metrics, figures,
                                            _filter_parameters_report(manifest.doc["run"]["filter_parameters"])))
     manifest.write(out)
-    return metrics
+    return figures
 
 
 def _filter_parameters_report(fp: dict) -> str:

@@ -360,6 +360,11 @@ class Scenario:
         from sins_sim.simulation.sins import NavSettings
 
         self.ctx = ctx
+        #: the mapping validated (overrides applied) and the folder its relative paths are taken from
+        self.document = doc
+        self.base_dir = Path(base_dir)
+        #: the scenario file (set by :func:`load_scenario`; None for a mapping)
+        self.path = None
         self.name = c["name"]
         self.description = c["description"]
         self.seed = int(c["seed"])
@@ -652,28 +657,67 @@ def _events(motion_spec, vehicle):
     return out
 
 
-def load_scenario(path, overrides: dict | None = None) -> Scenario:
-    """Read and validate a scenario file (errors name the file, the key path and the rule).
+def load_scenario(source, overrides: dict | None = None, base_dir=None) -> Scenario:
+    """Read and validate a scenario file or mapping (errors name the file, the key path and the rule).
 
-    ``overrides`` replaces top-level keys before validation (``{"seed": 3, "duration_s": 60}``,
-    from the command line), so an override is checked like the file's own value: ``seed``,
-    ``duration_s``, ``filter_parameters`` and ``imu`` (a path, taken relative to the working
-    directory like any command-line path, or a mapping).
+    Parameters
+    ----------
+    source : path or mapping
+        The scenario YAML, or a dict with the same keys and values (a notebook needs no file), validated
+        exactly like a file; its errors name ``scenario (dict)`` and the key, and its relative paths
+        (``imu``, ``trajectory.file``) are taken from the working directory.
+    overrides : dict, optional
+        Replaces top-level keys before validation (``{"seed": 3, "duration_s": 60}``, from the command
+        line), so an override is checked like the file's own value: ``seed``, ``duration_s``,
+        ``filter_parameters`` and ``imu`` (a path, taken relative to the working directory like any
+        command-line path, or a mapping).
+    base_dir : path, optional
+        For a mapping: where its relative paths are taken from (default: the working directory).
+
+    Returns
+    -------
+    Scenario
+        With :attr:`Scenario.document` (the mapping validated, overrides applied), :attr:`Scenario.base_dir`
+        and :attr:`Scenario.path` (the file, None for a mapping).
     """
-    path = Path(path)
+    from collections.abc import Mapping
+
     key = "--duration" if overrides and "duration_s" in overrides else "duration_s"
-    return Scenario(scenario_document(path, overrides), str(path), path.parent, duration_key=key)
+    doc = scenario_document(source, overrides)
+    if isinstance(source, Mapping):
+        sc = Scenario(doc, SCENARIO_DICT_CONTEXT, Path(base_dir) if base_dir is not None else Path.cwd(),
+                      duration_key=key)
+        sc.path = None
+    else:
+        path = Path(source)
+        sc = Scenario(doc, str(path), path.parent, duration_key=key)
+        sc.path = path
+    return sc
 
 
-def scenario_document(path, overrides: dict | None = None) -> dict:
-    """The scenario file's mapping with the command line's ``overrides`` applied (not yet validated)."""
-    path = Path(path)
-    doc = load_yaml(path)
+#: How configuration errors name a scenario given as a mapping.
+SCENARIO_DICT_CONTEXT = "scenario (dict)"
+
+
+def scenario_document(source, overrides: dict | None = None) -> dict:
+    """The scenario file's (or mapping's) content with the command line's ``overrides`` applied (not yet validated)."""
+    from collections.abc import Mapping
+
+    if isinstance(source, Mapping):
+        import copy
+
+        where = SCENARIO_DICT_CONTEXT
+        doc = copy.deepcopy(dict(source))  # the caller's dict is never changed
+    elif isinstance(source, (str, Path)):
+        where = Path(source)
+        doc = load_yaml(where)
+    else:
+        raise ConfigError(f"scenario: expected a path, a mapping or a Scenario, got {type(source).__name__}")
     if overrides:
         doc = dict(doc)
         for key, value in overrides.items():
             if key not in OVERRIDABLE:
-                raise ConfigError(f"{path}: {key}: cannot be overridden (allowed: {', '.join(OVERRIDABLE)})")
+                raise ConfigError(f"{where}: {key}: cannot be overridden (allowed: {', '.join(OVERRIDABLE)})")
             if key == "imu" and isinstance(value, (str, Path)):
                 value = str(Path(value).resolve())
             doc[key] = value

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from sins_sim.plots.common import _pyplot, filter_color, filter_label
+from sins_sim.plots.common import _pyplot, filter_color, filter_label, finish_figure
 
 __all__ = ["plot_allan", "plot_allan_filters", "has_curves", "TERM_STYLE"]
 
@@ -145,20 +145,24 @@ def plot_allan(analyses, path, title: str = "") -> None:
     plt.close(fig)
 
 
-def plot_allan_filters(by_filter: dict, path, title: str = "", colors: dict | None = None,
-                       labels: dict | None = None) -> None:
+def plot_allan_filters(by_filter: dict, path=None, title: str = "", colors: dict | None = None,
+                       labels: dict | None = None):
     """The gyro Allan deviation of every filter's output error, one panel per axis, curves overlaid.
 
     Parameters
     ----------
     by_filter : dict
         ``{filter: {"x": AllanAnalysis, "y": ..., "z": ...}}`` (gyro analyses).
-    path : path
-        The image file to write.
+    path : path, optional
+        The image file to write (the figure is then closed); None: the figure is left open.
     title : str
         Figure title.
     colors, labels : dict, optional
         Per filter name (default: the shared map of :mod:`sins_sim.plots.common`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
 
     Notes
     -----
@@ -167,7 +171,7 @@ def plot_allan_filters(by_filter: dict, path, title: str = "", colors: dict | No
     filters that sit above it at short tau show their own noise (slope -1: the readout quantum
     amplified by the filter) before they meet it.
     """
-    plt = _pyplot()
+    plt = _pyplot(headless=path is not None)
     colors, labels = colors or {}, labels or {}
     color_of = lambda n: colors.get(n) or filter_color(n)  # noqa: E731
     label_of = lambda n: labels.get(n) or filter_label(n)  # noqa: E731
@@ -199,5 +203,4 @@ def plot_allan_filters(by_filter: dict, path, title: str = "", colors: dict | No
     axs[0].set_ylabel("Allan deviation (deg/h)")
     if title:
         fig.suptitle(title)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return finish_figure(fig, path, dpi=120)

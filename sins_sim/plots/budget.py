@@ -8,20 +8,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from sins_sim.plots.common import _pyplot, filter_color, filter_label
+from sins_sim.plots.common import _pyplot, filter_color, filter_label, finish_figure
 
 __all__ = ["plot_budget"]
 
 
-def plot_budget(budget: dict, path, title: str = "") -> None:
+def plot_budget(budget: dict, path=None, title: str = ""):
     """Horizontal bars: rows are the sources (plus total, floor and remainder), one bar per filter.
 
     Two panels: the final horizontal position error (m) and the final attitude error (arcsec).
     The axis is logarithmic because shares span decades; a share of zero (a source that does not
     touch a filter, e.g. the dither residual of the ideal increments) is drawn as no bar and
-    marked "0" at the axis.
+    marked "0" at the axis. Returns the Figure: written to ``path`` and closed when given, else left open.
     """
-    plt = _pyplot()
+    plt = _pyplot(headless=path is not None)
     filters = [f for f in budget["filters"] if budget["total"].get(f)]
     rows = [("total", budget["total"])] + list(budget["sources"].items()) + [
         ("floor (no source)", budget["floor"]), ("remainder", budget["remainder"])]
@@ -54,5 +54,4 @@ def plot_budget(budget: dict, path, title: str = "") -> None:
     fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(handles)), fontsize=8, frameon=False)
     if title:
         fig.suptitle(title)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return finish_figure(fig, path, dpi=120)

@@ -91,13 +91,30 @@ def symlog_threshold(values, quantile: float = 0.5, floor: float = 1e-12) -> flo
     return float(10.0 ** np.floor(np.log10(np.quantile(a, quantile))))
 
 
-def _pyplot():
+def _pyplot(headless: bool = True):
+    """pyplot; ``headless`` (figures written to files) selects Agg when pyplot is not loaded yet (a command
+    line run opens no window). A session that already has pyplot (a notebook, whose inline backend shows
+    the figures :meth:`sins_sim.jobs.results.MissionResult.plot` returns) keeps its backend: switching it
+    would close the session's open figures."""
+    import sys
+
     import matplotlib
 
-    matplotlib.use("Agg", force=False)
+    if headless and "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def finish_figure(fig, path, dpi: int = 110):
+    """Write ``fig`` to ``path`` and close it, or, with ``path`` None, leave it open for the caller; returns it."""
+    if path is not None:
+        import matplotlib.pyplot as plt
+
+        fig.savefig(path, dpi=dpi)
+        plt.close(fig)
+    return fig
 
 
 def plot_channel(result, path, window_s: float = 0.03, settle_s: float = 0.0, title: str = "") -> None:

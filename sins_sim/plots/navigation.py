@@ -4,7 +4,9 @@ The stored series are block means with their min/max envelope (see
 :mod:`sins_sim.simulation.metrics`): lines show the means, light bands behind them the envelopes in
 the same colour, so nothing between two stored samples is hidden or aliased. Colours and labels
 come from :mod:`sins_sim.plots.common` (one map for every figure); a figure without data is not
-written.
+written. Every ``plot_*`` function returns its matplotlib Figure: given a ``path`` it writes the
+figure there and closes it (the CLI), without one it leaves it open (a notebook,
+:meth:`sins_sim.jobs.results.MissionResult.plot`).
 """
 
 from __future__ import annotations
@@ -14,10 +16,10 @@ import math
 import numpy as np
 
 from sins_sim.plots.common import (ENVELOPE_ALPHA, draw_envelope, filter_color, filter_label, line_style,
-                                   _pyplot, symlog_threshold)
+                                   _pyplot, finish_figure, symlog_threshold)
 from sins_sim.units import ARCSEC
 
-__all__ = ["plot_run", "plot_navigation_error", "plot_attitude_error", "plot_trajectory", "plot_gyro_error_spectrum",
+__all__ = ["plot_run", "run_figure", "available_figures", "plot_navigation_error", "plot_attitude_error", "plot_trajectory", "plot_gyro_error_spectrum",
            "spectrum_settings", "RUN_FIGURES"]
 
 #: Every figure ``sins-sim run`` can write, in the order written; each only when it has data.
@@ -72,31 +74,69 @@ def spectrum_settings(res) -> dict | None:
             "t1_s": float(t[-1] + 1.0 / fs), "span_s": t.size / fs}
 
 
-def plot_run(res, out, name: str) -> list:
-    """The figures of a run that have data, into folder ``out``; returns their file names.
+def _gyro_allan(res) -> dict:
+    """The filters' gyro Allan analyses of ``res`` (not the accelerometers'), or {}."""
+    return {n: a for n, a in (getattr(res, "allan", None) or {}).items() if n in res.filters}
 
-    A figure without data is not written (e.g. ``filters: [ideal]`` has no gyro-error spectrum:
-    the ideal increments have no error).
+
+def available_figures(res) -> list:
+    """The kinds of :data:`RUN_FIGURES` (file names without ``.png``) that ``res`` has data for, in order.
+
+    A figure without data is not drawn (e.g. ``filters: [ideal]`` has no gyro-error spectrum: the
+    ideal increments have no error; a result read back from a folder has no Allan curves).
     """
-    figs = []
+    kinds = []
     if _drawn(res):
-        plot_navigation_error(res, out / "navigation_error.png", f"{name}: navigation error against truth")
-        plot_attitude_error(res, out / "attitude_error.png", f"{name}: attitude error phi (NED) against truth")
-        plot_trajectory(res, out / "trajectory.png", f"{name}: path and horizontal position error")
-        figs += ["navigation_error.png", "attitude_error.png", "trajectory.png"]
+        kinds += ["navigation_error", "attitude_error", "trajectory"]
     if spectrum_settings(res) is not None:
-        plot_gyro_error_spectrum(res, out / "gyro_error_spectrum.png",
-                                 f"{name}: gyro-angle error (output - truth), amplitude spectral density")
-        figs.append("gyro_error_spectrum.png")
-    gyro_allan = {n: a for n, a in getattr(res, "allan", {}).items() if n in res.filters}
+        kinds.append("gyro_error_spectrum")
+    gyro_allan = _gyro_allan(res)
     if gyro_allan:
-        from sins_sim.plots.allan import has_curves, plot_allan_filters
+        from sins_sim.plots.allan import has_curves
 
         if has_curves(gyro_allan):
-            plot_allan_filters(gyro_allan, out / "allan.png",
-                               f"{name}: Allan deviation of each filter's gyro error ({res.allan['record_s']:.4g} s "
-                               f"at {res.allan['rate_hz']:.3g} Hz)")
-            figs.append("allan.png")
+            kinds.append("allan")
+    return kinds
+
+
+def run_figure(res, kind: str, name: str, path=None):
+    """One figure of a run by its kind (a :data:`RUN_FIGURES` name without ``.png``); returns the Figure.
+
+    Parameters
+    ----------
+    res : SinsResult
+        Or anything with its ``series``, ``truth_series``, ``spectra``, ``filters``, ``filter_rate_hz``,
+        ``drives`` and ``allan``.
+    kind : str
+    name : str
+        The scenario's name, for the title.
+    path : path, optional
+        Write the figure there and close it; None (default) leaves it open.
+    """
+    if kind == "navigation_error":
+        return plot_navigation_error(res, path, f"{name}: navigation error against truth")
+    if kind == "attitude_error":
+        return plot_attitude_error(res, path, f"{name}: attitude error phi (NED) against truth")
+    if kind == "trajectory":
+        return plot_trajectory(res, path, f"{name}: path and horizontal position error")
+    if kind == "gyro_error_spectrum":
+        return plot_gyro_error_spectrum(res, path,
+                                        f"{name}: gyro-angle error (output - truth), amplitude spectral density")
+    if kind == "allan":
+        from sins_sim.plots.allan import plot_allan_filters
+
+        return plot_allan_filters(_gyro_allan(res), path,
+                                  f"{name}: Allan deviation of each filter's gyro error ({res.allan['record_s']:.4g} s "
+                                  f"at {res.allan['rate_hz']:.3g} Hz)")
+    raise ValueError(f"unknown figure {kind!r}: one of {[k[:-4] for k in RUN_FIGURES]}")
+
+
+def plot_run(res, out, name: str) -> list:
+    """The figures of a run that have data (:func:`available_figures`), into folder ``out``; returns their file names."""
+    figs = []
+    for kind in available_figures(res):
+        run_figure(res, kind, name, out / f"{kind}.png")
+        figs.append(f"{kind}.png")
     return figs
 
 
@@ -117,12 +157,12 @@ def _legend_below(fig, axes, extra: str = "") -> None:
     fig.legend(handles, labels, loc="outside lower center", ncol=min(3, len(handles)), fontsize=8, frameon=False)
 
 
-def plot_navigation_error(res, path, title: str = "") -> None:
+def plot_navigation_error(res, path=None, title: str = ""):
     """Horizontal position error (log), height error (symmetric log) and velocity error (log) per filter.
 
     Lines are the means over each stored interval, bands (light, behind) the min/max within it.
     """
-    plt = _pyplot()
+    plt = _pyplot(headless=path is not None)
     fig, axes = plt.subplots(3, 1, figsize=(10, 10), sharex=True, layout="constrained")
     names = _drawn(res)
     xlabel = "time (s)"
@@ -150,18 +190,17 @@ def plot_navigation_error(res, path, title: str = "") -> None:
         ax.grid(True, which="major", alpha=0.3)
     axes[0].set_title(title + "\n(lines: means over each stored interval)", fontsize=10)
     _legend_below(fig, axes[:1])
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return finish_figure(fig, path)
 
 
-def plot_attitude_error(res, path, title: str = "") -> None:
+def plot_attitude_error(res, path=None, title: str = ""):
     """Attitude error phi about north, east and down against time, per filter, in arcsec.
 
     phi is the rotation vector of q_est (x) q_true*: the misalignment of the computed NED frame against
     the true NED frame at the true position, per NED axis. The axis is symmetric-logarithmic with its
     linear half-width taken from the data (:func:`sins_sim.plots.common.symlog_threshold`), and says so.
     """
-    plt = _pyplot()
+    plt = _pyplot(headless=path is not None)
     fig, axes = plt.subplots(3, 1, figsize=(10, 10), sharex=True, layout="constrained")
     hidden = ""
     if "raw" in res.series and res.series["raw"]["t_s"].size:
@@ -187,8 +226,7 @@ def plot_attitude_error(res, path, title: str = "") -> None:
                       f"one\n(symmetric log scale: linear within +-{lin:g} arcsec, logarithmic outside; "
                       f"lines: means over each stored interval)", fontsize=10)
     _legend_below(fig, axes[:1], hidden)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return finish_figure(fig, path)
 
 
 def _length_unit(extent_m: float):
@@ -199,13 +237,13 @@ def _length_unit(extent_m: float):
     return "nm", 1e-9
 
 
-def plot_trajectory(res, path, title: str = "") -> None:
+def plot_trajectory(res, path=None, title: str = ""):
     """Left: the true path (north/east of the start); right: each filter's horizontal error track in its own panel.
 
     Every panel keeps the geometry: linear axes with equal aspect, the unit chosen per panel (stated on
     its axes) because the filters' errors differ by decades.
     """
-    plt = _pyplot()
+    plt = _pyplot(headless=path is not None)
     from sins_sim import earth
 
     names = _drawn(res)
@@ -247,17 +285,16 @@ def plot_trajectory(res, path, title: str = "") -> None:
         ax.grid(True, alpha=0.3)
     fig.suptitle(title + "\nright: each filter's position minus truth from the navigation start (dot) to the end "
                  "(square), equal scales, unit per panel", fontsize=10)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return finish_figure(fig, path)
 
 
-def plot_gyro_error_spectrum(res, path, title: str = "") -> None:
+def plot_gyro_error_spectrum(res, path=None, title: str = ""):
     """Amplitude spectral density of each filter's gyro-angle error, per axis (arcsec/sqrt(Hz)).
 
     Welch's method (Hann window, 50 % overlap, linear detrend, one-sided density) over the stored
     full-rate record; the window length and the time span analysed are stated on the figure.
     """
-    plt = _pyplot()
+    plt = _pyplot(headless=path is not None)
     from scipy import signal
 
     cfg = spectrum_settings(res)
@@ -288,5 +325,4 @@ def plot_gyro_error_spectrum(res, path, title: str = "") -> None:
                       f"{cfg['t1_s']:.4g} s, {cfg['span_s']:.3g} s at {fs:g} Hz)", fontsize=10)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(handles)), fontsize=8, frameon=False)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return finish_figure(fig, path)

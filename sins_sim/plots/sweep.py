@@ -15,7 +15,7 @@ import textwrap
 
 import numpy as np
 
-from sins_sim.plots.common import FILTER_LABELS, _pyplot, filter_color
+from sins_sim.plots.common import FILTER_LABELS, _pyplot, filter_color, finish_figure
 
 __all__ = ["plot_distributions", "plot_sensitivity"]
 
@@ -27,11 +27,12 @@ def _positive(x):
     return x[np.isfinite(x) & (x > 0.0)]
 
 
-def plot_distributions(table, metrics: dict, filters, scenarios, path, title: str = "", p95_min_n: int = 1) -> bool:
+def plot_distributions(table, metrics: dict, filters, scenarios, path=None, title: str = "", p95_min_n: int = 1):
     """ECDF of each metric per filter; ``metrics`` maps a metric column suffix to its axis label (units).
 
     The 95th percentile is marked where a filter has at least ``p95_min_n`` values (the sample size that
-    supports it). Returns False (and writes nothing) when no metric has a positive finite value.
+    supports it). Returns the Figure (written to ``path`` and closed when given, else left open), or None
+    (and writes nothing) when no metric has a positive finite value.
     """
     panels = []
     for sc in scenarios:
@@ -40,11 +41,11 @@ def plot_distributions(table, metrics: dict, filters, scenarios, path, title: st
             if any(_positive(sub.get(f"{f}.{metric}", [])).size for f in filters):
                 panels.append((sc, metric, label, sub))
     if not panels:
-        return False
+        return None
     cols = len({m for _, m, _, _ in panels})
     metric_cols = [m for m in metrics if any(m == pm for _, pm, _, _ in panels)]
     rows = [sc for sc in scenarios if any(sc == ps for ps, _, _, _ in panels)]
-    plt = _pyplot()
+    plt = _pyplot(headless=path is not None)
     fig, axes = plt.subplots(len(rows), cols, figsize=(4.6 * cols, 3.6 * len(rows)), squeeze=False,
                              constrained_layout=True)
     for ax in axes.flat:
@@ -84,9 +85,7 @@ def plot_distributions(table, metrics: dict, filters, scenarios, path, title: st
                ncol=min(len(handles), 5), fontsize=8)
     dots = "dots: 95th percentile" + (f", where n >= {p95_min_n}" if p95_min_n > 1 else "")
     fig.suptitle(f"{title or 'distribution over the units'} ({dots})")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return True
+    return finish_figure(fig, path)
 
 
 def _driver_title(tests: list) -> str:

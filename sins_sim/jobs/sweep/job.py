@@ -199,8 +199,9 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
 
     Returns
     -------
-    dict
-        ``summary`` (as in ``summary.json``), ``tasks``, ``already_done``, ``computed``, ``failed``
+    SweepResult
+        A dict (with ``to_pandas()``, ``to_xarray()`` and ``plot()``): ``name``, ``summary`` (as in
+        ``summary.json``), ``tasks``, ``already_done``, ``computed``, ``failed``
         (this invocation), ``wall_s`` (the tasks' phase), ``runs_per_s`` and ``files``.
     """
     from sins_sim.jobs.manifest import Manifest
@@ -271,10 +272,13 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
     manifest.doc["sweep"] = {"name": sweep.name, "tasks": len(tasks), "already_done": already, "computed": ok,
                              "failed": failed}
     manifest.write(store.root)  # the folder grows over resumes: the manifest is the last invocation's
-    return {"summary": summary, "tasks": len(tasks), "already_done": already, "computed": ok, "failed": failed,
-            "wall_s": wall, "runs_per_s": (ok + failed) / wall if wall > 0 else None, "files": files,
-            "warned_runs": int((table["warnings"].fillna("") != "").sum()) if len(table) else 0,
-            "table": table}
+    from sins_sim.jobs.results import SweepResult
+
+    return SweepResult({"name": sweep.name, "summary": summary, "tasks": len(tasks), "already_done": already,
+                        "computed": ok, "failed": failed, "wall_s": wall,
+                        "runs_per_s": (ok + failed) / wall if wall > 0 else None, "files": files,
+                        "warned_runs": int((table["warnings"].fillna("") != "").sum()) if len(table) else 0,
+                        "table": table})
 
 
 def _plots(table, labels, store, name, tests) -> list:

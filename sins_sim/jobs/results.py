@@ -1,0 +1,697 @@
+"""A mission as a Python object: :func:`run` in a notebook, :func:`load` of a result folder.
+
+``sins-sim run`` writes a folder; a notebook wants the same run as an object it can show, tabulate
+and plot without a file in between::
+
+    import sins_sim
+    r = sins_sim.run("scenarios/nav-static.yaml", duration_s=60)   # or a dict, or a Scenario
+    r                                  # scenario, duration, per filter the headline errors
+    frames = r.to_pandas()             # time-indexed tables, unit-suffixed columns
+    fig = r.plot("navigation_error")   # the CLI's figure, returned instead of written
+    r.save("out/static")               # exactly what `sins-sim run --out out/static` writes
+    r2 = sins_sim.load("out/static")
+
+:class:`MissionResult` holds the scenario, the metrics (the content of ``metrics.json``) and the
+engine's :class:`~sins_sim.simulation.sins.SinsResult`. Its tables come from the same stored series
+as ``timeseries.npz`` (block means with their min/max envelope over each stored interval, never a
+decimated sample) and its figures from the same functions as the CLI's
+(:func:`sins_sim.plots.navigation.run_figure`).
+
+Units: the tables and the Dataset are in engineering units, each column's unit in its name
+(``_m``, ``_m_s``, ``_arcsec``, ``_deg``) and each variable's in its ``units`` attribute; the
+:attr:`MissionResult.result` underneath is SI and rad, like the engine.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from sins_sim.jobs.schema import ConfigError
+from sins_sim.units import ARCSEC
+
+__all__ = ["MissionResult", "StoredRun", "BudgetResult", "SweepResult", "DiagnosisResult", "run", "load",
+           "FIGURE_KINDS", "SERIES_COLUMNS"]
+
+#: The figures :meth:`MissionResult.plot` draws (the CLI's ``<kind>.png``).
+FIGURE_KINDS = ("navigation_error", "attitude_error", "trajectory", "gyro_error_spectrum", "allan")
+_NED = ("north", "east", "down")
+_BODY = ("x", "y", "z")
+_STATS = ("", "_min", "_max")
+
+#: Stored series (``timeseries.npz`` key after ``<filter>__``) -> (column stems, unit, conversion, what it is).
+#: A column is ``<stem><stat>_<unit>``, stat ``""`` (the mean over the stored interval), ``_min`` or ``_max``.
+SERIES_COLUMNS = {
+    "north_m": (("north",), "m", None, "north position error (computed minus true)"),
+    "east_m": (("east",), "m", None, "east position error (computed minus true)"),
+    "horizontal_m": (("horizontal",), "m", None, "horizontal position error (its magnitude)"),
+    "vertical_m": (("vertical",), "m", None, "height error, up (computed minus true)"),
+    "velocity_ned_m_s": (("vn", "ve", "vd"), "m_s", None, "velocity error, NED (computed minus true)"),
+    "attitude_ned_rad": (tuple(f"phi_{a}" for a in _NED), "arcsec", "arcsec",
+                         "attitude error phi per NED axis (rotation vector of q_est x q_true*)"),
+    "attitude_free_ned_rad": (tuple(f"phi_free_{a}" for a in _NED), "arcsec", "arcsec",
+                              "free attitude error: the filter's gyro-angle error accumulated in NED"),
+    "lat_rad": (("lat",), "deg", "deg", "the filter's solution: latitude"),
+    "lon_rad": (("lon",), "deg", "deg", "the filter's solution: longitude"),
+}
+#: The truth path's stored series -> (column, conversion).
+TRUTH_COLUMNS = {"lat_rad": ("lat_deg", "deg"), "lon_rad": ("lon_deg", "deg"), "h_m": ("h_m", None)}
+#: Keys of :meth:`MissionResult.to_pandas` besides the filters'.
+RESERVED_FRAMES = ("summary", "truth", "gyro_error")
+
+
+def _convert(x, how):
+    """SI to the column's unit: rad -> arcsec or deg (the same operations as the tests' reference)."""
+    x = np.asarray(x, dtype=float)
+    if how == "arcsec":
+        return x / ARCSEC
+    if how == "deg":
+        return np.degrees(x)
+    return x
+
+
+class StoredRun:
+    """What a run folder keeps of a :class:`~sins_sim.simulation.sins.SinsResult` (``timeseries.npz`` and
+    ``metrics.json``): enough for the tables and for every figure but the Allan one.
+
+    Attributes
+    ----------
+    series, truth_series, spectra : dict
+        As in :class:`~sins_sim.simulation.sins.SinsResult` (SI, rad).
+    filters : tuple of str
+    filter_rate_hz, duration_s, nav_start_s : float
+    drives : list of dict
+        From ``metrics.json`` (the measured drives).
+    allan : dict
+        Always empty: the Allan curves are not stored, only their readings (in ``metrics.json``).
+    """
+
+    def __init__(self, arrays: dict, metrics: dict):
+        self.series, self.truth_series, self.spectra = {}, {}, {}
+        for key, val in arrays.items():
+            if "__" in key:
+                name, field = key.split("__", 1)
+                self.series.setdefault(name, {})[field] = val
+            elif key.startswith("truth_"):
+                self.truth_series[key[len("truth_"):]] = val
+            elif key.startswith("gyro_error_"):
+                self.spectra[key[len("gyro_error_"):]] = val
+        nav = metrics["navigation"]
+        self.filters = tuple(metrics["filters"])
+        self.filter_rate_hz = float(nav["update_rate_hz"]) * int(nav["n_sub"])
+        self.duration_s = float(metrics["duration_s"])
+        self.nav_start_s = float(nav["start_s"])
+        self.drives = list(metrics["drives"])
+        self.diverged = dict(metrics.get("diverged") or {})
+        self.allan = {}
+
+
+class MissionResult:
+    """One mission: the scenario, its metrics and the engine's result, with tables, figures and a folder.
+
+    Made by :func:`run` (in memory) or :func:`load` (from a result folder).
+
+    Attributes
+    ----------
+    scenario : Scenario or None
+        The validated scenario (:func:`sins_sim.jobs.scenario.load_scenario`); after :func:`load`, the one of
+        the folder's ``inputs/scenario.yaml`` (None if that no longer validates).
+    metrics : dict
+        The content of ``metrics.json`` (:data:`sins_sim.jobs.run.DEFINITIONS` says what each figure is).
+    result : SinsResult or StoredRun
+        The engine's result (SI, rad); after :func:`load` a :class:`StoredRun`.
+    manifest : dict or None
+        After :func:`load`, the folder's ``manifest.json``; None for a run not yet saved.
+    folder : Path or None
+        Where the result was saved or loaded from.
+    """
+
+    def __init__(self, scenario, metrics: dict, result, *, source=None, overrides=None, manifest=None,
+                 folder=None):
+        self.scenario = scenario
+        self.metrics = metrics
+        self.result = result
+        self._source = source
+        self._overrides = dict(overrides or {})
+        self._manifest = manifest  # a Manifest (in memory, saved by save) or None
+        self.manifest = None
+        self.folder = Path(folder) if folder is not None else None
+
+    # --- what it is --------------------------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        """The scenario's name."""
+        return self.metrics["scenario"]
+
+    @property
+    def duration_s(self) -> float:
+        """The mission length (s)."""
+        return float(self.metrics["duration_s"])
+
+    @property
+    def seed(self) -> int:
+        """The seed every random stream of the run derives from."""
+        return int(self.metrics["seed"])
+
+    @property
+    def filters(self) -> tuple:
+        """The filters compared, in the scenario's order."""
+        return tuple(self.metrics["filters"])
+
+    @property
+    def figures(self) -> list:
+        """The figure kinds this result has data for (:meth:`plot`)."""
+        from sins_sim.plots.navigation import available_figures
+
+        return available_figures(self.result)
+
+    def _headline(self):
+        """Per filter: (name, final horizontal error m, phi RMS N/E/D arcsec, status)."""
+        rows = []
+        for name, m in self.metrics["filters"].items():
+            if "horizontal_position_error_m" not in m:
+                rows.append((name, None, None, m["status"]))
+                continue
+            rms = m["attitude_error_arcsec"]["rms"]
+            rows.append((name, m["horizontal_position_error_m"]["final"], [rms[a] for a in _NED], m["status"]))
+        return rows
+
+    def __repr__(self) -> str:
+        head = (f"MissionResult: scenario '{self.name}', {self.duration_s:g} s, seed {self.seed}, "
+                f"IMU '{self.metrics['imu']}'")
+        width = max([len("filter")] + [len(n) for n in self.filters])
+        lines = [head, f"  {'filter':<{width}}  horizontal final (m)  {'phi RMS N, E, D (arcsec)':<30}  status"]
+        for name, hor, rms, status in self._headline():
+            h = "" if hor is None else f"{hor:.4g}"
+            r = "" if rms is None else ", ".join(f"{x:.3g}" for x in rms)
+            lines.append(f"  {name:<{width}}  {h:>20}  {r:<30}  {status}")
+        if self.metrics.get("warnings"):
+            lines.append(f"  {len(self.metrics['warnings'])} warning(s): .metrics['warnings']")
+        return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        rows = "".join(
+            f"<tr><td>{escape(n)}</td><td>{'' if h is None else f'{h:.4g}'}</td>"
+            f"<td>{'' if r is None else ', '.join(f'{x:.3g}' for x in r)}</td><td>{escape(s)}</td></tr>"
+            for n, h, r, s in self._headline())
+        warn = ""
+        if self.metrics.get("warnings"):
+            warn = "<ul>" + "".join(f"<li>{escape(w)}</li>" for w in self.metrics["warnings"]) + "</ul>"
+        return (f"<div><b>MissionResult</b>: scenario <code>{escape(self.name)}</code>, {self.duration_s:g} s, "
+                f"seed {self.seed}, IMU <code>{escape(str(self.metrics['imu']))}</code>"
+                "<table><thead><tr><th>filter</th><th>horizontal final (m)</th><th>phi RMS N, E, D (arcsec)</th>"
+                f"<th>status</th></tr></thead><tbody>{rows}</tbody></table>{warn}</div>")
+
+    # --- tables ------------------------------------------------------------------------------------------------
+    def summary(self):
+        """One row per filter (index ``filter``): the headline figures of ``metrics.json``.
+
+        Columns: ``status``, ``horizontal_final_m``, ``horizontal_max_m``, ``north_final_m``,
+        ``east_final_m``, ``vertical_final_m``, ``velocity_final_m_s``, ``phi_final_<axis>_arcsec`` and
+        ``phi_rms_<axis>_arcsec`` (NED), ``cep_rate_nmi_h`` and ``excess_over_ideal_m`` (NaN where
+        ``metrics.json`` has null or the filter has no data).
+        """
+        import pandas as pd
+
+        rows = {}
+        for name, m in self.metrics["filters"].items():
+            row = {"status": m["status"]}
+            if "horizontal_position_error_m" in m:
+                hp, att = m["horizontal_position_error_m"], m["attitude_error_arcsec"]
+                exc = m.get("excess_over_ideal")
+                row.update(horizontal_final_m=hp["final"], horizontal_max_m=hp["max"], north_final_m=hp["final_north"],
+                           east_final_m=hp["final_east"], vertical_final_m=m["vertical_position_error_m"]["final"],
+                           velocity_final_m_s=m["velocity_error_m_s"]["final"],
+                           **{f"phi_final_{a}_arcsec": att["final"][a] for a in _NED},
+                           **{f"phi_rms_{a}_arcsec": att["rms"][a] for a in _NED},
+                           cep_rate_nmi_h=m["cep_rate_nmi_h"],
+                           excess_over_ideal_m=exc["horizontal_position_error_final_m"] if exc else None)
+            rows[name] = row
+        df = pd.DataFrame.from_dict(rows, orient="index")
+        df.index.name = "filter"
+        num = [c for c in df.columns if c != "status"]
+        df[num] = df[num].astype(float)
+        return df
+
+    def _series(self):
+        if not getattr(self.result, "truth_series", None) or not self.result.truth_series.get("t_s", np.zeros(0)).size:
+            raise ValueError(f"{self.name}: this result has no stored series (outputs.timeseries was off when it "
+                             "was saved, or the run has no navigation)")
+        return self.result
+
+    def to_pandas(self) -> dict:
+        """The run as pandas tables: a dict of DataFrames.
+
+        Returns
+        -------
+        dict of str -> pandas.DataFrame
+            ``"summary"``
+                :meth:`summary`: one row per filter, the headline figures of ``metrics.json``.
+            ``"truth"``
+                Index ``t_s`` (the stored rate); ``lat_deg``, ``lon_deg``, ``h_m``: the true path.
+            ``<filter>`` (one per filter with a navigation solution, :attr:`filters` order)
+                Index ``t_s``: the centre of each stored interval (from the navigation start; each
+                filter has its own, shifted by its delay, so the filters are separate tables).
+                Columns, each as the mean over the interval and its ``_min`` / ``_max`` envelope
+                (``north_m``, ``north_min_m``, ``north_max_m``, ...): ``north_m``, ``east_m``,
+                ``horizontal_m``, ``vertical_m`` (up) position errors; ``vn_m_s``, ``ve_m_s``,
+                ``vd_m_s`` velocity errors; ``phi_north_arcsec``, ``phi_east_arcsec``,
+                ``phi_down_arcsec`` attitude error phi; ``phi_free_*_arcsec`` the free attitude error;
+                ``lat_deg``, ``lon_deg`` the filter's solution (:data:`SERIES_COLUMNS`).
+            ``"gyro_error"``
+                Index ``t_s`` at the full filter rate over ``navigation.spectrum_s``; columns
+                ``<filter>_<x|y|z>_arcsec``: each filter's gyro-angle error (output minus truth) per
+                body axis. Absent when the run stored none.
+
+        Notes
+        -----
+        Every value is the stored one of ``timeseries.npz`` converted to the column's unit (rad to
+        arcsec by ``/ ARCSEC``, to deg by ``numpy.degrees``); nothing is resampled or interpolated.
+        """
+        import pandas as pd
+
+        res = self._series()
+        out = {"summary": self.summary()}
+        ts = res.truth_series
+        out["truth"] = pd.DataFrame({col: _convert(ts[k], how) for k, (col, how) in TRUTH_COLUMNS.items()},
+                                    index=pd.Index(np.asarray(ts["t_s"], dtype=float), name="t_s"))
+        for name, ser in res.series.items():
+            if name in RESERVED_FRAMES:
+                raise ValueError(f"a filter named {name!r} clashes with the table of that name")
+            cols = {}
+            for key, (stems, unit, how, _) in SERIES_COLUMNS.items():
+                for stat in _STATS:
+                    a = _convert(ser[key + stat], how)
+                    a = a.reshape(a.shape[0], -1)
+                    for i, stem in enumerate(stems):
+                        cols[f"{stem}{stat}_{unit}"] = a[:, i]
+            out[name] = pd.DataFrame(cols, index=pd.Index(np.asarray(ser["t_s"], dtype=float), name="t_s"))
+        sp = res.spectra or {}
+        if sp.get("t") is not None and np.asarray(sp["t"]).size:
+            cols = {}
+            for name, e in sp.items():
+                if name == "t":
+                    continue
+                e = _convert(e, "arcsec")
+                for i, ax in enumerate(_BODY):
+                    cols[f"{name}_{ax}_arcsec"] = e[:, i]
+            out["gyro_error"] = pd.DataFrame(cols, index=pd.Index(np.asarray(sp["t"], dtype=float), name="t_s"))
+        return out
+
+    def configuration(self) -> dict:
+        """The scenario and the IMU as run, every default written out (``run.scenario`` and ``run.imu`` of
+        the manifest; :func:`sins_sim.jobs.manifest.resolve_run_inputs`)."""
+        if self.manifest is not None and "run" in self.manifest:
+            return {"scenario": self.manifest["run"]["scenario"], "imu": self.manifest["run"]["imu"]}
+        from sins_sim.jobs.manifest import resolve_run_inputs
+
+        r = resolve_run_inputs(self._source, self._overrides, getattr(self.scenario, "base_dir", None))
+        return {"scenario": r["scenario"], "imu": r["imu"]}
+
+    def to_xarray(self):
+        """The run as one :class:`xarray.Dataset`.
+
+        Dimensions: ``time`` (the filters' stored intervals; the union of the filters' times, NaN where a
+        filter has no sample), ``filter``, ``axis`` (north, east, down), ``time_truth`` (the truth's
+        stored rate), and, when the run stored gyro-angle errors, ``time_gyro`` (the full filter rate)
+        and ``gyro_axis`` (x, y, z).
+
+        Variables, each with ``units`` and ``long_name``: per :data:`SERIES_COLUMNS` entry a variable named
+        by its stem without the axis (``north``, ``east``, ``horizontal``, ``vertical``, ``velocity``,
+        ``phi``, ``phi_free``, ``lat``, ``lon``), on ``(time, filter)`` or ``(time, filter, axis)``, with
+        ``<name>_min`` and ``<name>_max`` the envelopes; ``truth_lat``, ``truth_lon``, ``truth_h`` on
+        ``time_truth``; ``gyro_error`` on ``(time_gyro, filter, gyro_axis)``; and the headline figures of
+        ``metrics.json`` on ``filter`` (``horizontal_final``, ``horizontal_peak`` (its ``max``: over every
+        navigation update, not only the stored means), ``vertical_final``,
+        ``velocity_final``, ``cep_rate``, ``status``) and ``(filter, axis)`` (``phi_final``, ``phi_rms``).
+
+        Attributes: ``scenario``, ``seed``, ``duration_s``, ``sins_sim_version`` and ``configuration``
+        (JSON text of :meth:`configuration`).
+        """
+        import xarray as xr
+
+        from sins_sim._version import __version__
+
+        res = self._series()
+        per_filter = []
+        names = [n for n in res.series]
+        for name in names:
+            ser = res.series[name]
+            data = {}
+            for key, (stems, unit, how, what) in SERIES_COLUMNS.items():
+                var = {"velocity_ned_m_s": "velocity", "attitude_ned_rad": "phi",
+                       "attitude_free_ned_rad": "phi_free"}.get(key, stems[0])
+                for stat in _STATS:
+                    a = _convert(ser[key + stat], how)
+                    dims = ("time", "axis") if a.ndim == 2 else ("time",)
+                    data[var + stat] = (dims, a, {"units": unit.replace("_", "/"),
+                                                  "long_name": what + {"": " (mean over the stored interval)",
+                                                                       "_min": " (minimum within the interval)",
+                                                                       "_max": " (maximum within the interval)"}[stat]})
+            per_filter.append(xr.Dataset(data, coords={"time": np.asarray(ser["t_s"], dtype=float), "axis": list(_NED)}))
+        ds = xr.Dataset()
+        if per_filter:
+            ds = xr.concat(per_filter, dim="filter", join="outer").assign_coords(filter=np.array(names, dtype=str))
+        ts = res.truth_series
+        for k, (col, how) in TRUTH_COLUMNS.items():
+            stem, unit = col.split("_", 1)
+            ds["truth_" + stem] = xr.DataArray(_convert(ts[k], how), dims=("time_truth",),
+                                               attrs={"units": unit, "long_name": f"true {stem}"})
+        ds = ds.assign_coords(time_truth=np.asarray(ts["t_s"], dtype=float))
+        sp = res.spectra or {}
+        gyro_names = [n for n in sp if n != "t"]
+        if gyro_names and np.asarray(sp["t"]).size:
+            g = np.stack([_convert(sp[n], "arcsec") for n in gyro_names], axis=1)
+            gyro = xr.DataArray(g, dims=("time_gyro", "filter", "gyro_axis"),
+                                coords={"time_gyro": np.asarray(sp["t"], dtype=float), "filter": gyro_names,
+                                        "gyro_axis": list(_BODY)},
+                                attrs={"units": "arcsec", "long_name": "gyro-angle error (output minus truth)"})
+            ds = ds.merge(gyro.to_dataset(name="gyro_error"), join="outer")
+        summ = self.summary().reindex(ds["filter"].values if "filter" in ds.dims else self.filters)
+        scal = {"horizontal_final": ("horizontal_final_m", "m"), "horizontal_peak": ("horizontal_max_m", "m"),
+                "vertical_final": ("vertical_final_m", "m"), "velocity_final": ("velocity_final_m_s", "m/s"),
+                "cep_rate": ("cep_rate_nmi_h", "nmi/h")}
+        for var, (col, unit) in scal.items():
+            if col in summ:
+                ds[var] = xr.DataArray(summ[col].to_numpy(dtype=float), dims=("filter",),
+                                       attrs={"units": unit, "long_name": f"metrics.json: {col}"})
+        for var in ("phi_final", "phi_rms"):
+            cols = [f"{var}_{a}_arcsec" for a in _NED]
+            if all(c in summ for c in cols):
+                ds[var] = xr.DataArray(summ[cols].to_numpy(dtype=float), dims=("filter", "axis"),
+                                       attrs={"units": "arcsec", "long_name": f"metrics.json: attitude error {var}"})
+        ds["status"] = xr.DataArray(summ["status"].astype(str).to_numpy(), dims=("filter",))
+        ds["time"].attrs.update(units="s", long_name="centre of the stored interval")
+        ds["time_truth"].attrs.update(units="s")
+        ds.attrs.update(scenario=self.name, seed=self.seed, duration_s=self.duration_s, sins_sim_version=__version__,
+                        configuration=json.dumps(self.configuration(), default=str))
+        return ds
+
+    # --- figures -----------------------------------------------------------------------------------------------
+    def plot(self, kind: str = "navigation_error"):
+        """One of the CLI's figures of this run, returned (not written): a :class:`matplotlib.figure.Figure`.
+
+        Parameters
+        ----------
+        kind : str
+            One of :data:`FIGURE_KINDS`; :attr:`figures` lists those this run has data for.
+
+        Raises
+        ------
+        ValueError
+            An unknown kind, or one without data in this run (e.g. ``allan`` after :func:`load`: the Allan
+            curves are not stored; ``gyro_error_spectrum`` with ``filters: [ideal]``).
+        """
+        from sins_sim.plots.navigation import run_figure
+
+        if kind not in FIGURE_KINDS:
+            raise ValueError(f"plot: unknown figure {kind!r}; one of {', '.join(FIGURE_KINDS)}")
+        have = self.figures
+        if kind not in have:
+            why = (" (the Allan curves are not stored in a result folder; run it again to draw them)"
+                   if kind == "allan" and isinstance(self.result, StoredRun) else "")
+            raise ValueError(f"plot: {self.name} has no data for the figure {kind!r}{why}; it has: "
+                             f"{', '.join(have) or 'none'}")
+        return run_figure(self.result, kind, self.name)
+
+    # --- the folder --------------------------------------------------------------------------------------------
+    def save(self, folder, force: bool = False) -> Path:
+        """Write the folder ``sins-sim run --out folder`` writes (the same writer): ``metrics.json``,
+        ``timeseries.npz``, the figures, ``report.md``, ``manifest.json`` and ``inputs/``.
+
+        The folder appears complete or not at all (:func:`sins_sim.jobs.output.atomic_output_dir`); an
+        existing result folder is replaced only with ``force``. The manifest's timings are the run's; its
+        inputs are hashed as they are when saving. ``sins-sim run --rerun folder`` runs it again.
+
+        Returns
+        -------
+        Path
+        """
+        from sins_sim.jobs.manifest import record_run, result_dir
+        from sins_sim.jobs.run import write_run
+
+        if self._manifest is None or self.scenario is None or isinstance(self.result, StoredRun):
+            raise ConfigError("save: this result was loaded from a folder; copy that folder instead")
+        with result_dir(folder, self._manifest, "save", force=force) as tmp:
+            record_run(self._manifest, self.scenario, self._source, self._overrides, tmp)
+            write_run(tmp, self.scenario, self.result, self.metrics, self._manifest)
+        self.folder = Path(folder)
+        self.manifest = self._manifest.doc
+        return self.folder
+
+
+def run(scenario, *, seed: int | None = None, duration_s: float | None = None, imu=None, threads: int | None = None,
+        progress=None) -> MissionResult:
+    """Run a scenario in memory and return its :class:`MissionResult` (nothing is written).
+
+    Parameters
+    ----------
+    scenario : path, mapping or Scenario
+        A scenario file; the same content as a dict (validated exactly like a file, errors naming
+        ``scenario (dict)`` and the key; relative paths taken from the working directory); or a
+        :class:`~sins_sim.jobs.scenario.Scenario` from :func:`~sins_sim.jobs.scenario.load_scenario`.
+    seed, duration_s : optional
+        Replace the scenario's (like ``--seed`` and ``--duration``).
+    imu : path or mapping, optional
+        Replaces the scenario's IMU (like ``--imu``).
+    threads : int, optional
+        Threads for the three axes (default: the cores available, at most 3).
+    progress : callable(fraction), optional
+
+    Returns
+    -------
+    MissionResult
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file (or ``scenario (dict)``), the key and the rule.
+    """
+    from collections.abc import Mapping
+
+    from sins_sim.jobs.manifest import Manifest
+    from sins_sim.jobs.run import compute_run, prepare_run
+    from sins_sim.jobs.scenario import Scenario
+
+    overrides = {k: v for k, v in (("seed", seed), ("duration_s", duration_s), ("imu", imu)) if v is not None}
+    if isinstance(scenario, Scenario):
+        if scenario.document is None:
+            raise ConfigError("run: this Scenario keeps no document to run again; give its file or dict")
+        source, base = scenario.document, scenario.base_dir
+    elif isinstance(scenario, Mapping):
+        import copy
+
+        source, base = copy.deepcopy(dict(scenario)), None
+    elif isinstance(scenario, (str, Path)):
+        source, base = Path(scenario), None
+    else:
+        raise ConfigError(f"run: scenario must be a path, a mapping or a Scenario, got {type(scenario).__name__}")
+    manifest = Manifest("run", settings={"overrides": dict(overrides), "api": "sins_sim.run"})
+    sc, config_warnings = prepare_run(source, overrides or None, progress, base_dir=base)
+    res, metrics = compute_run(sc, config_warnings, progress, threads)
+    manifest.stop_clock()
+    return MissionResult(sc, metrics, res, source=source, overrides=overrides, manifest=manifest)
+
+
+def load(folder):
+    """A result folder as its object: a :class:`MissionResult` from a ``sins-sim run`` folder (or one
+    :meth:`MissionResult.save` wrote); a :class:`BudgetResult` from a ``sins-sim budget`` folder and a
+    :class:`SweepResult` from a ``sins-sim sweep`` folder (by the command in its ``manifest.json``).
+
+    Restored: :attr:`~MissionResult.metrics` (``metrics.json``), the stored series (``timeseries.npz``),
+    hence :meth:`~MissionResult.to_pandas`, :meth:`~MissionResult.to_xarray` and every figure but
+    ``allan``; the manifest; the scenario, validated again from ``inputs/scenario.yaml``. Not restored:
+    the engine's full-rate statistics, the sensor-level error records and the Allan curves (only their
+    readings are in ``metrics.json``); :attr:`~MissionResult.result` is a :class:`StoredRun`.
+
+    Raises
+    ------
+    ConfigError
+        The folder is not a readable run result.
+    """
+    import warnings
+
+    from sins_sim.jobs.manifest import INPUTS, read_manifest
+    from sins_sim.jobs.scenario import load_scenario
+
+    folder = Path(folder)
+    doc = read_manifest(folder, "load")
+    if doc.get("command") == "budget":
+        return BudgetResult.from_folder(folder)
+    if doc.get("command") == "sweep":
+        return SweepResult.from_folder(folder)
+    if doc.get("command") != "run":
+        raise ConfigError(f"load: {folder} holds a 'sins-sim {doc.get('command')}' result, not a run, budget "
+                          "or sweep")
+    try:
+        metrics = json.loads((folder / "metrics.json").read_text())
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"load: {folder / 'metrics.json'} cannot be read ({type(exc).__name__})") from None
+    arrays = {}
+    if (folder / "timeseries.npz").is_file():
+        with np.load(folder / "timeseries.npz") as z:
+            arrays = {k: z[k] for k in z.files}
+    scenario = None
+    if (folder / INPUTS / "scenario.yaml").is_file():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # told when the run was made; kept in metrics['warnings']
+            try:
+                scenario = load_scenario(folder / INPUTS / "scenario.yaml")
+            except ConfigError:
+                scenario = None
+    out = MissionResult(scenario, metrics, StoredRun(arrays, metrics), folder=folder)
+    out.manifest = doc
+    return out
+
+
+# --- the other jobs' results: the dict each job returns (and writes as JSON), with notebook views -----------------
+class BudgetResult(dict):
+    """The error budget of a scenario (:func:`sins_sim.jobs.budget.run_budget`): the content of ``budget.json``
+    as a dict, with :meth:`to_pandas` and :meth:`plot`.
+
+    Each term (``total``, every source, ``dither_residual``, ``floor``, ``remainder``) holds per filter the
+    final north/east position error vector (m) and NED attitude error vector (arcsec) and their magnitudes
+    (``note`` says how each is formed).
+    """
+
+    def terms(self) -> list:
+        """The rows in the order of ``budget.png``: total, the sources, floor, remainder."""
+        return ["total", *self["sources"], "floor", "remainder"]
+
+    def _term(self, term) -> dict:
+        return self["sources"][term] if term in self["sources"] else self[term]
+
+    def to_pandas(self):
+        """One row per (term, filter): ``horizontal_position_error_m``, ``position_north_m``,
+        ``position_east_m``, ``attitude_error_arcsec`` and ``attitude_<north|east|down>_arcsec``
+        (NaN where the budget has no entry)."""
+        import pandas as pd
+
+        rows, index = [], []
+        for term in self.terms():
+            for f in self["filters"]:
+                e = self._term(term).get(f) or {}
+                pos = e.get("position_ne_m") or [np.nan, np.nan]
+                att = e.get("attitude_ned_arcsec") or [np.nan] * 3
+                rows.append({"horizontal_position_error_m": e.get("horizontal_position_error_m", np.nan),
+                             "position_north_m": pos[0], "position_east_m": pos[1],
+                             "attitude_error_arcsec": e.get("attitude_error_arcsec", np.nan),
+                             **{f"attitude_{a}_arcsec": x for a, x in zip(_NED, att)}})
+                index.append((term, f))
+        df = pd.DataFrame(rows, index=pd.MultiIndex.from_tuples(index, names=["term", "filter"]))
+        return df.astype(float)
+
+    def plot(self):
+        """``budget.png``'s figure, returned (not written)."""
+        from sins_sim.plots.budget import plot_budget
+
+        return plot_budget(self, None, f"{self['scenario']}: error budget after {self['duration_s']:g} s")
+
+    @classmethod
+    def from_folder(cls, folder) -> "BudgetResult":
+        """The budget of a ``sins-sim budget`` folder (its ``budget.json``)."""
+        return cls(_read_json(Path(folder) / "budget.json", "budget"))
+
+
+class SweepResult(dict):
+    """A sweep (:func:`sins_sim.jobs.sweep.run_sweep`): its dict (``summary``, ``table``, counts) with
+    :meth:`to_pandas` (one row per run) and :meth:`to_xarray` (a ``run`` dimension)."""
+
+    def to_pandas(self):
+        """``runs.parquet``: one row per run (unit x scenario), the drawn parameters (``param.*``) and per
+        filter its metrics (``<filter>.<metric>``, the unit in the metric's name)."""
+        return self["table"].copy()
+
+    def to_xarray(self):
+        """The runs as a Dataset with dimensions ``run`` and ``filter``.
+
+        Each per-filter metric (``<filter>.<metric>`` columns) becomes one variable ``<metric>`` on
+        ``(run, filter)``; every other column (``unit``, ``scenario``, ``seed``, ``param.*``, ...) a
+        variable on ``run``. Percentiles over the population are then
+        ``ds.groupby("scenario").quantile([0.05, 0.5, 0.95], dim="run")``. Attributes: the sweep's name and
+        sins-sim's version.
+        """
+        import xarray as xr
+
+        from sins_sim._version import __version__
+        from sins_sim.jobs.sweep.summary import metric_filters
+
+        table = self["table"].reset_index(drop=True)
+        filters = metric_filters(table)
+        data, metrics = {}, {}
+        for col in table.columns:
+            name, dot, metric = col.partition(".")
+            if dot and name in filters:
+                metrics.setdefault(metric, {})[name] = table[col].to_numpy()
+            else:
+                data[col] = ("run", table[col].to_numpy())
+        for metric, per in metrics.items():
+            cols = [per.get(f, np.full(len(table), np.nan)) for f in filters]
+            data[metric] = (("run", "filter"), np.stack(cols, axis=1))
+        return xr.Dataset(data, coords={"run": np.arange(len(table)), "filter": np.array(filters, dtype=str)},
+                          attrs={"sweep": str(self.get("name", "")), "sins_sim_version": __version__})
+
+    def plot(self):
+        """``distributions.png``'s figure (the ECDF of the headline metrics per filter), returned."""
+        from sins_sim.jobs.sweep.summary import metric_filters, quantile_n_required
+        from sins_sim.jobs.sweep.tasks import HEADLINE_METRICS, METRICS
+        from sins_sim.plots.sweep import plot_distributions
+
+        table = self["table"]
+        labels = list(dict.fromkeys(table["scenario"])) if len(table) else []
+        fig = plot_distributions(table, {m: METRICS[m] for m in HEADLINE_METRICS}, metric_filters(table), labels,
+                                 None, f"{self.get('name', 'sweep')}: distribution over "
+                                       f"{table['unit'].nunique() if len(table) else 0} units",
+                                 p95_min_n=quantile_n_required(0.95))
+        if fig is None:
+            raise ValueError("plot: the sweep has no positive finite headline metric to draw")
+        return fig
+
+    @classmethod
+    def from_folder(cls, folder) -> "SweepResult":
+        """A sweep folder's ``runs.parquet`` and ``summary.json``."""
+        import pandas as pd
+
+        folder = Path(folder)
+        if not (folder / "runs.parquet").is_file():
+            raise ConfigError(f"load: {folder} has no runs.parquet (not a finished sweep)")
+        name = _read_json(folder / "sweep.json", "sweep").get("name") if (folder / "sweep.json").is_file() else None
+        return cls(name=name, summary=_read_json(folder / "summary.json", "sweep"),
+                   table=pd.read_parquet(folder / "runs.parquet"))
+
+
+class DiagnosisResult(dict):
+    """A recording's diagnosis (:func:`sins_sim.jobs.recording_jobs.diagnose`): its JSON as a dict, with
+    :meth:`to_pandas` of its tables. Its figures are those of the report folder (``report_dir``)."""
+
+    def to_pandas(self) -> dict:
+        """``candidates``: one row per effect tried (index ``effect``), in the diagnosis' order (best first):
+        ``residual_rms_arcsec``, ``gap_reduction``, ``score``, ``closes_gap``, ``remaining_excess_arcsec``,
+        ``p_heldout``, ``p_f``, ``significant``, ``unresolved``; ``axes``: per axis (index ``axis``) the
+        ``noise_floor_arcsec`` and the nominal refit's ``baseline_residual_rms_arcsec`` (empty when the
+        data failed the checks: see ``findings``)."""
+        import pandas as pd
+
+        cols = ["residual_rms_arcsec", "gap_reduction", "score", "closes_gap", "remaining_excess_arcsec",
+                "p_heldout", "p_f", "significant", "unresolved"]
+        cand = pd.DataFrame([{k: c.get(k) for k in cols} for c in self.get("candidates") or []], columns=cols,
+                            index=pd.Index([c["effect"] for c in self.get("candidates") or []], name="effect"))
+        floors = self.get("noise_floor_axes_arcsec") or {}
+        base = (self.get("baseline") or {}).get("residual_rms_axes_arcsec") or {}
+        axes = pd.DataFrame({"noise_floor_arcsec": pd.Series(floors, dtype=float),
+                             "baseline_residual_rms_arcsec": pd.Series(base, dtype=float)})
+        axes.index.name = "axis"
+        return {"candidates": cand, "axes": axes}
+
+
+def _read_json(path: Path, what: str) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"load: {path.parent} has no {path.name} (not a {what} result)") from None
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"load: {path} cannot be read ({type(exc).__name__})") from None
