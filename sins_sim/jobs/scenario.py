@@ -721,7 +721,8 @@ def scenario_document(source, overrides: dict | None = None) -> dict:
             if key == "imu" and isinstance(value, (str, Path)):
                 value = str(Path(value).resolve())
             doc[key] = value
-            forget_mark(str(path), key)  # the value is the command line's: no line in the file
+            if not isinstance(source, Mapping):
+                forget_mark(str(where), key)  # the value is the command line's: no line in the file
     return doc
 
 
