@@ -72,9 +72,11 @@ ALLAN_RATE_HZ = 100.0
 ALLAN_MAX_SAMPLES = 2 ** 16
 #: Shortest Allan record analysed (samples): below it the curve has too few clusters to read a term.
 ALLAN_MIN_SAMPLES = 200
-#: The vehicle counts as at rest (for the Allan analysis) below this true speed (m/s): well above the mm/s of a
-#: block vibrating on its mounts, well below any deliberate motion.
+#: The vehicle counts as at rest (for the Allan analysis) below this true speed (m/s), well below any deliberate
+#: motion ...
 REST_SPEED_M_S = 0.05
+#: ... of the velocity averaged over this window (s), so that the block's vibration does not count as motion.
+REST_WINDOW_S = 1.0
 #: An Allan record whose RMS, once a line is removed, is below this (rad or m/s) holds only rounding: no noise term.
 #: (1e-10 rad is 2e-5 arcsec, a thousandth of the smallest readout quantum in use.)
 ALLAN_NOISE_FLOOR = 1e-10
@@ -246,8 +248,8 @@ class SinsResult:
         navigation or when the record is shorter than :data:`ALLAN_MIN_SAMPLES`.
     records : dict
         The sampled sensor-level error records behind :attr:`allan` and the gyro drift
-        (:func:`_error_records`): ``t_s``, ``rate_hz``, ``speed_m_s`` (the vehicle's true speed at
-        each sample), and per filter (and ``accelerometers``) an ``(N, 3)`` array in body axes of the
+        (:func:`_error_records`): ``t_s``, ``rate_hz``, ``speed_m_s`` (the vehicle's true speed at each
+        sample, its velocity averaged over :data:`REST_WINDOW_S`), and per filter (and ``accelerometers``) an ``(N, 3)`` array in body axes of the
         accumulated gyro-angle error (rad) or velocity-increment error (m/s). Empty without navigation.
     """
 
@@ -787,7 +789,7 @@ def _keep_allan(rec, nxt, stride, outs_buf, phi_buf, tr_buf, delays, k1, n_out, 
             d = delays[name]
             rec[name].append(outs_buf[name].get(lo + d, top + d)[sel] - truth + gcum)
     rec["accelerometers"].append(tr_buf["acum"].get(lo, top)[sel].copy())
-    rec["speed_m_s"].append(np.linalg.norm(tr_buf["v"].get(lo, top)[sel], axis=1))
+    rec["speed_m_s"].append(tr_buf["v"].get(lo, top)[sel].copy())  # velocity (N, 3); smoothed to a speed at the end
     return int(idx[-1]) + stride
 
 
@@ -797,7 +799,8 @@ def _error_records(rec, rate_hz, t0_s, diverged) -> dict:
     n = sum(x.shape[0] for x in speed)
     if n == 0:
         return {}
-    out = {"rate_hz": rate_hz, "t_s": t0_s + np.arange(n) / rate_hz, "speed_m_s": np.concatenate(speed)}
+    out = {"rate_hz": rate_hz, "t_s": t0_s + np.arange(n) / rate_hz,
+           "speed_m_s": _vehicle_speed(np.concatenate(speed), rate_hz)}
     for name, parts in rec.items():
         if name == "speed_m_s" or name in diverged or not parts:
             continue
@@ -805,6 +808,15 @@ def _error_records(rec, rate_hz, t0_s, diverged) -> dict:
         if x.shape[0] == n and np.all(np.isfinite(x)):
             out[name] = x
     return out
+
+
+def _vehicle_speed(v_ned, rate_hz, window_s: float = REST_WINDOW_S):
+    """The norm of the velocity averaged over a centred ``window_s`` window (m/s): the vehicle's speed, without
+    the block's vibration velocity (tens of Hz and up: cm/s at 0.002 g^2/Hz, which averages out over 1 s)."""
+    m = max(1, min(int(round(window_s * rate_hz)), v_ned.shape[0]))
+    c = np.concatenate([np.zeros((1, 3)), np.cumsum(v_ned, axis=0)])
+    lo = np.clip(np.arange(v_ned.shape[0]) - m // 2, 0, v_ned.shape[0] - m)
+    return np.linalg.norm((c[lo + m] - c[lo]) / m, axis=1)
 
 
 def rest_span(speed_m_s, rest_speed_m_s: float = REST_SPEED_M_S):

@@ -40,5 +40,5 @@ fig = r.plot("navigation_error")
 # figures that have data, ``report.md`` and ``manifest.json`` with ``inputs/``.
 import tempfile
 
-out = r.save(Path(tempfile.mkdtemp()) / "first-mission")
-print(sorted(p.name for p in Path(out).iterdir()))
+folder = r.save(Path(tempfile.mkdtemp()) / "first-mission")
+print(sorted(p.name for p in Path(folder).iterdir()))
