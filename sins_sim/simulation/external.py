@@ -214,7 +214,7 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
     stats, ser = NavErrorStats(), ErrorSeries(every, dt, t_start)
     free = np.zeros(6)
     gcum, acum = np.zeros(3), np.zeros(3)
-    rec = {name: [], "accelerometers": [], "speed_m_s": []}
+    rec = {name: [], "accelerometers": [], "velocity_ned_m_s": []}
     truth_rows = {"t_s": [], "lat_rad": [], "lon_rad": [], "h_m": []}
     diverged = {}
     for lo in range(0, n, CHUNK_ROWS):
@@ -231,7 +231,7 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
         keep = (k + 1) % stride == 0
         rec[name].append(g_err[keep])
         rec["accelerometers"].append(a_err[keep])
-        rec["speed_m_s"].append(np.linalg.norm(v_t[keep], axis=1))
+        rec["velocity_ned_m_s"].append(v_t[keep].copy())  # _error_records smooths it to a speed
         keep_t = (k + 1) % every == 0
         truth_rows["t_s"].append(t[lo:hi][keep_t])
         for key, arr in (("lat_rad", lat_t), ("lon_rad", lon_t), ("h_m", h_t)):

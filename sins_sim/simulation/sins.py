@@ -544,7 +544,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         allan_next = k_start
         allan_rec = {name: [] for name in filters}
         allan_rec["accelerometers"] = []
-        allan_rec["speed_m_s"] = []
+        allan_rec["velocity_ned_m_s"] = []
     spectra = {name: [] for name in filters}
     truth_series = {"t_s": [], "lat_rad": [], "lon_rad": [], "h_m": []}
     diverged = {}
@@ -789,20 +789,20 @@ def _keep_allan(rec, nxt, stride, outs_buf, phi_buf, tr_buf, delays, k1, n_out, 
             d = delays[name]
             rec[name].append(outs_buf[name].get(lo + d, top + d)[sel] - truth + gcum)
     rec["accelerometers"].append(tr_buf["acum"].get(lo, top)[sel].copy())
-    rec["speed_m_s"].append(tr_buf["v"].get(lo, top)[sel].copy())  # velocity (N, 3); smoothed to a speed at the end
+    rec["velocity_ned_m_s"].append(tr_buf["v"].get(lo, top)[sel].copy())  # smoothed to a speed at the end
     return int(idx[-1]) + stride
 
 
 def _error_records(rec, rate_hz, t0_s, diverged) -> dict:
     """The sampled error records as arrays (see :attr:`SinsResult.records`); filters that diverged are left out."""
-    speed = rec.get("speed_m_s") or []
+    speed = rec.get("velocity_ned_m_s") or []
     n = sum(x.shape[0] for x in speed)
     if n == 0:
         return {}
     out = {"rate_hz": rate_hz, "t_s": t0_s + np.arange(n) / rate_hz,
            "speed_m_s": _vehicle_speed(np.concatenate(speed), rate_hz)}
     for name, parts in rec.items():
-        if name == "speed_m_s" or name in diverged or not parts:
+        if name == "velocity_ned_m_s" or name in diverged or not parts:
             continue
         x = np.concatenate(parts)
         if x.shape[0] == n and np.all(np.isfinite(x)):
