@@ -33,7 +33,7 @@ from contextlib import ExitStack, contextmanager
 
 from sins_sim import __version__
 from sins_sim.jobs.messages import capture_warnings, format_warning_lines
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_INTERNAL", "EXIT_USAGE", "EXIT_INTERRUPTED"]
 

@@ -1,6 +1,8 @@
-"""The package's import direction (style.md): cli -> jobs -> identification -> simulation ->
+"""The package's import direction (style.md): cli -> jobs -> config -> identification -> simulation ->
 {models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
-each other. Checked on the source with ``ast`` (module-level and function-level imports alike)."""
+each other; config/ never imports jobs/, bench/ or cli, and inside it a file's path reads top to bottom
+(scenario -> imu -> {filter_params, effects_schema, advisories} -> yaml_io -> schema -> errors).
+Checked on the source with ``ast`` (module-level and function-level imports alike)."""
 
 from __future__ import annotations
 
@@ -27,8 +29,13 @@ ALLOWED = {
     "plots": {"units", "earth", "models"},  # the paper figures draw eq. 9 itself
     "simulation": BASE | {"models", "filters", "navigation", "io"},
     "identification": BASE | {"simulation", "models", "filters", "navigation", "io", "plots"},
-    "jobs": BASE | {"simulation", "models", "filters", "navigation", "io", "identification", "plots"},
+    "config": BASE | {"simulation", "models", "filters", "navigation", "io"},
+    "jobs": BASE | {"config", "simulation", "models", "filters", "navigation", "io", "identification", "plots"},
 }
+
+#: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank
+CONFIG_ORDER = {"scenario": 0, "imu": 1, "filter_params": 2, "effects_schema": 2, "advisories": 2, "yaml_io": 3,
+                "schema": 4, "errors": 5}
 
 
 def _layer(module: str) -> str:
@@ -71,6 +78,22 @@ def test_imports_point_one_way(name, path):
         if tl and tl != layer and tl not in ALLOWED[layer]:
             bad.append(f"{path.name}:{line} imports {target}")
     assert not bad, f"layer '{layer}' may import only {sorted(ALLOWED[layer])}: " + "; ".join(bad)
+
+
+def test_config_reads_top_to_bottom():
+    """Every config/ module is ranked, and imports only config/ modules ranked below it (no sibling, no climb)."""
+    files = sorted((PKG / "config").glob("*.py"))
+    assert {p.stem for p in files} - {"__init__"} == set(CONFIG_ORDER)
+    bad = []
+    for path in files:
+        if path.stem == "__init__":
+            continue
+        for target, line in _imports(path):
+            parts = target.split(".")
+            if parts[:2] == ["sins_sim", "config"] and len(parts) > 2 and parts[2] != path.stem:
+                if CONFIG_ORDER[parts[2]] <= CONFIG_ORDER[path.stem]:
+                    bad.append(f"config/{path.name}:{line} imports {target}")
+    assert not bad, "; ".join(bad)
 
 
 def test_import_linter_contracts_are_kept():

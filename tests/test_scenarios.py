@@ -10,9 +10,10 @@ import pytest
 import yaml
 
 from sins_sim.cli import main
-from sins_sim.jobs.imu import imu_from_dict, load_imu
-from sins_sim.jobs.scenario import load_scenario, run_scenario
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.imu import imu_from_dict, load_imu
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.errors import ConfigError
+from sins_sim.jobs.run import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 GOOD_CHANNELS = {"x": {"f0_hz": 386}, "y": {"f0_hz": 352}, "z": {"f0_hz": 421}}

@@ -9,7 +9,7 @@ import pytest
 from sins_sim.cli import main
 from sins_sim.io.trajectory import TRAJECTORY_COLUMNS
 from sins_sim.jobs.reference import FORMATS, REGENERATE, render_markdown, render_text, rows
-from sins_sim.jobs.schema import Map, Num, describe
+from sins_sim.config.schema import Map, Num, describe
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "scenario-reference.md"

@@ -56,11 +56,11 @@ from pathlib import Path
 import numpy as np
 
 from sins_sim.io.recording import read_csv_recording, read_recording, write_recording
-from sins_sim.jobs.effects_schema import EffectsList
+from sins_sim.config.effects_schema import EffectsList
 from sins_sim.models.plant import check_resolution
 from sins_sim.models.suspension import SuspensionParams
-from sins_sim.jobs.imu import load_yaml
-from sins_sim.jobs.schema import ConfigError, ListOf, Map, Num, Str, validate
+from sins_sim.config.imu import load_yaml
+from sins_sim.config.schema import ConfigError, ListOf, Map, Num, Str, validate
 from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings, afc_drive, record,
                                             stationary_drive, table_motion)
 from sins_sim.units import ARCSEC
@@ -106,14 +106,14 @@ class _PerAxis:
         self.item = Map(_suspension_fields())
 
     def describe_rows(self, path):
-        from sins_sim.jobs.schema import describe
+        from sins_sim.config.schema import describe
 
         head = {"key": path, "kind": "mapping", "unit": "", "range": "axis name -> parameters", "default": "(none)",
                 "doc": "per axis (a name of axes), the suspension keys of the IMU format"}
         return [head] + describe(self.item, f"{path}.AXIS")
 
     def json_schema(self):
-        from sins_sim.jobs.schema import json_schema
+        from sins_sim.config.schema import json_schema
 
         return {"type": "object", "additionalProperties": json_schema(self.item),
                 "description": "per axis (a name of axes), the suspension keys of the IMU format"}

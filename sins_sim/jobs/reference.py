@@ -3,7 +3,7 @@
 ``sins-sim schema [FORMAT]`` prints it; ``sins-sim schema --markdown`` writes the checked-in
 ``docs/scenario-reference.md`` (``tests/test_schema_reference.py`` fails when that file is out of date).
 Nothing here is written by hand twice: the YAML formats come from their schema objects
-(:func:`sins_sim.jobs.schema.describe`), the trajectory file format from the column constants of
+(:func:`sins_sim.config.schema.describe`), the trajectory file format from the column constants of
 :mod:`sins_sim.io.trajectory`.
 """
 
@@ -28,11 +28,11 @@ REGENERATE = "sins-sim schema --markdown > docs/scenario-reference.md"
 
 def _schema(fmt: str):
     if fmt == "scenario":
-        from sins_sim.jobs.scenario import SCENARIO_SCHEMA
+        from sins_sim.config.scenario import SCENARIO_SCHEMA
 
         return SCENARIO_SCHEMA
     if fmt == "imu":
-        from sins_sim.jobs.imu import IMU_SCHEMA
+        from sins_sim.config.imu import IMU_SCHEMA
 
         return IMU_SCHEMA
     if fmt == "experiment":
@@ -84,7 +84,7 @@ def rows(fmt: str) -> list:
     """The reference rows of one format (keys ``key, kind, unit, range, default, doc``)."""
     if fmt == "trajectory":
         return _trajectory_rows()
-    from sins_sim.jobs.schema import describe
+    from sins_sim.config.schema import describe
 
     return describe(_schema(fmt))
 
@@ -149,7 +149,7 @@ def render_markdown(formats=None) -> str:
 def render_json_schema(fmt: str) -> str:
     """The JSON Schema (draft 2020-12) of a YAML format, as JSON text, for editors.
 
-    Generated from the schema the loader validates with (:func:`sins_sim.jobs.schema.json_schema`).
+    Generated from the schema the loader validates with (:func:`sins_sim.config.schema.json_schema`).
     Save it and point yaml-language-server (VS Code's YAML extension, Neovim, Helix...) at it with a
     modeline on the first line of a scenario file::
 
@@ -161,7 +161,7 @@ def render_json_schema(fmt: str) -> str:
     """
     import json
 
-    from sins_sim.jobs.schema import JSON_SCHEMA_DIALECT, json_schema
+    from sins_sim.config.schema import JSON_SCHEMA_DIALECT, json_schema
 
     if fmt not in JSON_SCHEMA_FORMATS:
         raise ValueError(f"--json-schema: a JSON Schema exists for the YAML formats {list(JSON_SCHEMA_FORMATS)}; "

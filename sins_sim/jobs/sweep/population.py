@@ -111,7 +111,7 @@ def draw_unit(sweep, i: int) -> dict:
 
 
 def _suspension_default(field: str) -> float:
-    from sins_sim.jobs.imu import IMU_SCHEMA
+    from sins_sim.config.imu import IMU_SCHEMA
 
     return IMU_SCHEMA.fields["suspension"].fields[field].default
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sins_sim.jobs.schema import Bool, ConfigError, ListOf, Map, Num, Str, validate
+from sins_sim.config.schema import Bool, ConfigError, ListOf, Map, Num, Str, validate
 
 __all__ = ["SWEEP_SCHEMA", "SPREAD_PARAMETERS", "SUSPENSION_KEYS", "Sweep", "load_sweep", "MAX_UNITS"]
 
@@ -99,8 +99,8 @@ class _FilterParameters:
                  "default": "true", "doc": self.doc}]
 
     def json_schema(self):
-        from sins_sim.jobs.schema import json_schema
-        from sins_sim.jobs.filter_params import FILTER_PARAMETERS_SCHEMA
+        from sins_sim.config.schema import json_schema
+        from sins_sim.config.filter_params import FILTER_PARAMETERS_SCHEMA
 
         return {**json_schema(FILTER_PARAMETERS_SCHEMA), "description": self.doc}
 
@@ -189,7 +189,7 @@ class Sweep:
 
 def load_sweep(path) -> Sweep:
     """Read and validate a sweep file (errors: one line naming the file, the key path and the rule)."""
-    from sins_sim.jobs.yaml_io import load_yaml
+    from sins_sim.config.yaml_io import load_yaml
 
     path = Path(path)
     return Sweep(load_yaml(path), str(path), path.parent.resolve())

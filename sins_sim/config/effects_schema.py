@@ -13,7 +13,7 @@ names, ranges and unknown keys, so the file and the catalogue cannot disagree.
 
 from __future__ import annotations
 
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 from sins_sim.models.effects import EFFECTS, make_effect
 
 __all__ = ["EffectsList", "ENGINE_AXES"]
@@ -46,7 +46,7 @@ class EffectsList:
         self.doc = doc
 
     def describe_rows(self, path):
-        """One reference row (``sins_sim.jobs.schema.describe``)."""
+        """One reference row (``sins_sim.config.schema.describe``)."""
         names = ", ".join(EFFECTS)
         return [{"key": path, "kind": "list", "unit": "", "range": "catalogue effects", "default": "(none)",
                  "doc": f"[{{name: EFFECT, axes: [...], SI parameters}}, ...]; EFFECT one of {names}; parameters: "

@@ -11,10 +11,10 @@ Layout (every key optional except ``channels``; units in the key names)::
               anti_alias: {cutoff_hz: 9000, numtaps: 21}}      # anti_alias: null = off
     correcting: {hysteresis: paper}
     eliminator: {width_hz: 40, rp_db: 0.1, rs_db: 60}
-    effects:                      # catalogue effects acting in the engine (sins_sim.jobs.effects_schema)
+    effects:                      # catalogue effects acting in the engine (sins_sim.config.effects_schema)
       - {name: lock_in, axes: [x], threshold_rad_s: 2.0e-3}
     filter_parameters: nominal    # what the filters believe: true (default) | nominal | a mapping
-                                  # (sins_sim.jobs.filter_params)
+                                  # (sins_sim.config.filter_params)
     channels:
       x: {f0_hz: 386}
       y: {f0_hz: 352, suspension: {k3: 4.6e-3}}
@@ -40,10 +40,10 @@ from sins_sim.models.plant import PlantSettings, check_resolution
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.units import ARCSEC
-from sins_sim.jobs import filter_params as _fparams
-from sins_sim.jobs.effects_schema import EffectsList
-from sins_sim.jobs.schema import ConfigError, Map, Num, Str, validate
-from sins_sim.jobs.yaml_io import load_yaml  # re-exported: other modules import it from here
+from sins_sim.config import filter_params as _fparams
+from sins_sim.config.effects_schema import EffectsList
+from sins_sim.config.schema import ConfigError, Map, Num, Str, validate
+from sins_sim.config.yaml_io import load_yaml  # re-exported: other modules import it from here
 from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
 from sins_sim.simulation.sins import DriveControl, ImuConfig
 
@@ -220,7 +220,7 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
 
     The optional ``sensors:`` section (gyro and accelerometer errors in datasheet units, see
     :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) and ``filter_parameters``
-    (what the filters believe, :mod:`sins_sim.jobs.filter_params`) are validated by their own
+    (what the filters believe, :mod:`sins_sim.config.filter_params`) are validated by their own
     parsers; ``base_dir`` resolves a diagnosis file named there (default: the working directory).
     """
     from sins_sim.models.sensor_errors import sensor_params_from_dict

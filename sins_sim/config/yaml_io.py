@@ -16,7 +16,7 @@ It differs from ``yaml.safe_load`` in two ways, both on a private loader
   PyYAML silently keeps the last one). Keys brought in by a merge (``<<``)
   may still be overridden by the mapping's own keys.
 
-Every failure is one :class:`~sins_sim.jobs.schema.ConfigError` line that
+Every failure is one :class:`~sins_sim.config.schema.ConfigError` line that
 names the file: a missing file, a directory, an unreadable or non-UTF-8 file,
 malformed YAML (with line and column), a duplicate key (with both lines), or
 a top level that is not a mapping.
@@ -35,7 +35,7 @@ from pathlib import Path
 
 import yaml
 
-from sins_sim.jobs.schema import ConfigError, register_marks
+from sins_sim.config.errors import ConfigError, register_marks
 
 __all__ = ["StrictLoader", "DuplicateKeyError", "FLOAT_PATTERN", "load_yaml", "parse_yaml", "key_marks"]
 

@@ -3,7 +3,9 @@
 A scenario names an IMU configuration, the mission (a site, and a trajectory of segments or
 a trajectory file), the block's motion on its mounts as a list of parts that add up, the
 filters to compare, navigation settings and a seed. A run is reproducible from the YAML and
-the seed; :func:`sins_sim.jobs.run.run_scenario` runs it and writes the results.
+the seed. :class:`Scenario` holds what the engine takes (an :class:`~sins_sim.simulation.sins.ImuConfig`,
+:class:`~sins_sim.simulation.sins.NavSettings`, the motion, the filters); the commands above run it
+(``sins-sim run``, :func:`sins_sim.run_scenario`).
 """
 
 from __future__ import annotations
@@ -15,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.jobs import advisories
-from sins_sim.jobs import filter_params as _fparams
-from sins_sim.jobs.schema import (Bool, ConfigError, ListOf, Map, Num, OneOf, Str, Vec, alias_marks, forget_mark,
-                                  validate)
-from sins_sim.jobs.yaml_io import load_yaml
+from sins_sim.config import advisories
+from sins_sim.config import filter_params as _fparams
+from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
+from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
+from sins_sim.config.yaml_io import load_yaml
 from sins_sim.filters import registry as filter_registry
 
 # The scenario's own schema needs no model, engine or numba: a scenario file is checked before those are
@@ -28,8 +30,7 @@ from sins_sim.filters import registry as filter_registry
 SINS_FILTERS = filter_registry.BUILTIN_FILTERS
 DEFAULT_FILTERS = filter_registry.DEFAULT_FILTERS
 
-__all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "scenario_document", "run_scenario",
-           "Scenario"]
+__all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "scenario_document", "Scenario"]
 
 _POS = dict(min=0.0, min_exclusive=True)
 
@@ -301,8 +302,8 @@ class _Any:
                                               "(sins-sim schema imu)"}]
 
     def json_schema(self):
-        from sins_sim.jobs.imu import IMU_SCHEMA
-        from sins_sim.jobs.schema import json_schema
+        from sins_sim.config.imu import IMU_SCHEMA
+        from sins_sim.config.schema import json_schema
 
         return {"anyOf": [{"type": "string"}, json_schema(IMU_SCHEMA)],
                 "description": "the unit: a path relative to the scenario, or the IMU keys inline"}
@@ -327,7 +328,7 @@ class _FilterParameters:
                  "replaces the IMU file's filter_parameters"}]
 
     def json_schema(self):
-        from sins_sim.jobs.schema import json_schema
+        from sins_sim.config.schema import json_schema
 
         return json_schema(_fparams.FILTER_PARAMETERS_SCHEMA)
 
@@ -346,7 +347,7 @@ class Scenario:
     """A validated scenario: IMU, motion, filters, navigation settings, seed.
 
     ``duration_key`` is how a refusal names the run's length (``duration_s``, or ``--duration`` when the
-    command line set it). Configuration-time advisories (:mod:`sins_sim.jobs.advisories`) are issued as
+    command line set it). Configuration-time advisories (:mod:`sins_sim.config.advisories`) are issued as
     :class:`UserWarning` and kept in :attr:`advisories`.
     """
 
@@ -356,7 +357,7 @@ class Scenario:
             raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {c['duration_s']:g}, "
                               f"got {c['navigation']['start_s']:g}")
         # the IMU, the motion and the navigation are built from here on: the models and the engine are needed
-        from sins_sim.jobs.imu import imu_from_dict
+        from sins_sim.config.imu import imu_from_dict
         from sins_sim.simulation.sins import NavSettings
 
         self.ctx = ctx
@@ -386,7 +387,7 @@ class Scenario:
                 imu = dict(imu, filter_parameters=c["filter_parameters"])
             self.imu = imu_from_dict(imu, ctx, "imu", base_dir=base_dir)
             imu_doc = imu
-        #: what the filters believe (sins_sim.jobs.filter_params): source, f0, f0_mismatch_ppm, track
+        #: what the filters believe (sins_sim.config.filter_params): source, f0, f0_mismatch_ppm, track
         fp = imu_doc.get("filter_parameters", True) if isinstance(imu_doc, dict) else True
         self.filter_spec = _fparams.parse_filter_parameters(fp, ctx)
         self.temperature = None
@@ -571,7 +572,7 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
 
     A run longer than its trajectory (``duration_s`` + 0.1 s past the end of the file or of the segments) is
     refused naming ``duration_key`` (``duration_s``, or ``--duration`` when the command line set it), unless
-    the segments' ``extend`` is ``hold``. A file is checked by :func:`sins_sim.jobs.advisories.trajectory_advisories`.
+    the segments' ``extend`` is ``hold``. A file is checked by :func:`sins_sim.config.advisories.trajectory_advisories`.
     """
     from sins_sim.models.motion import trajectory as tj
 
@@ -729,11 +730,3 @@ def scenario_document(source, overrides: dict | None = None) -> dict:
 #: Scenario keys that a command line (``--seed``, ``--duration``, ``--imu``, ``--filter-parameters``) may replace.
 OVERRIDABLE = ("seed", "duration_s", "imu", "filter_parameters")
 
-
-def __getattr__(name):
-    """``run_scenario`` re-exported where it always was, imported on first use (it imports the engine)."""
-    if name == "run_scenario":
-        from sins_sim.jobs.run import run_scenario
-
-        return run_scenario
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

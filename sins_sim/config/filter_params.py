@@ -60,7 +60,7 @@ import json
 import math
 from pathlib import Path
 
-from sins_sim.jobs.schema import Bool, ConfigError, Map, Num, Str, json_schema, validate
+from sins_sim.config.schema import Bool, ConfigError, Map, Num, Str, json_schema, validate
 
 __all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions",
            "filters_used"]

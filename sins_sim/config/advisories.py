@@ -14,10 +14,10 @@ Three families (issue 22, points 7 and 8):
   by more than :data:`VOLTAGE_TOLERANCE`.
 * **Trajectory files whose attitude does not fit their ground track** (:func:`trajectory_advisories`):
   the radians-for-degrees slip. A file that fits only when its angle columns are read as radians is
-  refused (:class:`~sins_sim.jobs.schema.ConfigError`); one whose yaw strays far from its track is
+  refused (:class:`~sins_sim.config.schema.ConfigError`); one whose yaw strays far from its track is
   warned about.
 
-Each check is a small function returning the messages; :func:`sins_sim.jobs.scenario.load_scenario`
+Each check is a small function returning the messages; :func:`sins_sim.config.scenario.load_scenario`
 issues the configuration-time ones as :class:`UserWarning` and :func:`sins_sim.jobs.run.run_scenario`
 stores every warning in ``metrics.json`` and the report.
 """
@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from sins_sim import earth
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["N_BANDWIDTHS", "AMPLITUDE_TOLERANCE", "VOLTAGE_TOLERANCE", "vibration_advisories", "drive_advisories",

@@ -1,0 +1,22 @@
+"""Configuration: YAML files to the engine's inputs, below the commands (``jobs/``) and above the engine.
+
+A scenario file's path reads top to bottom::
+
+    scenarios/x.yaml
+      -> yaml_io.load_yaml          the mapping, strict (no duplicate keys, no YAML 1.1 surprises), and the
+                                    line and column of every key (errors.register_marks)
+      -> schema.validate            types, ranges, units in the key names converted to SI and rad
+                                    (SCENARIO_SCHEMA); a broken rule is one errors.ConfigError line
+                                    naming the file, the line, the key path and the rule
+      -> scenario.Scenario          the validated scenario:
+           imu.imu_from_dict        the unit (``imu:`` a file, read by imu.load_imu, or a mapping)
+             -> filter_params       what the filters believe (f0, Q, tracking), and
+                effects_schema      the catalogue effects
+           advisories               vibration against the filters' stop bands and the dithers
+      -> engine inputs              ImuConfig, NavSettings, motion, filters, seed
+                                    (sins_sim.simulation.sins), run by the commands in ``jobs/``
+
+Modules, each importing only the ones below it (import-linter contract in ``pyproject.toml``):
+``scenario`` -> ``imu`` -> {``filter_params``, ``effects_schema``, ``advisories``} -> ``yaml_io`` -> ``schema``
+-> ``errors``. Nothing here imports ``jobs``, ``bench`` or ``cli``.
+"""
