@@ -36,6 +36,8 @@ ALLOWED = {
 #: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank
 CONFIG_ORDER = {"scenario": 0, "imu": 1, "filter_params": 2, "effects_schema": 2, "advisories": 2, "yaml_io": 3,
                 "schema": 4, "errors": 5}
+#: jobs/ modules kept as deprecated aliases of the config/ modules (for code outside the package)
+MOVED_TO_CONFIG = ("schema", "yaml_io", "scenario", "imu", "filter_params", "effects_schema", "advisories")
 
 
 def _layer(module: str) -> str:
@@ -94,6 +96,41 @@ def test_config_reads_top_to_bottom():
                 if CONFIG_ORDER[parts[2]] <= CONFIG_ORDER[path.stem]:
                     bad.append(f"config/{path.name}:{line} imports {target}")
     assert not bad, "; ".join(bad)
+
+
+@pytest.mark.parametrize("name, path", list(_modules()), ids=lambda x: str(x) if isinstance(x, str) else "")
+def test_the_package_imports_configuration_from_config(name, path):
+    """The jobs/ aliases of the moved modules are for code outside the package: nothing in sins_sim imports them
+    (the aliases import the config/ modules), so the layering is the code's, not the aliases'."""
+    old = {f"sins_sim.jobs.{m}" for m in MOVED_TO_CONFIG}
+    bad = [f"{path.name}:{line} imports {t} (now sins_sim.config.{t.rsplit('.', 1)[1]})"
+           for t, line in _imports(path) if t in old]
+    assert not bad, "; ".join(bad)
+
+
+def test_the_old_paths_still_work_with_a_deprecation_warning():
+    """``sins_sim.jobs.scenario.load_scenario`` & co. are the same objects as the config/ ones (one class
+    ConfigError, so ``except ConfigError`` catches either), and importing an old path warns once."""
+    import importlib
+    import sys
+    import warnings
+
+    for m in MOVED_TO_CONFIG:
+        sys.modules.pop(f"sins_sim.jobs.{m}", None)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            old = importlib.import_module(f"sins_sim.jobs.{m}")
+        new = importlib.import_module(f"sins_sim.config.{m}")
+        assert [str(w.message) for w in caught if w.category is DeprecationWarning] == \
+            [f"sins_sim.jobs.{m} moved to sins_sim.config.{m}"]
+        for name in new.__all__:
+            assert getattr(old, name) is getattr(new, name), (m, name)
+    from sins_sim.config import errors, scenario, schema
+
+    assert sys.modules["sins_sim.jobs.schema"].ConfigError is errors.ConfigError is schema.ConfigError
+    # a name outside __all__ (a test or a notebook may use one) reaches the new module too
+    assert sys.modules["sins_sim.jobs.schema"]._yaml_key is schema._yaml_key
+    assert not hasattr(scenario, "run_scenario")  # the jobs <-> config cycle is gone: run_scenario lives in jobs.run
 
 
 def test_import_linter_contracts_are_kept():
