@@ -1,14 +1,5 @@
 """Deprecated alias: the code lives in :mod:`sins_sim.config.scenario` (issue 23); import it from there."""
 
-import warnings as _warnings
+from sins_sim.jobs._moved import alias
 
-from sins_sim.config import scenario as _moved
-from sins_sim.config.scenario import *  # noqa: F401,F403
-from sins_sim.config.scenario import __all__  # noqa: F401
-
-_warnings.warn("sins_sim.jobs.scenario moved to sins_sim.config.scenario", DeprecationWarning, stacklevel=2)
-
-
-def __getattr__(name):
-    """Names outside ``__all__`` (helpers, private names) forwarded to the new module."""
-    return getattr(_moved, name)
+alias(__name__)
