@@ -1,7 +1,7 @@
 """The package's import direction (style.md): cli -> jobs -> config -> identification -> simulation ->
 {models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
 each other; config/ never imports jobs/, bench/ or cli, and inside it a file's path reads top to bottom
-(scenario -> imu -> {filter_params, effects_schema, advisories} -> yaml_io -> schema -> errors).
+({scenario, sweep} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io -> schema -> errors).
 Checked on the source with ``ast`` (module-level and function-level imports alike)."""
 
 from __future__ import annotations
@@ -34,10 +34,11 @@ ALLOWED = {
 }
 
 #: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank
-CONFIG_ORDER = {"scenario": 0, "imu": 1, "filter_params": 2, "effects_schema": 2, "advisories": 2, "yaml_io": 3,
+CONFIG_ORDER = {"scenario": 0, "sweep": 0, "imu": 1, "filter_params": 2, "effects_schema": 2, "advisories": 2, "yaml_io": 3,
                 "schema": 4, "errors": 5}
 #: jobs/ modules kept as deprecated aliases of the config/ modules (for code outside the package)
-MOVED_TO_CONFIG = ("schema", "yaml_io", "scenario", "imu", "filter_params", "effects_schema", "advisories")
+MOVED_TO_CONFIG = {m: m for m in ("schema", "yaml_io", "scenario", "imu", "filter_params", "effects_schema", "advisories")}
+MOVED_TO_CONFIG["sweep.schema"] = "sweep"
 
 
 def _layer(module: str) -> str:
@@ -102,9 +103,8 @@ def test_config_reads_top_to_bottom():
 def test_the_package_imports_configuration_from_config(name, path):
     """The jobs/ aliases of the moved modules are for code outside the package: nothing in sins_sim imports them
     (the aliases import the config/ modules), so the layering is the code's, not the aliases'."""
-    old = {f"sins_sim.jobs.{m}" for m in MOVED_TO_CONFIG}
-    bad = [f"{path.name}:{line} imports {t} (now sins_sim.config.{t.rsplit('.', 1)[1]})"
-           for t, line in _imports(path) if t in old]
+    old = {f"sins_sim.jobs.{m}": f"sins_sim.config.{new}" for m, new in MOVED_TO_CONFIG.items()}
+    bad = [f"{path.name}:{line} imports {t} (now {old[t]})" for t, line in _imports(path) if t in old]
     assert not bad, "; ".join(bad)
 
 
@@ -116,14 +116,14 @@ def test_the_old_paths_still_work_with_a_deprecation_warning():
     import sys
     import warnings
 
-    for m in MOVED_TO_CONFIG:
+    for m, new in MOVED_TO_CONFIG.items():
         sys.modules.pop(f"sins_sim.jobs.{m}", None)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             old = importlib.import_module(f"sins_sim.jobs.{m}")
-        assert old is importlib.import_module(f"sins_sim.config.{m}"), m
+        assert old is importlib.import_module(f"sins_sim.config.{new}"), m
         assert [str(w.message) for w in caught if w.category is DeprecationWarning] == \
-            [f"sins_sim.jobs.{m} moved to sins_sim.config.{m}"]
+            [f"sins_sim.jobs.{m} moved to sins_sim.config.{new}"]
     from sins_sim.config import errors, scenario
     from sins_sim.jobs.schema import ConfigError
 

@@ -34,7 +34,7 @@ def test_bundled_scenarios_validate(path):
 
 @pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("sweep-*.yaml")))
 def test_bundled_sweeps_validate(path):
-    from sins_sim.jobs.sweep.schema import load_sweep
+    from sins_sim.config.sweep import load_sweep
 
     sw = load_sweep(path)
     assert sw.units >= 1

@@ -25,7 +25,7 @@ from sins_sim.cli import main
 from sins_sim.config.errors import ConfigError
 from sins_sim.jobs.sweep.job import prepare_sweep, run_sweep
 from sins_sim.jobs.sweep.population import apply_unit, draw_unit
-from sins_sim.jobs.sweep.schema import load_sweep
+from sins_sim.config.sweep import load_sweep
 from sins_sim.jobs.sweep.tasks import run_task
 
 ROOT = Path(__file__).resolve().parents[1]

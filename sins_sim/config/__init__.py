@@ -16,7 +16,10 @@ A scenario file's path reads top to bottom::
       -> engine inputs              ImuConfig, NavSettings, motion, filters, seed
                                     (sins_sim.simulation.sins), run by the commands in ``jobs/``
 
+A sweep file (``sweep.load_sweep``) takes the same path, yaml_io then schema (``SWEEP_SCHEMA``); each
+of the scenarios it names is a scenario file as above.
+
 Modules, each importing only the ones below it (import-linter contract in ``pyproject.toml``):
-``scenario`` -> ``imu`` -> {``filter_params``, ``effects_schema``, ``advisories``} -> ``yaml_io`` -> ``schema``
+{``scenario``, ``sweep``} -> ``imu`` -> {``filter_params``, ``effects_schema``, ``advisories``} -> ``yaml_io`` -> ``schema``
 -> ``errors``. Nothing here imports ``jobs``, ``bench`` or ``cli``.
 """

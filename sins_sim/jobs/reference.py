@@ -40,7 +40,7 @@ def _schema(fmt: str):
 
         return EXPERIMENT_SCHEMA
     if fmt == "sweep":
-        from sins_sim.jobs.sweep.schema import SWEEP_SCHEMA
+        from sins_sim.config.sweep import SWEEP_SCHEMA
 
         return SWEEP_SCHEMA
     raise ValueError(f"FORMAT: must be one of {list(FORMATS)}, got {fmt!r}")
