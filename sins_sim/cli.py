@@ -926,7 +926,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("simulate-recording", help="write a sins-sim-recording/1 file from an experiment YAML",
                        description="Simulate an experiment (stationary, afc_sweep, rate_table) with any effects "
                                    "switched on and write it in the recording format; the file says nothing about "
-                                   "the effects. The YAML keys are listed in sins_sim/jobs/recording_jobs.py.")
+                                   "the effects. The YAML keys are listed in sins_sim/config/experiment.py.")
     p.add_argument("spec", help="experiment YAML")
     p.add_argument("--out", required=True, help="recording .npz to write")
     p.set_defaults(func=_cmd_simulate_recording)

@@ -401,7 +401,7 @@ def _scenario_schema():
 
 
 def _experiment_schema():
-    from sins_sim.jobs.recording_jobs import EXPERIMENT_SCHEMA
+    from sins_sim.config.experiment import EXPERIMENT_SCHEMA
 
     return EXPERIMENT_SCHEMA
 
@@ -416,7 +416,7 @@ def _load(fmt, doc):
         from sins_sim.config.scenario import Scenario
 
         return Scenario(doc, "s.yaml", ROOT / "scenarios")
-    from sins_sim.jobs.recording_jobs import experiment_from_dict
+    from sins_sim.config.experiment import experiment_from_dict
 
     return experiment_from_dict(doc, "e.yaml")
 

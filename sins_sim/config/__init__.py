@@ -17,9 +17,14 @@ A scenario file's path reads top to bottom::
                                     (sins_sim.simulation.sins), run by the commands in ``jobs/``
 
 A sweep file (``sweep.load_sweep``) takes the same path, yaml_io then schema (``SWEEP_SCHEMA``); each
-of the scenarios it names is a scenario file as above.
+of the scenarios it names is a scenario file as above. An experiment file
+(``experiment.experiment_from_dict``, for ``sins-sim simulate-recording``) is validated against
+``EXPERIMENT_SCHEMA`` and becomes the recording simulator's inputs (sins_sim.simulation.experiment).
 
-Modules, each importing only the ones below it (import-linter contract in ``pyproject.toml``):
-{``scenario``, ``sweep``} -> ``imu`` -> {``filter_params``, ``effects_schema``, ``advisories``} -> ``yaml_io`` -> ``schema``
--> ``errors``. Nothing here imports ``jobs``, ``bench`` or ``cli``.
+Modules, each importing only the ones below it (import-linter contract in ``pyproject.toml``)::
+
+    {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
+        -> schema -> errors
+
+Nothing here imports ``jobs``, ``bench`` or ``cli``.
 """

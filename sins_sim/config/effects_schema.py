@@ -1,6 +1,6 @@
 """The ``effects:`` list of IMU files: one schema node, checked by the effects catalogue.
 
-Item format (IMU files and experiment files, ``sins_sim.jobs.recording_jobs``, share this node)::
+Item format (IMU files and experiment files, ``sins_sim.config.experiment``, share this node)::
 
     effects:
       - {name: lock_in, axes: [x], threshold_rad_s: 2.0e-3, phase_rad: 0.3}

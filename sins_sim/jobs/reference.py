@@ -36,7 +36,7 @@ def _schema(fmt: str):
 
         return IMU_SCHEMA
     if fmt == "experiment":
-        from sins_sim.jobs.recording_jobs import EXPERIMENT_SCHEMA
+        from sins_sim.config.experiment import EXPERIMENT_SCHEMA
 
         return EXPERIMENT_SCHEMA
     if fmt == "sweep":

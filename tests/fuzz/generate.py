@@ -75,7 +75,7 @@ class Case:
 # --- the valid bases -------------------------------------------------------------------------------------------
 def _schemas():
     from sins_sim.config.imu import IMU_SCHEMA
-    from sins_sim.jobs.recording_jobs import EXPERIMENT_SCHEMA
+    from sins_sim.config.experiment import EXPERIMENT_SCHEMA
     from sins_sim.config.scenario import SCENARIO_SCHEMA
 
     return {"scenario": SCENARIO_SCHEMA, "imu": IMU_SCHEMA, "experiment": EXPERIMENT_SCHEMA}
