@@ -743,11 +743,11 @@ def _cmd_lockin_study(args) -> int:
 
 
 def _cmd_schema(args) -> int:
-    from sins_sim.jobs.reference import FORMATS, render_markdown, render_text
+    from sins_sim.config.reference import FORMATS, render_markdown, render_text
 
     formats = [args.format] if args.format else list(FORMATS)
     if args.json_schema:
-        from sins_sim.jobs.reference import render_json_schema
+        from sins_sim.config.reference import render_json_schema
 
         if args.markdown:
             raise ConfigError("--json-schema: give either --json-schema or --markdown")

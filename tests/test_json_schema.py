@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from sins_sim.cli import main
-from sins_sim.jobs.reference import JSON_SCHEMA_FORMATS, render_json_schema
+from sins_sim.config.reference import JSON_SCHEMA_FORMATS, render_json_schema
 from sins_sim.config.schema import Map, Num, OneOf, Str, Vec, _yaml_key, json_schema
 from sins_sim.config.yaml_io import load_yaml
 

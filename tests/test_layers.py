@@ -1,7 +1,8 @@
 """The package's import direction (style.md): cli -> jobs -> config -> identification -> simulation ->
 {models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
 each other; config/ never imports jobs/, bench/ or cli, and inside it a file's path reads top to bottom
-({scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io -> schema -> errors).
+(reference -> {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
+-> schema -> errors).
 Checked on the source with ``ast`` (module-level and function-level imports alike)."""
 
 from __future__ import annotations
@@ -34,11 +35,11 @@ ALLOWED = {
 }
 
 #: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank
-CONFIG_ORDER = {"scenario": 0, "sweep": 0, "experiment": 0, "imu": 1, "filter_params": 2, "effects_schema": 2,
-                "advisories": 2, "yaml_io": 3, "schema": 4, "errors": 5}
+CONFIG_ORDER = {"reference": 0, "scenario": 1, "sweep": 1, "experiment": 1, "imu": 2, "filter_params": 3,
+                "effects_schema": 3, "advisories": 3, "yaml_io": 4, "schema": 5, "errors": 6}
 #: jobs/ modules kept as deprecated aliases of the config/ modules (for code outside the package)
-MOVED_TO_CONFIG = {m: m for m in
-                   ("schema", "yaml_io", "scenario", "imu", "filter_params", "effects_schema", "advisories")}
+MOVED_TO_CONFIG = {m: m for m in ("schema", "yaml_io", "scenario", "imu", "filter_params", "effects_schema",
+                                  "advisories", "reference")}
 MOVED_TO_CONFIG["sweep.schema"] = "sweep"
 
 

@@ -23,8 +23,9 @@ of the scenarios it names is a scenario file as above. An experiment file
 
 Modules, each importing only the ones below it (import-linter contract in ``pyproject.toml``)::
 
-    {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
+    reference -> {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
         -> schema -> errors
 
-Nothing here imports ``jobs``, ``bench`` or ``cli``.
+``reference`` renders every format's reference and JSON Schema from these schemas (``sins-sim
+schema``). Nothing here imports ``jobs``, ``bench`` or ``cli``.
 """
