@@ -27,8 +27,12 @@ see :mod:`sins_sim.units`.
 
 Layers (imports point one way, checked by import-linter, contracts in ``pyproject.toml``)::
 
-    cli -> bench -> jobs -> identification -> simulation -> plots
+    cli -> bench -> jobs -> config -> identification -> simulation -> plots
         -> {models, filters, navigation} -> io -> _kernels -> {earth, units}
+
+``jobs`` holds the commands (run, budget, sweep, reproduce, ...); ``config`` below them turns YAML
+files into the engine's inputs (schemas, loaders, :class:`~sins_sim.config.errors.ConfigError`) and
+never imports a command.
 
 Public API (imported lazily, so ``import sins_sim`` stays light and never loads matplotlib):
 
@@ -64,8 +68,8 @@ _API = {
     "SuspensionParams": "sins_sim.models.suspension",
     "PAPER_SUSPENSION": "sins_sim.models.suspension",
     "StrapdownNavigator": "sins_sim.navigation.strapdown",
-    "load_imu": "sins_sim.jobs.imu",
-    "load_scenario": "sins_sim.jobs.scenario",
+    "load_imu": "sins_sim.config.imu",
+    "load_scenario": "sins_sim.config.scenario",
     "run_scenario": "sins_sim.jobs.run",
     "run": "sins_sim.jobs.results",
     "load": "sins_sim.jobs.results",

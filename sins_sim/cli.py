@@ -33,7 +33,7 @@ from contextlib import ExitStack, contextmanager
 
 from sins_sim import __version__
 from sins_sim.jobs.messages import capture_warnings, format_warning_lines
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_INTERNAL", "EXIT_USAGE", "EXIT_INTERRUPTED"]
 
@@ -743,11 +743,11 @@ def _cmd_lockin_study(args) -> int:
 
 
 def _cmd_schema(args) -> int:
-    from sins_sim.jobs.reference import FORMATS, render_markdown, render_text
+    from sins_sim.config.reference import FORMATS, render_markdown, render_text
 
     formats = [args.format] if args.format else list(FORMATS)
     if args.json_schema:
-        from sins_sim.jobs.reference import render_json_schema
+        from sins_sim.config.reference import render_json_schema
 
         if args.markdown:
             raise ConfigError("--json-schema: give either --json-schema or --markdown")
@@ -926,7 +926,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("simulate-recording", help="write a sins-sim-recording/1 file from an experiment YAML",
                        description="Simulate an experiment (stationary, afc_sweep, rate_table) with any effects "
                                    "switched on and write it in the recording format; the file says nothing about "
-                                   "the effects. The YAML keys are listed in sins_sim/jobs/recording_jobs.py.")
+                                   "the effects. The YAML keys are listed in sins_sim/config/experiment.py.")
     p.add_argument("spec", help="experiment YAML")
     p.add_argument("--out", required=True, help="recording .npz to write")
     p.set_defaults(func=_cmd_simulate_recording)

@@ -16,10 +16,10 @@ from scipy import integrate, signal
 
 from sins_sim.cli import main
 from sins_sim.io.trajectory import TrajectoryData, read_trajectory, write_trajectory
-from sins_sim.jobs import advisories
-from sins_sim.jobs.imu import imu_from_dict
-from sins_sim.jobs.scenario import load_scenario
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config import advisories
+from sins_sim.config.imu import imu_from_dict
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCMIN, ARCSEC, DEG
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from sins_sim.jobs.imu import load_imu
+from sins_sim.config.imu import load_imu
 from sins_sim.models import motion as m3
 from sins_sim.models.sensor_errors import AccelErrorParams, GyroErrorParams, SensorErrorParams
 from sins_sim.simulation.sins import ALLAN_MAX_SAMPLES, NavSettings, simulate_sins

@@ -10,7 +10,7 @@ import pytest
 
 from sins_sim import earth
 from sins_sim.jobs.budget import apply_off, budget_sources, run_budget
-from sins_sim.jobs.scenario import load_scenario
+from sins_sim.config.scenario import load_scenario
 
 IMU = Path("configs/default-imu.yaml").resolve()
 ACCEL_BIAS_UG = 200.0

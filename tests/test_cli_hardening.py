@@ -26,7 +26,7 @@ from sins_sim.jobs import output
 from sins_sim.jobs.messages import format_warning_lines, warning_text
 from sins_sim.jobs.output import (MARKER, atomic_output_dir, atomic_output_file, atomic_write_text, check_out_dir,
                                   check_out_file)
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 

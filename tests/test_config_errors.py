@@ -11,10 +11,10 @@ import yaml
 
 from sins_sim._validate import unknown_key
 from sins_sim.cli import main
-from sins_sim.jobs.imu import load_imu
-from sins_sim.jobs.scenario import load_scenario
-from sins_sim.jobs.schema import ConfigError, Map, Num, Str, validate
-from sins_sim.jobs.yaml_io import StrictLoader, key_marks, load_yaml
+from sins_sim.config.imu import load_imu
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.schema import ConfigError, Map, Num, Str, validate
+from sins_sim.config.yaml_io import StrictLoader, key_marks, load_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 IMU = ROOT / "configs" / "default-imu.yaml"

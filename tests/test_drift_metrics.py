@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from sins_sim import earth
 from sins_sim._kernels.nav import error_rotvec
-from sins_sim.jobs.imu import load_imu
+from sins_sim.config.imu import load_imu
 from sins_sim.models import motion as m3
 from sins_sim.models.sensor_errors import AccelErrorParams, GyroErrorParams, SensorErrorParams
 from sins_sim.simulation.metrics import psi_angle
@@ -198,7 +198,7 @@ def test_a_vibrating_block_at_rest_is_at_rest():
     """The translational vibration of nav-stationary-1h (0.002 g^2/Hz, 20-2000 Hz: a few cm/s peak velocity)
     does not break the rest span the Allan analysis uses: the whole navigated record (29 s of 30) is at rest,
     where a raw speed threshold had kept 4 s."""
-    from sins_sim.jobs.scenario import load_scenario
+    from sins_sim.config.scenario import load_scenario
 
     sc = load_scenario("scenarios/nav-stationary-1h.yaml", {"duration_s": 30.0})
     res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=("ideal",),

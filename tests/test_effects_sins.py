@@ -11,8 +11,8 @@ import pytest
 import yaml
 
 from sins_sim._kernels import drive as kdrive
-from sins_sim.jobs.imu import imu_from_dict, load_imu
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.imu import imu_from_dict, load_imu
+from sins_sim.config.errors import ConfigError
 from sins_sim.models.effects import make_effect
 from sins_sim.models.motion import Static
 from sins_sim.simulation.channel import ChannelChain, DriveControl

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from sins_sim.jobs.imu import load_imu
+from sins_sim.config.imu import load_imu
 from sins_sim.models.motion import AxisSines, Coning
 from sins_sim.simulation.channel import ChannelChain, DriveControl
 from sins_sim.units import ARCMIN

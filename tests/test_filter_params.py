@@ -4,9 +4,9 @@ import json
 
 import pytest
 
-from sins_sim.jobs.imu import imu_from_dict, load_imu, load_yaml
-from sins_sim.jobs.scenario import load_scenario
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.imu import imu_from_dict, load_imu, load_yaml
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.errors import ConfigError
 from sins_sim.models.motion import SineMotion
 from sins_sim.simulation.channel import simulate_channel
 from sins_sim.units import ARCMIN

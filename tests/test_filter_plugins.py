@@ -11,7 +11,7 @@ import pytest
 
 from sins_sim.filters import registry
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
-from sins_sim.jobs.imu import load_imu
+from sins_sim.config.imu import load_imu
 from sins_sim.models.motion import Coning, SineMotion
 from sins_sim.simulation.channel import ChannelConfig, simulate_channel
 from sins_sim.simulation.sins import NavSettings, simulate_sins

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from sins_sim import earth
-from sins_sim.jobs.imu import imu_from_dict
+from sins_sim.config.imu import imu_from_dict
 from sins_sim.models import motion as m3
 from sins_sim.models.accelerometer import Accelerometer, AccelerometerParams
 from sins_sim.models.motion.trajectory import Climb, CoordinatedTurn, Cruise, Trajectory

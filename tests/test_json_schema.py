@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 from sins_sim.cli import main
-from sins_sim.jobs.reference import JSON_SCHEMA_FORMATS, render_json_schema
-from sins_sim.jobs.schema import Map, Num, OneOf, Str, Vec, _yaml_key, json_schema
-from sins_sim.jobs.yaml_io import load_yaml
+from sins_sim.config.reference import JSON_SCHEMA_FORMATS, render_json_schema
+from sins_sim.config.schema import Map, Num, OneOf, Str, Vec, _yaml_key, json_schema
+from sins_sim.config.yaml_io import load_yaml
 
 jsonschema = pytest.importorskip("jsonschema")
 
@@ -106,7 +106,7 @@ def test_generated_from_the_schema_objects():
 
 def test_every_scenario_key_is_a_property():
     """The navigation section (keys and units) is the validator's, key for key."""
-    from sins_sim.jobs.scenario import SCENARIO_SCHEMA
+    from sins_sim.config.scenario import SCENARIO_SCHEMA
 
     nav = SCENARIO_SCHEMA.fields["navigation"]
     expected = {_yaml_key(k, getattr(s, "unit", None)) for k, s in nav.fields.items()}

@@ -1,6 +1,9 @@
-"""The package's import direction (style.md): cli -> jobs -> identification -> simulation ->
+"""The package's import direction (style.md): cli -> jobs -> config -> identification -> simulation ->
 {models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
-each other. Checked on the source with ``ast`` (module-level and function-level imports alike)."""
+each other; config/ never imports jobs/, bench/ or cli, and inside it a file's path reads top to bottom
+(reference -> {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
+-> schema -> errors).
+Checked on the source with ``ast`` (module-level and function-level imports alike)."""
 
 from __future__ import annotations
 
@@ -27,8 +30,17 @@ ALLOWED = {
     "plots": {"units", "earth", "models"},  # the paper figures draw eq. 9 itself
     "simulation": BASE | {"models", "filters", "navigation", "io"},
     "identification": BASE | {"simulation", "models", "filters", "navigation", "io", "plots"},
-    "jobs": BASE | {"simulation", "models", "filters", "navigation", "io", "identification", "plots"},
+    "config": BASE | {"simulation", "models", "filters", "navigation", "io"},
+    "jobs": BASE | {"config", "simulation", "models", "filters", "navigation", "io", "identification", "plots"},
 }
+
+#: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank
+CONFIG_ORDER = {"reference": 0, "scenario": 1, "sweep": 1, "experiment": 1, "imu": 2, "filter_params": 3,
+                "effects_schema": 3, "advisories": 3, "yaml_io": 4, "schema": 5, "errors": 6}
+#: jobs/ modules kept as deprecated aliases of the config/ modules (for code outside the package)
+MOVED_TO_CONFIG = {m: m for m in ("schema", "yaml_io", "scenario", "imu", "filter_params", "effects_schema",
+                                  "advisories", "reference")}
+MOVED_TO_CONFIG["sweep.schema"] = "sweep"
 
 
 def _layer(module: str) -> str:
@@ -71,6 +83,54 @@ def test_imports_point_one_way(name, path):
         if tl and tl != layer and tl not in ALLOWED[layer]:
             bad.append(f"{path.name}:{line} imports {target}")
     assert not bad, f"layer '{layer}' may import only {sorted(ALLOWED[layer])}: " + "; ".join(bad)
+
+
+def test_config_reads_top_to_bottom():
+    """Every config/ module is ranked, and imports only config/ modules ranked below it (no sibling, no climb)."""
+    files = sorted((PKG / "config").glob("*.py"))
+    assert {p.stem for p in files} - {"__init__"} == set(CONFIG_ORDER)
+    bad = []
+    for path in files:
+        if path.stem == "__init__":
+            continue
+        for target, line in _imports(path):
+            parts = target.split(".")
+            if parts[:2] == ["sins_sim", "config"] and len(parts) > 2 and parts[2] != path.stem:
+                if CONFIG_ORDER[parts[2]] <= CONFIG_ORDER[path.stem]:
+                    bad.append(f"config/{path.name}:{line} imports {target}")
+    assert not bad, "; ".join(bad)
+
+
+@pytest.mark.parametrize("name, path", list(_modules()), ids=lambda x: str(x) if isinstance(x, str) else "")
+def test_the_package_imports_configuration_from_config(name, path):
+    """The jobs/ aliases of the moved modules are for code outside the package: nothing in sins_sim imports them
+    (the aliases import the config/ modules), so the layering is the code's, not the aliases'."""
+    old = {f"sins_sim.jobs.{m}": f"sins_sim.config.{new}" for m, new in MOVED_TO_CONFIG.items()}
+    bad = [f"{path.name}:{line} imports {t} (now {old[t]})" for t, line in _imports(path) if t in old]
+    assert not bad, "; ".join(bad)
+
+
+def test_the_old_paths_still_work_with_a_deprecation_warning():
+    """``sins_sim.jobs.scenario`` & co. are the config/ modules themselves (one ConfigError class, so ``except
+    ConfigError`` catches either spelling; patching through the old path patches the real module), and importing
+    an old path warns once, naming the new one."""
+    import importlib
+    import sys
+    import warnings
+
+    for m, new in MOVED_TO_CONFIG.items():
+        sys.modules.pop(f"sins_sim.jobs.{m}", None)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            old = importlib.import_module(f"sins_sim.jobs.{m}")
+        assert old is importlib.import_module(f"sins_sim.config.{new}"), m
+        assert [str(w.message) for w in caught if w.category is DeprecationWarning] == \
+            [f"sins_sim.jobs.{m} moved to sins_sim.config.{new}"]
+    from sins_sim.config import errors, scenario
+    from sins_sim.jobs.schema import ConfigError
+
+    assert ConfigError is errors.ConfigError
+    assert not hasattr(scenario, "run_scenario")  # the jobs <-> config cycle is gone: run_scenario lives in jobs.run
 
 
 def test_import_linter_contracts_are_kept():

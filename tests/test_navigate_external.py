@@ -16,7 +16,7 @@ import pytest
 from sins_sim.cli import main
 from sins_sim.io import read_trajectory
 from sins_sim.jobs.navigate import INCREMENT_COLUMNS, navigate_increments, read_increments, write_increments
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 from sins_sim.models.motion import SampledTrajectory, Stationary, Trajectory
 from sins_sim.simulation.external import ideal_increments, uniform_period
 from sins_sim.units import DEG_PER_H

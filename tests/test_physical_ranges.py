@@ -15,9 +15,9 @@ import yaml
 from sins_sim.cli import main
 from sins_sim.filters.correcting import CorrectingFilterDesign
 from sins_sim.filters.eliminator import EliminatorDesign
-from sins_sim.jobs.imu import imu_from_dict
-from sins_sim.jobs.scenario import load_scenario
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.imu import imu_from_dict
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.errors import ConfigError
 from sins_sim.models.drive import DriveParams
 from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams

@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
-from sins_sim.jobs.schema import ConfigError, ListOf, Map, Num, OneOf, Str, Vec, describe
+from sins_sim.config.schema import ConfigError, ListOf, Map, Num, OneOf, Str, Vec, describe
 from sins_sim.models.drive import DriveParams
 from sins_sim.models.plant import PlantSettings, simulate_plant
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams
@@ -389,19 +389,19 @@ def _bad_values(spec):
 
 
 def _imu_schema():
-    from sins_sim.jobs.imu import IMU_SCHEMA
+    from sins_sim.config.imu import IMU_SCHEMA
 
     return IMU_SCHEMA
 
 
 def _scenario_schema():
-    from sins_sim.jobs.scenario import SCENARIO_SCHEMA
+    from sins_sim.config.scenario import SCENARIO_SCHEMA
 
     return SCENARIO_SCHEMA
 
 
 def _experiment_schema():
-    from sins_sim.jobs.recording_jobs import EXPERIMENT_SCHEMA
+    from sins_sim.config.experiment import EXPERIMENT_SCHEMA
 
     return EXPERIMENT_SCHEMA
 
@@ -409,14 +409,14 @@ def _experiment_schema():
 def _load(fmt, doc):
     """The real loader of each format (schema and the rules across keys)."""
     if fmt == "imu":
-        from sins_sim.jobs.imu import imu_from_dict
+        from sins_sim.config.imu import imu_from_dict
 
         return imu_from_dict(doc, "imu.yaml")
     if fmt == "scenario":
-        from sins_sim.jobs.scenario import Scenario
+        from sins_sim.config.scenario import Scenario
 
         return Scenario(doc, "s.yaml", ROOT / "scenarios")
-    from sins_sim.jobs.recording_jobs import experiment_from_dict
+    from sins_sim.config.experiment import experiment_from_dict
 
     return experiment_from_dict(doc, "e.yaml")
 

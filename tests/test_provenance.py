@@ -2,7 +2,7 @@
 
 The runs here are 1.5 s of a trajectory-file flight with plots and time series off (a few seconds each once
 the kernels are compiled); the manifest's hashes are checked against hashlib on the files themselves, the
-filters' f0 against the IMU file's values and eq. ``f0 (1 + ppm 1e-6)`` of sins_sim.jobs.filter_params.
+filters' f0 against the IMU file's values and eq. ``f0 (1 + ppm 1e-6)`` of sins_sim.config.filter_params.
 """
 
 import hashlib
@@ -16,8 +16,8 @@ import pytest
 import sins_sim
 from sins_sim.cli import main
 from sins_sim.jobs.manifest import MANIFEST_SCHEMA, Manifest, describe_folder, read_manifest, record_run
-from sins_sim.jobs.scenario import load_scenario
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.errors import ConfigError
 from sins_sim.jobs.sweep.store import SweepStore
 
 ROOT = Path(__file__).resolve().parents[1]

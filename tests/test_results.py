@@ -19,7 +19,7 @@ import yaml
 
 import sins_sim
 from sins_sim.jobs.results import FIGURE_KINDS, SERIES_COLUMNS, MissionResult, StoredRun
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -238,7 +238,7 @@ def test_relative_paths_in_a_dict_resolve_against_the_working_directory(monkeypa
 
 
 def test_load_imu_dict_equals_load_imu_path():
-    from sins_sim.jobs.yaml_io import load_yaml
+    from sins_sim.config.yaml_io import load_yaml
 
     doc = load_yaml(IMU)
     assert sins_sim.load_imu(doc) == sins_sim.load_imu(IMU)

@@ -12,8 +12,8 @@ import yaml
 
 from sins_sim.cli import main
 from sins_sim.jobs import estimate as est
-from sins_sim.jobs.scenario import load_scenario
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
 IMU = str(ROOT / "configs" / "default-imu.yaml")
@@ -138,7 +138,7 @@ def test_size_like_scenario_keys_are_bounded(tmp_path, section, key, value, rule
     ("drive", "loop_time_s", 1e9, "drive.loop_time_s: must be <= 1000"),
 ])
 def test_size_like_imu_keys_are_bounded(section, key, value, rule):
-    from sins_sim.jobs.imu import imu_from_dict
+    from sins_sim.config.imu import imu_from_dict
 
     doc = {"channels": {"x": {"f0_hz": 386}, "y": {"f0_hz": 352}, "z": {"f0_hz": 421}}, section: {key: value}}
     with pytest.raises(ConfigError, match=rule.replace(".", r"\.").replace("+", r"\+")):

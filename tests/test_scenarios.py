@@ -10,9 +10,10 @@ import pytest
 import yaml
 
 from sins_sim.cli import main
-from sins_sim.jobs.imu import imu_from_dict, load_imu
-from sins_sim.jobs.scenario import load_scenario, run_scenario
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.imu import imu_from_dict, load_imu
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.errors import ConfigError
+from sins_sim.jobs.run import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 GOOD_CHANNELS = {"x": {"f0_hz": 386}, "y": {"f0_hz": 352}, "z": {"f0_hz": 421}}
@@ -33,7 +34,7 @@ def test_bundled_scenarios_validate(path):
 
 @pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("sweep-*.yaml")))
 def test_bundled_sweeps_validate(path):
-    from sins_sim.jobs.sweep.schema import load_sweep
+    from sins_sim.config.sweep import load_sweep
 
     sw = load_sweep(path)
     assert sw.units >= 1

@@ -8,8 +8,8 @@ import pytest
 
 from sins_sim.cli import main
 from sins_sim.io.trajectory import TRAJECTORY_COLUMNS
-from sins_sim.jobs.reference import FORMATS, REGENERATE, render_markdown, render_text, rows
-from sins_sim.jobs.schema import Map, Num, describe
+from sins_sim.config.reference import FORMATS, REGENERATE, render_markdown, render_text, rows
+from sins_sim.config.schema import Map, Num, describe
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "scenario-reference.md"
@@ -87,7 +87,7 @@ def test_schema_command_refuses_an_unknown_format(capsys):
 def test_imu_reference_lists_every_sensor_key():
     """The sensors section is parsed by its own loader; its reference rows come from the same field specs,
     so every key the loader accepts is listed with a unit and a range."""
-    from sins_sim.jobs.reference import rows
+    from sins_sim.config.reference import rows
     from sins_sim.models.sensor_errors import _ACCEL_KEYS, _GYRO_KEYS
 
     listed = {r["key"]: r for r in rows("imu")}

@@ -394,7 +394,7 @@ PRESETS = {
 
 @pytest.mark.parametrize("name", sorted(PRESETS))
 def test_presets_load_and_state_their_values(name):
-    from sins_sim.jobs.imu import imu_from_dict, load_yaml
+    from sins_sim.config.imu import imu_from_dict, load_yaml
 
     path = ROOT / "configs" / name
     doc = load_yaml(path)

@@ -9,7 +9,7 @@ import pytest
 
 from sins_sim.models import motion as m3
 from sins_sim.models.suspension import nonl_array
-from sins_sim.jobs.imu import imu_from_dict
+from sins_sim.config.imu import imu_from_dict
 from sins_sim.simulation.sins import NavSettings, simulate_sins
 from sins_sim.units import ARCMIN, ARCSEC, DEG
 

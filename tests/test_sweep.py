@@ -22,10 +22,10 @@ import pandas as pd
 import pytest
 
 from sins_sim.cli import main
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 from sins_sim.jobs.sweep.job import prepare_sweep, run_sweep
 from sins_sim.jobs.sweep.population import apply_unit, draw_unit
-from sins_sim.jobs.sweep.schema import load_sweep
+from sins_sim.config.sweep import load_sweep
 from sins_sim.jobs.sweep.tasks import run_task
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -337,7 +337,7 @@ def test_sweep_keys_change_with_what_determines_a_run(tiny, tmp_path):
 
 
 def test_nominal_filter_parameters_are_passed_to_the_imu(tiny, tmp_path):
-    from sins_sim.jobs.imu import IMU_SCHEMA
+    from sins_sim.config.imu import IMU_SCHEMA
 
     nominal = tmp_path / "nominal.yaml"
     nominal.write_text(TINY + "filter_parameters: nominal\n")

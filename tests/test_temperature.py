@@ -18,9 +18,9 @@ import yaml
 
 from sins_sim._kernels import chain as kchain
 from sins_sim._kernels import drive as kdrive
-from sins_sim.jobs.imu import load_imu
-from sins_sim.jobs.scenario import load_scenario
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.imu import load_imu
+from sins_sim.config.scenario import load_scenario
+from sins_sim.config.errors import ConfigError
 from sins_sim.simulation.channel import ChannelChain, DriveControl
 from sins_sim.simulation.temperature import TemperatureProfile, ThermalModel
 from sins_sim.units import ARCSEC

@@ -16,7 +16,7 @@ from scipy import signal
 from sins_sim.filters import registry
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.wideband import WidebandDesign, WidebandFilter, build_lownoise, build_wideband
-from sins_sim.jobs.imu import load_imu
+from sins_sim.config.imu import load_imu
 from sins_sim.models.motion import AxisSines
 from sins_sim.simulation.channel import ChannelConfig
 from sins_sim.simulation.sins import NavSettings, simulate_sins

@@ -1,4 +1,4 @@
-"""YAML as people write it (sins_sim.jobs.yaml_io): YAML 1.2 numbers, duplicate keys, one-line errors."""
+"""YAML as people write it (sins_sim.config.yaml_io): YAML 1.2 numbers, duplicate keys, one-line errors."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from sins_sim.jobs.schema import ConfigError
-from sins_sim.jobs.yaml_io import StrictLoader, load_yaml, parse_yaml
+from sins_sim.config.errors import ConfigError
+from sins_sim.config.yaml_io import StrictLoader, load_yaml, parse_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -61,7 +61,7 @@ def test_the_global_safe_loader_is_untouched():
 
 def test_a_config_with_exponent_numbers_loads(tmp_path):
     """The reason for the change: ``k1: 1.75e-4`` works in PyYAML, ``k1: 175e-6`` did not (a string)."""
-    from sins_sim.jobs.imu import imu_from_dict
+    from sins_sim.config.imu import imu_from_dict
 
     doc = load_yaml(_write(tmp_path, "suspension: {k1: 175e-6, k5_rad_per_v: -12e-6}\n"
                                      "channels: {x: {f0_hz: 386}, y: {f0_hz: 352}, z: {f0_hz: 4.21e2}}\n"))
@@ -135,8 +135,7 @@ def test_top_level_must_be_a_mapping(tmp_path, text, got):
 
 
 def test_imu_module_still_exports_load_yaml():
-    from sins_sim.jobs import imu, yaml_io
-
+    from sins_sim.config import imu, yaml_io
     assert imu.load_yaml is yaml_io.load_yaml
     assert "load_yaml" in imu.__all__
 
@@ -152,7 +151,7 @@ def test_every_bundled_yaml_file_loads():
 # --- scenarios/turn-with-vibration.yaml: the description's numbers ---------------------------------------
 def test_turn_description_gives_the_z_axis_loss():
     """The turn is about z; the text must quote eq. 5's paper-form loss at z's f0 (not x's 386 Hz)."""
-    from sins_sim.jobs.imu import load_imu
+    from sins_sim.config.imu import load_imu
 
     path = ROOT / "scenarios" / "turn-with-vibration.yaml"
     doc = load_yaml(path)

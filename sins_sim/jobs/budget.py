@@ -132,7 +132,7 @@ def apply_off(imu, off):
 
 def _one_run(path: str, overrides: dict, off: tuple) -> dict:
     """One budget run in a worker: the final error vectors of every filter."""
-    from sins_sim.jobs.scenario import load_scenario
+    from sins_sim.config.scenario import load_scenario
     from sins_sim.simulation.sins import simulate_sins
 
     sc = load_scenario(path, overrides)
@@ -209,7 +209,7 @@ def run_budget(path, out_dir, overrides: dict | None = None, workers: int = 2, p
     out_dir : path
         Output folder (the CLI passes a temporary folder of :func:`sins_sim.jobs.output.atomic_output_dir`).
     overrides : dict, optional
-        As :func:`sins_sim.jobs.scenario.load_scenario` (seed, duration_s, imu, filter_parameters).
+        As :func:`sins_sim.config.scenario.load_scenario` (seed, duration_s, imu, filter_parameters).
     workers : int
         Worker processes (runs in parallel, one thread each).
     progress : callable(done, total) or None
@@ -219,7 +219,7 @@ def run_budget(path, out_dir, overrides: dict | None = None, workers: int = 2, p
     BudgetResult
         The content of ``budget.json`` (a dict, with ``to_pandas()`` and ``plot()``).
     """
-    from sins_sim.jobs.scenario import load_scenario
+    from sins_sim.config.scenario import load_scenario
 
     sc = load_scenario(path, overrides)
     sources = budget_sources(sc.imu)

@@ -37,7 +37,7 @@ from sins_sim.filters import registry
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator
 from sins_sim.filters.wideband import WidebandDesign, design_equaliser
-from sins_sim.jobs.imu import load_imu, load_yaml
+from sins_sim.config.imu import load_imu, load_yaml
 from sins_sim.jobs.reproduce.responses import fir_response, mechanical_response
 from sins_sim.models.motion import SineMotion, StaticMotion
 from sins_sim.models.readout import ReadoutParams
@@ -274,7 +274,7 @@ def _group_delay_s(imu, names):
 
 
 def _scenario(doc, ctx):
-    from sins_sim.jobs.scenario import Scenario
+    from sins_sim.config.scenario import Scenario
 
     return Scenario(doc, ctx, _ROOT / "scenarios")
 

@@ -73,7 +73,7 @@ import statistics
 import sys
 from pathlib import Path
 
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 __all__ = ["estimate_run", "check_run", "estimate_channel", "check_channel", "announce", "format_duration",
            "MAX_WALL_S", "MAX_MEMORY_BYTES", "PLANT_STEP_AXIS_S", "NAV_SAMPLE_FILTER_S", "TRUTH_SAMPLE_S",
@@ -153,7 +153,7 @@ def _parts(motion):
 
 
 def estimate_run(scenario) -> dict:
-    """The cost of a ``sins-sim run`` of ``scenario`` (a :class:`~sins_sim.jobs.scenario.Scenario`).
+    """The cost of a ``sins-sim run`` of ``scenario`` (a :class:`~sins_sim.config.scenario.Scenario`).
 
     Returns
     -------

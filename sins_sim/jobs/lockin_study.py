@@ -89,7 +89,7 @@ class LockinRun:
 
 
 def _imu():
-    from sins_sim.jobs.imu import load_imu
+    from sins_sim.config.imu import load_imu
 
     return load_imu(Path(__file__).resolve().parents[2] / "configs" / "default-imu.yaml")
 

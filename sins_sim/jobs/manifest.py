@@ -15,13 +15,13 @@ through :func:`result_dir`)::
 and, for ``sins-sim run`` (:func:`record_run`):
 
     run.scenario      the scenario as run: the file with the command line's overrides applied and every
-                      default written out, in the file's own keys and units (sins_sim.jobs.schema.fill_defaults)
+                      default written out, in the file's own keys and units (sins_sim.config.schema.fill_defaults)
     run.imu           the IMU the same way, with the scenario's filter_parameters merged in
     run.overrides     what the command line replaced (seed, duration_s, imu, filter_parameters)
     run.seed          the seed every random stream of the run derives from
     run.filter_parameters
                       where the filters' parameters came from, and filter -> axis -> the values each filter
-                      actually used (sins_sim.jobs.filter_params.filters_used): f0_hz, k1 .. k5 in SI,
+                      actually used (sins_sim.config.filter_params.filters_used): f0_hz, k1 .. k5 in SI,
                       the unit's f0 and the filter's f0 error in ppm, source, f0 source, mismatch, tracking
 
 ``run.scenario`` and ``run.imu`` are also written as ``inputs/scenario.yaml`` and ``inputs/imu.yaml``,
@@ -46,7 +46,7 @@ from contextlib import contextmanager
 from datetime import datetime, timezone
 from pathlib import Path
 
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 __all__ = ["MANIFEST", "MANIFEST_SCHEMA", "INPUTS", "Manifest", "result_dir", "sha256_file", "environment",
            "read_manifest", "describe_folder", "record_run", "record_scenario", "rerun_scenario", "resolve_run_inputs"]
@@ -263,8 +263,8 @@ def describe_folder(folder) -> str:
 # --- run: the inputs as run, and the rerun ----------------------------------------------------------------------
 def _filter_parameters_doc(value) -> dict:
     """``filter_parameters`` written out: the short forms as a mapping, every default (f0 by source) filled."""
-    from sins_sim.jobs import filter_params as fp
-    from sins_sim.jobs.schema import fill_defaults
+    from sins_sim.config import filter_params as fp
+    from sins_sim.config.schema import fill_defaults
 
     if value is True or value is None:
         value = {"source": "true"}
@@ -284,7 +284,7 @@ def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> di
     ----------
     path : path or mapping
         The scenario file, or the scenario as a mapping (already validated by
-        :func:`sins_sim.jobs.scenario.load_scenario`).
+        :func:`sins_sim.config.scenario.load_scenario`).
     overrides : dict, optional
         The command line's replacements.
     base_dir : path, optional
@@ -298,9 +298,9 @@ def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> di
         ``trajectory.file`` and ``filter_parameters.file`` name the copies), ``files`` (role -> the original
         path: scenario, imu, trajectory, diagnosis) and ``copies`` (role -> the copy's name in ``inputs/``).
     """
-    from sins_sim.jobs.imu import IMU_SCHEMA, load_yaml
-    from sins_sim.jobs.scenario import SCENARIO_SCHEMA, scenario_document
-    from sins_sim.jobs.schema import fill_defaults
+    from sins_sim.config.imu import IMU_SCHEMA, load_yaml
+    from sins_sim.config.scenario import SCENARIO_SCHEMA, scenario_document
+    from sins_sim.config.schema import fill_defaults
 
     from collections.abc import Mapping
 
@@ -371,7 +371,7 @@ def record_run(manifest: Manifest, scenario, path, overrides: dict | None, folde
     ``path`` is the scenario file or, for a scenario given as a mapping, that mapping (its relative
     paths taken from ``scenario.base_dir``).
     """
-    from sins_sim.jobs.filter_params import filters_used
+    from sins_sim.config.filter_params import filters_used
 
     res = resolve_run_inputs(path, overrides, getattr(scenario, "base_dir", None))
     inputs = Path(folder) / INPUTS

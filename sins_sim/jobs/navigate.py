@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 __all__ = ["INCREMENT_COLUMNS", "read_increments", "write_increments", "navigate_increments", "navigate_file"]
 

@@ -34,7 +34,7 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 __all__ = ["MARKER", "MIN_FREE_BYTES", "check_out_dir", "check_out_file", "atomic_output_dir",
            "atomic_output_file", "atomic_write_bytes", "atomic_write_text"]

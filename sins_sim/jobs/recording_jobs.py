@@ -11,264 +11,25 @@ Each function returns a dictionary and prints nothing:
   recordings, in parallel across recordings;
 - :func:`diagnose_eval` (``sins-sim diagnose-eval --n N --seed S``).
 
-Experiment YAML (units in the key names; every key optional except ``experiment`` and ``duration_s``; a
-documented example ships as ``scenarios/experiments/experiment-example.yaml``)::
-
-    experiment: stationary          # stationary | afc_sweep | rate_table
-    description: "bench run 3"      # written to the recording
-    axes: [x, y, z]                 # 1 to 3 names, default [x]
-    duration_s: 2.0
-    seed: 0                         # readout noise and the random perturbation
-    fs_hz: 7200                     # readout rate
-    drive_fs_hz: 7200               # drive update rate (a multiple of fs_hz), default fs_hz
-    plant_rate_hz: 72000            # truth simulation rate (a multiple of drive_fs_hz)
-    integrator: exact               # exact | rk4
-    hysteresis: paper               # paper | masing
-    quantum_arcsec: 0.15125         # readout quantum (2.42/16 arcsec)
-    noise_arcsec: 0.0               # white readout noise before quantisation
-    initial_state: rest             # rest | unknown (the recording starts after preroll_s)
-    preroll_s: 1.0
-    amplitude_arcmin: 3.0           # dither amplitude the drive is set up for (from the nominal parameters)
-    nominal:                        # per axis, as in configs/*.yaml; defaults: the paper, f0 386/352/421 Hz
-      x: {f0_hz: 386, k1: 1.75e-4, k2_rad: 1.05e-3, k3: 4.4e-3, k4_per_rad: 250, k5_rad_per_v: -1.2e-5}
-    perturb: {f0: 0.002, k: 0.05}   # the unit differs from nominal: relative std, seeded
-    truth:                          # or explicitly (overrides the perturbation), per axis
-      x: {f0_hz: 386.6}
-    afc: {voltage_factors: [0.5, 0.75, 1.0, 1.25], frequency_offsets_hz: [-3, -1.5, 0, 1.5, 3], dwell_s: 0.25}
-    rate_table:                     # the table's angle about every axis listed (default all)
-      rate_deg_s: 10
-      sines: [{amplitude_arcmin: 30, frequency_hz: 7}, {amplitude_arcmin: 3, frequency_hz: 80, phase_deg: 60}]
-      axes: [x]
-    effects:                        # catalogue effects (sins_sim.models.effects), SI parameters
-      - {name: piezo_lag, tau_s: 1.0e-4, axes: [x]}
-      - {name: axis_coupling, coefficients: {x: {y: 0.01}}}
-
-The drive runs at the amplitude-dependent resonance of the *nominal* suspension with eq. 17's voltage
-(stationary, rate_table) or steps through the AFC plan (afc_sweep), as an engineer would set it up.
+The experiment file's format, schema and loader are configuration: :mod:`sins_sim.config.experiment`.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
+from sins_sim.config.experiment import (DEFAULT_F0_HZ, EXPERIMENT_SCHEMA, SUSPENSION_YAML_KEYS,  # noqa: F401
+                                        experiment_from_dict)
+from sins_sim.config.yaml_io import load_yaml
 from sins_sim.io.recording import read_csv_recording, read_recording, write_recording
-from sins_sim.jobs.effects_schema import EffectsList
-from sins_sim.models.plant import check_resolution
-from sins_sim.models.suspension import SuspensionParams
-from sins_sim.jobs.imu import load_yaml
-from sins_sim.jobs.schema import ConfigError, ListOf, Map, Num, Str, validate
-from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings, afc_drive, record,
-                                            stationary_drive, table_motion)
+from sins_sim.simulation.experiment import record
 from sins_sim.units import ARCSEC
 
+#: ``EXPERIMENT_SCHEMA``, ``DEFAULT_F0_HZ`` and ``experiment_from_dict`` are re-exported from
+#: :mod:`sins_sim.config.experiment`, where they live
 __all__ = ["EXPERIMENT_SCHEMA", "DEFAULT_F0_HZ", "experiment_from_dict", "simulate_recording", "import_csv",
            "diagnose", "diagnose_many", "diagnose_eval", "format_diagnosis", "format_eval"]
-
-#: Default small-amplitude resonances per axis (reference-model.md "Three axes": 300-450 Hz, all different).
-DEFAULT_F0_HZ = {"x": 386.0, "y": 352.0, "z": 421.0}
-_POS = dict(min=0.0, min_exclusive=True)
-
-
-def _suspension_fields():
-    from sins_sim.models import suspension as sus
-
-    k5 = sus.K5_RANGE_RAD_PER_V[1]
-    return {
-        "f0": Num(unit="hz", min=sus.F0_RANGE_HZ[0], max=sus.F0_RANGE_HZ[1]),
-        "k1": Num(min=0.0, max=sus.K1_MAX),
-        "k2": Num(unit="rad", min=sus.K2_RANGE_RAD[0], max=sus.K2_RANGE_RAD[1]),
-        "k3": Num(min=0.0, max=sus.K3_MAX),
-        "k4": Num(unit="per_rad", min=sus.K4_MIN_PER_RAD, max=sus.K4_MAX_PER_RAD),
-        "k5": Num(unit="rad_per_v", min=-k5, max=k5, nonzero=True),
-        "zeta": Num(min=0.0, max=sus.ZETA_MAX),
-    }
-
-
-#: Longest experiment (s): the simulator keeps the whole record at the plant rate in memory (about 60 B per
-#: plant step and axis: 13 MB per second for 3 axes at 72 kHz); bench experiments last seconds to minutes.
-MAX_EXPERIMENT_S = 300.0
-#: Most plant steps x axes an experiment may hold (about 4 GB at 60 B each).
-MAX_EXPERIMENT_STEPS = 6.5e7
-
-
-class _PerAxis:
-    """A mapping axis name -> suspension overrides (axis names are free)."""
-
-    unit = None
-    default = None
-    required = False
-
-    def __init__(self):
-        self.item = Map(_suspension_fields())
-
-    def describe_rows(self, path):
-        from sins_sim.jobs.schema import describe
-
-        head = {"key": path, "kind": "mapping", "unit": "", "range": "axis name -> parameters", "default": "(none)",
-                "doc": "per axis (a name of axes), the suspension keys of the IMU format"}
-        return [head] + describe(self.item, f"{path}.AXIS")
-
-    def json_schema(self):
-        from sins_sim.jobs.schema import json_schema
-
-        return {"type": "object", "additionalProperties": json_schema(self.item),
-                "description": "per axis (a name of axes), the suspension keys of the IMU format"}
-
-    def check(self, value, ctx, path):
-        if not isinstance(value, dict):
-            raise ConfigError(f"{ctx}: {path}: must be a mapping axis -> parameters, got {value!r}")
-        return {str(k): self.item.check(v, ctx, f"{path}.{k}") for k, v in value.items()}
-
-
-_RATE = dict(min=100.0, max=1.0e6)
-EXPERIMENT_SCHEMA = Map({
-    "name": Str(default=""),
-    "experiment": Str(choices=("stationary", "afc_sweep", "rate_table"), required=True),
-    "description": Str(default=""),
-    "axes": ListOf(Str(), default=["x"], min_len=1, max_len=3, doc="1 to 3 distinct names"),
-    "duration": Num(unit="s", required=True, **_POS, max=MAX_EXPERIMENT_S),
-    "seed": Num(integer=True, min=0, max=2 ** 32 - 1, default=0),
-    "fs": Num(unit="hz", default=7200.0, **_RATE, doc="readout rate"),
-    "drive_fs": Num(unit="hz", **_RATE, doc="drive update rate, a multiple of fs_hz (default fs_hz)"),
-    "plant_rate": Num(unit="hz", default=72000.0, min=1.0e3, max=1.0e6,
-                      doc="truth simulation rate, a multiple of drive_fs_hz, >= 40 f0"),
-    "integrator": Str(choices=("exact", "rk4"), default="exact"),
-    "hysteresis": Str(choices=("paper", "masing"), default="paper"),
-    "quantum": Num(unit="arcsec", default=2.42 / 16.0, min=0.001, max=60.0),
-    "noise": Num(unit="arcsec", min=0.0, max=60.0, default=0.0),
-    "initial_state": Str(choices=("rest", "unknown"), default="rest"),
-    "preroll": Num(unit="s", min=0.0, max=60.0, default=1.0, doc="simulated before the record (initial_state: "
-                                                                 "unknown)"),
-    "amplitude": Num(unit="arcmin", default=3.0, min=0.01, max=60.0, doc="dither amplitude the drive is set up for"),
-    "nominal": _PerAxis(),
-    "truth": _PerAxis(),
-    "perturb": Map({"f0": Num(min=0.0, max=0.05, default=0.0), "k": Num(min=0.0, max=0.5, default=0.0)},
-                   default={}, doc="relative std of the unit's difference from nominal (seeded)"),
-    "afc": Map({
-        "voltage_factors": ListOf(Num(**_POS, max=10.0), default=[0.5, 0.75, 1.0, 1.25], min_len=1, max_len=100),
-        "frequency_offsets_hz": ListOf(Num(min=-100.0, max=100.0), default=[-3.0, -1.5, 0.0, 1.5, 3.0], min_len=1,
-                                       max_len=100),
-        "dwell": Num(unit="s", default=0.25, **_POS, max=60.0),
-    }, default={}),
-    "rate_table": Map({
-        "rate": Num(unit="deg_s", default=10.0, min=-1000.0, max=1000.0),
-        "sines": ListOf(Map({"amplitude": Num(unit="arcmin", required=True, min=0.0, max=600.0),
-                             "frequency": Num(unit="hz", required=True, **_POS, max=5.0e5, doc="< fs_hz / 2"),
-                             "phase": Num(unit="deg", default=0.0, min=-360.0, max=360.0)}),
-                        max_len=100,
-                        default=[{"amplitude_arcmin": 30.0, "frequency_hz": 7.0},
-                                 {"amplitude_arcmin": 3.0, "frequency_hz": 80.0, "phase_deg": 60.0},
-                                 {"amplitude_arcmin": 1.0, "frequency_hz": 230.0, "phase_deg": 120.0}]),
-        "axes": ListOf(Str(), min_len=1),
-    }, default={}),
-    "effects": EffectsList(axes=None, catalogue_only=False,
-                           doc="the off-catalogue disturbances mains_pickup and drive_harmonic too"),
-}, rules=(f"(duration_s + preroll_s) x plant_rate_hz x axes <= {MAX_EXPERIMENT_STEPS:.3g} plant steps (memory)",
-          "plant_rate_hz >= 40 x f0_hz of every axis; rate_table sines below fs_hz / 2 and their peak rate "
-          "<= 1000 deg/s"))
-
-_YAML_SUSP = {"f0_hz": "f0_hz", "k1": "k1", "k2_rad": "k2", "k3": "k3", "k4_per_rad": "k4", "k5_rad_per_v": "k5",
-              "zeta": "zeta"}
-
-
-def _suspension(base: SuspensionParams, over: dict | None) -> SuspensionParams:
-    if not over:
-        return base
-    return base.replace(**{_YAML_SUSP[k]: float(v) for k, v in over.items() if v is not None})
-
-
-def experiment_from_dict(doc: dict, ctx: str = "experiment") -> dict:
-    """Validate an experiment mapping and build everything :func:`simulate_recording` needs.
-
-    Returns a dict with ``inputs`` (ExperimentInputs, pre-roll included), ``truth`` and ``nominal``
-    (axis -> SuspensionParams), ``effects``, ``settings``, ``quantum_rad``, ``noise_rad``, ``seed``,
-    ``preroll_samples``, ``experiment``, ``description`` and ``points`` (AFC plan).
-
-    Raises
-    ------
-    ConfigError
-        Naming ``ctx``, the key path and the rule.
-    """
-    c = validate(doc, EXPERIMENT_SCHEMA, ctx)
-    axes = list(c["axes"])
-    if len(axes) > 3 or len(set(axes)) != len(axes):
-        raise ConfigError(f"{ctx}: axes: must be 1 to 3 distinct names, got {axes!r}")
-    for key in ("nominal", "truth"):
-        for a in c[key] or {}:
-            if a not in axes:
-                raise ConfigError(f"{ctx}: {key}.{a}: is not one of axes {axes}")
-    try:
-        nominal = {}
-        for i, a in enumerate(axes):
-            base = SuspensionParams(f0_hz=DEFAULT_F0_HZ.get(a, 386.0 - 17.0 * i))
-            nominal[a] = _suspension(base, (c["nominal"] or {}).get(a))
-        rng = np.random.default_rng([int(c["seed"]), 7])
-        truth = {}
-        for a in axes:
-            s = nominal[a]
-            pf, pk = c["perturb"]["f0"], c["perturb"]["k"]
-            if pf or pk:
-                z = rng.standard_normal(6)
-                s = s.replace(f0_hz=s.f0_hz * (1 + pf * z[0]), k1=s.k1 * (1 + pk * z[1]), k2=s.k2 * (1 + pk * z[2]),
-                              k3=s.k3 * (1 + pk * z[3]), k4=s.k4 * (1 + pk * z[4]), k5=s.k5 * (1 + pk * z[5]))
-            truth[a] = _suspension(s, (c["truth"] or {}).get(a))
-        fs = c["fs_hz"]
-        dfs = c["drive_fs_hz"] or fs
-        settings = ExperimentSettings(plant_rate_hz=c["plant_rate_hz"], integrator=c["integrator"],
-                                      hysteresis=c["hysteresis"])
-        pre = int(round(c["preroll_s"] * fs)) if c["initial_state"] == "unknown" else 0
-        n = int(math.floor(c["duration_s"] * fs + 1e-9)) + 1 + pre
-        ratio = int(round(dfs / fs))
-        if ratio < 1 or abs(dfs / fs - ratio) > 1e-9:
-            raise ValueError(f"drive_fs_hz: drive_fs_hz / fs_hz must be an integer >= 1, got {dfs / fs!r}")
-        amp = c["amplitude_rad"]
-        points = []
-        if c["experiment"] == "afc_sweep":
-            afc = c["afc"]
-            drive, points = afc_drive(nominal, axes, amp, afc["voltage_factors"], afc["frequency_offsets_hz"],
-                                      afc["dwell_s"], dfs, n * ratio)
-        else:
-            drive = stationary_drive(nominal, axes, amp, dfs, n * ratio)
-        table = None
-        if c["experiment"] == "rate_table":
-            rt = c["rate_table"]
-            for i, sn in enumerate(rt["sines"]):
-                if not sn["frequency_hz"] < fs / 2.0:
-                    raise ValueError(f"rate_table.sines[{i}].frequency_hz: must be < fs_hz / 2 = {fs / 2.0:g} Hz, "
-                                     f"got {sn['frequency_hz']:g}")
-                peak = math.degrees(2.0 * math.pi * sn["frequency_hz"] * sn["amplitude_rad"])
-                if peak > 1000.0:
-                    raise ValueError(f"rate_table.sines[{i}].amplitude_arcmin: gives a peak rate of {peak:.4g} deg/s, "
-                                     "beyond the 1000 deg/s an RLG measures")
-            mot = table_motion(rt["rate_rad_s"], [(s["amplitude_rad"], s["frequency_hz"], s["phase_rad"])
-                                                  for s in rt["sines"]])
-            on = rt["axes"] or axes
-            for a in on:
-                if a not in axes:
-                    raise ValueError(f"rate_table.axes: {a!r} is not one of axes {axes}")
-            table = {a: mot for a in on}
-        inputs = ExperimentInputs(axes, fs, n, dfs, drive, table)
-        effects = c["effects"] or []
-        for e in effects:
-            e.check_axes(axes)
-        rate = inputs.plant_rate(settings)
-        steps = n * rate / fs * len(axes)
-        if steps > MAX_EXPERIMENT_STEPS:
-            raise ValueError(f"duration_s: {c['duration_s']:g} s (+ preroll) at plant_rate_hz {rate:g} on {len(axes)} "
-                             f"axis/axes is {steps:.3g} plant steps held in memory (the limit is "
-                             f"{MAX_EXPERIMENT_STEPS:.3g}, about 4 GB): shorten duration_s")
-        for a in axes:
-            check_resolution(truth[a], rate)
-    except ValueError as exc:
-        raise ConfigError(f"{ctx}: {exc}") from None
-    return {"inputs": inputs, "truth": truth, "nominal": nominal, "effects": effects, "settings": settings,
-            "quantum_rad": c["quantum_rad"], "noise_rad": c["noise_rad"], "seed": int(c["seed"]),
-            "preroll_samples": pre, "experiment": c["experiment"], "description": c["description"],
-            "points": points, "name": c["name"]}
 
 
 def simulate_recording(yaml_path, out_npz) -> dict:
@@ -277,7 +38,7 @@ def simulate_recording(yaml_path, out_npz) -> dict:
     Parameters
     ----------
     yaml_path : path
-        Experiment description (module docstring).
+        Experiment description (:mod:`sins_sim.config.experiment`).
     out_npz : path
         Recording to write (``sins-sim-recording/1``).
 
@@ -311,7 +72,7 @@ def _header_nominal(nominal):
             continue
         clean = {}
         for key, val in entry.items():
-            name = _YAML_SUSP.get(key, key) if key != "zeta" else key
+            name = SUSPENSION_YAML_KEYS.get(key, key) if key != "zeta" else key
             if name in clean:
                 raise ValueError(f"import_csv: nominal.{axis}.{key}: gives {name} a second time (use one of "
                                  f"{name} or {key})")

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC
 
 __all__ = ["MissionResult", "StoredRun", "BudgetResult", "SweepResult", "DiagnosisResult", "run", "load",
@@ -116,7 +116,7 @@ class MissionResult:
     Attributes
     ----------
     scenario : Scenario or None
-        The validated scenario (:func:`sins_sim.jobs.scenario.load_scenario`); after :func:`load`, the one of
+        The validated scenario (:func:`sins_sim.config.scenario.load_scenario`); after :func:`load`, the one of
         the folder's ``inputs/scenario.yaml`` (None if that no longer validates).
     metrics : dict
         The content of ``metrics.json`` (:data:`sins_sim.jobs.run.DEFINITIONS` says what each figure is).
@@ -453,7 +453,7 @@ def run(scenario, *, seed: int | None = None, duration_s: float | None = None, i
     scenario : path, mapping or Scenario
         A scenario file; the same content as a dict (validated exactly like a file, errors naming
         ``scenario (dict)`` and the key; relative paths taken from the working directory); or a
-        :class:`~sins_sim.jobs.scenario.Scenario` from :func:`~sins_sim.jobs.scenario.load_scenario`.
+        :class:`~sins_sim.config.scenario.Scenario` from :func:`~sins_sim.config.scenario.load_scenario`.
     seed, duration_s : optional
         Replace the scenario's (like ``--seed`` and ``--duration``).
     imu : path or mapping, optional
@@ -475,7 +475,7 @@ def run(scenario, *, seed: int | None = None, duration_s: float | None = None, i
 
     from sins_sim.jobs.manifest import Manifest
     from sins_sim.jobs.run import compute_run, prepare_run
-    from sins_sim.jobs.scenario import Scenario
+    from sins_sim.config.scenario import Scenario
 
     overrides = {k: v for k, v in (("seed", seed), ("duration_s", duration_s), ("imu", imu)) if v is not None}
     if isinstance(scenario, Scenario):
@@ -516,7 +516,7 @@ def load(folder):
     import warnings
 
     from sins_sim.jobs.manifest import INPUTS, read_manifest
-    from sins_sim.jobs.scenario import load_scenario
+    from sins_sim.config.scenario import load_scenario
 
     folder = Path(folder)
     doc = read_manifest(folder, "load")

@@ -211,7 +211,7 @@ def prepare_run(source, overrides: dict | None = None, progress=None, base_dir=N
     (Scenario, list of str)
     """
     from sins_sim.jobs.messages import warning_text
-    from sins_sim.jobs.scenario import load_scenario
+    from sins_sim.config.scenario import load_scenario
 
     with warnings.catch_warnings(record=True) as caught:  # configuration-time warnings: told now, kept for metrics
         warnings.simplefilter("always")
@@ -236,7 +236,7 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
     -------
     (SinsResult, dict)
     """
-    from sins_sim.jobs import advisories
+    from sins_sim.config import advisories
     from sins_sim.simulation.sins import simulate_sins  # the engine, once the scenario is known to be valid
 
     res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
@@ -302,7 +302,7 @@ def _filter_parameters_report(fp: dict) -> str:
     """The report's table of the parameters each filter used (from the manifest's ``run.filter_parameters``)."""
     lines = ["", "## Filter parameters (what each filter believed; `manifest.json` holds them in SI)", "",
              f"Source `{fp['source']}`, f0 from `{fp['f0_source']}`, f0 mismatch {fp['f0_mismatch_ppm']:g} ppm, "
-             f"PLL tracking {'on' if fp['track'] else 'off'} (sins_sim.jobs.filter_params).", "",
+             f"PLL tracking {'on' if fp['track'] else 'off'} (sins_sim.config.filter_params).", "",
              "| filter | axis | f0 (Hz) | f0 error vs unit (ppm) | k1 | k2 (rad) | k3 | k4 (1/rad) | k5 (rad/V) |",
              "|---|---|---|---|---|---|---|---|---|"]
     other = []

@@ -24,7 +24,7 @@ __all__ = ["SuspensionParams", "PAPER_SUSPENSION", "nonl_array", "F0_RANGE_HZ", 
 
 # --- physical ranges (issue 12, point 4) ------------------------------------------------------------------
 # A value outside a RANGE is refused with a ValueError naming the field; one outside a TYPICAL band is
-# legal but unusual and draws one warning. The YAML schemas (sins_sim/jobs/imu.py) use the same numbers.
+# legal but unusual and draws one warning. The YAML schemas (sins_sim/config/imu.py) use the same numbers.
 #
 #: f0 (Hz). Mechanically dithered RLGs resonate at 100-1500 Hz (the paper's 28 cm gyro: 386 Hz; small
 #: tactical gyros up to ~1.5 kHz): that is the usual band. Below 20 Hz the "dither" would sit inside the

@@ -901,7 +901,7 @@ class _ThermalSchedule:
       frac(c_new k))``, ``c`` the cycles per DAC sample or per plant step, ``k`` the absolute
       index), so the waveform is continuous. Both correcting filters move their f0 with the drive,
       ``f0_filter = f0_filter(0) f_drive / f_drive(0)``: the PLL inversion
-      ``f_drive f0_b / F_b(a)`` of :mod:`sins_sim.jobs.filter_params` with the believed k1, k2
+      ``f_drive f0_b / F_b(a)`` of :mod:`sins_sim.config.filter_params` with the believed k1, k2
       held (for ``f0: pll`` the same number; for ``unit`` and ``given`` the t = 0 value carried
       along). The eliminator (a 40 Hz-wide stop band) and plug-in filters keep their t = 0 design.
 

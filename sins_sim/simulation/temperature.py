@@ -1,6 +1,6 @@
 """The unit's temperature over a mission, and what it does to each dither suspension.
 
-A scenario's ``temperature:`` section (``sins_sim.jobs.scenario``) gives a profile ``T(t)`` and the
+A scenario's ``temperature:`` section (``sins_sim.config.scenario``) gives a profile ``T(t)`` and the
 suspension's temperature coefficients; the engine (:class:`~sins_sim.simulation.channel.ChannelChain`)
 updates the plant's ``omega0`` (and optionally k1..k5) in blocks of ``update_s`` counted from t = 0,
 with the temperature at each block's middle, so results do not depend on chunking.

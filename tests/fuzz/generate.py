@@ -74,15 +74,15 @@ class Case:
 
 # --- the valid bases -------------------------------------------------------------------------------------------
 def _schemas():
-    from sins_sim.jobs.imu import IMU_SCHEMA
-    from sins_sim.jobs.recording_jobs import EXPERIMENT_SCHEMA
-    from sins_sim.jobs.scenario import SCENARIO_SCHEMA
+    from sins_sim.config.imu import IMU_SCHEMA
+    from sins_sim.config.experiment import EXPERIMENT_SCHEMA
+    from sins_sim.config.scenario import SCENARIO_SCHEMA
 
     return {"scenario": SCENARIO_SCHEMA, "imu": IMU_SCHEMA, "experiment": EXPERIMENT_SCHEMA}
 
 
 def _imu_doc(rng: random.Random) -> dict:
-    from sins_sim.jobs.yaml_io import load_yaml
+    from sins_sim.config.yaml_io import load_yaml
 
     name = rng.choice(["default-imu.yaml", "spread-imu.yaml"])
     return load_yaml(ROOT / "configs" / name)
@@ -212,7 +212,7 @@ def _ykey(name, spec):
 
 def _nodes(doc, spec, path=()):
     """(path, spec, value) of every node of ``doc`` that ``spec`` describes (maps, lists and leaves)."""
-    from sins_sim.jobs.schema import ListOf, Map, OneOf, Str
+    from sins_sim.config.schema import ListOf, Map, OneOf, Str
 
     yield path, spec, doc
     if isinstance(spec, OneOf) and isinstance(doc, dict):
@@ -260,7 +260,7 @@ def _leaves(doc, spec, kinds=("Num", "Vec", "Str", "Bool", "ListOf")):
 
 def _maps(doc, spec):
     """Mappings of ``doc`` with their schema (Map, a OneOf entry, a per-axis mapping): (path, spec)."""
-    from sins_sim.jobs.schema import Map, OneOf
+    from sins_sim.config.schema import Map, OneOf
 
     out = []
     for p, s, v in _nodes(doc, spec):
@@ -271,7 +271,7 @@ def _maps(doc, spec):
 
 def _fields_of(spec, value):
     """(yaml key -> spec) of a mapping node."""
-    from sins_sim.jobs.schema import OneOf
+    from sins_sim.config.schema import OneOf
 
     if isinstance(spec, OneOf):
         variant = spec.variants.get(value.get(spec.key))

@@ -122,9 +122,9 @@ def _validate(case, folder: Path) -> str | None:
     """Load and check one case as the command would, without running any engine; the CLI's message or None."""
     from sins_sim.io.recording import read_recording
     from sins_sim.jobs.estimate import check_run
-    from sins_sim.jobs.recording_jobs import experiment_from_dict
-    from sins_sim.jobs.scenario import load_scenario
-    from sins_sim.jobs.yaml_io import load_yaml
+    from sins_sim.config.experiment import experiment_from_dict
+    from sins_sim.config.scenario import load_scenario
+    from sins_sim.config.yaml_io import load_yaml
     from sins_sim.models.plant import PlantSettings
     from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, suspension_from_nominal
 

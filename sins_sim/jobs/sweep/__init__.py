@@ -1,8 +1,9 @@
 """Monte Carlo over unit populations on dask.distributed (``sins-sim sweep``).
 
+The sweep file (scenarios, population, units, seed) is configuration: :mod:`sins_sim.config.sweep`.
+
 .. autosummary::
 
-   schema      the sweep file: scenarios, population, units, seed
    population  seeded draws of each unit around the IMU file, applied to an IMU mapping
    tasks       one task per (unit, scenario), its key, and the worker's run (flat metrics)
    store       the sweep folder: Parquet parts written as runs finish, failures, resume
@@ -11,6 +12,6 @@
 """
 
 from sins_sim.jobs.sweep.job import run_sweep
-from sins_sim.jobs.sweep.schema import SWEEP_SCHEMA, load_sweep
+from sins_sim.config.sweep import SWEEP_SCHEMA, load_sweep
 
 __all__ = ["run_sweep", "load_sweep", "SWEEP_SCHEMA"]

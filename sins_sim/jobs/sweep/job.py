@@ -22,8 +22,8 @@ import traceback
 from contextlib import contextmanager
 from pathlib import Path
 
-from sins_sim.jobs.schema import ConfigError
-from sins_sim.jobs.sweep.schema import load_sweep
+from sins_sim.config.errors import ConfigError
+from sins_sim.config.sweep import load_sweep
 from sins_sim.jobs.sweep.store import SweepStore
 from sins_sim.jobs.sweep.summary import (DRIVER_ALPHA, driver_tests, metric_filters, parameter_names,
                                         quantile_n_required, summarize)

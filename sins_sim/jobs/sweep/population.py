@@ -22,7 +22,7 @@ import zlib
 
 import numpy as np
 
-from sins_sim.jobs.sweep.schema import SUSPENSION_KEYS
+from sins_sim.config.sweep import SUSPENSION_KEYS
 
 __all__ = ["AXES", "SENSOR_SIGMA_KEYS", "draw_unit", "apply_unit", "parameter_columns", "grid_size"]
 
@@ -111,7 +111,7 @@ def draw_unit(sweep, i: int) -> dict:
 
 
 def _suspension_default(field: str) -> float:
-    from sins_sim.jobs.imu import IMU_SCHEMA
+    from sins_sim.config.imu import IMU_SCHEMA
 
     return IMU_SCHEMA.fields["suspension"].fields[field].default
 

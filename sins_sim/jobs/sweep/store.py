@@ -27,7 +27,7 @@ import tempfile
 from pathlib import Path
 
 from sins_sim.jobs.output import MARKER, atomic_write_text
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 __all__ = ["SweepStore", "FORMAT"]
 

@@ -23,7 +23,7 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sins_sim.jobs.schema import ConfigError
+from sins_sim.config.errors import ConfigError
 
 __all__ = ["package_version", "Task", "build_tasks", "run_task", "run_key", "flatten_metrics", "METRICS",
            "HEADLINE_METRICS", "ID_COLUMNS", "PARAM_PREFIX"]
@@ -104,8 +104,8 @@ def run_key(doc: dict, files: dict, version: str, ident: dict | None = None) -> 
 def _scenario_base(entry: dict) -> dict:
     """Read one scenario of the sweep (and its IMU file), validate it once; what every unit's run starts from."""
     from sins_sim.jobs.estimate import check_run
-    from sins_sim.jobs.imu import load_yaml
-    from sins_sim.jobs.scenario import Scenario
+    from sins_sim.config.imu import load_yaml
+    from sins_sim.config.scenario import Scenario
 
     path = entry["path"]
     doc = dict(load_yaml(path))
@@ -145,7 +145,7 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
     ConfigError
         One line naming the file, the unit and the key when a scenario or a unit's drawn IMU breaks a rule.
     """
-    from sins_sim.jobs.imu import IMU_SCHEMA, imu_from_dict, load_yaml
+    from sins_sim.config.imu import IMU_SCHEMA, imu_from_dict, load_yaml
     from sins_sim.jobs.sweep.population import apply_unit, draw_unit
 
     if sweep.filter_parameters not in ("true", True) and "filter_parameters" not in IMU_SCHEMA.fields:
@@ -241,7 +241,7 @@ def run_task(spec: dict) -> dict:
 
     from sins_sim.jobs.messages import format_warning_lines
     from sins_sim.jobs.run import scenario_metrics
-    from sins_sim.jobs.scenario import Scenario
+    from sins_sim.config.scenario import Scenario
     from sins_sim.simulation.sins import simulate_sins
     from sins_sim.units import ARCSEC
 

@@ -1,0 +1,296 @@
+"""The filters' own parameters: what the correcting filter and its plug-ins believe about each unit.
+
+A real unit's filter does not know the suspension's true f0 and k1..k5: it runs on the batch's
+datasheet values, on a refit of that unit, or on values a user gives, and its omega0 comes from
+the dither phase-locked loop ("omega0 was determined by the dither phase-locked loop taking
+into account a relative mismatch", the paper, section on Fig. 6). The IMU file's
+``filter_parameters`` key says which (issue 11, item 4)::
+
+    filter_parameters: true          # the unit's true parameters (the ideal case; the default)
+    filter_parameters: nominal       # the datasheet (the IMU file's shared suspension), f0 from the PLL
+    filter_parameters:
+      source: explicit               # true | nominal | explicit | diagnose
+      f0: pll                        # pll | unit | given
+      f0_mismatch_ppm: 0.0           # relative offset of the filter's f0 on top
+      suspension: {k1: ..., k2_rad: ..., k3: ..., k4_per_rad: ..., k5_rad_per_v: ...}   # explicit, shared
+      channels: {x: {f0_hz: 386.1, suspension: {k3: 4.5e-3}}}                          # explicit, per axis
+      file: unit-17-diagnosis.json   # source: diagnose; a ``sins-sim diagnose --json`` file
+      track: false                   # true: the PLL follows the resonance over the mission (temperature)
+
+Sources of k1..k5 (eq. 9, 10, 14):
+
+``true``
+    The unit's own (each channel's merged suspension).
+``nominal``
+    The IMU file's shared top-level ``suspension`` block (the batch's datasheet), the same for
+    the three axes, whatever the channels override.
+``explicit``
+    The shared block of ``filter_parameters.suspension`` (defaults: the nominal values), then
+    the per-axis overrides of ``filter_parameters.channels``.
+``diagnose``
+    ``baseline.params[axis]`` of a diagnosis JSON: the refit of that unit's nominal model
+    (``f0_hz``, ``k1`` .. ``k5``).
+
+Source of omega0 (``f0``):
+
+``pll``
+    The PLL locks the drive to the dither's resonance at the working amplitude, ``F(a)``
+    (eq. 9 by harmonic balance, :meth:`SuspensionParams.resonance_hz`); the filter turns the
+    locked frequency back into omega0 with the k1, k2 it believes:
+    ``f0_filter = f_drive * f0_b / F_b(a)``. Exact when the believed k1, k2 are the true ones.
+``unit``
+    The unit's true small-amplitude f0 (an oracle; what ``true`` uses).
+``given``
+    The f0 of the source (``explicit``: ``channels.AXIS.f0_hz``, required; ``diagnose``: the
+    refit's f0; ``nominal``: the channel's ``f0_hz`` of the IMU file, the design value).
+
+Tracking (``track: true``): the drive follows the unit's current ``F(a)`` block by block and the
+filters' f0 follows the drive by the same inversion (``sins_sim.simulation.channel._ThermalSchedule``);
+without it the drive and the filters keep their t = 0 values while a temperature profile or a
+resonance drift moves the plant.
+
+Defaults: ``true`` takes ``unit``; ``nominal`` and ``explicit`` take ``pll``; ``diagnose`` takes
+``given``. ``f0_mismatch_ppm`` scales the result by ``1 + ppm 1e-6`` (the PLL's relative
+mismatch, Fig. 6).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from sins_sim.config.schema import Bool, ConfigError, Map, Num, Str, json_schema, validate
+
+__all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions",
+           "filters_used"]
+
+SOURCES = ("true", "nominal", "explicit", "diagnose")
+F0_SOURCES = ("pll", "unit", "given")
+_DEFAULT_F0 = {"true": "unit", "nominal": "pll", "explicit": "pll", "diagnose": "given"}
+_K_KEYS = (("k1", "k1"), ("k2_rad", "k2"), ("k3", "k3"), ("k4_per_rad", "k4"), ("k5_rad_per_v", "k5"))
+
+
+def _k_fields():
+    return {
+        "k1": Num(min=0.0, max=0.1, doc="eq. 9 scale (default: the nominal)"),
+        "k2": Num(unit="rad", min=1e-6, max=0.1, doc="eq. 9 angle (default: the nominal)"),
+        "k3": Num(min=0.0, max=0.2, doc="eq. 10 dissipation (default: the nominal)"),
+        "k4": Num(unit="per_rad", min=-20.0, max=1.0e4, doc="eq. 10 amplitude dependence (default: the nominal)"),
+        "k5": Num(unit="rad_per_v", min=-1e-2, max=1e-2, nonzero=True, doc="eq. 14 piezo gain (default: the nominal)"),
+    }
+
+
+FILTER_PARAMETERS_SCHEMA = Map({
+    "source": Str(choices=SOURCES, default="true",
+                  doc="where the filters' k1..k5 come from: the unit's true values, the datasheet (shared "
+                      "suspension), explicit values, or a diagnosis JSON"),
+    "f0": Str(choices=F0_SOURCES, default=None,
+              doc="where the filters' omega0 comes from: the dither PLL (drive frequency through the believed "
+                  "k1, k2), the unit's true f0, or the source's value (default: unit for true, pll for nominal and "
+                  "explicit, given for diagnose)"),
+    "f0_mismatch": Num(unit="ppm", min=-1e5, max=1e5, default=0.0,
+                       doc="relative offset of the filters' f0 (the PLL's relative mismatch, Fig. 6)"),
+    "suspension": Map(_k_fields(), default={}, doc="explicit: shared values"),
+    "channels": Map({axis: Map({"f0": Num(unit="hz", min=20.0, max=5000.0, doc="explicit f0 (f0: given)"),
+                                "suspension": Map(_k_fields(), default={})}, default={})
+                     for axis in ("x", "y", "z")}, default={}, doc="explicit: per-axis values"),
+    "file": Str(default=None, doc="source: diagnose; a `sins-sim diagnose --json` file, relative to the IMU file"),
+    "track": Bool(default=False,
+                  doc="the dither PLL follows the unit's current resonance F(a) over the mission (under a scenario's "
+                      "temperature profile or resonance drift) and the filters' f0 follows the drive, f0_filter = "
+                      "f_drive f0_b / F_b(a); false: drive and filters stay at their t = 0 values"),
+}, default={}, doc="what the correcting filter and the plug-in filters believe: true (the unit's own values, the default), nominal (the datasheet, f0 from the dither PLL) or this mapping")
+
+
+def _json_schema() -> dict:
+    """``filter_parameters`` for editors: ``true``, a source name, or the mapping (``source: true`` too)."""
+    mapping = json_schema(Map(FILTER_PARAMETERS_SCHEMA.fields))
+    mapping["properties"]["source"] = {"anyOf": [{"const": True}, mapping["properties"]["source"]]}
+    shorthands = [s for s in SOURCES if s not in ("explicit", "diagnose")]
+    return {"anyOf": [{"const": True}, {"enum": shorthands}, mapping], "description": FILTER_PARAMETERS_SCHEMA.doc}
+
+
+FILTER_PARAMETERS_SCHEMA.json = _json_schema
+
+
+def parse_filter_parameters(value, ctx: str, path: str = "filter_parameters") -> dict:
+    """Validate the key; ``true``/``"true"``/``"nominal"``/... are short for ``{source: ...}``."""
+    if value is True:
+        value = {"source": "true"}
+    elif isinstance(value, str):
+        if value not in SOURCES or value in ("explicit", "diagnose"):
+            raise ConfigError(f"{ctx}: {path}: must be true, nominal or a mapping with source "
+                              f"(one of {', '.join(SOURCES)}), got {value!r}")
+        value = {"source": value}
+    elif value is None or value is False:
+        raise ConfigError(f"{ctx}: {path}: must be true, nominal or a mapping, got {value!r}")
+    elif isinstance(value, dict) and value.get("source") is True:  # YAML reads `source: true` as a boolean
+        value = dict(value, source="true")
+    c = validate(value, FILTER_PARAMETERS_SCHEMA, ctx, path)
+    if c["f0"] is None:
+        c["f0"] = _DEFAULT_F0[c["source"]]
+    if c["source"] == "diagnose" and not c["file"]:
+        raise ConfigError(f"{ctx}: {path}.file: required with source: diagnose")
+    if c["source"] != "diagnose" and c["file"]:
+        raise ConfigError(f"{ctx}: {path}.file: only with source: diagnose (source is {c['source']!r})")
+    if c["source"] != "explicit" and (any(v is not None for v in c["suspension"].values())
+                                      or any(c["channels"][a]["f0_hz"] is not None
+                                             or any(v is not None for v in c["channels"][a]["suspension"].values())
+                                             for a in ("x", "y", "z"))):
+        raise ConfigError(f"{ctx}: {path}: suspension and channels only with source: explicit")
+    if c["source"] == "explicit" and c["f0"] == "given":
+        missing = [a for a in ("x", "y", "z") if c["channels"][a]["f0_hz"] is None]
+        if missing:
+            raise ConfigError(f"{ctx}: {path}.channels.{missing[0]}.f0_hz: required with f0: given")
+    if c["source"] == "true" and c["f0"] != "unit":
+        pass  # the true k's with a PLL-tracked or mismatched f0: allowed (the mismatch study)
+    return c
+
+
+def _read_diagnosis(path: Path, ctx: str, where: str) -> dict:
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{ctx}: {where}: file not found: {path}") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ConfigError(f"{ctx}: {where}: not a readable diagnosis JSON ({type(exc).__name__}): {path}") from None
+    try:
+        params = doc["baseline"]["params"]
+    except (KeyError, TypeError):
+        raise ConfigError(f"{ctx}: {where}: {path} has no baseline.params (is it a `sins-sim diagnose --json` "
+                          f"file?)") from None
+    if not isinstance(params, dict):
+        raise ConfigError(f"{ctx}: {where}: baseline.params must be a mapping of axes")
+    return params
+
+
+def filter_suspensions(spec: dict, true_by_axis: dict, nominal: dict, design_f0: dict, drive_hz: dict,
+                       amplitude_rad: dict, ctx: str, base_dir: Path | None = None,
+                       path: str = "filter_parameters") -> dict:
+    """The suspension each axis's filters believe (axis -> SuspensionParams, or None for the truth itself).
+
+    Parameters
+    ----------
+    spec : dict
+        :func:`parse_filter_parameters` output.
+    true_by_axis : dict axis -> SuspensionParams
+        The unit's true suspensions.
+    nominal : dict
+        The shared (datasheet) ``k1, k2, k3, k4, k5`` (SI).
+    design_f0 : dict axis -> float
+        The channels' ``f0_hz`` in the IMU file (Hz).
+    drive_hz, amplitude_rad : dict axis -> float
+        Each drive's frequency (Hz) and target amplitude (rad): the PLL's lock point.
+    """
+    from sins_sim.models.suspension import SuspensionParams  # here: parsing a file stays light (no scipy, numba)
+
+    src, f0_src, ppm = spec["source"], spec["f0"], spec["f0_mismatch_ppm"]
+    if src == "true" and f0_src == "unit" and ppm == 0.0:
+        return {a: None for a in true_by_axis}
+    diag = None
+    if src == "diagnose":
+        p = Path(spec["file"])
+        if base_dir is not None and not p.is_absolute():
+            p = base_dir / p
+        diag = _read_diagnosis(p, ctx, f"{path}.file")
+    out = {}
+    for axis, true in true_by_axis.items():
+        where = f"{path} (axis {axis})"
+        given_f0 = design_f0[axis]
+        if src == "true":
+            ks = {k: getattr(true, k) for k in ("k1", "k2", "k3", "k4", "k5")}
+        elif src == "nominal":
+            ks = dict(nominal)
+        elif src == "explicit":
+            ks = dict(nominal)
+            for key, attr in _K_KEYS:
+                for block in (spec["suspension"], spec["channels"][axis]["suspension"]):
+                    if block.get(key) is not None:
+                        ks[attr] = block[key]
+            given_f0 = spec["channels"][axis]["f0_hz"]
+        else:
+            row = diag.get(axis)
+            if not isinstance(row, dict):
+                raise ConfigError(f"{ctx}: {path}.file: the diagnosis has no axis {axis!r} "
+                                  f"(axes: {', '.join(map(str, diag))})")
+            try:
+                ks = {k: float(row[k]) for k in ("k1", "k2", "k3", "k4", "k5")}
+                given_f0 = float(row["f0_hz"])
+            except (KeyError, TypeError, ValueError):
+                raise ConfigError(f"{ctx}: {path}.file: baseline.params.{axis} must hold f0_hz, k1..k5 as "
+                                  f"numbers") from None
+        try:
+            if f0_src == "unit":
+                f0 = true.f0_hz
+            elif f0_src == "given":
+                f0 = given_f0
+            else:
+                # PLL: the drive is locked to F(a); the filter inverts F(a)/f0 with the k1, k2 it believes (eq. 9)
+                probe = SuspensionParams(f0_hz=true.f0_hz, **ks)
+                f0 = drive_hz[axis] * probe.f0_hz / probe.resonance_hz(amplitude_rad[axis])
+            f0 *= 1.0 + 1e-6 * ppm
+            if not math.isfinite(f0):
+                raise ValueError(f"f0 not finite ({f0!r})")
+            out[axis] = SuspensionParams(f0_hz=f0, zeta=true.zeta, **ks)
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {where}: {exc}") from None
+    return out
+
+
+#: eq. 5's two forms (``sins_sim.simulation.channel``): ``correcting`` is unity at DC, ``correcting_paper`` as printed.
+_EQ5_FORMS = {"correcting": "unity", "correcting_paper": "paper"}
+
+
+def filters_used(channels, spec: dict, filters, axes=("x", "y", "z")) -> dict:
+    """The parameters each filter of a run actually used, per axis, in SI with the unit in the key.
+
+    Parameters
+    ----------
+    channels : sequence of ChannelConfig
+        The unit's channels as the run built them (``filter_suspension`` set by :func:`filter_suspensions`).
+    spec : dict
+        :func:`parse_filter_parameters` output (where the values came from).
+    filters : sequence of str
+        The run's filters.
+
+    Returns
+    -------
+    dict
+        ``filter -> axis -> {...}``. eq. 5 (``correcting``, ``correcting_paper``) and plug-ins: ``f0_hz``,
+        ``k1``, ``k2_rad``, ``k3``, ``k4_per_rad``, ``k5_rad_per_v``, ``fs_hz``, ``hysteresis``, the unit's own
+        ``unit_f0_hz`` and ``f0_error_ppm`` = (f0_hz / unit_f0_hz - 1) 1e6 (the mismatch the filter runs with,
+        the PLL's inversion included), and the ``source``, ``f0_source``, ``f0_mismatch_ppm`` and ``track`` of
+        ``filter_parameters``; ``eliminator``: the elliptic design (``band_hz``, ``order``, ``rp_db``,
+        ``rs_db``, ``fs_hz``) centred on ``drive_hz``; ``ideal`` and ``raw``: nothing to believe (``{}``).
+    """
+    import dataclasses
+
+    origin = {"source": spec["source"], "f0_source": spec["f0"], "f0_mismatch_ppm": float(spec["f0_mismatch_ppm"]),
+              "track": bool(spec["track"])}
+    out = {}
+    for name in filters:
+        per_axis = {}
+        for axis, ch in zip(axes, channels):
+            if name in ("ideal", "raw"):
+                per_axis[axis] = {}
+                continue
+            if name == "eliminator":
+                d = ch.eliminator_design()
+                per_axis[axis] = {"band_hz": [float(x) for x in d.band_hz], "order": int(d.order),
+                                  "rp_db": float(d.rp_db), "rs_db": float(d.rs_db), "fs_hz": float(d.fs_hz),
+                                  "drive_hz": float(ch.drive_signal().frequency_hz)}
+                continue
+            if name in _EQ5_FORMS:
+                b = dataclasses.asdict(ch.correcting_design(_EQ5_FORMS[name]))
+            else:
+                b = dataclasses.asdict(ch.filter_context(axis))
+            unit_f0 = ch.suspension.f0_hz
+            row = {"f0_hz": b["f0_hz"], "k1": b["k1"], "k2_rad": b["k2"], "k3": b["k3"], "k4_per_rad": b["k4"],
+                   "k5_rad_per_v": b["k5"], "fs_hz": b["fs_hz"], "hysteresis": b["hysteresis"]}
+            if "form" in b:
+                row["form"] = b["form"]
+            row.update(unit_f0_hz=unit_f0, f0_error_ppm=(b["f0_hz"] / unit_f0 - 1.0) * 1e6, **origin)
+            per_axis[axis] = row
+        out[name] = per_axis
+    return out

@@ -1,0 +1,346 @@
+"""IMU configuration files (``configs/*.yaml``) -> :class:`ImuConfig`.
+
+Layout (every key optional except ``channels``; units in the key names)::
+
+    name: default
+    suspension: {k1: 1.75e-4, k2_rad: 1.05e-3, k3: 4.4e-3, k4_per_rad: 250, k5_rad_per_v: -1.2e-5}
+    drive: {amplitude_arcmin: 3.0, dac_rate_hz: 72000, control: closed_loop, loop_time_s: 0.1,
+            block_cycles: 10, modulation_depth: 0.0}
+    plant: {rate_hz: 72000, hysteresis: paper}
+    readout: {quantum_arcsec: 0.15125, noise_arcsec: 0.0, output_rate_hz: 7200,
+              anti_alias: {cutoff_hz: 9000, numtaps: 21}}      # anti_alias: null = off
+    correcting: {hysteresis: paper}
+    eliminator: {width_hz: 40, rp_db: 0.1, rs_db: 60}
+    effects:                      # catalogue effects acting in the engine (sins_sim.config.effects_schema)
+      - {name: lock_in, axes: [x], threshold_rad_s: 2.0e-3}
+    filter_parameters: nominal    # what the filters believe: true (default) | nominal | a mapping
+                                  # (sins_sim.config.filter_params)
+    channels:
+      x: {f0_hz: 386}
+      y: {f0_hz: 352, suspension: {k3: 4.6e-3}}
+      z: {f0_hz: 421, drive: {amplitude_arcmin: 2.9}}
+
+A channel's ``suspension`` and ``drive`` entries override the shared ones: the shared block is the
+batch's datasheet (what ``filter_parameters: nominal`` hands the filters), the channel's values are
+the unit's own.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from sins_sim.filters import eliminator as _elim
+from sins_sim.models import drive as _drive
+from sins_sim.models import plant as _plant
+from sins_sim.models import readout as _readout
+from sins_sim.models import suspension as _sus
+from sins_sim.models.drive import DriveParams
+from sins_sim.models.plant import PlantSettings, check_resolution
+from sins_sim.models.readout import AntiAliasParams, ReadoutParams
+from sins_sim.models.suspension import SuspensionParams
+from sins_sim.units import ARCSEC
+from sins_sim.config import filter_params as _fparams
+from sins_sim.config.effects_schema import EffectsList
+from sins_sim.config.schema import ConfigError, Map, Num, Str, validate
+from sins_sim.config.yaml_io import load_yaml  # re-exported: other modules import it from here
+from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
+from sins_sim.simulation.sins import DriveControl, ImuConfig
+
+__all__ = ["IMU_SCHEMA", "load_yaml", "load_imu", "imu_from_dict"]
+
+
+# The ranges are the models' physical ranges (sins_sim.models.suspension, .drive, .plant, .readout, where each
+# is justified); the schema repeats them so that an error names the YAML key and the reference lists them.
+_K5 = _sus.K5_RANGE_RAD_PER_V[1]
+
+
+def _suspension_fields(defaults: bool):
+    d = (lambda x: x) if defaults else (lambda x: None)
+    return {
+        "k1": Num(min=0.0, max=_sus.K1_MAX, default=d(1.75e-4), doc="eq. 9 scale; also k1 < 2 k2"),
+        "k2": Num(unit="rad", min=_sus.K2_RANGE_RAD[0], max=_sus.K2_RANGE_RAD[1], default=d(1.05e-3),
+                  doc="eq. 9 angle"),
+        "k3": Num(min=0.0, max=_sus.K3_MAX, default=d(4.4e-3), doc="eq. 10 dissipation"),
+        "k4": Num(unit="per_rad", min=_sus.K4_MIN_PER_RAD, max=_sus.K4_MAX_PER_RAD, default=d(250.0),
+                  doc=f"eq. 10 amplitude dependence; the loss k3 (1 + k4 a) + 2 zeta < 1 up to "
+                      f"a = {_sus.LOSS_AMPLITUDE_RAD:g} rad"),
+        "k5": Num(unit="rad_per_v", min=-_K5, max=_K5, nonzero=True, default=d(-1.2e-5),
+                  doc=f"eq. 14 piezo gain; |k5| >= {_sus.K5_RANGE_RAD_PER_V[0]:g}"),
+        "zeta": Num(min=0.0, max=_sus.ZETA_MAX, default=d(0.0), doc="extra viscous damping ratio"),
+    }
+
+
+def _drive_fields(defaults: bool):
+    d = (lambda x: x) if defaults else (lambda x: None)
+    lo, hi = _drive.AMPLITUDE_RANGE_ARCMIN
+    tlo, thi = _drive.AMPLITUDE_TYPICAL_ARCMIN
+    return {"amplitude": Num(unit="arcmin", min=lo, max=hi, default=d(3.0),
+                             doc=f"dither amplitude; usual {tlo:g}-{thi:g} arcmin (outside: a warning)")}
+
+
+_RATE = dict(min=_plant.RATE_RANGE_HZ[0], max=_plant.RATE_RANGE_HZ[1])
+_F0 = _sus.F0_RANGE_HZ
+
+
+class _SensorsReference:
+    """The ``sensors:`` section in the reference (parsed by :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`)."""
+
+    unit = None
+    default = None
+    required = False
+
+    def describe_rows(self, path):
+        from sins_sim.models.sensor_errors import reference_rows
+
+        return reference_rows(path)
+
+    def json_schema(self):
+        """Open: the sensors section is parsed by :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`."""
+        return {"type": "object", "description": "sensor errors (sins-sim schema imu, sensors rows)"}
+
+    def check(self, value, ctx, path):  # never reached: imu_from_dict takes the section out first
+        return value
+
+
+IMU_SCHEMA = Map({
+    "name": Str(default="imu"),
+    "description": Str(default=""),
+    "suspension": Map(_suspension_fields(True), default={}),
+    "drive": Map({
+        **_drive_fields(True),
+        "dac_rate": Num(unit="hz", **_RATE, default=72000.0, doc="plant.rate_hz / dac_rate_hz an integer"),
+        "control": Str(choices=("open_loop", "closed_loop"), default="closed_loop"),
+        "loop_time": Num(unit="s", min=0.001, max=1000.0, default=0.1,
+                         doc="time constant of the amplitude loop (1 ms to 1000 s)"),
+        "block_cycles": Num(min=1, max=10000, integer=True, default=10,
+                            doc="dither cycles per amplitude measurement"),
+        "modulation_depth": Num(min=0.0, max=0.5, default=0.0),
+    }, default={}, rules=(
+        f"the drive voltage that holds the amplitude at resonance (eq. 17) must be <= {_drive.V_MAX:g} V (a piezo "
+        f"stack); above {_drive.V_TYPICAL_MAX:g} V a warning",
+        f"the mechanical Q at the amplitude must lie in [{_sus.Q_RANGE[0]:g}, {_sus.Q_RANGE[1]:g}]",
+    )),
+    "plant": Map({
+        "rate": Num(unit="hz", **_RATE, default=72000.0, doc="integration and readout rate"),
+        "hysteresis": Str(choices=("paper", "masing"), default="paper"),
+    }, default={}, rules=(f"rate_hz >= {_plant.MIN_STEPS_PER_PERIOD} x f0_hz of every channel "
+                          f"({_plant.MIN_STEPS_PER_PERIOD} steps per dither period)",)),
+    "readout": Map({
+        "quantum": Num(unit="arcsec", min=_readout.QUANTUM_REAL_RANGE_RAD[0] / ARCSEC,
+                       max=_readout.QUANTUM_REAL_RANGE_RAD[1] / ARCSEC, default=2.42 / 16,
+                       doc="angle per count (2.42/16: the paper's interpolated fringe)"),
+        "noise": Num(unit="arcsec", min=0.0, max=_readout.NOISE_MAX_RAD / ARCSEC, default=0.0,
+                     doc="white noise before quantisation (RMS)"),
+        "output_rate": Num(unit="hz", min=100.0, max=_readout.RATE_MAX_HZ, default=7200.0,
+                           doc="filter rate; plant.rate_hz / output_rate_hz an integer, > 2 f0"),
+        "anti_alias": Map({
+            "cutoff": Num(unit="hz", min=0.0, min_exclusive=True, max=_readout.RATE_MAX_HZ / 2, default=9000.0,
+                          doc="< plant.rate_hz / 2"),
+            "numtaps": Num(min=1, max=_readout.MAX_NUMTAPS, integer=True, default=21, doc="odd"),
+        }, default={}, allow_null=True, doc="null: no anti-alias filter"),
+    }, default={}),
+    "correcting": Map({"hysteresis": Str(choices=("paper", "masing"), default="paper")}, default={}),
+    "eliminator": Map({
+        "width": Num(unit="hz", min=1.0, max=1000.0, default=40.0,
+                     doc="band centred on each channel's drive frequency, inside (0, output_rate_hz / 2)"),
+        "rp": Num(unit="db", min=0.0, min_exclusive=True, max=_elim.MAX_RP_DB, default=0.1),
+        "rs": Num(unit="db", min=0.0, min_exclusive=True, max=_elim.MAX_RS_DB, default=60.0, doc="> rp_db"),
+    }, default={}),
+    "channels": Map({
+        axis: Map({
+            "f0": Num(unit="hz", min=_F0[0], max=_F0[1], required=True,
+                      doc=f"small-amplitude resonance; usual {_sus.F0_TYPICAL_HZ[0]:g}-{_sus.F0_TYPICAL_HZ[1]:g} Hz "
+                          "(outside: a warning)"),
+            "suspension": Map(_suspension_fields(False), default={}, doc="overrides of the shared suspension"),
+            "drive": Map(_drive_fields(False), default={}, doc="overrides of the shared drive"),
+        }, required=True) for axis in ("x", "y", "z")
+    }, required=True, rules=("the three f0_hz must differ",)),
+    "effects": EffectsList(doc="axis_coupling is refused in the SINS engine (it couples the axes within a plant "
+                               "step)"),
+    # parsed by their own loaders before the rest; listed here for the reference
+    "filter_parameters": _fparams.FILTER_PARAMETERS_SCHEMA,
+    "sensors": _SensorsReference(),
+})
+
+
+def _merged(shared: dict, own: dict) -> dict:
+    return {k: (own[k] if own.get(k) is not None else shared[k]) for k in shared}
+
+
+def _check_shared(c: dict, ctx: str, path: str) -> None:
+    """The shared suspension and drive must be physical on their own, even where every channel overrides them."""
+    sus, where = c["suspension"], f"{path + '.' if path else ''}suspension"
+    try:
+        shared = SuspensionParams(f0_hz=c["channels"]["x"]["f0_hz"], k1=sus["k1"], k2=sus["k2_rad"], k3=sus["k3"],
+                                  k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
+        DriveParams(amplitude_rad=c["drive"]["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]).resolve(shared)
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: {where} (shared, with channels.x.f0_hz): {_user_keys(str(exc))}") from None
+
+
+#: Field names of the model objects -> the IMU file's keys, for messages: an error names the key the user wrote
+#: (``readout.output_rate_hz: ... plant.rate_hz ...``, never the readout's internal ``input_rate_hz``).
+_USER_KEYS = {
+    "readout.input_rate_hz": "plant.rate_hz",
+    "input_rate_hz": "plant.rate_hz",
+    "readout.quantum_rad": "readout.quantum_arcsec",
+    "readout.noise_rad": "readout.noise_arcsec",
+    "drive.amplitude_rad": "drive.amplitude_arcmin",
+    "suspension.k2": "suspension.k2_rad",
+    "suspension.k4": "suspension.k4_per_rad",
+    "suspension.k5": "suspension.k5_rad_per_v",
+    "suspension.f0_hz": "f0_hz",
+    "eliminator.band_hz": "eliminator.width_hz (the band centred on the dither)",
+}
+_USER_KEY_RE = re.compile(r"(?<![\w.])(" + "|".join(re.escape(k) for k in sorted(_USER_KEYS, key=len, reverse=True))
+                          + r")(?![\w])")
+
+
+def _user_keys(message: str) -> str:
+    """``message`` with the model's field names replaced by the IMU file's keys (:data:`_USER_KEYS`)."""
+    return _USER_KEY_RE.sub(lambda m: _USER_KEYS[m.group(1)], message)
+
+
+def _check_rates(plant_hz: float, output_hz: float, ctx: str, pre: str) -> None:
+    """plant.rate_hz / readout.output_rate_hz must be a whole number (the readout keeps every n-th plant sample)."""
+    ratio = plant_hz / output_hz
+    n = round(ratio)
+    if n >= 1 and abs(ratio - n) <= 1e-9 * ratio:
+        return
+    options = sorted({plant_hz / k for k in (math.floor(ratio), math.ceil(ratio)) if k >= 1})
+    hint = " or ".join(f"{x:g}" for x in options)
+    raise ConfigError(f"{ctx}: {pre}readout.output_rate_hz: plant.rate_hz / output_rate_hz must be a whole number "
+                      f"(the readout keeps every n-th plant sample), got {plant_hz:g} / {output_hz:g} = {ratio:.6g}; "
+                      f"e.g. output_rate_hz {hint} Hz, or a plant.rate_hz that is a multiple of {output_hz:g}")
+
+
+def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConfig:
+    """Validate an IMU mapping and build the ImuConfig (errors name ``ctx`` and the key path).
+
+    The optional ``sensors:`` section (gyro and accelerometer errors in datasheet units, see
+    :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) and ``filter_parameters``
+    (what the filters believe, :mod:`sins_sim.config.filter_params`) are validated by their own
+    parsers; ``base_dir`` resolves a diagnosis file named there (default: the working directory).
+    """
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+
+    pre = f"{path + '.' if path else ''}"
+    fspec = _fparams.parse_filter_parameters(True, ctx, f"{pre}filter_parameters")
+    if isinstance(doc, dict) and "filter_parameters" in doc:
+        doc = dict(doc)
+        fspec = _fparams.parse_filter_parameters(doc.pop("filter_parameters"), ctx, f"{pre}filter_parameters")
+    sensors = None
+    if isinstance(doc, dict) and "sensors" in doc:
+        doc = dict(doc)
+        try:
+            sensors = sensor_params_from_dict(doc.pop("sensors"), ctx, f"{path + '.' if path else ''}sensors")
+        except ConfigError:
+            raise
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {exc}" if not str(exc).startswith(ctx) else str(exc)) from None
+    c = validate(doc, IMU_SCHEMA, ctx, path)
+    ro = c["readout"]
+    anti = ro["anti_alias"]
+    _check_rates(c["plant"]["rate_hz"], ro["output_rate_hz"], ctx, pre)
+    try:
+        readout = ReadoutParams(
+            quantum_rad=ro["quantum_rad"], noise_rad=ro["noise_rad"], input_rate_hz=c["plant"]["rate_hz"],
+            output_rate_hz=ro["output_rate_hz"],
+            anti_alias=None if anti is None else AntiAliasParams(cutoff_hz=anti["cutoff_hz"],
+                                                                 numtaps=anti["numtaps"]))
+        plant = PlantSettings(rate_hz=c["plant"]["rate_hz"], hysteresis=c["plant"]["hysteresis"])
+        elim = EliminatorSettings(width_hz=c["eliminator"]["width_hz"], rp_db=c["eliminator"]["rp_db"],
+                                  rs_db=c["eliminator"]["rs_db"])
+        control = DriveControl(mode=c["drive"]["control"], loop_time_s=c["drive"]["loop_time_s"],
+                               block_cycles=int(c["drive"]["block_cycles"]),
+                               modulation_depth=c["drive"]["modulation_depth"])
+        _check_shared(c, ctx, path)
+        channels = []
+        for axis in ("x", "y", "z"):
+            where = f"{path + '.' if path else ''}channels.{axis}"
+            try:
+                ch = c["channels"][axis]
+                sus = _merged(c["suspension"], ch["suspension"])
+                drv = _merged({"amplitude_rad": c["drive"]["amplitude_rad"]}, ch["drive"])
+                suspension = SuspensionParams(f0_hz=ch["f0_hz"], k1=sus["k1"], k2=sus["k2_rad"], k3=sus["k3"],
+                                              k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
+                check_resolution(suspension, plant.rate_hz)
+                cfg = ChannelConfig(
+                    suspension=suspension,
+                    drive=DriveParams(amplitude_rad=drv["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]),
+                    plant=plant, readout=readout, filter_hysteresis=c["correcting"]["hysteresis"], eliminator=elim)
+                cfg.eliminator_design().sos  # the band fits and the design is stable, checked before any kernel
+                cfg.correcting_design("paper")
+            except ValueError as exc:
+                raise ConfigError(f"{ctx}: {where}: {_user_keys(str(exc))}") from None
+            channels.append(cfg)
+        channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
+        try:
+            return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors,
+                             effects=c["effects"] or ())
+        except ValueError as exc:  # an effect the engine cannot run (axis_coupling)
+            raise ConfigError(f"{ctx}: {pre}{exc}") from None
+    except ConfigError:
+        raise
+    except ValueError as exc:  # a physical rule that needs several fields (Q > 0, fs > 2 f0, ...)
+        raise ConfigError(f"{ctx}: {path + ': ' if path else ''}{_user_keys(str(exc))}") from None
+
+
+def _with_filter_parameters(channels, fspec, c, ctx, where, base_dir):
+    """The channels with the suspension their filters believe (``ChannelConfig.filter_suspension``)."""
+    import dataclasses
+    from pathlib import Path
+
+    axes = ("x", "y", "z")
+    sus = c["suspension"]
+    nominal = {"k1": sus["k1"], "k2": sus["k2_rad"], "k3": sus["k3"], "k4": sus["k4_per_rad"], "k5": sus["k5_rad_per_v"]}
+    believed = _fparams.filter_suspensions(
+        fspec, {a: ch.suspension for a, ch in zip(axes, channels)}, nominal,
+        {a: c["channels"][a]["f0_hz"] for a in axes},
+        {a: ch.drive_signal().frequency_hz for a, ch in zip(axes, channels)},
+        {a: ch.drive.amplitude_rad for a, ch in zip(axes, channels)}, ctx,
+        Path(base_dir) if base_dir is not None else None, where)
+    out = []
+    for a, ch in zip(axes, channels):
+        try:
+            out.append(dataclasses.replace(ch, filter_suspension=believed[a], pll_tracking=bool(fspec["track"])))
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {where} (axis {a}): {exc}") from None
+    return out
+
+
+def load_imu(source) -> ImuConfig:
+    """Load and validate an IMU file (``configs/*.yaml``) or the same content as a mapping.
+
+    Parameters
+    ----------
+    source : path or mapping
+        The YAML file: suspension, drive, plant, readout, filters and per-axis channels (the keys
+        carry their units; see ``configs/default-imu.yaml``); or a dict with the same keys (a
+        notebook needs no file), validated the same way, its relative paths (a diagnosis file)
+        taken from the working directory.
+
+    Returns
+    -------
+    ImuConfig
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file (``IMU (dict)`` for a mapping), the key path and the rule.
+    """
+    from collections.abc import Mapping
+    from pathlib import Path
+
+    if isinstance(source, Mapping):
+        import copy
+
+        return imu_from_dict(copy.deepcopy(dict(source)), IMU_DICT_CONTEXT, base_dir=Path.cwd())
+    if not isinstance(source, (str, Path)):
+        raise ConfigError(f"load_imu: expected a path or a mapping, got {type(source).__name__}")
+    return imu_from_dict(load_yaml(source), str(source), base_dir=Path(source).parent)
+
+
+#: How configuration errors name an IMU given as a mapping.
+IMU_DICT_CONTEXT = "IMU (dict)"

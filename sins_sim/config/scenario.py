@@ -1,0 +1,732 @@
+"""Scenario files (``scenarios/*.yaml``): the schema and the loader.
+
+A scenario names an IMU configuration, the mission (a site, and a trajectory of segments or
+a trajectory file), the block's motion on its mounts as a list of parts that add up, the
+filters to compare, navigation settings and a seed. A run is reproducible from the YAML and
+the seed. :class:`Scenario` holds what the engine takes (an :class:`~sins_sim.simulation.sins.ImuConfig`,
+:class:`~sins_sim.simulation.sins.NavSettings`, the motion, the filters); the commands above run it
+(``sins-sim run``, :func:`sins_sim.run_scenario`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from sins_sim.config import advisories
+from sins_sim.config import filter_params as _fparams
+from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
+from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
+from sins_sim.config.yaml_io import load_yaml
+from sins_sim.filters import registry as filter_registry
+
+# The scenario's own schema needs no model, engine or numba: a scenario file is checked before those are
+# imported (they are imported where the IMU, the motion and the navigation are built), so a configuration
+# error is reported in well under 2 s (issue 22, point 8).
+SINS_FILTERS = filter_registry.BUILTIN_FILTERS
+DEFAULT_FILTERS = filter_registry.DEFAULT_FILTERS
+
+__all__ = ["SCENARIO_SCHEMA", "MOTION_SCHEMA", "SEGMENT_SCHEMA", "load_scenario", "scenario_document", "Scenario"]
+
+_POS = dict(min=0.0, min_exclusive=True)
+
+# --- ranges (issue 12, points 3 and 4) -------------------------------------------------------------------
+#: Longest mission (s): sample indices at the plant rate (at most 1 MHz) stay exact float64 integers
+#: (< 2^53), so every time t = k / rate the engine forms is exact. Whether a run that long can finish is
+#: the estimate's business (sins_sim.jobs.estimate refuses runs above 48 h of wall time).
+MAX_DURATION_S = 2.0 ** 53 / 1.0e6
+#: Block rates (deg/s): the input range of navigation-grade RLGs is +-400 to +-1000 deg/s. A block motion
+#: part whose peak rate exceeds 1000 deg/s is refused.
+MAX_RATE_DEG_S = 1000.0
+#: Angular vibration amplitudes (arcmin): a block on its isolators moves by arcminutes; 10 deg would tear them.
+MAX_ANGLE_ARCMIN = 600.0
+#: Frequencies (Hz): the schema's ceiling is the highest plant Nyquist (1 MHz / 2); the loader then requires
+#: every block and translational motion frequency to lie below the filter Nyquist (readout.output_rate_hz / 2,
+#: 3.6 kHz by default): the filters, the truth they are compared with and the navigation all run at the filter
+#: rate, so a motion above it aliases into the navigation band. Above NEAR_NYQUIST of it: a warning.
+MAX_FREQUENCY_HZ = 5.0e5
+NEAR_NYQUIST = 0.8
+#: Phases (deg): one turn either way.
+_PHASE = dict(min=-360.0, max=360.0)
+#: Rate PSD of angular random vibration ((deg/s)^2/Hz): 1e-6 is a unit on isolators in a running vehicle;
+#: 1 (deg/s)^2/Hz over 2 kHz would be 45 deg/s RMS, beyond any mount.
+MAX_RATE_PSD = 1.0
+#: Acceleration PSD (g^2/Hz): 10 g^2/Hz over 2 kHz is 141 g RMS, beyond any qualification test.
+MAX_ACCEL_PSD = 10.0
+#: Translational vibration amplitude (m/s^2): 2000 m/s^2 is about 200 g.
+MAX_ACCEL_M_S2 = 2000.0
+#: Vehicle speed (m/s) and heights (m): the trajectory file format's limits (sins_sim.io.trajectory).
+MAX_SPEED_M_S = 3000.0
+#: Stored error series: at most this many blocks per filter (~360 B each), and spectra of at most 600 s
+#: (the full-rate gyro error of every filter is kept in memory: 7.2 kHz x 600 s x 24 B = 100 MB per filter).
+MAX_SPECTRUM_S = 600.0
+_DUR = dict(min=0.0, min_exclusive=True, max=MAX_DURATION_S)
+_START = dict(min=0.0, max=MAX_DURATION_S)
+_FREQ_RULE = (f"every frequency must be < the filter Nyquist (readout.output_rate_hz / 2 of the IMU, 3600 Hz by "
+              f"default); above {NEAR_NYQUIST:g} of it a warning")
+_RATE_RULE = f"the part's peak rate must be <= {MAX_RATE_DEG_S:g} deg/s"
+
+
+def _psd_row(max_psd, unit_doc):
+    return Vec(2, items=(Num(min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ),
+                         Num(min=0.0, min_exclusive=True, max=max_psd)),
+               doc=f"[f_hz, {unit_doc}]")
+
+
+MOTION_SCHEMA = OneOf({
+    "static": Map({}, doc="no block motion"),
+    "constant_rate": Map({"rate": Vec(3, unit="deg_s", required=True, min=-MAX_RATE_DEG_S, max=MAX_RATE_DEG_S,
+                                      doc="body rate about x, y, z")}, doc="a steady rotation of the block"),
+    "turn": Map({"axis": Vec(3, required=True, min=-1.0e6, max=1.0e6, doc="body axis (normalised; not zero)"),
+                 "angle": Num(unit="deg", required=True, min=-36000.0, max=36000.0),
+                 "duration": Num(unit="s", required=True, **_DUR),
+                 "start": Num(unit="s", default=0.0, **_START)},
+                doc="a turn by angle about a fixed axis, raised-cosine rate (peak 2 angle / duration)"),
+    "sines": Map({"amplitude": Vec(3, unit="arcmin", required=True, min=0.0, max=MAX_ANGLE_ARCMIN),
+                  "frequency": Vec(3, unit="hz", required=True, min=0.0, max=MAX_FREQUENCY_HZ),
+                  "phase": Vec(3, unit="deg", default=[0.0, 0.0, 0.0], **_PHASE)},
+                 doc="per-axis sinusoidal gyro angles (peak rate 2 pi f A)"),
+    "coning": Map({"amplitude": Num(unit="arcmin", required=True, **_POS, max=MAX_ANGLE_ARCMIN),
+                   "frequency": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                   "phase": Num(unit="deg", default=90.0, **_PHASE, doc="+90 or -90 (a circular cone)")},
+                  doc="classic coning about z (peak rate 2 pi f A)"),
+    "random_vibration": Map({"psd_deg2_s2_per_hz": ListOf(_psd_row(MAX_RATE_PSD, "rate PSD (deg/s)^2/Hz"),
+                                                           required=True, min_len=2, max_len=1000,
+                                                           doc="[[f_hz, rate PSD (deg/s)^2/Hz], ...], f increasing"),
+                             "f_lo": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                             "f_hi": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                             "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0, max=10.0),
+                             "method": Str(choices=("filtered_noise", "tones"), default="filtered_noise",
+                                           doc="filtered_noise: streaming, never repeats (missions); tones: a "
+                                               "sum of 1 Hz-spaced sines, periodic in 1 s (short runs)")},
+                            doc="band-limited angular random vibration, log-log interpolated PSD"),
+    "shock": Map({"axis": Vec(3, required=True, min=-1.0e6, max=1.0e6, doc="body axis (normalised; not zero)"),
+                  "peak_rate": Num(unit="deg_s", required=True, min=-MAX_RATE_DEG_S, max=MAX_RATE_DEG_S),
+                  "duration": Num(unit="ms", required=True, **_POS, max=1000.0),
+                  "start": Num(unit="s", default=0.0, **_START),
+                  "ring_frequency": Num(unit="hz", min=0.0, max=MAX_FREQUENCY_HZ, default=0.0,
+                                        doc="0: no ringing"),
+                  "ring_amplitude": Num(unit="deg_s", default=0.0, min=-MAX_RATE_DEG_S, max=MAX_RATE_DEG_S),
+                  "ring_decay": Num(unit="ms", min=0.0, min_exclusive=True, max=1.0e4, default=5.0)},
+                 doc="a half-sine rate pulse, optionally ringing afterwards"),
+    "sweep": Map({"axis": Vec(3, required=True, min=-1.0e6, max=1.0e6, doc="body axis (normalised; not zero)"),
+                  "amplitude": Num(unit="arcmin", required=True, **_POS, max=MAX_ANGLE_ARCMIN),
+                  "f_start": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                  "f_stop": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                  "duration": Num(unit="s", required=True, **_DUR), "start": Num(unit="s", default=0.0, **_START),
+                  "kind": Str(choices=("linear", "log"), default="linear")},
+                 doc="a rate-table sine sweep (peak rate 2 pi f A)"),
+}, rules={
+    "constant_rate": (),
+    "turn": (_RATE_RULE,),
+    "sines": (_FREQ_RULE, _RATE_RULE),
+    "coning": (_FREQ_RULE, _RATE_RULE),
+    "random_vibration": (_FREQ_RULE, "f_lo_hz < f_hi_hz, both inside the table"),
+    "shock": ("ring_frequency_hz: " + _FREQ_RULE, "ring_frequency_hz > 0 when ring_amplitude_deg_s != 0"),
+    "sweep": (_FREQ_RULE, _RATE_RULE),
+})
+
+LINEAR_SCHEMA = OneOf({
+    "sines": Map({"amplitude": Vec(3, unit="m_s2", required=True, min=0.0, max=MAX_ACCEL_M_S2,
+                                   doc="0 leaves an axis still"),
+                  "frequency": Vec(3, unit="hz", required=True, min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ),
+                  "phase": Vec(3, unit="deg", default=[0.0, 0.0, 0.0], **_PHASE)},
+                 doc="per-axis sinusoidal acceleration"),
+    "random": Map({"psd_g2_per_hz": ListOf(_psd_row(MAX_ACCEL_PSD, "acceleration PSD g^2/Hz"), required=True,
+                                           min_len=2, max_len=1000,
+                                           doc="[[f_hz, acceleration PSD g^2/Hz], ...], f increasing"),
+                   "f_lo": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                   "f_hi": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
+                   "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0, max=10.0)},
+                  doc="band-limited random acceleration"),
+}, rules={"sines": (_FREQ_RULE,), "random": (_FREQ_RULE,)})
+
+SEGMENT_SCHEMA = OneOf({
+    "stationary": Map({"duration": Num(unit="s", required=True, **_DUR)}, doc="at rest"),
+    "cruise": Map({"duration": Num(unit="s", required=True, **_DUR)}, doc="straight and level at the current speed"),
+    "accelerate": Map({"duration": Num(unit="s", required=True, **_DUR),
+                       "delta_speed": Num(unit="m_s", required=True, min=-MAX_SPEED_M_S, max=MAX_SPEED_M_S)},
+                      doc="speed change along the track"),
+    "turn": Map({"duration": Num(unit="s", required=True, **_DUR),
+                 "heading_change": Num(unit="deg", required=True, min=-36000.0, max=36000.0)},
+                doc="a coordinated turn"),
+    "climb": Map({"duration": Num(unit="s", required=True, **_DUR),
+                  "delta_height": Num(unit="m", required=True, min=-101000.0, max=101000.0)},
+                 doc="height change (heights stay in [-1000, 100000] m)"),
+})
+
+SITE_SCHEMA = Map({
+    "lat": Num(unit="deg", min=-89.0, max=89.0, default=45.0, doc="latitude of the start (geodetic)"),
+    "lon": Num(unit="deg", min=-180.0, max=180.0, default=0.0),
+    "height": Num(unit="m", min=-1000.0, max=100000.0, default=0.0, doc="above the WGS-84 ellipsoid"),
+    "heading": Num(unit="deg", default=0.0, min=-360.0, max=360.0, doc="from north towards east"),
+}, default={}, doc="where the mission starts")
+
+TRAJECTORY_SCHEMA = Map({
+    "speed": Num(unit="m_s", min=0.0, max=MAX_SPEED_M_S, default=0.0, doc="speed at the start"),
+    "transition": Num(unit="s", default=4.0, **_POS, max=3600.0, doc="length of each smooth ramp of a segment"),
+    "segments": ListOf(SEGMENT_SCHEMA, default=[], max_len=10000, doc="flown in order after the start"),
+    "file": Str(default="", doc="CSV or Parquet trajectory file (format: sins-sim schema trajectory), relative to "
+                                "the scenario"),
+    "extend": Str(choices=("none", "hold"), default="none",
+                  doc="none: a run longer than the segments is refused; hold: after the last segment the vehicle "
+                      "holds its state (at rest if it ended at rest, else straight and level at its speed) until "
+                      "the run ends (segments only)"),
+}, default={}, doc="how the vehicle moves (segments, or a file); without either it sits at the site",
+    rules=("the trajectory must last at least duration_s + 0.1 s (segments: unless extend is hold)",
+           "every segment lasts at least 2 transition_s (a smooth ramp in and one out)",
+           "a file's yaw must fit its ground track and its roll its turns (a file in radians is refused)"))
+
+_TEMP = dict(min=173.15, max=473.15)
+_COEFF = {
+    "f0": Num(unit="ppm_per_k", required=True, min=-1000.0, max=1000.0,
+              doc="relative change of each channel's f0 per kelvin: f0 (1 + c (T - reference_k)); f0 ~ sqrt(E), "
+                  "so about half the modulus' coefficient: spring steel -110 to -145, Elinvar / Ni-Span-C within "
+                  "+-20 (sins_sim.simulation.temperature)"),
+    "k_ppm_per_k": Map({name: Num(min=-1.0e4, max=1.0e4, default=0.0, doc=f"{name}, ppm/K")
+                        for name in ("k1", "k2", "k3", "k4", "k5")}, default={},
+                       doc="relative change of k1 .. k5 per kelvin, ppm/K (default 0: not measured; a PZT's k5 "
+                           "rises by roughly 1000-3000)"),
+    "reference": Num(unit="k", **_TEMP, default=None,
+                     doc="the temperature at which the IMU file's f0 and k's hold (default: the profile's at t = 0)"),
+    "update": Num(unit="s", min=1e-4, max=10.0, default=0.02,
+                  doc="interval of the plant's parameter updates, counted from t = 0 (rounded to whole filter "
+                      "samples)"),
+}
+_INITIAL = Num(unit="k", required=True, **_TEMP, doc="the temperature at t = 0")
+
+TEMPERATURE_SCHEMA = OneOf({
+    "constant": Map({"initial": _INITIAL, **_COEFF}, doc="a constant temperature (initial_k)"),
+    "ramp": Map({"initial": _INITIAL, "final": Num(unit="k", required=True, **_TEMP, doc="after the ramp"),
+                 "start": Num(unit="s", default=0.0, **_START, doc="when the ramp starts"),
+                 "duration": Num(unit="s", required=True, **_DUR, doc="how long the ramp takes"), **_COEFF},
+                doc="initial_k until start_s, linear to final_k over duration_s, then final_k"),
+    "step": Map({"initial": _INITIAL, "step": Num(unit="k", required=True, min=-300.0, max=300.0, doc="the jump"),
+                 "start": Num(unit="s", required=True, **_START, doc="when the temperature jumps"), **_COEFF},
+                doc="initial_k, then initial_k + step_k from start_s on"),
+    "table": Map({"table_s_k": ListOf(Vec(2, items=(Num(min=0.0, max=MAX_DURATION_S), Num(**_TEMP))),
+                                      required=True, min_len=2, max_len=100000,
+                                      doc="[[t_s, temp_k], ...], t increasing"),
+                  **_COEFF}, doc="linear between the rows, held before the first and after the last"),
+}, key="profile", default=None, rules={name: (
+    "the profile's extremes over the mission keep every channel physical (f0 range, steps per dither period, Q, "
+    "drive voltage; with filter_parameters.track the filters' f0 below the filter Nyquist)",)
+    for name in ("constant", "ramp", "step", "table")})
+
+
+def _thermal_model(c: dict, ctx: str):
+    """The scenario's ``temperature`` section -> ThermalModel (one line naming the key on a bad value)."""
+    from sins_sim.simulation.temperature import K_NAMES, TemperatureProfile, ThermalModel
+
+    kind = c["profile"]
+    try:
+        if kind == "table":
+            rows = c["table_s_k"]
+            prof = TemperatureProfile("table", start_k=rows[0][1], end_k=rows[-1][1], table=tuple(map(tuple, rows)))
+        elif kind == "ramp":
+            prof = TemperatureProfile("ramp", start_k=c["initial_k"], end_k=c["final_k"], start_s=c["start_s"],
+                                      duration_s=c["duration_s"])
+        elif kind == "step":
+            prof = TemperatureProfile("step", start_k=c["initial_k"], end_k=c["initial_k"] + c["step_k"],
+                                      step_k=c["step_k"], start_s=c["start_s"])
+        else:
+            prof = TemperatureProfile("constant", start_k=c["initial_k"], end_k=c["initial_k"])
+        return ThermalModel(prof, f0_per_k=1e-6 * c["f0_ppm_per_k"],
+                            k_per_k=tuple(1e-6 * c["k_ppm_per_k"][n] for n in K_NAMES),
+                            reference_k=c["reference_k"], update_s=c["update_s"])
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: {exc}") from None
+
+
+class _FilterName(Str):
+    """A filter name: built-in, shipped plug-in (the reference lists these) or registered at run time."""
+
+    def check(self, value, ctx, path):
+        if not isinstance(value, str) or not filter_registry.is_known(value):
+            known = list(SINS_FILTERS + filter_registry.plugin_names())
+            raise ConfigError(f"{ctx}: {path}: must be one of {known}, got {value!r}")
+        return value
+
+
+SCENARIO_SCHEMA = Map({
+    "name": Str(required=True),
+    "description": Str(default=""),
+    "seed": Num(integer=True, min=0, max=2 ** 32 - 1, default=0, doc="seed of every random stream of the run"),
+    "duration": Num(unit="s", required=True, **_DUR, doc="mission length"),
+    "imu": None,  # path or mapping: checked by load_scenario
+    "site": SITE_SCHEMA,
+    "trajectory": TRAJECTORY_SCHEMA,
+    "motion": ListOf(MOTION_SCHEMA, default=[{"type": "static"}], min_len=1, max_len=1000,
+                     doc="the block's own motion on its mounts: parts that add up"),
+    "linear_vibration": ListOf(LINEAR_SCHEMA, default=[], max_len=1000,
+                               doc="the block's translational vibration (mount axes)"),
+    "filters": ListOf(_FilterName(choices=SINS_FILTERS + filter_registry.shipped_plugin_names()),
+                      default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
+    "navigation": Map({
+        "coning": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
+        "sculling": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
+        "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
+        "n_sub": Num(integer=True, min=1, max=1000, default=1, doc="filter samples per navigation update"),
+        "vertical": Str(choices=("height_aid", "free"), default="height_aid"),
+        "height_aid_tau": Num(unit="s", **_POS, max=1.0e5, default=100.0),
+        "accel_delay": Str(choices=("matched", "none"), default="matched"),
+        "align": Num(unit="s", min=0.0, max=3600.0, default=0.5,
+                     doc="window before start_s over which each filter's offset from the truth is averaged "
+                         "(alignment)"),
+        "timeseries_rate": Num(unit="hz", **_POS, max=1.0e6, default=None,
+                               doc="stored series rate; default 10 Hz, slower for missions over 12 min "
+                                   "(at most 7200 stored blocks, each with its min/max envelope)"),
+        "spectrum": Num(unit="s", min=0.0, max=MAX_SPECTRUM_S, default=2.0,
+                        doc="full-rate gyro-error record kept for the spectra"),
+    }, default={}, rules=("timeseries_rate_hz <= the navigation update rate (readout.output_rate_hz / n_sub)",
+                          "the stored series and spectra must fit in memory (checked with the run's estimate)")),
+    "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
+    "temperature": TEMPERATURE_SCHEMA,
+}, rules=("the run's estimated wall time must be <= 48 h (sins_sim.jobs.estimate; shown before the run starts)",))
+
+
+class _Any:
+    """Placeholder schema entry for ``imu`` (a path or a mapping, checked separately)."""
+
+    unit = None
+    default = None
+    required = True
+
+    def describe_rows(self, path):
+        return [{"key": path, "kind": "path or mapping", "unit": "", "range": "an IMU file or mapping",
+                 "default": "required", "doc": "the unit: a path relative to the scenario, or the IMU keys inline "
+                                              "(sins-sim schema imu)"}]
+
+    def json_schema(self):
+        from sins_sim.config.imu import IMU_SCHEMA
+        from sins_sim.config.schema import json_schema
+
+        return {"anyOf": [{"type": "string"}, json_schema(IMU_SCHEMA)],
+                "description": "the unit: a path relative to the scenario, or the IMU keys inline"}
+
+    def check(self, value, ctx, path):
+        if not isinstance(value, (str, dict)):
+            raise ConfigError(f"{ctx}: {path}: must be a path to an IMU file or an IMU mapping, got {value!r}")
+        return value
+
+
+class _FilterParameters:
+    """Schema entry for the scenario's ``filter_parameters`` (replaces the IMU file's; checked by the IMU loader)."""
+
+    unit = None
+    default = None
+    required = False
+
+    def describe_rows(self, path):
+        return [{"key": path, "kind": "true, nominal or mapping", "unit": "", "range": "sins-sim schema imu",
+                 "default": "(the IMU file's)", "doc": "what the filters believe about each unit: the true "
+                 "parameters, the datasheet (nominal, f0 from the dither PLL), explicit values or a diagnosis; "
+                 "replaces the IMU file's filter_parameters"}]
+
+    def json_schema(self):
+        from sins_sim.config.schema import json_schema
+
+        return json_schema(_fparams.FILTER_PARAMETERS_SCHEMA)
+
+    def check(self, value, ctx, path):
+        if value is None:
+            return None
+        _fparams.parse_filter_parameters(value, ctx, path)
+        return value
+
+
+SCENARIO_SCHEMA.fields["imu"] = _Any()
+SCENARIO_SCHEMA.fields["filter_parameters"] = _FilterParameters()
+
+
+class Scenario:
+    """A validated scenario: IMU, motion, filters, navigation settings, seed.
+
+    ``duration_key`` is how a refusal names the run's length (``duration_s``, or ``--duration`` when the
+    command line set it). Configuration-time advisories (:mod:`sins_sim.config.advisories`) are issued as
+    :class:`UserWarning` and kept in :attr:`advisories`.
+    """
+
+    def __init__(self, doc: dict, ctx: str, base_dir: Path, duration_key: str = "duration_s"):
+        c = validate(doc, SCENARIO_SCHEMA, ctx)
+        if c["navigation"]["start_s"] >= c["duration_s"]:  # before the models are imported: a light check
+            raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {c['duration_s']:g}, "
+                              f"got {c['navigation']['start_s']:g}")
+        # the IMU, the motion and the navigation are built from here on: the models and the engine are needed
+        from sins_sim.config.imu import imu_from_dict
+        from sins_sim.simulation.sins import NavSettings
+
+        self.ctx = ctx
+        #: the mapping validated (overrides applied) and the folder its relative paths are taken from
+        self.document = doc
+        self.base_dir = Path(base_dir)
+        #: the scenario file (set by :func:`load_scenario`; None for a mapping)
+        self.path = None
+        self.name = c["name"]
+        self.description = c["description"]
+        self.seed = int(c["seed"])
+        self.duration_s = c["duration_s"]
+        imu = c["imu"]
+        if isinstance(imu, str):
+            imu_path = (base_dir / imu).resolve()
+            if not imu_path.exists():
+                raise ConfigError(f"{ctx}: imu: file not found: {imu_path}")
+            self.imu_source = str(imu)
+            imu_doc = load_yaml(imu_path)
+            if c["filter_parameters"] is not None and isinstance(imu_doc, dict):
+                imu_doc = dict(imu_doc, filter_parameters=c["filter_parameters"])
+            alias_marks(f"{ctx} -> {imu_path.name}", str(imu_path))  # its errors give the IMU file's lines
+            self.imu = imu_from_dict(imu_doc, f"{ctx} -> {imu_path.name}", base_dir=imu_path.parent)
+        else:
+            self.imu_source = "inline"
+            if c["filter_parameters"] is not None:
+                imu = dict(imu, filter_parameters=c["filter_parameters"])
+            self.imu = imu_from_dict(imu, ctx, "imu", base_dir=base_dir)
+            imu_doc = imu
+        #: what the filters believe (sins_sim.config.filter_params): source, f0, f0_mismatch_ppm, track
+        fp = imu_doc.get("filter_parameters", True) if isinstance(imu_doc, dict) else True
+        self.filter_spec = _fparams.parse_filter_parameters(fp, ctx)
+        self.temperature = None
+        if c["temperature"] is not None:
+            self.temperature = _thermal_model(c["temperature"], ctx)
+            self.imu = _with_temperature(self.imu, self.temperature, self.duration_s, ctx)
+        fs = self.imu.filter_rate_hz
+        _check_motion(c["motion"], c["linear_vibration"], fs, ctx)
+        nv = c["navigation"]
+        if nv["timeseries_rate_hz"] is not None and nv["timeseries_rate_hz"] > fs / nv["n_sub"]:
+            raise ConfigError(f"{ctx}: navigation.timeseries_rate_hz: must be <= the navigation update rate "
+                              f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub), "
+                              f"got {nv['timeseries_rate_hz']:g}")
+        self.motion_spec = c["motion"]
+        self.motion = _build_motion(c["motion"], self.seed, ctx)
+        self.filters = tuple(dict.fromkeys(c["filters"]))
+        nv = c["navigation"]
+        try:
+            self.nav = NavSettings(coning=nv["coning"], sculling=nv["sculling"], start_s=nv["start_s"],
+                                   n_sub=nv["n_sub"], vertical=nv["vertical"],
+                                   height_aid_tau_s=nv["height_aid_tau_s"], accel_delay=nv["accel_delay"], align_s=nv["align_s"],
+                                   timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"])
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {exc}") from None
+        self.site = c["site"]
+        self.trajectory_spec = c["trajectory"]
+        self.vehicle = _build_vehicle(c["site"], c["trajectory"], self.duration_s, ctx, base_dir,
+                                      duration_key)
+        self.events = _events(c["motion"], self.vehicle)
+        self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
+        self.outputs = c["outputs"]
+        #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
+        self.advisories = advisories.vibration_advisories(self.imu, c["motion"], self.filters)
+        for msg in self.advisories:
+            warnings.warn(msg, UserWarning, stacklevel=2)
+
+
+def _with_temperature(imu, model, duration_s, ctx):
+    """The unit with every channel following ``model`` (checked at the profile's extremes)."""
+    import dataclasses
+
+    from sins_sim.simulation.channel import check_thermal
+
+    channels = []
+    for axis, ch in zip(("x", "y", "z"), imu.channels):
+        ch = dataclasses.replace(ch, temperature=model)
+        try:
+            check_thermal(ch, duration_s, "temperature")
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {exc} (channel {axis})") from None
+        channels.append(ch)
+    return dataclasses.replace(imu, channels=tuple(channels))
+
+
+def _motion_frequencies(seg):
+    """(key, Hz) of every frequency a motion or translation part puts on the block (amplitude not zero)."""
+    kind = seg["type"]
+    if kind == "sines":
+        amp = seg.get("amplitude_rad", seg.get("amplitude_m_s2"))
+        return [(f"frequency_hz[{i}]", f) for i, (f, a) in enumerate(zip(seg["frequency_hz"], amp)) if a > 0.0]
+    if kind == "coning":
+        return [("frequency_hz", seg["frequency_hz"])]
+    if kind in ("random_vibration", "random"):
+        return [("f_hi_hz", seg["f_hi_hz"])]
+    if kind == "shock":
+        return [("ring_frequency_hz", seg["ring_frequency_hz"])] if seg["ring_amplitude_rad_s"] != 0.0 else []
+    if kind == "sweep":
+        return [("f_start_hz", seg["f_start_hz"]), ("f_stop_hz", seg["f_stop_hz"])]
+    return []
+
+
+def _peak_rate_deg_s(seg):
+    """(key, peak rate in deg/s) of a block motion part, where the schema alone cannot bound it."""
+    kind = seg["type"]
+    two_pi = 2.0 * math.pi
+    if kind == "turn":
+        return [("angle_deg", 2.0 * abs(seg["angle_rad"]) / seg["duration_s"])]
+    if kind == "sines":
+        return [(f"amplitude_arcmin[{i}]", two_pi * f * a)
+                for i, (f, a) in enumerate(zip(seg["frequency_hz"], seg["amplitude_rad"]))]
+    if kind == "coning":
+        return [("amplitude_arcmin", two_pi * seg["frequency_hz"] * seg["amplitude_rad"])]
+    if kind == "sweep":
+        return [("amplitude_arcmin", two_pi * max(seg["f_start_hz"], seg["f_stop_hz"]) * seg["amplitude_rad"])]
+    return []
+
+
+def _check_motion(motion, linear, fs_hz: float, ctx: str) -> None:
+    """Every motion frequency below the filter Nyquist (a warning near it); every part's peak rate in range."""
+    nyq = 0.5 * fs_hz
+    for group, parts in (("motion", motion), ("linear_vibration", linear)):
+        for i, seg in enumerate(parts):
+            for key, f in _motion_frequencies(seg):
+                where = f"{group}[{i}].{key}"
+                if not f < nyq:
+                    raise ConfigError(f"{ctx}: {where}: must be < the filter Nyquist {nyq:g} Hz "
+                                      f"(readout.output_rate_hz / 2: the filters, the truth they are compared with "
+                                      f"and the navigation run at the filter rate; above it the motion aliases), "
+                                      f"got {f:g}")
+                if f > NEAR_NYQUIST * nyq:
+                    warnings.warn(f"{where}: {f:g} Hz is near the filter Nyquist {nyq:g} Hz (above "
+                                  f"{NEAR_NYQUIST:.0%} of it the motion is barely resolved at the filter rate)",
+                                  UserWarning, stacklevel=2)
+            if group == "motion":
+                for key, rate in _peak_rate_deg_s(seg):
+                    rate_deg = math.degrees(rate)
+                    if rate_deg > MAX_RATE_DEG_S:
+                        raise ConfigError(f"{ctx}: {group}[{i}].{key}: gives a peak rate of {rate_deg:.4g} deg/s, "
+                                          f"beyond the {MAX_RATE_DEG_S:g} deg/s an RLG measures")
+
+
+def _build_motion(segments, seed, ctx):
+    from sins_sim.models import motion as m3
+
+    parts = []
+    for i, seg in enumerate(segments):
+        kind = seg["type"]
+        path = f"motion[{i}]"
+        try:
+            if kind == "static":
+                part = m3.Static()
+            elif kind == "constant_rate":
+                part = m3.ConstantRate(rate_rad_s=np.array(seg["rate_rad_s"]))
+            elif kind == "turn":
+                part = m3.Turn(axis=np.array(seg["axis"]), angle_rad=seg["angle_rad"],
+                               duration_s=seg["duration_s"], start_s=seg["start_s"])
+            elif kind == "sines":
+                part = m3.AxisSines(amplitude_rad=np.array(seg["amplitude_rad"]),
+                                    frequency_hz=np.array(seg["frequency_hz"]), phase_rad=np.array(seg["phase_rad"]))
+            elif kind == "coning":
+                part = m3.Coning(amplitude_rad=seg["amplitude_rad"], frequency_hz=seg["frequency_hz"],
+                                 phase_rad=seg["phase_rad"])
+            elif kind == "random_vibration":
+                table = [(f, p * (math.pi / 180.0) ** 2) for f, p in seg["psd_deg2_s2_per_hz"]]  # (deg/s)^2/Hz -> (rad/s)^2/Hz
+                cls = m3.FilteredNoiseVibration if seg["method"] == "filtered_noise" else m3.RandomVibration
+                part = cls(psd_table=tuple(table), f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
+                           axis_weights=tuple(seg["axes"]), seed=seed + 1000 * (i + 1))
+            elif kind == "shock":
+                part = m3.Shock(axis=np.array(seg["axis"]), peak_rate_rad_s=seg["peak_rate_rad_s"],
+                                duration_s=seg["duration_s"], start_s=seg["start_s"],
+                                ring_frequency_hz=seg["ring_frequency_hz"] or None,
+                                ring_amplitude_rad_s=seg["ring_amplitude_rad_s"], ring_decay_s=seg["ring_decay_s"])
+            else:  # sweep (the schema admits no other type)
+                part = m3.RateTableSweep(axis=np.array(seg["axis"]), amplitude_rad=seg["amplitude_rad"],
+                                         f_start_hz=seg["f_start_hz"], f_stop_hz=seg["f_stop_hz"],
+                                         duration_s=seg["duration_s"], start_s=seg["start_s"], kind=seg["kind"])
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {path}: {exc}") from None
+        parts.append(part)
+    motion = parts[0]
+    for part in parts[1:]:
+        motion = motion + part
+    return motion
+
+
+def _build_translation(segments, seed, ctx):
+    """The block's translational vibration (None when there is none)."""
+    from sins_sim.models import motion as m3
+
+    parts = []
+    for i, seg in enumerate(segments):
+        try:
+            if seg["type"] == "sines":
+                parts.append(m3.LinearSines(tuple(seg["amplitude_m_s2"]), tuple(seg["frequency_hz"]),
+                                            tuple(seg["phase_rad"])))
+            else:
+                parts.append(m3.LinearRandomVibration(psd_table=tuple(tuple(r) for r in seg["psd_g2_per_hz"]),
+                                                      f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
+                                                      axis_weights=tuple(seg["axes"]), seed=seed + 5000 + 1000 * i))
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: linear_vibration[{i}]: {exc}") from None
+    if not parts:
+        return None
+    total = parts[0]
+    for part in parts[1:]:
+        total = total + part
+    return total
+
+
+def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration_s"):
+    """The vehicle: a trajectory file, segments after the start, or at rest at the site.
+
+    A run longer than its trajectory (``duration_s`` + 0.1 s past the end of the file or of the segments) is
+    refused naming ``duration_key`` (``duration_s``, or ``--duration`` when the command line set it), unless
+    the segments' ``extend`` is ``hold``. A file is checked by :func:`sins_sim.config.advisories.trajectory_advisories`.
+    """
+    from sins_sim.models.motion import trajectory as tj
+
+    need = duration_s + 0.1
+    if spec["file"] and spec["extend"] != "none":
+        raise ConfigError(f"{ctx}: trajectory.extend: applies to segments only (a file holds what it holds), "
+                          f"got {spec['extend']!r} with trajectory.file")
+    try:
+        if spec["file"]:
+            from sins_sim.io.trajectory import read_trajectory
+
+            path = (base_dir / spec["file"]).resolve()
+            data = read_trajectory(path)
+            try:
+                msgs = advisories.trajectory_advisories(data, spec["file"])
+            except ConfigError as exc:
+                raise ConfigError(f"{ctx}: {exc}") from None
+            for msg in msgs:
+                warnings.warn(msg, UserWarning, stacklevel=3)
+            vehicle = tj.SampledTrajectory.from_data(data)
+            where = f"trajectory.file ({spec['file']})"
+        else:
+            segs = []
+            for seg in spec["segments"]:
+                kind = seg["type"]
+                if kind == "stationary":
+                    segs.append(tj.Stationary(seg["duration_s"]))
+                elif kind == "cruise":
+                    segs.append(tj.Cruise(seg["duration_s"]))
+                elif kind == "accelerate":
+                    segs.append(tj.Accelerate(seg["duration_s"], seg["delta_speed_m_s"]))
+                elif kind == "turn":
+                    segs.append(tj.CoordinatedTurn(seg["duration_s"], seg["heading_change_rad"]))
+                else:
+                    segs.append(tj.Climb(seg["duration_s"], seg["delta_height_m"]))
+            flown = sum(sg.duration_s for sg in segs)
+            if segs and flown < need and spec["extend"] == "none":
+                raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of the trajectory's "
+                                  f"segments, which last {flown:g} s (the run needs {duration_key} + 0.1 s of "
+                                  f"trajectory): set {duration_key} <= {flown - 0.1:g}, add a segment (e.g. "
+                                  f"{{type: cruise, duration_s: {math.ceil(need - flown):g}}}), or set "
+                                  f"trajectory.extend: hold to hold the last state")
+            tail = duration_s + 1.0 - flown  # after the last segment the vehicle holds its state
+            if tail > 0:
+                segs.append(tj.Stationary(tail) if _ends_at_rest(spec, segs) else tj.Cruise(tail))
+            vehicle = tj.Trajectory(site["lat_rad"], site["lon_rad"], site["height_m"], spec["speed_m_s"],
+                                    site["heading_rad"], tuple(segs), transition_s=spec["transition_s"])
+            where = "trajectory"
+    except ConfigError:
+        raise
+    except ValueError as exc:
+        if spec["file"]:  # the model's names -> the file's columns and rows
+            msg = re.sub(r"SampledTrajectory\.v_ned_m_s: sample (\d+) differs from the velocity of the position spline",
+                         lambda m: f"trajectory.file ({spec['file']}): row {int(m.group(1)) + 1}: the velocity columns "
+                                   f"(vn_m_s, ve_m_s, vd_m_s) differ from the velocity of the positions (lat_deg, "
+                                   f"lon_deg, height_m, interpolated)", str(exc))
+            raise ConfigError(f"{ctx}: {msg.replace('v_tol_m_s = ', 'the tolerance (m/s) ')}") from None
+        raise ConfigError(f"{ctx}: trajectory: {exc}") from None
+    if vehicle.duration_s < need:  # a file (segments are refused above or held to the end)
+        raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of {where}, which lasts "
+                          f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): set "
+                          f"{duration_key} <= {vehicle.duration_s - 0.1:g} or give a longer file")
+    return vehicle
+
+
+def _ends_at_rest(spec, segs) -> bool:
+    speed = spec["speed_m_s"]
+    for sg in segs:
+        speed += getattr(sg, "delta_speed_m_s", 0.0)
+    return abs(speed) < 1e-9
+
+
+def _events(motion_spec, vehicle):
+    """Shocks and block turns of the motion list, for the step and scale-factor metrics."""
+    out = []
+    for seg in motion_spec:
+        if seg["type"] == "shock":
+            out.append({"kind": "shock", "start_s": seg["start_s"], "end_s": seg["start_s"] + seg["duration_s"]})
+        elif seg["type"] == "turn":
+            ax = np.asarray(seg["axis"], dtype=float)
+            out.append({"kind": "turn", "start_s": seg["start_s"], "end_s": seg["start_s"] + seg["duration_s"],
+                        "angle_rad": seg["angle_rad"], "axis_body": (ax / np.linalg.norm(ax)).tolist()})
+    return out
+
+
+def load_scenario(source, overrides: dict | None = None, base_dir=None) -> Scenario:
+    """Read and validate a scenario file or mapping (errors name the file, the key path and the rule).
+
+    Parameters
+    ----------
+    source : path or mapping
+        The scenario YAML, or a dict with the same keys and values (a notebook needs no file), validated
+        exactly like a file; its errors name ``scenario (dict)`` and the key, and its relative paths
+        (``imu``, ``trajectory.file``) are taken from the working directory.
+    overrides : dict, optional
+        Replaces top-level keys before validation (``{"seed": 3, "duration_s": 60}``, from the command
+        line), so an override is checked like the file's own value: ``seed``, ``duration_s``,
+        ``filter_parameters`` and ``imu`` (a path, taken relative to the working directory like any
+        command-line path, or a mapping).
+    base_dir : path, optional
+        For a mapping: where its relative paths are taken from (default: the working directory).
+
+    Returns
+    -------
+    Scenario
+        With :attr:`Scenario.document` (the mapping validated, overrides applied), :attr:`Scenario.base_dir`
+        and :attr:`Scenario.path` (the file, None for a mapping).
+    """
+    from collections.abc import Mapping
+
+    key = "--duration" if overrides and "duration_s" in overrides else "duration_s"
+    doc = scenario_document(source, overrides)
+    if isinstance(source, Mapping):
+        sc = Scenario(doc, SCENARIO_DICT_CONTEXT, Path(base_dir) if base_dir is not None else Path.cwd(),
+                      duration_key=key)
+        sc.path = None
+    else:
+        path = Path(source)
+        sc = Scenario(doc, str(path), path.parent, duration_key=key)
+        sc.path = path
+    return sc
+
+
+#: How configuration errors name a scenario given as a mapping.
+SCENARIO_DICT_CONTEXT = "scenario (dict)"
+
+
+def scenario_document(source, overrides: dict | None = None) -> dict:
+    """The scenario file's (or mapping's) content with the command line's ``overrides`` applied (not yet validated)."""
+    from collections.abc import Mapping
+
+    if isinstance(source, Mapping):
+        import copy
+
+        where = SCENARIO_DICT_CONTEXT
+        doc = copy.deepcopy(dict(source))  # the caller's dict is never changed
+    elif isinstance(source, (str, Path)):
+        where = Path(source)
+        doc = load_yaml(where)
+    else:
+        raise ConfigError(f"scenario: expected a path, a mapping or a Scenario, got {type(source).__name__}")
+    if overrides:
+        doc = dict(doc)
+        for key, value in overrides.items():
+            if key not in OVERRIDABLE:
+                raise ConfigError(f"{where}: {key}: cannot be overridden (allowed: {', '.join(OVERRIDABLE)})")
+            if key == "imu" and isinstance(value, (str, Path)):
+                value = str(Path(value).resolve())
+            doc[key] = value
+            if not isinstance(source, Mapping):
+                forget_mark(str(where), key)  # the value is the command line's: no line in the file
+    return doc
+
+
+#: Scenario keys that a command line (``--seed``, ``--duration``, ``--imu``, ``--filter-parameters``) may replace.
+OVERRIDABLE = ("seed", "duration_s", "imu", "filter_parameters")
+

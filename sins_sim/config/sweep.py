@@ -1,0 +1,195 @@
+"""Sweep files (``scenarios/sweep-*.yaml``): the schema and the loader.
+
+A sweep names one or more scenarios, a population of units drawn around the IMU file each
+scenario names, the number of units, the filters' knowledge of the unit and a seed::
+
+    name: smoke
+    seed: 7
+    units: 4
+    filter_parameters: true          # true | nominal: what the dither filters know of the unit
+    scenarios:
+      - {path: stationary.yaml, duration_s: 20}
+    population:
+      f0_ppm: {distribution: normal, width: 2000}        # each channel's f0, ppm of the file's
+      k3_percent: {distribution: uniform, width: 10}     # each channel's k3, percent of the file's
+      temperature_k: {distribution: grid, values: [-20, 0, 20]}
+      temperature_coefficient_ppm_per_k: {mean: -30, width: 5}
+      sensors: {draw: true}          # bias, scale factor, misalignment drawn around the preset (1 sigma)
+
+Everything is checked before any task starts: the sweep file against :data:`SWEEP_SCHEMA`, each
+scenario file, and every unit's IMU with its drawn parameters (:mod:`sins_sim.jobs.sweep.population`), so a bad
+value is one line naming the file, the unit and the key.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sins_sim.config.schema import Bool, ConfigError, ListOf, Map, Num, Str, validate
+
+__all__ = ["SWEEP_SCHEMA", "SPREAD_PARAMETERS", "SUSPENSION_KEYS", "Sweep", "load_sweep", "MAX_UNITS"]
+
+#: At most this many units per sweep (times the scenarios: the tasks). 100 000 units of a 5 min flight are
+#: ~ 300 core-days: beyond that a sweep is a mistake in the file, not a plan.
+MAX_UNITS = 100_000
+#: Largest relative spread of f0 (ppm): 20 % moves the default unit's 352-421 Hz channels over each other and
+#: outside the usual resonances; the IMU schema refuses what leaves the physical range.
+MAX_F0_PPM = 200_000.0
+#: Largest relative spread of k1..k5 (percent of the file's value): 100 % may flip a sign (k5), which the
+#: IMU schema then refuses with the unit named.
+MAX_K_PERCENT = 100.0
+
+#: The IMU file's suspension keys (``channels.<axis>.suspension``) the population spreads, by their spread key.
+SUSPENSION_KEYS = {"k1_percent": "k1", "k2_percent": "k2_rad", "k3_percent": "k3", "k4_percent": "k4_per_rad",
+                   "k5_percent": "k5_rad_per_v"}
+
+
+def _spread(unit: str, width_max: float, mean_range: float, what: str) -> Map:
+    """A distribution of one parameter: ``normal`` (mean, standard deviation), ``uniform`` (mean +- width)
+    or ``grid`` (the listed values, all grids of the sweep combined as a full factorial)."""
+    return Map({
+        "distribution": Str(choices=("normal", "uniform", "grid"), default="normal",
+                            doc="normal: mean + width N(0, 1); uniform: mean + width U(-1, 1); grid: the values, "
+                                "unit i takes its row of the full factorial of every grid (i mod its size)"),
+        "mean": Num(min=-mean_range, max=mean_range, default=0.0, doc=f"centre ({unit})"),
+        "width": Num(min=0.0, max=width_max, default=0.0,
+                     doc=f"normal: standard deviation; uniform: half-width ({unit})"),
+        "values": ListOf(Num(min=-mean_range, max=mean_range), default=[], max_len=1000,
+                         doc=f"grid: the values ({unit}); at least one"),
+    }, default=None, doc=what, rules=("grid needs values; normal and uniform take no values",))
+
+
+SPREAD_PARAMETERS = {
+    "f0_ppm": _spread("ppm", MAX_F0_PPM, MAX_F0_PPM,
+                      "each channel's f0, relative to the IMU file's f0_hz (ppm), drawn per channel"),
+    "f0_hz": _spread("Hz", 100.0, 100.0, "each channel's f0, offset from the IMU file's f0_hz (Hz), drawn per "
+                                         "channel; not together with f0_ppm"),
+    **{key: _spread("percent", MAX_K_PERCENT, MAX_K_PERCENT,
+                    f"each channel's {name}, relative to the IMU file's value (its channel's or the shared one), "
+                    f"percent, drawn per channel")
+       for key, name in SUSPENSION_KEYS.items()},
+    "temperature_coefficient_ppm_per_k": _spread(
+        "ppm/K", 1000.0, 1000.0, "each channel's temperature coefficient of f0 (ppm/K), drawn per channel"),
+    "temperature_k": _spread("K", 100.0, 100.0, "the unit's temperature offset from the calibration temperature "
+                                                "(K), one per unit and constant over the run: f0 moves by "
+                                                "coefficient x offset"),
+}
+
+_SENSORS = Map({
+    "draw": Bool(default=False, doc="true: the preset's 1-sigma values (gyro and accelerometer bias, scale factor, "
+                                    "asymmetry, accelerometer nonlinearity, misalignment) become per-axis "
+                                    "N(0, sigma^2) draws of each unit; the noise densities stay as they are"),
+    "preset": Str(default="", doc="an IMU file whose sensors: block is the preset (relative to the sweep file); "
+                                  "empty: each scenario's IMU file's own"),
+}, default={}, doc="the unit's sensor errors (sins-sim schema imu, sensors)")
+
+
+class _FilterParameters:
+    """``filter_parameters``: ``true`` (YAML boolean or string), ``nominal``, or an IMU ``filter_parameters`` mapping."""
+
+    unit = None
+    default = "true"
+    required = False
+    doc = ("what the dither filters know of each unit: true (its drawn parameters), nominal (the IMU file's shared "
+           "suspension, f0 from the PLL), or a mapping; passed to every unit's IMU as filter_parameters "
+           "(sins-sim schema imu), checked there")
+
+    def describe_rows(self, path):
+        return [{"key": path, "kind": "string, bool or mapping", "unit": "", "range": "true, nominal or a mapping",
+                 "default": "true", "doc": self.doc}]
+
+    def json_schema(self):
+        from sins_sim.config.schema import json_schema
+        from sins_sim.config.filter_params import FILTER_PARAMETERS_SCHEMA
+
+        return {**json_schema(FILTER_PARAMETERS_SCHEMA), "description": self.doc}
+
+    def check(self, value, ctx, path):
+        if value is True or value == "true":
+            return "true"
+        if value == "nominal" or isinstance(value, dict):
+            return value
+        raise ConfigError(f"{ctx}: {path}: must be true, nominal or a mapping (sins-sim schema imu), got {value!r}")
+
+
+SWEEP_SCHEMA = Map({
+    "name": Str(required=True),
+    "description": Str(default=""),
+    "seed": Num(integer=True, min=0, max=2 ** 32 - 1, required=True,
+                doc="seed of the population; unit i's draws and run seed depend only on (seed, i)"),
+    "units": Num(integer=True, min=1, max=MAX_UNITS, required=True, doc="number of units drawn"),
+    "run_seed": Str(choices=("per_unit", "scenario"), default="per_unit",
+                    doc="per_unit: each unit's runs get a seed drawn from (seed, i) (its own noise); scenario: the "
+                        "scenario file's seed for every unit (only the parameters differ)"),
+    "filter_parameters": _FilterParameters(),
+    "scenarios": ListOf(Map({
+        "path": Str(required=True, doc="scenario file, relative to the sweep file"),
+        "duration": Num(unit="s", min=0.0, min_exclusive=True, max=1.0e7, default=None,
+                        doc="replaces the scenario's duration_s"),
+        "label": Str(default="", doc="the name in the results (default: the scenario's name); unique"),
+    }), required=True, min_len=1, max_len=100, doc="every unit runs every scenario"),
+    "population": Map({**SPREAD_PARAMETERS, "sensors": _SENSORS}, default={},
+                      doc="distributions of the units' true parameters around the IMU files' values"),
+}, rules=("population: f0_ppm and f0_hz not both",
+          "scenarios: labels unique",
+          "every unit's drawn parameters must pass the IMU schema (checked for every unit before any task starts)"))
+
+
+class Sweep:
+    """A validated sweep file: scenarios (resolved paths), population spec, units, seed."""
+
+    def __init__(self, doc: dict, ctx: str, base_dir: Path):
+        c = validate(doc, SWEEP_SCHEMA, ctx)
+        self.ctx = ctx
+        self.base_dir = base_dir
+        self.name = c["name"]
+        self.description = c["description"]
+        self.seed = int(c["seed"])
+        self.units = int(c["units"])
+        self.run_seed = c["run_seed"]
+        self.filter_parameters = c["filter_parameters"]
+        pop = c["population"]
+        self.spreads = {}
+        for key in SPREAD_PARAMETERS:
+            spec = pop[key]
+            if spec is None:
+                continue
+            where = f"population.{key}"
+            if spec["distribution"] == "grid":
+                if not spec["values"]:
+                    raise ConfigError(f"{ctx}: {where}.values: a grid needs at least one value")
+                if spec["width"] or spec["mean"]:
+                    raise ConfigError(f"{ctx}: {where}: a grid takes values only, not mean or width")
+            elif spec["values"]:
+                raise ConfigError(f"{ctx}: {where}.values: only a grid takes values (distribution "
+                                  f"{spec['distribution']} takes mean and width)")
+            self.spreads[key] = spec
+        if "f0_ppm" in self.spreads and "f0_hz" in self.spreads:
+            raise ConfigError(f"{ctx}: population.f0_hz: give f0_ppm or f0_hz, not both")
+        self.sensors = pop["sensors"]
+        self.sensor_preset = None
+        if self.sensors["preset"]:
+            p = (base_dir / self.sensors["preset"]).resolve()
+            if not p.is_file():
+                raise ConfigError(f"{ctx}: population.sensors.preset: file not found: {p}")
+            self.sensor_preset = p
+        self.scenarios = []
+        for i, sc in enumerate(c["scenarios"]):
+            p = (base_dir / sc["path"]).resolve()
+            if not p.is_file():
+                raise ConfigError(f"{ctx}: scenarios[{i}].path: file not found: {p}")
+            # the label defaults to the scenario's name: set (and checked unique) when the tasks are built
+            self.scenarios.append({"path": p, "duration_s": sc["duration_s"], "label": sc["label"], "index": i})
+
+    @property
+    def grid_keys(self) -> list:
+        """The grid parameters in file order (the full factorial's digits, the first varying fastest)."""
+        return [k for k, s in self.spreads.items() if s["distribution"] == "grid"]
+
+
+def load_sweep(path) -> Sweep:
+    """Read and validate a sweep file (errors: one line naming the file, the key path and the rule)."""
+    from sins_sim.config.yaml_io import load_yaml
+
+    path = Path(path)
+    return Sweep(load_yaml(path), str(path), path.parent.resolve())
