@@ -162,6 +162,17 @@ def test_drive_off_its_amplitude_target_and_voltage_warns():
     assert msgs[1].startswith("drive z: V_m = ") and "-6.0 % off the eq. 17 voltage" in msgs[1]
 
 
+def test_a_drive_still_pulling_in_is_not_judged():
+    """A run of fewer than DRIVE_SETTLE_LOOPS amplitude-loop periods (the default loop: 0.1 s) ends while the loop
+    is still pulling the dither in (+12.5 % after 0.3 s, measured): no drive warning then, the same drives warn
+    once the run is long enough."""
+    imu = imu_from_dict(_imu(352.0), "imu.yaml")
+    drives = _drives(imu, amp_factor=(1.125, 1.125, 1.125), vm_factor=(1.066, 1.066, 1.066))
+    assert advisories.drive_advisories(drives, imu, 0.3) == []
+    assert advisories.drive_advisories(drives, imu, 0.1 * advisories.DRIVE_SETTLE_LOOPS - 1e-9) == []
+    assert len(advisories.drive_advisories(drives, imu, 0.1 * advisories.DRIVE_SETTLE_LOOPS)) == 6
+
+
 def test_drive_within_tolerance_is_silent():
     imu = imu_from_dict(_imu(352.0), "imu.yaml")
     # 0.5 % in amplitude and 2 % in V_m: inside the stated 1 % and 3 %

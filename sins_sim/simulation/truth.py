@@ -69,6 +69,28 @@ for _name, _w in VEHICLE_FIELDS:
 N_VEHICLE_COLS = _c
 
 
+_LON = _COLS["lon_rad"].start
+
+
+def _continuous_lon(lon, prev=None):
+    """Longitudes without the 2 pi jumps of the antimeridian (continuous from ``prev``), so that the Lagrange
+    interpolation between nodes never spans a jump (it gave the truth a longitude across the globe for the
+    rows between two nodes astride 180 deg). Values are changed only where a jump is removed."""
+    lon = np.array(lon, dtype=np.float64)
+    ref = np.concatenate(([prev], lon[:-1])) if prev is not None else np.concatenate(([lon[0]], lon[:-1]))
+    step = lon - ref
+    turns = np.cumsum(np.where(step > np.pi, -1.0, np.where(step < -np.pi, 1.0, 0.0)))
+    if prev is not None and not np.any(turns) and abs(lon[0] - prev) <= np.pi:
+        return lon
+    return np.where(turns != 0.0, lon + 2.0 * np.pi * turns, lon)
+
+
+def _wrap_lon(lon) -> None:
+    """Interpolated longitudes back into [-pi, pi), in place; exact (untouched) where already inside."""
+    lon[lon >= np.pi] -= 2.0 * np.pi
+    lon[lon < -np.pi] += 2.0 * np.pi
+
+
 class VehicleSampler:
     """The vehicle's truth at arbitrary increasing times, from nodes at ``rate_hz``.
 
@@ -97,6 +119,8 @@ class VehicleSampler:
             new[:, _COLS[name]] = np.asarray(getattr(tr, name), dtype=np.float64).reshape(js.size, w)
         if self._next == 0:
             new = np.concatenate((new[:1], new))
+        prev = self._nodes[-1, _LON] if self._nodes.shape[0] else None
+        new[:, _LON] = _continuous_lon(new[:, _LON], prev)
         self._nodes = np.concatenate((self._nodes, new))
         self._next = j_last + 1
 
@@ -115,6 +139,7 @@ class VehicleSampler:
         if c_hi - c_lo != sum(_COLS[k].stop - _COLS[k].start for k in fields):
             raise ValueError(f"truth.fields: must be adjacent in VEHICLE_FIELDS, got {fields!r}")
         ktruth.lagrange4(self._nodes, self._j0, self.h, t, _COLS["q_nv"].start, out, int(full_every), c_lo, c_hi)
+        _wrap_lon(out[:, _LON])
         return out
 
     def sample_field(self, t, name: str) -> np.ndarray:
@@ -125,6 +150,8 @@ class VehicleSampler:
         col = _COLS[name]
         out = np.empty((t.size, col.stop - col.start))
         ktruth.lagrange4_columns(self._nodes, self._j0, self.h, t, col.start, out)
+        if name == "lon_rad":
+            _wrap_lon(out[:, 0])
         return out
 
     def _window(self, t):
