@@ -356,6 +356,7 @@ class Scenario:
         if c["navigation"]["start_s"] >= c["duration_s"]:  # before the models are imported: a light check
             raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {c['duration_s']:g}, "
                               f"got {c['navigation']['start_s']:g}")
+        _check_file_trajectory(doc, ctx)
         # the IMU, the motion and the navigation are built from here on: the models and the engine are needed
         from sins_sim.config.imu import imu_from_dict
         from sins_sim.simulation.sins import NavSettings
@@ -416,6 +417,8 @@ class Scenario:
         self.trajectory_spec = c["trajectory"]
         self.vehicle = _build_vehicle(c["site"], c["trajectory"], self.duration_s, ctx, base_dir,
                                       duration_key)
+        if c["trajectory"]["file"]:  # the mission starts where the file does: the site is its first row
+            self.site = _site_of(self.vehicle)
         self.events = _events(c["motion"], self.vehicle)
         self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.outputs = c["outputs"]
@@ -565,6 +568,31 @@ def _build_translation(segments, seed, ctx):
     for part in parts[1:]:
         total = total + part
     return total
+
+
+def _check_file_trajectory(doc, ctx) -> None:
+    """A trajectory file holds the whole motion and its own start: keys that would be ignored beside it are refused
+    (they were dropped without a word, and metrics.json then reported the default site)."""
+    tr = doc.get("trajectory") if isinstance(doc, dict) else None
+    if not (isinstance(tr, dict) and tr.get("file")):
+        return
+    extra = [f"trajectory.{k}" for k in ("segments", "speed_m_s", "transition_s") if k in tr]
+    if "site" in doc:
+        extra.append("site")
+    if extra:
+        raise ConfigError(f"{ctx}: {extra[0]}: would be ignored beside trajectory.file, which holds the whole motion "
+                          f"and starts at its first row: remove {', '.join(extra)} or the file")
+
+
+def _site_of(vehicle) -> dict:
+    """The site (``lat_rad``, ``lon_rad``, ``height_m``, ``heading_rad``) at a trajectory's start."""
+    import math
+
+    tr = vehicle.evaluate(np.zeros(1))
+    q0, q1, q2, q3 = (float(x) for x in np.asarray(tr.q_nv).reshape(-1, 4)[0])
+    return {"lat_rad": float(np.ravel(tr.lat_rad)[0]), "lon_rad": float(np.ravel(tr.lon_rad)[0]),
+            "height_m": float(np.ravel(tr.h_m)[0]),
+            "heading_rad": math.atan2(2.0 * (q0 * q3 + q1 * q2), 1.0 - 2.0 * (q2 * q2 + q3 * q3))}
 
 
 def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration_s"):

@@ -342,7 +342,11 @@ def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> di
         tpath = (base / traj["file"]).resolve()
         files["trajectory"] = tpath
         copies["trajectory"] = "trajectory" + tpath.suffix
-        doc["trajectory"] = dict(traj, file=copies["trajectory"])
+        # a file holds the whole motion and its start: the segment keys and the site are not part of the run
+        # (and are refused beside a file), so the defaults filled in for them are left out
+        doc["trajectory"] = {k: v for k, v in dict(traj, file=copies["trajectory"]).items()
+                             if k not in ("segments", "speed_m_s", "transition_s")}
+        doc.pop("site", None)
     return {"scenario": doc, "imu": imu_doc, "files": files, "copies": copies}
 
 
