@@ -113,12 +113,22 @@ def _non_negative(text: str) -> float:
 
 
 def _seed(text: str) -> int:
+    """A seed as a file takes it: an integer in [0, 2^32 - 1], also written as a whole number in exponent form
+    (``--seed 1e3`` like ``seed: 1e3`` in a scenario or sweep file)."""
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+        try:
+            num = float(text)
+        except ValueError:
+            num = math.nan
+        if not (math.isfinite(num) and num.is_integer()):
+            raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+        value = int(num)
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    if value > 2 ** 32 - 1:
+        raise argparse.ArgumentTypeError(f"must be at most 2^32 - 1 = {2 ** 32 - 1}, got {text!r}")
     return value
 
 

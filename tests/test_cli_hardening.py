@@ -621,3 +621,22 @@ def test_every_seed_flag_refuses_a_negative_seed_in_one_line(tmp_path, capsys, c
     line = _one_error_line(capsys.readouterr())
     assert line.startswith("sins-sim: error: argument --seed: must be an integer >= 0, got '-3'"), line
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("text, want", [("1e3", 1000), ("10.0", 10), ("7", 7)])
+def test_a_seed_is_read_as_a_file_reads_it(text, want):
+    """``--seed 1e3`` was refused while ``seed: 1e1`` was accepted in a sweep file (issue 25, item 11): a whole
+    number in any notation is a seed; a fraction, a negative number or one past 2^32 - 1 is not."""
+    from sins_sim.cli import _seed
+
+    assert _seed(text) == want
+
+
+@pytest.mark.parametrize("text", ["1.5", "-3", "nan", "inf", "4294967296", "x"])
+def test_a_seed_that_is_not_a_whole_number_in_range_is_refused(text):
+    import argparse
+
+    from sins_sim.cli import _seed
+
+    with pytest.raises(argparse.ArgumentTypeError, match=r"^must be "):
+        _seed(text)

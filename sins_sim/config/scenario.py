@@ -157,7 +157,8 @@ SEGMENT_SCHEMA = OneOf({
     "climb": Map({"duration": Num(unit="s", required=True, **_DUR),
                   "delta_height": Num(unit="m", required=True, min=-101000.0, max=101000.0)},
                  doc="height change (heights stay in [-1000, 100000] m)"),
-})
+}, rules={"climb": ("the flight-path angle asin(h'/V) stays within 60 deg (a climb needs a speed > 0; the pitch "
+                    "stays away from the Euler singularity): a steeper climb is refused",)})
 
 SITE_SCHEMA = Map({
     "lat": Num(unit="deg", min=-89.0, max=89.0, default=45.0, doc="latitude of the start (geodetic)"),
