@@ -176,6 +176,11 @@ class AllanTerm:
         return bool(np.isfinite(self.coefficient))
 
 
+def _empty_terms() -> dict:
+    """Every term, not found (NaN coefficient, no region)."""
+    return {n: AllanTerm(n, TERMS[n][1], math.nan, None, 0, math.nan) for n in TERMS}
+
+
 def _coefficient_from_c(name, c):
     if not (np.isfinite(c) and c > 0.0):
         return math.nan
@@ -423,7 +428,7 @@ def fit_allan(curve: AllanCurve, sensor: str = "gyro", min_clusters: float = 10.
     powers = np.array([TERMS[n][0] for n in names], dtype=np.float64)
     ok = curve.clusters >= min_clusters
     tau, s2, cl = curve.tau_s[ok], curve.adev[ok] ** 2, curve.clusters[ok]
-    empty = {n: AllanTerm(n, TERMS[n][1], math.nan, None, 0, math.nan) for n in names}
+    empty = _empty_terms()
     if tau.size < 2:
         return AllanAnalysis(curve, sensor, {n: 0.0 for n in names}, empty, float(min_clusters))
     rel = np.maximum(np.sqrt(2.0 / np.maximum(cl - 1.0, 1.0)), REL_FLOOR)
@@ -512,7 +517,7 @@ def screen_noise(analysis: AllanAnalysis, min_region_points: int = MIN_REGION_PO
         ``rejected`` filled in.
     """
     gof = analysis.goodness_of_fit
-    empty = {n: AllanTerm(n, TERMS[n][1], math.nan, None, 0, math.nan) for n in TERMS}
+    empty = _empty_terms()
     if gof is None or gof["points"] < 4:
         n = 0 if gof is None else gof["points"]
         return replace(analysis, terms=empty, determinable=False,
@@ -646,5 +651,5 @@ def not_determinable(sensor: str, reason: str, rate_hz: float = math.nan) -> All
     if sensor not in _DATA:
         raise ValueError(f"allan.sensor: must be one of ['accel', 'gyro'], got {sensor!r}")
     curve = AllanCurve(np.zeros(0), np.zeros(0), np.zeros(0), 0, float(rate_hz))
-    empty = {n: AllanTerm(n, TERMS[n][1], math.nan, None, 0, math.nan) for n in TERMS}
+    empty = _empty_terms()
     return AllanAnalysis(curve, sensor, {n: 0.0 for n in TERMS}, empty, 10.0, determinable=False, reason=reason)
