@@ -229,6 +229,8 @@ def run_budget(path, out_dir, overrides: dict | None = None, workers: int = 2, p
     budget = _assemble(results, sources, sc.filters)
     budget.update({"scenario": sc.name, "duration_s": sc.duration_s, "seed": sc.seed, "imu": sc.imu.name,
                    "filters": list(sc.filters), "runs": len(tasks),
+                   # the attitude's averaging window (as _finals takes it; the series ends within a block of the run)
+                   "attitude_window_s": min(ATTITUDE_WINDOW_S, 0.1 * (sc.duration_s - sc.nav.start_s)),
                    "note": "sources[S] = |e(all on) - e(all on but S)|, dither_residual = |e_F(all off) - "
                            "e_ideal(all off)|, floor = |e_ideal(all off)|, remainder = |total - floor - sum of "
                            "sources| (vectors: final north/east position error in m, final NED attitude error in "

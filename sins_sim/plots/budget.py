@@ -43,7 +43,7 @@ def plot_budget(budget: dict, path=None, title: str = ""):
         ax.set_xscale("log")
         ax.set_xlim(left=lo)
         ax.set_xlabel("final horizontal position error (m)" if unit == "m" else
-                      "attitude error, mean over the last 10 s (arcsec)")
+                      f"attitude error, mean over the last {budget.get('attitude_window_s', 10.0):.3g} s (arcsec)")
         ax.grid(True, axis="x", which="both", lw=0.3, alpha=0.5)
         for i in range(n):
             ax.axhline(i + 0.5, color="0.85", lw=0.5)
