@@ -31,6 +31,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .families import families
+
 ROOT = Path(__file__).resolve().parents[2]
 
 #: Mutation classes (issue 12: the classes of the fuzz campaign).
@@ -64,6 +66,7 @@ class Case:
     main: str = ""
     args: list = field(default_factory=list)  # channel: the flags after ``sins-sim channel``
     gap: str | None = None
+    family: str | None = None  # a kind from ``families/`` (its command and validation), None for the classes here
 
     def write(self, folder: Path) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
@@ -1011,13 +1014,30 @@ def _pick(rng: random.Random, weights: dict) -> str:
     return key
 
 
+def all_kinds() -> dict:
+    """The kinds and their weights: the mutated inputs here and every family of ``families/``."""
+    return {**KINDS, **{k: f.weight for k, f in families().items()}}
+
+
+def all_classes() -> tuple:
+    """The mutation classes here, then each family's classes (in family order, without repeats)."""
+    extra = [c for f in families().values() for c in f.classes]
+    return tuple(dict.fromkeys((*CLASSES, *extra)))
+
+
 def generate(n: int, seed: int = 0, kinds=None) -> list:
     """``n`` cases from ``seed`` (deterministic); ``kinds`` restricts the input kinds."""
-    weights = {k: w for k, w in KINDS.items() if kinds is None or k in kinds}
+    fams = families()
+    weights = {k: w for k, w in all_kinds().items() if kinds is None or k in kinds}
     cases = []
     for i in range(n):
         rng = random.Random(f"{seed}:{i}")
         kind = _pick(rng, weights)
+        if kind in fams:
+            made = fams[kind].make(rng)
+            cases.append(Case(f"{seed}-{i:05d}", kind, made.cls, made.expect, made.what, dict(made.files), made.main,
+                              gap=made.gap, family=kind))
+            continue
         cls = _pick(rng, CLASS_WEIGHTS)
         cid = f"{seed}-{i:05d}"
         if kind in ("scenario", "imu", "experiment"):

@@ -129,6 +129,13 @@ def _validate(case, folder: Path) -> str | None:
     from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, suspension_from_nominal
 
     path = case.write(folder)
+    if case.family is not None:
+        from .families import families
+
+        validate = families()[case.family].validate
+        if validate is not None:
+            validate(folder)
+        return None
     if case.kind in ("scenario", "imu", "trajectory"):
         check_run(load_scenario(folder / "scenario.yaml"))
     elif case.kind == "experiment":
@@ -185,6 +192,10 @@ def run_in_process(case, timeout: float = 10.0) -> Result:
 def cli_command(case, folder: Path) -> list:
     exe = [sys.executable, "-m", "sins_sim.cli"]
     path = folder / case.main if case.main else folder
+    if case.family is not None:
+        from .families import families
+
+        return exe + families()[case.family].command(folder)
     if case.kind in ("scenario", "imu", "trajectory"):
         return exe + ["run", str(folder / "scenario.yaml"), "--out", str(folder / "out"), "--quiet"]
     if case.kind == "experiment":
@@ -228,15 +239,15 @@ def run_cli(case, folder: Path, timeout: float = 120.0) -> Result:
 
 def summarize(results) -> dict:
     """Counts per kind and per class (outcomes and verdicts apart), totals, the failures and the known gaps."""
-    from .generate import CLASSES, KINDS
+    from .generate import all_classes, all_kinds
 
     def row(rs):
         return {"cases": len(rs), "outcomes": {o: sum(r.outcome == o for r in rs) for o in OUTCOMES},
                 "verdicts": {v: sum(r.verdict == v for r in rs) for v in VERDICTS}}
 
     return {"totals": row(results),
-            "per_class": {c: row([r for r in results if r.cls == c]) for c in CLASSES if any(r.cls == c for r in results)},
-            "per_kind": {k: row([r for r in results if r.kind == k]) for k in KINDS if any(r.kind == k for r in results)},
+            "per_class": {c: row([r for r in results if r.cls == c]) for c in all_classes() if any(r.cls == c for r in results)},
+            "per_kind": {k: row([r for r in results if r.kind == k]) for k in all_kinds() if any(r.kind == k for r in results)},
             "failures": [asdict(r) for r in results if r.verdict not in ("ok", "known_gap")],
             "known_gaps": [asdict(r) for r in results if r.verdict == "known_gap"],
             "results": [asdict(r) for r in results]}

@@ -19,7 +19,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict
 from pathlib import Path
 
-from .generate import KINDS, generate
+from .generate import all_kinds, generate
 from .harness import format_summary, run_cli, summarize
 
 
@@ -30,7 +30,7 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=2, help="cases run at once [2]")
     p.add_argument("--timeout", type=float, default=120.0, help="seconds per case before it counts as a hang [120]")
     p.add_argument("--budget-s", type=float, default=None, help="start no new case after this many seconds")
-    p.add_argument("--kinds", default=None, help=f"comma-separated subset of {','.join(KINDS)}")
+    p.add_argument("--kinds", default=None, help=f"comma-separated subset of {','.join(all_kinds())}")
     p.add_argument("--json", default="fuzz-results.json", help="where to write the counts [fuzz-results.json]")
     p.add_argument("--keep", default=None, help="keep every case's folder under this directory")
     p.add_argument("--rejudge", default=None, metavar="JSON",

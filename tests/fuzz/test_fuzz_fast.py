@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import pytest
 
-from .generate import CLASSES, KINDS, generate
+from .families import families
+from .generate import CLASSES, KINDS, all_classes, all_kinds, generate
 from .harness import format_summary, run_in_process, summarize
 
 N_CASES = 300
@@ -19,7 +20,9 @@ SEED = 12
 
 @pytest.fixture(scope="module")
 def results():
-    return [run_in_process(case, timeout=10.0) for case in generate(N_CASES, SEED)]
+    fams = families()  # a family without an in-process check runs in the full tier only
+    return [run_in_process(case, timeout=10.0) for case in generate(N_CASES, SEED)
+            if case.family is None or fams[case.family].validate is not None]
 
 
 def test_every_input_validates_or_is_refused_naming_a_field(results):
@@ -31,8 +34,8 @@ def test_every_input_validates_or_is_refused_naming_a_field(results):
 
 
 def test_the_cases_cover_every_class_and_kind(results):
-    assert {r.cls for r in results} == set(CLASSES)
-    assert {r.kind for r in results} == set(KINDS)
+    assert set(CLASSES) <= {r.cls for r in results} <= set(all_classes())
+    assert set(KINDS) <= {r.kind for r in results} <= set(all_kinds())
     assert sum(r.expect == "valid" for r in results) >= 30  # valid inputs are measured too
     assert sum(r.outcome == "refused" for r in results) >= 150
 
