@@ -1,0 +1,367 @@
+"""The sensor block as a body on its isolators (reference-model.md, "The block as a body").
+
+The nominal SINS block is rigid and moves as prescribed; the three suspensions never meet. Here the block is a
+rigid body of mass ``m_b`` and inertia ``J_b`` (about its centre of gravity, block axes) on a set of linear
+isolators, base-excited by the chassis and loaded by the three gyros' suspension torques.
+
+Equations (reference-model.md, "The block as a body"; Titterton and Weston 2004, ch. 12 for the isolated IMU;
+the linear base-excitation form of any structural-dynamics text, e.g. Rao, *Mechanical Vibrations*, ch. 3 and 6)
+----------------------------------------------------------------------------------------------------------------
+Coordinates ``q = (x, theta)``: the block's translation of its c.g. and its small rotation vector, both
+*relative to the chassis* (block axes). The chassis' own motion, however large, is carried by the truth; the
+block adds a small relative motion (arcsec, micrometres) on top of it, so the isolators are linear:
+
+- isolator deflection at the elastic centre ``e`` (offset from the c.g., block axes): ``d = x + theta x e =
+  x - [e x] theta``; force on the block ``F = -K_t d - C_t d'``, moment about the c.g.
+  ``M = e x F - K_r theta - C_r theta'``. With ``T = [[I, -[e x]], [0, I]]`` the 6x6 stiffness and damping at
+  the c.g. are ``K = T^T diag(K_t, K_r) T`` and ``C = T^T diag(C_t, C_r) T`` (symmetric; the offset couples
+  translation into rocking: :meth:`BlockParams.stiffness_matrix`);
+- gyro ``i`` (input axis ``u_i``, inertia ``J_g,i`` about it) receives the suspension torque
+  ``T_i = -J_g,i w0_i^2 (delta_i + Nonl + Diss + 2 zeta delta_i' / w0_i + k5 V_i)`` (eq. 2 times the inertia,
+  eq. 9, 10, 14) and the block receives ``-T_i u_i``;
+- block: ``M q'' + C q' + K q = -M (a_c, alpha_c) + (0, -sum_i T_i u_i)``, with ``M = diag(m_b I, J_b)`` and
+  ``(a_c, alpha_c)`` the chassis' linear and angular acceleration at the block's c.g. (base excitation: the
+  chassis acceleration moves to the right-hand side in relative coordinates).
+
+``J_b`` is the block's inertia *without* each gyro body's inertia about its own input axis (the gyro bodies'
+inertia about the other axes moves with the block; reference-model.md). Gyroscopic terms
+``w x J w`` are dropped: the relative rates are below 1e-3 rad/s and the products they form are below 1e-9 of the
+terms kept (stated again where the truth composes the block's attitude exactly).
+
+Discretisation: the system is linear and time invariant, ``z' = A z + B u`` with ``z = (q, q')``; over a step
+``h`` with an input linear in time, ``u(tau) = u0 + u1 tau``, it is advanced exactly
+(``z(h) = Phi z(0) + F0 u0 + F1 u1``, and ``+ F2 u2`` for a quadratic term), the matrices from one matrix
+exponential of the augmented system (Van Loan 1978, "Computing integrals involving the matrix exponential",
+IEEE TAC 23(3)): :meth:`BlockParams.discrete`.
+
+Closed forms used by the tests and the reports: the isolator transmissibility (:func:`transmissibility`), the
+two-body counter-rotation (:func:`counter_rotation`), and the dither coning of two rocking axes
+(:func:`coning_beat_amplitude`, :func:`coning_drift_rate`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import expm
+
+#: Size of the block's state ``z = (x, theta, x', theta')``.
+STATE_SIZE = 12
+#: Inputs of the discrete step: chassis linear acceleration (3), angular acceleration (3), gyro torques (3).
+N_INPUTS = 9
+
+
+def _skew(v) -> np.ndarray:
+    """``[v x]``: the matrix of the cross product with ``v``."""
+    x, y, z = (float(c) for c in v)
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(3, float(arr))
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: must be three finite numbers (x, y, z), got {value!r}")
+    return arr
+
+
+def _positive(arr: np.ndarray, name: str, allow_zero: bool = False) -> None:
+    bad = (arr < 0) if allow_zero else (arr <= 0)
+    if np.any(bad):
+        rule = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{name}: every value must be {rule}, got {arr.tolist()}")
+
+
+@dataclass(frozen=True)
+class BlockParams:
+    """A rigid sensor block on linear isolators, carrying three dithered gyros (SI units).
+
+    Parameters
+    ----------
+    mass_kg : float
+        Block mass with everything it carries (kg).
+    inertia_kg_m2 : array (3, 3)
+        Inertia tensor about the c.g. in block axes, symmetric positive definite, *without* each gyro body's
+        inertia about its own input axis (kg m^2). Off-diagonal entries are the products of inertia
+        (``J_xy = -int x y dm``, the tensor convention).
+    gyro_inertia_kg_m2 : array (3,)
+        Inertia of each dithered gyro body about its input axis (kg m^2).
+    input_axes : array (3, 3)
+        Row ``i``: the unit input axis ``u_i`` of gyro ``i`` in block axes (nominally the identity; a mounting
+        misalignment tilts a row by a few mrad). Rows are normalised.
+    k_trans_n_per_m, k_rot_n_m_per_rad : array (3,)
+        Isolator stiffness at the elastic centre, translational and rotational, per block axis.
+    c_trans_n_s_per_m, c_rot_n_m_s_per_rad : array (3,)
+        Isolator damping at the elastic centre, per block axis.
+    elastic_centre_m : array (3,)
+        Position of the isolators' elastic centre relative to the c.g. (m, block axes).
+    """
+
+    mass_kg: float
+    inertia_kg_m2: np.ndarray
+    gyro_inertia_kg_m2: np.ndarray
+    input_axes: np.ndarray = field(default_factory=lambda: np.eye(3))
+    k_trans_n_per_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    k_rot_n_m_per_rad: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    c_trans_n_s_per_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    c_rot_n_m_s_per_rad: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    elastic_centre_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        m = float(self.mass_kg)
+        if not (math.isfinite(m) and m > 0):
+            raise ValueError(f"mass_kg: must be a finite number > 0, got {self.mass_kg!r}")
+        set_(self, "mass_kg", m)
+        j = np.asarray(self.inertia_kg_m2, dtype=float)
+        if j.shape == (3,):
+            j = np.diag(j)
+        if j.shape != (3, 3) or not np.all(np.isfinite(j)):
+            raise ValueError(f"inertia_kg_m2: must be a 3x3 tensor (or three principal values), got {self.inertia_kg_m2!r}")
+        if not np.allclose(j, j.T, rtol=0.0, atol=1e-12 * np.abs(j).max()):
+            raise ValueError("inertia_kg_m2: must be symmetric (J_xy = J_yx, ...)")
+        eig = np.linalg.eigvalsh(j)
+        if eig[0] <= 0:
+            raise ValueError(f"inertia_kg_m2: must be positive definite (principal moments {eig.tolist()})")
+        # triangle inequality of principal moments: a rigid body has J1 + J2 >= J3 (Goldstein, ch. 5)
+        if eig[0] + eig[1] < eig[2] * (1.0 - 1e-9):
+            raise ValueError(f"inertia_kg_m2: the principal moments {eig.tolist()} break J1 + J2 >= J3; no rigid "
+                             "body has them")
+        set_(self, "inertia_kg_m2", j)
+        jg = _vec3(self.gyro_inertia_kg_m2, "gyro_inertia_kg_m2")
+        _positive(jg, "gyro_inertia_kg_m2")
+        set_(self, "gyro_inertia_kg_m2", jg)
+        u = np.asarray(self.input_axes, dtype=float)
+        if u.shape != (3, 3) or not np.all(np.isfinite(u)):
+            raise ValueError(f"input_axes: must be three unit vectors (3x3), got {self.input_axes!r}")
+        norms = np.linalg.norm(u, axis=1)
+        if np.any(norms == 0):
+            raise ValueError("input_axes: a gyro input axis is the zero vector")
+        u = u / norms[:, None]
+        if abs(np.linalg.det(u)) < 0.5:
+            raise ValueError("input_axes: the three input axes must be close to orthogonal (|det| >= 0.5)")
+        set_(self, "input_axes", u)
+        for name in ("k_trans_n_per_m", "k_rot_n_m_per_rad", "c_trans_n_s_per_m", "c_rot_n_m_s_per_rad"):
+            v = _vec3(getattr(self, name), name)
+            _positive(v, name, allow_zero=True)
+            set_(self, name, v)
+        set_(self, "elastic_centre_m", _vec3(self.elastic_centre_m, "elastic_centre_m"))
+
+    # --- the matrices ------------------------------------------------------------------------------------------
+    def mass_matrix(self) -> np.ndarray:
+        """``M = diag(m_b I, J_b)`` (6x6)."""
+        out = np.zeros((6, 6))
+        out[:3, :3] = self.mass_kg * np.eye(3)
+        out[3:, 3:] = self.inertia_kg_m2
+        return out
+
+    def _at_cg(self, trans, rot) -> np.ndarray:
+        t = np.eye(6)
+        t[:3, 3:] = -_skew(self.elastic_centre_m)
+        return t.T @ np.diag(np.concatenate([trans, rot])) @ t
+
+    def stiffness_matrix(self) -> np.ndarray:
+        """``K = T^T diag(K_t, K_r) T`` at the c.g. (6x6, module docstring)."""
+        return self._at_cg(self.k_trans_n_per_m, self.k_rot_n_m_per_rad)
+
+    def damping_matrix(self) -> np.ndarray:
+        """``C = T^T diag(C_t, C_r) T`` at the c.g. (6x6)."""
+        return self._at_cg(self.c_trans_n_s_per_m, self.c_rot_n_m_s_per_rad)
+
+    def torque_matrix(self) -> np.ndarray:
+        """Generalised force on the block per unit gyro torque: column ``i`` is ``(0, -u_i)`` (6x3)."""
+        out = np.zeros((6, 3))
+        out[3:, :] = -self.input_axes.T
+        return out
+
+    def state_space(self) -> tuple:
+        """``(A, B)`` of ``z' = A z + B u``, ``z = (x, theta, x', theta')``, ``u = (a_c, alpha_c, T)``."""
+        minv = np.linalg.inv(self.mass_matrix())
+        a = np.zeros((STATE_SIZE, STATE_SIZE))
+        a[:6, 6:] = np.eye(6)
+        a[6:, :6] = -minv @ self.stiffness_matrix()
+        a[6:, 6:] = -minv @ self.damping_matrix()
+        b = np.zeros((STATE_SIZE, N_INPUTS))
+        b[6:, :6] = -np.eye(6)  # base excitation: -M (a_c, alpha_c), divided by M
+        b[6:, 6:] = minv @ self.torque_matrix()
+        return a, b
+
+    def discrete(self, h: float) -> tuple:
+        """``(Phi, F0, F1, F2)``: the exact step of length ``h`` for an input ``u0 + u1 tau + u2 tau^2``.
+
+        Van Loan (1978): the exponential of the system augmented by a chain of integrators,
+        ``x' = A x + B p, p' = q, q' = 2 r, r' = 0``, gives ``Phi = e^{A h}`` and
+        ``Fk = int_0^h e^{A (h - s)} B s^k ds`` (k = 0, 1, 2) in its first block row.
+        """
+        if not (h > 0 and math.isfinite(h)):
+            raise ValueError(f"h: must be a finite step > 0 s, got {h!r}")
+        a, b = self.state_space()
+        n, m = STATE_SIZE, N_INPUTS
+        big = np.zeros((n + 3 * m, n + 3 * m))
+        big[:n, :n] = a
+        big[:n, n:n + m] = b
+        big[n:n + m, n + m:n + 2 * m] = np.eye(m)
+        big[n + m:n + 2 * m, n + 2 * m:] = 2.0 * np.eye(m)
+        e = expm(big * h)
+        return (e[:n, :n].copy(), e[:n, n:n + m].copy(), e[:n, n + m:n + 2 * m].copy(),
+                e[:n, n + 2 * m:].copy())
+
+    def isolator_modes(self) -> list:
+        """The block's modes on its isolators (gyros locked): ``(frequency_hz, damping_ratio)``, sorted.
+
+        From the eigenvalues of ``A``; a free direction (zero stiffness) gives frequency 0.
+        """
+        a, _ = self.state_space()
+        lam = np.linalg.eigvals(a)
+        modes = []
+        for v in lam:
+            if v.imag < 0:
+                continue
+            wn = abs(v)
+            if v.imag == 0 and wn > 0:  # overdamped or a free direction's pair (0, -c/m): one per real root pair
+                modes.append((0.0, 1.0))
+                continue
+            modes.append((wn / (2 * math.pi), (-v.real / wn) if wn > 0 else 0.0))
+        return sorted(modes)[-6:] if len(modes) > 6 else sorted(modes)
+
+    def angular_momentum(self, theta_dot, delta_dot) -> np.ndarray:
+        """Angular momentum of block and gyros about the c.g. relative to a non-rotating chassis (kg m^2/s).
+
+        ``L = J_b theta' + sum_i J_g,i (u_i . theta' + delta_i') u_i`` (the gyro bodies' own axis; their other
+        axes are in ``J_b``). ``theta_dot``: (3, ...) and ``delta_dot``: (3, ...).
+        """
+        td = np.asarray(theta_dot, dtype=float)
+        dd = np.asarray(delta_dot, dtype=float)
+        u = self.input_axes
+        spin = self.gyro_inertia_kg_m2[:, None] * (np.tensordot(u, td, axes=(1, 0)).reshape(3, -1) + dd.reshape(3, -1))
+        return (self.inertia_kg_m2 @ td.reshape(3, -1) + u.T @ spin).reshape(td.shape)
+
+
+# --- closed forms --------------------------------------------------------------------------------------------------
+def transmissibility(k: float, c: float, inertia: float, f_hz) -> np.ndarray:
+    """Absolute transmissibility of a base-excited one-degree-of-freedom isolator (Rao, *Mechanical Vibrations*,
+    sec. 3.6): ``|X / Y| = sqrt((k^2 + (c w)^2) / ((k - I w^2)^2 + (c w)^2))``."""
+    w = 2 * np.pi * np.asarray(f_hz, dtype=float)
+    return np.sqrt((k ** 2 + (c * w) ** 2) / ((k - inertia * w ** 2) ** 2 + (c * w) ** 2))
+
+
+def counter_rotation(j_g: float, j_b: float, k: float, c: float, f_hz) -> np.ndarray:
+    """Block rotation per unit suspension deflection, ``Theta / Delta``, of a gyro on its suspension in a block on a
+    rotational isolator (one axis, fixed chassis), complex.
+
+    Block: ``J_b theta'' + c theta' + k theta = -T``; gyro: ``J_g (theta'' + delta'') = T``. Eliminating ``T``:
+    ``(k + i c w - (J_b + J_g) w^2) Theta = J_g w^2 Delta``, whatever drives the suspension. Well above the
+    isolator mode it tends to ``-J_g / (J_b + J_g)``, about ``-(J_g / J_b) a`` for a dither of amplitude ``a``
+    (reference-model.md).
+    """
+    w = 2 * np.pi * np.asarray(f_hz, dtype=float)
+    return j_g * w ** 2 / (k + 1j * c * w - (j_b + j_g) * w ** 2)
+
+
+def coning_beat_amplitude(a_x: float, a_y: float, w_x: float, w_y: float) -> float:
+    """Amplitude of the coning angle about z from rocking ``a_x sin(w_x t)`` about x and ``a_y sin(w_y t + phi)``
+    about y (rad, ``w`` in rad/s, ``w_x != w_y``): ``a_x a_y (w_x + w_y) / (4 |w_x - w_y|)``.
+
+    From the body rate of a small rotation vector, ``w_b = theta' - (1/2) theta x theta' + O(theta^3)``
+    (Bortz 1971): its z component integrates to a slow term at ``|w_x - w_y|`` of this amplitude plus a fast one
+    at ``w_x + w_y`` (reference-model.md, "The block as a body").
+    """
+    return a_x * a_y * (w_x + w_y) / (4.0 * abs(w_x - w_y))
+
+
+def coning_drift_rate(a_x: float, a_y: float, w: float, phi: float) -> float:
+    """Steady coning rate about z of rocking at one frequency, ``a_x sin(w t)`` and ``a_y sin(w t + phi)``
+    (rad/s): ``(1/2) a_x a_y w sin(phi)`` (sign: the body-rate integral of ``-(1/2)(theta x theta')_z``)."""
+    return 0.5 * a_x * a_y * w * math.sin(phi)
+
+
+# --- the coupled plant ---------------------------------------------------------------------------------------------
+class CoupledPlant:
+    """Three suspensions on one block, stepped together (``sins_sim._kernels.block``); chunked == whole, bit for bit.
+
+    Parameters
+    ----------
+    suspensions : sequence of three SuspensionParams
+        The gyros x, y, z (their ``omega0`` and eq. 9/10/14 parameters).
+    block : BlockParams
+    settings : PlantSettings
+        Plant rate and hysteresis rule; the integrator is the exact one (``plant_exact``), which the coupled step
+        extends.
+
+    ``step(ang, rate, volts)`` takes the chassis angle and rate about block axes x, y, z at the ends of the steps
+    ((3, n) each), the drives held over each step ((3, n), V) and optionally the chassis linear acceleration at the
+    block's c.g. at the start of each step and its slope over the step (``lin0``, ``lin1``: (3, n), m/s^2 and
+    m/s^3); it returns the deflections ``delta`` (3, n) and the block's state ``z`` (12, n) at the step ends.
+    Each gyro's SINS angle is the chassis angle about its block axis plus ``u_i . theta``.
+    """
+
+    def __init__(self, suspensions, block: BlockParams, settings=None):
+        from sins_sim._kernels import block as kblock
+        from sins_sim._kernels import physics as kphys
+        from sins_sim._kernels import plant_exact as kexact
+        from sins_sim.models.plant import HYSTERESIS_RULES, PlantSettings, check_resolution
+
+        settings = PlantSettings() if settings is None else settings
+        if settings.integrator != "exact":
+            raise ValueError("plant.integrator: the coupled block runs on the exact integrator only, got "
+                             f"{settings.integrator!r}")
+        suspensions = tuple(suspensions)
+        if len(suspensions) != 3:
+            raise ValueError(f"suspensions: need three (x, y, z), got {len(suspensions)}")
+        for s in suspensions:
+            check_resolution(s, settings.rate_hz)
+        self._k, self._kx, self._kp = kblock, kexact, kphys
+        self.suspensions, self.block, self.settings = suspensions, block, settings
+        self.h = 1.0 / settings.rate_hz
+        self._consts = np.empty((3, kexact.N_CONSTS))
+        for a, s in enumerate(suspensions):
+            w0 = s.omega0
+            kexact._constants(self._consts, a, self.h, w0 * w0, s.k1, s.k2, s.k3, s.k4, s.k5, 2.0 * s.zeta / w0,
+                              0.25 / s.f0_hz)
+        self._rules = np.full(3, HYSTERESIS_RULES[settings.hysteresis], dtype=np.int64)
+        self._phi, self._f0m, self._f1m, self._f2m = block.discrete(self.h)
+        self._jg = np.ascontiguousarray(block.gyro_inertia_kg_m2)
+        self._u = np.ascontiguousarray(block.input_axes)
+        self.state = np.zeros((3, kexact.STATE_SIZE))
+        self.hyst = np.zeros((3, kphys.HYST_SIZE))
+        self.stack = np.zeros((3, kphys.STACK_SIZE))
+        self.bstate = np.zeros(kblock.B_SIZE)
+        self.reset()
+
+    def reset(self, ang0=(0.0, 0.0, 0.0), rate0=(0.0, 0.0, 0.0)) -> None:
+        """Back to rest at t = 0, the chassis at the given angles and rates (about block axes)."""
+        self.state[:] = 0.0
+        self.bstate[:] = 0.0
+        self.state[:, self._kx.X_PHI] = np.asarray(ang0, dtype=float)
+        self.state[:, self._kx.X_RATE] = np.asarray(rate0, dtype=float)
+        for a in range(3):
+            self._kp.hyst_reset(self.hyst[a], self.stack[a])
+
+    def step(self, ang, rate, volts, lin0=None, lin1=None):
+        ang = np.ascontiguousarray(ang, dtype=float)
+        rate = np.ascontiguousarray(rate, dtype=float)
+        volts = np.ascontiguousarray(volts, dtype=float)
+        n = volts.shape[1]
+        if ang.shape != (3, n) or rate.shape != (3, n) or volts.shape != (3, n):
+            raise ValueError(f"ang, rate, volts: must all be (3, n), got {ang.shape}, {rate.shape}, {volts.shape}")
+        zeros = np.zeros((3, n))
+        lin0 = zeros if lin0 is None else np.ascontiguousarray(lin0, dtype=float)
+        lin1 = zeros if lin1 is None else np.ascontiguousarray(lin1, dtype=float)
+        kx, cs = self._kx, self._consts
+        q0s, q1s = np.empty((3, n)), np.empty((3, n))
+        for a in range(3):
+            kx._forcing(ang[a], rate[a], volts[a], self.state[a, kx.X_PHI], self.state[a, kx.X_RATE], cs[a, kx.C_IH],
+                        cs[a, kx.C_IH2], cs[a, kx.C_W0SQ], cs[a, kx.C_K5], q0s[a], q1s[a])
+        cin = np.empty((STATE_SIZE, n))
+        self._k.chassis_input(ang, rate, self.state[:, kx.X_PHI].copy(), self.state[:, kx.X_RATE].copy(), cs[0, kx.C_IH],
+                              cs[0, kx.C_IH2], lin0, lin1, self._f0m, self._f1m, cin)
+        delta, z = np.empty((3, n)), np.empty((STATE_SIZE, n))
+        self._k.run_three_block(0, n, q0s, q1s, volts, cs, self._rules, self.state, self.hyst, self.stack, self._jg,
+                                self._u, self._phi, self._f0m, self._f1m, self._f2m, cin, self.bstate, delta, z)
+        if n:
+            self.state[:, kx.X_PHI] = ang[:, -1]
+            self.state[:, kx.X_RATE] = rate[:, -1]
+        return delta, z
