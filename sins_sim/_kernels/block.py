@@ -30,6 +30,9 @@ input axis at ``t_n``. All zeros is rest.
 
 from __future__ import annotations
 
+import numpy as np
+
+from sins_sim._kernels import chain as kchain
 from sins_sim._kernels import plant_exact as kexact
 from sins_sim._kernels._config import jit
 
@@ -171,3 +174,162 @@ def run_three_block(j0, j1, q0s, q1s, volts, cs, rules, state, hyst, stack, jg, 
         bstate[B_SMPP + a] = smpp[a]
         bstate[B_REL + a] = rel[a]
         bstate[B_RELR + a] = relr[a]
+
+
+@jit
+def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt, pstack, delta, volts, q0s,
+                            q1s, used, jg, umat, phi, f0m, f1m, f2m, lin0, lin1, bstate, out_z):
+    """``chain.drive_plant_three`` with the three suspensions on one block (module docstring).
+
+    The drive, detector and amplitude loop of each channel are those of ``chain.drive_plant_three`` (the same
+    segments, ending wherever a channel ends an amplitude-control block); the plant steps are those of
+    :func:`run_three_block`. ``ang, rate``: (3, n) the chassis angle and rate about block axes; ``lin0, lin1``:
+    (3, n) the chassis linear acceleration at the c.g. and its slope over each step; ``bstate``:
+    float64[B_SIZE]; ``out_z``: (12, n). Other arguments as ``chain.drive_plant_three``.
+    """
+    n = ang.shape[1]
+    consts = np.empty((3, kexact.N_CONSTS))
+    rules = np.empty(3, dtype=np.int64)
+    for a in range(3):
+        f = fpar[a]
+        kexact._constants(consts, a, f[kchain.P_H], f[kchain.P_W0SQ], f[kchain.P_K1], f[kchain.P_K2],
+                          f[kchain.P_K3], f[kchain.P_K4], f[kchain.P_K5], f[kchain.P_Z], f[kchain.P_FAST])
+        rules[a] = ipar[a, kchain.I_RULE]
+        used[a] = 0
+    phi0 = np.empty(3)
+    rate0 = np.empty(3)
+    for a in range(3):
+        phi0[a] = pstate[a, kexact.X_PHI]
+        rate0[a] = pstate[a, kexact.X_RATE]
+    cin = np.empty((12, n))
+    chassis_input(ang, rate, phi0, rate0, consts[0, kexact.C_IH], consts[0, kexact.C_IH2], lin0, lin1, f0m, f1m,
+                  cin)
+    j = 0
+    while j < n:
+        m = n - j
+        for a in range(3):
+            m = min(m, int(dstate[a, kchain.D_LEFT]))
+        for a in range(3):
+            kchain._segment_forcing(i0 + j, ang[a][j:j + m], rate[a][j:j + m], volts[a][j:j + m], fpar[a], ipar[a],
+                                    dstate[a], pstate[a], consts[a], q0s[a][j:j + m], q1s[a][j:j + m])
+            pstate[a, kexact.X_PHI] = ang[a, j + m - 1]
+            pstate[a, kexact.X_RATE] = rate[a, j + m - 1]
+        run_three_block(j, j + m, q0s, q1s, volts, consts, rules, pstate, physt, pstack, jg, umat, phi, f0m, f1m,
+                        f2m, cin, bstate, delta, out_z)
+        for a in range(3):
+            used[a] = kchain._close_segment(i0, j, m, delta[a][j:j + m], fpar[a], ipar[a], dstate[a], uniforms[a],
+                                            used[a])
+        j += m
+
+
+# carry of :func:`block_truth` between chunks
+T_THETA = 0  # theta at the last step, 3 values
+T_XDOT = 3  # x' at the last step, 3 values
+T_G = 6  # the second-order rate g at the last step, 3 values
+T_C = 9  # its integral c, 3 values
+T_SIZE = 12
+
+
+@jit
+def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel):
+    """What the block's relative motion adds to the gyros and the truth, from its state at the plant steps.
+
+    The block's inertial rate in block axes is ``w_b = R(theta)^T w_c + J_r(theta) theta'``, to second order
+    ``w_c + theta' + g`` with ``g = -theta x w_c - (1/2) theta x theta'`` (the right Jacobian of the rotation
+    vector, Bortz 1971; ``R(theta)^T w_c`` the chassis rate seen in the rocked block). Its integral beyond the
+    chassis' own is ``theta + c`` with ``c = int g dt`` (trapezoid over the plant steps, error
+    ``(w h)^2 / 12`` of a term that is itself second order in the arcsec-level ``theta``). The second-order part
+    is what makes dither coning: it drifts when two axes rock at one frequency.
+
+    Parameters
+    ----------
+    z : (12, n)
+        Block state at the ends of the plant steps (``run_three_block``).
+    rate : (3, n)
+        Chassis rate about block axes at the same steps (rad/s).
+    umat : (3, 3)
+        Gyro input axes (rows).
+    h : float
+        Plant step (s).
+    r : int
+        Plant steps per filter sample (``n`` is a whole number of them).
+    carry : float64[T_SIZE]
+        State between chunks (zeros at rest), updated.
+    add : (3, n), filled
+        Gyro ``i``'s rotation beyond the chassis', ``u_i . (theta + c)`` (rad): added to the chassis angle the
+        readout sees.
+    dth : (3, m), filled
+        The same as ideal increments over each filter sample, ``u_i . Delta(theta + c)`` (rad).
+    theta_avg, theta_end : (3, m), filled
+        ``theta`` averaged over each filter sample and at its end (block axes, rad): the accelerometers' tilt and
+        the block's attitude relative to the chassis.
+    dvel : (3, m), filled
+        ``Delta x'`` over each filter sample (m/s): the block's velocity increment relative to the chassis.
+    """
+    n = z.shape[1]
+    th = np.empty(3)
+    g = np.empty(3)
+    for i in range(3):
+        th[i] = carry[T_THETA + i]
+    gp0 = carry[T_G]
+    gp1 = carry[T_G + 1]
+    gp2 = carry[T_G + 2]
+    c0 = carry[T_C]
+    c1 = carry[T_C + 1]
+    c2 = carry[T_C + 2]
+    prev_add = np.empty(3)
+    for i in range(3):
+        prev_add[i] = (umat[i, 0] * (th[0] + c0) + umat[i, 1] * (th[1] + c1) + umat[i, 2] * (th[2] + c2))
+    xd = np.empty(3)
+    for i in range(3):
+        xd[i] = carry[T_XDOT + i]
+    half_h = 0.5 * h
+    for k in range(n // r):
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for jj in range(r):
+            j = k * r + jj
+            t0 = z[3, j]
+            t1 = z[4, j]
+            t2 = z[5, j]
+            d0 = z[9, j]
+            d1 = z[10, j]
+            d2 = z[11, j]
+            w0 = rate[0, j]
+            w1 = rate[1, j]
+            w2 = rate[2, j]
+            g[0] = -(t1 * w2 - t2 * w1) - 0.5 * (t1 * d2 - t2 * d1)
+            g[1] = -(t2 * w0 - t0 * w2) - 0.5 * (t2 * d0 - t0 * d2)
+            g[2] = -(t0 * w1 - t1 * w0) - 0.5 * (t0 * d1 - t1 * d0)
+            c0 += half_h * (gp0 + g[0])
+            c1 += half_h * (gp1 + g[1])
+            c2 += half_h * (gp2 + g[2])
+            gp0 = g[0]
+            gp1 = g[1]
+            gp2 = g[2]
+            for i in range(3):
+                add[i, j] = umat[i, 0] * (t0 + c0) + umat[i, 1] * (t1 + c1) + umat[i, 2] * (t2 + c2)
+            s0 += t0
+            s1 += t1
+            s2 += t2
+        j = k * r + r - 1
+        for i in range(3):
+            dth[i, k] = add[i, j] - prev_add[i]
+            prev_add[i] = add[i, j]
+            theta_end[i, k] = z[3 + i, j]
+            dvel[i, k] = z[6 + i, j] - xd[i]
+            xd[i] = z[6 + i, j]
+        theta_avg[0, k] = s0 / r
+        theta_avg[1, k] = s1 / r
+        theta_avg[2, k] = s2 / r
+    if n > 0:
+        for i in range(3):
+            carry[T_THETA + i] = z[3 + i, n - 1]
+            carry[T_XDOT + i] = z[6 + i, n - 1]
+    carry[T_G] = gp0
+    carry[T_G + 1] = gp1
+    carry[T_G + 2] = gp2
+    carry[T_C] = c0
+    carry[T_C + 1] = c1
+    carry[T_C + 2] = c2

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
+from sins_sim._kernels import block as kblock
 from sins_sim._kernels import chain as kchain
 from sins_sim._kernels import correcting as kcor
 from sins_sim._kernels import drive as kdrive
@@ -658,14 +659,30 @@ class SideBySide:
     :meth:`ChannelChain.check_chunk` on each afterwards. The plant-rate work buffers are kept
     from one chunk to the next: a fresh 1.7 MB array per chunk costs its page faults (about
     0.3 ms per simulated second each). Requires :func:`side_by_side`.
+
+    With ``block`` (:class:`~sins_sim.models.block.BlockParams`) the three suspensions hang on one
+    block on its isolators (reference-model.md, "The block as a body"): the chunk's plant steps run
+    through ``_kernels.block.drive_plant_three_block`` (the same drives, the block and the three
+    suspensions stepped together), each readout sees the chassis angle plus the block's own rotation
+    about its gyro's axis (``_kernels.block.block_truth``), and each output carries what the block
+    adds to the truth at the filter rate (``block_dth``, ``block_theta_avg``, ``block_theta_end``,
+    ``block_dvel``; :func:`apply_block_to_truth` in the engine).
     """
 
-    def __init__(self, chains):
+    def __init__(self, chains, block=None):
         if not side_by_side(chains):
             raise ValueError("channel.side_by_side: needs three chains on the fused path without a temperature "
                              "or PLL schedule")
         self.chains = list(chains)
         self._n = -1
+        self.block = block
+        if block is not None:
+            h = chains[0].plant.h
+            self._bmat = block.discrete(h)
+            self._jg = np.ascontiguousarray(block.gyro_inertia_kg_m2)
+            self._u = np.ascontiguousarray(block.input_axes)
+            self.bstate = np.zeros(kblock.B_SIZE)
+            self.tcarry = np.zeros(kblock.T_SIZE)
 
     def _work(self, n: int):
         if n != self._n:
@@ -693,17 +710,33 @@ class SideBySide:
         angle_ax = np.ascontiguousarray(angle.T)  # axis-major input: a view, no copy
         delta, volts, q0s, q1s = self._work(n)
         used = np.zeros(3, dtype=np.int64)
-        kchain.drive_plant_three(i0, angle_ax, np.ascontiguousarray(rate.T), uniforms,
-                                 np.stack([ch.fpar for ch in chains]), np.stack([ch.ipar for ch in chains]),
-                                 dstate, pstate, physt, pstack, delta, volts, q0s, q1s, used)
         m = n // chains[0].r_dec
+        fpar = np.stack([ch.fpar for ch in chains])
+        ipar = np.stack([ch.ipar for ch in chains])
+        if self.block is None:
+            kchain.drive_plant_three(i0, angle_ax, np.ascontiguousarray(rate.T), uniforms, fpar, ipar,
+                                     dstate, pstate, physt, pstack, delta, volts, q0s, q1s, used)
+            seen = angle_ax
+        else:
+            rate_ax = np.ascontiguousarray(rate.T)
+            z = np.empty((12, n))
+            lin = np.zeros((3, n))  # the chassis' linear acceleration does not drive the isolators yet
+            phi, f0m, f1m, f2m = self._bmat
+            kblock.drive_plant_three_block(i0, angle_ax, rate_ax, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
+                                           delta, volts, q0s, q1s, used, self._jg, self._u, phi, f0m, f1m, f2m, lin,
+                                           lin, self.bstate, z)
+            add = np.empty((3, n))
+            extra = np.empty((4, 3, m))  # block_dth, block_theta_avg, block_theta_end, block_dvel
+            kblock.block_truth(z, rate_ax, self._u, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, extra[0],
+                               extra[1], extra[2], extra[3])
+            seen = angle_ax + add  # each gyro: the chassis angle plus the block's own rotation about its axis
         x = np.empty((2, 3, m))  # readout angle and drive at the filter rate, per axis
         for a, ch in enumerate(chains):
             ch.dstate[:] = dstate[a]
             plants[a].state[:] = pstate[a]
             plants[a].hyst[:] = physt[a]
             plants[a].stack[:] = pstack[a]
-            kchain.readout_fir(angle_ax[a], draws[a][0], ch.fpar, ch.ipar, ch.dstate, ch.taps,
+            kchain.readout_fir(seen[a], draws[a][0], ch.fpar, ch.ipar, ch.dstate, ch.taps,
                                ch.readout.decimator._hist, ch.vdec._hist, delta[a], volts[a], ch._buffers(n)[2],
                                x[0, a], x[1, a])
         # the six correcting filters (two forms per axis, rows of cpar) side by side, their state read from
@@ -728,8 +761,51 @@ class SideBySide:
             ksos.sos_filter(el._sos, out["raw"], el._zi, out["eliminator"])
             ch._run_plugins(out)
             out["delta"] = delta[a]
+            if self.block is not None:
+                for key, row in zip(BLOCK_KEYS, extra):
+                    out[key] = row[a]
             outs.append(out)
         return outs
+
+
+#: What :meth:`SideBySide.run` adds to each axis's output with a block (filter rate, see ``_kernels.block.block_truth``).
+BLOCK_KEYS = ("block_dth", "block_theta_avg", "block_theta_end", "block_dvel")
+
+
+def apply_block_to_truth(tc, outs, block_phi):
+    """The truth as the block's sensors see it: the chunk ``tc`` (``simulation.truth.TruthChunk``) amended in place
+    by the block's relative motion that :class:`SideBySide` returned with ``outs``.
+
+    - ideal gyro increments and angles: ``+ u_i . Delta(theta + c)`` (``_kernels.block.block_truth``); the running
+      sum ``block_phi`` (3,) is carried between chunks and returned;
+    - attitude: ``q_nb (x) exp(theta)`` (the block rotated by ``theta`` relative to the chassis);
+    - velocity increments, in the rocked block's axes: ``dv - theta_avg x dv + Delta x'`` (first order).
+
+    The first chunk's truth also holds node 0 (increments zero), which the block leaves as it is. Position and
+    velocity stay the chassis': the block's relative translation is micrometres.
+    """
+    m = outs[0]["block_dth"].shape[0]
+    rows = tc.dtheta_rad.shape[0]
+    lead = rows - m
+    dth = np.stack([o["block_dth"] for o in outs], axis=1)
+    tc.dtheta_rad[lead:] += dth
+    cum = block_phi + np.cumsum(dth, axis=0)
+    tc.phi_rad[lead:] += cum
+    theta = np.stack([o["block_theta_end"] for o in outs], axis=1)
+    ang = np.linalg.norm(theta, axis=1)
+    half = 0.5 * ang
+    sinc = np.where(ang > 0, np.sin(half) / np.where(ang > 0, ang, 1.0), 0.5)
+    dq = np.column_stack([np.cos(half), sinc[:, None] * theta])
+    q = tc.q_nb[lead:]
+    w1, x1, y1, z1 = q.T
+    w2, x2, y2, z2 = dq.T
+    tc.q_nb[lead:] = np.column_stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                                      w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+    tavg = np.stack([o["block_theta_avg"] for o in outs], axis=1)
+    dvel = np.stack([o["block_dvel"] for o in outs], axis=1)
+    dv = tc.dv_m_s[lead:]
+    tc.dv_m_s[lead:] = dv - np.cross(tavg, dv) + dvel
+    return cum[-1] if m else block_phi
 
 
 #: Input row of each correcting filter in :meth:`SideBySide.run`: the two forms of axis ``a`` read row ``a``.

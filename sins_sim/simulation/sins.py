@@ -42,12 +42,14 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim.models.accelerometer import Accelerometer, AccelerometerParams
+from sins_sim.models.block import BlockParams
 from sins_sim.models.sensor_errors import AccelErrors, GyroErrors, SensorErrorParams
 from sins_sim._kernels import truth as ktruth
 from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
 from sins_sim.filters import registry as filter_registry
 from sins_sim.navigation.strapdown import StrapdownNavigator
-from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl, SideBySide, side_by_side
+from sins_sim.simulation.channel import (ChannelChain, ChannelConfig, DriveControl, SideBySide, apply_block_to_truth,
+                                         side_by_side)
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
 from sins_sim.simulation.truth import MissionTruth
 
@@ -104,6 +106,10 @@ class ImuConfig:
         (:class:`~sins_sim.simulation.channel.ChannelChain`); each names its axes among x, y, z
         (none: all three). ``axis_coupling`` is refused (see
         :func:`~sins_sim.simulation.channel.check_engine_effects`).
+    block : BlockParams or None
+        The sensor block as a body on its isolators (:mod:`sins_sim.models.block`,
+        reference-model.md "The block as a body"): the three suspensions load it and feel its
+        motion. None: the rigid block whose motion is prescribed (today's model).
     """
 
     channels: tuple
@@ -112,6 +118,7 @@ class ImuConfig:
     name: str = "imu"
     sensors: SensorErrorParams | None = None
     effects: tuple = ()
+    block: BlockParams | None = None
 
     def __post_init__(self):
         from sins_sim.simulation.channel import check_engine_effects
@@ -492,7 +499,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         raise ValueError(f"run.duration_s: the trajectory lasts {vehicle.duration_s:g} s, shorter than the run "
                          f"({duration_s:g} s) plus 0.1 s")
     stream = vehicle.stream() if hasattr(vehicle, "stream") else vehicle
-    plant_inputs = any(name != "ideal" for name in filters)  # a filter to feed: the plant runs
+    # a filter to feed, or a block whose motion comes out of the suspensions: the plant runs
+    plant_inputs = any(name != "ideal" for name in filters) or imu.block is not None
     # without navigation the truth forms only the plant's gyro inputs
     truth = MissionTruth(stream, motion, translation, fp, fs, navigation=nav is not None or not plant_inputs)
     # independent random streams per axis: readout noise [seed, axis], amplitude modulation [seed, axis, 1]
@@ -552,8 +560,16 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     # One thread: the three suspensions side by side. Several, with navigation: side by side on one worker
     # while this thread prepares the next chunk's truth and navigates (they take about as long as the
     # kernels); without navigation, one thread per axis (the truth alone is too light to fill this one).
-    three = SideBySide(chains) if outs_buf and side_by_side(chains) and (threads <= 1 or nav is not None) else None
-    pool = axis_pool(threads) if outs_buf and three is None else None
+    run_chains = bool(outs_buf) or imu.block is not None
+    if imu.block is not None:
+        if not side_by_side(chains):
+            raise ValueError("imu.block: the block on its isolators runs the three channels side by side, which a "
+                             "temperature ramp or a tracking PLL (a parameter schedule per channel) does not allow yet")
+        three = SideBySide(chains, block=imu.block)
+    else:
+        three = (SideBySide(chains) if outs_buf and side_by_side(chains) and (threads <= 1 or nav is not None)
+                 else None)
+    pool = axis_pool(threads) if run_chains and three is None else None
     worker = None
     if three is not None and threads > 1:
         from concurrent.futures import ThreadPoolExecutor
@@ -562,11 +578,12 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     last_out = {}
     g_cum = np.zeros(3)
     a_cum = np.zeros(3)
+    block_phi = np.zeros(3)
 
     def stage(k_a, k_b):
         """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
         tc, ang, rate = truth.advance(k_b, plant=plant_inputs)
-        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker) if outs_buf else None
+        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker) if run_chains else None
         return k_a, k_b, tc, job
 
     try:
@@ -576,7 +593,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             # pipeline: the next chunk's truth is prepared (and its kernels queued behind this chunk's on each
             # axis) while this chunk's kernels run; this chunk is navigated while the next one's kernels run
             pending = stage(k1, min(k1 + chunk, n_out)) if k1 < n_out else None
-            outs = collect_axes(chains, job, caught) if outs_buf else []
+            outs = collect_axes(chains, job, caught) if run_chains else []
+            if nav is not None and imu.block is not None:  # what the block's own motion adds to the truth
+                block_phi = apply_block_to_truth(tc, outs, block_phi)
             if nav is not None:  # the truth rows for nodes tc.k0 .. k1 and the sensors feed only the navigation
                 phi_buf.push(tc.phi_rad)
                 for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
