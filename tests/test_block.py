@@ -319,3 +319,50 @@ def test_isolator_modes_are_the_undamped_closed_forms_when_decoupled():
     for (f, z), (fr, zr) in zip(modes, ref):
         assert f == pytest.approx(fr, rel=1e-9)  # |lambda| of an underdamped pair is the undamped frequency
         assert z == pytest.approx(zr, rel=1e-9)
+
+
+def test_coupled_dither_frequency_is_where_the_coupled_response_peaks():
+    """The linearised coupled system driven on axis x (viscous Q = 1000, so the peak is sharp): the deflection's
+    amplitude peaks at ``coupled_dither_frequencies`` (scan in 0.01 Hz steps), about sqrt(1 + J_g/J_b) above the
+    rigid-fixture resonance."""
+    from sins_sim.models.block import coupled_dither_frequencies
+
+    block = _block()
+    susp = [SuspensionParams(f0_hz=f, k1=0.0, k3=0.0, zeta=0.0005) for f in F0]
+    fc = coupled_dither_frequencies(block, [s.omega0 for s in susp])
+    scan = np.arange(fc[0] - 2.0, fc[0] + 2.0, 0.01)
+    amp = [abs(_frequency_domain(block, susp, f, np.array([1.0, 0.0, 0.0]))[1][0]) for f in scan]
+    assert scan[int(np.argmax(amp))] == pytest.approx(fc[0], abs=0.01)
+    assert fc[0] / 386.0 == pytest.approx(math.sqrt(1 + 2.5e-4 / 0.012), rel=2e-3)  # isolator: the rest
+
+
+def test_isolated_block_preset_loads_and_its_modes_are_those_its_comments_state():
+    """configs/isolated-block.yaml: translation modes at 80 Hz, rocking at 100 Hz, 5 % damping (its comments)."""
+    from pathlib import Path
+
+    from sins_sim.config.imu import load_imu
+
+    imu = load_imu(Path(__file__).resolve().parents[1] / "configs" / "isolated-block.yaml")
+    modes = imu.block.isolator_modes()
+    assert [round(f) for f, _ in modes] == [80, 80, 80, 100, 100, 100]
+    assert all(abs(z - 0.05) < 2e-3 for _, z in modes)
+
+
+@pytest.mark.parametrize("patch, message", [
+    ({"mass_kg": 0}, "block.mass_kg: must be >= 0.1"),
+    ({"inertia_kg_m2": {"xx": 0.01, "yy": 0.01, "zz": 0.03}}, "block.inertia_kg_m2: the principal moments"),
+    ({"gyro_axes_mrad": {"x": [1, 0, 0]}}, "block.gyro_axes_mrad.x\\[0\\]: must be 0"),
+    ({"gyro_inertia_kg_m2": [1, 1, 1]}, "block.gyro_inertia_kg_m2\\[0\\]: must be <= 0.01"),
+    ({"colour": "red"}, "block.colour: unknown key"),
+])
+def test_block_section_errors_name_the_key(patch, message):
+    from pathlib import Path
+
+    from sins_sim.config.errors import ConfigError
+    from sins_sim.config.imu import imu_from_dict
+    from sins_sim.config.yaml_io import load_yaml
+
+    doc = load_yaml(Path(__file__).resolve().parents[1] / "configs" / "isolated-block.yaml")
+    doc["block"].update(patch)
+    with pytest.raises(ConfigError, match=f"^imu.yaml: {message}"):
+        imu_from_dict(doc, "imu.yaml")

@@ -40,6 +40,7 @@ from sins_sim.models.plant import PlantSettings, check_resolution
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.units import ARCSEC
+from sins_sim.config import block_schema as _block
 from sins_sim.config import filter_params as _fparams
 from sins_sim.config.effects_schema import EffectsList
 from sins_sim.config.schema import ConfigError, Map, Num, Str, validate
@@ -158,6 +159,7 @@ IMU_SCHEMA = Map({
     }, required=True, rules=("the three f0_hz must differ",)),
     "effects": EffectsList(doc="axis_coupling is refused in the SINS engine (it couples the axes within a plant "
                                "step)"),
+    "block": _block.BLOCK_SCHEMA,
     # parsed by their own loaders before the rest; listed here for the reference
     "filter_parameters": _fparams.FILTER_PARAMETERS_SCHEMA,
     "sensors": _SensorsReference(),
@@ -276,9 +278,10 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
                 raise ConfigError(f"{ctx}: {where}: {_user_keys(str(exc))}") from None
             channels.append(cfg)
         channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
+        block = _block.block_from_section(c["block"], ctx, f"{pre}block")  # its own ConfigError
         try:
             return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors,
-                             effects=c["effects"] or ())
+                             effects=c["effects"] or (), block=block)
         except ValueError as exc:  # an effect the engine cannot run (axis_coupling)
             raise ConfigError(f"{ctx}: {pre}{exc}") from None
     except ConfigError:

@@ -50,6 +50,14 @@ UNITS = {
     "ppm": ("ppm", 1.0),
     "k": ("k", 1.0),
     "ppm_per_k": ("ppm_per_k", 1.0),
+    "mm": ("m", 1e-3),
+    "mrad": ("rad", 1e-3),
+    "kg": ("kg", 1.0),
+    "kg_m2": ("kg_m2", 1.0),
+    "n_per_m": ("n_per_m", 1.0),
+    "n_s_per_m": ("n_s_per_m", 1.0),
+    "n_m_per_rad": ("n_m_per_rad", 1.0),
+    "n_m_s_per_rad": ("n_m_s_per_rad", 1.0),
 }
 
 
@@ -58,7 +66,8 @@ UNIT_LABELS = {
     "hz": "Hz", "s": "s", "ms": "ms", "rad": "rad", "arcmin": "arcmin", "arcsec": "arcsec", "deg": "deg",
     "deg_s": "deg/s", "rad_s": "rad/s", "deg2_s2_per_hz": "(deg/s)^2/Hz", "v": "V", "db": "dB", "per_rad": "1/rad",
     "rad_per_v": "rad/V", "m": "m", "m_s": "m/s", "m_s2": "m/s^2", "ppm": "ppm",
-    "k": "K", "ppm_per_k": "ppm/K",
+    "k": "K", "ppm_per_k": "ppm/K", "mm": "mm", "mrad": "mrad", "kg": "kg", "kg_m2": "kg m^2", "n_per_m": "N/m",
+    "n_s_per_m": "N s/m", "n_m_per_rad": "N m/rad", "n_m_s_per_rad": "N m s/rad",
 }
 
 

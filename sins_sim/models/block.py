@@ -240,6 +240,95 @@ class BlockParams:
         return (self.inertia_kg_m2 @ td.reshape(3, -1) + u.T @ spin).reshape(td.shape)
 
 
+def _matrices9(block: BlockParams, om) -> tuple:
+    """Mass and stiffness of the linearised undamped block + three suspensions, DOF ``(x, theta, delta)``."""
+    jg, u = block.gyro_inertia_kg_m2, block.input_axes
+    m9 = np.zeros((9, 9))
+    k9 = np.zeros((9, 9))
+    m9[:6, :6] = block.mass_matrix()
+    k9[:6, :6] = block.stiffness_matrix()
+    for i in range(3):
+        m9[3:6, 3:6] += jg[i] * np.outer(u[i], u[i])
+        m9[3:6, 6 + i] = m9[6 + i, 3:6] = jg[i] * u[i]
+        m9[6 + i, 6 + i] = jg[i]
+        k9[6 + i, 6 + i] = jg[i] * om[i] ** 2
+    return m9, k9
+
+
+def coupled_dither_frequencies(block: BlockParams, omega_rad_s) -> np.ndarray:
+    """The three dither modes of the suspensions on the block (Hz): where each gyro's PLL would lock.
+
+    A suspension whose resonance is ``omega_i`` on a rigid fixture resonates higher on a block that yields: its
+    relative mode sees the reduced inertia, ``omega_i sqrt(1 + J_g / J_b)`` well above the isolator modes. Here
+    exactly, for the linearised undamped system: degrees of freedom ``(x, theta, delta)``, kinetic energy
+    ``(1/2) q'^T M q' + sum_i (1/2) J_g,i (u_i . theta' + delta_i')^2``, potential
+    ``(1/2) q^T K q + sum_i (1/2) J_g,i omega_i^2 delta_i^2``. Gyro ``i``'s mode is the root near ``omega_i`` of
+    its driving-point dynamic stiffness ``1 / [(K - w^2 M)^-1]_{delta_i delta_i}`` (secant iteration on ``w^2``).
+    A root search rather than an eigen-decomposition: with a stiff, heavy block (the rigid limit) the block's
+    eigenvalues exceed the dithers' by 1e11 and an eigen-solver loses the dithers' to rounding (1e-5 relative),
+    while the driving-point stiffness stays accurate to rounding. ``omega_rad_s``: (3,) each suspension's
+    resonance at its dither amplitude (the eq. 9 backbone).
+    """
+    om = np.asarray(omega_rad_s, dtype=float)
+    m9, k9 = _matrices9(block, om)
+    e = np.zeros(9)
+    out = np.empty(3)
+    for i in range(3):
+        e[:] = 0.0
+        e[6 + i] = 1.0
+
+        def z(w2):
+            return 1.0 / np.linalg.solve(k9 - w2 * m9, e)[6 + i]
+
+        a = om[i] ** 2
+        ratio = block.gyro_inertia_kg_m2[i] / float(block.input_axes[i] @ block.inertia_kg_m2 @ block.input_axes[i])
+        b = a * (1.0 + ratio)
+        za, zb = z(a), z(b)
+        for _ in range(60):
+            if zb == za:
+                break
+            c = b - zb * (b - a) / (zb - za)
+            a, za = b, zb
+            b, zb = c, z(c)
+            if abs(b - a) <= 1e-15 * abs(b):
+                break
+        out[i] = math.sqrt(b) / (2 * math.pi)
+    return out
+
+
+def dither_voltage_factor(block: BlockParams, omega_rad_s, q) -> np.ndarray:
+    """Drive voltage on the block relative to eq. 17's, per axis, with each drive at its coupled resonance.
+
+    Eq. 17 (``V_m = -a_m / (Q k5)``) holds for a suspension on a rigid fixture. On the block, the drive torque acts
+    between gyro and block, and the block's rocking dissipates in the isolator dampers: the loss per cycle grows by
+    ``pi c_r w Theta^2`` (about 8 % for the bundled block) and the voltage with it. Computed from the steady state
+    of the linearised coupled system at :func:`coupled_dither_frequencies` (the frequency-domain solve of
+    ``tests/test_block.py``), the suspension's hysteretic loss at the amplitude as an equivalent viscous damping
+    ``zeta = 1 / (2 Q)``: ``factor_i = Q_i / |delta_i / (k5_i V_i)|``.
+    """
+    om = np.asarray(omega_rad_s, dtype=float)
+    q = np.asarray(q, dtype=float)
+    f_c = coupled_dither_frequencies(block, om)
+    m, c, k = block.mass_matrix(), block.damping_matrix(), block.stiffness_matrix()
+    bt, u, jg = block.torque_matrix(), block.input_axes, block.gyro_inertia_kg_m2
+    out = np.empty(3)
+    for i in range(3):
+        w = 2 * math.pi * f_c[i]
+        a = np.zeros((9, 9), complex)
+        rhs = np.zeros(9, complex)
+        a[:6, :6] = -w ** 2 * m + 1j * w * c + k
+        for j in range(3):
+            g = jg[j] * om[j] ** 2 * (1 + 1j * w / (q[j] * om[j]))
+            a[:6, 6 + j] = bt[:, j] * g
+            a[6 + j, 3:6] = -w ** 2 * jg[j] * u[j]
+            a[6 + j, 6 + j] = -w ** 2 * jg[j] + g
+        drive = jg[i] * om[i] ** 2  # unit k5 V on axis i
+        rhs[:6] = -bt[:, i] * drive
+        rhs[6 + i] = -drive
+        out[i] = q[i] / abs(np.linalg.solve(a, rhs)[6 + i])
+    return out
+
+
 # --- closed forms --------------------------------------------------------------------------------------------------
 def transmissibility(k: float, c: float, inertia: float, f_hz) -> np.ndarray:
     """Absolute transmissibility of a base-excited one-degree-of-freedom isolator (Rao, *Mechanical Vibrations*,

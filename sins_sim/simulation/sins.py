@@ -436,6 +436,25 @@ class _FilterNav:
         self.ref = None  # gyro angle the first increment starts from (alignment)
 
 
+def drives_on_block(imu: ImuConfig) -> list:
+    """The channels with each drive at its suspension's resonance on the block (where a PLL would hold it).
+
+    On a block that yields, a suspension resonates above its rigid-fixture resonance
+    (:func:`~sins_sim.models.block.coupled_dither_frequencies`: about ``sqrt(1 + J_g / J_b)``, 3 Hz at 386 Hz for
+    the bundled block). A drive left at the rigid resonance is then off by about 3 half-bandwidths (Q near 190)
+    and needs three times the eq. 17 voltage. A channel whose drive frequency the file sets keeps it.
+    """
+    import dataclasses
+
+    from sins_sim.models.block import coupled_dither_frequencies
+
+    om = [2.0 * math.pi * c.drive_signal().frequency_hz for c in imu.channels]
+    f = coupled_dither_frequencies(imu.block, om)
+    return [c if c.drive.frequency_hz is not None else
+            dataclasses.replace(c, drive=dataclasses.replace(c.drive, frequency_hz=float(fi)))
+            for c, fi in zip(imu.channels, f)]
+
+
 def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav: NavSettings | None = NavSettings(),
                   filters=DEFAULT_FILTERS, chunk_s: float = 1.0, progress=None, threads: int | None = None,
                   vehicle=None, translation=None) -> SinsResult:
@@ -504,9 +523,10 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     # without navigation the truth forms only the plant's gyro inputs
     truth = MissionTruth(stream, motion, translation, fp, fs, navigation=nav is not None or not plant_inputs)
     # independent random streams per axis: readout noise [seed, axis], amplitude modulation [seed, axis, 1]
+    channels = imu.channels if imu.block is None else drives_on_block(imu)
     chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]),
                            plugins=plugins, axis=AXES[i], effects=imu.effects)
-              for i, c in enumerate(imu.channels)]
+              for i, c in enumerate(channels)]
     accel = Accelerometer(imu.accelerometer, np.random.default_rng([seed, 3]))
     # sensor errors beyond the dither physics, generated at the filter rate from the true increments and added to
     # every filter's increments at that filter's alignment (they pass the filters at unity gain: exact for the
