@@ -9,7 +9,9 @@ advanced one plant step at a time, coupled both ways:
 
 Coupling scheme (a staggered, explicit partitioned step; Felippa, Park and Farhat 2001, "Partitioned analysis of
 coupled mechanical systems", CMAME 190, sec. 4): over step ``n`` the torque's smooth part
-``-J_g w0^2 (delta + F)`` is extrapolated by the quadratic through ``t_{n-2}, t_{n-1}, t_n`` (third order) and the piezo
+``-J_g w0^2 (delta + F)`` is extrapolated by the cubic through ``t_{n-1} .. t_{n-4}`` (fourth order; from one
+step back, so that the block's step does not wait for the suspensions' step that ends at ``t_n`` and the
+processor overlaps the two) and the piezo
 part ``-J_g w0^2 k5 V_n`` is held, as the suspension holds its drive (zero-order hold); the block advances
 exactly under that input; its relative angle and rate about ``u_i`` at ``t_{n+1}`` extend the suspension's
 Hermite interpolant of the SINS angle (``plant_exact._forcing``) by the relative part, which is linear in the
@@ -17,15 +19,16 @@ samples, so ``q0 += -p0_rel`` and ``q1 += -p1_rel``; then each suspension takes 
 arithmetic of ``plant_exact.run_three``. With the relative motion identically zero (the rigid block) the
 suspensions get bit for bit the numbers of ``run_three``.
 
-The coupling's own error is that of the torque extrapolation. With a linear extrapolation (second order) the block's
-response at 386 Hz and 72 kHz was off by 4.7e-4 (``5/12 (w h)^2``, halving ``h`` quartered it), and near
-resonance the suspension's amplitude by as much, through the coupled frequency; the quadratic leaves
-``(w h)^3``-order errors (``tests/test_block.py`` states the measured figures against the frequency-domain
+The coupling's own error is that of the torque extrapolation. With a linear extrapolation from ``t_{n-1}, t_n``
+(second order) the block's response at 386 Hz and 72 kHz was off by 4.7e-4 (``5/12 (w h)^2``, halving ``h``
+quartered it), and near resonance the suspension's amplitude by as much, through the coupled frequency; the
+quadratic through ``t_{n-2} .. t_n`` left 2.2e-5 (third order); the cubic from one step back leaves
+``(w h)^4``-order errors (``tests/test_block.py`` states the measured figures against the frequency-domain
 solution of the coupled linear system).
 
 Block state (``bstate``, float64[B_SIZE]): ``z`` (12: translation, rotation vector, and their rates, relative to
-the chassis), the torques' smooth parts at ``t_n``, ``t_{n-1}`` and ``t_{n-2}``, and the relative angle and rate about each
-input axis at ``t_n``. All zeros is rest.
+the chassis), the relative angle and rate about each input axis at ``t_n``, and the torques' smooth parts at
+``t_n .. t_{n-4}``. All zeros is rest.
 """
 
 from __future__ import annotations
@@ -37,50 +40,57 @@ from sins_sim._kernels import plant_exact as kexact
 from sins_sim._kernels._config import jit
 
 B_Z = 0  # z, 12 values
-B_SM0 = 12  # smooth torque part at t_n, 3 values
-B_SMP = 15  # smooth torque part at t_{n-1}, 3 values
-B_REL = 18  # relative angle about u_i at t_n, 3 values
-B_RELR = 21  # relative rate about u_i at t_n, 3 values
-B_SMPP = 24  # smooth torque part at t_{n-2}, 3 values
-B_SIZE = 27
+B_REL = 12  # relative angle about u_i at t_n, 3 values
+B_RELR = 15  # relative rate about u_i at t_n, 3 values
+B_SM = 18  # smooth torque parts at t_n, t_{n-1}, ..., t_{n-4}: 5 rows of 3 values
+N_HIST = 5
+B_SIZE = 33
 
 
 @jit
-def chassis_input(ang, rate, phi0, rate0, ih, ih2, lin0, lin1, f0m, f1m, out_c):
+def chassis_input(ang, rate, phi0, rate0, ih, ih2, lin0, lin1, gch, out_c):
     """The chassis' contribution to the block's step, for every step of a chunk (no dependency between steps).
 
     ``ang, rate``: (3, N) chassis angle and rate about block axes x, y, z at ``t_{n+1}``; ``phi0, rate0``: (3,)
     at the chunk's start. The chassis angular acceleration over a step is the second derivative of the same cubic
     Hermite interpolant the suspensions use, ``P0 + P1 tau`` (``plant_exact`` module docstring); ``lin0, lin1``:
-    (3, N) the chassis linear acceleration at the c.g. over each step, ``a0 + a1 tau``. ``out_c``: (12, N),
-    ``F0[:, :6] (a0, P0) + F1[:, :6] (a1, P1)`` (``BlockParams.discrete``).
+    (3, N) the chassis linear acceleration at the c.g. over each step, ``a0 + a1 tau``. ``gch``: (12, 12),
+    ``[F0[:, :6], F1[:, :6]]`` (``BlockParams.discrete``); ``out_c``: (N, 12), step-major like every block array
+    here (one cache line per step, not twelve streams), ``= gch @ (a0, P0, a1, P1)``
+    (an input that is exactly zero, a chassis at rest or no linear vibration, is skipped).
     """
     n = ang.shape[1]
-    u0 = [0.0] * 6
-    u1 = [0.0] * 6
-    pa = [phi0[0], phi0[1], phi0[2]]
-    ra = [rate0[0], rate0[1], rate0[2]]
+    gt = np.ascontiguousarray(gch.T)  # column j of gch as a row: one AXPY per input
+    u = np.empty(12)
+    pa = phi0.copy()
+    ra = rate0.copy()
+    acc = np.empty(12)
     for k in range(n):
         for i in range(3):
             slope = (ang[i, k] - pa[i]) * ih
-            u0[3 + i] = (6.0 * slope - 4.0 * ra[i] - 2.0 * rate[i, k]) * ih
-            u1[3 + i] = 6.0 * (ra[i] + rate[i, k] - 2.0 * slope) * ih2
-            u0[i] = lin0[i, k]
-            u1[i] = lin1[i, k]
+            u[3 + i] = (6.0 * slope - 4.0 * ra[i] - 2.0 * rate[i, k]) * ih
+            u[9 + i] = 6.0 * (ra[i] + rate[i, k] - 2.0 * slope) * ih2
             pa[i] = ang[i, k]
             ra[i] = rate[i, k]
+            u[i] = lin0[i, k]
+            u[6 + i] = lin1[i, k]
         for r in range(12):
-            acc = 0.0
-            for j in range(6):
-                acc += f0m[r, j] * u0[j] + f1m[r, j] * u1[j]
-            out_c[r, k] = acc
+            acc[r] = 0.0
+        for j in range(12):
+            uj = u[j]
+            if uj != 0.0:
+                for r in range(12):
+                    acc[r] += gt[j, r] * uj
+        for r in range(12):
+            out_c[k, r] = acc[r]
 
 
 @jit(inline="always")
-def _relative(umat, z, a):
-    """Relative angle and rate of the block about input axis ``a``: ``u_a . theta``, ``u_a . theta'``."""
-    r = umat[a, 0] * z[3] + umat[a, 1] * z[4] + umat[a, 2] * z[5]
-    rr = umat[a, 0] * z[9] + umat[a, 1] * z[10] + umat[a, 2] * z[11]
+def _relative(umat, zn, pos, a):
+    """Relative angle and rate of the block about input axis ``a``: ``u_a . theta``, ``u_a . theta'``
+    (``pos``: where theta and theta' sit in the chained state)."""
+    r = umat[a, 0] * zn[pos[0]] + umat[a, 1] * zn[pos[1]] + umat[a, 2] * zn[pos[2]]
+    rr = umat[a, 0] * zn[pos[3]] + umat[a, 1] * zn[pos[4]] + umat[a, 2] * zn[pos[5]]
     return r, rr
 
 
@@ -93,15 +103,18 @@ def _lane_step(k, lane, q0, q1, rule, hyst, stack):
 
 
 @jit
-def run_three_block(j0, j1, q0s, q1s, volts, cs, rules, state, hyst, stack, jg, umat, phi, f0m, f1m, f2m, cin, bstate,
+def run_three_block(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat, phit, tt, idx, pos, cin, bstate,
                     out_delta, out_z):
     """The three suspensions and the block over steps ``j0 .. j1 - 1`` (module docstring).
 
     Suspension arguments as ``plant_exact.run_three`` (``q0s, q1s``: (3, N), the forcing from the chassis and
-    the drive, ``plant_exact._forcing``); ``volts``: (3, N) the drive held over each step (V); ``jg``: (3,) gyro
-    inertias (kg m^2); ``umat``: (3, 3) input axes (rows); ``phi, f0m, f1m, f2m``: ``BlockParams.discrete(h)``;
-    ``cin``: (12, N) from :func:`chassis_input`; ``bstate``: float64[B_SIZE]; ``out_z``: (12, N) the block's
-    state at ``t_{n+1}``.
+    the drive, ``plant_exact._forcing``). The block: only the ``nc`` states the torques reach are chained
+    (``idx``: their rows of ``z``; all 12, or the rotation's 6 when the elastic centre is at the c.g. and
+    translation cannot feel the gyros), with ``phit`` (nc, nc) the transposed step matrix of those states,
+    ``tt`` (nh, 3, nc) the transposed input matrices of the torques' smooth parts at ``t_{n-1} .. t_{n-nh}``
+    (the extrapolation folded in, ``BlockStep``), ``pos`` (6,) where ``theta, theta'`` sit among them,
+    ``gain`` (3,) ``-J_g w0^2``, ``cin`` (N, 12) the chassis and piezo inputs of every step. ``out_z`` (N, 12):
+    the chained rows at ``t_{n+1}`` are written (the others by :func:`propagate_rest`).
     """
     ka = kexact._lane_constants(cs, 0)
     kb = kexact._lane_constants(cs, 1)
@@ -112,80 +125,106 @@ def run_three_block(j0, j1, q0s, q1s, volts, cs, rules, state, hyst, stack, jg, 
     h = ka[kexact.C_H]
     ih = 1.0 / h
     ih2 = ih * ih
-    z = bstate[B_Z:B_Z + 12].copy()
-    zn = z.copy()
-    t0 = [0.0, 0.0, 0.0]
-    t1 = [0.0, 0.0, 0.0]
-    t2 = [0.0, 0.0, 0.0]
-    ih2h = 0.5 * ih2
-    gain = [-jg[0] * ka[kexact.C_W0SQ], -jg[1] * kb[kexact.C_W0SQ], -jg[2] * kc[kexact.C_W0SQ]]
-    k5 = [ka[kexact.C_K5], kb[kexact.C_K5], kc[kexact.C_K5]]
-    sm0 = [bstate[B_SM0], bstate[B_SM0 + 1], bstate[B_SM0 + 2]]
-    smp = [bstate[B_SMP], bstate[B_SMP + 1], bstate[B_SMP + 2]]
-    smpp = [bstate[B_SMPP], bstate[B_SMPP + 1], bstate[B_SMPP + 2]]
-    rel = [bstate[B_REL], bstate[B_REL + 1], bstate[B_REL + 2]]
-    relr = [bstate[B_RELR], bstate[B_RELR + 1], bstate[B_RELR + 2]]
-    q0 = [0.0, 0.0, 0.0]
-    q1 = [0.0, 0.0, 0.0]
-    for n in range(j0, j1):
-        # torque over the step: smooth part by the quadratic through t_{n-2}, t_{n-1}, t_n; piezo part held
+    nc = idx.shape[0]
+    z = np.empty(nc)
+    for r in range(nc):
+        z[r] = bstate[B_Z + idx[r]]
+    zn = np.empty(nc)
+    nh = tt.shape[0]  # history values used: t_{n-1} .. t_{n-nh}
+    sm = np.empty((N_HIST, 3))  # smooth torque parts at t_n, t_{n-1}, ... (rows), per axis
+    for k in range(N_HIST):
         for a in range(3):
-            t0[a] = sm0[a] + gain[a] * k5[a] * volts[a, n]
-            t1[a] = (3.0 * sm0[a] - 4.0 * smp[a] + smpp[a]) * 0.5 * ih
-            t2[a] = (sm0[a] - 2.0 * smp[a] + smpp[a]) * ih2h
-        for r in range(12):
-            acc = cin[r, n]
-            for j in range(12):
-                acc += phi[r, j] * z[j]
+            sm[k, a] = bstate[B_SM + 3 * k + a]
+    rel = bstate[B_REL:B_REL + 3].copy()
+    relr = bstate[B_RELR:B_RELR + 3].copy()
+    q0 = np.zeros(3)
+    q1 = np.zeros(3)
+    for n in range(j0, j1):
+        for r in range(nc):
+            zn[r] = cin[n, idx[r]]
+        for j in range(nc):
+            zj = z[j]
+            for r in range(nc):
+                zn[r] += phit[j, r] * zj
+        for kind in range(nh):  # from t_{n-1} back: independent of the suspensions' step that ends at t_n
             for a in range(3):
-                acc += f0m[r, 6 + a] * t0[a] + f1m[r, 6 + a] * t1[a] + f2m[r, 6 + a] * t2[a]
-            zn[r] = acc
+                s_ = sm[kind + 1, a]
+                for r in range(nc):
+                    zn[r] += tt[kind, a, r] * s_
         # the relative motion's share of each suspension's forcing (Hermite, as plant_exact._forcing)
         for a in range(3):
-            r, rr = _relative(umat, zn, a)
-            slope = (r - rel[a]) * ih
+            r_, rr = _relative(umat, zn, pos, a)
+            slope = (r_ - rel[a]) * ih
             q0[a] = q0s[a, n] - (6.0 * slope - 4.0 * relr[a] - 2.0 * rr) * ih
             q1[a] = q1s[a, n] - 6.0 * (relr[a] + rr - 2.0 * slope) * ih2
-            rel[a] = r
+            rel[a] = r_
             relr[a] = rr
         la = _lane_step(ka, la, q0[0], q1[0], rules[0], hyst[0], stack[0])
         lb = _lane_step(kb, lb, q0[1], q1[1], rules[1], hyst[1], stack[1])
         lc = _lane_step(kc, lc, q0[2], q1[2], rules[2], hyst[2], stack[2])
-        for a in range(3):
-            smpp[a] = smp[a]
-            smp[a] = sm0[a]
-        sm0[0] = gain[0] * (la[0] + la[2])
-        sm0[1] = gain[1] * (lb[0] + lb[2])
-        sm0[2] = gain[2] * (lc[0] + lc[2])
+        for k in range(N_HIST - 1, 0, -1):
+            for a in range(3):
+                sm[k, a] = sm[k - 1, a]
+        sm[0, 0] = gain[0] * (la[0] + la[2])
+        sm[0, 1] = gain[1] * (lb[0] + lb[2])
+        sm[0, 2] = gain[2] * (lc[0] + lc[2])
         out_delta[0, n] = la[0]
         out_delta[1, n] = lb[0]
         out_delta[2, n] = lc[0]
-        for r in range(12):
+        for r in range(nc):
             z[r] = zn[r]
-            out_z[r, n] = zn[r]
+            out_z[n, idx[r]] = zn[r]
     kexact._lane_store(state, 0, la)
     kexact._lane_store(state, 1, lb)
     kexact._lane_store(state, 2, lc)
-    for r in range(12):
-        bstate[B_Z + r] = z[r]
+    for r in range(nc):
+        bstate[B_Z + idx[r]] = z[r]
+    for k in range(N_HIST):
+        for a in range(3):
+            bstate[B_SM + 3 * k + a] = sm[k, a]
     for a in range(3):
-        bstate[B_SM0 + a] = sm0[a]
-        bstate[B_SMP + a] = smp[a]
-        bstate[B_SMPP + a] = smpp[a]
         bstate[B_REL + a] = rel[a]
         bstate[B_RELR + a] = relr[a]
 
 
 @jit
+def propagate_rest(ridx, phi, cin, bstate, out_z):
+    """The rows ``ridx`` of ``z`` that the torques do not reach (the translation of a block whose elastic centre is
+    at its c.g.), over the chunk, after :func:`run_three_block` wrote the others: ``z_r(n+1) = Phi[r, :] z(n) +
+    cin[r, n]`` with the full step matrix (its other columns are zero for these rows in that case)."""
+    n = cin.shape[0]
+    zr = np.empty(ridx.shape[0])
+    prev = np.empty(12)
+    for r in range(12):
+        prev[r] = bstate[B_Z + r]
+    for k in range(n):
+        for i in range(ridx.shape[0]):
+            r = ridx[i]
+            acc = cin[k, r]
+            for j in range(12):
+                acc += phi[r, j] * prev[j]
+            zr[i] = acc
+        for i in range(ridx.shape[0]):
+            out_z[k, ridx[i]] = zr[i]
+        for r in range(12):
+            prev[r] = out_z[k, r]
+    for r in range(12):
+        bstate[B_Z + r] = prev[r]
+
+
+@jit
 def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt, pstack, delta, volts, q0s,
-                            q1s, used, jg, umat, phi, f0m, f1m, f2m, lin0, lin1, bstate, out_z):
+                            q1s, used, gain, umat, phi, phit, tt, f0t, gch, idx, ridx, pos, lin0, lin1, bstate, cin,
+                            out_z):
     """``chain.drive_plant_three`` with the three suspensions on one block (module docstring).
 
     The drive, detector and amplitude loop of each channel are those of ``chain.drive_plant_three`` (the same
     segments, ending wherever a channel ends an amplitude-control block); the plant steps are those of
     :func:`run_three_block`. ``ang, rate``: (3, n) the chassis angle and rate about block axes; ``lin0, lin1``:
-    (3, n) the chassis linear acceleration at the c.g. and its slope over each step; ``bstate``:
-    float64[B_SIZE]; ``out_z``: (12, n). Other arguments as ``chain.drive_plant_three``.
+    (3, n) the chassis linear acceleration at the c.g. and its slope over each step; ``f0t`` (12, 3): ``F0``'s torque
+    columns, through which each segment's piezo torques (held, ``gain k5 V``) enter; the block matrices as
+    ``BlockStep``; ``bstate``: float64[B_SIZE]; ``cin``: (n, 12) a work buffer (the caller keeps it from chunk to
+    chunk: a fresh 7 MB array per chunk costs its page faults); ``out_z``: (n, 12). Other arguments as ``chain.drive_plant_three``.
     """
     n = ang.shape[1]
     consts = np.empty((3, kexact.N_CONSTS))
@@ -201,9 +240,8 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
     for a in range(3):
         phi0[a] = pstate[a, kexact.X_PHI]
         rate0[a] = pstate[a, kexact.X_RATE]
-    cin = np.empty((12, n))
-    chassis_input(ang, rate, phi0, rate0, consts[0, kexact.C_IH], consts[0, kexact.C_IH2], lin0, lin1, f0m, f1m,
-                  cin)
+    chassis_input(ang, rate, phi0, rate0, consts[0, kexact.C_IH], consts[0, kexact.C_IH2], lin0, lin1, gch, cin)
+    bz0 = bstate[B_Z:B_Z + 12].copy()
     j = 0
     while j < n:
         m = n - j
@@ -214,12 +252,22 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
                                     dstate[a], pstate[a], consts[a], q0s[a][j:j + m], q1s[a][j:j + m])
             pstate[a, kexact.X_PHI] = ang[a, j + m - 1]
             pstate[a, kexact.X_RATE] = rate[a, j + m - 1]
-        run_three_block(j, j + m, q0s, q1s, volts, consts, rules, pstate, physt, pstack, jg, umat, phi, f0m, f1m,
-                        f2m, cin, bstate, delta, out_z)
+        for k in range(j, j + m):  # the piezo torques, held over each step, through F0's torque columns
+            p0 = gain[0] * consts[0, kexact.C_K5] * volts[0, k]
+            p1 = gain[1] * consts[1, kexact.C_K5] * volts[1, k]
+            p2 = gain[2] * consts[2, kexact.C_K5] * volts[2, k]
+            for r in range(12):
+                cin[k, r] += f0t[r, 0] * p0 + f0t[r, 1] * p1 + f0t[r, 2] * p2
+        run_three_block(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, gain, umat, phit, tt, idx, pos, cin,
+                        bstate, delta, out_z)
         for a in range(3):
             used[a] = kchain._close_segment(i0, j, m, delta[a][j:j + m], fpar[a], ipar[a], dstate[a], uniforms[a],
                                             used[a])
         j += m
+    if ridx.shape[0] > 0:  # the rows the torques do not reach, from the chunk's start
+        for r in range(12):
+            bstate[B_Z + r] = bz0[r]
+        propagate_rest(ridx, phi, cin, bstate, out_z)
 
 
 # carry of :func:`block_truth` between chunks
@@ -243,7 +291,7 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
 
     Parameters
     ----------
-    z : (12, n)
+    z : (n, 12)
         Block state at the ends of the plant steps (``run_three_block``).
     rate : (3, n)
         Chassis rate about block axes at the same steps (rad/s).
@@ -266,7 +314,7 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
     dvel : (3, m), filled
         ``Delta x'`` over each filter sample (m/s): the block's velocity increment relative to the chassis.
     """
-    n = z.shape[1]
+    n = z.shape[0]
     th = np.empty(3)
     g = np.empty(3)
     for i in range(3):
@@ -290,12 +338,12 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
         s2 = 0.0
         for jj in range(r):
             j = k * r + jj
-            t0 = z[3, j]
-            t1 = z[4, j]
-            t2 = z[5, j]
-            d0 = z[9, j]
-            d1 = z[10, j]
-            d2 = z[11, j]
+            t0 = z[j, 3]
+            t1 = z[j, 4]
+            t2 = z[j, 5]
+            d0 = z[j, 9]
+            d1 = z[j, 10]
+            d2 = z[j, 11]
             w0 = rate[0, j]
             w1 = rate[1, j]
             w2 = rate[2, j]
@@ -317,16 +365,16 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
         for i in range(3):
             dth[i, k] = add[i, j] - prev_add[i]
             prev_add[i] = add[i, j]
-            theta_end[i, k] = z[3 + i, j]
-            dvel[i, k] = z[6 + i, j] - xd[i]
-            xd[i] = z[6 + i, j]
+            theta_end[i, k] = z[j, 3 + i]
+            dvel[i, k] = z[j, 6 + i] - xd[i]
+            xd[i] = z[j, 6 + i]
         theta_avg[0, k] = s0 / r
         theta_avg[1, k] = s1 / r
         theta_avg[2, k] = s2 / r
     if n > 0:
         for i in range(3):
-            carry[T_THETA + i] = z[3 + i, n - 1]
-            carry[T_XDOT + i] = z[6 + i, n - 1]
+            carry[T_THETA + i] = z[n - 1, 3 + i]
+            carry[T_XDOT + i] = z[n - 1, 6 + i]
     carry[T_G] = gp0
     carry[T_G + 1] = gp1
     carry[T_G + 2] = gp2

@@ -189,25 +189,27 @@ class BlockParams:
         b[6:, 6:] = minv @ self.torque_matrix()
         return a, b
 
-    def discrete(self, h: float) -> tuple:
-        """``(Phi, F0, F1, F2)``: the exact step of length ``h`` for an input ``u0 + u1 tau + u2 tau^2``.
+    def discrete(self, h: float, order: int = 3) -> tuple:
+        """``(Phi, F0, ..., F_order)``: the exact step of length ``h`` for an input ``sum_k u_k tau^k``.
 
         Van Loan (1978): the exponential of the system augmented by a chain of integrators,
-        ``x' = A x + B p, p' = q, q' = 2 r, r' = 0``, gives ``Phi = e^{A h}`` and
-        ``Fk = int_0^h e^{A (h - s)} B s^k ds`` (k = 0, 1, 2) in its first block row.
+        ``x' = A x + B p_0, p_0' = p_1, ..., p_order' = 0``; started from ``p_k = I`` (the others 0),
+        ``p_0 = tau^k / k!``, so the first block row gives ``Phi = e^{A h}`` and
+        ``Fk = int_0^h e^{A (h - s)} B s^k ds = k! (its k-th block)``.
         """
         if not (h > 0 and math.isfinite(h)):
             raise ValueError(f"h: must be a finite step > 0 s, got {h!r}")
         a, b = self.state_space()
         n, m = STATE_SIZE, N_INPUTS
-        big = np.zeros((n + 3 * m, n + 3 * m))
+        size = n + (order + 1) * m
+        big = np.zeros((size, size))
         big[:n, :n] = a
         big[:n, n:n + m] = b
-        big[n:n + m, n + m:n + 2 * m] = np.eye(m)
-        big[n + m:n + 2 * m, n + 2 * m:] = 2.0 * np.eye(m)
+        for k in range(order):
+            big[n + k * m:n + (k + 1) * m, n + (k + 1) * m:n + (k + 2) * m] = np.eye(m)
         e = expm(big * h)
-        return (e[:n, :n].copy(), e[:n, n:n + m].copy(), e[:n, n + m:n + 2 * m].copy(),
-                e[:n, n + 2 * m:].copy())
+        return (e[:n, :n].copy(),) + tuple(math.factorial(k) * e[:n, n + k * m:n + (k + 1) * m]
+                                          for k in range(order + 1))
 
     def isolator_modes(self) -> list:
         """The block's modes on its isolators (gyros locked): ``(frequency_hz, damping_ratio)``, sorted.
@@ -368,6 +370,45 @@ def coning_drift_rate(a_x: float, a_y: float, w: float, phi: float) -> float:
 
 
 # --- the coupled plant ---------------------------------------------------------------------------------------------
+#: The torques' smooth parts over a plant step are the polynomial of this degree through their values one to
+#: ``LAG_ORDER + 1`` steps back (``_kernels.block``: one step back, so the block's step does not wait for the
+#: suspensions' step that ends where it starts).
+LAG_ORDER = 3
+
+
+class BlockStep:
+    """The block's exact step of length ``h`` arranged for the coupled kernel (``sins_sim._kernels.block``).
+
+    The torques' smooth parts over ``[t_n, t_n + h]`` enter as the cubic through their values at
+    ``t_{n-1} .. t_{n-4}``, folded into one input matrix per history value (``tt``: (4, 3, nc)); only the states
+    the torques reach are chained (all 12, or the rotation's 6 when
+    the isolators do not couple translation and rotation); the chassis inputs ``(a0, P0, a1, P1)`` go through
+    ``gch = [F0, F1]`` (their columns) and the held piezo torques through ``f0t``.
+    """
+
+    def __init__(self, block: BlockParams, h: float):
+        phi, *fk = block.discrete(h, order=LAG_ORDER)
+        f0, f1 = fk[0], fk[1]
+        k, c = block.stiffness_matrix(), block.damping_matrix()
+        coupled = bool(np.any(k[:3, 3:] != 0.0) or np.any(c[:3, 3:] != 0.0))
+        self.idx = np.arange(12, dtype=np.int64) if coupled else np.array([3, 4, 5, 9, 10, 11], dtype=np.int64)
+        self.ridx = np.array([r for r in range(12) if r not in set(self.idx.tolist())], dtype=np.int64)
+        self.phi = np.ascontiguousarray(phi)
+        self.phit = np.ascontiguousarray(phi[np.ix_(self.idx, self.idx)].T)
+        # the torque over [t_n, t_n + h] is the polynomial through its values at t_{n-1} .. t_{n-1-LAG_ORDER}
+        # (tau from t_n): coefficients c = L s, so its input is sum_k Fk c_k = sum_m (sum_k Fk L[k, m]) s_m
+        nodes = -h * np.arange(1, LAG_ORDER + 2)
+        lag = np.linalg.inv(np.vander(nodes, LAG_ORDER + 1, increasing=True))
+        folded = [sum(fk[kk][:, 6:9] * lag[kk, mm] for kk in range(LAG_ORDER + 1)) for mm in range(LAG_ORDER + 1)]
+        self.tt = np.ascontiguousarray(np.stack([f[self.idx].T for f in folded]))
+        self.gch = np.ascontiguousarray(np.hstack([f0[:, :6], f1[:, :6]]))
+        self.f0t = np.ascontiguousarray(f0[:, 6:9])
+        where = {int(r): i for i, r in enumerate(self.idx)}
+        self.pos = np.array([where[r] for r in (3, 4, 5, 9, 10, 11)], dtype=np.int64)
+        self.umat = np.ascontiguousarray(block.input_axes)
+        self.jg = np.ascontiguousarray(block.gyro_inertia_kg_m2)
+
+
 class CoupledPlant:
     """Three suspensions on one block, stepped together (``sins_sim._kernels.block``); chunked == whole, bit for bit.
 
@@ -411,9 +452,8 @@ class CoupledPlant:
             kexact._constants(self._consts, a, self.h, w0 * w0, s.k1, s.k2, s.k3, s.k4, s.k5, 2.0 * s.zeta / w0,
                               0.25 / s.f0_hz)
         self._rules = np.full(3, HYSTERESIS_RULES[settings.hysteresis], dtype=np.int64)
-        self._phi, self._f0m, self._f1m, self._f2m = block.discrete(self.h)
-        self._jg = np.ascontiguousarray(block.gyro_inertia_kg_m2)
-        self._u = np.ascontiguousarray(block.input_axes)
+        self.stepper = BlockStep(block, self.h)
+        self._gain = -self.stepper.jg * self._consts[:, kexact.C_W0SQ]
         self.state = np.zeros((3, kexact.STATE_SIZE))
         self.hyst = np.zeros((3, kphys.HYST_SIZE))
         self.stack = np.zeros((3, kphys.STACK_SIZE))
@@ -439,18 +479,23 @@ class CoupledPlant:
         zeros = np.zeros((3, n))
         lin0 = zeros if lin0 is None else np.ascontiguousarray(lin0, dtype=float)
         lin1 = zeros if lin1 is None else np.ascontiguousarray(lin1, dtype=float)
-        kx, cs = self._kx, self._consts
+        kx, cs, st = self._kx, self._consts, self.stepper
         q0s, q1s = np.empty((3, n)), np.empty((3, n))
         for a in range(3):
             kx._forcing(ang[a], rate[a], volts[a], self.state[a, kx.X_PHI], self.state[a, kx.X_RATE], cs[a, kx.C_IH],
                         cs[a, kx.C_IH2], cs[a, kx.C_W0SQ], cs[a, kx.C_K5], q0s[a], q1s[a])
-        cin = np.empty((STATE_SIZE, n))
-        self._k.chassis_input(ang, rate, self.state[:, kx.X_PHI].copy(), self.state[:, kx.X_RATE].copy(), cs[0, kx.C_IH],
-                              cs[0, kx.C_IH2], lin0, lin1, self._f0m, self._f1m, cin)
-        delta, z = np.empty((3, n)), np.empty((STATE_SIZE, n))
-        self._k.run_three_block(0, n, q0s, q1s, volts, cs, self._rules, self.state, self.hyst, self.stack, self._jg,
-                                self._u, self._phi, self._f0m, self._f1m, self._f2m, cin, self.bstate, delta, z)
+        cin = np.empty((n, STATE_SIZE))  # step-major (``_kernels.block``)
+        self._k.chassis_input(ang, rate, self.state[:, kx.X_PHI].copy(), self.state[:, kx.X_RATE].copy(),
+                              cs[0, kx.C_IH], cs[0, kx.C_IH2], lin0, lin1, st.gch, cin)
+        cin += (st.f0t @ (self._gain[:, None] * cs[:, kx.C_K5][:, None] * volts)).T  # the held piezo torques
+        delta, z = np.empty((3, n)), np.empty((n, STATE_SIZE))
+        z0 = self.bstate[:STATE_SIZE].copy()
+        self._k.run_three_block(0, n, q0s, q1s, cs, self._rules, self.state, self.hyst, self.stack, self._gain,
+                                st.umat, st.phit, st.tt, st.idx, st.pos, cin, self.bstate, delta, z)
+        if st.ridx.size:
+            self.bstate[:STATE_SIZE] = z0
+            self._k.propagate_rest(st.ridx, st.phi, cin, self.bstate, z)
         if n:
             self.state[:, kx.X_PHI] = ang[:, -1]
             self.state[:, kx.X_RATE] = rate[:, -1]
-        return delta, z
+        return delta, z.T

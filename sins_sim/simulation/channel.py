@@ -677,10 +677,10 @@ class SideBySide:
         self._n = -1
         self.block = block
         if block is not None:
-            h = chains[0].plant.h
-            self._bmat = block.discrete(h)
-            self._jg = np.ascontiguousarray(block.gyro_inertia_kg_m2)
-            self._u = np.ascontiguousarray(block.input_axes)
+            from sins_sim.models.block import BlockStep
+
+            self._step = BlockStep(block, chains[0].plant.h)
+            self._gain = np.array([-self._step.jg[a] * ch.fpar[kchain.P_W0SQ] for a, ch in enumerate(chains)])
             self.bstate = np.zeros(kblock.B_SIZE)
             self.tcarry = np.zeros(kblock.T_SIZE)
 
@@ -689,6 +689,14 @@ class SideBySide:
             self._buf = np.empty((4, 3, n))  # deflection, drive, and the plant's forcing q0, q1
             self._n = n
         return self._buf
+
+    def _block_work(self, n: int):
+        """The block's plant-rate work buffers, kept while the chunk length stays: its state and inputs (step-major),
+        the chassis' linear acceleration (zero: it does not drive the isolators yet) and each gyro's added angle."""
+        if getattr(self, "_bn", -1) != n:
+            self._bbuf = (np.empty((n, 12)), np.empty((n, 12)), np.zeros((3, n)), np.empty((3, n)))
+            self._bn = n
+        return self._bbuf
 
     def run(self, i0: int, angle: np.ndarray, rate: np.ndarray) -> list:
         """Advance the three chains over a chunk; ``angle, rate``: (n, 3) at the ends of the plant steps.
@@ -719,15 +727,13 @@ class SideBySide:
             seen = angle_ax
         else:
             rate_ax = np.ascontiguousarray(rate.T)
-            z = np.empty((12, n))
-            lin = np.zeros((3, n))  # the chassis' linear acceleration does not drive the isolators yet
-            phi, f0m, f1m, f2m = self._bmat
+            z, cin, lin, add = self._block_work(n)
+            st = self._step
             kblock.drive_plant_three_block(i0, angle_ax, rate_ax, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
-                                           delta, volts, q0s, q1s, used, self._jg, self._u, phi, f0m, f1m, f2m, lin,
-                                           lin, self.bstate, z)
-            add = np.empty((3, n))
+                                           delta, volts, q0s, q1s, used, self._gain, st.umat, st.phi, st.phit, st.tt,
+                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, lin, lin, self.bstate, cin, z)
             extra = np.empty((4, 3, m))  # block_dth, block_theta_avg, block_theta_end, block_dvel
-            kblock.block_truth(z, rate_ax, self._u, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, extra[0],
+            kblock.block_truth(z, rate_ax, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, extra[0],
                                extra[1], extra[2], extra[3])
             seen = angle_ax + add  # each gyro: the chassis angle plus the block's own rotation about its axis
         x = np.empty((2, 3, m))  # readout angle and drive at the filter rate, per axis
