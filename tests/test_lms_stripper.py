@@ -279,6 +279,8 @@ def test_engine_chunking_invariance():
 @pytest.mark.parametrize("settings", [
     {"mu": 1e-3}, {"mu": 1.0}, {"mu": 1.99}, {"highpass_hz": 5.0, "leak_hz": 0.0}, {"highpass_hz": 300.0},
     {"regularisation": 0.0}, {"power_time_s": 1e-4, "hold_s": 0.0}, {"leak_hz": 4.0, "regularisation": 1.0},
+    {"adapt_band": "dither", "dither_hz": (386.0, 352.0, 421.0)},
+    {"adapt_band": "dither", "band_hz": 200.0, "dither_hz": (386.0, 352.0, 421.0), "mu": 1.5},
 ])
 def test_no_nan_over_valid_settings(settings):
     x, volts = _synthetic(nl=500.0)
@@ -298,6 +300,10 @@ def test_design_refuses_bad_settings():
         LmsStripperDesign(highpass_hz=4000.0)
     with pytest.raises(ValueError, match=r"lms_stripper\.leak_hz"):
         LmsStripperDesign(leak_hz=60.0)
+    with pytest.raises(ValueError, match=r"lms_stripper\.dither_hz: adapt_band 'dither' needs"):
+        LmsStripperDesign(adapt_band="dither")
+    with pytest.raises(ValueError, match=r"lms_stripper\.adapt_band"):
+        LmsStripperDesign(adapt_band="notch")
     with pytest.raises(ValueError, match=r"lms_stripper\.volts"):
         LmsStripper(LmsStripperDesign()).process(np.zeros((3, 4)), np.zeros((2, 4)))
     with pytest.raises(ValueError, match="three-axis"):
@@ -314,23 +320,27 @@ def _naive(x, volts, d: LmsStripperDesign):
 
     h = 1.0 / d.fs_hz
     lam = math.exp(-2.0 * math.pi * d.leak_hz * h)
-    b, a = signal.butter(2, d.highpass_hz, btype="highpass", fs=d.fs_hz)
+    ba = ([signal.butter(2, d.highpass_hz, btype="highpass", fs=d.fs_hz)] if d.adapt_band == "highpass"
+          else [signal.iirpeak(f, f / d.band_hz, fs=d.fs_hz) for f in d.dither_hz])
     kappa = min(1.0, 1.0 / (d.power_time_s * d.fs_hz))
     E, F = d.gains0[0].copy(), d.gains0[1].copy()
     u = np.zeros(3)
     up = np.zeros(3)
     uhp = np.zeros(3)
     p = 0.0
-    xs = np.zeros((3, 2))
-    us = np.zeros((3, 2))
+    xs = [np.zeros((3, 2)) for _ in ba]
+    us = [np.zeros((3, 2)) for _ in ba]
     y = np.empty_like(x)
     for n in range(x.shape[1]):
         u = lam * u + h * volts[:, n]
         y[:, n] = x[:, n] - (E @ u + F @ up)
-        xh, xs_n = signal.lfilter(b, a, x[:, n:n + 1], axis=1, zi=xs)
-        uh, us_n = signal.lfilter(b, a, u[:, None], axis=1, zi=us)
-        xs, us = xs_n, us_n
-        xh, uh = xh[:, 0], uh[:, 0]
+        xh = np.zeros(3)
+        uh = np.zeros(3)
+        for s, (b, a) in enumerate(ba):  # the bank's outputs summed
+            yx, xs[s] = signal.lfilter(b, a, x[:, n:n + 1], axis=1, zi=xs[s])
+            yu, us[s] = signal.lfilter(b, a, u[:, None], axis=1, zi=us[s])
+            xh += yx[:, 0]
+            uh += yu[:, 0]
         inst = uh @ uh + uhp @ uhp
         p = (1.0 - kappa) * p + kappa * inst
         if n + 1 > d.hold_s * d.fs_hz and inst + d.regularisation * p > 0.0:
@@ -343,9 +353,11 @@ def _naive(x, volts, d: LmsStripperDesign):
     return y, E, F
 
 
-def test_kernel_matches_the_naive_reference():
+@pytest.mark.parametrize("band", ["highpass", "dither"])
+def test_kernel_matches_the_naive_reference(band):
     x, volts = _synthetic(n=1500)
-    d = LmsStripperDesign(fs_hz=FS, mu=0.5, hold_s=0.01)
+    d = LmsStripperDesign(fs_hz=FS, mu=0.5, hold_s=0.01, adapt_band=band, band_hz=20.0,
+                          dither_hz=(386.0, 352.0, 421.0))
     s = LmsStripper(d)
     y = s.process(x, volts)
     y0, E0, F0 = _naive(x, volts, d)

@@ -15,17 +15,15 @@ from sins_sim._kernels._config import jit
 # state layout (float64[STATE_SIZE])
 U = 0  # leaky integrals of the three pickoff voltages, u_n (V s)
 UP = 3  # u_{n-1}
-XS = 6  # high-pass state on the three counts, 2 per axis
-US = 12  # high-pass state on the three integrals, 2 per axis
-UHP = 18  # HP(u)_{n-1}
-P = 21  # running mean of the regressor power
-K = 22  # samples processed
-DIV = 23  # sample (1-based) at which the gains left their bound; 0: not diverged
-STATE_SIZE = 24
+UHP = 6  # HP(u)_{n-1}
+P = 9  # running mean of the regressor power
+K = 10  # samples processed
+DIV = 11  # sample (1-based) at which the gains left their bound; 0: not diverged
+STATE_SIZE = 12
 
 
 @jit
-def lms3_run(x, volts, h, lam, hp, mu, kappa, reg, hold, limit, stride, state, gains, out, hist):
+def lms3_run(x, volts, h, lam, bank, mu, kappa, reg, hold, limit, stride, state, zx, zu, gains, out, hist):
     """Strip a chunk of the three axes; ``state``, ``gains`` updated in place.
 
     Parameters
@@ -34,8 +32,9 @@ def lms3_run(x, volts, h, lam, hp, mu, kappa, reg, hold, limit, stride, state, g
         Counts as angle (rad) and pickoff voltages (V) of axes x, y, z.
     h, lam : float
         Sample interval (s) and leak factor of the pickoff integrators.
-    hp : float64[5]
-        High-pass biquad ``b0, b1, b2, a1, a2`` (``a0 = 1``).
+    bank : float64[nb, 5]
+        The adaptation filter ``HP``: biquads ``b0, b1, b2, a1, a2`` (``a0 = 1``) whose outputs are *summed* (a
+        parallel bank: one high-pass, or one band-pass per dither frequency).
     mu, kappa, reg : float
         NLMS step, weight of the running power mean, regularisation (fraction of that mean).
     hold : float
@@ -46,6 +45,8 @@ def lms3_run(x, volts, h, lam, hp, mu, kappa, reg, hold, limit, stride, state, g
     stride : int
         Every ``stride``-th sample (counted from the reset) the gains are copied to ``hist``.
     state : float64[STATE_SIZE]
+    zx, zu : float64[3, nb, 2]
+        Bank state (transposed direct form II) on the counts and on the integrals, per axis and biquad.
     gains : float64[2, 3, 3]
         ``E`` and ``F`` (rad per V s).
     out : float64[3, m]
@@ -57,7 +58,7 @@ def lms3_run(x, volts, h, lam, hp, mu, kappa, reg, hold, limit, stride, state, g
     int
         Snapshots written.
     """
-    b0, b1, b2, a1, a2 = hp[0], hp[1], hp[2], hp[3], hp[4]
+    nb = bank.shape[0]
     n_hist = 0
     uh = np.zeros(3)
     xh = np.zeros(3)
@@ -77,15 +78,21 @@ def lms3_run(x, volts, h, lam, hp, mu, kappa, reg, hold, limit, stride, state, g
         # no filter delay inside the adaptation loop
         for i in range(3):
             xi = x[i, n]
-            v = b0 * xi + state[XS + 2 * i]
-            state[XS + 2 * i] = b1 * xi - a1 * v + state[XS + 2 * i + 1]
-            state[XS + 2 * i + 1] = b2 * xi - a2 * v
-            xh[i] = v
             ui = state[U + i]
-            w = b0 * ui + state[US + 2 * i]
-            state[US + 2 * i] = b1 * ui - a1 * w + state[US + 2 * i + 1]
-            state[US + 2 * i + 1] = b2 * ui - a2 * w
-            uh[i] = w
+            xs = 0.0
+            us = 0.0
+            for s in range(nb):
+                b0, b1, b2, a1, a2 = bank[s, 0], bank[s, 1], bank[s, 2], bank[s, 3], bank[s, 4]
+                v = b0 * xi + zx[i, s, 0]
+                zx[i, s, 0] = b1 * xi - a1 * v + zx[i, s, 1]
+                zx[i, s, 1] = b2 * xi - a2 * v
+                xs += v
+                w = b0 * ui + zu[i, s, 0]
+                zu[i, s, 0] = b1 * ui - a1 * w + zu[i, s, 1]
+                zu[i, s, 1] = b2 * ui - a2 * w
+                us += w
+            xh[i] = xs
+            uh[i] = us
         inst = 0.0
         for j in range(3):
             inst += uh[j] * uh[j] + state[UHP + j] * state[UHP + j]

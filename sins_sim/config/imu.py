@@ -18,7 +18,8 @@ Layout (every key optional except ``channels``; units in the key names)::
     pickoff:                      # the three dither pickoffs (sins_sim.models.pickoff), read by lms_stripper
       {scale_v_per_rad_s: 1.0, gain_error: 0.03, lag_s: 2.0e-6, noise_v: 5.0e-4, nonlinearity_per_rad2: 0.0,
        cross_coupling: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}
-    lms_stripper: {mu: 0.05, highpass_hz: 50}   # the three-axis LMS stripper (sins_sim.filters.lms_stripper)
+    lms_stripper: {mu: 0.05, highpass_hz: 50, adapt_band: highpass}   # the three-axis LMS stripper
+                                  # (sins_sim.filters.lms_stripper)
     channels:
       x: {f0_hz: 386}
       y: {f0_hz: 352, suspension: {k3: 4.6e-3}}
@@ -182,6 +183,10 @@ IMU_SCHEMA = Map({
         "mu": Num(default=0.05, min=0.0, min_exclusive=True, doc="normalised LMS step; stable for 0 < mu < 2"),
         "highpass": Num(unit="hz", default=50.0, min=0.0, min_exclusive=True,
                         doc="corner of the adaptation high-pass; < output_rate_hz / 2"),
+        "adapt_band": Str(choices=("highpass", "dither"), default="highpass",
+                          doc="adapt on the high-passed signals (the patent) or on band_hz around each dither"),
+        "band": Num(unit="hz", default=2.0, min=0.0, min_exclusive=True, max=1000.0,
+                    doc="width of each dither band-pass (adapt_band: dither)"),
         "leak": Num(unit="hz", default=0.1, min=0.0, doc="corner of the pickoff integrators; < highpass_hz"),
         "power_time": Num(unit="s", default=0.01, min=0.0, min_exclusive=True, max=100.0,
                           doc="averaging time of the regressor power"),
@@ -307,7 +312,8 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
                 raise ConfigError(f"{ctx}: {where}: {_user_keys(str(exc))}") from None
             channels.append(cfg)
         channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
-        pickoff, lms = _pickoff_and_lms(c, ro["output_rate_hz"], ctx, pre)
+        pickoff, lms = _pickoff_and_lms(c, ro["output_rate_hz"], ctx, pre,
+                                        tuple(ch.drive_signal().frequency_hz for ch in channels))
         try:
             return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors,
                              effects=c["effects"] or (), pickoff=pickoff, filter_settings={"lms_stripper": lms})
@@ -319,7 +325,7 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
         raise ConfigError(f"{ctx}: {path + ': ' if path else ''}{_user_keys(str(exc))}") from None
 
 
-def _pickoff_and_lms(c: dict, fs_hz: float, ctx: str, pre: str):
+def _pickoff_and_lms(c: dict, fs_hz: float, ctx: str, pre: str, dither_hz: tuple):
     """The pickoff triad and the LMS stripper's settings, checked as the engine will build them (one line naming
     the key otherwise)."""
     from sins_sim.filters.lms_stripper import LmsStripperDesign
@@ -334,7 +340,7 @@ def _pickoff_and_lms(c: dict, fs_hz: float, ctx: str, pre: str):
         raise ConfigError(f"{ctx}: {pre}{exc}") from None
     lms = dict(c["lms_stripper"])
     try:
-        LmsStripperDesign(fs_hz=fs_hz, scale_v_per_rad_s=(coil.scale_v_per_rad_s,) * 3, **lms)
+        LmsStripperDesign(fs_hz=fs_hz, scale_v_per_rad_s=(coil.scale_v_per_rad_s,) * 3, dither_hz=dither_hz, **lms)
     except ValueError as exc:
         raise ConfigError(f"{ctx}: {pre}{exc}") from None
     return triad, lms

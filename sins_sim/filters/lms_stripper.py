@@ -13,8 +13,11 @@ deflection rate, :mod:`sins_sim.models.pickoff`), so ``alpha`` is the leaky inte
 ``alpha_n = u_n = lambda u_{n-1} + h v_n`` (V s), as in the single-axis baseline :mod:`sins_sim.filters.pickoff`;
 a piezo pickoff, as in the patent, would give the deflection directly.
 
-Adaptation. The gains are adapted on high-pass-filtered signals (``HP``: second-order Butterworth, corner
-``highpass_hz`` below the dither band), so that vehicle motion and the integrators' slow wander do not reach them:
+Adaptation. The gains are adapted on filtered signals, ``HP``: by default (``adapt_band="highpass"``, the patent's
+high-pass-filtered counts) a second-order Butterworth high-pass with corner ``highpass_hz`` below the dither band,
+so that vehicle motion and the integrators' slow wander do not reach them; or (``adapt_band="dither"``) the sum of
+three second-order band-passes (``scipy.signal.iirpeak``, width ``band_hz``) centred on the three dither frequencies,
+which also keeps block vibration above the high-pass corner out of the gains (see below):
 with ``r_n = [HP(u)_n; HP(u)_{n-1}]`` (the regressor, 6 values) and the a priori error
 ``e_n = HP(x)_n - E HP(u)_n - F HP(u)_{n-1}`` (3 values), the normalised LMS update is::
 
@@ -48,9 +51,12 @@ reported convergence time is measured: the last time the gain matrices were fart
 final values (:meth:`LmsStripper.report`).
 
 What it measures: the part of the counts that is a linear, two-tap function of the three pickoffs at the three
-dither frequencies. It does not remove what the pickoffs do not see (their noise, their nonlinearity's harmonics,
-block motion inside the adaptation band, which biases the gains as in the single-axis baseline), and it injects the
-pickoff noise, integrated, into the output.
+dither frequencies. It does not remove what the pickoffs do not see (their noise, their nonlinearity's harmonics),
+and it injects the pickoff noise, integrated, into the output. Block motion inside the adaptation band biases the
+gains, as in the single-axis baseline: the suspension turns block motion into deflection, which the pickoffs see and
+which is correlated with the block motion in the counts, so the least-squares gains also cancel part of the block
+motion. With the high-pass that band is everything above ``highpass_hz`` (vibration, coning); with
+``adapt_band="dither"`` it is ``band_hz`` around each dither.
 """
 
 from __future__ import annotations
@@ -87,6 +93,12 @@ class LmsStripperDesign:
         NLMS step; stable for ``0 < mu < 2`` (:data:`MU_MAX`, module docstring).
     highpass_hz : float
         Corner of the second-order Butterworth high-pass of the adaptation (Hz), in (0, fs/2); below the dither band.
+    adapt_band : {"highpass", "dither"}
+        The adaptation filter: the high-pass, or band-passes around ``dither_hz``.
+    band_hz : float
+        Width of each dither band-pass (Hz), > 0 (``adapt_band="dither"``).
+    dither_hz : tuple of float
+        The three dither frequencies (Hz), in (band_hz, fs/2); required for ``adapt_band="dither"``.
     leak_hz : float
         Corner of the leaky integrators of the pickoff voltages (Hz), >= 0.
     power_time_s : float
@@ -107,6 +119,9 @@ class LmsStripperDesign:
     scale_v_per_rad_s: tuple = (1.0, 1.0, 1.0)
     mu: float = 0.05
     highpass_hz: float = 50.0
+    adapt_band: str = "highpass"
+    band_hz: float = 2.0
+    dither_hz: tuple = ()
     leak_hz: float = 0.1
     power_time_s: float = 0.01
     regularisation: float = 1e-3
@@ -130,6 +145,16 @@ class LmsStripperDesign:
         hp = v.positive(o, "highpass_hz", self.highpass_hz)
         if hp >= fs / 2.0:
             raise ValueError(f"{o}.highpass_hz: must be < fs_hz / 2 = {fs / 2.0!r}, got {hp!r}")
+        v.choice(o, "adapt_band", self.adapt_band, ("highpass", "dither"))
+        bw = v.positive(o, "band_hz", self.band_hz)
+        if self.adapt_band == "dither":
+            if len(self.dither_hz) != 3:
+                raise ValueError(f"{o}.dither_hz: adapt_band 'dither' needs the three dither frequencies, got "
+                                 f"{self.dither_hz!r}")
+            for f in self.dither_hz:
+                if not bw < v.positive(o, "dither_hz", f) < fs / 2.0:
+                    raise ValueError(f"{o}.dither_hz: must lie in (band_hz, fs_hz / 2) = ({bw!r}, {fs / 2.0!r}), "
+                                     f"got {f!r}")
         lk = v.non_negative(o, "leak_hz", self.leak_hz)
         if lk >= hp:
             raise ValueError(f"{o}.leak_hz: must be < highpass_hz = {hp!r}, got {lk!r}")
@@ -147,10 +172,14 @@ class LmsStripperDesign:
         g[0] = np.diag([1.0 / s for s in self.scale_v_per_rad_s])
         return g
 
-    def highpass(self) -> np.ndarray:
-        """``[b0, b1, b2, a1, a2]`` of the adaptation high-pass (``scipy.signal.butter``, order 2)."""
-        b, a = signal.butter(2, self.highpass_hz, btype="highpass", fs=self.fs_hz)
-        return np.array([b[0], b[1], b[2], a[1], a[2]]) / a[0]
+    def bank(self) -> np.ndarray:
+        """Rows ``[b0, b1, b2, a1, a2]`` of the adaptation filter, summed in parallel: the high-pass
+        (``scipy.signal.butter``, order 2) or one band-pass per dither (``scipy.signal.iirpeak``, unit peak gain)."""
+        if self.adapt_band == "highpass":
+            ba = [signal.butter(2, self.highpass_hz, btype="highpass", fs=self.fs_hz)]
+        else:
+            ba = [signal.iirpeak(f, f / self.band_hz, fs=self.fs_hz) for f in self.dither_hz]
+        return np.array([[b[0], b[1], b[2], a[1], a[2]] / a[0] for b, a in ba])
 
     def integrator_response(self, f_hz) -> np.ndarray:
         """Complex response of the leaky integrator ``h / (1 - lambda z^-1)`` (s) at ``f_hz``."""
@@ -181,7 +210,9 @@ class LmsStripper:
         fs = design.fs_hz
         self._h = 1.0 / fs
         self._lam = math.exp(-2.0 * math.pi * design.leak_hz * self._h)
-        self._hp = design.highpass()
+        self._bank = design.bank()
+        self._zx = np.zeros((3, self._bank.shape[0], 2))
+        self._zu = np.zeros((3, self._bank.shape[0], 2))
         self._kappa = min(1.0, 1.0 / (design.power_time_s * fs))
         self._limit = design.gain_limit * float(np.max(np.abs(design.gains0)))
         self._stride = max(1, int(round(fs / design.history_hz)))
@@ -192,6 +223,8 @@ class LmsStripper:
     def reset(self) -> None:
         """Integrators and high-passes at rest, gains back to the nominal calibration, history cleared."""
         self.state[:] = 0.0
+        self._zx[:] = 0.0
+        self._zu[:] = 0.0
         self.gains[:] = self.design.gains0
         self._hist = []
 
@@ -224,8 +257,9 @@ class LmsStripper:
         out = np.empty_like(xa)
         hist = np.empty((xa.shape[1] // self._stride + 1, 18))
         d = self.design
-        n = _k.lms3_run(xa, va, self._h, self._lam, self._hp, float(d.mu), self._kappa, float(d.regularisation),
-                        d.hold_s * d.fs_hz, self._limit, self._stride, self.state, self.gains, out, hist)
+        n = _k.lms3_run(xa, va, self._h, self._lam, self._bank, float(d.mu), self._kappa, float(d.regularisation),
+                        d.hold_s * d.fs_hz, self._limit, self._stride, self.state, self._zx, self._zu, self.gains,
+                        out, hist)
         if n:
             self._hist.append(hist[:n].copy())
         return out
@@ -262,7 +296,8 @@ class LmsStripper:
 
 #: Settings a context may carry (the IMU file's ``lms_stripper`` section gives all but ``allow_unstable``, which
 #: only the Python API sets, to show the divergence beyond the bound).
-SETTINGS_KEYS = ("mu", "highpass_hz", "leak_hz", "power_time_s", "regularisation", "hold_s", "allow_unstable")
+SETTINGS_KEYS = ("mu", "highpass_hz", "adapt_band", "band_hz", "leak_hz", "power_time_s", "regularisation", "hold_s",
+                 "allow_unstable")
 
 
 def build_lms_stripper(ctx: ThreeAxisContext) -> LmsStripper:
@@ -272,4 +307,4 @@ def build_lms_stripper(ctx: ThreeAxisContext) -> LmsStripper:
     if unknown:
         raise ValueError(f"lms_stripper.{unknown[0]}: unknown setting; known: {', '.join(SETTINGS_KEYS)}")
     return LmsStripper(LmsStripperDesign(fs_hz=ctx.fs_hz, scale_v_per_rad_s=tuple(ctx.pickoff_scale_v_per_rad_s),
-                                         **settings))
+                                         dither_hz=tuple(float(a.dither_hz) for a in ctx.axes), **settings))

@@ -21,7 +21,7 @@ readouts and pickoffs together, so the single-channel measurements run them in t
 stationary residual and the quantisation noise from a stationary three-axis run (same definitions, the closed-loop
 drive), the cost per sample and axis from the filter on that run's record; the gain sweep is not run for them
 (``max_dev_pct`` null). Their adaptation (convergence time, gains) goes to ``details.json`` under ``three_axis``
-and the stationary-residual row's filter entry carries ``convergence_time_s``.
+and to a table of ``report.md``.
 
 Results: ``OUT`` (``--json``) with exactly the structure of issue 15, and ``DIR`` with ``gain.png``,
 ``noise_tradeoff.png``, ``details.json`` (every curve and the numbers that are not in ``OUT``) and
@@ -481,8 +481,6 @@ def run_compare_filters(out_dir, json_path, quick: bool = False, filters=None, p
             "group_delay_s": delay[n],
             "ns_per_sample": cost[n],
         }
-        if n in three_axis:
-            filt[n]["convergence_time_s"] = three_axis[n]["convergence_time_s"]
     targets = _targets(filt, names, coning["ideal"])
     best = max(names, key=lambda n: (sum(targets[n].values()), -abs(filt[n]["coning_drift_error_deg_per_h"]["1000"])))
     result = {"filters": filt, "ideal": {"coning_drift_error_deg_per_h": coning["ideal"]}, "best": best}
@@ -556,7 +554,16 @@ def _report(result, details, figures, st) -> str:
         lines.append(f"| {n} | {_f(filt[n]['stationary_residual_arcsec'])} | {_f(q[qk[0]][n])} | {_f(q[qk[1]][n])} | "
                      f"{_f(1e3 * filt[n]['group_delay_s'])} | {_f(filt[n]['ns_per_sample'])} | "
                      f"{_f(pe['horizontal_final'].get(n))} |")
-    lines += [f"| ideal | | | | | | {_f(pe['horizontal_final'].get('ideal'))} |", "",
+    lines += [f"| ideal | | | | | | {_f(pe['horizontal_final'].get('ideal'))} |", ""]
+    if details.get("three_axis"):
+        lines += ["Three-axis strippers (pickoff-based; measured in stationary SINS runs of "
+                  f"{st.stationary_s:g} s, no gain sweep):", "",
+                  "| filter | convergence time (s) | stationary residual (arcsec) | diverged |", "|---|---|---|---|"]
+        for n, r in details["three_axis"].items():
+            lines.append(f"| {n} | {_f(r.get('convergence_time_s'))} | {_f(r.get('stationary_residual_arcsec'))} | "
+                         f"{(r.get('diverged') or {}).get('reason', 'no')} |")
+        lines += [""]
+    lines += [
               "Group delay: the filter's own, at DC (the readout's common delay excluded); the navigation is "
               "shifted by it (rounded to whole samples, accelerometers included), so it costs no accuracy at rest. "
               "The eliminator's delay varies with frequency, which is what hurts it under motion.", "",
