@@ -400,3 +400,34 @@ def test_pickoff_nonlinearity_integrates_to_the_cubic():
     assert math.hypot(c[3], c[4]) == pytest.approx(b * a ** 3 / 12.0, rel=1e-3)
     with pytest.raises(ValueError, match=r"pickoff\.cross_coupling"):
         PickoffTriadParams(coupling=((1.0, 0.0), (0.0, 1.0)))
+
+
+# --- metrics.json -------------------------------------------------------------------------------------------------
+
+
+def _scenario_doc(imu):
+    return {"name": "lms", "seed": 1, "duration_s": 3.0, "imu": imu, "motion": [{"type": "static"}],
+            "filters": ["ideal", "correcting", "lms_stripper"], "navigation": {"start_s": 1.0},
+            "outputs": {"plots": False, "timeseries": False}}
+
+
+def test_metrics_json_carries_the_adaptation_and_the_divergence():
+    from sins_sim.config.scenario import load_scenario
+    from sins_sim.jobs.run import compute_run, scenario_metrics
+
+    doc = dict(load_yaml(ROOT / "configs" / "default-imu.yaml"))
+    doc["pickoff"] = {"cross_coupling": [list(r) for r in COUPLING]}
+    sc = load_scenario(_scenario_doc(doc))
+    res, metrics = compute_run(sc, threads=1)
+    m = metrics["filters"]["lms_stripper"]
+    assert m["status"] == "ok" and m["filter_report"]["failure"] is None
+    assert 0.0 < m["filter_report"]["convergence_time_s"] < 1.74  # the slow-mode bound of the convergence test
+    assert np.asarray(m["filter_report"]["E_rad_per_v_s"]).shape == (3, 3)
+    assert metrics["filters"]["correcting"]["status"] == "ok" and "filter_report" not in metrics["filters"]["correcting"]
+    # beyond the bound (the Python API only): the same mission reports the stripper as diverged, eq. 5 as ok
+    unstable = dataclasses.replace(sc.imu, filter_settings={"lms_stripper": {"mu": 2.5, "allow_unstable": True}})
+    res = simulate_sins(unstable, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters, threads=1)
+    m = scenario_metrics(res, sc)
+    assert m["lms_stripper"]["status"] == "diverged" and "mu = 2.5" in m["lms_stripper"]["diverged"]["reason"]
+    assert m["lms_stripper"]["filter_report"]["failure"] == m["lms_stripper"]["diverged"]["reason"]
+    assert m["correcting"]["status"] == "ok" and math.isfinite(m["correcting"]["horizontal_position_error_m"]["final"])

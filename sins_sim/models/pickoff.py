@@ -119,15 +119,9 @@ class PickoffParams:
         return np.array([1.0 - beta, beta - alpha]), np.array([1.0, -alpha])
 
     def coefficients(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(b, a)`` of the linear map delta -> voltage (noise excluded)."""
-        h = 1.0 / self.rate_hz
-        if self.lag_s > 0.0:
-            alpha = math.exp(-h / self.lag_s)
-            beta = (1.0 - alpha) * self.lag_s / h
-        else:
-            alpha = beta = 0.0
-        b = self.sensitivity / h * np.convolve([1.0 - beta, beta - alpha], [1.0, -1.0])
-        a = np.array([1.0, -alpha])
+        """``(b, a)`` of the linear map delta -> voltage (noise excluded): the lag, differenced over the step."""
+        bw, a = self.lag_coefficients()
+        b = self.sensitivity / (1.0 / self.rate_hz) * np.convolve(bw, [1.0, -1.0])  # as S / h, bit for bit
         return b, a
 
     def frequency_response(self, f_hz) -> np.ndarray:
