@@ -924,7 +924,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("compare-filters", help="every correcting filter against the wideband targets (issue 15)",
                        description="End-to-end gain on the nonlinear plant, noise, delay, cost, coning drift and "
-                                   "position error of eq. 5, the eliminator and the wideband designs; gain.png, "
+                                   "position error of eq. 5, the eliminator, the wideband designs and the production LMS stripper; gain.png, "
                                    "noise_tradeoff.png, details.json and report.md in --out, the numbers in --json.")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     _force_flag(p)

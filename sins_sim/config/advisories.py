@@ -123,6 +123,8 @@ def _stop_bands(imu, filters):
         for name in filters:
             if name not in filter_registry.plugin_names():  # built-in filters have no band edge of their own
                 continue
+            if filter_registry.is_three_axis(name):  # built for the unit, not per axis; no band edge of its own
+                continue
             design = getattr(filter_registry.build(name, ch.filter_context(ax)), "design", None)
             if getattr(design, "kind", None) == "equalised" and hasattr(design, "pass_hz"):
                 out[ax].append((name, float(design.pass_hz), 0.5 * fs,

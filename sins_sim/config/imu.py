@@ -15,6 +15,11 @@ Layout (every key optional except ``channels``; units in the key names)::
       - {name: lock_in, axes: [x], threshold_rad_s: 2.0e-3}
     filter_parameters: nominal    # what the filters believe: true (default) | nominal | a mapping
                                   # (sins_sim.config.filter_params)
+    pickoff:                      # the three dither pickoffs (sins_sim.models.pickoff), read by lms_stripper
+      {scale_v_per_rad_s: 1.0, gain_error: 0.03, lag_s: 2.0e-6, noise_v: 5.0e-4, nonlinearity_per_rad2: 0.0,
+       cross_coupling: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}
+    lms_stripper: {mu: 0.05, highpass_hz: 50, adapt_band: highpass}   # the three-axis LMS stripper
+                                  # (sins_sim.filters.lms_stripper)
     channels:
       x: {f0_hz: 386}
       y: {f0_hz: 352, suspension: {k3: 4.6e-3}}
@@ -36,6 +41,7 @@ from sins_sim.models import plant as _plant
 from sins_sim.models import readout as _readout
 from sins_sim.models import suspension as _sus
 from sins_sim.models.drive import DriveParams
+from sins_sim.models.pickoff import PickoffParams, PickoffTriadParams
 from sins_sim.models.plant import PlantSettings, check_resolution
 from sins_sim.models.readout import AntiAliasParams, ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
@@ -43,7 +49,7 @@ from sins_sim.units import ARCSEC
 from sins_sim.config import block_schema as _block
 from sins_sim.config import filter_params as _fparams
 from sins_sim.config.effects_schema import EffectsList
-from sins_sim.config.schema import ConfigError, Map, Num, Str, validate
+from sins_sim.config.schema import ConfigError, ListOf, Map, Num, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml  # re-exported: other modules import it from here
 from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
 from sins_sim.simulation.sins import DriveControl, ImuConfig
@@ -160,6 +166,36 @@ IMU_SCHEMA = Map({
     "effects": EffectsList(doc="axis_coupling is refused in the SINS engine (it couples the axes within a plant "
                                "step)"),
     "block": _block.BLOCK_SCHEMA,
+    "pickoff": Map({
+        "scale_v_per_rad_s": Num(default=1.0, nonzero=True, min=-1e6, max=1e6,
+                                 doc="nominal sensitivity of each coil (V per rad/s): what the stripper believes"),
+        "gain_error": Num(default=0.03, min=-1.0, min_exclusive=True, max=1.0,
+                          doc="relative error of the actual sensitivity"),
+        "lag": Num(unit="s", default=2e-6, min=0.0, max=1e-3, doc="first-order lag of each coil (phase error)"),
+        "noise": Num(unit="v", default=5e-4, min=0.0, max=1.0,
+                     doc="white noise per sample at plant.rate_hz (read at the filter rate: / sqrt(decimation))"),
+        "nonlinearity_per_rad2": Num(default=0.0, min=-1e6, max=1e6,
+                                     doc="sensitivity change per rad^2 of deflection (S (1 + b delta^2))"),
+        "cross_coupling": ListOf(Vec(3, min=-10.0, max=10.0), min_len=3, max_len=3,
+                                 default=[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                                 doc="3x3 matrix C: coil i reads sum_j C_ij delta_j; default identity"),
+    }, default={}, rules=("cross_coupling: condition number <= 1000 (the coils must tell the axes apart)",),
+        doc="the three dither pickoffs (sins_sim.models.pickoff), sampled at the filter rate; read by lms_stripper"),
+    "lms_stripper": Map({
+        "mu": Num(default=0.05, min=0.0, min_exclusive=True, doc="normalised LMS step; stable for 0 < mu < 2"),
+        "highpass": Num(unit="hz", default=50.0, min=0.0, min_exclusive=True,
+                        doc="corner of the adaptation high-pass; < output_rate_hz / 2"),
+        "adapt_band": Str(choices=("highpass", "dither"), default="highpass",
+                          doc="adapt on the high-passed signals (the patent) or on band_hz around each dither"),
+        "band": Num(unit="hz", default=2.0, min=0.0, min_exclusive=True, max=1000.0,
+                    doc="width of each dither band-pass (adapt_band: dither)"),
+        "leak": Num(unit="hz", default=0.1, min=0.0, doc="corner of the pickoff integrators; < highpass_hz"),
+        "power_time": Num(unit="s", default=0.01, min=0.0, min_exclusive=True, max=100.0,
+                          doc="averaging time of the regressor power"),
+        "regularisation": Num(default=1e-3, min=0.0, max=1.0, doc="added to the NLMS normaliser, x mean power"),
+        "hold": Num(unit="s", default=0.1, min=0.0, max=1000.0, doc="adaptation starts this long after the start"),
+    }, default={}, rules=("0 < mu < 2 (normalised LMS stability bound)",),
+        doc="settings of the three-axis LMS dither stripper (sins_sim.filters.lms_stripper)"),
     # parsed by their own loaders before the rest; listed here for the reference
     "filter_parameters": _fparams.FILTER_PARAMETERS_SCHEMA,
     "sensors": _SensorsReference(),
@@ -279,15 +315,39 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
             channels.append(cfg)
         channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
         block = _block.block_from_section(c["block"], ctx, f"{pre}block")  # its own ConfigError
+        pickoff, lms = _pickoff_and_lms(c, ro["output_rate_hz"], ctx, pre,
+                                        tuple(ch.drive_signal().frequency_hz for ch in channels))
         try:
             return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors,
-                             effects=c["effects"] or (), block=block)
+                             effects=c["effects"] or (), block=block, pickoff=pickoff,
+                             filter_settings={"lms_stripper": lms})
         except ValueError as exc:  # an effect the engine cannot run (axis_coupling)
             raise ConfigError(f"{ctx}: {pre}{exc}") from None
     except ConfigError:
         raise
     except ValueError as exc:  # a physical rule that needs several fields (Q > 0, fs > 2 f0, ...)
         raise ConfigError(f"{ctx}: {path + ': ' if path else ''}{_user_keys(str(exc))}") from None
+
+
+def _pickoff_and_lms(c: dict, fs_hz: float, ctx: str, pre: str, dither_hz: tuple):
+    """The pickoff triad and the LMS stripper's settings, checked as the engine will build them (one line naming
+    the key otherwise)."""
+    from sins_sim.filters.lms_stripper import LmsStripperDesign
+
+    p = c["pickoff"]
+    try:
+        coil = PickoffParams(scale_v_per_rad_s=p["scale_v_per_rad_s"], gain_error=p["gain_error"], lag_s=p["lag_s"],
+                             noise_v=p["noise_v"], rate_hz=c["plant"]["rate_hz"],
+                             nonlinearity_per_rad2=p["nonlinearity_per_rad2"])
+        triad = PickoffTriadParams(coils=(coil, coil, coil), coupling=tuple(tuple(r) for r in p["cross_coupling"]))
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: {pre}{exc}") from None
+    lms = dict(c["lms_stripper"])
+    try:
+        LmsStripperDesign(fs_hz=fs_hz, scale_v_per_rad_s=(coil.scale_v_per_rad_s,) * 3, dither_hz=dither_hz, **lms)
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: {pre}{exc}") from None
+    return triad, lms
 
 
 def _with_filter_parameters(channels, fspec, c, ctx, where, base_dir):

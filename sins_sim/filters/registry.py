@@ -24,6 +24,13 @@ the parameters it believes, not the unit's true ones unless the run says so) and
 and may provide ``check_output(x, y)`` (raises its warnings, once per run). Its cost per sample
 is measured by the benchmarks, not declared.
 
+A *three-axis* plug-in (``register(..., three_axis=True)``, or a name in :data:`THREE_AXIS`) is built once for
+the unit from a :class:`ThreeAxisContext` and reads the three axes' readouts and
+the three dither pickoffs together: ``process(x, volts) -> y`` with ``x`` the readouts (rad) and ``volts`` the
+pickoff voltages (V) at the filter rate, all (3, m); ``delay_samples`` and ``reset()`` as above; optionally
+``failure`` (why its output stopped being finite) and ``report()`` (a dict for ``metrics.json``). The SINS engine
+runs it on the calling thread once the three axes' chunk is in; single-channel runs cannot.
+
 Registering: ``register(name, builder, description)`` with ``builder(ctx) -> filter``, or an
 entry ``name: "module:function"`` in :data:`_LAZY` for filters shipped with sins-sim (imported
 on first use, so ``import sins_sim`` stays light).
@@ -35,7 +42,7 @@ import importlib
 from dataclasses import dataclass
 
 __all__ = ["BUILTIN_FILTERS", "FilterContext", "register", "plugin_names", "shipped_plugin_names", "build", "describe",
-           "is_known"]
+           "is_known", "is_three_axis", "THREE_AXIS", "ThreeAxisContext"]
 
 #: Filters computed by the engine's fused kernel (plus ``ideal``, the true increments).
 BUILTIN_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
@@ -81,6 +88,29 @@ class FilterContext:
     axis: str = "x"
 
 
+@dataclass(frozen=True)
+class ThreeAxisContext:
+    """What a three-axis plug-in is built from: the per-axis contexts, the pickoffs' nominal scales, its settings.
+
+    Attributes
+    ----------
+    axes : tuple of three FilterContext
+        Axes x, y, z (:class:`FilterContext`).
+    pickoff_scale_v_per_rad_s : tuple of three float
+        Nominal pickoff sensitivities (V per rad/s): what the filter believes, not the coils' actual ones.
+    settings : dict
+        The filter's settings from the IMU file (its own section), validated by the filter.
+    """
+
+    axes: tuple
+    pickoff_scale_v_per_rad_s: tuple = (1.0, 1.0, 1.0)
+    settings: dict | None = None
+
+    @property
+    def fs_hz(self) -> float:
+        return float(self.axes[0].fs_hz)
+
+
 _REGISTRY: dict = {}
 #: Plug-ins shipped with sins-sim: name -> ("module:builder", one-line description).
 _LAZY: dict = {
@@ -90,11 +120,17 @@ _LAZY: dict = {
                             "equalised second difference, flat to 2.6 kHz, band edge 3.2 kHz; delay 16 samples"),
     "correcting_lownoise": ("sins_sim.filters.wideband:build_lownoise",
                             "equalised second difference, flat to 1.5 kHz, band edge 2.2 kHz; delay 20 samples"),
+    "lms_stripper": ("sins_sim.filters.lms_stripper:build_lms_stripper",
+                     "production stripper (US 7,440,109): three pickoffs, E alpha_n + F alpha_{n-1} by normalised "
+                     "LMS; delay 0"),
 }
+#: Shipped plug-ins that read the three axes together (built once per unit, not per axis).
+THREE_AXIS = {"lms_stripper"}
 
 
-def register(name: str, builder, description: str = "") -> None:
-    """Make ``builder(ctx: FilterContext)`` selectable as filter ``name``."""
+def register(name: str, builder, description: str = "", three_axis: bool = False) -> None:
+    """Make ``builder(ctx: FilterContext)`` selectable as filter ``name`` (``three_axis``: ``builder(ctx:
+    ThreeAxisContext)``, see the module docstring)."""
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"filters.name: must be an identifier, got {name!r}")
     if name in BUILTIN_FILTERS:
@@ -102,6 +138,15 @@ def register(name: str, builder, description: str = "") -> None:
     if not callable(builder):
         raise ValueError(f"filters.{name}: the builder must be callable")
     _REGISTRY[name] = (builder, description)
+    if three_axis:
+        THREE_AXIS.add(name)
+    else:
+        THREE_AXIS.discard(name)
+
+
+def is_three_axis(name: str) -> bool:
+    """Whether plug-in ``name`` reads the three axes together."""
+    return name in THREE_AXIS
 
 
 def _entry(name: str):
@@ -137,9 +182,13 @@ def describe(name: str) -> str:
     return _entry(name)[1]
 
 
-def build(name: str, ctx: FilterContext):
-    """A fresh instance of plug-in ``name`` for one axis, checked for the protocol."""
+def build(name: str, ctx):
+    """A fresh instance of plug-in ``name`` for one axis (``ctx``: FilterContext) or, for a three-axis plug-in, for
+    the unit (``ctx``: ThreeAxisContext), checked for the protocol."""
     builder, _ = _entry(name)
+    if is_three_axis(name) != hasattr(ctx, "axes"):
+        raise ValueError(f"filters.{name}: a {'three-axis' if is_three_axis(name) else 'single-axis'} filter; "
+                         f"{'only the SINS engine runs it' if is_three_axis(name) else 'built per axis'}")
     flt = builder(ctx)
     for attr in ("process", "reset", "delay_samples"):
         if not hasattr(flt, attr):

@@ -55,6 +55,9 @@ DEFINITIONS = {
     "excess_over_ideal": "a filter's cost: the norm of the difference of its and ideal's final error vectors",
     "allan": ("noise terms read only on the longest span at rest, a line removed, where the power-law model "
               "describes the curve and the term's region shows its own slope; otherwise null with the reason"),
+    "filter_report": ("what a plug-in reports about itself (lms_stripper: its final gain matrices E and F in rad "
+                      "per V s, its convergence time, the last time the gains were more than 1 % from their final "
+                      "values, and why it diverged, if it did)"),
 }
 
 
@@ -77,6 +80,8 @@ def scenario_metrics(res, scenario) -> dict:
         div = res.diverged.get(name)
         if st is None or st.n == 0:
             out[name] = {"status": "diverged" if div else "no data", "diverged": div}
+            if name in getattr(res, "filter_reports", {}):
+                out[name]["filter_report"] = res.filter_reports[name]
             continue
         ser = res.series[name]
         last = st.last
@@ -116,6 +121,8 @@ def scenario_metrics(res, scenario) -> dict:
         m["gyro_drift_deg_h"] = gyro_drift(res.records, name)
         if name in res.allan:
             m["allan"] = {ax: a.to_dict() for ax, a in res.allan[name].items()}
+        if name in getattr(res, "filter_reports", {}):  # a plug-in's account of itself (lms_stripper: gains, convergence)
+            m["filter_report"] = res.filter_reports[name]
         out[name] = m
     return out
 

@@ -263,11 +263,15 @@ class ChannelChain:
         suspension stage (viscous damping) changes the plant at construction and keeps the fused
         path; any other stage acting on ``axis`` runs the reference composition with the effect
         stages inserted (``path="fused"`` is then refused).
+    deflection : bool
+        Also return the deflection at the filter rate under ``deflection`` (through an anti-alias
+        chain of its own, identical to the readout's and in step with it): what the SINS engine
+        hands the three-axis pickoff model (:class:`~sins_sim.models.pickoff.PickoffTriad`).
     """
 
     def __init__(self, cfg: ChannelConfig, control: DriveControl, rng: np.random.Generator,
                  rng_modulation: np.random.Generator | None = None, path: str = "auto", plugins=(),
-                 axis: str = "x", effects=()):
+                 axis: str = "x", effects=(), deflection: bool = False):
         v.choice("channel", "path", path, ("auto", "fused", "reference"))
         self.cfg = cfg
         self.control = control
@@ -281,6 +285,7 @@ class ChannelChain:
         self._fx = _EffectStages.build(self.effects, axis, self.plant)
         self.readout = Readout(cfg.readout, rng)
         self.vdec = Decimator.from_readout(cfg.readout)
+        self.ddec = Decimator.from_readout(cfg.readout) if deflection else None
         self.drive = cfg.drive_signal()
         self.v_m0 = self.drive.v_m
         self.r_dac = int(round(cfg.plant.rate_hz / cfg.drive.dac_rate_hz))
@@ -356,6 +361,8 @@ class ChannelChain:
         self.plant.reset(angle0, rate0)
         self.readout.reset()
         self.vdec.reset()
+        if self.ddec is not None:
+            self.ddec.reset()
         for name in _CORRECTING:
             self.filters[name].reset(0.0)
         self.filters["eliminator"].reset()
@@ -511,8 +518,14 @@ class ChannelChain:
                                out["correcting_paper"], out["eliminator"])
         self._sync_filters()
         self._run_plugins(out)
-        out["delta"] = delta
+        self._keep_deflection(out, delta)
         return out
+
+    def _keep_deflection(self, out, delta) -> None:
+        """``out["delta"]`` (plant rate) and, when asked for, ``out["deflection"]`` (filter rate, a fresh array)."""
+        out["delta"] = delta
+        if self.ddec is not None:
+            out["deflection"] = self.ddec.process(delta)
 
     def _run_plugins(self, out) -> None:
         for name, flt in self.plugins.items():
@@ -591,7 +604,7 @@ class ChannelChain:
         out["correcting_paper"] = self.filters["correcting_paper"].process(x, vx)
         out["volts"] = vx
         self._run_plugins(out)
-        out["delta"] = delta
+        self._keep_deflection(out, delta)
         return out
 
     def _run_reference(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray):
@@ -766,7 +779,7 @@ class SideBySide:
                    "eliminator": np.empty(m)}
             ksos.sos_filter(el._sos, out["raw"], el._zi, out["eliminator"])
             ch._run_plugins(out)
-            out["delta"] = delta[a]
+            ch._keep_deflection(out, delta[a])
             if self.block is not None:
                 for key, row in zip(BLOCK_KEYS, extra):
                     out[key] = row[a]

@@ -31,6 +31,13 @@ sculling-like error).
 
 Divergence. A filter whose output or navigation solution stops being finite is reported as
 diverged (filter, axis, time, reason) and dropped; the run goes on for the others.
+
+Three-axis plug-ins (:data:`sins_sim.filters.registry.THREE_AXIS`, e.g. ``lms_stripper``) read the
+three readouts and the three dither pickoffs together: each axis also returns its deflection at
+the filter rate (through an anti-alias chain identical to the readout's), the pickoff model
+(:class:`~sins_sim.models.pickoff.PickoffTriad`, the unit's ``pickoff`` with its cross-coupling,
+sampled at the filter rate) turns the three into voltages, and the filter runs on this thread
+once the chunk's three axes are in.
 """
 
 from __future__ import annotations
@@ -43,6 +50,7 @@ import numpy as np
 from sins_sim import _validate as v
 from sins_sim.models.accelerometer import Accelerometer, AccelerometerParams
 from sins_sim.models.block import BlockParams
+from sins_sim.models.pickoff import PickoffTriad, PickoffTriadParams
 from sins_sim.models.sensor_errors import AccelErrors, GyroErrors, SensorErrorParams
 from sins_sim._kernels import truth as ktruth
 from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
@@ -110,6 +118,14 @@ class ImuConfig:
         The sensor block as a body on its isolators (:mod:`sins_sim.models.block`,
         reference-model.md "The block as a body"): the three suspensions load it and feel its
         motion. None: the rigid block whose motion is prescribed (today's model).
+    pickoff : PickoffTriadParams
+        The three dither pickoffs and their cross-coupling, read by three-axis plug-ins
+        (``lms_stripper``). Each coil's ``noise_v`` is per sample at the plant rate; the engine reads
+        the coils once per filter sample (``rate_hz`` replaced by the filter rate), the average of
+        ``decimation`` plant-rate samples, whose noise is ``noise_v / sqrt(decimation)``.
+    filter_settings : dict
+        Plug-in name -> mapping of its settings (the IMU file's section of that name, e.g.
+        ``lms_stripper``), handed to three-axis plug-ins in their context.
     """
 
     channels: tuple
@@ -119,9 +135,14 @@ class ImuConfig:
     sensors: SensorErrorParams | None = None
     effects: tuple = ()
     block: BlockParams | None = None
+    pickoff: PickoffTriadParams = field(default_factory=PickoffTriadParams)
+    filter_settings: dict = field(default_factory=dict)
 
     def __post_init__(self):
         from sins_sim.simulation.channel import check_engine_effects
+
+        if not isinstance(self.pickoff, PickoffTriadParams):
+            raise ValueError(f"imu.pickoff: must be PickoffTriadParams, got {type(self.pickoff).__name__}")
 
         object.__setattr__(self, "effects", check_engine_effects(self.effects))
         for e in self.effects:
@@ -258,6 +279,9 @@ class SinsResult:
         (:func:`_error_records`): ``t_s``, ``rate_hz``, ``speed_m_s`` (the vehicle's true speed at each
         sample, its velocity averaged over :data:`REST_WINDOW_S`), and per filter (and ``accelerometers``) an ``(N, 3)`` array in body axes of the
         accumulated gyro-angle error (rad) or velocity-increment error (m/s). Empty without navigation.
+    filter_reports : dict name -> dict
+        What a plug-in reports about itself at the end (its ``report()``; e.g. ``lms_stripper``: the adapted
+        gains, the convergence time, the divergence).
     """
 
     stats: dict
@@ -276,6 +300,7 @@ class SinsResult:
     outputs_last: dict
     allan: dict = field(default_factory=dict)
     records: dict = field(default_factory=dict)
+    filter_reports: dict = field(default_factory=dict)
 
 
 def axis_pool(threads: int, n_axes: int = 3):
@@ -502,6 +527,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             raise ValueError(f"run.filters: unknown filter {name!r}; known: "
                              f"{', '.join(SINS_FILTERS + filter_registry.plugin_names())}")
     plugins = tuple(n for n in filters if n not in SINS_FILTERS)
+    plugins3 = tuple(n for n in plugins if filter_registry.is_three_axis(n))
+    plugins = tuple(n for n in plugins if n not in plugins3)
     if nav is not None and nav.start_s >= duration_s:
         raise ValueError(f"navigation.start_s: must be < duration_s = {duration_s!r}, got {nav.start_s!r}")
     fs = imu.filter_rate_hz
@@ -525,8 +552,25 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     # independent random streams per axis: readout noise [seed, axis], amplitude modulation [seed, axis, 1]
     channels = imu.channels if imu.block is None else drives_on_block(imu)
     chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]),
-                           plugins=plugins, axis=AXES[i], effects=imu.effects)
+                           plugins=plugins, axis=AXES[i], effects=imu.effects, deflection=bool(plugins3))
               for i, c in enumerate(channels)]
+    # three-axis plug-ins: the pickoffs sampled at the filter rate, one noise stream per coil [seed, 6, axis]
+    flt3 = {}
+    pickoffs = None
+    if plugins3:
+        import dataclasses
+
+        # an integrating converter read once per filter sample averages r_dec of its plant-rate samples: the white
+        # noise given per plant-rate sample falls by sqrt(r_dec)
+        coils = tuple(dataclasses.replace(c, rate_hz=fs, noise_v=c.noise_v / math.sqrt(r_dec))
+                      for c in imu.pickoff.coils)
+        pickoffs = PickoffTriad(PickoffTriadParams(coils, imu.pickoff.coupling),
+                                [np.random.default_rng([seed, 6, i]) for i in range(3)])
+        ctx3 = [ch.cfg.filter_context(AXES[i]) for i, ch in enumerate(chains)]
+        for name in plugins3:
+            flt3[name] = filter_registry.build(name, filter_registry.ThreeAxisContext(
+                axes=tuple(ctx3), pickoff_scale_v_per_rad_s=tuple(c.scale_v_per_rad_s for c in coils),
+                settings=dict(imu.filter_settings.get(name) or {})))
     accel = Accelerometer(imu.accelerometer, np.random.default_rng([seed, 3]))
     # sensor errors beyond the dither physics, generated at the filter rate from the true increments and added to
     # every filter's increments at that filter's alignment (they pass the filters at unity gain: exact for the
@@ -545,6 +589,10 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     residual_delay = {"eliminator": ro_delay + elim_gd - delays["eliminator"]}
     for name in plugins:
         dly = ro_delay + float(np.mean([float(ch.plugins[name].delay_samples) for ch in chains]))
+        delays[name] = int(round(dly))
+        residual_delay[name] = dly - delays[name]
+    for name, flt in flt3.items():
+        dly = ro_delay + float(flt.delay_samples)
         delays[name] = int(round(dly))
         residual_delay[name] = dly - delays[name]
     max_delay = max(delays[n] for n in filters)
@@ -616,6 +664,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             outs = collect_axes(chains, job, caught) if run_chains else []
             if nav is not None and imu.block is not None:  # what the block's own motion adds to the truth
                 block_phi = apply_block_to_truth(tc, outs, block_phi)
+            if flt3:
+                _run_three_axis(flt3, pickoffs, outs)
             if nav is not None:  # the truth rows for nodes tc.k0 .. k1 and the sensors feed only the navigation
                 phi_buf.push(tc.phi_rad)
                 for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
@@ -643,7 +693,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                 if name not in diverged and not np.all(np.isfinite(y)):
                     bad = np.argwhere(~np.isfinite(y))[0]
                     diverged[name] = {"axis": AXES[int(bad[1])], "time_s": (k_prev + int(bad[0])) / fs,
-                                      "reason": "filter output not finite"}
+                                      "reason": getattr(flt3.get(name), "failure", None) or "filter output not finite"}
             if nav is not None:
                 _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k_start, fs, every, diverged, n_align)
                 spec_next = _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, min(k_start + n_spec, n_out),
@@ -690,7 +740,19 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                       delays=dict(delays, residual_eliminator=residual_delay), diverged=diverged, drives=drives,
                       filter_rate_hz=fs, duration_s=duration_s, nav_start_s=(nav.start_s if nav else 0.0),
                       warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out,
-                      allan=allan, records=records)
+                      allan=allan, records=records,
+                      filter_reports={n: f.report() for n, f in flt3.items() if hasattr(f, "report")})
+
+
+def _run_three_axis(flt3, pickoffs, outs) -> None:
+    """The three-axis plug-ins on one chunk: the pickoff voltages from the three deflections, then each filter on
+    the three readouts; its rows land in each axis's outputs."""
+    x = np.stack([o["raw"] for o in outs])
+    volts = pickoffs.process(np.stack([o["deflection"] for o in outs]))
+    for name, flt in flt3.items():
+        y = np.asarray(flt.process(x, volts), dtype=np.float64)
+        for a, o in enumerate(outs):
+            o[name] = y[a]
 
 
 _NO_REF = np.zeros(3)
