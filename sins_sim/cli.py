@@ -752,6 +752,31 @@ def _cmd_lockin_study(args) -> int:
     return EXIT_OK
 
 
+def _cmd_separation_study(args) -> int:
+    from sins_sim.config.imu import load_imu
+    from sins_sim.jobs.output import check_out_dir
+    from sins_sim.jobs.separation_study import DEFAULT_SEPARATIONS_HZ, separation_study
+
+    check_out_dir(args.out, "--out", force=args.force)  # before minutes of computation
+    imu = load_imu(args.imu)
+    pair = tuple(p.strip() for p in args.pair.split(","))
+    seps = args.separations_hz if args.separations_hz else DEFAULT_SEPARATIONS_HZ
+    with _progress("separation-study", False) as progress:
+        res = separation_study(imu, args.out, pair=pair, separations_hz=seps, duration_s=args.duration_s,
+                               start_s=args.start_s, axis_offset_mrad=args.axis_offset_mrad,
+                               budget_arcsec=args.budget_arcsec, seed=args.seed, force=args.force,
+                               manifest=_manifest(args), inputs=(args.imu,), progress=progress)
+    ans = res["answer"]
+    print(f"separation above which the dither coning's beat in the heading error stays within {ans['budget_arcsec']:g} "
+          "arcsec: "
+          + ", ".join(f"{n} " + ("> the largest tested" if v is None else f"{v:g} Hz")
+                      for n, v in ans["required_separation_hz"].items()))
+    lock = ans["no_entrainment_risk_down_to_hz"]
+    print("no entrainment risk down to " + ("no tested separation" if lock is None else f"{lock:g} Hz"))
+    print(f"wrote {args.out}: separation.json, separation.csv, separation.png, report.md")
+    return EXIT_OK
+
+
 def _cmd_schema(args) -> int:
     from sins_sim.config.reference import FORMATS, render_markdown, render_text
 
@@ -1004,6 +1029,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="shorter runs, fewer points (about 15 s)")
     p.add_argument("--seed", type=_seed, default=0, help="seed of the amplitude modulation [0]")
     p.set_defaults(func=_cmd_lockin_study)
+
+    p = sub.add_parser("separation-study", help="how far apart must two dither resonances be on an isolated block",
+                       description="Bring one axis's drive frequency towards another's on a unit whose IMU file has a "
+                                   "block: section, run a stationary mission per separation, and report each "
+                                   "filter's heading error (dither coning), the cross-axis dither line and an "
+                                   "entrainment-risk flag; writes separation.json, separation.csv, separation.png "
+                                   "and report.md.")
+    p.add_argument("imu", help="IMU file with a block: section (e.g. configs/isolated-block.yaml)")
+    p.add_argument("--out", required=True, help="result folder (created; an existing one only with --force)")
+    _force_flag(p)
+    p.add_argument("--pair", default="x,y", help="the axis that stays and the one brought towards it [x,y]")
+    p.add_argument("--separations-hz", type=float, nargs="+", default=None,
+                   help="drive-frequency separations to try (Hz) [40 20 10 5 2 1 0.5 0.2 0.1]")
+    p.add_argument("--duration-s", type=float, default=30.0,
+                   help="each mission's length (s); cover a few beats of the smallest separation [30]")
+    p.add_argument("--start-s", type=float, default=2.0, help="navigation start (s) [2]")
+    p.add_argument("--axis-offset-mrad", type=float, default=2.0,
+                   help="tilt of the second gyro's input axis towards the first (mrad) [2]")
+    p.add_argument("--budget-arcsec", type=float, default=0.05,
+                   help="largest beat amplitude the dither coning may put into a filter's heading error (arcsec) "
+                        "[0.05]")
+    p.add_argument("--seed", type=_seed, default=1, help="seed of the runs [1]")
+    p.set_defaults(func=_cmd_separation_study)
 
     p = sub.add_parser("sweep", help="Monte Carlo over a population of units on dask.distributed",
                        description="Run every (unit, scenario) of a sweep file (sins-sim schema sweep) as a "

@@ -280,7 +280,12 @@ def coupled_dither_frequencies(block: BlockParams, omega_rad_s) -> np.ndarray:
         e[6 + i] = 1.0
 
         def z(w2):
-            return 1.0 / np.linalg.solve(k9 - w2 * m9, e)[6 + i]
+            for nudge in (0.0, 1e-12, -1e-12, 1e-10):  # exactly on another gyro's decoupled mode the matrix is
+                try:                                  # singular while this gyro's compliance is not
+                    return 1.0 / np.linalg.solve(k9 - w2 * (1.0 + nudge) * m9, e)[6 + i]
+                except np.linalg.LinAlgError:
+                    continue
+            raise ValueError("block: the coupled dither modes could not be found (a singular system)")
 
         a = om[i] ** 2
         ratio = block.gyro_inertia_kg_m2[i] / float(block.input_axes[i] @ block.inertia_kg_m2 @ block.input_axes[i])
