@@ -12,8 +12,6 @@
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -265,21 +263,34 @@ def _cli(*args, cwd=None):
                           timeout=120)
 
 
-def test_compare_filters_json_is_checked_before_the_study(tmp_path):
-    """An unwritable --json (a virtual file system, a directory) is refused at once, naming --json."""
+def _main(args, capsys):
+    from sins_sim.cli import main
+
+    rc = main(list(args))
+    return rc, capsys.readouterr().err
+
+
+def test_compare_filters_json_is_checked_before_the_study(tmp_path, monkeypatch, capsys):
+    """An unwritable --json (a virtual file system, a folder) is refused naming --json before the study starts
+    (the study is replaced by one that fails the test if it runs)."""
+    import sins_sim.jobs.compare_filters as cf
+
+    monkeypatch.setattr(cf, "run_compare_filters", lambda *a, **k: pytest.fail("the study ran"))
     for target in ("/proc/cf.json", str(tmp_path)):
-        p = _cli("compare-filters", "--out", str(tmp_path / "cf"), "--json", target, "--quick", "--quiet")
-        assert p.returncode == 2, p.stderr
-        assert p.stderr.startswith("sins-sim: error: --json: "), p.stderr
-        assert not (tmp_path / "cf").exists()
+        rc, err = _main(["compare-filters", "--out", str(tmp_path / "cf"), "--json", target, "--quick", "--quiet"],
+                        capsys)
+        assert rc == 2 and err.startswith("sins-sim: error: --json: ") and err.count("\n") == 1, err
 
 
-def test_lockin_study_out_is_checked_before_the_study(tmp_path):
+def test_lockin_study_out_is_checked_before_the_study(tmp_path, monkeypatch, capsys):
+    import sins_sim.jobs.lockin_study as ls
+
+    monkeypatch.setattr(ls, "lockin_study", lambda *a, **k: pytest.fail("the study ran"))
     f = tmp_path / "existing"
     f.write_text("x")
-    p = _cli("lockin-study", "--out", str(f), "--quick")
-    assert p.returncode == 2
-    assert p.stderr.strip() == f"sins-sim: error: --out: {f} exists and is not a directory"
+    rc, err = _main(["lockin-study", "--out", str(f), "--quick"], capsys)
+    assert rc == 2
+    assert err.strip() == f"sins-sim: error: --out: {f} exists and is not a directory"
 
 
 def test_a_recorded_drive_beyond_what_a_piezo_takes_is_refused_naming_drive_v():
