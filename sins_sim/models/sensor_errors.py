@@ -136,7 +136,7 @@ MAX_MISALIGNMENT_ARCSEC = 36000.0
 #: rate noise density 0.005 deg/s/sqrt(Hz), sensitivity tolerance +-3 %, nonlinearity 0.2 %, cross-axis sensitivity
 #: +-2 %, full scale +-250 to +-2000 deg/s; accelerometer zero-g offset +-50 mg (x, y) and +-80 mg (z), noise density
 #: 400 ug/sqrt(Hz), tolerance +-3 %, cross-axis +-2 %. The other end is the navigation grade (the bundled
-#: ``configs/nav-grade-rlg.yaml``, an HG9900-class unit: 0.003 deg/h, 25 ug), and every error may be 0 (off). The
+#: ``configs/nav-grade-rlg.yaml``, an HG9900-class unit: 0.0035 deg/h, 25 ug), and every error may be 0 (off). The
 #: grades between (navigation, tactical, automotive / consumer) and their typical biases and noise: Groves 2013,
 #: sec. 4.4.1-4.4.3; Titterton & Weston 2004, ch. 4.
 RANGE_SOURCE = "navigation grade to beyond the loosest consumer MEMS (MPU-6050 datasheet)"
