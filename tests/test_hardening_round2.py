@@ -32,21 +32,7 @@ def _imu(section: str, key: str, value):
     return load_imu({"channels": CHANNELS, "sensors": {section: {key: value}}})
 
 
-def _ranged_keys():
-    """(section, key, lower, upper) of every per-axis sensor-error key with a physical range."""
-    out = []
-    for section, cls in (("gyro", se.GyroErrorParams), ("accelerometer", se.AccelErrorParams)):
-        for name, kind, kw in cls._FIELDS:
-            if kind == "axes":
-                hi = kw.get("hi", kw.get("max_abs"))
-                lo = kw.get("lo", -hi)
-                out.append((section, name, lo, hi))
-            elif kind == "misalignment":
-                out.append((section, name, -se.MAX_MISALIGNMENT_ARCSEC, se.MAX_MISALIGNMENT_ARCSEC))
-    return out
-
-
-RANGED = _ranged_keys()
+RANGED = [k[:4] for k in se.key_ranges() if k[4]]  # the per-axis keys and the misalignment
 
 
 # --- item 3: physical ranges -------------------------------------------------------------------------------------

@@ -13,6 +13,7 @@ increments in m/s for the accelerometers), chunk by chunk, and return the measur
    GyroErrors
    AccelErrors
    sensor_params_from_dict
+   key_ranges
    bias_instability_components
    gauss_markov_adev
 
@@ -115,7 +116,7 @@ from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G, STANDARD_GRAVITY
 
 __all__ = ["GyroErrorParams", "AccelErrorParams", "SensorErrorParams", "GyroErrors", "AccelErrors",
            "sensor_params_from_dict", "bias_instability_components", "gauss_markov_adev",
-           "FLICKER_FLOOR_FACTOR", "MISALIGNMENT_ORDER", "reference_rows"]
+           "FLICKER_FLOOR_FACTOR", "MISALIGNMENT_ORDER", "PHYSICAL_RANGES", "key_ranges", "reference_rows"]
 
 #: Allan-deviation floor of flicker (bias-instability) noise per unit of B: sqrt(2 ln 2 / pi) = 0.6643
 #: (IEEE Std 952-1997, Annex C).
@@ -903,6 +904,29 @@ def sensor_params_from_dict(doc, ctx: str, path: str = "sensors") -> SensorError
         gyro=_section(doc.get("gyro"), GyroErrorParams, _GYRO_KEYS, ctx, f"{path}.gyro"),
         accelerometer=_section(doc.get("accelerometer"), AccelErrorParams, _ACCEL_KEYS, ctx,
                                f"{path}.accelerometer"))
+
+
+def key_ranges() -> list:
+    """Every bounded key of the ``sensors:`` section with its range, for the reference, tests and the fuzz.
+
+    Returns
+    -------
+    list of (section, key, lower, upper, values)
+        ``section`` is ``"gyro"`` or ``"accelerometer"``; ``values`` the numbers the key takes per entry (3 per
+        axis, 6 misalignment angles, or 0 for one number for the triad, ``full_scale_deg_s``). The lower end of a
+        signed key is ``-upper``. ``bias_instability_tau_s`` (a pair with its own rule) is not listed.
+    """
+    out = []
+    for section, cls in (("gyro", GyroErrorParams), ("accelerometer", AccelErrorParams)):
+        for name, kind, kw in cls._FIELDS:
+            if kind == "axes":
+                hi = kw.get("hi", kw.get("max_abs"))
+                out.append((section, name, kw.get("lo", -hi), hi, 3))
+            elif kind == "misalignment":
+                out.append((section, name, -MAX_MISALIGNMENT_ARCSEC, MAX_MISALIGNMENT_ARCSEC, 6))
+            elif kind == "number":
+                out.append((section, name, kw["lo"], kw["hi"], 0))
+    return out
 
 
 def _param_docs(cls) -> dict:

@@ -27,23 +27,6 @@ CHANNELS = {"x": {"f0_hz": 386.0}, "y": {"f0_hz": 352.0}, "z": {"f0_hz": 421.0}}
 CASE = "case.json"  # the command line (``{dir}``: the case's folder) and what the fast tier checks
 
 
-def _keys():
-    """(section, key, lower, upper, shape) of every bounded sensor-error key."""
-    from sins_sim.models import sensor_errors as se
-
-    out = []
-    for section, cls in (("gyro", se.GyroErrorParams), ("accelerometer", se.AccelErrorParams)):
-        for name, kind, kw in cls._FIELDS:
-            if kind == "axes":
-                hi = kw.get("hi", kw.get("max_abs"))
-                out.append((section, name, kw.get("lo", -hi), hi, 3))
-            elif kind == "misalignment":
-                out.append((section, name, -se.MAX_MISALIGNMENT_ARCSEC, se.MAX_MISALIGNMENT_ARCSEC, 6))
-            elif kind == "number":
-                out.append((section, name, kw["lo"], kw["hi"], 0))
-    return out
-
-
 def _run_case(cls, expect, what, doc) -> Made:
     files = {"scenario.yaml": yaml.safe_dump(doc).encode(),
              CASE: json.dumps({"argv": ["run", "{dir}/scenario.yaml", "--out", "{dir}/out", "--quiet"],
@@ -57,7 +40,9 @@ def _scenario(imu=None, **extra):
 
 
 def _sensor_case(rng: random.Random) -> Made:
-    section, key, lo, hi, shape = rng.choice(_keys())
+    from sins_sim.models.sensor_errors import key_ranges
+
+    section, key, lo, hi, shape = rng.choice(key_ranges())
     label, value = rng.choice([("at the bound", hi), ("just inside", 0.999 * hi), ("at the lower end", lo),
                                ("1 % beyond", 1.01 * hi), ("10x beyond", 10.0 * hi), ("1e300", 1e300),
                                ("-1", -1.0), ("inf", math.inf), ("below the lower end", lo - 0.01 * hi)])
