@@ -294,3 +294,19 @@ def test_a_recorded_drive_beyond_what_a_piezo_takes_is_refused_naming_drive_v():
     check_recording(meta, counts, drive * DRIVE_V_MAX / 0.39)
     with pytest.raises(RecordingError, match=r"^rec: drive_v: must lie in \[-1000, 1000\] V .* got -3\.9e\+29 at \(11, 0\)$"):
         check_recording(meta, counts, drive * 1e30, where="rec")
+
+
+def test_the_json_schema_flags_an_out_of_range_sensor_error_at_its_key():
+    """``sins-sim schema imu --json-schema`` carries the ranges: the independent ``jsonschema`` validator flags
+    ``vrw_ug_rt_hz: 1e12`` at ``sensors.accelerometer.vrw_ug_rt_hz`` and accepts the bound."""
+    import json
+
+    jsonschema = pytest.importorskip("jsonschema")
+    from sins_sim.config.reference import render_json_schema
+
+    val = jsonschema.Draft202012Validator(json.loads(render_json_schema("imu")))
+    hi = se.PHYSICAL_RANGES["accelerometer.vrw_ug_rt_hz"][0]
+    ok = {"channels": CHANNELS, "sensors": {"accelerometer": {"vrw_ug_rt_hz": [hi, 0.0, 1.0]}}}
+    assert not list(val.iter_errors(ok))
+    bad = {"channels": CHANNELS, "sensors": {"accelerometer": {"vrw_ug_rt_hz": 1e12}}}
+    assert [list(e.absolute_path) for e in val.iter_errors(bad)] == [["sensors", "accelerometer", "vrw_ug_rt_hz"]]

@@ -198,7 +198,8 @@ def _number(owner, name, x, lo=None, max_abs=None, positive=False, hi=None, why=
         raise ValueError(f"{owner}.{name}: must be >= {lo:g}" + (f" (range [{lo:g}, {hi:g}]{reason})"
                                                                if hi is not None and lo > 0 else "") + f", got {x!r}")
     if hi is not None and x > hi:
-        raise ValueError(f"{owner}.{name}: must lie in [{lo:g}, {hi:g}]{reason}, got {x!r}")
+        low = f"{lo:g}" if lo is not None else "-inf"
+        raise ValueError(f"{owner}.{name}: must lie in [{low}, {hi:g}]{reason}, got {x!r}")
     if max_abs is not None and abs(x) > max_abs:
         raise ValueError(f"{owner}.{name}: must lie in [-{max_abs:g}, {max_abs:g}]{reason}, got {x!r}")
     return float(x)
