@@ -483,7 +483,9 @@ def _cmd_compare_filters(args) -> int:
     from pathlib import Path
 
     from sins_sim.jobs.compare_filters import run_compare_filters
+    from sins_sim.jobs.output import check_out_file
 
+    check_out_file(args.json, "--json")  # before minutes of computation (it was found only at the end)
     out = Path(args.out)
     with _result_dir(args, out) as tmp, _progress("compare-filters", args.quiet) as progress:
         res = run_compare_filters(tmp, args.json, quick=args.quick, progress=progress)

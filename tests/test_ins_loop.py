@@ -201,10 +201,12 @@ def test_truth_without_navigation_gives_the_same_gyro_inputs():
     """The engine's run without navigation advances a truth that forms only the plant's gyro inputs
     (the vehicle's rate alone, no velocity increments or attitude truth): its angles and rates equal
     those of the full truth bit for bit, on a turning, climbing vehicle with block coning and a
-    translational vibration, in uneven chunks; it returns no navigation chunk."""
+    translational vibration, in uneven chunks; it returns no navigation chunk. (The turn: 2 deg in 0.5 s with
+    0.2 s ramps at 150 m/s, a peak body rate of 780 deg/s; the 30 deg it had rolled in at 2500 deg/s, beyond the
+    1000 deg/s an RLG measures, which a trajectory now refuses.)"""
     from sins_sim.models.motion import LinearSines
 
-    veh = Trajectory(math.radians(45.0), 0.0, 1000.0, 150.0, 0.0, (Cruise(0.3), CoordinatedTurn(0.5, math.radians(30.0)),
+    veh = Trajectory(math.radians(45.0), 0.0, 1000.0, 150.0, 0.0, (Cruise(0.3), CoordinatedTurn(0.5, math.radians(2.0)),
                                                                  Climb(0.5, 20.0)), transition_s=0.2)
     block = m3.Coning(amplitude_rad=1.0 * ARCMIN, frequency_hz=300.0)
     lin = LinearSines((0.1, 0.2, 0.3), (150.0, 170.0, 190.0), (0.0, 0.5, 1.0))

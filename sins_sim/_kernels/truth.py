@@ -317,7 +317,8 @@ def surface_scales(lat, h, out):
 
 
 @jit
-def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, scales_t, v_t, q_t, e_body, free, att_limit, out):
+def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, scales_t, v_t, q_t, e_body, free, att_limit, vel_limit, pos_limit,
+               out):
     """Navigation errors against the truth, one row per update; returns the first bad row or -1.
 
     ``out[:, 0:3]``: north, east (m, along the surface at the true position: ``dlat (R_N + h)``,
@@ -327,8 +328,10 @@ def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, scales_t, v_t, q_t, e_body,
     ``out[:, 12:15]``: the free attitude error, the gyro-angle error ``e_body`` (output minus
     truth, body axes, rad) accumulated in the navigation frame, ``sum C_nb,true de_body``;
     ``free = [psi_free (3), e_body at the previous update (3)]`` carries it across calls.
-    ``scales_t``: the truth rows' :func:`surface_scales`. A row is bad when it is not finite or
-    ``|psi|`` exceeds ``att_limit`` (rad): the first such row's index is returned (-1: none).
+    ``scales_t``: the truth rows' :func:`surface_scales`. A row is bad when it is not finite,
+    ``|psi|`` exceeds ``att_limit`` (rad), the velocity error's norm exceeds ``vel_limit`` (m/s), or
+    the horizontal or the height error exceeds ``pos_limit`` (m): the first such row's index is
+    returned (-1: none).
     """
     bad = -1
     for n in range(lat.shape[0]):
@@ -363,6 +366,9 @@ def nav_errors(lat, lon, h, v, q, lat_t, lon_t, h_t, scales_t, v_t, q_t, e_body,
         out[n, 14] = free[2]
         if bad < 0:
             ok = math.sqrt(e1 * e1 + e2 * e2 + e3 * e3) <= att_limit
+            dv2 = out[n, 4] * out[n, 4] + out[n, 5] * out[n, 5] + out[n, 6] * out[n, 6]
+            if not (dv2 <= vel_limit * vel_limit and out[n, 2] <= pos_limit and abs(out[n, 3]) <= pos_limit):
+                ok = False
             for i in range(10):
                 if not math.isfinite(out[n, i]):
                     ok = False

@@ -103,8 +103,29 @@ class _SensorsReference:
         return reference_rows(path)
 
     def json_schema(self):
-        """Open: the sensors section is parsed by :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`."""
-        return {"type": "object", "description": "sensor errors (sins-sim schema imu, sensors rows)"}
+        """The gyro and accelerometer keys with their physical ranges
+        (:func:`sins_sim.models.sensor_errors.key_ranges`); the parser,
+        :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`, checks the rest (the plateau of the bias
+        instability, the misalignment's 3x3 form)."""
+        from sins_sim.models.sensor_errors import key_ranges
+
+        sections = {"gyro": {}, "accelerometer": {}}
+        for section, key, lo, hi, values in key_ranges():
+            num = {"type": "number", "minimum": lo, "maximum": hi}
+            if values == 0:
+                sections[section][key] = num
+            elif values == 3:
+                sections[section][key] = {"oneOf": [num, {"type": "array", "items": num, "minItems": 3,
+                                                          "maxItems": 3}]}
+            else:  # six angles or a 3x3 list with a zero diagonal
+                sections[section][key] = {"type": "array"}
+        for props in sections.values():
+            props["bias_instability_tau_s"] = {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0},
+                                               "minItems": 2, "maxItems": 2}
+        return {"type": "object", "description": "sensor errors (sins-sim schema imu, sensors rows)",
+                "additionalProperties": False,
+                "properties": {name: {"type": ["object", "null"], "additionalProperties": False, "properties": props}
+                               for name, props in sections.items()}}
 
     def check(self, value, ctx, path):  # never reached: imu_from_dict takes the section out first
         return value

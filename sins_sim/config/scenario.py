@@ -69,6 +69,9 @@ _START = dict(min=0.0, max=MAX_DURATION_S)
 _FREQ_RULE = (f"every frequency must be < the filter Nyquist (readout.output_rate_hz / 2 of the IMU, 3600 Hz by "
               f"default); above {NEAR_NYQUIST:g} of it a warning")
 _RATE_RULE = f"the part's peak rate must be <= {MAX_RATE_DEG_S:g} deg/s"
+_AXES_RULE = "axes not all zero (all zero makes no motion)"
+_SHOCK_RULE = ("duration_ms >= 3 plant steps, 3000 / plant.rate_hz ms (0.042 ms at 72 kHz): the half-sine's main "
+               "lobe, up to 1.5 / duration, below the plant's Nyquist")
 
 
 def _psd_row(max_psd, unit_doc):
@@ -125,8 +128,9 @@ MOTION_SCHEMA = OneOf({
     "turn": (_RATE_RULE,),
     "sines": (_FREQ_RULE, _RATE_RULE),
     "coning": (_FREQ_RULE, _RATE_RULE),
-    "random_vibration": (_FREQ_RULE, "f_lo_hz < f_hi_hz, both inside the table"),
-    "shock": ("ring_frequency_hz: " + _FREQ_RULE, "ring_frequency_hz > 0 when ring_amplitude_deg_s != 0"),
+    "random_vibration": (_FREQ_RULE, "f_lo_hz < f_hi_hz, both inside the table", _AXES_RULE),
+    "shock": ("ring_frequency_hz: " + _FREQ_RULE, "ring_frequency_hz > 0 when ring_amplitude_deg_s != 0",
+              _SHOCK_RULE),
     "sweep": (_FREQ_RULE, _RATE_RULE),
 })
 
@@ -143,7 +147,7 @@ LINEAR_SCHEMA = OneOf({
                    "f_hi": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
                    "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0, max=10.0)},
                   doc="band-limited random acceleration"),
-}, rules={"sines": (_FREQ_RULE,), "random": (_FREQ_RULE,)})
+}, rules={"sines": (_FREQ_RULE,), "random": (_FREQ_RULE, _AXES_RULE)})
 
 SEGMENT_SCHEMA = OneOf({
     "stationary": Map({"duration": Num(unit="s", required=True, **_DUR)}, doc="at rest"),
@@ -158,7 +162,10 @@ SEGMENT_SCHEMA = OneOf({
                   "delta_height": Num(unit="m", required=True, min=-101000.0, max=101000.0)},
                  doc="height change (heights stay in [-1000, 100000] m)"),
 }, rules={"climb": ("the flight-path angle asin(h'/V) stays within 60 deg (a climb needs a speed > 0; the pitch "
-                    "stays away from the Euler singularity): a steeper climb is refused",)})
+                    "stays away from the Euler singularity): a steeper climb is refused",),
+          "turn": ("the centripetal acceleration V psi' stays <= 2000 m/s^2 (about 200 g) and the peak body rate "
+                   "(heading rate and the roll rate into the coordinated bank) <= 1000 deg/s, the range of an RLG: "
+                   "a sharper turn is refused",)})
 
 SITE_SCHEMA = Map({
     "lat": Num(unit="deg", min=-89.0, max=89.0, default=45.0, doc="latitude of the start (geodetic)"),
@@ -397,7 +404,7 @@ class Scenario:
             self.temperature = _thermal_model(c["temperature"], ctx)
             self.imu = _with_temperature(self.imu, self.temperature, self.duration_s, ctx)
         fs = self.imu.filter_rate_hz
-        _check_motion(c["motion"], c["linear_vibration"], fs, ctx)
+        _check_motion(c["motion"], c["linear_vibration"], fs, ctx, self.imu.plant_rate_hz)
         nv = c["navigation"]
         if nv["timeseries_rate_hz"] is not None and nv["timeseries_rate_hz"] > fs / nv["n_sub"]:
             raise ConfigError(f"{ctx}: navigation.timeseries_rate_hz: must be <= the navigation update rate "
@@ -479,11 +486,30 @@ def _peak_rate_deg_s(seg):
     return []
 
 
-def _check_motion(motion, linear, fs_hz: float, ctx: str) -> None:
-    """Every motion frequency below the filter Nyquist (a warning near it); every part's peak rate in range."""
+#: A shock's half-sine must last at least this many plant steps: its spectrum's main lobe ends at 1.5 / T (the first
+#: zero of the Fourier transform of ``sin(pi t / T)`` on ``[0, T]``, ``|F(f)| ~ |cos(pi f T)| / |1 - (2 f T)^2|``),
+#: which must lie below the plant's Nyquist ``rate_hz / 2``: ``T >= 3 / rate_hz`` (0.042 ms at 72 kHz). A shorter
+#: pulse is not resolved by the plant, whose dither dynamics integrate the rate at its steps.
+SHOCK_MIN_PLANT_STEPS = 3.0
+
+
+def _check_motion(motion, linear, fs_hz: float, ctx: str, plant_hz: float | None = None) -> None:
+    """Every motion frequency below the filter Nyquist (a warning near it); every part's peak rate in range; a
+    random part's axis weights not all zero; a shock resolved at the plant rate ``plant_hz``."""
     nyq = 0.5 * fs_hz
     for group, parts in (("motion", motion), ("linear_vibration", linear)):
         for i, seg in enumerate(parts):
+            if seg["type"] in ("random_vibration", "random") and not any(w > 0.0 for w in seg["axes"]):
+                raise ConfigError(f"{ctx}: {group}[{i}].axes: must not be all zero (the per-axis weights of the "
+                                  f"vibration: all zero makes no motion; leave the part out instead), got "
+                                  f"{list(seg['axes'])}")
+            if seg["type"] == "shock" and plant_hz is not None:
+                t_min = SHOCK_MIN_PLANT_STEPS / plant_hz
+                if seg["duration_s"] < t_min * (1.0 - 1e-12):
+                    raise ConfigError(f"{ctx}: {group}[{i}].duration_ms: must be >= {t_min * 1e3:.4g} ms, "
+                                      f"{SHOCK_MIN_PLANT_STEPS:g} steps of the plant rate {plant_hz:g} Hz (the "
+                                      f"half-sine's main lobe, up to 1.5 / duration, must lie below the plant's "
+                                      f"Nyquist), got {seg['duration_s'] * 1e3:g}")
             for key, f in _motion_frequencies(seg):
                 where = f"{group}[{i}].{key}"
                 if not f < nyq:
@@ -659,6 +685,10 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
                                    f"(vn_m_s, ve_m_s, vd_m_s) differ from the velocity of the positions (lat_deg, "
                                    f"lon_deg, height_m, interpolated)", str(exc))
             raise ConfigError(f"{ctx}: {msg.replace('v_tol_m_s = ', 'the tolerance (m/s) ')}") from None
+        turn = re.match(r"Trajectory\.segments\[(\d+)\]\.delta_heading_rad: (.*), got (\S+)$", str(exc))
+        if turn:  # the model's radians -> the key the user wrote
+            raise ConfigError(f"{ctx}: trajectory.segments[{turn.group(1)}].heading_change_deg: {turn.group(2)}, got "
+                              f"{math.degrees(float(turn.group(3))):g}") from None
         raise ConfigError(f"{ctx}: trajectory: {exc}") from None
     if vehicle.duration_s < need:  # a file (segments are refused above or held to the end)
         raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of {where}, which lasts "

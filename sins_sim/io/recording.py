@@ -36,7 +36,8 @@ Rules the spec implies and this reader states explicitly:
   entry holds ``f0_hz, k1, k2, k3, k4, k5`` as finite numbers with
   ``f0_hz > 0``, ``k1 >= 0``, ``k2 > 0``, ``k3 >= 0``, ``k5 != 0``
   (reference-model.md); other keys in an entry are preserved;
-- ``meta.description``, when present, is a string (it is optional).
+- ``meta.description``, when present, is a string (it is optional);
+- ``|drive_v| <= 1000`` V (:data:`DRIVE_V_MAX`): what a piezo stack takes.
 
 CSV import (:func:`read_csv_recording`)
 ---------------------------------------
@@ -77,7 +78,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "MIN_SAMPLES", "MAX_META_DEPTH",
-           "RecordingError", "Recording", "check_recording", "read_recording", "write_recording",
+           "DRIVE_V_MAX", "RecordingError", "Recording", "check_recording", "read_recording", "write_recording",
            "read_csv_recording"]
 
 #: The format tag a recording's header must carry.
@@ -90,6 +91,10 @@ FS_MAX_HZ = 1.0e6
 #: Range of the readout quantum (rad): 1e-9 rad up to a few fringes.
 QUANTUM_MIN_RAD = 1.0e-9
 QUANTUM_MAX_RAD = 1.0e-4
+#: Largest |drive_v| (V): piezo stacks are rated to 100-200 V (low-voltage stacks) and up to about 1000 V (high-voltage
+#: stacks); the same bound as the drive model's (:data:`sins_sim.models.drive.V_MAX`, which takes it from here). A
+#: larger value is not a voltage (DAC codes, a unit slip, a corrupted column) and would overflow the fits.
+DRIVE_V_MAX = 1000.0
 #: Header keys that must be present (``sins_fs_hz`` only with ``sins_angle``).
 REQUIRED_META = ("format", "axes", "fs_hz", "drive_fs_hz", "quantum_rad", "initial_state", "experiment", "nominal")
 INITIAL_STATES = ("rest", "unknown")
@@ -228,6 +233,11 @@ def check_recording(meta, counts, drive_v, sins_angle=None, where: str = "record
     if not np.all(np.isfinite(drive_v)):
         bad = np.argwhere(~np.isfinite(drive_v))[0]
         _fail(where, "drive_v", f"must be finite everywhere, NaN/inf at {tuple(int(i) for i in bad)}")
+    if drive_v.size and float(np.max(np.abs(drive_v))) > DRIVE_V_MAX:
+        bad = np.unravel_index(int(np.argmax(np.abs(drive_v))), drive_v.shape)
+        _fail(where, "drive_v", f"must lie in [-{DRIVE_V_MAX:g}, {DRIVE_V_MAX:g}] V (a piezo stack takes at most "
+                                f"about {DRIVE_V_MAX:g} V; DAC codes or another unit are not volts), got "
+                                f"{float(drive_v[bad]):.4g} at {tuple(int(i) for i in bad)}")
     if sins_angle is None:
         return
     if "sins_fs_hz" not in meta:

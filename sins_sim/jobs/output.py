@@ -69,9 +69,12 @@ def _existing_ancestor(path: Path, flag: str) -> Path:
 
 def _check_space(where: Path, path: Path, flag: str, min_free_bytes: int) -> None:
     try:
-        free = shutil.disk_usage(where).free
+        usage = shutil.disk_usage(where)
     except OSError:  # some file systems cannot tell; writing will say
         return
+    free = usage.free
+    if usage.total == 0:  # procfs, sysfs: no room for files at all
+        raise ConfigError(f"{flag}: cannot create {path}: {where} is a virtual file system with no storage for files")
     if free < min_free_bytes:
         raise ConfigError(f"{flag}: not enough free disk space for {path}: {free / 2 ** 20:.1f} MiB free in "
                           f"{where}, need at least {min_free_bytes / 2 ** 20:.1f} MiB")

@@ -13,6 +13,7 @@ increments in m/s for the accelerometers), chunk by chunk, and return the measur
    GyroErrors
    AccelErrors
    sensor_params_from_dict
+   key_ranges
    bias_instability_components
    gauss_markov_adev
 
@@ -115,7 +116,7 @@ from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G, STANDARD_GRAVITY
 
 __all__ = ["GyroErrorParams", "AccelErrorParams", "SensorErrorParams", "GyroErrors", "AccelErrors",
            "sensor_params_from_dict", "bias_instability_components", "gauss_markov_adev",
-           "FLICKER_FLOOR_FACTOR", "MISALIGNMENT_ORDER", "reference_rows"]
+           "FLICKER_FLOOR_FACTOR", "MISALIGNMENT_ORDER", "PHYSICAL_RANGES", "key_ranges", "reference_rows"]
 
 #: Allan-deviation floor of flicker (bias-instability) noise per unit of B: sqrt(2 ln 2 / pi) = 0.6643
 #: (IEEE Std 952-1997, Annex C).
@@ -124,10 +125,51 @@ FLICKER_FLOOR_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
 MISALIGNMENT_ORDER = ("xy", "xz", "yx", "yz", "zx", "zy")
 _MIS_INDEX = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
 
-#: Scale-factor terms are small errors: at most 1e5 ppm (10 %).
+#: Scale-factor terms are small errors: at most 1e5 ppm (10 %), 3 x the +-3 % sensitivity tolerance of a consumer
+#: MEMS (MPU-6050, see :data:`PHYSICAL_RANGES`).
 MAX_PPM = 1.0e5
-#: Misalignments are small angles: at most 36000 arcsec (10 deg).
+#: Misalignments are small angles: at most 36000 arcsec (10 deg), 9 x the +-2 % cross-axis sensitivity of a consumer
+#: MEMS (1.15 deg = 4125 arcsec, MPU-6050).
 MAX_MISALIGNMENT_ARCSEC = 36000.0
+
+#: Where the upper ends of :data:`PHYSICAL_RANGES` come from. The loosest end is a consumer MEMS IMU, the InvenSense
+#: MPU-6000/6050 (product specification PS-MPU-6000A-00, rev. 3.4, 2013): gyro initial zero-rate offset +-20 deg/s,
+#: rate noise density 0.005 deg/s/sqrt(Hz), sensitivity tolerance +-3 %, nonlinearity 0.2 %, cross-axis sensitivity
+#: +-2 %, full scale +-250 to +-2000 deg/s; accelerometer zero-g offset +-50 mg (x, y) and +-80 mg (z), noise density
+#: 400 ug/sqrt(Hz), tolerance +-3 %, cross-axis +-2 %. The other end is the navigation grade (the bundled
+#: ``configs/nav-grade-rlg.yaml``, an HG9900-class unit: 0.0035 deg/h, 25 ug), and every error may be 0 (off). The
+#: grades between (navigation, tactical, automotive / consumer) and their typical biases and noise: Groves 2013,
+#: sec. 4.4.1-4.4.3; Titterton & Weston 2004, ch. 4.
+RANGE_SOURCE = "navigation grade to beyond the loosest consumer MEMS (MPU-6050 datasheet)"
+
+#: Upper ends of the sensor-error magnitudes (datasheet units; the lower end is 0 for a spread, a noise density or
+#: an instability, and ``-max`` for a signed bias), each with its reason; checked on construction, listed by
+#: ``sins-sim schema imu``. A bias instability is a wander of the bias about its value: a tenth of the bias range; a
+#: rate (acceleration) random walk may carry the bias through its whole range within 100 h (``K sqrt(100 h)``).
+PHYSICAL_RANGES = {
+    "gyro.bias_deg_h": (1.0e5, "1.4 x the MPU-6050's +-20 deg/s zero-rate offset (7.2e4 deg/h)"),
+    "gyro.turn_on_bias_deg_h": (1.0e5, "the bias range: 1.4 x the MPU-6050's +-20 deg/s (7.2e4 deg/h)"),
+    "gyro.arw_deg_rt_h": (10.0, "33 x the MPU-6050's 0.005 deg/s/sqrt(Hz) = 0.3 deg/sqrt(h)"),
+    "gyro.bias_instability_deg_h": (1.0e4, "a tenth of the bias range (1e5 deg/h)"),
+    "gyro.rrw_deg_h_rt_h": (1.0e4, "carries the bias through its range (1e5 deg/h) within 100 h"),
+    "accelerometer.bias_ug": (2.0e5, "2.5 x the MPU-6050's +-80 mg zero-g offset"),
+    "accelerometer.turn_on_bias_ug": (2.0e5, "the bias range: 2.5 x the MPU-6050's +-80 mg"),
+    "accelerometer.vrw_ug_rt_hz": (1.0e4, "25 x the MPU-6050's 400 ug/sqrt(Hz)"),
+    "accelerometer.bias_instability_ug": (2.0e4, "a tenth of the bias range (2e5 ug)"),
+    "accelerometer.rrw_ug_rt_h": (2.0e4, "carries the bias through its range (2e5 ug) within 100 h"),
+}
+for _sec in ("gyro", "accelerometer"):
+    PHYSICAL_RANGES[f"{_sec}.scale_factor_ppm"] = (MAX_PPM, "3 x the MPU-6050's +-3 % sensitivity tolerance")
+    PHYSICAL_RANGES[f"{_sec}.scale_factor_asymmetry_ppm"] = (MAX_PPM, "the scale-factor range (10 %)")
+    PHYSICAL_RANGES[f"{_sec}.misalignment_arcsec"] = (MAX_MISALIGNMENT_ARCSEC,
+                                                      "9 x the MPU-6050's +-2 % cross-axis sensitivity (4125 arcsec)")
+PHYSICAL_RANGES["gyro.scale_factor_nonlinearity_ppm"] = (MAX_PPM, "50 x the MPU-6050's 0.2 % nonlinearity")
+PHYSICAL_RANGES["accelerometer.nonlinearity_ug_g2"] = (
+    MAX_PPM, "0.1 g at 1 g; the MPU-6050's 0.5 % of +-16 g full scale is 312 ug/g^2")
+#: The full-scale rate of the gyro nonlinearity law: rate gyros are specified from tens of deg/s (low-rate
+#: navigation FOGs) to +-2000 deg/s (MPU-6050) and +-4000 deg/s (newer consumer MEMS); the range holds them all.
+FULL_SCALE_RANGE_DEG_S = (1.0, 1.0e4)
+del _sec
 #: The bias-instability plateau: edges in (0, 1e7] s, at most 6 decades wide.
 MAX_TAU_S = 1.0e7
 MAX_PLATEAU_DECADES = 6.0
@@ -142,17 +184,24 @@ def _is_number(x) -> bool:
     return isinstance(x, (Real, np.floating, np.integer)) and not isinstance(x, (bool, np.bool_))
 
 
-def _number(owner, name, x, lo=None, max_abs=None, positive=False) -> float:
+def _number(owner, name, x, lo=None, max_abs=None, positive=False, hi=None, why="") -> float:
+    """``x`` as a float, checked: finite, ``> 0`` (``positive``), ``>= lo``, ``<= hi``, ``|x| <= max_abs``; a
+    refusal states the range and ``why`` (its physical reason, :data:`PHYSICAL_RANGES`)."""
     if not _is_number(x):
         raise ValueError(f"{owner}.{name}: must be a number, got {x!r}")
     if not math.isfinite(float(x)):
         raise ValueError(f"{owner}.{name}: must be finite, got {x!r}")
+    reason = f" (the physical range; its bound is {why})" if why else ""
     if positive and not x > 0:
         raise ValueError(f"{owner}.{name}: must be > 0, got {x!r}")
     if lo is not None and x < lo:
-        raise ValueError(f"{owner}.{name}: must be >= {lo:g}, got {x!r}")
+        raise ValueError(f"{owner}.{name}: must be >= {lo:g}" + (f" (range [{lo:g}, {hi:g}]{reason})"
+                                                               if hi is not None and lo > 0 else "") + f", got {x!r}")
+    if hi is not None and x > hi:
+        low = f"{lo:g}" if lo is not None else "-inf"
+        raise ValueError(f"{owner}.{name}: must lie in [{low}, {hi:g}]{reason}, got {x!r}")
     if max_abs is not None and abs(x) > max_abs:
-        raise ValueError(f"{owner}.{name}: must lie in [-{max_abs:g}, {max_abs:g}], got {x!r}")
+        raise ValueError(f"{owner}.{name}: must lie in [-{max_abs:g}, {max_abs:g}]{reason}, got {x!r}")
     return float(x)
 
 
@@ -166,28 +215,29 @@ def _shape(value):
         return None
 
 
-def _axes(owner, name, value, lo=None, max_abs=None) -> tuple:
-    """One number for the three axes, or three numbers (x, y, z)."""
+def _axes(owner, name, value, **limits) -> tuple:
+    """One number for the three axes, or three numbers (x, y, z), each checked by :func:`_number` with ``limits``."""
     if _is_number(value):
-        x = _number(owner, name, value, lo, max_abs)
+        x = _number(owner, name, value, **limits)
         return (x, x, x)
     if _shape(value) == (3,):
-        return tuple(_number(owner, f"{name}[{k}]", x, lo, max_abs) for k, x in enumerate(value))
+        return tuple(_number(owner, f"{name}[{k}]", x, **limits) for k, x in enumerate(value))
     raise ValueError(f"{owner}.{name}: must be a number or a list of 3 numbers (x, y, z), got {value!r}")
 
 
 def _misalignment(owner, name, value) -> tuple:
     """Six angles (xy, xz, yx, yz, zx, zy) or a 3x3 list with a zero diagonal."""
     shape = _shape(value)
+    lim = {"max_abs": MAX_MISALIGNMENT_ARCSEC, "why": PHYSICAL_RANGES["gyro.misalignment_arcsec"][1]}
     if shape == (6,):
-        return tuple(_number(owner, f"{name}[{k}]", x, None, MAX_MISALIGNMENT_ARCSEC) for k, x in enumerate(value))
+        return tuple(_number(owner, f"{name}[{k}]", x, **lim) for k, x in enumerate(value))
     if shape == (3, 3):
         rows = [list(r) for r in value]
         for i in range(3):
             if _number(owner, f"{name}[{i}][{i}]", rows[i][i]) != 0.0:
                 raise ValueError(f"{owner}.{name}[{i}][{i}]: the diagonal must be 0 (scale factors are separate), "
                                  f"got {rows[i][i]!r}")
-        return tuple(_number(owner, f"{name}[{i}][{j}]", rows[i][j], None, MAX_MISALIGNMENT_ARCSEC)
+        return tuple(_number(owner, f"{name}[{i}][{j}]", rows[i][j], **lim)
                      for i, j in _MIS_INDEX)
     raise ValueError(f"{owner}.{name}: must be 6 angles ({', '.join(MISALIGNMENT_ORDER)}) or a 3x3 list with a zero "
                      f"diagonal, got {value!r}")
@@ -218,6 +268,18 @@ def _check_fields(obj, owner, specs):
         else:  # misalignment
             norm = _misalignment(owner, name, value)
         object.__setattr__(obj, name, norm)
+
+
+def _signed(key) -> dict:
+    """The limits of a signed error (a bias, a scale factor): ``|x| <= max`` of :data:`PHYSICAL_RANGES`."""
+    hi, why = PHYSICAL_RANGES[key]
+    return {"max_abs": hi, "why": why}
+
+
+def _magnitude(key) -> dict:
+    """The limits of a spread, noise density or instability: ``0 <= x <= max`` of :data:`PHYSICAL_RANGES`."""
+    hi, why = PHYSICAL_RANGES[key]
+    return {"lo": 0.0, "hi": hi, "why": why}
 
 
 def _misalignment_matrix(six_arcsec) -> np.ndarray:
@@ -291,16 +353,19 @@ class GyroErrorParams:
     _OWNER = "gyro_errors"
     #: (field, kind, limits) of every field: checked on construction, listed by :func:`reference_rows`
     _FIELDS = (
-        ("bias_deg_h", "axes", {}),
-        ("turn_on_bias_deg_h", "axes", {"lo": 0.0}),
-        ("arw_deg_rt_h", "axes", {"lo": 0.0}),
-        ("bias_instability_deg_h", "axes", {"lo": 0.0}),
+        ("bias_deg_h", "axes", _signed("gyro.bias_deg_h")),
+        ("turn_on_bias_deg_h", "axes", _magnitude("gyro.turn_on_bias_deg_h")),
+        ("arw_deg_rt_h", "axes", _magnitude("gyro.arw_deg_rt_h")),
+        ("bias_instability_deg_h", "axes", _magnitude("gyro.bias_instability_deg_h")),
         ("bias_instability_tau_s", "tau", {}),
-        ("rrw_deg_h_rt_h", "axes", {"lo": 0.0}),
-        ("scale_factor_ppm", "axes", {"max_abs": MAX_PPM}),
-        ("scale_factor_asymmetry_ppm", "axes", {"max_abs": MAX_PPM}),
-        ("scale_factor_nonlinearity_ppm", "axes", {"max_abs": MAX_PPM}),
-        ("full_scale_deg_s", "number", {"positive": True}),
+        ("rrw_deg_h_rt_h", "axes", _magnitude("gyro.rrw_deg_h_rt_h")),
+        ("scale_factor_ppm", "axes", _signed("gyro.scale_factor_ppm")),
+        ("scale_factor_asymmetry_ppm", "axes", _signed("gyro.scale_factor_asymmetry_ppm")),
+        ("scale_factor_nonlinearity_ppm", "axes", _signed("gyro.scale_factor_nonlinearity_ppm")),
+        ("full_scale_deg_s", "number", {"positive": True, "lo": FULL_SCALE_RANGE_DEG_S[0],
+                                        "hi": FULL_SCALE_RANGE_DEG_S[1],
+                                        "why": "rate gyros from low-rate navigation FOGs (tens of deg/s) to "
+                                               "consumer MEMS (+-2000 deg/s MPU-6050, +-4000 deg/s newer parts)"}),
         ("misalignment_arcsec", "misalignment", {}),
         )
 
@@ -362,15 +427,15 @@ class AccelErrorParams:
     _OWNER = "accel_errors"
     #: (field, kind, limits) of every field: checked on construction, listed by :func:`reference_rows`
     _FIELDS = (
-        ("bias_ug", "axes", {}),
-        ("turn_on_bias_ug", "axes", {"lo": 0.0}),
-        ("vrw_ug_rt_hz", "axes", {"lo": 0.0}),
-        ("bias_instability_ug", "axes", {"lo": 0.0}),
+        ("bias_ug", "axes", _signed("accelerometer.bias_ug")),
+        ("turn_on_bias_ug", "axes", _magnitude("accelerometer.turn_on_bias_ug")),
+        ("vrw_ug_rt_hz", "axes", _magnitude("accelerometer.vrw_ug_rt_hz")),
+        ("bias_instability_ug", "axes", _magnitude("accelerometer.bias_instability_ug")),
         ("bias_instability_tau_s", "tau", {}),
-        ("rrw_ug_rt_h", "axes", {"lo": 0.0}),
-        ("scale_factor_ppm", "axes", {"max_abs": MAX_PPM}),
-        ("scale_factor_asymmetry_ppm", "axes", {"max_abs": MAX_PPM}),
-        ("nonlinearity_ug_g2", "axes", {"max_abs": MAX_PPM}),
+        ("rrw_ug_rt_h", "axes", _magnitude("accelerometer.rrw_ug_rt_h")),
+        ("scale_factor_ppm", "axes", _signed("accelerometer.scale_factor_ppm")),
+        ("scale_factor_asymmetry_ppm", "axes", _signed("accelerometer.scale_factor_asymmetry_ppm")),
+        ("nonlinearity_ug_g2", "axes", _signed("accelerometer.nonlinearity_ug_g2")),
         ("misalignment_arcsec", "misalignment", {}),
         )
 
@@ -842,6 +907,29 @@ def sensor_params_from_dict(doc, ctx: str, path: str = "sensors") -> SensorError
                                f"{path}.accelerometer"))
 
 
+def key_ranges() -> list:
+    """Every bounded key of the ``sensors:`` section with its range, for the reference, tests and the fuzz.
+
+    Returns
+    -------
+    list of (section, key, lower, upper, values)
+        ``section`` is ``"gyro"`` or ``"accelerometer"``; ``values`` the numbers the key takes per entry (3 per
+        axis, 6 misalignment angles, or 0 for one number for the triad, ``full_scale_deg_s``). The lower end of a
+        signed key is ``-upper``. ``bias_instability_tau_s`` (a pair with its own rule) is not listed.
+    """
+    out = []
+    for section, cls in (("gyro", GyroErrorParams), ("accelerometer", AccelErrorParams)):
+        for name, kind, kw in cls._FIELDS:
+            if kind == "axes":
+                hi = kw.get("hi", kw.get("max_abs"))
+                out.append((section, name, kw.get("lo", -hi), hi, 3))
+            elif kind == "misalignment":
+                out.append((section, name, -MAX_MISALIGNMENT_ARCSEC, MAX_MISALIGNMENT_ARCSEC, 6))
+            elif kind == "number":
+                out.append((section, name, kw["lo"], kw["hi"], 0))
+    return out
+
+
 def _param_docs(cls) -> dict:
     """First sentence of each parameter's description in the class docstring (numpydoc)."""
     import inspect
@@ -876,20 +964,26 @@ def reference_rows(path: str = "sensors") -> list:
                      "doc": ""})
         for name, kind, kw in cls._FIELDS:
             unit = next((label for suffix, label in unit_of if name.endswith(suffix)), "")
+            why = kw.get("why", "")
             if kind == "axes":
-                rng = (f">= {kw['lo']:g}" if "lo" in kw else f"|x| <= {kw['max_abs']:g}" if "max_abs" in kw
-                       else "any") + ", per axis"
+                rng = (f"[{kw['lo']:g}, {kw['hi']:g}]" if "hi" in kw else f"|x| <= {kw['max_abs']:g}") + ", per axis"
                 knd = "number or 3 numbers"
             elif kind == "number":
-                rng, knd = "> 0", "number for all axes"
+                rng, knd = f"[{kw['lo']:g}, {kw['hi']:g}]", "number for all axes"
             elif kind == "tau":
                 rng = f"0 < lower <= upper <= {MAX_TAU_S:g}, at most {MAX_PLATEAU_DECADES:g} decades"
                 knd = "2 numbers"
             else:
                 rng = f"|x| <= {MAX_MISALIGNMENT_ARCSEC:g}; order {', '.join(MISALIGNMENT_ORDER)}"
                 knd = "6 numbers or 3x3"
+                why = PHYSICAL_RANGES[f"{section}.{name}"][1]
             d = defaults[name]
             default = f"{d:g}" if isinstance(d, float) else ", ".join(f"{x:g}" for x in d)
+            doc = docs.get(name, "")
+            if why and kind == "number":
+                doc = f"{doc}; range: {why}"
+            elif why:
+                doc = f"{doc}; range: {RANGE_SOURCE}; the bound is {why}"
             rows.append({"key": f"{path}.{section}.{name}", "kind": knd, "unit": unit, "range": rng,
-                         "default": default, "doc": docs.get(name, "")})
+                         "default": default, "doc": doc})
     return rows

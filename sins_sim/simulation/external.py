@@ -124,7 +124,8 @@ class ExternalNavResult:
         ``(name,)``.
     stats, series, diverged : dict name -> ...
         Full-rate error statistics, stored error series (block means with their envelopes), and the
-        divergence record if the solution left the truth by more than 0.5 rad or stopped being finite.
+        divergence record if the solution left the truth by more than 0.5 rad, 7.91 km/s or 6371 km, or stopped
+        being finite (:func:`sins_sim.simulation.sins.divergence_reason`).
     truth_series : dict
         The truth's ``t_s, lat_rad, lon_rad, h_m`` at the stored rate.
     records : dict
@@ -185,7 +186,8 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
     """
     from sins_sim.navigation.strapdown import StrapdownNavigator
     from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
-    from sins_sim.simulation.sins import DIVERGED_ATTITUDE_RAD, _allan_analyses, _error_records
+    from sins_sim.simulation.sins import (DIVERGED_ATTITUDE_RAD, DIVERGED_POSITION_M, DIVERGED_VELOCITY_M_S,
+                                          _allan_analyses, _error_records, divergence_reason)
 
     t = v.finite_array("", "t_s", t_s, ndim=1)
     dt = uniform_period(t, "t_s")
@@ -245,13 +247,12 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
         rows = np.empty((hi - lo, N_COLS))
         bad = ktruth.nav_errors(out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H], out[:, OUT_V:OUT_V + 3],
                                 out[:, OUT_Q:OUT_Q + 4], lat_t, lon_t, h_t, scales, np.ascontiguousarray(v_t),
-                                np.ascontiguousarray(q_t), g_err, free, DIVERGED_ATTITUDE_RAD, rows)
+                                np.ascontiguousarray(q_t), g_err, free, DIVERGED_ATTITUDE_RAD, DIVERGED_VELOCITY_M_S,
+                                DIVERGED_POSITION_M, rows)
         rows[:, 10] = out[:, OUT_LAT]
         rows[:, 11] = out[:, OUT_LON]
         if bad >= 0:
-            diverged[name] = {"axis": "-", "time_s": float(t[lo + bad]),
-                              "reason": f"navigation solution diverged (attitude error beyond {DIVERGED_ATTITUDE_RAD} "
-                                        "rad or not finite)"}
+            diverged[name] = {"axis": "-", "time_s": float(t[lo + bad]), "reason": divergence_reason(rows[bad])}
             rows = rows[:bad]
         stats.add(rows, t[lo:lo + rows.shape[0]])
         ser.add(rows)

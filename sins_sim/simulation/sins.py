@@ -29,8 +29,10 @@ real unit does); ``"none"`` feeds them undelayed, so that the navigation mixes g
 ``d`` samples old with current accelerometer data (the cost shows under vibration as a
 sculling-like error).
 
-Divergence. A filter whose output or navigation solution stops being finite is reported as
-diverged (filter, axis, time, reason) and dropped; the run goes on for the others.
+Divergence. A filter whose output or navigation solution stops being finite, or whose navigation
+error leaves the physical limits (attitude :data:`DIVERGED_ATTITUDE_RAD`, velocity
+:data:`DIVERGED_VELOCITY_M_S`, position :data:`DIVERGED_POSITION_M`), is reported as diverged
+(filter, axis, time, reason) and dropped; the run goes on for the others.
 
 Three-axis plug-ins (:data:`sins_sim.filters.registry.THREE_AXIS`, e.g. ``lms_stripper``) read the
 three readouts and the three dither pickoffs together: each axis also returns its deflection at
@@ -75,6 +77,37 @@ DEFAULT_SERIES_RATE_HZ = 10.0
 MAX_SERIES_BLOCKS = 7200
 #: An attitude error beyond this (rad) means the navigation of a filter has diverged.
 DIVERGED_ATTITUDE_RAD = 0.5
+#: A velocity error beyond this (m/s) means the navigation has diverged: the first cosmic velocity
+#: ``sqrt(GM / R) = sqrt(3.986004e14 / 6.371e6) = 7.91 km/s`` (GM: WGS 84; R: the Earth's mean radius, IUGG), the speed
+#: of a circular orbit at the surface. A solution that far off would orbit the Earth: the mechanization's assumptions (a
+#: vehicle near the surface: its gravity model, transport rate and Schuler loop) no longer describe it, and its
+#: errors are no longer navigation errors. (A consumer-MEMS accelerometer bias at the bound of the sensor ranges,
+#: 0.2 g, needs 4000 s of free inertial navigation to get there.)
+DIVERGED_VELOCITY_M_S = 7.91e3
+#: A horizontal or height error beyond this (m) means the navigation has diverged: the Earth's mean radius (IUGG,
+#: 6371 km), one radian of arc; a solution that far from the vehicle has lost every information about where it is.
+DIVERGED_POSITION_M = 6.371e6
+
+
+def divergence_reason(row) -> str:
+    """Why the navigation error ``row`` (columns of :func:`sins_sim._kernels.truth.nav_errors`) counts as diverged.
+
+    Returns the first limit the row breaks, stated with its threshold (:data:`DIVERGED_ATTITUDE_RAD`,
+    :data:`DIVERGED_VELOCITY_M_S`, :data:`DIVERGED_POSITION_M`), or ``"not finite"``.
+    """
+    row = np.asarray(row, dtype=np.float64)
+    if not np.all(np.isfinite(row[:10])):
+        return "navigation solution diverged (not finite)"
+    att = float(np.linalg.norm(row[7:10]))
+    if att > DIVERGED_ATTITUDE_RAD:
+        return f"navigation solution diverged (attitude error {att:.3g} rad beyond {DIVERGED_ATTITUDE_RAD} rad)"
+    vel = float(np.linalg.norm(row[4:7]))
+    if vel > DIVERGED_VELOCITY_M_S:
+        return (f"navigation solution diverged (velocity error {vel:.3g} m/s beyond {DIVERGED_VELOCITY_M_S:g} m/s, "
+                "the first cosmic velocity)")
+    pos = max(float(row[2]), abs(float(row[3])))
+    return (f"navigation solution diverged (position error {pos:.3g} m beyond {DIVERGED_POSITION_M:g} m, the "
+            "Earth's radius)")
 #: Allan records (gyro-angle and velocity error at sample instants): at most this rate (Hz) and at most this many
 #: samples per axis and filter (10 min at 100 Hz, 1 h at 18 Hz; 1.6 MB per filter), so that memory, and the transient
 #: arrays of the Allan analysis at the end, stay flat in the mission length.
@@ -840,14 +873,13 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
                             out[:, OUT_Q:OUT_Q + 4], tr_buf["lat"].get(lo, hi, step),
                             tr_buf["lon"].get(lo, hi, step), tr_buf["h"].get(lo, hi, step),
                             tr_buf["scales"].get(lo, hi, step), tr_buf["v"].get(lo, hi, step),
-                            tr_buf["q"].get(lo, hi, step), e_body, nf.free, DIVERGED_ATTITUDE_RAD, rows)
+                            tr_buf["q"].get(lo, hi, step), e_body, nf.free, DIVERGED_ATTITUDE_RAD,
+                            DIVERGED_VELOCITY_M_S, DIVERGED_POSITION_M, rows)
     rows[:, 10] = out[:, OUT_LAT]
     rows[:, 11] = out[:, OUT_LON]
     record = None
     if bad >= 0:
-        record = {"axis": "-", "time_s": float((lo + step * bad) / fs),
-                  "reason": f"navigation solution diverged (attitude error beyond {DIVERGED_ATTITUDE_RAD} rad or "
-                            "not finite)"}
+        record = {"axis": "-", "time_s": float((lo + step * bad) / fs), "reason": divergence_reason(rows[bad])}
         rows = rows[:bad]
     nf.stats.add(rows, (lo + step * np.arange(rows.shape[0])) / fs)
     nf.series.add(rows)

@@ -139,6 +139,16 @@ MAX_FLIGHT_PATH_ANGLE_RAD = math.radians(60.0)
 """Largest |flight-path angle| (rad) of a :class:`Climb` (the pitch stays well away from the Euler
 singularity at 90 deg)."""
 
+MAX_TURN_BODY_RATE_RAD_S = math.radians(1000.0)
+"""Largest body rate (rad/s) of a :class:`CoordinatedTurn`: ``sqrt(psi'^2 + phi'^2)`` (heading rate and the roll
+rate of the coordinated bank, level flight) at its peak over the turn. 1000 deg/s is the range of an RLG, the same
+bound as the block motions (``sins_sim.config.scenario.MAX_RATE_DEG_S``): a faster turn is not measured."""
+
+MAX_TURN_ACCEL_M_S2 = 2000.0
+"""Largest centripetal acceleration ``V psi'`` (m/s^2) of a :class:`CoordinatedTurn`: about 200 g, beyond any
+vehicle's turn (fighters pull 9 g, missiles 30-60 g) and the same bound as the block's translational vibration
+(``sins_sim.config.scenario.MAX_ACCEL_M_S2``)."""
+
 HEIGHT_RANGE_M = (-1000.0, 100000.0)
 """Allowed height range (m), the same as the trajectory file reader's."""
 
@@ -171,6 +181,23 @@ def _ramp(x):
     y = x * (1.0 - x)
     ds = 140.0 * y * y * y
     return big_s, s, ds
+
+
+def turn_peak_body_rate(speed_m_s: float, rate_rad_s: float, transition_s: float, g_m_s2: float) -> float:
+    """Peak body rate (rad/s) of a level coordinated turn with plateau heading rate ``rate_rad_s``.
+
+    The heading rate is ``r s(x)`` and the bank ``phi = atan(V r s(x) / g)`` over a ramp (``x = tau /
+    transition_s``, ``s`` the septic smoothstep of :func:`_ramp`), so the roll rate is ``phi' = g V r s'(x) /
+    (transition_s (g^2 + (V r s)^2))``; in level flight the body rate is ``[phi', psi' sin phi, psi' cos phi]``,
+    of norm ``sqrt(phi'^2 + psi'^2)``. Its largest value over the ramp (sampled at 4001 points; the plateau is the
+    ramp's end, ``x = 1``) is returned.
+    """
+    x = np.linspace(0.0, 1.0, 4001)
+    s = x ** 4 * (35.0 + x * (-84.0 + x * (70.0 - 20.0 * x)))
+    ds = 140.0 * (x * (1.0 - x)) ** 3 / transition_s
+    lat = speed_m_s * rate_rad_s * s
+    dphi = g_m_s2 * speed_m_s * rate_rad_s * ds / (g_m_s2 * g_m_s2 + lat * lat)
+    return float(np.max(np.hypot(rate_rad_s * s, dphi)))
 
 
 @jit
@@ -872,6 +899,16 @@ class Trajectory:
                     extra = dict(accel=amp)
                 elif isinstance(seg, CoordinatedTurn):
                     kind, amp = _KIND_TURN, seg.delta_heading_rad / plateau
+                    if abs(speed * amp) > MAX_TURN_ACCEL_M_S2:
+                        raise ValueError(f"{where}.delta_heading_rad: the turn's centripetal acceleration V psi' = "
+                                         f"{abs(speed * amp):.4g} m/s^2 must be <= {MAX_TURN_ACCEL_M_S2:g} m/s^2 "
+                                         f"(about 200 g); lengthen duration_s, got {seg.delta_heading_rad!r}")
+                    peak = turn_peak_body_rate(speed, amp, tr, g_ref)
+                    if peak > MAX_TURN_BODY_RATE_RAD_S:
+                        raise ValueError(f"{where}.delta_heading_rad: the turn's peak body rate (heading rate and the "
+                                         f"roll rate into the coordinated bank) {math.degrees(peak):.4g} deg/s must "
+                                         f"be <= {math.degrees(MAX_TURN_BODY_RATE_RAD_S):g} deg/s (the range of an "
+                                         f"RLG); lengthen duration_s or transition_s, got {seg.delta_heading_rad!r}")
                     psi = psi + amp * plateau
                     extra = dict(rate=amp, bank=math.atan2(speed * amp, g_ref))
                 else:
