@@ -56,3 +56,8 @@ STANDARD_GRAVITY = 9.80665
 accelerometer datasheets (ug, ug/g^2)."""
 MICRO_G = STANDARD_GRAVITY * 1e-6
 """One micro-g (ug) in m/s^2."""
+
+#: The largest drive voltage a piezo stack takes (V): the drive model's limit and the recording reader's
+#: (a recorded ``drive_v`` beyond it is refused there). High-voltage stacks are rated to about 1000 V
+#: (e.g. PI's PICMA/PIC stacks); typical dither drives are well below 100 V.
+PIEZO_V_MAX = 1000.0

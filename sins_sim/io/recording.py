@@ -77,6 +77,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sins_sim.units import PIEZO_V_MAX
+
 __all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "MIN_SAMPLES", "MAX_META_DEPTH",
            "DRIVE_V_MAX", "RecordingError", "Recording", "check_recording", "read_recording", "write_recording",
            "read_csv_recording"]
@@ -92,9 +94,9 @@ FS_MAX_HZ = 1.0e6
 QUANTUM_MIN_RAD = 1.0e-9
 QUANTUM_MAX_RAD = 1.0e-4
 #: Largest |drive_v| (V): piezo stacks are rated to 100-200 V (low-voltage stacks) and up to about 1000 V (high-voltage
-#: stacks); the same bound as the drive model's (:data:`sins_sim.models.drive.V_MAX`, which takes it from here). A
+#: stacks); the same bound as the drive model's (:data:`sins_sim.models.drive.V_MAX`; both from sins_sim.units). A
 #: larger value is not a voltage (DAC codes, a unit slip, a corrupted column) and would overflow the fits.
-DRIVE_V_MAX = 1000.0
+DRIVE_V_MAX = PIEZO_V_MAX  # the drive model's limit too (sins_sim.units)
 #: Header keys that must be present (``sins_fs_hz`` only with ``sins_angle``).
 REQUIRED_META = ("format", "axes", "fs_hz", "drive_fs_hz", "quantum_rad", "initial_state", "experiment", "nominal")
 INITIAL_STATES = ("rest", "unknown")
