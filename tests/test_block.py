@@ -409,3 +409,38 @@ def test_no_nan_or_inf_over_the_valid_parameter_space_and_chunks_agree():
             assert np.array_equal(w, np.concatenate([p0, p1], axis=1))
 
     check()
+
+
+def test_the_six_state_kernel_is_the_general_one_bit_for_bit():
+    """``run_three_block6`` (the rotation of a decoupled mount in scalars) does the arithmetic of
+    ``run_three_block`` in the same order: the same bits, deflections and block state."""
+    from sins_sim._kernels import block as kb
+    from sins_sim._kernels import physics as kp
+    from sins_sim._kernels import plant_exact as kx
+    from sins_sim.models.block import BlockStep
+
+    block = _block(inertia_kg_m2=np.array([[0.012, 4e-4, 0.0], [4e-4, 0.013, 0.0], [0.0, 0.0, 0.015]]))
+    st = BlockStep(block, H)
+    assert st.idx.size == 6
+    n = 3000
+    cs = np.empty((3, kx.N_CONSTS))
+    for a, s in enumerate(PAPER):
+        kx._constants(cs, a, H, s.omega0 ** 2, s.k1, s.k2, s.k3, s.k4, s.k5, 0.0, 0.25 / s.f0_hz)
+    t = np.arange(n) * H
+    volts = np.vstack([0.4 * np.cos(2 * np.pi * f * t) for f in F0])
+    q0s = -cs[:, kx.C_W0SQ:kx.C_W0SQ + 1] * cs[:, kx.C_K5:kx.C_K5 + 1] * volts
+    q1s = np.zeros((3, n))
+    gain = -st.jg * cs[:, kx.C_W0SQ]
+    cin = np.ascontiguousarray((st.f0t @ (gain[:, None] * cs[:, kx.C_K5][:, None] * volts)).T)
+    outs = []
+    for kernel in (kb.run_three_block, kb.run_three_block6):
+        state = np.zeros((3, kx.STATE_SIZE))
+        hyst, stack = np.zeros((3, kp.HYST_SIZE)), np.zeros((3, kp.STACK_SIZE))
+        for a in range(3):
+            kp.hyst_reset(hyst[a], stack[a])
+        delta, z, bstate = np.empty((3, n)), np.zeros((n, 12)), np.zeros(kb.B_SIZE)
+        kernel(0, n, q0s, q1s, cs, np.zeros(3, dtype=np.int64), state, hyst, stack, gain, st.umat, st.phit, st.tt,
+               st.idx, st.pos, cin, bstate, delta, z)
+        outs.append((delta, z, bstate, state))
+    for x, y in zip(*outs):
+        assert np.array_equal(x, y)
