@@ -23,6 +23,7 @@ from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
 from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml
 from sins_sim.filters import registry as filter_registry
+from sins_sim.navigation.coning import CONING_ALGORITHMS
 
 # The scenario's own schema needs no model, engine or numba: a scenario file is checked before those are
 # imported (they are imported where the IMU, the motion and the navigation are built), so a configuration
@@ -268,8 +269,8 @@ SCENARIO_SCHEMA = Map({
     "filters": ListOf(_FilterName(choices=SINS_FILTERS + filter_registry.shipped_plugin_names()),
                       default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
     "navigation": Map({
-        "coning": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
-        "sculling": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
+        "coning": Str(choices=CONING_ALGORITHMS, default="two_sample"),
+        "sculling": Str(choices=CONING_ALGORITHMS, default="two_sample"),
         "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
         "n_sub": Num(integer=True, min=1, max=1000, default=1, doc="filter samples per navigation update"),
         "vertical": Str(choices=("height_aid", "free"), default="height_aid"),

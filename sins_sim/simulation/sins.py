@@ -46,6 +46,7 @@ from sins_sim.models.sensor_errors import AccelErrors, GyroErrors, SensorErrorPa
 from sins_sim._kernels import truth as ktruth
 from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
 from sins_sim.filters import registry as filter_registry
+from sins_sim.navigation.coning import CONING_ALGORITHMS
 from sins_sim.navigation.strapdown import StrapdownNavigator
 from sins_sim.simulation.channel import ChannelChain, ChannelConfig, DriveControl, SideBySide, side_by_side
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
@@ -146,7 +147,7 @@ class NavSettings:
 
     Parameters
     ----------
-    coning, sculling : {"none", "two_sample", "three_sample"}
+    coning, sculling : {"none", "two_sample", "three_sample", "four_sample"}
         Coning and sculling compensation (:class:`~sins_sim.navigation.strapdown.StrapdownNavigator`).
     start_s : float
         Navigation starts, aligned to the truth, at this time (s), after the dithers have
@@ -186,8 +187,8 @@ class NavSettings:
     spectrum_s: float = 2.0
 
     def __post_init__(self):
-        v.choice("navigation", "coning", self.coning, ("none", "two_sample", "three_sample"))
-        v.choice("navigation", "sculling", self.sculling, ("none", "two_sample", "three_sample"))
+        v.choice("navigation", "coning", self.coning, CONING_ALGORITHMS)
+        v.choice("navigation", "sculling", self.sculling, CONING_ALGORITHMS)
         v.non_negative("navigation", "start_s", self.start_s)
         if isinstance(self.n_sub, bool) or int(self.n_sub) != self.n_sub or self.n_sub < 1:
             raise ValueError(f"navigation.n_sub: must be an integer >= 1, got {self.n_sub!r}")
