@@ -210,3 +210,56 @@ def test_tuned_equals_flat_design_for_the_identity_filter():
     near = flat_coefficients((1.0, 30.0), FS)[0]
     four = np.array(CONING_COEFFICIENTS[ConingAlgorithm.FOUR_SAMPLE])
     assert np.all(np.abs(near / four - 1.0) < np.array([2e-3, 1e-2, 3e-2]))
+
+
+# --- configuration: filter_tuned in a scenario -----------------------------------------------------------
+
+from sins_sim.config.errors import ConfigError  # noqa: E402
+
+
+def _scenario_doc(**nav):
+    return {"name": "t", "duration_s": 2.0, "imu": str(ROOT / "configs" / "default-imu.yaml"),
+            "motion": [{"type": "sines", "amplitude_arcmin": [1.0, 1.0, 0.0], "frequency_hz": [300, 300, 0]}],
+            "filters": ["ideal", "eliminator", "correcting"], "navigation": {"start_s": 1.0, **nav}}
+
+
+def test_filter_tuned_is_designed_at_load_per_filter():
+    """The design is computed when the scenario loads, one per filter, from that filter's responses: the
+    ideal filter's is the flat design; the eliminator's rows differ per axis (its axes differ)."""
+    sc = load_scenario(_scenario_doc(coning="filter_tuned", tuned_band_hz=[200, 300]))
+    assert set(sc.nav.designs) == {"ideal", "eliminator", "correcting"}
+    np.testing.assert_allclose(sc.nav.designs["ideal"]["coefficients"],
+                               flat_coefficients((200.0, 300.0), FS), rtol=1e-12)
+    elim = sc.nav.designs["eliminator"]["coefficients"]
+    assert np.ptp(elim[:, 0]) > 1e-3 * np.max(np.abs(elim[:, 0]))
+    coning, sculling = sc.nav.compensation("eliminator")
+    assert coning is elim and sculling == "two_sample"
+
+
+def test_engine_and_configuration_agree_on_the_choices():
+    from sins_sim.config.scenario import NAV_ALGORITHMS as CONFIG_CHOICES
+    from sins_sim.simulation.sins import NAV_ALGORITHMS
+
+    assert CONFIG_CHOICES == NAV_ALGORITHMS
+
+
+@pytest.mark.parametrize(("nav", "message"), [
+    ({"coning": "filter_tuned"}, r"navigation\.tuned_band_hz: must be \[low, high\]"),
+    ({"sculling": "filter_tuned", "tuned_band_hz": [300, 200]}, r"navigation\.tuned_band_hz: must be \[low, high\]"),
+    ({"coning": "filter_tuned", "tuned_band_hz": [200, 3700]}, r"navigation\.tuned_band_hz: must stay below the "
+                                                                 r"filter Nyquist 3600 Hz"),
+    ({"coning": "six_sample"}, r"navigation\.coning: must be one of"),
+])
+def test_filter_tuned_bad_settings_are_one_line(nav, message):
+    with pytest.raises(ConfigError, match=message):
+        load_scenario(_scenario_doc(**nav))
+
+
+def test_pseudo_coning_scenario_is_recognised():
+    """The bundled scenario's vibration is found as the (x, y) pair, drifting about z."""
+    from sins_sim.jobs.run import _pseudo_pairs
+
+    sc = load_scenario(ROOT / "scenarios" / "pseudo-coning-300hz.yaml")
+    amp, f, ph, pairs = _pseudo_pairs(sc)
+    assert f == 300.0 and pairs == [(2, 0, 1)]
+    assert _pseudo_pairs(load_scenario(ROOT / "scenarios" / "coning-600hz.yaml")) is None

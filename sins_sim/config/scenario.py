@@ -10,6 +10,7 @@ the seed. :class:`Scenario` holds what the engine takes (an :class:`~sins_sim.si
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import warnings
@@ -23,7 +24,6 @@ from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
 from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml
 from sins_sim.filters import registry as filter_registry
-from sins_sim.navigation.coning import CONING_ALGORITHMS
 
 # The scenario's own schema needs no model, engine or numba: a scenario file is checked before those are
 # imported (they are imported where the IMU, the motion and the navigation are built), so a configuration
@@ -77,6 +77,10 @@ def _psd_row(max_psd, unit_doc):
                          Num(min=0.0, min_exclusive=True, max=max_psd)),
                doc=f"[f_hz, {unit_doc}]")
 
+
+#: Coning/sculling choices (``sins_sim.navigation.coning.CONING_ALGORITHMS`` and ``filter_tuned``, the
+#: engine's ``NAV_ALGORITHMS``; spelled out so that a scenario is checked before the engine is imported).
+NAV_ALGORITHMS = ("none", "two_sample", "three_sample", "four_sample", "filter_tuned")
 
 MOTION_SCHEMA = OneOf({
     "static": Map({}, doc="no block motion"),
@@ -269,8 +273,11 @@ SCENARIO_SCHEMA = Map({
     "filters": ListOf(_FilterName(choices=SINS_FILTERS + filter_registry.shipped_plugin_names()),
                       default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
     "navigation": Map({
-        "coning": Str(choices=CONING_ALGORITHMS, default="two_sample"),
-        "sculling": Str(choices=CONING_ALGORITHMS, default="two_sample"),
+        "coning": Str(choices=NAV_ALGORITHMS, default="two_sample",
+                      doc="filter_tuned: coefficients designed per filter over tuned_band_hz (Mark & Tazartes 2001)"),
+        "sculling": Str(choices=NAV_ALGORITHMS, default="two_sample"),
+        "tuned_band": Vec(2, unit="hz", min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ, default=None,
+                          doc="design band of filter_tuned coning/sculling; required with it"),
         "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
         "n_sub": Num(integer=True, min=1, max=1000, default=1, doc="filter samples per navigation update"),
         "vertical": Str(choices=("height_aid", "free"), default="height_aid"),
@@ -285,6 +292,7 @@ SCENARIO_SCHEMA = Map({
         "spectrum": Num(unit="s", min=0.0, max=MAX_SPECTRUM_S, default=2.0,
                         doc="full-rate gyro-error record kept for the spectra"),
     }, default={}, rules=("timeseries_rate_hz <= the navigation update rate (readout.output_rate_hz / n_sub)",
+                          "tuned_band_hz: low < high < the filter Nyquist, given with filter_tuned",
                           "the stored series and spectra must fit in memory (checked with the run's estimate)")),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
     "temperature": TEMPERATURE_SCHEMA,
@@ -412,7 +420,13 @@ class Scenario:
             self.nav = NavSettings(coning=nv["coning"], sculling=nv["sculling"], start_s=nv["start_s"],
                                    n_sub=nv["n_sub"], vertical=nv["vertical"],
                                    height_aid_tau_s=nv["height_aid_tau_s"], accel_delay=nv["accel_delay"], align_s=nv["align_s"],
-                                   timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"])
+                                   timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"],
+                                   tuned_band_hz=None if nv["tuned_band_hz"] is None else tuple(nv["tuned_band_hz"]))
+            if self.nav.tuned:  # the design is part of loading the scenario (issue 28): errors here, not mid-run
+                from sins_sim.simulation.sins import tuned_designs
+
+                self.nav = dataclasses.replace(self.nav, designs=tuned_designs(self.imu, self.filters,
+                                                                                self.nav.tuned_band_hz))
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {exc}") from None
         self.site = c["site"]

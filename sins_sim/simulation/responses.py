@@ -42,7 +42,7 @@ import numpy as np
 from sins_sim.filters import registry as filter_registry
 from sins_sim.navigation.coning import flat_coefficients, tuned_coefficients, tuned_residual
 
-__all__ = ["mechanical_response", "increment_responses", "tuned_design", "measured_response", "N_BAND_POINTS"]
+__all__ = ["mechanical_response", "fir_response", "increment_responses", "tuned_design", "measured_response", "N_BAND_POINTS"]
 
 #: Band frequencies of the least-squares design (uniform in Hz).
 N_BAND_POINTS = 201
@@ -74,13 +74,23 @@ def mechanical_response(f_hz, f0_hz: float, q: float) -> np.ndarray:
     return k / (k - r2)
 
 
-def _fir_response(ch, f_hz) -> np.ndarray:
-    """The readout FIR at the plant rate, its delay removed (complex)."""
-    fs_in = ch.readout.input_rate_hz
-    taps = ch.readout.taps()
-    k = np.arange(taps.size) - 0.5 * (taps.size - 1)
+def fir_response(readout, f_hz) -> np.ndarray:
+    """Gain of the readout's anti-alias FIR at its input rate (complex, its delay removed).
+
+    Parameters
+    ----------
+    readout : ReadoutParams
+    f_hz : array_like
+        Frequencies (Hz).
+
+    Returns
+    -------
+    ndarray of complex, shape (n,)
+    """
+    taps = readout.taps()
     f = np.atleast_1d(np.asarray(f_hz, dtype=np.float64))
-    return (taps[None, :] * np.exp(-2j * math.pi * f[:, None] * k[None, :] / fs_in)).sum(axis=1)
+    k = np.arange(taps.size) - 0.5 * (taps.size - 1)
+    return (taps[None, :] * np.exp(-2j * math.pi * f[:, None] * k[None, :] / readout.input_rate_hz)).sum(axis=1)
 
 
 def _filter_response(ch, name: str, axis: str, f_hz) -> np.ndarray:
@@ -125,7 +135,7 @@ def increment_responses(channels, name: str, f_hz) -> np.ndarray:
     for i, ch in enumerate(channels):
         s = ch.suspension
         q = s.q_factor(ch.drive.amplitude_rad)
-        out[i] = mechanical_response(f, s.f0_hz, q) * _fir_response(ch, f) * _filter_response(ch, name, "xyz"[i], f)
+        out[i] = mechanical_response(f, s.f0_hz, q) * fir_response(ch.readout, f) * _filter_response(ch, name, "xyz"[i], f)
     return out
 
 
