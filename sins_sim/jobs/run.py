@@ -271,7 +271,33 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
     pc = _pseudo_coning_section(scenario, res, metrics["filters"])
     if pc:
         metrics["pseudo_coning"] = pc
+    ct = _coning_table_section(scenario, res, metrics["filters"])
+    if ct:
+        metrics["coning_algorithms"] = ct
     return res, metrics
+
+
+def _coning_table_section(scenario, res, filt_metrics) -> dict | None:
+    """Under a single coning motion: each filter's heading drift error with each coning algorithm (issue 28)."""
+    from sins_sim.jobs.coning_table import algorithm_drifts, band_for, coning_frequency_hz
+
+    f = coning_frequency_hz(scenario)
+    if f is None or scenario.nav is None:
+        return None
+    band = band_for(scenario, f, res.filter_rate_hz)
+    drifts = algorithm_drifts(scenario, res, band)
+    if not drifts:
+        return None
+    full = {}
+    for name in drifts:
+        d = (filt_metrics.get(name) or {}).get("attitude_drift_deg_h") or {}
+        full[name] = (d.get("down") or {}).get("value")
+    return {"frequency_hz": f, "tuned_band_hz": list(band), "heading_drift_error_deg_h": drifts,
+            "full_navigation_deg_h": {"algorithm": scenario.nav.coning, "heading_drift": full},
+            "note": "attitude replay of each filter's increments (true gyro angle + the run's gyro-angle error) "
+                    "with each algorithm from the true attitude at the record's start: the drift of the attitude "
+                    "error about the cone axis (sins_sim.jobs.coning_table); full_navigation: the run's own "
+                    "navigation (attitude drift, down)"}
 
 
 def _pseudo_pairs(scenario):
@@ -590,6 +616,16 @@ def _report(scenario, metrics, figures, filter_table: str = "") -> str:
     if metrics["warnings"]:
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in metrics["warnings"]]
     lines += _pseudo_coning_report(metrics.get("pseudo_coning"))
+    ct = metrics.get("coning_algorithms")
+    if ct:
+        from sins_sim.jobs.coning_table import coning_algorithm_table
+
+        lines += ["", "## Coning algorithms", "",
+                  coning_algorithm_table({n: {f"{ct['frequency_hz']:g}": r}
+                                          for n, r in ct["heading_drift_error_deg_h"].items()}),
+                  f"Design band of the tuned algorithm: {ct['tuned_band_hz'][0]:g}-{ct['tuned_band_hz'][1]:g} Hz. "
+                  f"The run's own navigation (`{ct['full_navigation_deg_h']['algorithm']}`) is the drift table above.",
+                  ""]
     lines += [filter_table] if filter_table else []
     lines += [""] + [f"![{f}]({f})" for f in figures] + [""]
     return "\n".join(lines)
