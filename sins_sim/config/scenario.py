@@ -280,6 +280,10 @@ SCENARIO_SCHEMA = Map({
                           doc="design band of filter_tuned coning/sculling; required with it"),
         "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
         "n_sub": Num(integer=True, min=1, max=1000, default=1, doc="filter samples per navigation update"),
+        "rate": Num(unit="hz", **_POS, max=1.0e6, default=None,
+                    doc="navigation update rate (attitude, velocity, position); the coning and sculling sums run "
+                        "at the filter rate; sets n_sub = readout.output_rate_hz / rate_hz (a whole number); "
+                        "default: every filter sample"),
         "vertical": Str(choices=("height_aid", "free"), default="height_aid"),
         "height_aid_tau": Num(unit="s", **_POS, max=1.0e5, default=100.0),
         "accel_delay": Str(choices=("matched", "none"), default="matched"),
@@ -353,6 +357,21 @@ SCENARIO_SCHEMA.fields["imu"] = _Any()
 SCENARIO_SCHEMA.fields["filter_parameters"] = _FilterParameters()
 
 
+def _n_sub_of_rate(rate_hz: float, fs_hz: float, n_sub_given, ctx: str) -> int:
+    """``n_sub`` of ``navigation.rate_hz``: the filter samples per update, a whole number (issue 26)."""
+    ratio = fs_hz / rate_hz
+    n = int(round(ratio))
+    if n < 1 or abs(ratio - n) > 1e-9 * ratio:
+        near = sorted({fs_hz / max(1, int(math.floor(ratio))), fs_hz / max(1, int(math.ceil(ratio)))})
+        raise ConfigError(f"{ctx}: navigation.rate_hz: must divide the filter rate {fs_hz:g} Hz "
+                          f"(readout.output_rate_hz) into a whole number of samples per update (<= {fs_hz:g} Hz), "
+                          f"e.g. {' or '.join(f'{r:g}' for r in near)} Hz; got {rate_hz:g}")
+    if n_sub_given is not None and n_sub_given != n:
+        raise ConfigError(f"{ctx}: navigation.rate_hz: {rate_hz:g} Hz is n_sub = {n}, but navigation.n_sub is "
+                          f"{n_sub_given!r}: give one of them")
+    return n
+
+
 class Scenario:
     """A validated scenario: IMU, motion, filters, navigation settings, seed.
 
@@ -408,6 +427,8 @@ class Scenario:
         fs = self.imu.filter_rate_hz
         _check_motion(c["motion"], c["linear_vibration"], fs, ctx)
         nv = c["navigation"]
+        if nv["rate_hz"] is not None:
+            nv["n_sub"] = _n_sub_of_rate(nv["rate_hz"], fs, (doc.get("navigation") or {}).get("n_sub"), ctx)
         if nv["timeseries_rate_hz"] is not None and nv["timeseries_rate_hz"] > fs / nv["n_sub"]:
             raise ConfigError(f"{ctx}: navigation.timeseries_rate_hz: must be <= the navigation update rate "
                               f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub), "
