@@ -33,7 +33,7 @@ from sins_sim.navigation import (
     quat_from_rotvec,
     quat_multiply,
 )
-from sins_sim.navigation.coning import CONING_COEFFICIENTS, ConingAlgorithm
+from sins_sim.navigation.coning import CONING_COEFFICIENTS, ConingAlgorithm, coefficient_matrix
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H
 
 LAT45 = math.radians(45.0)
@@ -98,8 +98,8 @@ def _smooth_increments(dt, n, lat=LAT45):
 def _naive_strapdown(dth, dv, dt, n_sub, coning, sculling, lat, lon, h, v0, q0, prev_dth, prev_dv,
                      gains=None, h_aid=None):
     """The module-docstring equations with numpy vectors and the numpy Earth model, one sample at a time."""
-    cc = CONING_COEFFICIENTS[ConingAlgorithm(coning)]  # lags 1, 2, 3
-    sc = CONING_COEFFICIENTS[ConingAlgorithm(sculling)]
+    cc = coefficient_matrix(coning)  # [component, lag - 1]
+    sc = coefficient_matrix(sculling)
     big_t = n_sub * dt
     v = np.array(v0, dtype=float)
     q = np.array(q0, dtype=float)
@@ -112,10 +112,10 @@ def _naive_strapdown(dth, dv, dt, n_sub, coning, sculling, lat, lon, h, v0, q0, 
     rows, count = [], 0
     for i in range(len(dth)):
         d, u = dth[i], dv[i]
-        lag_th = 0.5 * alpha + sum(cc[j] * pth[-1 - j] for j in range(3))
-        beta = beta + np.cross(lag_th, d)
-        scul = (scul + np.cross(0.5 * alpha + sum(sc[j] * pth[-1 - j] for j in range(3)), u)
-                + np.cross(0.5 * ups + sum(sc[j] * pdv[-1 - j] for j in range(3)), d))
+        # component i of each lag's cross product weighted by row i of the coefficients
+        beta = beta + 0.5 * np.cross(alpha, d) + sum(cc[:, j] * np.cross(pth[-1 - j], d) for j in range(3))
+        scul = (scul + 0.5 * (np.cross(alpha, u) + np.cross(ups, d))
+                + sum(sc[:, j] * (np.cross(pth[-1 - j], u) + np.cross(pdv[-1 - j], d)) for j in range(3)))
         alpha, ups = alpha + d, ups + u
         pth, pdv = pth[1:] + [d], pdv[1:] + [u]
         count += 1
@@ -150,7 +150,11 @@ def _naive_strapdown(dth, dv, dt, n_sub, coning, sculling, lat, lon, h, v0, q0, 
     return np.array(rows)
 
 
-@pytest.mark.parametrize("algorithm", ["three_sample", "four_sample"])
+# a filter-tuned-like design: rows differ per component (the kernel's per-component path)
+TUNED_LIKE = np.array([[0.13, -0.03, 0.004], [0.41, -0.18, 0.05], [1.5, -1.1, 0.2]])
+
+
+@pytest.mark.parametrize("algorithm", ["three_sample", "four_sample", "tuned"])
 def test_kernel_matches_naive_reference(algorithm):
     """Element-wise against the numpy transcription of the equations (n_sub = 3, three- and
     four-sample coning and sculling, height aiding, previous increments given (two and three), a
@@ -161,7 +165,8 @@ def test_kernel_matches_naive_reference(algorithm):
     hundred ulp: 1e-13 rad on lat/lon (ulp 1.1e-16), 1e-11 m on h, 1e-12 m/s on v, 1e-13 on q.
     """
     dt, n_sub = 0.0025, 3
-    n_prev = 3 if algorithm == "four_sample" else 2
+    n_prev = 2 if algorithm == "three_sample" else 3
+    algorithm = TUNED_LIKE if algorithm == "tuned" else algorithm
     dth, dv = _smooth_increments(dt, 300 + n_prev)
     prev_dth, prev_dv = dth[:n_prev], dv[:n_prev]
     dth, dv = dth[n_prev:], dv[n_prev:]

@@ -201,6 +201,29 @@ def _cross_add(c, a0, a1, a2, b0, b1, b2, acc):
 
 
 @jit
+def _per_component(a0, a1, a2, u0, u1, u2, d0, d1, d2, e0, e1, e2, p0, p1, p2, m0, m1, m2, o0, o1, o2,
+                   w0, w1, w2, y0, y1, y2, z0, z1, z2, cc1, cc2, cc3, sc1, sc2, sc3, bb, ss):
+    """(K1) and (K2) of one sample with coefficients per component (a filter-tuned design): ``bb``, ``ss``."""
+    # (K1) 1/2 alpha x dtheta_l + sum_j c[:, j] (dtheta_{l-j} x dtheta_l)
+    bb[0] = 0.5 * (a1 * d2 - a2 * d1)
+    bb[1] = 0.5 * (a2 * d0 - a0 * d2)
+    bb[2] = 0.5 * (a0 * d1 - a1 * d0)
+    _cross_add(cc1, p0, p1, p2, d0, d1, d2, bb)
+    _cross_add(cc2, m0, m1, m2, d0, d1, d2, bb)
+    _cross_add(cc3, o0, o1, o2, d0, d1, d2, bb)
+    # (K2) 1/2 (alpha x dv_l + upsilon x dtheta_l) + sum_j s[:, j] (dtheta_{l-j} x dv_l + dv_{l-j} x dtheta_l)
+    ss[0] = 0.5 * ((a1 * e2 - a2 * e1) + (u1 * d2 - u2 * d1))
+    ss[1] = 0.5 * ((a2 * e0 - a0 * e2) + (u2 * d0 - u0 * d2))
+    ss[2] = 0.5 * ((a0 * e1 - a1 * e0) + (u0 * d1 - u1 * d0))
+    _cross_add(sc1, p0, p1, p2, e0, e1, e2, ss)
+    _cross_add(sc1, w0, w1, w2, d0, d1, d2, ss)
+    _cross_add(sc2, m0, m1, m2, e0, e1, e2, ss)
+    _cross_add(sc2, y0, y1, y2, d0, d1, d2, ss)
+    _cross_add(sc3, o0, o1, o2, e0, e1, e2, ss)
+    _cross_add(sc3, z0, z1, z2, d0, d1, d2, ss)
+
+
+@jit
 def strapdown_run(dtheta, dv, h_aid, dt, n_sub, ccoef, scoef, aided, k1, k2, k3, state, out):
     """Strapdown navigation over one chunk of increments (module docstring, K1-A1).
 
@@ -237,6 +260,15 @@ def strapdown_run(dtheta, dv, h_aid, dt, n_sub, ccoef, scoef, aided, k1, k2, k3,
     """
     cc1, cc2, cc3 = ccoef[:, 0].copy(), ccoef[:, 1].copy(), ccoef[:, 2].copy()
     sc1_, sc2_, sc3_ = scoef[:, 0].copy(), scoef[:, 1].copy(), scoef[:, 2].copy()
+    # the named algorithms have one row for all components: (K1)/(K2) then take one cross product
+    # per sum, ``(1/2 alpha + sum_j c_j x_{l-j}) x y`` (the same terms, fewer operations)
+    uniform = True
+    for i in range(1, 3):
+        for j in range(3):
+            if ccoef[i, j] != ccoef[0, j] or scoef[i, j] != scoef[0, j]:
+                uniform = False
+    k1c, k2c, k3c = ccoef[0, 0], ccoef[0, 1], ccoef[0, 2]
+    k1s, k2s, k3s = scoef[0, 0], scoef[0, 1], scoef[0, 2]
     bb = np.empty(3)
     ss = np.empty(3)
     big_t = n_sub * dt
@@ -277,30 +309,33 @@ def strapdown_run(dtheta, dv, h_aid, dt, n_sub, ccoef, scoef, aided, k1, k2, k3,
     for i in range(dtheta.shape[0]):
         d0, d1, d2 = dtheta[i, 0], dtheta[i, 1], dtheta[i, 2]
         e0, e1, e2 = dv[i, 0], dv[i, 1], dv[i, 2]
-        # (K1) beta += 1/2 alpha x dtheta_l + sum_j c[:, j] (dtheta_{l-j} x dtheta_l)
-        bb[0] = 0.5 * (a1 * d2 - a2 * d1)
-        bb[1] = 0.5 * (a2 * d0 - a0 * d2)
-        bb[2] = 0.5 * (a0 * d1 - a1 * d0)
-        _cross_add(cc1, p0, p1, p2, d0, d1, d2, bb)
-        _cross_add(cc2, m0, m1, m2, d0, d1, d2, bb)
-        _cross_add(cc3, o0, o1, o2, d0, d1, d2, bb)
-        b0 += bb[0]
-        b1 += bb[1]
-        b2 += bb[2]
-        # (K2) S += 1/2 (alpha x dv_l + upsilon x dtheta_l)
-        #         + sum_j s[:, j] (dtheta_{l-j} x dv_l + dv_{l-j} x dtheta_l)
-        ss[0] = 0.5 * ((a1 * e2 - a2 * e1) + (u1 * d2 - u2 * d1))
-        ss[1] = 0.5 * ((a2 * e0 - a0 * e2) + (u2 * d0 - u0 * d2))
-        ss[2] = 0.5 * ((a0 * e1 - a1 * e0) + (u0 * d1 - u1 * d0))
-        _cross_add(sc1_, p0, p1, p2, e0, e1, e2, ss)
-        _cross_add(sc1_, w0, w1, w2, d0, d1, d2, ss)
-        _cross_add(sc2_, m0, m1, m2, e0, e1, e2, ss)
-        _cross_add(sc2_, y0, y1, y2, d0, d1, d2, ss)
-        _cross_add(sc3_, o0, o1, o2, e0, e1, e2, ss)
-        _cross_add(sc3_, z0_, z1_, z2_, d0, d1, d2, ss)
-        sc0 += ss[0]
-        sc1 += ss[1]
-        sc2 += ss[2]
+        if uniform:
+            # (K1) beta += (1/2 alpha + sum_j c_j dtheta_{l-j}) x dtheta_l
+            r0 = 0.5 * a0 + k1c * p0 + k2c * m0 + k3c * o0
+            r1 = 0.5 * a1 + k1c * p1 + k2c * m1 + k3c * o1
+            r2 = 0.5 * a2 + k1c * p2 + k2c * m2 + k3c * o2
+            b0 += r1 * d2 - r2 * d1
+            b1 += r2 * d0 - r0 * d2
+            b2 += r0 * d1 - r1 * d0
+            # (K2) S += (1/2 alpha + sum_j s_j dtheta_{l-j}) x dv_l + (1/2 upsilon + sum_j s_j dv_{l-j}) x dtheta_l
+            r0 = 0.5 * a0 + k1s * p0 + k2s * m0 + k3s * o0
+            r1 = 0.5 * a1 + k1s * p1 + k2s * m1 + k3s * o1
+            r2 = 0.5 * a2 + k1s * p2 + k2s * m2 + k3s * o2
+            t0 = 0.5 * u0 + k1s * w0 + k2s * y0 + k3s * z0_
+            t1 = 0.5 * u1 + k1s * w1 + k2s * y1 + k3s * z1_
+            t2 = 0.5 * u2 + k1s * w2 + k2s * y2 + k3s * z2_
+            sc0 += (r1 * e2 - r2 * e1) + (t1 * d2 - t2 * d1)
+            sc1 += (r2 * e0 - r0 * e2) + (t2 * d0 - t0 * d2)
+            sc2 += (r0 * e1 - r1 * e0) + (t0 * d1 - t1 * d0)
+        else:
+            _per_component(a0, a1, a2, u0, u1, u2, d0, d1, d2, e0, e1, e2, p0, p1, p2, m0, m1, m2, o0, o1, o2,
+                           w0, w1, w2, y0, y1, y2, z0_, z1_, z2_, cc1, cc2, cc3, sc1_, sc2_, sc3_, bb, ss)
+            b0 += bb[0]
+            b1 += bb[1]
+            b2 += bb[2]
+            sc0 += ss[0]
+            sc1 += ss[1]
+            sc2 += ss[2]
         a0 += d0
         a1 += d1
         a2 += d2
