@@ -1086,9 +1086,9 @@ def build_parser() -> argparse.ArgumentParser:
                                                   "were taken along")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     p.add_argument("--name", default="external", help="the name of the result in metrics.json [external]")
-    p.add_argument("--coning", choices=("none", "two_sample", "three_sample"), default="two_sample",
+    p.add_argument("--coning", choices=("none", "two_sample", "three_sample", "four_sample"), default="two_sample",
                    help="coning compensation [two_sample]")
-    p.add_argument("--sculling", choices=("none", "two_sample", "three_sample"), default="two_sample",
+    p.add_argument("--sculling", choices=("none", "two_sample", "three_sample", "four_sample"), default="two_sample",
                    help="sculling compensation [two_sample]")
     p.add_argument("--vertical", choices=("height_aid", "free"), default="height_aid",
                    help="vertical channel: aided by the truth's height, or free [height_aid]")

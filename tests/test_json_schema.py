@@ -61,7 +61,7 @@ def test_misspelt_key_is_flagged_where_it_is():
 
 @pytest.mark.parametrize("edit,where,words", [
     (lambda d: d.update(duration_s=-1.0), ["duration_s"], "less than or equal to the minimum"),
-    (lambda d: d.setdefault("navigation", {}).update(coning="four_sample"), ["navigation", "coning"], "is not one of"),
+    (lambda d: d.setdefault("navigation", {}).update(coning="five_sample"), ["navigation", "coning"], "is not one of"),
     (lambda d: d.pop("name"), [], "'name' is a required property"),
     (lambda d: d.update(motion=[{"type": "wobble"}]), ["motion", 0, "type"], "is not one of"),
     (lambda d: d.update(motion=[{"type": "static", "amplitude_arcmin": 1.0}]), ["motion", 0],

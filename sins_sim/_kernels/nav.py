@@ -20,6 +20,9 @@ algorithms; Savage 1998 sec. "Coning algorithms"; Ignagni 1996)::
     algo 1 ("two_sample"):   phi_k = dtheta_k + (1/12) dtheta_{k-1} x dtheta_k
     algo 2 ("three_sample"): phi_k = dtheta_k - (1/60) dtheta_{k-2} x dtheta_k
                                               + (7/60) dtheta_{k-1} x dtheta_k
+    algo 3 ("four_sample"):  phi_k = dtheta_k + (1/280) dtheta_{k-3} x dtheta_k
+                                              - (13/420) dtheta_{k-2} x dtheta_k
+                                              + (113/840) dtheta_{k-1} x dtheta_k
 
 The 1/12 coefficient is Savage's single-sample-plus-previous-sample algorithm
 (Savage 1998, Part 1; Savage, *Strapdown Analytics*, 2nd ed., 2007,
@@ -33,6 +36,16 @@ Ignagni 1990) term by term through ``(Omega h)^5`` gives
 ``c2 = 7/60``; equivalently ``3 c1 + 1/2 = 9/20`` and ``3 c2 + 1 = 27/20``,
 the composition of three such updates reproducing Algorithm E (see
 :mod:`sins_sim.navigation.coning` for the derivation and the residuals).
+The four-sample coefficients ``(113/840, -13/420, 1/280)`` follow the same
+way, matching through ``(Omega h)^7`` (Miller 1983's N-sample optimality
+condition with ``N = 4``); their residual is the published four-sample term.
+
+The kernels take the coefficients, not the names: a ``(3, 3)`` array whose
+row ``i`` weights component ``i`` of ``dtheta_{k-1} x dtheta_k``,
+``dtheta_{k-2} x dtheta_k`` and ``dtheta_{k-3} x dtheta_k`` (columns). Every
+row is the same for the named algorithms; a filter-tuned design
+(:func:`sins_sim.navigation.coning.tuned_coefficients`) differs per row,
+because component ``i`` is formed from the two other axes, whose filters differ.
 
 References
 ----------
@@ -62,6 +75,9 @@ from sins_sim._kernels._config import jit
 ALGO_NONE = 0
 ALGO_TWO_SAMPLE = 1
 ALGO_THREE_SAMPLE = 2
+ALGO_FOUR_SAMPLE = 3
+#: Previous increments the kernels keep (the longest algorithm's span minus one).
+N_LAGS = 3
 
 #: algo 1: coefficient of ``dtheta_{k-1} x dtheta_k`` (Savage 1998).
 C_TWO_PREV1 = 1.0 / 12.0
@@ -69,6 +85,11 @@ C_TWO_PREV1 = 1.0 / 12.0
 C_THREE_PREV2 = -1.0 / 60.0
 #: algo 2: coefficient of ``dtheta_{k-1} x dtheta_k``.
 C_THREE_PREV1 = 7.0 / 60.0
+#: algo 3: coefficients of ``dtheta_{k-1}``, ``dtheta_{k-2}``, ``dtheta_{k-3}`` ``x dtheta_k``
+#: (module docstring; matched through ``(Omega h)^7``).
+C_FOUR_PREV1 = 113.0 / 840.0
+C_FOUR_PREV2 = -13.0 / 420.0
+C_FOUR_PREV3 = 1.0 / 280.0
 
 #: Below this ``|phi|^2`` (rad^2) the rotation-vector-to-quaternion map uses
 #: its Taylor series; the first neglected terms are below 3e-23.
@@ -132,25 +153,26 @@ def rotvec_to_quat(phi, out):
 
 
 @jit
-def attitude_update(dtheta, q0, algo, prev, out_q):
+def attitude_update(dtheta, q0, coef, prev, out_q):
     """Coning-corrected strapdown attitude update, one step per increment.
 
-    For ``k = 0 .. N-1``::
+    For ``k = 0 .. N-1`` and each component ``i``::
 
-        phi_k = dtheta_k + c1 (dtheta_{k-2} x dtheta_k) + c2 (dtheta_{k-1} x dtheta_k)
-        q_k   = normalise(q_{k-1} (x) q(phi_k)),      q_{-1} = q0
+        phi_k,i = dtheta_k,i + sum_{j=1..3} coef[i, j-1] (dtheta_{k-j} x dtheta_k)_i
+        q_k     = normalise(q_{k-1} (x) q(phi_k)),      q_{-1} = q0
 
-    with ``(c1, c2) = (0, 0)`` for ``algo == 0``, ``(0, 1/12)`` for
-    ``algo == 1`` (Savage 1998) and ``(-1/60, 7/60)`` for ``algo == 2``
-    (Ignagni 1990 Algorithm E, one increment per update; module docstring).
+    with the rows of ``coef`` all ``(0, 0, 0)`` (none), ``(1/12, 0, 0)``
+    (two-sample, Savage 1998), ``(7/60, -1/60, 0)`` (three-sample, Ignagni 1990
+    Algorithm E, one increment per update), ``(113/840, -13/420, 1/280)``
+    (four-sample) or a filter-tuned design (module docstring).
     ``q(phi)`` is :func:`rotvec_to_quat`; the product is :func:`quat_mul`.
     The renormalisation (division by the Euclidean norm) removes the
     rounding-driven norm drift and changes nothing else.
 
-    Streaming: ``prev`` holds ``[dtheta_{-2}, dtheta_{-1}]`` on entry and is
-    overwritten with the last two increments, so calling the kernel on
-    consecutive chunks (feeding ``out_q[-1]`` back as ``q0``) gives the same
-    bits as one call on the whole array.
+    Streaming: ``prev`` holds ``[dtheta_{-3}, dtheta_{-2}, dtheta_{-1}]`` on
+    entry and is overwritten with the last three increments, so calling the
+    kernel on consecutive chunks (feeding ``out_q[-1]`` back as ``q0``) gives
+    the same bits as one call on the whole array.
 
     Parameters
     ----------
@@ -158,43 +180,28 @@ def attitude_update(dtheta, q0, algo, prev, out_q):
         Gyro angle increments (rad, body frame), one per update.
     q0 : ndarray, shape (4,), float64
         Attitude ``q_nb`` before the first increment (unit norm). Not written.
-    algo : int
-        0 (none), 1 (two-sample with previous), 2 (three-sample with two previous).
-    prev : ndarray, shape (2, 3), float64
-        ``prev[0] = dtheta_{k-2}``, ``prev[1] = dtheta_{k-1}`` (rad); read and
-        updated in place.
+    coef : ndarray, shape (3, 3), float64
+        ``coef[i, j - 1]``: weight of ``(dtheta_{k-j} x dtheta_k)_i``.
+    prev : ndarray, shape (3, 3), float64
+        ``prev[0] = dtheta_{k-3}``, ``prev[1] = dtheta_{k-2}``, ``prev[2] = dtheta_{k-1}``
+        (rad); read and updated in place.
     out_q : ndarray, shape (N, 4), float64
         ``out_q[k]`` is the attitude after increment ``k``; written in full.
     """
-    if algo == ALGO_TWO_SAMPLE:
-        c1 = 0.0
-        c2 = C_TWO_PREV1
-    elif algo == ALGO_THREE_SAMPLE:
-        c1 = C_THREE_PREV2
-        c2 = C_THREE_PREV1
-    else:
-        c1 = 0.0
-        c2 = 0.0
     a0, a1, a2, a3 = q0[0], q0[1], q0[2], q0[3]
-    m0, m1, m2 = prev[0, 0], prev[0, 1], prev[0, 2]  # dtheta_{k-2}
-    p0, p1, p2 = prev[1, 0], prev[1, 1], prev[1, 2]  # dtheta_{k-1}
+    l0, l1, l2 = prev[0, 0], prev[0, 1], prev[0, 2]  # dtheta_{k-3}
+    m0, m1, m2 = prev[1, 0], prev[1, 1], prev[1, 2]  # dtheta_{k-2}
+    p0, p1, p2 = prev[2, 0], prev[2, 1], prev[2, 2]  # dtheta_{k-1}
     phi = prev[0].copy()
     dq = q0.copy()
     for k in range(dtheta.shape[0]):
         d0, d1, d2 = dtheta[k, 0], dtheta[k, 1], dtheta[k, 2]
-        phi[0] = d0
-        phi[1] = d1
-        phi[2] = d2
-        if algo != ALGO_NONE:
-            # c2 (dtheta_{k-1} x dtheta_k)
-            phi[0] += c2 * (p1 * d2 - p2 * d1)
-            phi[1] += c2 * (p2 * d0 - p0 * d2)
-            phi[2] += c2 * (p0 * d1 - p1 * d0)
-            if c1 != 0.0:
-                # c1 (dtheta_{k-2} x dtheta_k)
-                phi[0] += c1 * (m1 * d2 - m2 * d1)
-                phi[1] += c1 * (m2 * d0 - m0 * d2)
-                phi[2] += c1 * (m0 * d1 - m1 * d0)
+        phi[0] = d0 + (coef[0, 0] * (p1 * d2 - p2 * d1) + coef[0, 1] * (m1 * d2 - m2 * d1)
+                       + coef[0, 2] * (l1 * d2 - l2 * d1))
+        phi[1] = d1 + (coef[1, 0] * (p2 * d0 - p0 * d2) + coef[1, 1] * (m2 * d0 - m0 * d2)
+                       + coef[1, 2] * (l2 * d0 - l0 * d2))
+        phi[2] = d2 + (coef[2, 0] * (p0 * d1 - p1 * d0) + coef[2, 1] * (m0 * d1 - m1 * d0)
+                       + coef[2, 2] * (l0 * d1 - l1 * d0))
         rotvec_to_quat(phi, dq)
         b0, b1, b2, b3 = dq[0], dq[1], dq[2], dq[3]
         r0 = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
@@ -210,14 +217,18 @@ def attitude_update(dtheta, q0, algo, prev, out_q):
         out_q[k, 1] = a1
         out_q[k, 2] = a2
         out_q[k, 3] = a3
+        l0, l1, l2 = m0, m1, m2
         m0, m1, m2 = p0, p1, p2
         p0, p1, p2 = d0, d1, d2
-    prev[0, 0] = m0
-    prev[0, 1] = m1
-    prev[0, 2] = m2
-    prev[1, 0] = p0
-    prev[1, 1] = p1
-    prev[1, 2] = p2
+    prev[0, 0] = l0
+    prev[0, 1] = l1
+    prev[0, 2] = l2
+    prev[1, 0] = m0
+    prev[1, 1] = m1
+    prev[1, 2] = m2
+    prev[2, 0] = p0
+    prev[2, 1] = p1
+    prev[2, 2] = p2
 
 
 @jit

@@ -19,26 +19,28 @@ accumulation, low-rate navigation update). Input sample
 navigation update ``m`` runs with ``T = n_sub dt``.
 
 High rate, per input sample ``l`` of update ``m`` (``alpha_0 = upsilon_0 = 0``;
-the previous increments ``dtheta_{l-1}, dtheta_{l-2}, dv_{l-1}, dv_{l-2}``
-run across update boundaries: previous-sample algorithms)::
+the previous increments ``dtheta_{l-j}, dv_{l-j}`` (``j = 1..3``) run across
+update boundaries: previous-sample algorithms), component ``i``::
 
-    beta  += (1/2 alpha_{l-1} + c2 dtheta_{l-1} + c1 dtheta_{l-2}) x dtheta_l            (K1)
-    S     += (1/2 alpha_{l-1} + s2 dtheta_{l-1} + s1 dtheta_{l-2}) x dv_l
-           + (1/2 upsilon_{l-1} + s2 dv_{l-1} + s1 dv_{l-2}) x dtheta_l                  (K2)
+    beta_i  += (1/2 alpha_{l-1} x dtheta_l)_i + sum_j c[i,j] (dtheta_{l-j} x dtheta_l)_i        (K1)
+    S_i     += (1/2 alpha_{l-1} x dv_l + 1/2 upsilon_{l-1} x dtheta_l)_i
+             + sum_j s[i,j] (dtheta_{l-j} x dv_l + dv_{l-j} x dtheta_l)_i                     (K2)
     alpha_l = alpha_{l-1} + dtheta_l,   upsilon_l = upsilon_{l-1} + dv_l
 
 (K1) is Savage's (1998, Part 1) high-rate coning accumulation: for
-``c2 = 1/12, c1 = 0`` it is his ``1/2 (alpha_{l-1} + 1/6 dalpha_{l-1}) x dalpha_l``;
+``c[i] = (1/12, 0, 0)`` it is his ``1/2 (alpha_{l-1} + 1/6 dalpha_{l-1}) x dalpha_l``;
 the ``1/2 alpha_{l-1} x dtheta_l`` part composes the sub-sample rotations to
 second order (Bortz 1971) and is present for every choice, so that one
 algorithm has the same per-sample error whatever ``n_sub``. (K2) is the
 sculling counterpart (Savage 1998, Part 2, high-rate sculling accumulation):
 ``1/2 [(alpha_{l-1} + 1/6 dalpha_{l-1}) x dv_l + (upsilon_{l-1} + 1/6 dv_{l-1}) x dalpha_l]``
-for the two-sample choice. Coefficients ``(c1, c2)`` and ``(s1, s2)``:
-``(0, 0)`` "none", ``(0, 1/12)`` "two_sample" (Savage 1998; Ignagni 1996),
-``(-1/60, 7/60)`` "three_sample" (Ignagni 1990 Algorithm E in
-previous-sample form, :mod:`sins_sim._kernels.nav`; for sculling the same
-coefficients by the coning/sculling duality, Ignagni 1998).
+for the two-sample choice. Coefficient rows ``c[i] = (c_1, c_2, c_3)`` (lags
+1, 2, 3): ``(0, 0, 0)`` "none", ``(1/12, 0, 0)`` "two_sample" (Savage 1998;
+Ignagni 1996), ``(7/60, -1/60, 0)`` "three_sample" (Ignagni 1990 Algorithm E
+in previous-sample form, :mod:`sins_sim._kernels.nav`), ``(113/840, -13/420,
+1/280)`` "four_sample"; for sculling the same coefficients by the
+coning/sculling duality (Ignagni 1998). The rows differ only for a
+filter-tuned design (:func:`sins_sim.navigation.coning.tuned_coefficients`).
 
 Low rate, navigation update ``m`` (state ``x_{m-1}`` -> ``x_m``):
 
@@ -125,15 +127,7 @@ import numpy as np
 
 from sins_sim import earth
 from sins_sim._kernels._config import jit
-from sins_sim._kernels.nav import (
-    ALGO_THREE_SAMPLE,
-    ALGO_TWO_SAMPLE,
-    C_THREE_PREV1,
-    C_THREE_PREV2,
-    C_TWO_PREV1,
-    quat_mul,
-    rotvec_to_quat,
-)
+from sins_sim._kernels.nav import quat_mul, rotvec_to_quat
 
 # --- state layout (float64[STATE_SIZE]) --------------------------------------------
 #: Latitude (rad).
@@ -174,8 +168,12 @@ ST_PREV_V = 37
 ST_DH = 40
 #: Vertical-loop acceleration correction ``a_c`` (m/s^2, down positive).
 ST_ACC = 41
+#: dtheta three input samples back, 3 entries (rad).
+ST_DTH3 = 42
+#: dv three input samples back, 3 entries (m/s).
+ST_DV3 = 45
 #: Length of the state array.
-STATE_SIZE = 42
+STATE_SIZE = 48
 
 # --- output row layout (float64[M, OUT_SIZE]) --------------------------------------
 OUT_LAT = 0
@@ -195,17 +193,38 @@ gravity_down = jit(earth.gravity_down)
 
 
 @jit
-def _coefficients(code):
-    """``(c1, c2)``: weights of ``x_{l-2}`` and ``x_{l-1}`` (module docstring, K1/K2)."""
-    if code == ALGO_TWO_SAMPLE:
-        return 0.0, C_TWO_PREV1
-    if code == ALGO_THREE_SAMPLE:
-        return C_THREE_PREV2, C_THREE_PREV1
-    return 0.0, 0.0
+def _cross_add(c, a0, a1, a2, b0, b1, b2, acc):
+    """``acc[i] += c[i] (a x b)_i``, ``c`` one column of a coefficient array."""
+    acc[0] += c[0] * (a1 * b2 - a2 * b1)
+    acc[1] += c[1] * (a2 * b0 - a0 * b2)
+    acc[2] += c[2] * (a0 * b1 - a1 * b0)
 
 
 @jit
-def strapdown_run(dtheta, dv, h_aid, dt, n_sub, coning, sculling, aided, k1, k2, k3, state, out):
+def _per_component(a0, a1, a2, u0, u1, u2, d0, d1, d2, e0, e1, e2, p0, p1, p2, m0, m1, m2, o0, o1, o2,
+                   w0, w1, w2, y0, y1, y2, z0, z1, z2, cc1, cc2, cc3, sc1, sc2, sc3, bb, ss):
+    """(K1) and (K2) of one sample with coefficients per component (a filter-tuned design): ``bb``, ``ss``."""
+    # (K1) 1/2 alpha x dtheta_l + sum_j c[:, j] (dtheta_{l-j} x dtheta_l)
+    bb[0] = 0.5 * (a1 * d2 - a2 * d1)
+    bb[1] = 0.5 * (a2 * d0 - a0 * d2)
+    bb[2] = 0.5 * (a0 * d1 - a1 * d0)
+    _cross_add(cc1, p0, p1, p2, d0, d1, d2, bb)
+    _cross_add(cc2, m0, m1, m2, d0, d1, d2, bb)
+    _cross_add(cc3, o0, o1, o2, d0, d1, d2, bb)
+    # (K2) 1/2 (alpha x dv_l + upsilon x dtheta_l) + sum_j s[:, j] (dtheta_{l-j} x dv_l + dv_{l-j} x dtheta_l)
+    ss[0] = 0.5 * ((a1 * e2 - a2 * e1) + (u1 * d2 - u2 * d1))
+    ss[1] = 0.5 * ((a2 * e0 - a0 * e2) + (u2 * d0 - u0 * d2))
+    ss[2] = 0.5 * ((a0 * e1 - a1 * e0) + (u0 * d1 - u1 * d0))
+    _cross_add(sc1, p0, p1, p2, e0, e1, e2, ss)
+    _cross_add(sc1, w0, w1, w2, d0, d1, d2, ss)
+    _cross_add(sc2, m0, m1, m2, e0, e1, e2, ss)
+    _cross_add(sc2, y0, y1, y2, d0, d1, d2, ss)
+    _cross_add(sc3, o0, o1, o2, e0, e1, e2, ss)
+    _cross_add(sc3, z0, z1, z2, d0, d1, d2, ss)
+
+
+@jit
+def strapdown_run(dtheta, dv, h_aid, dt, n_sub, ccoef, scoef, aided, k1, k2, k3, state, out):
     """Strapdown navigation over one chunk of increments (module docstring, K1-A1).
 
     Parameters
@@ -221,8 +240,8 @@ def strapdown_run(dtheta, dv, h_aid, dt, n_sub, coning, sculling, aided, k1, k2,
         Input sample period (s).
     n_sub : int
         Input samples per navigation update (>= 1).
-    coning, sculling : int
-        0 none, 1 two-sample, 2 three-sample (:mod:`sins_sim._kernels.nav` codes).
+    ccoef, scoef : ndarray, shape (3, 3), float64
+        Coning and sculling coefficients, ``[component i, lag j - 1]`` (K1, K2).
     aided : bool
         Apply the vertical loop (H1).
     k1, k2, k3 : float
@@ -239,8 +258,19 @@ def strapdown_run(dtheta, dv, h_aid, dt, n_sub, coning, sculling, aided, k1, k2,
     int
         Number of updates completed (rows written).
     """
-    c1, c2 = _coefficients(coning)
-    s1, s2 = _coefficients(sculling)
+    cc1, cc2, cc3 = ccoef[:, 0].copy(), ccoef[:, 1].copy(), ccoef[:, 2].copy()
+    sc1_, sc2_, sc3_ = scoef[:, 0].copy(), scoef[:, 1].copy(), scoef[:, 2].copy()
+    # the named algorithms have one row for all components: (K1)/(K2) then take one cross product
+    # per sum, ``(1/2 alpha + sum_j c_j x_{l-j}) x y`` (the same terms, fewer operations)
+    uniform = True
+    for i in range(1, 3):
+        for j in range(3):
+            if ccoef[i, j] != ccoef[0, j] or scoef[i, j] != scoef[0, j]:
+                uniform = False
+    k1c, k2c, k3c = ccoef[0, 0], ccoef[0, 1], ccoef[0, 2]
+    k1s, k2s, k3s = scoef[0, 0], scoef[0, 1], scoef[0, 2]
+    bb = np.empty(3)
+    ss = np.empty(3)
     big_t = n_sub * dt
     half_t = 0.5 * big_t
     two_pi = 2.0 * math.pi
@@ -258,6 +288,8 @@ def strapdown_run(dtheta, dv, h_aid, dt, n_sub, coning, sculling, aided, k1, k2,
     m0, m1, m2 = state[ST_DTH2], state[ST_DTH2 + 1], state[ST_DTH2 + 2]  # dtheta_{l-2}
     w0, w1, w2 = state[ST_DV1], state[ST_DV1 + 1], state[ST_DV1 + 2]  # dv_{l-1}
     y0, y1, y2 = state[ST_DV2], state[ST_DV2 + 1], state[ST_DV2 + 2]  # dv_{l-2}
+    o0, o1, o2 = state[ST_DTH3], state[ST_DTH3 + 1], state[ST_DTH3 + 2]  # dtheta_{l-3}
+    z0_, z1_, z2_ = state[ST_DV3], state[ST_DV3 + 1], state[ST_DV3 + 2]  # dv_{l-3}
     a0, a1, a2 = state[ST_ALPHA], state[ST_ALPHA + 1], state[ST_ALPHA + 2]
     u0, u1, u2 = state[ST_UPS], state[ST_UPS + 1], state[ST_UPS + 2]
     b0, b1, b2 = state[ST_BETA], state[ST_BETA + 1], state[ST_BETA + 2]
@@ -277,32 +309,43 @@ def strapdown_run(dtheta, dv, h_aid, dt, n_sub, coning, sculling, aided, k1, k2,
     for i in range(dtheta.shape[0]):
         d0, d1, d2 = dtheta[i, 0], dtheta[i, 1], dtheta[i, 2]
         e0, e1, e2 = dv[i, 0], dv[i, 1], dv[i, 2]
-        # (K1) beta += (1/2 alpha + c2 dtheta_{l-1} + c1 dtheta_{l-2}) x dtheta_l
-        r0 = 0.5 * a0 + c2 * p0 + c1 * m0
-        r1 = 0.5 * a1 + c2 * p1 + c1 * m1
-        r2 = 0.5 * a2 + c2 * p2 + c1 * m2
-        b0 += r1 * d2 - r2 * d1
-        b1 += r2 * d0 - r0 * d2
-        b2 += r0 * d1 - r1 * d0
-        # (K2) S += (1/2 alpha + s2 dtheta_{l-1} + s1 dtheta_{l-2}) x dv_l
-        #         + (1/2 upsilon + s2 dv_{l-1} + s1 dv_{l-2}) x dtheta_l
-        r0 = 0.5 * a0 + s2 * p0 + s1 * m0
-        r1 = 0.5 * a1 + s2 * p1 + s1 * m1
-        r2 = 0.5 * a2 + s2 * p2 + s1 * m2
-        t0 = 0.5 * u0 + s2 * w0 + s1 * y0
-        t1 = 0.5 * u1 + s2 * w1 + s1 * y1
-        t2 = 0.5 * u2 + s2 * w2 + s1 * y2
-        sc0 += (r1 * e2 - r2 * e1) + (t1 * d2 - t2 * d1)
-        sc1 += (r2 * e0 - r0 * e2) + (t2 * d0 - t0 * d2)
-        sc2 += (r0 * e1 - r1 * e0) + (t0 * d1 - t1 * d0)
+        if uniform:
+            # (K1) beta += (1/2 alpha + sum_j c_j dtheta_{l-j}) x dtheta_l
+            r0 = 0.5 * a0 + k1c * p0 + k2c * m0 + k3c * o0
+            r1 = 0.5 * a1 + k1c * p1 + k2c * m1 + k3c * o1
+            r2 = 0.5 * a2 + k1c * p2 + k2c * m2 + k3c * o2
+            b0 += r1 * d2 - r2 * d1
+            b1 += r2 * d0 - r0 * d2
+            b2 += r0 * d1 - r1 * d0
+            # (K2) S += (1/2 alpha + sum_j s_j dtheta_{l-j}) x dv_l + (1/2 upsilon + sum_j s_j dv_{l-j}) x dtheta_l
+            r0 = 0.5 * a0 + k1s * p0 + k2s * m0 + k3s * o0
+            r1 = 0.5 * a1 + k1s * p1 + k2s * m1 + k3s * o1
+            r2 = 0.5 * a2 + k1s * p2 + k2s * m2 + k3s * o2
+            t0 = 0.5 * u0 + k1s * w0 + k2s * y0 + k3s * z0_
+            t1 = 0.5 * u1 + k1s * w1 + k2s * y1 + k3s * z1_
+            t2 = 0.5 * u2 + k1s * w2 + k2s * y2 + k3s * z2_
+            sc0 += (r1 * e2 - r2 * e1) + (t1 * d2 - t2 * d1)
+            sc1 += (r2 * e0 - r0 * e2) + (t2 * d0 - t0 * d2)
+            sc2 += (r0 * e1 - r1 * e0) + (t0 * d1 - t1 * d0)
+        else:
+            _per_component(a0, a1, a2, u0, u1, u2, d0, d1, d2, e0, e1, e2, p0, p1, p2, m0, m1, m2, o0, o1, o2,
+                           w0, w1, w2, y0, y1, y2, z0_, z1_, z2_, cc1, cc2, cc3, sc1_, sc2_, sc3_, bb, ss)
+            b0 += bb[0]
+            b1 += bb[1]
+            b2 += bb[2]
+            sc0 += ss[0]
+            sc1 += ss[1]
+            sc2 += ss[2]
         a0 += d0
         a1 += d1
         a2 += d2
         u0 += e0
         u1 += e1
         u2 += e2
+        o0, o1, o2 = m0, m1, m2
         m0, m1, m2 = p0, p1, p2
         p0, p1, p2 = d0, d1, d2
+        z0_, z1_, z2_ = y0, y1, y2
         y0, y1, y2 = w0, w1, w2
         w0, w1, w2 = e0, e1, e2
         count += 1
@@ -416,6 +459,8 @@ def strapdown_run(dtheta, dv, h_aid, dt, n_sub, coning, sculling, aided, k1, k2,
     state[ST_DTH2], state[ST_DTH2 + 1], state[ST_DTH2 + 2] = m0, m1, m2
     state[ST_DV1], state[ST_DV1 + 1], state[ST_DV1 + 2] = w0, w1, w2
     state[ST_DV2], state[ST_DV2 + 1], state[ST_DV2 + 2] = y0, y1, y2
+    state[ST_DTH3], state[ST_DTH3 + 1], state[ST_DTH3 + 2] = o0, o1, o2
+    state[ST_DV3], state[ST_DV3 + 1], state[ST_DV3 + 2] = z0_, z1_, z2_
     state[ST_ALPHA], state[ST_ALPHA + 1], state[ST_ALPHA + 2] = a0, a1, a2
     state[ST_UPS], state[ST_UPS + 1], state[ST_UPS + 2] = u0, u1, u2
     state[ST_BETA], state[ST_BETA + 1], state[ST_BETA + 2] = b0, b1, b2

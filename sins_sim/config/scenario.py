@@ -10,6 +10,7 @@ the seed. :class:`Scenario` holds what the engine takes (an :class:`~sins_sim.si
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import warnings
@@ -79,6 +80,10 @@ def _psd_row(max_psd, unit_doc):
                          Num(min=0.0, min_exclusive=True, max=max_psd)),
                doc=f"[f_hz, {unit_doc}]")
 
+
+#: Coning/sculling choices (``sins_sim.navigation.coning.CONING_ALGORITHMS`` and ``filter_tuned``, the
+#: engine's ``NAV_ALGORITHMS``; spelled out so that a scenario is checked before the engine is imported).
+NAV_ALGORITHMS = ("none", "two_sample", "three_sample", "four_sample", "filter_tuned")
 
 MOTION_SCHEMA = OneOf({
     "static": Map({}, doc="no block motion"),
@@ -275,10 +280,17 @@ SCENARIO_SCHEMA = Map({
     "filters": ListOf(_FilterName(choices=SINS_FILTERS + filter_registry.shipped_plugin_names()),
                       default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
     "navigation": Map({
-        "coning": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
-        "sculling": Str(choices=("none", "two_sample", "three_sample"), default="two_sample"),
+        "coning": Str(choices=NAV_ALGORITHMS, default="two_sample",
+                      doc="filter_tuned: coefficients designed per filter over tuned_band_hz (Mark & Tazartes 2001)"),
+        "sculling": Str(choices=NAV_ALGORITHMS, default="two_sample"),
+        "tuned_band": Vec(2, unit="hz", min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ, default=None,
+                          doc="design band of filter_tuned coning/sculling; required with it"),
         "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
         "n_sub": Num(integer=True, min=1, max=1000, default=1, doc="filter samples per navigation update"),
+        "rate": Num(unit="hz", **_POS, max=1.0e6, default=None,
+                    doc="navigation update rate (attitude, velocity, position); the coning and sculling sums run "
+                        "at the filter rate; sets n_sub = readout.output_rate_hz / rate_hz (a whole number); "
+                        "default: every filter sample"),
         "vertical": Str(choices=("height_aid", "free"), default="height_aid"),
         "height_aid_tau": Num(unit="s", **_POS, max=1.0e5, default=100.0),
         "accel_delay": Str(choices=("matched", "none"), default="matched"),
@@ -291,6 +303,7 @@ SCENARIO_SCHEMA = Map({
         "spectrum": Num(unit="s", min=0.0, max=MAX_SPECTRUM_S, default=2.0,
                         doc="full-rate gyro-error record kept for the spectra"),
     }, default={}, rules=("timeseries_rate_hz <= the navigation update rate (readout.output_rate_hz / n_sub)",
+                          "tuned_band_hz: low < high < the filter Nyquist, given with filter_tuned",
                           "the stored series and spectra must fit in memory (checked with the run's estimate)")),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
     "temperature": TEMPERATURE_SCHEMA,
@@ -351,6 +364,21 @@ SCENARIO_SCHEMA.fields["imu"] = _Any()
 SCENARIO_SCHEMA.fields["filter_parameters"] = _FilterParameters()
 
 
+def _n_sub_of_rate(rate_hz: float, fs_hz: float, n_sub_given, ctx: str) -> int:
+    """``n_sub`` of ``navigation.rate_hz``: the filter samples per update, a whole number (issue 26)."""
+    ratio = fs_hz / rate_hz
+    n = int(round(ratio))
+    if n < 1 or abs(ratio - n) > 1e-9 * ratio:
+        near = sorted({fs_hz / max(1, int(math.floor(ratio))), fs_hz / max(1, int(math.ceil(ratio)))})
+        raise ConfigError(f"{ctx}: navigation.rate_hz: must divide the filter rate {fs_hz:g} Hz "
+                          f"(readout.output_rate_hz) into a whole number of samples per update (<= {fs_hz:g} Hz), "
+                          f"e.g. {' or '.join(f'{r:g}' for r in near)} Hz; got {rate_hz:g}")
+    if n_sub_given is not None and n_sub_given != n:
+        raise ConfigError(f"{ctx}: navigation.rate_hz: {rate_hz:g} Hz is n_sub = {n}, but navigation.n_sub is "
+                          f"{n_sub_given!r}: give one of them")
+    return n
+
+
 class Scenario:
     """A validated scenario: IMU, motion, filters, navigation settings, seed.
 
@@ -406,6 +434,8 @@ class Scenario:
         fs = self.imu.filter_rate_hz
         _check_motion(c["motion"], c["linear_vibration"], fs, ctx, self.imu.plant_rate_hz)
         nv = c["navigation"]
+        if nv["rate_hz"] is not None:
+            nv["n_sub"] = _n_sub_of_rate(nv["rate_hz"], fs, (doc.get("navigation") or {}).get("n_sub"), ctx)
         if nv["timeseries_rate_hz"] is not None and nv["timeseries_rate_hz"] > fs / nv["n_sub"]:
             raise ConfigError(f"{ctx}: navigation.timeseries_rate_hz: must be <= the navigation update rate "
                               f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub), "
@@ -418,7 +448,13 @@ class Scenario:
             self.nav = NavSettings(coning=nv["coning"], sculling=nv["sculling"], start_s=nv["start_s"],
                                    n_sub=nv["n_sub"], vertical=nv["vertical"],
                                    height_aid_tau_s=nv["height_aid_tau_s"], accel_delay=nv["accel_delay"], align_s=nv["align_s"],
-                                   timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"])
+                                   timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"],
+                                   tuned_band_hz=None if nv["tuned_band_hz"] is None else tuple(nv["tuned_band_hz"]))
+            if self.nav.tuned:  # the design is part of loading the scenario (issue 28): errors here, not mid-run
+                from sins_sim.simulation.sins import tuned_designs
+
+                self.nav = dataclasses.replace(self.nav, designs=tuned_designs(self.imu, self.filters,
+                                                                                self.nav.tuned_band_hz))
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {exc}") from None
         self.site = c["site"]

@@ -260,7 +260,8 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
         "navigation": {"coning": scenario.nav.coning, "sculling": scenario.nav.sculling,
                        "start_s": scenario.nav.start_s, "n_sub": scenario.nav.n_sub,
                        "update_rate_hz": res.filter_rate_hz / scenario.nav.n_sub,
-                       "vertical": scenario.nav.vertical, "accel_delay": scenario.nav.accel_delay},
+                       "vertical": scenario.nav.vertical, "accel_delay": scenario.nav.accel_delay,
+                       **_coning_design(res.nav)},
         "imu": scenario.imu.name,
         "definitions": DEFINITIONS,
         "filters": scenario_metrics(res, scenario),
@@ -274,7 +275,113 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
         "warnings": list(dict.fromkeys([*config_warnings, *res.warnings,
                                         *advisories.drive_advisories(res.drives, scenario.imu, scenario.duration_s)])),
     }
+    pc = _pseudo_coning_section(scenario, res, metrics["filters"])
+    if pc:
+        metrics["pseudo_coning"] = pc
+    ct = _coning_table_section(scenario, res, metrics["filters"])
+    if ct:
+        metrics["coning_algorithms"] = ct
     return res, metrics
+
+
+def _coning_table_section(scenario, res, filt_metrics) -> dict | None:
+    """Under a single coning motion: each filter's heading drift error with each coning algorithm (issue 28)."""
+    from sins_sim.jobs.coning_table import algorithm_drifts, band_for, coning_frequency_hz
+
+    f = coning_frequency_hz(scenario)
+    if f is None or scenario.nav is None:
+        return None
+    band = band_for(scenario, f, res.filter_rate_hz)
+    drifts = algorithm_drifts(scenario, res, band)
+    if not drifts:
+        return None
+    full = {}
+    for name in drifts:
+        d = (filt_metrics.get(name) or {}).get("attitude_drift_deg_h") or {}
+        full[name] = (d.get("down") or {}).get("value")
+    return {"frequency_hz": f, "tuned_band_hz": list(band), "heading_drift_error_deg_h": drifts,
+            "full_navigation_deg_h": {"algorithm": scenario.nav.coning, "heading_drift": full},
+            "note": "attitude replay of each filter's increments (true gyro angle + the run's gyro-angle error) "
+                    "with each algorithm from the true attitude at the record's start: the drift of the attitude "
+                    "error about the cone axis (sins_sim.jobs.coning_table); full_navigation: the run's own "
+                    "navigation (attitude drift, down)"}
+
+
+def _pseudo_pairs(scenario):
+    """``(amplitudes rad, frequency Hz, phases rad, [(i, j, k)])`` of an in-phase planar vibration, or None.
+
+    The scenario qualifies when its only motion is one ``sines`` part in which two axes ``j, k`` share
+    one frequency and phase, and the vehicle is at rest (body axes = NED, so the drift about body
+    axis ``i`` is the NED attitude drift of the same index).
+    """
+    spec = scenario.motion_spec
+    traj = scenario.trajectory_spec or {}
+    if len(spec) != 1 or spec[0].get("type") != "sines" or scenario.nav is None:
+        return None
+    if traj.get("file") or traj.get("segments") or traj.get("speed_m_s"):
+        return None
+    amp = np.asarray(spec[0]["amplitude_rad"], dtype=float)
+    freq = np.asarray(spec[0]["frequency_hz"], dtype=float)
+    ph = np.asarray(spec[0]["phase_rad"], dtype=float)
+    pairs = [(i, (i + 1) % 3, (i + 2) % 3) for i in range(3)]
+    pairs = [(i, j, k) for i, j, k in pairs
+             if amp[j] > 0 and amp[k] > 0 and freq[j] > 0 and freq[j] == freq[k] and ph[j] == ph[k]]
+    if not pairs:
+        return None
+    return amp, float(freq[pairs[0][1]]), ph, pairs
+
+
+def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
+    """Per filter, the false heading drift of an in-phase planar vibration beside its closed form (issue 28).
+
+    The closed form ``(1/2) a b w |H_j||H_k| sin(phi_j - phi_k)`` times the navigation algorithm's
+    factor (:func:`sins_sim.navigation.coning.pseudo_coning_drift`) uses each filter's response
+    measured from the run's own gyro-angle error record (:func:`sins_sim.simulation.responses.measured_response`)
+    and, beside it, the model response (R1) of :func:`sins_sim.simulation.responses.increment_responses`.
+    """
+    found = _pseudo_pairs(scenario)
+    t = res.spectra.get("t") if res.spectra else None
+    if found is None or t is None or len(t) < 2:
+        return None
+    from sins_sim.navigation.coning import pseudo_coning_drift
+    from sins_sim.simulation.responses import increment_responses, measured_response
+
+    amp, f, ph, pairs = found
+    fs = res.filter_rate_hz
+    w = 2.0 * math.pi * f
+    out = {"frequency_hz": f, "amplitude_arcmin": [float(a / ARCMIN) for a in amp],
+           "record_s": float(t[-1] - t[0]),
+           "note": "false drift about body axis i of the in-phase vibration of axes j, k: "
+                   "(1/2) a b w |H_j||H_k| sin(phi_j - phi_k) x the coning algorithm's factor, with H measured "
+                   "from the run's gyro-angle error (lock-in at the vibration frequency) and from the model "
+                   "response (suspension x readout FIR x filter); simulated: the attitude drift of the "
+                   "navigation about the same axis (body = NED at rest)", "filters": {}}
+    for name in res.filters:
+        err = res.spectra.get(name)
+        m = filt_metrics.get(name, {})
+        if err is None or not len(err) or "attitude_drift_deg_h" not in m or not m["attitude_drift_deg_h"]:
+            continue
+        h_meas = measured_response(t, err, amp, f, ph)
+        h_model = increment_responses(scenario.imu.channels, name, [f])[:, 0] if name != "ideal" else np.ones(3)
+        coef = res.nav.compensation(name)[0]
+        rows = {}
+        for i, j, k in pairs:
+            axis = "xyz"[i]
+            drift = m["attitude_drift_deg_h"][_NED[i]]
+            closed = {}
+            for label, hh in (("measured_response", h_meas), ("model_response", h_model)):
+                rate = pseudo_coning_drift(amp[j], amp[k], w, hh[j], hh[k], 1.0 / fs, coef=coef, component=i)
+                closed[label] = math.degrees(rate) * 3600.0
+            rows[axis] = {
+                "closed_form_deg_h": closed,
+                "simulated_deg_h": drift.get("value"),
+                "simulated_bound_95_deg_h": drift.get("bound_95"),
+                "response": {"xyz"[a]: {"gain": float(abs(h_meas[a])), "phase_deg": float(np.degrees(np.angle(h_meas[a])))}
+                             for a in (j, k)},
+                "phase_difference_deg": float(np.degrees(np.angle(h_meas[j] * np.conj(h_meas[k])))),
+            }
+        out["filters"][name] = rows
+    return out
 
 
 def timeseries_arrays(res) -> dict:
@@ -369,6 +476,48 @@ def _drift_cells(dr, axes) -> str:
         else:
             cells.append("n/a")
     return ", ".join(cells)
+
+
+def _coning_design(nav) -> dict:
+    """The filter-tuned design of each filter for ``metrics.json`` (empty unless ``filter_tuned``)."""
+    if nav is None or not nav.tuned or not nav.designs:
+        return {}
+    out = {}
+    for name, d in nav.designs.items():
+        out[name] = {
+            "coefficients": {ax: [float(c) for c in row] for ax, row in zip("xyz", d["coefficients"])},
+            "flat_coefficients": [float(c) for c in d["flat_coefficients"][0]],
+            "uncompensated_fraction_rms": {label: {ax: float(x) for ax, x in zip("xyz", r["rms"])}
+                                           for label, r in d["residual"].items()},
+            "uncompensated_fraction_max": {label: {ax: float(x) for ax, x in zip("xyz", r["max"])}
+                                           for label, r in d["residual"].items()},
+        }
+    return {"tuned_band_hz": list(nav.tuned_band_hz), "coning_design": out,
+            "coning_design_note": "lag coefficients [c1, c2, c3] of dtheta_{k-j} x dtheta_k per body axis "
+                                  "(Mark & Tazartes 2001; docs/theory/navigation.md); uncompensated_fraction: the "
+                                  "drift under classical coning over the band as a fraction of the classical "
+                                  "coning rate, for the filter's model response, tuned and two-sample"}
+
+
+def _pseudo_coning_report(pc) -> list:
+    """The pseudo-coning table of ``report.md`` (empty without the section)."""
+    if not pc:
+        return []
+    lines = ["", "## Pseudo-coning", "",
+             f"In-phase planar vibration at {pc['frequency_hz']:g} Hz: no true coning, but each filter's phase "
+             "difference between the axes makes the navigation see one. Closed form "
+             "`(1/2) a b w |H_j||H_k| sin(phi_j - phi_k)` (times the coning algorithm's factor) from the response "
+             "measured in this run and from the model response, beside the simulated attitude drift.", "",
+             "| filter | axis | phase difference (deg) | closed form, measured H (deg/h) | closed form, model H "
+             "(deg/h) | simulated (deg/h) |", "|---|---|---|---|---|---|"]
+    for name, rows in pc["filters"].items():
+        for axis, r in rows.items():
+            sim = r["simulated_deg_h"]
+            sim_s = f"{sim:.4g}" if sim is not None else f"< {r['simulated_bound_95_deg_h']:.2g}"
+            lines.append(f"| {name} | {axis} | {r['phase_difference_deg']:.3g} | "
+                         f"{r['closed_form_deg_h']['measured_response']:.4g} | "
+                         f"{r['closed_form_deg_h']['model_response']:.4g} | {sim_s} |")
+    return lines + [""]
 
 
 def _report(scenario, metrics, figures, filter_table: str = "") -> str:
@@ -473,6 +622,17 @@ def _report(scenario, metrics, figures, filter_table: str = "") -> str:
             lines.append(f"- {name}: axis {d['axis']}, t = {d['time_s']:.4g} s: {d['reason']}")
     if metrics["warnings"]:
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in metrics["warnings"]]
+    lines += _pseudo_coning_report(metrics.get("pseudo_coning"))
+    ct = metrics.get("coning_algorithms")
+    if ct:
+        from sins_sim.jobs.coning_table import coning_algorithm_table
+
+        lines += ["", "## Coning algorithms", "",
+                  coning_algorithm_table({n: {f"{ct['frequency_hz']:g}": r}
+                                          for n, r in ct["heading_drift_error_deg_h"].items()}),
+                  f"Design band of the tuned algorithm: {ct['tuned_band_hz'][0]:g}-{ct['tuned_band_hz'][1]:g} Hz. "
+                  f"The run's own navigation (`{ct['full_navigation_deg_h']['algorithm']}`) is the drift table above.",
+                  ""]
     lines += [filter_table] if filter_table else []
     lines += [""] + [f"![{f}]({f})" for f in figures] + [""]
     return "\n".join(lines)

@@ -44,6 +44,7 @@ from sins_sim.navigation.coning import (
     CONING_ALGORITHMS,
     ConingAlgorithm,
     algorithm_residual_drift,
+    coefficient_matrix,
     coning_drift_closed_form,
     parse_algorithm,
 )
@@ -105,12 +106,16 @@ def _quat_array(field, q) -> np.ndarray:
 
 
 def _prev(field, dtheta_prev) -> np.ndarray:
+    """``[dtheta_(-3), dtheta_(-2), dtheta_(-1)]``; a (2, 3) input has ``dtheta_(-3) = 0``."""
+    out = np.zeros((3, 3))
     if dtheta_prev is None:
-        return np.zeros((2, 3))
+        return out
     arr = v.finite_array("", field, dtheta_prev, ndim=2)
-    if arr.shape != (2, 3):
-        raise ValueError(f"{field}: must have shape (2, 3) ([dtheta_(-2), dtheta_(-1)]), got {arr.shape}")
-    return arr.copy()
+    if arr.shape not in ((2, 3), (3, 3)):
+        raise ValueError(f"{field}: must have shape (2, 3) ([dtheta_(-2), dtheta_(-1)]) or (3, 3), "
+                         f"got {arr.shape}")
+    out[3 - arr.shape[0]:] = arr
+    return out
 
 
 # --- numpy quaternion helpers ------------------------------------------------------
@@ -268,11 +273,12 @@ def integrate_attitude(dtheta, q0=None, algorithm="two_sample", dtheta_prev=None
         Gyro angle increments (rad, body frame), one per update period.
     q0 : array_like, shape (4,), optional
         Initial ``q_nb`` (unit, scalar first); identity by default.
-    algorithm : {"none", "two_sample", "three_sample"}
-        Coning correction.
-    dtheta_prev : array_like, shape (2, 3), optional
-        The increments before ``dtheta[0]``, ``[dtheta_(-2), dtheta_(-1)]`` (rad);
-        zeros by default (no correction on the first one or two steps).
+    algorithm : {"none", "two_sample", "three_sample", "four_sample"} or array_like
+        Coning correction, or its coefficients (shape (3,) or (3, 3),
+        :func:`sins_sim.navigation.coning.coefficient_matrix`).
+    dtheta_prev : array_like, shape (2, 3) or (3, 3), optional
+        The increments before ``dtheta[0]``, ``[dtheta_(-2), dtheta_(-1)]`` or
+        ``[dtheta_(-3), dtheta_(-2), dtheta_(-1)]`` (rad); zeros by default.
 
     Returns
     -------
@@ -294,11 +300,11 @@ def integrate_attitude(dtheta, q0=None, algorithm="two_sample", dtheta_prev=None
     """
     dth = _increments("dtheta", dtheta)
     q_init = _unit_quat("q0", q0)
-    algo = parse_algorithm(algorithm)
+    coef = coefficient_matrix(algorithm, "algorithm")
     prev = _prev("dtheta_prev", dtheta_prev)
     out = np.empty((dth.shape[0] + 1, 4))
     out[0] = q_init
-    knav.attitude_update(dth, q_init, algo.code, prev, out[1:])
+    knav.attitude_update(dth, q_init, coef, prev, out[1:])
     return out
 
 
@@ -313,9 +319,9 @@ class AttitudeIntegrator:
     ----------
     q0 : array_like, shape (4,), optional
         Initial ``q_nb`` (unit, scalar first); identity by default.
-    algorithm : {"none", "two_sample", "three_sample"}
+    algorithm : {"none", "two_sample", "three_sample", "four_sample"}
         Coning correction.
-    dtheta_prev : array_like, shape (2, 3), optional
+    dtheta_prev : array_like, shape (2, 3) or (3, 3), optional
         Increments before the first chunk (rad); zeros by default.
 
     Examples
@@ -329,6 +335,7 @@ class AttitudeIntegrator:
 
     def __init__(self, q0=None, algorithm="two_sample", dtheta_prev=None):
         self._algorithm = parse_algorithm(algorithm)
+        self._coef = coefficient_matrix(self._algorithm)
         self._q = _unit_quat("q0", q0)
         self._prev = _prev("dtheta_prev", dtheta_prev)
         self._n = 0
@@ -346,7 +353,7 @@ class AttitudeIntegrator:
     @property
     def dtheta_prev(self) -> np.ndarray:
         """The last two increments ``[dtheta_(k-2), dtheta_(k-1)]`` (rad, copy)."""
-        return self._prev.copy()
+        return self._prev[1:].copy()
 
     @property
     def n_processed(self) -> int:
@@ -368,7 +375,7 @@ class AttitudeIntegrator:
         """
         dth = _increments("dtheta", dtheta)
         out = np.empty((dth.shape[0], 4))
-        knav.attitude_update(dth, self._q, self._algorithm.code, self._prev, out)
+        knav.attitude_update(dth, self._q, self._coef, self._prev, out)
         if dth.shape[0]:
             self._q = out[-1].copy()
         self._n += dth.shape[0]

@@ -37,7 +37,11 @@ High rate, input sample ``l`` (Savage 1998 Parts 1 and 2)::
 it is ``(1/12)(dtheta_{k-1} x dv_k + dv_{k-1} x dtheta_k)``, Ignagni 1996),
 ``(-1/60, 7/60)`` "three_sample" (Ignagni 1990 Algorithm E in
 previous-sample form; the sculling coefficients equal the coning ones by
-the duality of Ignagni 1998).
+the duality of Ignagni 1998); "four_sample" adds ``dtheta_{l-3}`` (the
+kernel keeps three previous increments, lag coefficients
+``(113/840, -13/420, 1/280)``); coefficients given as an array (a
+filter-tuned design, :func:`sins_sim.navigation.coning.tuned_coefficients`)
+may differ per component.
 
 Low rate (state at ``t_{m-1}`` extrapolated to ``t_{m-1/2}``,
 ``x_{m-1/2} = (3 x_{m-1} - x_{m-2}) / 2``, Savage 1998 Part 2)::
@@ -111,7 +115,7 @@ from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim._kernels import strapdown as ksd
 from sins_sim.navigation.attitude import _increments, _unit_quat
-from sins_sim.navigation.coning import ConingAlgorithm, parse_algorithm
+from sins_sim.navigation.coning import CONING_ALGORITHMS, coefficient_matrix
 
 __all__ = [
     "SCULLING_ALGORITHMS",
@@ -123,7 +127,9 @@ __all__ = [
 
 #: Sculling compensations accepted by :class:`StrapdownNavigator` (same names and
 #: coefficients as the coning algorithms, by duality; module docstring).
-SCULLING_ALGORITHMS = ("none", "two_sample", "three_sample")
+SCULLING_ALGORITHMS = CONING_ALGORITHMS
+#: Name reported for a coning or sculling compensation given as coefficients (a filter-tuned design).
+TUNED_NAME = "filter_tuned"
 #: Vertical-channel modes: pure inertial (unstable) or the third-order height-aided loop.
 VERTICAL_MODES = ("free", "height_aid")
 #: The height-aiding time constant must span at least this many update periods
@@ -216,12 +222,23 @@ def _vector(field, value, n) -> np.ndarray:
 
 
 def _prev_pair(field, value) -> np.ndarray:
+    """``[x_(-3), x_(-2), x_(-1)]``; a (2, 3) input has ``x_(-3) = 0``."""
+    out = np.zeros((3, 3))
     if value is None:
-        return np.zeros((2, 3))
+        return out
     arr = v.finite_array("", field, value, ndim=2)
-    if arr.shape != (2, 3):
-        raise ValueError(f"{field}: must have shape (2, 3) ([x_(-2), x_(-1)]), got {arr.shape}")
-    return arr.copy()
+    if arr.shape not in ((2, 3), (3, 3)):
+        raise ValueError(f"{field}: must have shape (2, 3) ([x_(-2), x_(-1)]) or (3, 3), got {arr.shape}")
+    out[3 - arr.shape[0]:] = arr
+    return out
+
+
+def _compensation(field, value):
+    """``(name, (3, 3) coefficients)`` of a coning or sculling choice."""
+    if isinstance(value, str):
+        _name(field, value, CONING_ALGORITHMS)
+        return value, coefficient_matrix(value, field)
+    return TUNED_NAME, coefficient_matrix(value, field)
 
 
 def _n_sub(value) -> int:
@@ -262,10 +279,13 @@ class StrapdownNavigator:
         within 1e-6 of one is renormalised).
     dt_s : float
         Input sample period (s), > 0: the interval each increment integrates over.
-    coning : {"none", "two_sample", "three_sample"}
-        Coning compensation of the attitude update (Savage 1998; Ignagni 1990).
-    sculling : {"none", "two_sample", "three_sample"}
-        Sculling compensation of the velocity update (Savage 1998; Ignagni 1998).
+    coning : {"none", "two_sample", "three_sample", "four_sample"} or array_like
+        Coning compensation of the attitude update (Savage 1998; Ignagni 1990),
+        or its coefficients, shape (3,) or (3, 3) ``[component, lag - 1]``
+        (:func:`sins_sim.navigation.coning.coefficient_matrix`).
+    sculling : {"none", "two_sample", "three_sample", "four_sample"} or array_like
+        Sculling compensation of the velocity update (Savage 1998; Ignagni 1998),
+        or its coefficients, as ``coning``.
     n_sub : int
         Input samples per navigation update (>= 1); the update period is
         ``n_sub * dt_s`` and one output row comes per update.
@@ -275,10 +295,10 @@ class StrapdownNavigator:
     height_aid_tau_s : float
         Time constant of the height-aided loop (s), at least 10 update
         periods; used only with ``vertical="height_aid"``.
-    dtheta_prev : array_like, shape (2, 3), optional
+    dtheta_prev : array_like, shape (2, 3) or (3, 3), optional
         The gyro increments before the first sample, ``[dtheta_(-2), dtheta_(-1)]``
-        (rad); zeros by default.
-    dv_prev : array_like, shape (2, 3), optional
+        or ``[dtheta_(-3), dtheta_(-2), dtheta_(-1)]`` (rad); zeros by default.
+    dv_prev : array_like, shape (2, 3) or (3, 3), optional
         The velocity increments before the first sample (m/s); zeros by default.
 
     Raises
@@ -314,8 +334,8 @@ class StrapdownNavigator:
         vel0 = _vector("v0_ned_m_s", v0_ned_m_s, 3)
         q0 = _unit_quat("q0_nb", q0_nb)
         self._dt = v.positive("", "dt_s", dt_s)
-        self._coning = parse_algorithm(coning, field="coning")
-        self._sculling = ConingAlgorithm(_name("sculling", sculling, SCULLING_ALGORITHMS))
+        self._coning, self._ccoef = _compensation("coning", coning)
+        self._sculling, self._scoef = _compensation("sculling", sculling)
         self._n_sub = _n_sub(n_sub)
         self._vertical = _name("vertical", vertical, VERTICAL_MODES)
         self._tau = v.positive("", "height_aid_tau_s", height_aid_tau_s)
@@ -337,10 +357,12 @@ class StrapdownNavigator:
         s[ksd.ST_H] = h0
         s[ksd.ST_V:ksd.ST_V + 3] = vel0
         s[ksd.ST_Q:ksd.ST_Q + 4] = q0
-        s[ksd.ST_DTH2:ksd.ST_DTH2 + 3] = prev_dth[0]
-        s[ksd.ST_DTH1:ksd.ST_DTH1 + 3] = prev_dth[1]
-        s[ksd.ST_DV2:ksd.ST_DV2 + 3] = prev_dv[0]
-        s[ksd.ST_DV1:ksd.ST_DV1 + 3] = prev_dv[1]
+        s[ksd.ST_DTH3:ksd.ST_DTH3 + 3] = prev_dth[0]
+        s[ksd.ST_DTH2:ksd.ST_DTH2 + 3] = prev_dth[1]
+        s[ksd.ST_DTH1:ksd.ST_DTH1 + 3] = prev_dth[2]
+        s[ksd.ST_DV3:ksd.ST_DV3 + 3] = prev_dv[0]
+        s[ksd.ST_DV2:ksd.ST_DV2 + 3] = prev_dv[1]
+        s[ksd.ST_DV1:ksd.ST_DV1 + 3] = prev_dv[2]
         # no history before the first update: the extrapolation starts as a zero-order hold
         s[ksd.ST_PREV_LAT] = lat0
         s[ksd.ST_PREV_H] = h0
@@ -368,13 +390,23 @@ class StrapdownNavigator:
 
     @property
     def coning(self) -> str:
-        """Coning compensation name."""
-        return self._coning.value
+        """Coning compensation name (``"filter_tuned"`` when given as coefficients)."""
+        return self._coning
 
     @property
     def sculling(self) -> str:
-        """Sculling compensation name."""
-        return self._sculling.value
+        """Sculling compensation name (``"filter_tuned"`` when given as coefficients)."""
+        return self._sculling
+
+    @property
+    def coning_coefficients(self) -> np.ndarray:
+        """Coning coefficients ``[component, lag - 1]`` (copy)."""
+        return self._ccoef.copy()
+
+    @property
+    def sculling_coefficients(self) -> np.ndarray:
+        """Sculling coefficients ``[component, lag - 1]`` (copy)."""
+        return self._scoef.copy()
 
     @property
     def vertical(self) -> str:
@@ -513,8 +545,8 @@ class StrapdownNavigator:
         m = (self.pending_samples + n) // self._n_sub
         out = np.empty((m, ksd.OUT_SIZE))
         k1, k2, k3 = self._gains
-        written = ksd.strapdown_run(dth, dvel, ha, self._dt, self._n_sub, self._coning.code,
-                                    self._sculling.code, self._vertical == "height_aid", k1, k2, k3, self._state, out)
+        written = ksd.strapdown_run(dth, dvel, ha, self._dt, self._n_sub, self._ccoef,
+                                    self._scoef, self._vertical == "height_aid", k1, k2, k3, self._state, out)
         if written != m:  # pragma: no cover - the kernel and this count share one rule
             raise RuntimeError(f"strapdown kernel wrote {written} updates, expected {m}")
         self._n_samples += n

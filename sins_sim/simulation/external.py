@@ -169,7 +169,7 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
         :class:`~sins_sim.models.motion.Trajectory`); its ``duration_s`` must cover ``t_{N-1}``.
     name : str
         The name the result goes under (the "filter" of the metrics).
-    coning, sculling : {"none", "two_sample", "three_sample"}
+    coning, sculling : {"none", "two_sample", "three_sample", "four_sample"}
     vertical : {"height_aid", "free"}
         Vertical channel: aided by the truth's height (a run's default) or free.
     height_aid_tau_s : float

@@ -45,6 +45,7 @@ once the chunk's three axes are in.
 from __future__ import annotations
 
 import math
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,11 +58,18 @@ from sins_sim.models.sensor_errors import AccelErrors, GyroErrors, SensorErrorPa
 from sins_sim._kernels import truth as ktruth
 from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
 from sins_sim.filters import registry as filter_registry
+from sins_sim.navigation.coning import CONING_ALGORITHMS
+from sins_sim.simulation.responses import tuned_design
 from sins_sim.navigation.strapdown import StrapdownNavigator
 from sins_sim.simulation.channel import (ChannelChain, ChannelConfig, DriveControl, SideBySide, apply_block_to_truth,
                                          side_by_side)
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
 from sins_sim.simulation.truth import MissionTruth
+
+#: The coning/sculling choice whose coefficients are designed per filter (issue 28).
+TUNED = "filter_tuned"
+#: Every coning/sculling choice of a run.
+NAV_ALGORITHMS = CONING_ALGORITHMS + (TUNED,)
 
 __all__ = ["DriveControl", "ImuConfig", "NavSettings", "SinsResult", "simulate_sins", "SINS_FILTERS", "DEFAULT_FILTERS",
            "default_threads"]
@@ -207,8 +215,11 @@ class NavSettings:
 
     Parameters
     ----------
-    coning, sculling : {"none", "two_sample", "three_sample"}
-        Coning and sculling compensation (:class:`~sins_sim.navigation.strapdown.StrapdownNavigator`).
+    coning, sculling : {"none", "two_sample", "three_sample", "four_sample", "filter_tuned"}
+        Coning and sculling compensation (:class:`~sins_sim.navigation.strapdown.StrapdownNavigator`);
+        ``filter_tuned``: coefficients designed for each filter's increments over ``tuned_band_hz``
+        (:func:`sins_sim.simulation.responses.tuned_design`; sculling takes the same coefficients by
+        the coning/sculling duality, exact when the accelerometers see the gyros' response).
     start_s : float
         Navigation starts, aligned to the truth, at this time (s), after the dithers have
         built up from rest.
@@ -233,6 +244,11 @@ class NavSettings:
         keeps its min/max envelope).
     spectrum_s : float
         Length of the full-rate gyro-error record kept for spectra (s, from ``start_s``).
+    tuned_band_hz : (float, float) or None
+        Design band of ``filter_tuned`` (Hz), required with it.
+    designs : dict or None
+        Per filter name the filter-tuned design (:func:`~sins_sim.simulation.responses.tuned_design`);
+        None: computed by :func:`simulate_sins` when ``filter_tuned`` is chosen.
     """
 
     coning: str = "two_sample"
@@ -245,10 +261,17 @@ class NavSettings:
     align_s: float = 0.5
     timeseries_rate_hz: float | None = None
     spectrum_s: float = 2.0
+    tuned_band_hz: tuple | None = None
+    designs: dict | None = field(default=None, compare=False)  # derived from the settings and the unit
 
     def __post_init__(self):
-        v.choice("navigation", "coning", self.coning, ("none", "two_sample", "three_sample"))
-        v.choice("navigation", "sculling", self.sculling, ("none", "two_sample", "three_sample"))
+        v.choice("navigation", "coning", self.coning, NAV_ALGORITHMS)
+        v.choice("navigation", "sculling", self.sculling, NAV_ALGORITHMS)
+        if self.tuned:
+            band = self.tuned_band_hz
+            if band is None or len(band) != 2 or not (0.0 < float(band[0]) < float(band[1])):
+                raise ValueError(f"navigation.tuned_band_hz: must be [low, high] with 0 < low < high (the design "
+                                 f"band of filter_tuned, required with it), got {band!r}")
         v.non_negative("navigation", "start_s", self.start_s)
         if isinstance(self.n_sub, bool) or int(self.n_sub) != self.n_sub or self.n_sub < 1:
             raise ValueError(f"navigation.n_sub: must be an integer >= 1, got {self.n_sub!r}")
@@ -258,6 +281,17 @@ class NavSettings:
         v.non_negative("navigation", "align_s", self.align_s)
         if self.timeseries_rate_hz is not None:
             v.positive("navigation", "timeseries_rate_hz", self.timeseries_rate_hz)
+
+    @property
+    def tuned(self) -> bool:
+        """Whether coning or sculling is ``filter_tuned``."""
+        return TUNED in (self.coning, self.sculling)
+
+    def compensation(self, name: str):
+        """``(coning, sculling)`` for the navigator of filter ``name``: names, or the tuned coefficients."""
+        def one(choice):
+            return self.designs[name]["coefficients"] if choice == TUNED else choice
+        return one(self.coning), one(self.sculling)
 
     def series_rate_hz(self, duration_s: float) -> float:
         """The stored series' rate for a mission of ``duration_s`` (see ``timeseries_rate_hz``)."""
@@ -513,6 +547,28 @@ def drives_on_block(imu: ImuConfig) -> list:
             for c, fi in zip(imu.channels, f)]
 
 
+def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
+    """The filter-tuned coning design of each filter (:func:`sins_sim.simulation.responses.tuned_design`).
+
+    Raises
+    ------
+    ValueError
+        If the band reaches the filter Nyquist or a plug-in has no frequency response (the
+        message names ``navigation.tuned_band_hz`` or ``navigation.coning``).
+    """
+    fs = imu.filter_rate_hz
+    if not float(band_hz[1]) < 0.5 * fs:
+        raise ValueError(f"navigation.tuned_band_hz: must stay below the filter Nyquist {0.5 * fs:g} Hz "
+                         f"(readout.output_rate_hz / 2), got {list(band_hz)!r}")
+    out = {}
+    for name in filters:
+        try:
+            out[name] = tuned_design(imu.channels, name, band_hz, fs)
+        except ValueError as exc:
+            raise ValueError(f"navigation.coning: {exc}") from None
+    return out
+
+
 def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav: NavSettings | None = NavSettings(),
                   filters=DEFAULT_FILTERS, chunk_s: float = 1.0, progress=None, threads: int | None = None,
                   vehicle=None, translation=None) -> SinsResult:
@@ -565,6 +621,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     if nav is not None and nav.start_s >= duration_s:
         raise ValueError(f"navigation.start_s: must be < duration_s = {duration_s!r}, got {nav.start_s!r}")
     fs = imu.filter_rate_hz
+    if nav is not None and nav.tuned and (nav.designs is None or not set(filters) <= set(nav.designs)):
+        nav = dataclasses.replace(nav, designs=tuned_designs(imu, filters, nav.tuned_band_hz))
     fp = imu.plant_rate_hz
     r_dec = imu.channels[0].readout.decimation
     n_out = int(math.floor(duration_s * fs + 1e-9))
@@ -814,9 +872,10 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
         if j_end <= j0 + 1:
             return None
         q0 = tr_buf["q"].get(j0, j0 + 1)[0]
+        coning, sculling = nav.compensation(name)
         nf.nav = StrapdownNavigator(float(tr_buf["lat"].get(j0, j0 + 1)[0]), float(tr_buf["lon"].get(j0, j0 + 1)[0]),
                                     float(tr_buf["h"].get(j0, j0 + 1)[0]), tr_buf["v"].get(j0, j0 + 1)[0], q0,
-                                    1.0 / fs, coning=nav.coning, sculling=nav.sculling, n_sub=nav.n_sub,
+                                    1.0 / fs, coning=coning, sculling=sculling, n_sub=nav.n_sub,
                                     vertical=nav.vertical, height_aid_tau_s=nav.height_aid_tau_s)
         nf.j0 = j0
         nf.next_j = j0 + 1

@@ -8,36 +8,16 @@ sets the mechanical filter beside the analog (eq. 3 inverted) and digital
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from sins_sim.filters.correcting import CorrectingFilterDesign
 from sins_sim.jobs.reproduce.common import PAPER
-from sins_sim.models.readout import ReadoutParams
 from sins_sim.models.suspension import SuspensionParams
+from sins_sim.simulation.responses import fir_response, mechanical_response
 from sins_sim.units import ARCMIN
 
 __all__ = ["mechanical_response", "fir_response"]
-
-
-def mechanical_response(f_hz, f0_hz: float, q: float) -> np.ndarray:
-    """Kinematic AFC phi_sins -> phi_rlg of eq. 3 with hysteretic (structural) damping.
-
-    Eq. 10 for a sinusoid is ``(1/Q) * delta`` shifted by 90 degrees, i.e. a
-    complex stiffness ``1 + j/Q``: ``H = (1 + j/Q) / (1 + j/Q - (f/f0)^2)``.
-    """
-    r2 = (np.asarray(f_hz, dtype=np.float64) / f0_hz) ** 2
-    k = 1.0 + 1j / q
-    return k / (k - r2)
-
-
-def fir_response(readout: ReadoutParams, f_hz) -> np.ndarray:
-    """Gain of the anti-alias FIR at the readout input rate (complex, delay removed)."""
-    taps = readout.taps()
-    f = np.asarray(f_hz, dtype=np.float64)
-    k = np.arange(taps.size) - 0.5 * (taps.size - 1)
-    return (taps[None, :] * np.exp(-2j * math.pi * f[:, None] * k[None, :] / readout.input_rate_hz)).sum(axis=1)
 
 
 def _fig1(s: SuspensionParams):
