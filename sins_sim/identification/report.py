@@ -169,6 +169,9 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
 
     rec = diag.recording
     fs = rec.fs_hz
+    if diag.findings:
+        _write_findings_report(diag, js, out, plt)
+        return js
     axis = diag.gap["axis"] or max(rec.axes, key=lambda a: diag.baseline["fits"][a].rms)
     best = diag.candidates[0] if diag.candidates else None
     floor = diag.floors[axis]["floor_rad"]
@@ -292,3 +295,45 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     lines.append("")
     (out / "report.md").write_text("\n".join(lines))
     return js
+
+
+def _write_findings_report(diag: Diagnosis, js: dict, out: Path, plt) -> None:
+    """``report.md`` and ``angle.png`` for a recording the data checks refused (no refit, no verdict).
+
+    The figure shows each axis' measured angle minus the table angle over time, with the time of each
+    finding marked, so that the user sees where the data went wrong.
+    """
+    from sins_sim.identification.recording_inputs import _table_angles
+
+    rec = diag.recording
+    t = np.arange(rec.n_samples) / rec.fs_hz
+    table = _table_angles(rec)
+    fig, axs = plt.subplots(len(rec.axes), 1, figsize=(8, 2.2 + 1.6 * len(rec.axes)), sharex=True, squeeze=False)
+    for ax, a in zip(axs[:, 0], rec.axes):
+        ax.plot(t, (rec.angle(a) - table[a]) / ARCSEC, lw=0.5)
+        for f in diag.findings:
+            if f["axis"] != a or f["time_s"] is None:
+                continue
+            if isinstance(f["time_s"], (list, tuple)):
+                ax.axvspan(f["time_s"][0], f["time_s"][1], color="red", alpha=0.15)
+            else:
+                ax.axvline(f["time_s"], color="red", ls="--")
+        ax.set_ylabel(f"{a} (arcsec)")
+    axs[-1, 0].set_xlabel("time (s)")
+    axs[0, 0].set_title("measured angle minus table angle; red: where a data check failed")
+    fig.tight_layout()
+    fig.savefig(out / "angle.png", dpi=110)
+    plt.close(fig)
+    v = js["verdict"]
+    lines = [f"# Sim-to-real diagnosis: {rec.source}", "",
+             f"- experiment `{rec.experiment}`, axes {', '.join(rec.axes)}, {rec.n_samples} samples at "
+             f"{rec.fs_hz:g} Hz ({rec.duration_s:.3g} s), initial state `{rec.initial_state}`",
+             f"- verdict: **{v['effect']}**, status **{v['status']}**: the data checks refused the recording, "
+             "so there is no refit and no verdict", "",
+             "## Data check findings", "", "| check | axis | time (s) | finding |", "|---|---|---|---|"]
+    for f in js["findings"]:
+        ts = f["time_s"]
+        when = f"{ts[0]:g}-{ts[1]:g}" if isinstance(ts, (list, tuple)) else ("-" if ts is None else f"{ts:g}")
+        lines.append(f"| {f['check']} | {f['axis']} | {when} | {f['message']} |")
+    lines += ["", "![angle](angle.png)", ""]
+    (out / "report.md").write_text("\n".join(lines))
