@@ -38,7 +38,8 @@ from sins_sim import _validate as v
 from sins_sim.identification.afc import hb_stiffness_ratio
 from sins_sim.io.recording import NOMINAL_KEYS
 from sins_sim.models.effects import EFFECTS, Effect, Param
-from sins_sim.models.suspension import SuspensionParams
+from sins_sim.models.suspension import (F0_RANGE_HZ, K1_MAX, K2_RANGE_RAD, K3_MAX, K4_MAX_PER_RAD, K4_MIN_PER_RAD,
+                                        K5_RANGE_RAD_PER_V, Q_RANGE, SuspensionParams)
 from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, ExperimentSettings, simulate_axis
 
 __all__ = ["DiagnoseSettings", "AxisFit", "EffectSet", "fit_axis", "blas_threads", "in_processes"]
@@ -379,7 +380,10 @@ class _Problem:
         return np.array([fr / math.sqrt(kap), k1, k2, iq / (1.0 + k4 * self.a_ref), k4, k5])
 
     def suspension(self, xn) -> SuspensionParams:
-        p = self.to_p(np.asarray(xn) * self.u_nom)
+        """The suspension of a trial point, projected onto the physical ranges the model declares
+        (:func:`physical_clip`): the solver's box is relative to the nominal values and does not hold
+        ``k4 >= -20 1/rad``, ``k1 < 2 k2`` or ``k3 >= 0`` everywhere (issue 25, item 10)."""
+        p = physical_clip(self.to_p(np.asarray(xn) * self.u_nom))
         return self.nominal.replace(**{k: float(val) for k, val in zip(NOMINAL_KEYS, p)})
 
     def x_of(self, s: SuspensionParams) -> np.ndarray:
@@ -587,6 +591,40 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
         return fd_jac(sol.x, fun(sol.x)) / xs[None, :]
 
     return full(sol.x), sol.jac / xs[None, :], unpack, exact
+
+
+#: Margin below ``2 k2`` that a clipped ``k1`` keeps (eq. 9 needs ``k1 < 2 k2`` strictly).
+_K1_MARGIN = 1e-6
+
+
+def physical_limits() -> dict:
+    """The physical range of each nominal parameter as :class:`~sins_sim.models.suspension.SuspensionParams`
+    checks it (``k1`` also below ``2 k2``, ``k5`` in magnitude; ``k3`` at least ``1 / Q_max``, so that Q
+    stays finite without a viscous term)."""
+    return {"f0_hz": F0_RANGE_HZ, "k1": (0.0, K1_MAX), "k2": K2_RANGE_RAD, "k3": (1.0 / Q_RANGE[1], K3_MAX),
+            "k4": (K4_MIN_PER_RAD, K4_MAX_PER_RAD), "k5": K5_RANGE_RAD_PER_V}
+
+
+def physical_clip(p) -> np.ndarray:
+    """``(f0, k1, k2, k3, k4, k5)`` projected onto the ranges :class:`SuspensionParams` accepts.
+
+    Clipping the trial rather than refusing it keeps every trial a valid unit, so the fit never stops on
+    a value the user did not write; a parameter that ends at a limit is reported as implausible
+    (``report.plausibility_flags``). Inside the ranges the point is returned unchanged. Non-finite
+    values are left alone (the model refuses them and the solver sees a large residual).
+    """
+    f0, k1, k2, k3, k4, k5 = (float(x) for x in p)
+    if not all(math.isfinite(x) for x in (f0, k1, k2, k3, k4, k5)):
+        return np.array([f0, k1, k2, k3, k4, k5])
+    lim = physical_limits()
+    f0 = min(max(f0, lim["f0_hz"][0]), lim["f0_hz"][1])
+    k2 = min(max(k2, lim["k2"][0]), lim["k2"][1])
+    k1 = min(max(k1, 0.0), lim["k1"][1], 2.0 * k2 * (1.0 - _K1_MARGIN))
+    k3 = min(max(k3, lim["k3"][0]), lim["k3"][1])
+    k4 = min(max(k4, lim["k4"][0]), lim["k4"][1])
+    mag = min(max(abs(k5), lim["k5"][0]), lim["k5"][1])
+    k5 = math.copysign(mag, k5)
+    return np.array([f0, k1, k2, k3, k4, k5])
 
 
 def _rms(x):

@@ -88,16 +88,32 @@ IMPLAUSIBLE_FACTOR = 3.0
 def plausibility_flags(rec: Recording, fits: dict) -> list:
     """Flags on refit parameters a unit cannot plausibly have, with the likely reason.
 
-    A sign flip of any ``k`` against the header's nominal value, or a ``k`` beyond
+    A parameter at the physical limit the model declares (the refit clips its trials there,
+    ``refit.physical_clip``), a sign flip of any ``k`` against the header's nominal value, or a ``k`` beyond
     :data:`IMPLAUSIBLE_FACTOR` times (or below 1 / that) its nominal value, or ``f0`` at the refit's
     bound (3 % off).
     """
+    from sins_sim.identification.refit import physical_limits
+
+    limits = physical_limits()
     out = []
     for a, f in fits.items():
         nom = rec.nominal[a]
         for k in NOMINAL_KEYS:
             val = float(getattr(f.suspension, k))
             ref = float(nom.get(k, 0.0))
+            lo, hi = limits[k]
+            if k == "k1":
+                hi = min(hi, 2.0 * float(f.suspension.k2) * (1.0 - 1e-6))  # eq. 9 needs k1 < 2 k2
+            mag = abs(val) if k == "k5" else val
+            if any(math.isclose(mag, b, rel_tol=1e-5, abs_tol=0.0) for b in (lo, hi) if b != 0.0):
+                out.append({"axis": a, "parameter": k, "value": val, "nominal": ref,
+                            "ratio": val / ref if ref else None,
+                            "message": f"axis {a}: {k} = {val:.4g} sits at the model's physical limit [{lo:g}, "
+                                       f"{hi:g}]: the fit is implausible; likely cause: a header that does not "
+                                       "describe the data (nominal values, fs_hz, quantum_rad, the axes' order, "
+                                       "sins_angle)"})
+                continue
             if ref == 0.0:
                 continue
             ratio = val / ref
