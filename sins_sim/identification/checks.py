@@ -48,11 +48,11 @@ import warnings
 import numpy as np
 
 from sins_sim.identification.localise import noise_floor
-from sins_sim.io.recording import Recording
+from sins_sim.io.recording import Recording, RecordingError
 from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, simulate_axis, suspension_from_nominal
 from sins_sim.units import ARCMIN, ARCSEC
 
-__all__ = ["check_recording", "format_findings", "DEAD_RATIO", "SATURATION_MIN", "MAX_RATE_RAD_S", "WINDOW_S",
+__all__ = ["check_recording", "require_inputs", "format_findings", "MOVING_EXPERIMENTS", "MIN_BLOCKS", "DEAD_RATIO", "SATURATION_MIN", "MAX_RATE_RAD_S", "WINDOW_S",
            "SIGN_CORRELATION", "NOISE_RATIO"]
 
 DEAD_RATIO = 0.05
@@ -62,6 +62,43 @@ MAX_RATE_RAD_S = math.radians(1000.0)
 WINDOW_S = 0.05
 SIGN_CORRELATION = -0.3
 NOISE_RATIO = 20.0
+
+
+#: Experiments whose block moves, so that the table angle (``sins_angle``) is part of what they need.
+MOVING_EXPERIMENTS = ("rate_table",)
+#: Fewest blocks of the held-out split a recording must hold: 4 fitted and 4 held out, so that the held-out
+#: test's Student-t reference has 3 degrees of freedom (the fewest for which it has a finite variance).
+MIN_BLOCKS = 8
+#: The shortest block of the held-out split (``recording_inputs._masks``), s.
+MIN_BLOCK_S = 0.025
+
+
+def require_inputs(rec: Recording, block_s: float | None = None) -> None:
+    """Refuse a recording that lacks what its experiment needs before anything is fitted.
+
+    * a recording of a moving experiment (:data:`MOVING_EXPERIMENTS`) without ``sins_angle``: the format
+      reads a missing table angle as a block at rest, so the table motion would be left in the residual and
+      fitted as an effect (a rate-table recording without it got ``axis_coupling`` with every coefficient at
+      its bound);
+    * fewer samples than :data:`MIN_BLOCKS` blocks of the held-out split (``block_s``, default
+      :data:`MIN_BLOCK_S`) hold: without them the significance test has nothing to stand on, and a
+      20-sample recording got ``none``.
+
+    Raises
+    ------
+    RecordingError
+        Naming the recording, the key (``sins_angle``, ``counts``) and the rule.
+    """
+    if rec.sins_angle is None and any(e in rec.experiment for e in MOVING_EXPERIMENTS):
+        raise RecordingError(f"{rec.source}: sins_angle: is required for a {rec.experiment!r} recording (the table "
+                             "angle the experiment moved the block by; without it the diagnosis would read the table "
+                             "motion as an effect)")
+    block = block_s or MIN_BLOCK_S
+    need = int(math.ceil(MIN_BLOCKS * block * rec.fs_hz)) + 1
+    if rec.n_samples < need:
+        raise RecordingError(f"{rec.source}: counts: must hold at least {need} samples ({MIN_BLOCKS} blocks of "
+                             f"{block * 1e3:g} ms at {rec.fs_hz:g} Hz: {MIN_BLOCKS // 2} fitted and {MIN_BLOCKS // 2} "
+                             f"held out, the fewest the held-out significance test stands on), got {rec.n_samples}")
 
 
 def _t(i: int, fs: float) -> float:

@@ -104,7 +104,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from sins_sim.identification.checks import check_recording
+from sins_sim.identification.checks import check_recording, require_inputs
 from sins_sim.identification.explain import explain
 from sins_sim.identification.localise import localise, noise_floor, operating_points
 from sins_sim.identification.recording_inputs import (_coupling_sources, _masks, _model_inputs, _table_angles, _tau,
@@ -136,6 +136,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
 
     t_start = time.perf_counter()
     timing = {}
+    require_inputs(rec, settings.block_s)
     nominal = {a: suspension_from_nominal(rec.nominal[a]) for a in rec.axes}
     # a recording that starts mid-operation is simulated from rest 6 time constants earlier, the drive
     # before t = 0 continued as it starts, so that the model is in its steady state when the data begin
