@@ -146,6 +146,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
     fs = rec.fs_hz
     sig0 = q / math.sqrt(12.0)
     table = _table_angles(rec)
+    drift = settings.bias_drift and rec.sins_angle is None  # see DiagnoseSettings.bias_drift
     if settings.checks:
         # 0. the data checks: a recording with a finding gets no verdict
         findings = check_recording(rec, table)
@@ -175,7 +176,8 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
 
     def problem(a, ctx, sett=settings):
         inputs, u, tr, ys, coupled = ctx
-        return _Problem(inputs, a, ys[a], nominal[a], sett, u, tr, offset, sig0, coupled, a_ref[a], n_pre)
+        return _Problem(inputs, a, ys[a], nominal[a], sett, u, tr, offset, sig0, coupled, a_ref[a], n_pre,
+                        drift=drift)
 
     shared = {}  # axis -> the baseline polish's Jacobian columns of the nominal parameters and start state
 
@@ -274,7 +276,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
     steps = None
     remainder = None
     train = full[2]
-    n_nom = 6 + (2 if offset else 0)
+    n_nom = 6 + (2 if offset else 0) + (2 if drift else 0)  # the bias drift's two nuisance terms too
     if significant:
         candidates, skipped = explain(rec, settings, fits, floors, excess, tol, sig_axes, locs,
                                       fit_effect_from(fits), timing, progress)

@@ -107,6 +107,13 @@ class DiagnoseSettings:
         How many of the first round's best candidates each further greedy round tries.
     checks : bool
         Check the data before judging it (``sins_sim.identification.checks``).
+    bias_drift : bool
+        Profile a readout bias and its drift out of every fit (baseline and candidates alike) when the
+        table does not move: the angle terms ``b t + c t^2`` (a rate bias ``b`` changing at ``2 c``; a slow
+        random walk of the bias over a recording looks like that), fitted by linear least squares on each
+        model's residual, so that no effect absorbs them (issue 24: a drift of 0.02-0.03 deg/h was
+        absorbed as ``lock_in``). On a moving table a bias equals a scale error times the table rate over
+        one recording (only turning both ways separates them), so the nuisance is left out there.
     """
 
     experiment: ExperimentSettings = FIT_SETTINGS
@@ -126,6 +133,7 @@ class DiagnoseSettings:
     max_effects: int = 3
     greedy_candidates: int = 4
     checks: bool = True
+    bias_drift: bool = True
 
     def __post_init__(self):
         v.positive("diagnose", "prior_f0", self.prior_f0)
@@ -290,6 +298,8 @@ class AxisFit:
     train_rms, heldout_rms, rms : float
         RMS residual on the fit blocks, the held-out blocks and all used samples (rad).
     start_state : (d_delta, d_rate) or None
+    drift : (bias rad/s, bias rate rad/s^2) or None
+        The readout bias drift profiled out of the fit (``DiagnoseSettings.bias_drift``).
         The fitted state change at ``t = 0`` of a recording that starts mid-operation.
     shared_jac : ndarray or None
         A polish's Jacobian columns of the nominal parameters and the start state (``x`` units,
@@ -309,6 +319,7 @@ class AxisFit:
     heldout_rms: float = math.nan
     rms: float = math.nan
     start_state: tuple | None = None
+    drift: tuple | None = None
     shared_jac: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
@@ -324,7 +335,7 @@ class _Problem:
 
     def __init__(self, inputs: ExperimentInputs, axis: str, y: np.ndarray, nominal: SuspensionParams,
                  settings: DiagnoseSettings, used: np.ndarray, train: np.ndarray, offset: bool, sigma_rad: float,
-                 coupled: dict | None, a_ref: float, skip: int = 0):
+                 coupled: dict | None, a_ref: float, skip: int = 0, drift: bool = False):
         self.inputs = inputs
         self.skip = int(skip)
         self.axis = axis
@@ -354,6 +365,19 @@ class _Problem:
         self.lo = np.array(lo)
         self.hi = np.array(hi)
         self.nfev = 0
+        # the nuisance profiled out of every model's residual: a constant (a recording that starts
+        # mid-operation) and a bias drift b t + c t^2 (settings.bias_drift), by linear least squares on the used
+        # samples; columns scaled to the recording's length for conditioning
+        cols = []
+        if offset:
+            cols.append(np.ones(y.size))
+        self.drift = bool(drift)
+        self._t_end = max(y.size - 1, 1) / inputs.fs_hz
+        if self.drift:
+            tn = np.arange(y.size) / inputs.fs_hz / self._t_end
+            cols += [tn, tn * tn]
+        self.basis = np.column_stack(cols) if cols else None
+        self._basis_used = None if self.basis is None else self.basis[used]
         # the last few models by their parameters: a fit asks again for the model at a point it has
         # just evaluated (the start of its next stage, its cost, its final residual)
         self._memo = {}
@@ -402,6 +426,10 @@ class _Problem:
 
     def model(self, sus: SuspensionParams, effect: Effect | None, start=None) -> np.ndarray:
         """Model angle at the recording's samples; ``start`` = (d_delta, d_rate) at t = 0 or None."""
+        return self._model(sus, effect, start)[0].copy()
+
+    def _model(self, sus: SuspensionParams, effect: Effect | None, start=None):
+        """The model (not a copy: do not change it) and the nuisance's coefficients (or None)."""
         if CANCEL.is_set():
             raise Cancelled("diagnosis interrupted")
         effects = effects_of(effect)
@@ -410,20 +438,32 @@ class _Problem:
         with self._memo_lock:
             hit = self._memo.get(key)
         if hit is not None:
-            return hit.copy()
+            return hit
         self.nfev += 1
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             m = simulate_axis(self.inputs, self.axis, sus, effects, self.settings.experiment, coupled=self.coupled,
                               kick=kick)
         m = m[self.skip:]
-        if self.offset:
-            m = m + float(np.mean((self.y - m)[self.used]))
+        coef = None
+        if self.basis is not None:
+            coef = np.linalg.lstsq(self._basis_used, (self.y - m)[self.used], rcond=None)[0]
+            m = m + self.basis @ coef
         with self._memo_lock:
             if len(self._memo) >= _MEMO:
                 self._memo.pop(next(iter(self._memo)))
-            self._memo[key] = m
-        return m.copy()
+            self._memo[key] = (m, coef)
+        return m, coef
+
+
+    def drift_of(self, sus: SuspensionParams, effect: Effect | None, start=None) -> tuple | None:
+        """The readout bias drift profiled out of the model at these parameters: ``(b rad/s, 2 c rad/s^2)``
+        of its ``b t + c t^2``, or None without the nuisance."""
+        if not self.drift:
+            return None
+        coef = self._model(sus, effect, start)[1]
+        b, c = coef[-2] / self._t_end, coef[-1] / self._t_end ** 2
+        return float(b), float(2.0 * c)
 
 
 def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None, frozen_jac=False,
@@ -847,4 +887,5 @@ def _finish(prob: _Problem, x, jac, unpack, space) -> AxisFit:
     heldout = prob.used & ~prob.train
     return AxisFit(axis=prob.axis, suspension=sus, effect=eff, model=model, residual=res, sigma=sigma,
                    nfev=prob.nfev, train_rms=_rms(res[prob.train]),
-                   heldout_rms=_rms(res[heldout]) if heldout.any() else math.nan, rms=_rms(res), start_state=state)
+                   heldout_rms=_rms(res[heldout]) if heldout.any() else math.nan, rms=_rms(res), start_state=state,
+                   drift=prob.drift_of(sus, eff, state))

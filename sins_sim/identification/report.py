@@ -24,7 +24,7 @@ from sins_sim.identification.localise import localise
 from sins_sim.identification.refit import DiagnoseSettings
 from sins_sim.io.recording import NOMINAL_KEYS, Recording
 from sins_sim.models.suspension import SuspensionParams
-from sins_sim.units import ARCSEC
+from sins_sim.units import ARCSEC, DEG_PER_H
 
 __all__ = ["Diagnosis", "write_report"]
 
@@ -61,6 +61,9 @@ class Diagnosis:
                 "residual_rms_axes_arcsec": {ax: f.rms / a for ax, f in base["fits"].items()},
                 "params": {ax: _susp_dict(f.suspension) for ax, f in base["fits"].items()},
                 "uncertainty": {ax: {k: f.sigma[k] for k in NOMINAL_KEYS} for ax, f in base["fits"].items()},
+                "bias_drift": {ax: {"bias_deg_h": f.drift[0] / DEG_PER_H, "bias_rate_deg_h_per_h":
+                                    f.drift[1] / DEG_PER_H * 3600.0}
+                               for ax, f in base["fits"].items() if f.drift is not None},
             },
             "gap": _json_clean(self.gap),
             "candidates": [{"effect": c["effect"], "residual_rms_arcsec": c["rms_rad"] / a,
@@ -285,6 +288,10 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
         lines.append(f"| {a} | {js['baseline']['residual_rms_axes_arcsec'][a]:.4g} | "
                      f"{js['gap']['excess_rms_arcsec'][a]:.4g} | "
                      + " | ".join(_pm(p[k], sd[k]) for k in NOMINAL_KEYS) + " |")
+    if js["baseline"].get("bias_drift"):
+        lines += ["", "Readout bias drift, a nuisance profiled out of every fit (`b t + c t^2` of the angle): "
+                  + "; ".join(f"{a}: bias {d['bias_deg_h']:.3g} deg/h, changing at {d['bias_rate_deg_h_per_h']:.3g} "
+                              "deg/h per hour" for a, d in js["baseline"]["bias_drift"].items())]
     g = js["gap"]
     lines += ["", "## Gap", "", f"- significant: {g['significant']}, axis {g['axis']}, band {g['band_hz']} Hz, "
               f"peaks {g['peaks_hz']} Hz, time window {g['time_s']} s"]

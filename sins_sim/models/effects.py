@@ -24,11 +24,12 @@ lock_in        sense        backscatter lock-in: Adler equation on the Sagnac ph
                             ``threshold_rad_s``, ``phase_rad``, ``fringe_rad``
 ============== ============ ==========================================================
 
-Three more disturbances live in :data:`DISTURBANCES`, outside the catalogue:
+Four more disturbances live in :data:`DISTURBANCES`, outside the catalogue:
 they exist so that the blind evaluation can test that the diagnosis says
 ``unknown`` for what it does not know (``mains_pickup``: a sine added to the
 readout; ``drive_harmonic``: a quadratic piezo, ``V + c2 V^2``; ``mount_mode``: a structural mode of the
-mount at 1-3 kHz rung by ambient vibration, a resonant peak in the readout that is physics, not a defect).
+mount at 1-3 kHz rung by ambient vibration, a resonant peak in the readout that is physics, not a defect;
+``bias_drift``: a slow ramp and random walk of the readout bias, a nuisance of every gyro).
 
 Registries: :data:`EFFECTS` (the catalogue, by name), :data:`DISTURBANCES`;
 :func:`make_effect` builds either from a name and parameters, as a scenario
@@ -84,7 +85,7 @@ from sins_sim.models.suspension import SuspensionParams
 from sins_sim.units import FRINGE_RAD
 
 __all__ = ["Param", "Effect", "PiezoLag", "AxisCoupling", "BlockMode", "ViscousDamping", "ResonanceDrift",
-           "ReadoutDelay", "ScaleFactor", "LockIn", "MainsPickup", "DriveHarmonic", "MountMode", "EFFECTS", "DISTURBANCES",
+           "ReadoutDelay", "ScaleFactor", "LockIn", "MainsPickup", "DriveHarmonic", "MountMode", "BiasDrift", "EFFECTS", "DISTURBANCES",
            "make_effect", "effect_names", "rate_from_grid"]
 
 
@@ -601,11 +602,43 @@ class MountMode(Effect):
         return phi + u * (p["rms_rad"] / rms)
 
 
+class BiasDrift(Effect):
+    """Off-catalogue: a slow drift of the readout's bias, a nuisance of every ring-laser gyro.
+
+    The readout angle gains ``integral of bias(t) dt`` with ``bias(t) = bias_rad_s + bias_rate_rad_s2 t +
+    walk(t)``, ``walk`` a random walk of the bias (``walk_rad_s_rt_s`` times a Wiener process, seeded; the
+    rate random walk of IEEE Std 952-1997, annex C), integrated on the readout's sample times by the
+    trapezoidal rule.
+    """
+
+    name = "bias_drift"
+    stage = "readout"
+    summary = "slow drift of the readout bias: a ramp and a random walk (not in the catalogue)"
+    PARAMS = (Param("bias_rad_s", "bias at t = 0 (rad/s)", -1e-3, 1e-3, 1e-7),
+              Param("bias_rate_rad_s2", "change of the bias (rad/s^2)", -1e-4, 1e-4, 1e-9, default=0.0),
+              Param("walk_rad_s_rt_s", "random walk of the bias (rad/s/sqrt(s))", 0.0, 1e-4, 1e-9, default=0.0),
+              Param("seed", "seed of the random walk", 0.0, 2.0 ** 31, 1.0, default=0.0))
+
+    def additive(self, axis, t):
+        if not self.acts_on(axis):
+            return None
+        p = self.params
+        bias = p["bias_rad_s"] + p["bias_rate_rad_s2"] * t
+        if p["walk_rad_s_rt_s"] > 0.0 and t.size > 1:
+            dt = np.diff(t)
+            steps = np.random.default_rng([int(p["seed"]), 13]).standard_normal(dt.size) * np.sqrt(dt)
+            bias = bias + p["walk_rad_s_rt_s"] * np.concatenate(([0.0], np.cumsum(steps)))
+        out = np.zeros_like(t)
+        if t.size > 1:
+            out[1:] = np.cumsum(0.5 * (bias[1:] + bias[:-1]) * np.diff(t))
+        return out
+
+
 #: The catalogue of unmodelled effects the diagnosis knows, by name.
 EFFECTS = MappingProxyType({cls.name: cls for cls in (PiezoLag, AxisCoupling, BlockMode, ViscousDamping,
                                                        ResonanceDrift, ReadoutDelay, ScaleFactor, LockIn)})
 #: Disturbances outside the catalogue (for the blind evaluation).
-DISTURBANCES = MappingProxyType({cls.name: cls for cls in (MainsPickup, DriveHarmonic, MountMode)})
+DISTURBANCES = MappingProxyType({cls.name: cls for cls in (MainsPickup, DriveHarmonic, MountMode, BiasDrift)})
 
 
 def effect_names() -> list:
