@@ -42,3 +42,15 @@ def test_a_recording_too_short_for_the_held_out_test_is_refused():
         with pytest.raises(RecordingError, match=rf"^cut\.npz: counts: must hold at least 1441 samples \(8 blocks "
                                                  rf"of 25 ms at 7200 Hz.*held-out.*got {n}$"):
             diagnose_recording(_cut(rec, n))
+
+
+def test_several_recordings_are_checked_for_their_requirements_before_any_work(tmp_path):
+    """``diagnose A B`` refuses a short B before it spends any time on A."""
+    from sins_sim.io.recording import write_recording
+    from sins_sim.jobs.recording_jobs import diagnose_many
+
+    a = write_recording(tmp_path / "a.npz", _recording("stationary", duration=0.3))
+    b = write_recording(tmp_path / "b.npz", _cut(_recording("stationary", duration=0.3), 100))
+    with pytest.raises(RecordingError, match=r"counts: must hold at least 1441 samples"):
+        diagnose_many([a, b], json_dir=tmp_path / "out", jobs=1)
+    assert not (tmp_path / "out" / "a.json").exists()  # A, first in line, was not diagnosed
