@@ -40,7 +40,7 @@ def _inputs(duration=0.3, axes=("x",), table=None, drive_fs=FS):
 def test_catalogue_names():
     assert list(EFFECTS) == ["piezo_lag", "axis_coupling", "block_mode", "viscous_damping", "resonance_drift",
                              "readout_delay", "scale_factor", "lock_in"]
-    assert set(DISTURBANCES) == {"mains_pickup", "drive_harmonic"}
+    assert set(DISTURBANCES) == {"mains_pickup", "drive_harmonic", "mount_mode", "bias_drift"}
     assert not set(EFFECTS) & set(DISTURBANCES)
 
 

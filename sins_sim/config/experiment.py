@@ -155,7 +155,7 @@ EXPERIMENT_SCHEMA = Map({
         "axes": ListOf(Str(), min_len=1),
     }, default={}),
     "effects": EffectsList(axes=None, catalogue_only=False,
-                           doc="the off-catalogue disturbances mains_pickup and drive_harmonic too"),
+                           doc="the off-catalogue disturbances mains_pickup, drive_harmonic, mount_mode and bias_drift too"),
 }, rules=(f"(duration_s + preroll_s) x plant_rate_hz x axes <= {MAX_EXPERIMENT_STEPS:.3g} plant steps (memory)",
           "plant_rate_hz >= 40 x f0_hz of every axis; rate_table sines below fs_hz / 2 and their peak rate "
           "<= 1000 deg/s"))

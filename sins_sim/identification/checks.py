@@ -24,15 +24,33 @@ check                rule (and why the threshold holds)
 ``not continuous``   in a window of :data:`WINDOW_S`, the RMS of the second difference of the counts exceeds
                      that of the first: a band-limited angle dominated by content below ``fs / 6`` has a
                      ratio ``2 sin(pi f / fs) < 1`` (0.34 for the dither at 386 Hz, 7.2 kHz); white
-                     counts (random or shuffled rows) give ``sqrt(3) = 1.73``
+                     counts (random or shuffled rows) give ``sqrt(3) = 1.73``; and the window is white
+                     (autocorrelations at lags 1-3 below :data:`WHITE_RHO`): a structural mode above
+                     ``fs / 6`` has the same ratio but is no white sequence
+``time continuity``  the dither's phase steps within a sample (:func:`_phase_step`): the sine recursion
+                     ``y[k] - 2 cos(w) y[k-1] + y[k-2]`` at the nominal f0 leaves a residual beyond
+                     :data:`STEP_SIGMA` robust standard deviations, and the sines fitted to
+                     :data:`STEP_PERIODS` periods before and after it differ in phase by more than
+                     :data:`STEP_MIN_RAD`: samples lost or inserted while the header claims a continuous
+                     record (each step may stay within the ``jump`` limit). The finding gives the drive's
+                     step at the same instant (equal when every array lost the samples) and the samples
+                     lost modulo a dither period. The arrays' lengths are the reader's
+                     (``sins_sim.io.recording``: ``drive_v`` and ``sins_angle`` must cover ``counts``)
+``sign`` (table)     with table motion (``sins_angle`` swinging by more than 100 quanta), the measured
+                     angle regressed on the table angle has a negative slope: the gyro measures the block's
+                     angle (slope +1), so the counts are negated or ``sins_angle`` has the opposite sign or
+                     runs backwards; the dither test below cannot see this (it subtracts the table first)
 ``sign``             the correlation of the measured angle with the nominal model's prediction for the
                      recorded drive is below :data:`SIGN_CORRELATION`: the dither runs in antiphase with the
                      header's convention (counts negated, the drive's sign flipped, or k5 of the wrong sign).
                      A unit whose resonance is off by its half width still correlates at cos 45 deg = 0.7
-``noise``            the white floor of the angle (median Welch PSD over ``[0.55, 0.95] fs/2``,
-                     :func:`~sins_sim.identification.localise.noise_floor`) exceeds :data:`NOISE_RATIO` times
-                     the quantisation ``q / sqrt(12)``: readout noise of a working counter is of the order
-                     of the quantum (the blind evaluation draws up to 2.3 times it)
+``noise``            the white floor of the angle (median Welch PSD over ``[0.55, 0.95] fs/2`` free of
+                     lines and peaks, :func:`~sins_sim.identification.localise.noise_floor`) exceeds
+                     :data:`NOISE_RATIO` times the quantisation ``q / sqrt(12)``, and is white: its level in
+                     the band's bins spread no more than white noise's do (:data:`FLAT_MARGIN`). Readout noise of a
+                     working counter is of the order of the quantum (the blind evaluation draws up to 2.3
+                     times it); a resonance (a mount mode at 1.6 kHz, a rocking mode at 2.2 kHz) raises the
+                     band unevenly and is left for the diagnosis to localise (issue 24)
 ==================== ===================================================================================
 
 .. autosummary::
@@ -48,12 +66,13 @@ import warnings
 import numpy as np
 
 from sins_sim.identification.localise import noise_floor
-from sins_sim.io.recording import Recording
+from sins_sim.io.recording import Recording, RecordingError
 from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, simulate_axis, suspension_from_nominal
 from sins_sim.units import ARCMIN, ARCSEC
 
-__all__ = ["check_recording", "format_findings", "DEAD_RATIO", "SATURATION_MIN", "MAX_RATE_RAD_S", "WINDOW_S",
-           "SIGN_CORRELATION", "NOISE_RATIO"]
+__all__ = ["check_recording", "require_inputs", "format_findings", "MOVING_EXPERIMENTS", "MIN_BLOCKS", "DEAD_RATIO", "SATURATION_MIN", "MAX_RATE_RAD_S", "WINDOW_S",
+           "SIGN_CORRELATION", "NOISE_RATIO", "FLAT_MARGIN",
+           "STEP_SIGMA", "STEP_PERIODS", "STEP_MIN_RAD", "WHITE_RHO"]
 
 DEAD_RATIO = 0.05
 SATURATION_MIN = 8
@@ -62,12 +81,156 @@ MAX_RATE_RAD_S = math.radians(1000.0)
 WINDOW_S = 0.05
 SIGN_CORRELATION = -0.3
 NOISE_RATIO = 20.0
+#: A sample of the sine recursion's residual beyond this many robust standard deviations is a candidate phase
+#: step: on Gaussian residuals the largest of 1e6 samples is about 5 sigma.
+STEP_SIGMA = 10.0
+#: Dither periods of the sines fitted before and after a candidate step (their phases are compared).
+STEP_PERIODS = 10
+#: Smallest phase step reported (rad): 10 deg. A dither whose frequency the fit before the step misjudges by
+#: 0.5 % drifts by 0.05 cycles = 18 deg over 10 periods, half that at the middle of the fit after it.
+STEP_MIN_RAD = math.radians(10.0)
+#: Largest autocorrelation (lags 1-3) of a window of white counts: over a 50 ms window (>= 360 samples at
+#: 7.2 kHz) the sample autocorrelation of white noise scatters by 1 / sqrt(360) = 0.053, so 0.3 is 5.7 sigma.
+WHITE_RHO = 0.3
+#: A floor is white when the ratio of the 90 % and 10 % quantiles of its Welch bins over the noise band is at
+#: most this margin times that of the chi-square law a white floor's bins follow (2.3 for the 19 degrees of
+#: freedom of a 0.2 s recording, 1.7 at 1 s; the margin covers the scatter of quantiles over 36-60 bins: white
+#: noise of 20 counts gave 1.9 and 1.6). A resonance fills the band unevenly: a clean 4 arcsec mode at
+#: 1.6 kHz gives 4.3 at 0.5 s, one at 2.2 kHz 76.
+FLAT_MARGIN = 1.3
+
+
+#: Experiments whose block moves, so that the table angle (``sins_angle``) is part of what they need.
+MOVING_EXPERIMENTS = ("rate_table",)
+#: Fewest blocks of the held-out split a recording must hold: 4 fitted and 4 held out, so that the held-out
+#: test's Student-t reference has 3 degrees of freedom (the fewest for which it has a finite variance).
+MIN_BLOCKS = 8
+#: The shortest block of the held-out split (``recording_inputs._masks``), s.
+MIN_BLOCK_S = 0.025
+
+
+def require_inputs(rec: Recording, block_s: float | None = None) -> None:
+    """Refuse a recording that lacks what its experiment needs before anything is fitted.
+
+    * a recording of a moving experiment (:data:`MOVING_EXPERIMENTS`) without ``sins_angle``: the format
+      reads a missing table angle as a block at rest, so the table motion would be left in the residual and
+      fitted as an effect (a rate-table recording without it got ``axis_coupling`` with every coefficient at
+      its bound);
+    * fewer samples than :data:`MIN_BLOCKS` blocks of the held-out split (``block_s``, default
+      :data:`MIN_BLOCK_S`) hold: without them the significance test has nothing to stand on, and a
+      20-sample recording got ``none``.
+
+    Raises
+    ------
+    RecordingError
+        Naming the recording, the key (``sins_angle``, ``counts``) and the rule.
+    """
+    if rec.sins_angle is None and any(e in rec.experiment for e in MOVING_EXPERIMENTS):
+        raise RecordingError(f"{rec.source}: sins_angle: is required for a {rec.experiment!r} recording (the table "
+                             "angle the experiment moved the block by; without it the diagnosis would read the table "
+                             "motion as an effect)")
+    block = block_s or MIN_BLOCK_S
+    need = int(math.ceil(MIN_BLOCKS * block * rec.fs_hz)) + 1
+    if rec.n_samples < need:
+        raise RecordingError(f"{rec.source}: counts: must hold at least {need} samples ({MIN_BLOCKS} blocks of "
+                             f"{block * 1e3:g} ms at {rec.fs_hz:g} Hz: {MIN_BLOCKS // 2} fitted and {MIN_BLOCKS // 2} "
+                             f"held out, the fewest the held-out significance test stands on), got {rec.n_samples}")
 
 
 def _t(i: int, fs: float) -> float:
     """A sample's time, rounded to what the sample period resolves."""
     digits = max(0, int(math.ceil(math.log10(fs))))
     return round(i / fs, digits)
+
+
+def _sine_at(seg: np.ndarray, w: float) -> complex:
+    """Least-squares ``c cos(w k) + s sin(w k)`` on a segment (``k`` its sample index, a mean removed): the
+    complex amplitude ``c - i s``, whose argument is the phase at ``k = 0``."""
+    k = np.arange(seg.size, dtype=np.float64)
+    d = np.column_stack([np.cos(w * k), np.sin(w * k), np.ones_like(k)])
+    cc, ss, _ = np.linalg.lstsq(d, seg, rcond=None)[0]
+    return complex(cc, -ss)
+
+
+def _local_phase_jump(x: np.ndarray, j: int, w: float, m: int) -> float | None:
+    """The phase step at sample ``j`` of a sine of ``w`` rad/sample: the sine fitted to the ``m`` samples
+    before, with its frequency refined on them, continued to the ``m`` samples after and compared with the sine
+    fitted there (rad, in ``(-pi, pi]``); ``None`` without room on both sides."""
+    if j - m < 0 or j + m > x.size:
+        return None
+    before, after = x[j - m:j], x[j:j + m]
+    # refine the frequency on the samples before: the phase advance between their two halves
+    h = m // 2
+    a1, a2 = _sine_at(before[:h], w), _sine_at(before[h:2 * h], w)
+    if abs(a1) == 0.0 or abs(a2) == 0.0:
+        return None
+    w = w + float(np.angle(a2 / (a1 * np.exp(1j * w * h)))) / h  # the phase advance beyond w's over h samples
+    pb = _sine_at(before, w)
+    pa = _sine_at(after, w)
+    if abs(pb) == 0.0 or abs(pa) == 0.0:
+        return None
+    return float(np.angle(pa / (pb * np.exp(1j * w * m))))
+
+
+def _phase_step(y: np.ndarray, fs: float, f0: float):
+    """A step of the dither's phase: ``(sample, step rad)`` or ``None``.
+
+    The sine recursion ``e[k] = y[k] - 2 cos(w) y[k-1] + y[k-2]`` (``w = 2 pi f0 / fs``) vanishes on any sine
+    of ``w`` whatever its amplitude and phase, and stays small on a dither a few per cent off ``f0``, slowly
+    changing in amplitude or frequency (an AFC sweep) or carrying noise; a phase step of the sine leaves
+    ``e`` of the order of the dither's amplitude at the step. A sample whose ``|e|`` exceeds
+    :data:`STEP_SIGMA` robust standard deviations (1.4826 times the median absolute deviation) of ``e`` is a
+    candidate; it is a phase step when the sine fitted to :data:`STEP_PERIODS` dither periods before it,
+    continued, is more than :data:`STEP_MIN_RAD` out of phase with the one fitted after it (a spike, a kink
+    of lock-in or a structural mode leaves the phase alone).
+    """
+    w = 2.0 * math.pi * f0 / fs
+    m = int(round(STEP_PERIODS * fs / f0))
+    if y.size < 2 * m + 3 or not 0.0 < w < math.pi:
+        return None
+    x = y - np.mean(y)
+    e = x[2:] - 2.0 * math.cos(w) * x[1:-1] + x[:-2]
+    sd = 1.4826 * float(np.median(np.abs(e - np.median(e))))
+    if not sd > 0.0:
+        return None
+    cand = np.flatnonzero(np.abs(e) > STEP_SIGMA * sd) + 2
+    seen = -m
+    for j in cand:
+        if j < seen + m // 2:
+            continue  # the same event
+        seen = j
+        d = _local_phase_jump(x, int(j), w, m)
+        if d is not None and abs(d) > STEP_MIN_RAD:
+            return int(j), d
+    return None
+
+
+def _phase_step_at(drive: np.ndarray, drive_fs: float, f0: float, t0: float) -> float | None:
+    """The drive's phase step at time ``t0`` (rad), or ``None`` when it does not step there."""
+    w = 2.0 * math.pi * f0 / drive_fs
+    m = int(round(STEP_PERIODS * drive_fs / f0))
+    j = int(round(t0 * drive_fs))
+    best = None
+    for jj in range(max(m, j - 2), min(drive.size - m, j + 3)):
+        d = _local_phase_jump(drive - np.mean(drive), jj, w, m)
+        if d is not None and (best is None or abs(d) > abs(best)):
+            best = d
+    return best if best is not None and abs(best) > STEP_MIN_RAD else None
+
+
+def _white(x: np.ndarray) -> bool:
+    """Whether a window looks white: its autocorrelations at lags 1-3 all below :data:`WHITE_RHO`.
+
+    Random counts or shuffled rows are white. A band-limited angle above ``fs / 6`` (a structural mode at
+    2.2 kHz, 7.2 kHz) also has second differences larger than first ones, but it is no white sequence: a
+    narrow-band process at ``f`` has ``rho_k = cos(2 pi k f / fs)``, and no ``f`` makes the three lags'
+    cosines all small (``theta``, ``2 theta`` and ``3 theta`` cannot all sit near ``pi / 2`` modulo ``pi``).
+    """
+    x = np.asarray(x, dtype=np.float64) - np.mean(x)
+    den = float(np.dot(x, x))
+    if den <= 0.0:
+        return False
+    return all(abs(float(np.dot(x[:-k], x[k:])) / den) < WHITE_RHO for k in (1, 2, 3))
 
 
 def _finding(check: str, axis: str, t_s, message: str) -> dict:
@@ -97,6 +260,9 @@ def check_recording(rec: Recording, table: dict | None = None) -> list:
 
         table = _table_angles(rec)
     inputs = ExperimentInputs.from_recording(rec)
+    # the table moves when its angle swings by more than 100 quanta (the sign test then has a witness far
+    # above the readout's resolution)
+    table_moves = {a: rec.sins_angle is not None and float(np.std(table[a])) > 100.0 * q for a in rec.axes}
     out = []
     for i, a in enumerate(rec.axes):
         c = np.asarray(rec.counts[:, i], dtype=np.int64)
@@ -166,7 +332,7 @@ def check_recording(rec: Recording, table: dict | None = None) -> list:
         for j0 in range(0, d2.size - nw + 1, nw):
             r1 = float(np.sqrt(np.mean(dy[j0:j0 + nw] ** 2)))
             r2 = float(np.sqrt(np.mean(d2[j0:j0 + nw] ** 2)))
-            if r1 > 0 and r2 > r1:
+            if r1 > 0 and r2 > r1 and _white(y[j0:j0 + nw + 2]):
                 bad = (j0, r2 / r1)
                 break
         if bad is not None:
@@ -175,6 +341,33 @@ def check_recording(rec: Recording, table: dict | None = None) -> list:
                                 f"the counts do not follow a continuous angle from t = {_t(j0, fs):g} s (second "
                                 f"differences {ratio:.2f} times the first: random counts or shuffled rows)"))
             continue
+        # time continuity: a step of the dither's phase (samples lost or inserted)
+        step = _phase_step(y, fs, float(rec.nominal[a].get("f0_hz", sus.f0_hz)))
+        if step is not None:
+            j, dphi = step
+            t0 = _t(j, fs)
+            dd = _phase_step_at(np.asarray(rec.drive_v[:, i], dtype=np.float64), rec.drive_fs_hz,
+                                float(rec.nominal[a].get("f0_hz", sus.f0_hz)), t0)
+            drive = (f"the drive's by {math.degrees(dd):.0f} deg there" if dd is not None else
+                     "the drive's does not step there")
+            lost = (dphi % (2.0 * math.pi)) / (2.0 * math.pi * sus.f0_hz) * fs  # n lost: the phase advances by w n
+            out.append(_finding("time continuity", a, t0,
+                                f"the dither's phase steps by {math.degrees(dphi):.0f} deg at t = {t0:g} s and "
+                                f"{drive}: samples lost or inserted (e.g. {lost:.0f} samples, modulo a dither "
+                                f"period of {fs / sus.f0_hz:.1f}) although the header claims a continuous record "
+                                f"at {fs:g} Hz; a dither cannot change its phase within a sample"))
+            continue
+        # sign convention against the table angle: the gyro measures the block's angle (slope +1)
+        if table_moves[a]:
+            ang = c.astype(np.float64) * q
+            tt = table[a] - table[a].mean()
+            slope = float(np.dot(ang - ang.mean(), tt) / np.dot(tt, tt))
+            if slope < 0.0:
+                out.append(_finding("sign", a, [0.0, dur],
+                                    f"sign convention opposite to the table's: the measured angle follows the table "
+                                    f"angle (sins_angle) with slope {slope:.3g} instead of +1 from 0 to {dur:g} s "
+                                    "(counts negated, or sins_angle of the opposite sign or reversed in time)"))
+                continue
         # sign convention: the dither against the nominal model's prediction
         if model is not None and amp_pred > 0.0:
             h = slice(i0, n)
@@ -188,9 +381,12 @@ def check_recording(rec: Recording, table: dict | None = None) -> list:
                                     f"with the nominal model's prediction from t = {_t(i0, fs):g} s (counts "
                                     "negated, drive sign flipped, or k5 of the wrong sign)"))
                 continue
-        # noise floor against the readout quantum
+        # noise floor against the readout quantum, when the floor is white: a resonance (a structural mode
+        # at 1.5-2.5 kHz) fills the band with its peak and skirts, but not evenly; it is physics for the
+        # diagnosis to localise, not a noisy channel
         fl = noise_floor(y, q, fs)
-        if fl["white_rad"] > NOISE_RATIO * fl["quantisation_rad"]:
+        white = fl["spread"] <= FLAT_MARGIN * fl["spread_white"]
+        if white and fl["white_rad"] > NOISE_RATIO * fl["quantisation_rad"]:
             out.append(_finding("noise", a, [0.0, dur],
                                 f"noise floor {fl['white_rad'] / ARCSEC:.3g} arcsec RMS is "
                                 f"{fl['white_rad'] / fl['quantisation_rad']:.0f} times the readout quantisation "

@@ -104,7 +104,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from sins_sim.identification.checks import check_recording
+from sins_sim.identification.checks import check_recording, require_inputs
 from sins_sim.identification.explain import explain
 from sins_sim.identification.localise import localise, noise_floor, operating_points
 from sins_sim.identification.recording_inputs import (_coupling_sources, _masks, _model_inputs, _table_angles, _tau,
@@ -136,6 +136,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
 
     t_start = time.perf_counter()
     timing = {}
+    require_inputs(rec, settings.block_s)
     nominal = {a: suspension_from_nominal(rec.nominal[a]) for a in rec.axes}
     # a recording that starts mid-operation is simulated from rest 6 time constants earlier, the drive
     # before t = 0 continued as it starts, so that the model is in its steady state when the data begin
@@ -145,6 +146,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
     fs = rec.fs_hz
     sig0 = q / math.sqrt(12.0)
     table = _table_angles(rec)
+    drift = settings.bias_drift and rec.sins_angle is None  # see DiagnoseSettings.bias_drift
     if settings.checks:
         # 0. the data checks: a recording with a finding gets no verdict
         findings = check_recording(rec, table)
@@ -174,7 +176,8 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
 
     def problem(a, ctx, sett=settings):
         inputs, u, tr, ys, coupled = ctx
-        return _Problem(inputs, a, ys[a], nominal[a], sett, u, tr, offset, sig0, coupled, a_ref[a], n_pre)
+        return _Problem(inputs, a, ys[a], nominal[a], sett, u, tr, offset, sig0, coupled, a_ref[a], n_pre,
+                        drift=drift)
 
     shared = {}  # axis -> the baseline polish's Jacobian columns of the nominal parameters and start state
 
@@ -273,7 +276,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
     steps = None
     remainder = None
     train = full[2]
-    n_nom = 6 + (2 if offset else 0)
+    n_nom = 6 + (2 if offset else 0) + (2 if drift else 0)  # the bias drift's two nuisance terms too
     if significant:
         candidates, skipped = explain(rec, settings, fits, floors, excess, tol, sig_axes, locs,
                                       fit_effect_from(fits), timing, progress)

@@ -25,27 +25,90 @@ __all__ = ["noise_floor", "localise", "operating_points"]
 
 
 # --- noise floor ---------------------------------------------------------------------------------
+#: Correlation of neighbouring Welch segments for a Hann window at 50 % overlap (Harris 1978, "On the use
+#: of windows for harmonic analysis with the discrete Fourier transform", Proc. IEEE 66(1), table 1: 16.7 %).
+_HANN_OVERLAP_CORR = 0.167
+#: False-alarm level of the test that a PSD bin belongs to the white floor (per bin): a bin above the
+#: ``1 - LINE_LEVEL`` quantile of the floor's chi-square law is a coherent line or a resonant peak.
+LINE_LEVEL = 1e-3
+
+
+def _welch_dof(n: int, nper: int) -> float:
+    """Equivalent degrees of freedom of a Welch PSD bin: ``2 K / (1 + 2 c^2)`` for ``K`` segments at 50 %
+    overlap with the correlation ``c`` of neighbouring segments (Welch 1967, "The use of fast Fourier
+    transform for the estimation of power spectra", IEEE Trans. Audio Electroacoust. AU-15, eq. for the
+    variance with overlap; Percival & Walden 1993, "Spectral Analysis for Physical Applications",
+    sec. 6.17)."""
+    k = max(1, 1 + (n - nper) // (nper // 2))
+    return 2.0 * k / (1.0 + 2.0 * _HANN_OVERLAP_CORR ** 2)
+
+
 def noise_floor(residual: np.ndarray, quantum_rad: float, fs_hz: float) -> dict:
     """Noise floor of a residual from the data: quantisation and the high-frequency band.
 
     The readout quantisation alone gives ``q / sqrt(12)``. White noise of
     any other origin shows in the residual's spectrum where the model has
     nothing to say: the level is the median of the Welch PSD over
-    ``[0.55, 0.95] fs/2`` (a median, so that dither harmonics or a
-    resonance line in that band do not count), and ``sigma = sqrt(level fs/2)``.
+    ``[0.55, 0.95] fs/2`` and ``sigma = sqrt(level fs/2)``, taken over the
+    bins **free of coherent lines and resonant peaks**: a bin above the
+    ``1 - LINE_LEVEL`` quantile of the white floor's law (``level chi2_nu /
+    nu`` with the Welch bin's equivalent degrees of freedom ``nu``,
+    :func:`_welch_dof`, the level scaled by the median of that law) is left
+    out with its two neighbours (the Hann window's leakage), and the
+    median is taken again, until no bin is left out (issue 24: a structural
+    mode at 1.5-2.5 kHz, whose peak and skirts fill much of the band, was
+    read as a noise floor 25 times the quantisation). On white noise the
+    test leaves out about one bin in a thousand and the level is that of
+    the plain median. At least a quarter of the band's bins are kept (the
+    lowest, when the spectrum has no flat part).
 
     Returns
     -------
     dict
-        ``floor_rad`` (the larger of the two), ``quantisation_rad``, ``white_rad``.
+        ``floor_rad`` (the larger of the two), ``quantisation_rad``, ``white_rad``, ``excluded_hz``
+        (the bands left out as lines or peaks, merged runs of bins ``[f0, f1]``), ``spread`` (the ratio of
+        the 90 % and 10 % quantiles of the band's PSD bins) and ``spread_white`` (the same ratio of the
+        white floor's chi-square law, ``chi2_nu``: what a white floor gives).
     """
+    from scipy import stats
+
     x = np.asarray(residual, dtype=np.float64)
     qn = quantum_rad / math.sqrt(12.0)
     nper = int(min(256, max(16, x.size // 8)))
     f, p = signal.welch(x - x.mean(), fs=fs_hz, nperseg=nper, detrend="linear")
     band = (f >= 0.55 * fs_hz / 2) & (f <= 0.95 * fs_hz / 2)
-    white = math.sqrt(float(np.median(p[band])) * fs_hz / 2.0) if np.any(band) else 0.0
-    return {"floor_rad": max(qn, white), "quantisation_rad": qn, "white_rad": white}
+    excluded = []
+    if not np.any(band):
+        return {"floor_rad": qn, "quantisation_rad": qn, "white_rad": 0.0, "excluded_hz": excluded, "spread": math.nan,
+                "spread_white": math.nan}
+    nu = _welch_dof(x.size, min(nper, x.size))
+    law = stats.chi2(nu)
+    thr = float(law.ppf(1.0 - LINE_LEVEL) / law.median())  # bin / (median of the floor's bins)
+    keep = band.copy()
+    min_keep = max(1, int(np.ceil(0.25 * np.count_nonzero(band))))
+    for _ in range(64):
+        level = float(np.median(p[keep]))
+        out = band & (p > thr * level)
+        out = out | np.r_[out[1:], False] | np.r_[False, out[:-1]]
+        new = band & ~out
+        if np.count_nonzero(new) < min_keep:
+            idx = np.flatnonzero(band)
+            new = np.zeros_like(band)
+            new[idx[np.argsort(p[idx])[:min_keep]]] = True
+        if np.array_equal(new, keep):
+            break
+        keep = new
+    white = math.sqrt(float(np.median(p[keep])) * fs_hz / 2.0)
+    # how evenly the band is filled: the ratio of its bins' 90 % and 10 % quantiles, and that of a white
+    # floor's chi-square law (a resonance's peak and skirts fill the band unevenly)
+    spread = float(np.quantile(p[band], 0.9) / np.quantile(p[band], 0.1)) if np.quantile(p[band], 0.1) > 0 else math.inf
+    spread_white = float(law.ppf(0.9) / law.ppf(0.1))
+    gone = np.flatnonzero(band & ~keep)
+    if gone.size:
+        runs = np.split(gone, np.flatnonzero(np.diff(gone) > 1) + 1)
+        excluded = [[float(f[r[0]]), float(f[r[-1]])] for r in runs]
+    return {"floor_rad": max(qn, white), "quantisation_rad": qn, "white_rad": white, "excluded_hz": excluded,
+            "spread": spread, "spread_white": spread_white}
 
 
 # --- localisation ------------------------------------------------------------------------------------

@@ -38,7 +38,8 @@ from sins_sim import _validate as v
 from sins_sim.identification.afc import hb_stiffness_ratio
 from sins_sim.io.recording import NOMINAL_KEYS
 from sins_sim.models.effects import EFFECTS, Effect, Param
-from sins_sim.models.suspension import SuspensionParams
+from sins_sim.models.suspension import (F0_RANGE_HZ, K1_MAX, K2_RANGE_RAD, K3_MAX, K4_MAX_PER_RAD, K4_MIN_PER_RAD,
+                                        K5_RANGE_RAD_PER_V, Q_RANGE, SuspensionParams)
 from sins_sim.simulation.experiment import FIT_SETTINGS, ExperimentInputs, ExperimentSettings, simulate_axis
 
 __all__ = ["DiagnoseSettings", "AxisFit", "EffectSet", "fit_axis", "blas_threads", "in_processes"]
@@ -106,6 +107,13 @@ class DiagnoseSettings:
         How many of the first round's best candidates each further greedy round tries.
     checks : bool
         Check the data before judging it (``sins_sim.identification.checks``).
+    bias_drift : bool
+        Profile a readout bias and its drift out of every fit (baseline and candidates alike) when the
+        table does not move: the angle terms ``b t + c t^2`` (a rate bias ``b`` changing at ``2 c``; a slow
+        random walk of the bias over a recording looks like that), fitted by linear least squares on each
+        model's residual, so that no effect absorbs them (issue 24: a drift of 0.02-0.03 deg/h was
+        absorbed as ``lock_in``). On a moving table a bias equals a scale error times the table rate over
+        one recording (only turning both ways separates them), so the nuisance is left out there.
     """
 
     experiment: ExperimentSettings = FIT_SETTINGS
@@ -125,6 +133,7 @@ class DiagnoseSettings:
     max_effects: int = 3
     greedy_candidates: int = 4
     checks: bool = True
+    bias_drift: bool = True
 
     def __post_init__(self):
         v.positive("diagnose", "prior_f0", self.prior_f0)
@@ -289,6 +298,8 @@ class AxisFit:
     train_rms, heldout_rms, rms : float
         RMS residual on the fit blocks, the held-out blocks and all used samples (rad).
     start_state : (d_delta, d_rate) or None
+    drift : (bias rad/s, bias rate rad/s^2) or None
+        The readout bias drift profiled out of the fit (``DiagnoseSettings.bias_drift``).
         The fitted state change at ``t = 0`` of a recording that starts mid-operation.
     shared_jac : ndarray or None
         A polish's Jacobian columns of the nominal parameters and the start state (``x`` units,
@@ -308,6 +319,7 @@ class AxisFit:
     heldout_rms: float = math.nan
     rms: float = math.nan
     start_state: tuple | None = None
+    drift: tuple | None = None
     shared_jac: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
@@ -323,7 +335,7 @@ class _Problem:
 
     def __init__(self, inputs: ExperimentInputs, axis: str, y: np.ndarray, nominal: SuspensionParams,
                  settings: DiagnoseSettings, used: np.ndarray, train: np.ndarray, offset: bool, sigma_rad: float,
-                 coupled: dict | None, a_ref: float, skip: int = 0):
+                 coupled: dict | None, a_ref: float, skip: int = 0, drift: bool = False):
         self.inputs = inputs
         self.skip = int(skip)
         self.axis = axis
@@ -353,6 +365,19 @@ class _Problem:
         self.lo = np.array(lo)
         self.hi = np.array(hi)
         self.nfev = 0
+        # the nuisance profiled out of every model's residual: a constant (a recording that starts
+        # mid-operation) and a bias drift b t + c t^2 (settings.bias_drift), by linear least squares on the used
+        # samples; columns scaled to the recording's length for conditioning
+        cols = []
+        if offset:
+            cols.append(np.ones(y.size))
+        self.drift = bool(drift)
+        self._t_end = max(y.size - 1, 1) / inputs.fs_hz
+        if self.drift:
+            tn = np.arange(y.size) / inputs.fs_hz / self._t_end
+            cols += [tn, tn * tn]
+        self.basis = np.column_stack(cols) if cols else None
+        self._basis_used = None if self.basis is None else self.basis[used]
         # the last few models by their parameters: a fit asks again for the model at a point it has
         # just evaluated (the start of its next stage, its cost, its final residual)
         self._memo = {}
@@ -379,7 +404,10 @@ class _Problem:
         return np.array([fr / math.sqrt(kap), k1, k2, iq / (1.0 + k4 * self.a_ref), k4, k5])
 
     def suspension(self, xn) -> SuspensionParams:
-        p = self.to_p(np.asarray(xn) * self.u_nom)
+        """The suspension of a trial point, projected onto the physical ranges the model declares
+        (:func:`physical_clip`): the solver's box is relative to the nominal values and does not hold
+        ``k4 >= -20 1/rad``, ``k1 < 2 k2`` or ``k3 >= 0`` everywhere (issue 25, item 10)."""
+        p = physical_clip(self.to_p(np.asarray(xn) * self.u_nom))
         return self.nominal.replace(**{k: float(val) for k, val in zip(NOMINAL_KEYS, p)})
 
     def x_of(self, s: SuspensionParams) -> np.ndarray:
@@ -398,6 +426,10 @@ class _Problem:
 
     def model(self, sus: SuspensionParams, effect: Effect | None, start=None) -> np.ndarray:
         """Model angle at the recording's samples; ``start`` = (d_delta, d_rate) at t = 0 or None."""
+        return self._model(sus, effect, start)[0].copy()
+
+    def _model(self, sus: SuspensionParams, effect: Effect | None, start=None):
+        """The model (not a copy: do not change it) and the nuisance's coefficients (or None)."""
         if CANCEL.is_set():
             raise Cancelled("diagnosis interrupted")
         effects = effects_of(effect)
@@ -406,20 +438,32 @@ class _Problem:
         with self._memo_lock:
             hit = self._memo.get(key)
         if hit is not None:
-            return hit.copy()
+            return hit
         self.nfev += 1
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             m = simulate_axis(self.inputs, self.axis, sus, effects, self.settings.experiment, coupled=self.coupled,
                               kick=kick)
         m = m[self.skip:]
-        if self.offset:
-            m = m + float(np.mean((self.y - m)[self.used]))
+        coef = None
+        if self.basis is not None:
+            coef = np.linalg.lstsq(self._basis_used, (self.y - m)[self.used], rcond=None)[0]
+            m = m + self.basis @ coef
         with self._memo_lock:
             if len(self._memo) >= _MEMO:
                 self._memo.pop(next(iter(self._memo)))
-            self._memo[key] = m
-        return m.copy()
+            self._memo[key] = (m, coef)
+        return m, coef
+
+
+    def drift_of(self, sus: SuspensionParams, effect: Effect | None, start=None) -> tuple | None:
+        """The readout bias drift profiled out of the model at these parameters: ``(b rad/s, 2 c rad/s^2)``
+        of its ``b t + c t^2``, or None without the nuisance."""
+        if not self.drift:
+            return None
+        coef = self._model(sus, effect, start)[1]
+        b, c = coef[-2] / self._t_end, coef[-1] / self._t_end ** 2
+        return float(b), float(2.0 * c)
 
 
 def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=None, frozen_jac=False,
@@ -587,6 +631,40 @@ def _solve(prob: _Problem, effect_cls, x0, space, max_nfev, threads, mask, free=
         return fd_jac(sol.x, fun(sol.x)) / xs[None, :]
 
     return full(sol.x), sol.jac / xs[None, :], unpack, exact
+
+
+#: Margin below ``2 k2`` that a clipped ``k1`` keeps (eq. 9 needs ``k1 < 2 k2`` strictly).
+_K1_MARGIN = 1e-6
+
+
+def physical_limits() -> dict:
+    """The physical range of each nominal parameter as :class:`~sins_sim.models.suspension.SuspensionParams`
+    checks it (``k1`` also below ``2 k2``, ``k5`` in magnitude; ``k3`` at least ``1 / Q_max``, so that Q
+    stays finite without a viscous term)."""
+    return {"f0_hz": F0_RANGE_HZ, "k1": (0.0, K1_MAX), "k2": K2_RANGE_RAD, "k3": (1.0 / Q_RANGE[1], K3_MAX),
+            "k4": (K4_MIN_PER_RAD, K4_MAX_PER_RAD), "k5": K5_RANGE_RAD_PER_V}
+
+
+def physical_clip(p) -> np.ndarray:
+    """``(f0, k1, k2, k3, k4, k5)`` projected onto the ranges :class:`SuspensionParams` accepts.
+
+    Clipping the trial rather than refusing it keeps every trial a valid unit, so the fit never stops on
+    a value the user did not write; a parameter that ends at a limit is reported as implausible
+    (``report.plausibility_flags``). Inside the ranges the point is returned unchanged. Non-finite
+    values are left alone (the model refuses them and the solver sees a large residual).
+    """
+    f0, k1, k2, k3, k4, k5 = (float(x) for x in p)
+    if not all(math.isfinite(x) for x in (f0, k1, k2, k3, k4, k5)):
+        return np.array([f0, k1, k2, k3, k4, k5])
+    lim = physical_limits()
+    f0 = min(max(f0, lim["f0_hz"][0]), lim["f0_hz"][1])
+    k2 = min(max(k2, lim["k2"][0]), lim["k2"][1])
+    k1 = min(max(k1, 0.0), lim["k1"][1], 2.0 * k2 * (1.0 - _K1_MARGIN))
+    k3 = min(max(k3, lim["k3"][0]), lim["k3"][1])
+    k4 = min(max(k4, lim["k4"][0]), lim["k4"][1])
+    mag = min(max(abs(k5), lim["k5"][0]), lim["k5"][1])
+    k5 = math.copysign(mag, k5)
+    return np.array([f0, k1, k2, k3, k4, k5])
 
 
 def _rms(x):
@@ -809,4 +887,5 @@ def _finish(prob: _Problem, x, jac, unpack, space) -> AxisFit:
     heldout = prob.used & ~prob.train
     return AxisFit(axis=prob.axis, suspension=sus, effect=eff, model=model, residual=res, sigma=sigma,
                    nfev=prob.nfev, train_rms=_rms(res[prob.train]),
-                   heldout_rms=_rms(res[heldout]) if heldout.any() else math.nan, rms=_rms(res), start_state=state)
+                   heldout_rms=_rms(res[heldout]) if heldout.any() else math.nan, rms=_rms(res), start_state=state,
+                   drift=prob.drift_of(sus, eff, state))

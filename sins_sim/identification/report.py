@@ -24,7 +24,7 @@ from sins_sim.identification.localise import localise
 from sins_sim.identification.refit import DiagnoseSettings
 from sins_sim.io.recording import NOMINAL_KEYS, Recording
 from sins_sim.models.suspension import SuspensionParams
-from sins_sim.units import ARCSEC
+from sins_sim.units import ARCSEC, DEG_PER_H
 
 __all__ = ["Diagnosis", "write_report"]
 
@@ -61,6 +61,9 @@ class Diagnosis:
                 "residual_rms_axes_arcsec": {ax: f.rms / a for ax, f in base["fits"].items()},
                 "params": {ax: _susp_dict(f.suspension) for ax, f in base["fits"].items()},
                 "uncertainty": {ax: {k: f.sigma[k] for k in NOMINAL_KEYS} for ax, f in base["fits"].items()},
+                "bias_drift": {ax: {"bias_deg_h": f.drift[0] / DEG_PER_H, "bias_rate_deg_h_per_h":
+                                    f.drift[1] / DEG_PER_H * 3600.0}
+                               for ax, f in base["fits"].items() if f.drift is not None},
             },
             "gap": _json_clean(self.gap),
             "candidates": [{"effect": c["effect"], "residual_rms_arcsec": c["rms_rad"] / a,
@@ -88,16 +91,32 @@ IMPLAUSIBLE_FACTOR = 3.0
 def plausibility_flags(rec: Recording, fits: dict) -> list:
     """Flags on refit parameters a unit cannot plausibly have, with the likely reason.
 
-    A sign flip of any ``k`` against the header's nominal value, or a ``k`` beyond
+    A parameter at the physical limit the model declares (the refit clips its trials there,
+    ``refit.physical_clip``), a sign flip of any ``k`` against the header's nominal value, or a ``k`` beyond
     :data:`IMPLAUSIBLE_FACTOR` times (or below 1 / that) its nominal value, or ``f0`` at the refit's
     bound (3 % off).
     """
+    from sins_sim.identification.refit import physical_limits
+
+    limits = physical_limits()
     out = []
     for a, f in fits.items():
         nom = rec.nominal[a]
         for k in NOMINAL_KEYS:
             val = float(getattr(f.suspension, k))
             ref = float(nom.get(k, 0.0))
+            lo, hi = limits[k]
+            if k == "k1":
+                hi = min(hi, 2.0 * float(f.suspension.k2) * (1.0 - 1e-6))  # eq. 9 needs k1 < 2 k2
+            mag = abs(val) if k == "k5" else val
+            if any(math.isclose(mag, b, rel_tol=1e-5, abs_tol=0.0) for b in (lo, hi) if b != 0.0):
+                out.append({"axis": a, "parameter": k, "value": val, "nominal": ref,
+                            "ratio": val / ref if ref else None,
+                            "message": f"axis {a}: {k} = {val:.4g} sits at the model's physical limit [{lo:g}, "
+                                       f"{hi:g}]: the fit is implausible; likely cause: a header that does not "
+                                       "describe the data (nominal values, fs_hz, quantum_rad, the axes' order, "
+                                       "sins_angle)"})
+                continue
             if ref == 0.0:
                 continue
             ratio = val / ref
@@ -169,6 +188,9 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
 
     rec = diag.recording
     fs = rec.fs_hz
+    if diag.findings:
+        _write_findings_report(diag, js, out, plt)
+        return js
     axis = diag.gap["axis"] or max(rec.axes, key=lambda a: diag.baseline["fits"][a].rms)
     best = diag.candidates[0] if diag.candidates else None
     floor = diag.floors[axis]["floor_rad"]
@@ -266,6 +288,10 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
         lines.append(f"| {a} | {js['baseline']['residual_rms_axes_arcsec'][a]:.4g} | "
                      f"{js['gap']['excess_rms_arcsec'][a]:.4g} | "
                      + " | ".join(_pm(p[k], sd[k]) for k in NOMINAL_KEYS) + " |")
+    if js["baseline"].get("bias_drift"):
+        lines += ["", "Readout bias drift, a nuisance profiled out of every fit (`b t + c t^2` of the angle): "
+                  + "; ".join(f"{a}: bias {d['bias_deg_h']:.3g} deg/h, changing at {d['bias_rate_deg_h_per_h']:.3g} "
+                              "deg/h per hour" for a, d in js["baseline"]["bias_drift"].items())]
     g = js["gap"]
     lines += ["", "## Gap", "", f"- significant: {g['significant']}, axis {g['axis']}, band {g['band_hz']} Hz, "
               f"peaks {g['peaks_hz']} Hz, time window {g['time_s']} s"]
@@ -292,3 +318,45 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     lines.append("")
     (out / "report.md").write_text("\n".join(lines))
     return js
+
+
+def _write_findings_report(diag: Diagnosis, js: dict, out: Path, plt) -> None:
+    """``report.md`` and ``angle.png`` for a recording the data checks refused (no refit, no verdict).
+
+    The figure shows each axis' measured angle minus the table angle over time, with the time of each
+    finding marked, so that the user sees where the data went wrong.
+    """
+    from sins_sim.identification.recording_inputs import _table_angles
+
+    rec = diag.recording
+    t = np.arange(rec.n_samples) / rec.fs_hz
+    table = _table_angles(rec)
+    fig, axs = plt.subplots(len(rec.axes), 1, figsize=(8, 2.2 + 1.6 * len(rec.axes)), sharex=True, squeeze=False)
+    for ax, a in zip(axs[:, 0], rec.axes):
+        ax.plot(t, (rec.angle(a) - table[a]) / ARCSEC, lw=0.5)
+        for f in diag.findings:
+            if f["axis"] != a or f["time_s"] is None:
+                continue
+            if isinstance(f["time_s"], (list, tuple)):
+                ax.axvspan(f["time_s"][0], f["time_s"][1], color="red", alpha=0.15)
+            else:
+                ax.axvline(f["time_s"], color="red", ls="--")
+        ax.set_ylabel(f"{a} (arcsec)")
+    axs[-1, 0].set_xlabel("time (s)")
+    axs[0, 0].set_title("measured angle minus table angle; red: where a data check failed")
+    fig.tight_layout()
+    fig.savefig(out / "angle.png", dpi=110)
+    plt.close(fig)
+    v = js["verdict"]
+    lines = [f"# Sim-to-real diagnosis: {rec.source}", "",
+             f"- experiment `{rec.experiment}`, axes {', '.join(rec.axes)}, {rec.n_samples} samples at "
+             f"{rec.fs_hz:g} Hz ({rec.duration_s:.3g} s), initial state `{rec.initial_state}`",
+             f"- verdict: **{v['effect']}**, status **{v['status']}**: the data checks refused the recording, "
+             "so there is no refit and no verdict", "",
+             "## Data check findings", "", "| check | axis | time (s) | finding |", "|---|---|---|---|"]
+    for f in js["findings"]:
+        ts = f["time_s"]
+        when = f"{ts[0]:g}-{ts[1]:g}" if isinstance(ts, (list, tuple)) else ("-" if ts is None else f"{ts:g}")
+        lines.append(f"| {f['check']} | {f['axis']} | {when} | {f['message']} |")
+    lines += ["", "![angle](angle.png)", ""]
+    (out / "report.md").write_text("\n".join(lines))

@@ -204,8 +204,11 @@ def diagnose_many(rec_paths, json_dir=None, report_dir=None, effects=None, jobs:
             raise ValueError(f"diagnose.recording: {seen[p.stem]} and {p} share the name {p.stem!r}; their outputs "
                              "would collide (rename one)")
         seen[p.stem] = p
+    from sins_sim.identification.checks import require_inputs
+
     for p in paths:
-        read_recording(p)  # a wrong file fails here, before hours of work on the others
+        # a wrong file, or one that lacks what its experiment needs, fails here, before hours of work on the others
+        require_inputs(read_recording(p))
     threads = 1 if jobs > 1 and len(paths) > 1 else None
     tasks = [(str(p), None if json_dir is None else str(Path(json_dir) / f"{p.stem}.json"),
               None if report_dir is None else str(Path(report_dir) / p.stem), effects, threads) for p in paths]

@@ -24,10 +24,12 @@ lock_in        sense        backscatter lock-in: Adler equation on the Sagnac ph
                             ``threshold_rad_s``, ``phase_rad``, ``fringe_rad``
 ============== ============ ==========================================================
 
-Two more disturbances live in :data:`DISTURBANCES`, outside the catalogue:
+Four more disturbances live in :data:`DISTURBANCES`, outside the catalogue:
 they exist so that the blind evaluation can test that the diagnosis says
 ``unknown`` for what it does not know (``mains_pickup``: a sine added to the
-readout; ``drive_harmonic``: a quadratic piezo, ``V + c2 V^2``).
+readout; ``drive_harmonic``: a quadratic piezo, ``V + c2 V^2``; ``mount_mode``: a structural mode of the
+mount at 1-3 kHz rung by ambient vibration, a resonant peak in the readout that is physics, not a defect;
+``bias_drift``: a slow ramp and random walk of the readout bias, a nuisance of every gyro).
 
 Registries: :data:`EFFECTS` (the catalogue, by name), :data:`DISTURBANCES`;
 :func:`make_effect` builds either from a name and parameters, as a scenario
@@ -83,7 +85,7 @@ from sins_sim.models.suspension import SuspensionParams
 from sins_sim.units import FRINGE_RAD
 
 __all__ = ["Param", "Effect", "PiezoLag", "AxisCoupling", "BlockMode", "ViscousDamping", "ResonanceDrift",
-           "ReadoutDelay", "ScaleFactor", "LockIn", "MainsPickup", "DriveHarmonic", "EFFECTS", "DISTURBANCES",
+           "ReadoutDelay", "ScaleFactor", "LockIn", "MainsPickup", "DriveHarmonic", "MountMode", "BiasDrift", "EFFECTS", "DISTURBANCES",
            "make_effect", "effect_names", "rate_from_grid"]
 
 
@@ -557,11 +559,86 @@ class DriveHarmonic(Effect):
         return volts + self.params["c2_per_v"] * volts * volts
 
 
+class MountMode(Effect):
+    """Off-catalogue: a structural mode of the gyro's mount rung by broadband ambient vibration.
+
+    A lightly damped mode of the mount or of the gyro on its dither spring (a mount mode at 1-2 kHz, a
+    rocking mode) driven by broadband vibration turns the ring laser by a narrow-band random angle that
+    the readout sees beside the dither: white noise through the resonant band-pass ``2 zeta w s / (s^2 +
+    2 zeta w s + w^2)`` (``w = 2 pi frequency_hz``; unit gain at ``w``, 20 dB per decade below and above:
+    the mode's peak without a broadband floor of its own, a clean mode), discretised on the plant grid by the bilinear transform prewarped at ``w``
+    (Oppenheim & Schafer, "Discrete-Time Signal Processing", 3rd ed., sec. 7.2.2), started ``10 / (zeta
+    w)`` before ``t = 0`` so that it is stationary from the start, and scaled to an RMS angle of
+    ``rms_rad`` at the ring laser over the record. The same ``seed`` gives the same angle on every axis it
+    acts on (one rocking mode seen by several gyros). It acts at the sense stage: the dither plant does
+    not feel it.
+    """
+
+    name = "mount_mode"
+    stage = "sense"
+    summary = "structural mode of the mount rung by ambient vibration (not in the catalogue)"
+    PARAMS = (Param("frequency_hz", "mode frequency (Hz)", 1.0, 20000.0, 100.0),
+              Param("zeta", "mode damping ratio", 1e-3, 0.5, 0.01, default=0.02),
+              Param("rms_rad", "RMS angle at the ring laser (rad)", 0.0, 1e-3, 1e-6),
+              Param("seed", "seed of the ambient vibration", 0.0, 2.0 ** 31, 1.0, default=0.0))
+
+    def sense(self, axis, phi, rate, h):
+        if not self.acts_on(axis) or self.params["rms_rad"] == 0.0:
+            return phi
+        p = self.params
+        w = 2.0 * math.pi * p["frequency_hz"]
+        n_pre = int(math.ceil(10.0 / (p["zeta"] * w) / h))
+        fs = 1.0 / h
+        if not w < math.pi * fs:
+            return phi  # above the plant grid's Nyquist frequency: nothing the grid can hold
+        # prewarped: the continuous filter at w' = 2 fs tan(w h / 2) maps its resonance onto w
+        wp = 2.0 * fs * math.tan(w * h / 2.0)
+        b, a = signal.bilinear([2.0 * p["zeta"] * wp, 0.0], [1.0, 2.0 * p["zeta"] * wp, wp * wp], fs=fs)
+        e = np.random.default_rng([int(p["seed"]), 11]).standard_normal(n_pre + phi.size)
+        u = signal.lfilter(b, a, e)[n_pre:]
+        rms = float(np.sqrt(np.mean(u * u)))
+        if not rms > 0.0:
+            return phi
+        return phi + u * (p["rms_rad"] / rms)
+
+
+class BiasDrift(Effect):
+    """Off-catalogue: a slow drift of the readout's bias, a nuisance of every ring-laser gyro.
+
+    The readout angle gains ``integral of bias(t) dt`` with ``bias(t) = bias_rad_s + bias_rate_rad_s2 t +
+    walk(t)``, ``walk`` a random walk of the bias (``walk_rad_s_rt_s`` times a Wiener process, seeded; the
+    rate random walk of IEEE Std 952-1997, annex C), integrated on the readout's sample times by the
+    trapezoidal rule.
+    """
+
+    name = "bias_drift"
+    stage = "readout"
+    summary = "slow drift of the readout bias: a ramp and a random walk (not in the catalogue)"
+    PARAMS = (Param("bias_rad_s", "bias at t = 0 (rad/s)", -1e-3, 1e-3, 1e-7),
+              Param("bias_rate_rad_s2", "change of the bias (rad/s^2)", -1e-4, 1e-4, 1e-9, default=0.0),
+              Param("walk_rad_s_rt_s", "random walk of the bias (rad/s/sqrt(s))", 0.0, 1e-4, 1e-9, default=0.0),
+              Param("seed", "seed of the random walk", 0.0, 2.0 ** 31, 1.0, default=0.0))
+
+    def additive(self, axis, t):
+        if not self.acts_on(axis):
+            return None
+        p = self.params
+        bias = p["bias_rad_s"] + p["bias_rate_rad_s2"] * t
+        if p["walk_rad_s_rt_s"] > 0.0 and t.size > 1:
+            dt = np.diff(t)
+            steps = np.random.default_rng([int(p["seed"]), 13]).standard_normal(dt.size) * np.sqrt(dt)
+            bias = bias + p["walk_rad_s_rt_s"] * np.concatenate(([0.0], np.cumsum(steps)))
+        out = np.zeros_like(t)
+        if t.size > 1:
+            out[1:] = np.cumsum(0.5 * (bias[1:] + bias[:-1]) * np.diff(t))
+        return out
+
+
 #: The catalogue of unmodelled effects the diagnosis knows, by name.
 EFFECTS = MappingProxyType({cls.name: cls for cls in (PiezoLag, AxisCoupling, BlockMode, ViscousDamping,
                                                        ResonanceDrift, ReadoutDelay, ScaleFactor, LockIn)})
 #: Disturbances outside the catalogue (for the blind evaluation).
-DISTURBANCES = MappingProxyType({cls.name: cls for cls in (MainsPickup, DriveHarmonic)})
+DISTURBANCES = MappingProxyType({cls.name: cls for cls in (MainsPickup, DriveHarmonic, MountMode, BiasDrift)})
 
 
 def effect_names() -> list:
