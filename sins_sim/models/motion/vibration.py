@@ -102,11 +102,14 @@ is the same with velocity for angle and acceleration for rate)
   noise, and the node process is stationary with the same PSD as before
   (the variance of a node quantity is the same at each of the ``D`` node
   phases to 2e-14). For ``D = 2``: half the random numbers and a forward
-  FFT of half the length (the three inverse FFTs stay): 1.21 against 1.61
-  ms of node generation per simulated second of one 3-axis vibration (CPU
-  time, same run, 2-core shared VM, 2026-11-27), where a recursive shaping
-  filter (16 poles in parallel form driven by node-rate noise; its design
-  for an arbitrary table not done) would cost 1.09 and float32 FFTs 1.45. ``generator: node_rate_noise``
+  FFT of half the length (the three inverse FFTs stay). Measured (CPU time,
+  same run, 2-core shared VM, 2026-11-27): node generation of one 3-axis
+  vibration 1.21 against 1.61 ms per simulated second in a comparison of
+  prototypes, in which a recursive shaping filter (16 poles in parallel
+  form driven by node-rate noise, its cost alone: no design for an
+  arbitrary table) cost 1.09 and float32 FFTs 1.45; the whole vibration
+  truth of ``nav-stationary-1h`` (``benchmarks/test_vibration_truth.py``)
+  7.0 against 8.1 ms per simulated second. ``generator: node_rate_noise``
   draws the noise at the node rate (``D = 1``): the random sequences of the
   versions before, bit for bit.
 * **Blocks.** The noise is drawn in blocks of ``Nb`` nodes,
