@@ -75,6 +75,14 @@ _SHOCK_RULE = ("duration_ms >= 3 plant steps, 3000 / plant.rate_hz ms (0.042 ms 
                "lobe, up to 1.5 / duration, below the plant's Nyquist")
 
 
+#: sins_sim.models.motion.vibration.GENERATORS, written out so that parsing a file stays light (no numba;
+#: tests/test_vibration_generators.py checks that the two agree)
+GENERATORS = ("decimated_noise", "node_rate_noise")
+_GENERATOR = Str(choices=GENERATORS, default=GENERATORS[0],
+                 doc="filtered-noise generator: decimated_noise (white noise below the node rate, zero-stuffed; "
+                     "cheaper) or node_rate_noise (the sequences of versions before 2026-11); same PSD")
+
+
 def _psd_row(max_psd, unit_doc):
     return Vec(2, items=(Num(min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ),
                          Num(min=0.0, min_exclusive=True, max=max_psd)),
@@ -110,7 +118,8 @@ MOTION_SCHEMA = OneOf({
                              "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0, max=10.0),
                              "method": Str(choices=("filtered_noise", "tones"), default="filtered_noise",
                                            doc="filtered_noise: streaming, never repeats (missions); tones: a "
-                                               "sum of 1 Hz-spaced sines, periodic in 1 s (short runs)")},
+                                               "sum of 1 Hz-spaced sines, periodic in 1 s (short runs)"),
+                             "generator": _GENERATOR},
                             doc="band-limited angular random vibration, log-log interpolated PSD"),
     "shock": Map({"axis": Vec(3, required=True, min=-1.0e6, max=1.0e6, doc="body axis (normalised; not zero)"),
                   "peak_rate": Num(unit="deg_s", required=True, min=-MAX_RATE_DEG_S, max=MAX_RATE_DEG_S),
@@ -150,7 +159,8 @@ LINEAR_SCHEMA = OneOf({
                                            doc="[[f_hz, acceleration PSD g^2/Hz], ...], f increasing"),
                    "f_lo": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
                    "f_hi": Num(unit="hz", required=True, **_POS, max=MAX_FREQUENCY_HZ),
-                   "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0, max=10.0)},
+                   "axes": Vec(3, default=[1.0, 1.0, 1.0], min=0.0, max=10.0),
+                   "generator": _GENERATOR},
                   doc="band-limited random acceleration"),
 }, rules={"sines": (_FREQ_RULE,), "random": (_FREQ_RULE, _AXES_RULE)})
 
@@ -588,9 +598,15 @@ def _build_motion(segments, seed, ctx):
                                  phase_rad=seg["phase_rad"])
             elif kind == "random_vibration":
                 table = [(f, p * (math.pi / 180.0) ** 2) for f, p in seg["psd_deg2_s2_per_hz"]]  # (deg/s)^2/Hz -> (rad/s)^2/Hz
-                cls = m3.FilteredNoiseVibration if seg["method"] == "filtered_noise" else m3.RandomVibration
-                part = cls(psd_table=tuple(table), f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
-                           axis_weights=tuple(seg["axes"]), seed=seed + 1000 * (i + 1))
+                common = dict(psd_table=tuple(table), f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
+                              axis_weights=tuple(seg["axes"]), seed=seed + 1000 * (i + 1))
+                if seg["method"] == "filtered_noise":
+                    part = m3.FilteredNoiseVibration(generator=seg["generator"], **common)
+                elif seg["generator"] != GENERATORS[0]:
+                    raise ValueError(f"generator: {seg['generator']} applies to method: filtered_noise only "
+                                     f"(method: tones has no noise generator)")
+                else:
+                    part = m3.RandomVibration(**common)
             elif kind == "shock":
                 part = m3.Shock(axis=np.array(seg["axis"]), peak_rate_rad_s=seg["peak_rate_rad_s"],
                                 duration_s=seg["duration_s"], start_s=seg["start_s"],
@@ -622,7 +638,8 @@ def _build_translation(segments, seed, ctx):
             else:
                 parts.append(m3.LinearRandomVibration(psd_table=tuple(tuple(r) for r in seg["psd_g2_per_hz"]),
                                                       f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
-                                                      axis_weights=tuple(seg["axes"]), seed=seed + 5000 + 1000 * i))
+                                                      axis_weights=tuple(seg["axes"]), seed=seed + 5000 + 1000 * i,
+                                                      generator=seg["generator"]))
         except ValueError as exc:
             raise ConfigError(f"{ctx}: linear_vibration[{i}]: {exc}") from None
     if not parts:
