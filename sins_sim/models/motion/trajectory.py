@@ -103,6 +103,7 @@ from scipy.spatial.transform import Rotation
 from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim._kernels._config import jit
+from sins_sim.io.trajectory import MAX_ABS_LAT_DEG
 from sins_sim.models.motion._registry import build_typed
 
 __all__ = [
@@ -131,9 +132,9 @@ DEFAULT_TRANSITION_S = 4.0
 DEFAULT_STEP_S = 0.01
 """Internal RK4 step (s) of the latitude/longitude integration (100 Hz); see :class:`TrajectoryStream`."""
 
-MAX_ABS_LAT_RAD = math.radians(89.5)
-"""Largest |latitude| (rad) a trajectory may reach: the longitude rate ``v_E / ((R_E + h) cos lat)``
-is singular at the poles."""
+MAX_ABS_LAT_RAD = math.radians(MAX_ABS_LAT_DEG)
+"""Largest |latitude| (rad) a trajectory may reach (89.5 deg, :data:`sins_sim.io.trajectory.MAX_ABS_LAT_DEG`): the
+longitude rate ``v_E / ((R_E + h) cos lat)`` and the NED transport rate (``tan lat``) are singular at the poles."""
 
 MAX_FLIGHT_PATH_ANGLE_RAD = math.radians(60.0)
 """Largest |flight-path angle| (rad) of a :class:`Climb` (the pitch stays well away from the Euler
@@ -1115,6 +1116,37 @@ def build_trajectory(spec) -> Trajectory:
 # --- sampled trajectory ----------------------------------------------------------------
 
 
+def _fmt3(xs) -> str:
+    return "/".join(f"{x:.3g}" for x in xs)
+
+
+def _fit_positions_velocities(t, lat, lon, h, pos, vel):
+    """Position spline (a C2 piecewise quintic), the :class:`~sins_sim.models.motion.smoothing.SmoothFit` of the
+    positions ``pos`` (dlat, dlon rad; h m) and NED velocities ``vel`` at times ``t`` (from the first sample), and
+    the NED velocity of the fit of the positions alone at the samples.
+
+    The fit runs in metres: the latitude and longitude offsets scaled by the radii at the first sample
+    (``R_N + h``, ``(R_E + h) cos lat``), the height up; a velocity maps into these axes through the radii at
+    its own sample (``lat' = v_N / (R_N + h)``, ``lon' = v_E / ((R_E + h) cos lat)``, ``h' = -v_D``). The noise
+    estimates are bounded below by the rounding of the values as written (their decimals).
+    """
+    from sins_sim.models.motion.smoothing import fit_positions_velocities, quantisation_sigma, quintic_hermite
+
+    r_n, r_e = earth.radii(lat)
+    r_n0, r_e0 = earth.radii(lat[0])
+    scale = np.array([r_n0 + h[0], (r_e0 + h[0]) * math.cos(lat[0]), 1.0])
+    local = np.stack((r_n + h, (r_e + h) * np.cos(lat), np.ones_like(h)), axis=-1)  # m per fit unit, per sample
+    vel_scale = scale / local
+    deg = math.pi / 180.0
+    p_min = [quantisation_sigma(lat, deg) * scale[0], quantisation_sigma(lon, deg) * scale[1],
+             quantisation_sigma(h, 1.0)]
+    v_min = [quantisation_sigma(vel[:, i], 1.0) for i in range(3)]
+    sign = np.array([1.0, 1.0, -1.0])
+    fit = fit_positions_velocities(t, pos * scale, vel * sign * vel_scale, vel_scale, p_min, v_min)
+    v_positions = fit.v_positions / vel_scale * sign
+    return quintic_hermite(t, fit.p / scale, fit.v / scale, fit.a / scale), fit, v_positions
+
+
 def _unit_quaternion_and_rate(s, ds):
     """``q = s / |s|`` and ``omega_nv^v = 2 vec(q* (x) dq/dt)`` from the quaternion spline ``s`` and its derivative.
 
@@ -1218,8 +1250,9 @@ class SampledTrajectory:
     pitch_rad: np.ndarray
     yaw_rad: np.ndarray
     v_ned_m_s: np.ndarray | None = None
-    v_tol_m_s: float = 0.05
+    v_tol_m_s: float = 1.0
     time_offset_s: float = field(init=False, default=0.0)
+    fit: dict | None = field(init=False, default=None)
     _pos: object = field(init=False, repr=False, default=None)
     _att: object = field(init=False, repr=False, default=None)
 
@@ -1257,7 +1290,12 @@ class SampledTrajectory:
         lon0 = float(lon_u[0])
         pos = np.stack((arrs["lat_rad"] - lat0, lon_u - lon0, arrs["h_m"]), axis=-1)
         k = 5 if n >= 6 else 3
-        spl_p = make_interp_spline(t, pos, k=k)
+        fit = None
+        if vel is None:
+            spl_p = make_interp_spline(t, pos, k=k)
+        else:  # the velocity is a measurement too: a smoothing fit of both (sins_sim.models.motion.smoothing)
+            spl_p, fit, v_positions = _fit_positions_velocities(t, arrs["lat_rad"], arrs["lon_rad"], arrs["h_m"],
+                                                                pos, vel)
         pos_splines = (spl_p, spl_p.derivative(1), spl_p.derivative(2))
         # attitude on SO(3): C_nv = R_z(yaw) R_y(pitch) R_x(roll) at the samples, interpolated as a rotation
         rot = Rotation.from_euler("ZYX", np.stack((arrs["yaw_rad"], pitch, arrs["roll_rad"]), axis=-1))
@@ -1275,14 +1313,35 @@ class SampledTrajectory:
         _set(self, "time_offset_s", float(arrs["t_s"][0]))
         _set(self, "_pos", (lat0, lon0, pos_splines))
         _set(self, "_att", att_splines)
+        _set(self, "fit", None)
         if vel is not None:
-            got = self.evaluate(t).v_ned_m_s
-            err = np.linalg.norm(got - vel, axis=-1)
-            worst = int(np.argmax(err))
-            if err[worst] > tol:
-                raise ValueError(f"{own}.v_ned_m_s: sample {worst} differs from the velocity of the position spline "
-                                 f"by {err[worst]:.6g} m/s > v_tol_m_s = {tol!r} (position and velocity are "
-                                 "inconsistent)")
+            truth = self.evaluate(t)
+            res_v = vel - truth.v_ned_m_s
+            r_n, r_e = earth.radii(arrs["lat_rad"])
+            res_p = np.stack(((arrs["lat_rad"] - truth.lat_rad) * (r_n + arrs["h_m"]),
+                              np.angle(np.exp(1j * (arrs["lon_rad"] - truth.lon_rad))) * (r_e + arrs["h_m"])
+                              * np.cos(arrs["lat_rad"]),
+                              -(arrs["h_m"] - truth.h_m)), axis=-1)
+            res_c = vel - v_positions  # the check: the measured velocity against the positions' own
+            worst = np.argmax(np.abs(res_c), axis=0)
+            worst_c = np.abs(res_c[worst, np.arange(3)])
+            _set(self, "fit", {
+                "method": "fixed-interval RTS smoother of positions and velocities, constant-acceleration (white "
+                          "jerk) model (sins_sim.models.motion.smoothing)",
+                "position_residual_rms_m": np.sqrt(np.mean(res_p ** 2, axis=0)).tolist(),
+                "velocity_residual_rms_m_s": np.sqrt(np.mean(res_v ** 2, axis=0)).tolist(),
+                "velocity_residual_max_m_s": np.max(np.abs(res_v), axis=0).tolist(),
+                "velocity_vs_positions_rms_m_s": np.sqrt(np.mean(res_c ** 2, axis=0)).tolist(),
+                "velocity_vs_positions_max_m_s": worst_c.tolist(),
+                "position_noise_m": fit.sigma_p.tolist(), "velocity_noise_m_s": fit.sigma_v.tolist(),
+                "jerk_psd_m2_s5": fit.q.tolist(), "velocity_tolerance_m_s": tol})
+            axis = int(np.argmax(worst_c))
+            if worst_c[axis] > tol:
+                k = int(worst[axis])
+                raise ValueError(f"{own}.v_ned_m_s[:, {axis}]: sample {k} differs from the velocity of the smoothing "
+                                 f"fit of the positions by {res_c[k, axis]:.6g} m/s, beyond v_tol_m_s = {tol!r} "
+                                 f"(RMS over the file N/E/D {_fmt3(self.fit['velocity_vs_positions_rms_m_s'])} m/s): "
+                                 "the velocity does not fit the positions")
 
     @staticmethod
     def _range(own, name, arr, lo, hi, rule):
@@ -1291,7 +1350,7 @@ class SampledTrajectory:
             raise ValueError(f"{own}.{name}: must satisfy {rule} (sample {int(bad[0])}, got {arr[bad[0]]!r})")
 
     @classmethod
-    def from_data(cls, data, v_tol_m_s: float = 0.05) -> SampledTrajectory:
+    def from_data(cls, data, v_tol_m_s: float = 1.0) -> SampledTrajectory:
         """Build from a :class:`sins_sim.io.TrajectoryData` or any object/mapping with its fields.
 
         Parameters
@@ -1326,8 +1385,11 @@ class SampledTrajectory:
         n = self.t_s.size
         return (f"sampled trajectory: {n} samples over {self.duration_s:.3f} s (mean {(n - 1) / self.duration_s:.3g} "
                 f"Hz), from {d(self.lat_rad[0]):.6f}, {d(self.lon_rad[0]):.6f} deg, h {self.h_m[0]:.1f} m to "
-                f"{d(self.lat_rad[-1]):.6f}, {d(self.lon_rad[-1]):.6f} deg, h {self.h_m[-1]:.1f} m; velocity "
-                f"{'given (checked)' if self.v_ned_m_s is not None else 'from the position spline'}")
+                f"{d(self.lat_rad[-1]):.6f}, {d(self.lon_rad[-1]):.6f} deg, h {self.h_m[-1]:.1f} m; "
+                + ("velocity from the position spline" if self.fit is None else
+                   "truth from a smoothing fit of positions and velocities, RMS residuals N/E/D: position "
+                   f"{_fmt3(self.fit['position_residual_rms_m'])} m, velocity "
+                   f"{_fmt3(self.fit['velocity_residual_rms_m_s'])} m/s"))
 
     def stream(self) -> SampledTrajectoryStream:
         """A forward-only :class:`SampledTrajectoryStream` (the interface of :class:`TrajectoryStream`)."""
