@@ -209,9 +209,12 @@ def quantisation_sigma(x, unit: float, max_decimals: int = 12) -> float:
     ``x`` is taken as written with ``k`` decimals of ``unit`` for the smallest ``k <= max_decimals`` at which
     every value is a whole number of ``10^-k unit`` (to 1e-3 of a step, float64's representation of a
     decimal); the rounding error is then uniform over one step: ``10^-k unit / sqrt(12)`` (Widrow & Kollar,
-    *Quantization Noise*, Cambridge 2008, ch. 4). No such ``k``: 0 (a file at full float resolution).
+    *Quantization Noise*, Cambridge 2008, ch. 4). No such ``k``: 0 (a file at full float resolution); a constant
+    column (a level flight's height of 1500.0) shows no step either: 0.
     """
     x = np.asarray(x, dtype=np.float64) / unit
+    if x.size == 0 or np.ptp(x) == 0.0:
+        return 0.0
     for k in range(max_decimals + 1):
         y = x * 10.0 ** k
         if np.all(np.abs(y - np.round(y)) < 1e-3):
