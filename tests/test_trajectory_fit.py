@@ -174,8 +174,10 @@ def test_gnss_grade_velocity_noise_is_accepted_and_the_truth_ignores_it(tmp_path
       sampling error ~2 %; the fit follows the positions, so the residual is the noise itself).
     * The truth velocity is the clean file's within 2e-4 m/s: the exact positions fix the velocity; measured
       1.3e-5 .. 3.9e-5 m/s over four noise seeds (the noise suppressed ~1000-fold).
-    * ``velocity_tolerance_m_s: 0.05`` (below the noise's largest excursions, ~0.11 m/s) refuses the same file
-      naming that key, the row and a velocity column.
+    * The tolerance is a setting: a bias of 0.5 m/s on vn_m_s (a velocity that does not fit the positions, by
+      more than 5 standard deviations of the difference: 5 x 0.03) passes the default 1 m/s and is refused with
+      ``velocity_tolerance_m_s: 0.2``, naming that key, the row and vn_m_s. A tolerance below the noise refuses
+      nothing by itself (0.05 here): the 5-sigma guard keeps consistent noisy files.
     """
     s, e = _clean()
     clean = SampledTrajectory.from_data(_data(s, e, s.v_ned_m_s)).evaluate(T_CHECK)
@@ -186,9 +188,12 @@ def test_gnss_grade_velocity_noise_is_accepted_and_the_truth_ignores_it(tmp_path
         assert rms == pytest.approx(0.03, rel=0.15)
     got = sc.vehicle.evaluate(T_CHECK)
     assert np.max(np.abs(got.v_ned_m_s - clean.v_ned_m_s)) < 2e-4
-    with pytest.raises(ConfigError, match=r"gnss\.csv\): row \d+, column v[ned]_m_s: differs .* beyond "
-                                          r"trajectory\.velocity_tolerance_m_s = 0\.05"):
-        load_scenario(_scenario(tmp_path, csv, velocity_tolerance_m_s=0.05))
+    load_scenario(_scenario(tmp_path, csv, velocity_tolerance_m_s=0.05))
+    biased = write_trajectory(tmp_path / "bias.csv", _data(s, e, noisy + np.array([0.5, 0.0, 0.0])))
+    assert load_scenario(_scenario(tmp_path, biased)).vehicle.fit["velocity_vs_positions_max_m_s"][0] > 0.5
+    with pytest.raises(ConfigError, match=r"bias\.csv\): row \d+, column vn_m_s: differs .* beyond "
+                                          r"trajectory\.velocity_tolerance_m_s = 0\.2 and 5 standard deviations"):
+        load_scenario(_scenario(tmp_path, biased, velocity_tolerance_m_s=0.2))
 
 
 @pytest.mark.parametrize("how, column", [("flip_east", "ve_m_s"), ("flip_down", "vd_m_s"),

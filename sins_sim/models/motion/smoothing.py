@@ -87,11 +87,12 @@ def noise_scale(t, x) -> float:
 
 
 @jit
-def _ca_smoother(t, zp, rp, zv, rv, q, use_p, use_v, a0_var, out):
+def _ca_smoother(t, zp, rp, zv, rv, q, use_p, use_v, a0_var, out, var_v):
     """Kalman filter and RTS smoother of the constant-acceleration model ([1] 6.2.3, [2]) on one axis.
 
     ``zp, rp``: position measurements and their variances; ``zv, rv``: velocities and variances; ``use_p``,
-    ``use_v``: which to use. ``out`` (n, 3) receives the smoothed (p, v, a). Returns the negative log-likelihood
+    ``use_v``: which to use. ``out`` (n, 3) receives the smoothed (p, v, a), ``var_v`` (n,) the smoothed variance
+    of v (the RTS covariance recursion [2]). Returns the negative log-likelihood
     of the innovations after the first sample ([1] 5.5; constants dropped).
     """
     n = t.size
@@ -149,6 +150,8 @@ def _ca_smoother(t, zp, rp, zv, rv, q, use_p, use_v, a0_var, out):
         xf[k] = x
         pf[k] = p
     out[n - 1] = xf[n - 1]
+    ps = pf[n - 1].copy()
+    var_v[n - 1] = ps[1, 1]
     for k in range(n - 2, -1, -1):
         h = t[k + 1] - t[k]
         f[0, 1] = h
@@ -157,21 +160,25 @@ def _ca_smoother(t, zp, rp, zv, rv, q, use_p, use_v, a0_var, out):
         # G = P_f F' P_p^-1, i.e. G' = solve(P_p, F P_f) (P_p symmetric)
         g = np.linalg.solve(pp[k + 1], f @ pf[k]).T
         out[k] = xf[k] + g @ (out[k + 1] - xp[k + 1])
+        ps = pf[k] + g @ (ps - pp[k + 1]) @ g.T
+        var_v[k] = ps[1, 1]
     return nll
 
 
-def smooth_axis(t, zp, sigma_p, zv, sigma_v, q, use_p=True, use_v=True):
+def smooth_axis(t, zp, sigma_p, zv, sigma_v, q, use_p=True, use_v=True, var_v=None):
     """Smoothed ``(p, v, a)`` (n, 3) and the negative log-likelihood on one axis (see :func:`_ca_smoother`).
 
-    ``sigma_p`` and ``sigma_v`` are scalars or per-sample arrays (standard deviations).
+    ``sigma_p`` and ``sigma_v`` are scalars or per-sample arrays (standard deviations); ``var_v`` (n,), if given,
+    receives the smoothed variance of the velocity.
     """
     n = len(t)
     out = np.empty((n, 3))
+    var_v = np.empty(n) if var_v is None else var_v
     rp = np.broadcast_to(np.asarray(sigma_p, dtype=np.float64) ** 2, (n,)).copy()
     rv = np.broadcast_to(np.asarray(sigma_v, dtype=np.float64) ** 2, (n,)).copy()
     nll = _ca_smoother(np.ascontiguousarray(t, dtype=np.float64), np.ascontiguousarray(zp, dtype=np.float64), rp,
                        np.ascontiguousarray(zv, dtype=np.float64), rv, float(q), bool(use_p), bool(use_v),
-                       A0_SIGMA_M_S2 ** 2, out)
+                       A0_SIGMA_M_S2 ** 2, out, var_v)
     return out, nll
 
 
@@ -194,12 +201,15 @@ class SmoothFit:
         Smoothed position, velocity, acceleration (the fit's units: m, m/s, m/s^2) from positions and velocities.
     v_positions : ndarray (n, 3)
         The velocity of the smoothing fit of the positions alone (the check of the measured velocity).
+    sigma_check : ndarray (n, 3)
+        Standard deviation of ``measured velocity - v_positions`` if both describe the same motion: the velocity
+        noise and the fit's own uncertainty (from the smoother's covariance), in the fit's units.
     sigma_p, sigma_v, q : ndarray (3,)
         Noise standard deviations and the jerk spectral densities used (m, m/s, m^2/s^5).
     """
 
-    def __init__(self, p, v, a, v_positions, sigma_p, sigma_v, q):
-        self.p, self.v, self.a, self.v_positions = p, v, a, v_positions
+    def __init__(self, p, v, a, v_positions, sigma_check, sigma_p, sigma_v, q):
+        self.p, self.v, self.a, self.v_positions, self.sigma_check = p, v, a, v_positions, sigma_check
         self.sigma_p, self.sigma_v, self.q = sigma_p, sigma_v, q
 
 
@@ -250,17 +260,22 @@ def fit_positions_velocities(t, pos, vel, vel_scale=None, sigma_p_min=None, sigm
     p_min = np.zeros(3) if sigma_p_min is None else np.asarray(sigma_p_min, dtype=np.float64)
     v_min = np.zeros(3) if sigma_v_min is None else np.asarray(sigma_v_min, dtype=np.float64)
     n = t.size
-    p, v, a, vp = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    p, v, a, vp, sc = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    var = np.empty(n)
     sp, sv, qs = np.empty(3), np.empty(3), np.empty(3)
     for i in range(3):
         sp[i] = max(noise_scale(t, pos[:, i]), p_min[i], SIGMA_P_FLOOR_M)
         sv[i] = max(noise_scale(t, vel[:, i] / scale[:, i]), v_min[i], SIGMA_V_FLOOR_M_S)
         rv = sv[i] * scale[:, i]
         qs[i] = _ml_q(t, pos[:, i], sp[i], vel[:, i], rv, True, False)
-        vp[:, i] = smooth_axis(t, pos[:, i], sp[i], vel[:, i], rv, qs[i], True, False)[0][:, 1]
+        # the check's fit of the positions alone bends as much as either source says the motion does (a short file
+        # of coarse positions under-states it), so its uncertainty covers the motion the velocities show
+        q_check = max(qs[i], _ml_q(t, pos[:, i], sp[i], vel[:, i], rv, False, True))
+        vp[:, i] = smooth_axis(t, pos[:, i], sp[i], vel[:, i], rv, q_check, True, False, var)[0][:, 1]
+        sc[:, i] = np.sqrt(np.maximum(var, 0.0) + rv ** 2)
         out, _ = smooth_axis(t, pos[:, i], sp[i], vel[:, i], rv, qs[i])
         p[:, i], v[:, i], a[:, i] = out[:, 0], out[:, 1], out[:, 2]
-    return SmoothFit(p, v, a, vp, sp, sv, qs)
+    return SmoothFit(p, v, a, vp, sc, sp, sv, qs)
 
 
 def quintic_hermite(t, p, v, a) -> PPoly:
