@@ -124,6 +124,7 @@ __all__ = [
     "DEFAULT_STEP_S",
     "MAX_ABS_LAT_RAD",
     "MAX_FLIGHT_PATH_ANGLE_RAD",
+    "CHECK_SIGMAS",
 ]
 
 DEFAULT_TRANSITION_S = 4.0
@@ -1198,10 +1199,13 @@ class SampledTrajectory:
         Euler angles (rad, 3-2-1); ``|pitch| < pi/2``; roll and yaw are
         unwrapped (a step of more than pi between samples is taken as a wrap).
     v_ned_m_s : array_like (N, 3), optional
-        Sampled NED velocity (m/s), used only as a consistency check (see Notes).
+        Sampled NED velocity (m/s), a measurement: with it the truth is the
+        smoothing fit of positions and velocities (see Notes).
     v_tol_m_s : float
-        Largest allowed difference (m/s, norm) between ``v_ned_m_s`` and the
-        velocity of the position spline at the samples (default 0.05 m/s).
+        A velocity component is refused where it differs from the velocity of
+        the positions' own smoothing fit by more than ``v_tol_m_s`` (m/s,
+        default 1) and :data:`CHECK_SIGMAS` standard deviations of that
+        difference.
 
     Notes
     -----
@@ -1228,10 +1232,14 @@ class SampledTrajectory:
     C1 with a continuous angular acceleration; the specific force C1, C0
     with the cubic position spline of N < 6).
 
-    A given velocity does not enter the truth (differentiating the position
-    keeps the truth self-consistent); it must agree with the spline's
-    velocity at every sample within ``v_tol_m_s``, else ``ValueError``
-    naming the first sample that does not.
+    With ``v_ned_m_s`` the position spline is replaced by the smoothing fit
+    of positions and velocities of :mod:`sins_sim.models.motion.smoothing`
+    (a C2 piecewise quintic through the RTS-smoothed position, velocity and
+    acceleration at the samples; velocity and acceleration are still its
+    derivatives, so the truth stays self-consistent). :attr:`fit` then holds
+    the residuals (RMS per axis N/E/D), the noise levels and the check of the
+    velocity against the positions' own fit; a component beyond the rule of
+    ``v_tol_m_s`` raises ``ValueError`` naming the component and the sample.
 
     Accuracy is limited by the sampling and by the resolution of the
     samples: a position quantised to ``eps`` (m) at spacing ``dt`` (s)
