@@ -87,71 +87,94 @@ def noise_scale(t, x) -> float:
 
 
 @jit
-def _ca_smoother(t, zp, rp, zv, rv, q, use_p, use_v, a0_var, out, var_v):
+def _ca_smoother(t, zp, rp, zv, rv, q, use_p, use_v, a0_var, out, var_v, smooth):
     """Kalman filter and RTS smoother of the constant-acceleration model ([1] 6.2.3, [2]) on one axis.
 
     ``zp, rp``: position measurements and their variances; ``zv, rv``: velocities and variances; ``use_p``,
-    ``use_v``: which to use. ``out`` (n, 3) receives the smoothed (p, v, a), ``var_v`` (n,) the smoothed variance
-    of v (the RTS covariance recursion [2]). Returns the negative log-likelihood
-    of the innovations after the first sample ([1] 5.5; constants dropped).
+    ``use_v``: which to use. With ``smooth``, ``out`` (n, 3) receives the smoothed (p, v, a) and ``var_v`` (n,)
+    the smoothed variance of v (the RTS covariance recursion [2]); without, only the likelihood is formed.
+    Returns the negative log-likelihood of the innovations after the first sample ([1] 5.5; constants dropped).
+    The forward pass works on preallocated 3 x 3 buffers (no array per step).
     """
     n = t.size
-    xf = np.empty((n, 3))
-    pf = np.empty((n, 3, 3))
-    xp = np.empty((n, 3))
-    pp = np.empty((n, 3, 3))
+    nstore = n if smooth else 1
+    xf = np.empty((nstore, 3))
+    pf = np.empty((nstore, 3, 3))
+    xp = np.empty((nstore, 3))
+    pp = np.empty((nstore, 3, 3))
     x = np.zeros(3)
     p = np.zeros((3, 3))
+    fp = np.empty((3, 3))
+    ap = np.empty((3, 3))
+    kg = np.empty(3)
     x[0] = zp[0] if use_p else 0.0
     x[1] = zv[0] if use_v else 0.0
     p[0, 0] = rp[0] if use_p else 1e12
     p[1, 1] = rv[0] if use_v else 1e8
     p[2, 2] = a0_var
     nll = 0.0
-    f = np.eye(3)
-    qm = np.empty((3, 3))
     for k in range(n):
         if k > 0:
             h = t[k] - t[k - 1]
-            f[0, 1] = h
-            f[0, 2] = 0.5 * h * h
-            f[1, 2] = h
             h2 = h * h
             h3 = h2 * h
-            qm[0, 0] = q * h3 * h2 / 20.0
-            qm[0, 1] = qm[1, 0] = q * h2 * h2 / 8.0
-            qm[0, 2] = qm[2, 0] = q * h3 / 6.0
-            qm[1, 1] = q * h3 / 3.0
-            qm[1, 2] = qm[2, 1] = q * h2 / 2.0
-            qm[2, 2] = q * h
-            x = f @ x
-            p = f @ p @ f.T + qm
-            p = 0.5 * (p + p.T)
-        xp[k] = x
-        pp[k] = p
+            hh = 0.5 * h2
+            x[0] = x[0] + h * x[1] + hh * x[2]
+            x[1] = x[1] + h * x[2]
+            # F P (rows of F: (1, h, h^2/2), (0, 1, h), (0, 0, 1))
+            for j in range(3):
+                fp[0, j] = p[0, j] + h * p[1, j] + hh * p[2, j]
+                fp[1, j] = p[1, j] + h * p[2, j]
+                fp[2, j] = p[2, j]
+            # (F P) F' + Q
+            for i in range(3):
+                p[i, 0] = fp[i, 0] + h * fp[i, 1] + hh * fp[i, 2]
+                p[i, 1] = fp[i, 1] + h * fp[i, 2]
+                p[i, 2] = fp[i, 2]
+            p[0, 0] += q * h3 * h2 / 20.0
+            p[0, 1] += q * h2 * h2 / 8.0
+            p[1, 0] += q * h2 * h2 / 8.0
+            p[0, 2] += q * h3 / 6.0
+            p[2, 0] += q * h3 / 6.0
+            p[1, 1] += q * h3 / 3.0
+            p[1, 2] += q * h2 / 2.0
+            p[2, 1] += q * h2 / 2.0
+            p[2, 2] += q * h
+            for i in range(3):
+                for j in range(i + 1, 3):
+                    sym = 0.5 * (p[i, j] + p[j, i])
+                    p[i, j] = sym
+                    p[j, i] = sym
+        if smooth:
+            xp[k] = x
+            pp[k] = p
         for m in range(2):
-            if m == 0 and not use_p:
-                continue
-            if m == 1 and not use_v:
-                continue
+            if (m == 0 and not use_p) or (m == 1 and not use_v) or k == 0:
+                continue  # unused, or the first sample (it initialised the state)
             z = zp[k] if m == 0 else zv[k]
             r = rp[k] if m == 0 else rv[k]
-            if k == 0 and ((m == 0 and use_p) or (m == 1 and use_v)):
-                continue  # the first sample initialised the state
-            s = p[m, m] + r
+            sv = p[m, m] + r
             nu = z - x[m]
-            nll += 0.5 * (math.log(s) + nu * nu / s)
-            kg = p[:, m] / s
-            x = x + kg * nu
-            # Joseph form (I - K H) P (I - K H)' + K r K', symmetric and positive
-            ikh = np.eye(3)
-            ikh[:, m] -= kg
-            p = ikh @ p @ ikh.T + r * np.outer(kg, kg)
-        xf[k] = x
-        pf[k] = p
+            nll += 0.5 * (math.log(sv) + nu * nu / sv)
+            for i in range(3):
+                kg[i] = p[i, m] / sv
+                x[i] += kg[i] * nu
+            # Joseph form (I - K e_m') P (I - K e_m')' + r K K', symmetric and positive
+            for i in range(3):
+                for j in range(3):
+                    ap[i, j] = p[i, j] - kg[i] * p[m, j]
+            for i in range(3):
+                for j in range(3):
+                    p[i, j] = ap[i, j] - ap[i, m] * kg[j] + r * kg[i] * kg[j]
+        if smooth:
+            xf[k] = x
+            pf[k] = p
+    if not smooth:
+        return nll
     out[n - 1] = xf[n - 1]
     ps = pf[n - 1].copy()
     var_v[n - 1] = ps[1, 1]
+    f = np.eye(3)
     for k in range(n - 2, -1, -1):
         h = t[k + 1] - t[k]
         f[0, 1] = h
@@ -165,11 +188,12 @@ def _ca_smoother(t, zp, rp, zv, rv, q, use_p, use_v, a0_var, out, var_v):
     return nll
 
 
-def smooth_axis(t, zp, sigma_p, zv, sigma_v, q, use_p=True, use_v=True, var_v=None):
+def smooth_axis(t, zp, sigma_p, zv, sigma_v, q, use_p=True, use_v=True, var_v=None, smooth=True):
     """Smoothed ``(p, v, a)`` (n, 3) and the negative log-likelihood on one axis (see :func:`_ca_smoother`).
 
     ``sigma_p`` and ``sigma_v`` are scalars or per-sample arrays (standard deviations); ``var_v`` (n,), if given,
-    receives the smoothed variance of the velocity.
+    receives the smoothed variance of the velocity. ``smooth=False``: the forward filter's likelihood alone
+    (the first value is then not filled).
     """
     n = len(t)
     out = np.empty((n, 3))
@@ -178,17 +202,35 @@ def smooth_axis(t, zp, sigma_p, zv, sigma_v, q, use_p=True, use_v=True, var_v=No
     rv = np.broadcast_to(np.asarray(sigma_v, dtype=np.float64) ** 2, (n,)).copy()
     nll = _ca_smoother(np.ascontiguousarray(t, dtype=np.float64), np.ascontiguousarray(zp, dtype=np.float64), rp,
                        np.ascontiguousarray(zv, dtype=np.float64), rv, float(q), bool(use_p), bool(use_v),
-                       A0_SIGMA_M_S2 ** 2, out, var_v)
+                       A0_SIGMA_M_S2 ** 2, out, var_v, bool(smooth))
     return out, nll
+
+
+#: Longest stretch of samples the likelihood of ``q`` is evaluated on; longer files use ML_BLOCKS evenly spaced
+#: blocks of ML_SAMPLES / ML_BLOCKS contiguous samples (the likelihood is a sum over samples; a one-hour log at
+#: 10 Hz would otherwise cost ~100 smoother passes of 36000 samples).
+ML_SAMPLES = 20000
+ML_BLOCKS = 10
 
 
 def _ml_q(t, zp, rp, zv, rv, use_p, use_v) -> float:
     """Maximum-likelihood ``q`` (m^2/s^5) of one axis from the positions or the velocities alone ([1] 5.5)."""
+    n = len(t)
+    rp = np.broadcast_to(np.asarray(rp, dtype=np.float64), (n,))
+    rv = np.broadcast_to(np.asarray(rv, dtype=np.float64), (n,))
+    if n > ML_SAMPLES:
+        m = ML_SAMPLES // ML_BLOCKS
+        starts = np.linspace(0, n - m, ML_BLOCKS).astype(np.int64)
+        blocks = [slice(int(a), int(a) + m) for a in starts]
+    else:
+        blocks = [slice(0, n)]
+
     def nll(lq):
-        return smooth_axis(t, zp, rp, zv, rv, 10.0 ** lq, use_p, use_v)[1]
+        return sum(smooth_axis(t[b], zp[b], rp[b], zv[b], rv[b], 10.0 ** lq, use_p, use_v, smooth=False)[1]
+                   for b in blocks)
 
     lo, hi = LOG10_Q_RANGE
-    res = minimize_scalar(nll, bounds=(lo, hi), method="bounded", options={"xatol": 0.02})
+    res = minimize_scalar(nll, bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
     return float(10.0 ** res.x)
 
 
