@@ -676,16 +676,8 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
         raise
     except ValueError as exc:
         if spec["file"]:  # the model's names -> the file's columns and rows
-            msg = re.sub(r"SampledTrajectory\.v_ned_m_s\[:, (\d)\]: sample (\d+) differs from the velocity of the "
-                         r"smoothing fit of the positions by (\S+) m/s, beyond v_tol_m_s = (\S+) (and .*?\)) \((.*)\): "
-                         r"the velocity does not fit the positions",
-                         lambda m: f"trajectory.file ({spec['file']}): row {int(m.group(2)) + 1}, column "
-                                   f"{('vn_m_s', 've_m_s', 'vd_m_s')[int(m.group(1))]}: differs from the velocity of "
-                                   f"the smoothing fit of the positions (lat_deg, lon_deg, height_m) by {m.group(3)} "
-                                   f"m/s, beyond trajectory.velocity_tolerance_m_s = {m.group(4)} {m.group(5)} "
-                                   f"({m.group(6)}): "
-                                   "the velocity columns do not fit the positions (another flight's, a sign or a unit?)",
-                         str(exc))
+            msg = tj.velocity_check_in_file_terms(str(exc), f"trajectory.file ({spec['file']})",
+                                                  "trajectory.velocity_tolerance_m_s")
             raise ConfigError(f"{ctx}: {msg}") from None
         raise ConfigError(f"{ctx}: trajectory: {exc}") from None
     if vehicle.duration_s < need:  # a file (segments are refused above or held to the end)

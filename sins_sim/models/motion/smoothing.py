@@ -53,7 +53,8 @@ from scipy.optimize import minimize_scalar
 
 from sins_sim._kernels._config import jit
 
-__all__ = ["SmoothFit", "noise_scale", "quantisation_sigma", "smooth_axis", "fit_positions_velocities", "quintic_hermite"]
+__all__ = ["SmoothFit", "noise_scale", "quantisation_sigma", "smooth_axis", "fit_positions_velocities",
+           "quintic_hermite"]
 
 #: Floors of the noise estimates (m, m/s): conditioning of the filter, far below any file's resolution that matters.
 SIGMA_P_FLOOR_M = 1e-8

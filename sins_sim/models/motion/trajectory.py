@@ -125,6 +125,7 @@ __all__ = [
     "MAX_ABS_LAT_RAD",
     "MAX_FLIGHT_PATH_ANGLE_RAD",
     "CHECK_SIGMAS",
+    "velocity_check_in_file_terms",
 ]
 
 DEFAULT_TRANSITION_S = 4.0
@@ -1122,6 +1123,23 @@ def build_trajectory(spec) -> Trajectory:
 # --- sampled trajectory ----------------------------------------------------------------
 
 
+def velocity_check_in_file_terms(message: str, where: str, tolerance_key: str) -> str:
+    """A :class:`SampledTrajectory` refusal of its velocity check in a trajectory file's words: the row (1-based)
+    and the column (``vn_m_s``, ``ve_m_s``, ``vd_m_s``) for the sample and component, ``tolerance_key`` for
+    ``v_tol_m_s``, ``where`` (the file as the user named it) in front. Other messages are returned unchanged."""
+    import re
+
+    columns = ("vn_m_s", "ve_m_s", "vd_m_s")
+    return re.sub(r"SampledTrajectory\.v_ned_m_s\[:, (\d)\]: sample (\d+) differs from the velocity of the smoothing "
+                  r"fit of the positions by (\S+) m/s, beyond v_tol_m_s = (\S+) (and .*?\)) \((.*)\): the velocity "
+                  r"does not fit the positions",
+                  lambda m: f"{where}: row {int(m.group(2)) + 1}, column {columns[int(m.group(1))]}: "
+                            f"differs from the velocity of the smoothing fit of the positions (lat_deg, lon_deg, "
+                            f"height_m) by {m.group(3)} m/s, beyond {tolerance_key} = {m.group(4)} {m.group(5)} "
+                            f"({m.group(6)}): the velocity columns do not fit the positions (another flight's, a sign "
+                            "or a unit?)", message)
+
+
 def _fmt3(xs) -> str:
     return "/".join(f"{x:.3g}" for x in xs)
 
@@ -1308,8 +1326,8 @@ class SampledTrajectory:
         if vel is None:
             spl_p = make_interp_spline(t, pos, k=k)
         else:  # the velocity is a measurement too: a smoothing fit of both (sins_sim.models.motion.smoothing)
-            spl_p, fit, v_positions, sigma_check = _fit_positions_velocities(t, arrs["lat_rad"], arrs["lon_rad"], arrs["h_m"],
-                                                                pos, vel)
+            spl_p, fit, v_positions, sigma_check = _fit_positions_velocities(t, arrs["lat_rad"], arrs["lon_rad"],
+                                                                             arrs["h_m"], pos, vel)
         pos_splines = (spl_p, spl_p.derivative(1), spl_p.derivative(2))
         # attitude on SO(3): C_nv = R_z(yaw) R_y(pitch) R_x(roll) at the samples, interpolated as a rotation
         rot = Rotation.from_euler("ZYX", np.stack((arrs["yaw_rad"], pitch, arrs["roll_rad"]), axis=-1))
