@@ -250,8 +250,10 @@ def test_velocity_columns_off_the_positions_name_the_columns_and_row(tmp_path):
     data = TrajectoryData(t_s=d.t_s, lat_rad=d.lat_rad, lon_rad=d.lon_rad, h_m=d.h_m, roll_rad=d.roll_rad,
                           pitch_rad=d.pitch_rad, yaw_rad=d.yaw_rad, v_ned_m_s=3.0 * np.asarray(d.v_ned_m_s))
     csv = write_trajectory(tmp_path / "vel.csv", data)
-    with pytest.raises(ConfigError, match=r"trajectory\.file \(vel\.csv\): row \d+: the velocity columns \(vn_m_s, "
-                                          r"ve_m_s, vd_m_s\) differ from the velocity of the positions") as info:
+    with pytest.raises(ConfigError, match=r"trajectory\.file \(vel\.csv\): row \d+, column (vn|ve|vd)_m_s: differs from "
+                                          r"the velocity of the smoothing fit of the positions \(lat_deg, lon_deg, "
+                                          r"height_m\) by \S+ m/s, beyond trajectory\.velocity_tolerance_m_s = 1\.0 "
+                                          r".*the velocity columns do not fit the positions") as info:
         load_scenario(_file_scenario(tmp_path, csv))
     assert "SampledTrajectory" not in str(info.value) and "v_tol" not in str(info.value)
 

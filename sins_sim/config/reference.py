@@ -53,13 +53,15 @@ def _trajectory_rows() -> list:
     rules = {
         "time_s": (f"strictly increasing, steps <= {tj.MAX_TIME_STEP_S:g} s", "sample time (rate >= 1 Hz, spacing "
                                                                              "need not be uniform)"),
-        "lat_deg": ("[-90, 90]", "geodetic latitude (WGS-84)"),
+        "lat_deg": (f"[-{tj.MAX_ABS_LAT_DEG:g}, {tj.MAX_ABS_LAT_DEG:g}]",
+                    f"geodetic latitude (WGS-84); not nearer the poles: {tj.POLE_REASON}"),
         "lon_deg": ("[-360, 360]", "longitude"),
         "height_m": (f"[{tj.HEIGHT_RANGE_M[0]:g}, {tj.HEIGHT_RANGE_M[1]:g}]", "height above the WGS-84 ellipsoid"),
         "roll_deg": ("[-360, 360]", "Euler angles body (x forward, y right, z down) w.r.t. NED, sequence 3-2-1"),
         "pitch_deg": ("(-90, 90)", "pitch"),
         "yaw_deg": ("[-360, 360]", "yaw (heading)"),
-        "vn_m_s": (f"|v| <= {tj.MAX_SPEED_M_S:g}", "NED ground velocity: all three columns or none"),
+        "vn_m_s": (f"|v| <= {tj.MAX_SPEED_M_S:g}", "NED ground velocity: all three columns or none; a measurement "
+                                                  "(see the rule on velocity columns)"),
         "ve_m_s": (f"|v| <= {tj.MAX_SPEED_M_S:g}", "east velocity"),
         "vd_m_s": (f"|v| <= {tj.MAX_SPEED_M_S:g}", "down velocity"),
     }
@@ -75,7 +77,14 @@ def _trajectory_rows() -> list:
                  f"less than {tj.MAX_ANGLE_STEP_DEG:g} deg and at most {tj.MAX_ANGLE_RATE_DEG_S:g} deg/s (roll and "
                  "yaw the shorter way round)",
                  "CSV: one header row; `#` comment lines only before it, blank lines only at the end; Parquet "
-                 "(.parquet, .pq): the same columns, numeric, no nulls"):
+                 "(.parquet, .pq): the same columns, numeric, no nulls",
+                 "velocity columns are a measurement: the truth is a smoothing fit of positions and velocities "
+                 "together (fixed-interval Rauch-Tung-Striebel smoother, constant-acceleration model, noise levels "
+                 "from the file: sins_sim.models.motion.smoothing), with its RMS residuals in metrics.json "
+                 "(mission.trajectory_fit) and the report; a velocity column that differs from the velocity of the "
+                 "positions' own fit by more than the scenario's trajectory.velocity_tolerance_m_s (default 1 m/s) "
+                 "at some row is refused naming the row and the column; without velocity columns the positions are "
+                 "interpolated (a quintic spline) and should be written to ~1e-13 deg / 1e-8 m"):
         out.append({"key": "(file)", "kind": "rule", "unit": "", "range": "", "default": "", "doc": text})
     return out
 

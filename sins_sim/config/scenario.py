@@ -183,7 +183,10 @@ SEGMENT_SCHEMA = OneOf({
                    "a sharper turn is refused",)})
 
 SITE_SCHEMA = Map({
-    "lat": Num(unit="deg", min=-89.0, max=89.0, default=45.0, doc="latitude of the start (geodetic)"),
+    "lat": Num(unit="deg", min=-89.0, max=89.0, default=45.0,
+               doc="latitude of the start (geodetic); a flight must stay within 89.5 deg: the north-east-down "
+                   "mechanisation's transport rate (tan lat, sec lat) is singular at the poles (Titterton & Weston "
+                   "2004, sec. 3.5); polar routes need a wander-azimuth mechanisation, not modelled"),
     "lon": Num(unit="deg", min=-180.0, max=180.0, default=0.0),
     "height": Num(unit="m", min=-1000.0, max=100000.0, default=0.0, doc="above the WGS-84 ellipsoid"),
     "heading": Num(unit="deg", default=0.0, min=-360.0, max=360.0, doc="from north towards east"),
@@ -195,6 +198,11 @@ TRAJECTORY_SCHEMA = Map({
     "segments": ListOf(SEGMENT_SCHEMA, default=[], max_len=10000, doc="flown in order after the start"),
     "file": Str(default="", doc="CSV or Parquet trajectory file (format: sins-sim schema trajectory), relative to "
                                 "the scenario"),
+    "velocity_tolerance": Num(unit="m_s", min=1e-3, max=100.0, default=1.0,
+                              doc="a file with velocity columns: largest difference of vn_m_s, ve_m_s or vd_m_s from "
+                                  "the velocity of the smoothing fit of the file's positions, at any row (the truth "
+                                  "is the fit of positions and velocities together; GNSS-grade noise of 0.1 m/s with "
+                                  "positions to 5 decimals of a degree stays below 0.6 m/s)"),
     "extend": Str(choices=("none", "hold"), default="none",
                   doc="none: a run longer than the segments is refused; hold: after the last segment the vehicle "
                       "holds its state (at rest if it ended at rest, else straight and level at its speed) until "
@@ -202,7 +210,12 @@ TRAJECTORY_SCHEMA = Map({
 }, default={}, doc="how the vehicle moves (segments, or a file); without either it sits at the site",
     rules=("the trajectory must last at least duration_s + 0.1 s (segments: unless extend is hold)",
            "every segment lasts at least 2 transition_s (a smooth ramp in and one out)",
-           "a file's yaw must fit its ground track and its roll its turns (a file in radians is refused)"))
+           "a file's yaw must fit its ground track and its roll its turns (a file in radians is refused)",
+           "a file with velocity columns: its truth is a smoothing fit of positions and velocities (fixed-interval "
+           "Rauch-Tung-Striebel smoother, constant-acceleration model; noise levels from the file, "
+           "sins_sim.models.motion.smoothing), its RMS residuals are reported in metrics.json "
+           "(mission.trajectory_fit) and the report; a velocity column off the positions' own fit by more than "
+           "velocity_tolerance_m_s at any row is refused"))
 
 _TEMP = dict(min=173.15, max=473.15)
 _COEFF = {
@@ -469,7 +482,9 @@ class Scenario:
             raise ConfigError(f"{ctx}: {exc}") from None
         self.site = c["site"]
         self.trajectory_spec = c["trajectory"]
-        self.vehicle = _build_vehicle(c["site"], c["trajectory"], self.duration_s, ctx, base_dir,
+        written = isinstance(doc.get("trajectory"), dict) and "velocity_tolerance_m_s" in doc["trajectory"]
+        self.vehicle = _build_vehicle(c["site"], {**c["trajectory"], "velocity_tolerance_written": written},
+                                      self.duration_s, ctx, base_dir,
                                       duration_key)
         if c["trajectory"]["file"]:  # the mission starts where the file does: the site is its first row
             self.site = _site_of(self.vehicle)
@@ -654,6 +669,9 @@ def _check_file_trajectory(doc, ctx) -> None:
     """A trajectory file holds the whole motion and its own start: keys that would be ignored beside it are refused
     (they were dropped without a word, and metrics.json then reported the default site)."""
     tr = doc.get("trajectory") if isinstance(doc, dict) else None
+    if isinstance(tr, dict) and not tr.get("file") and "velocity_tolerance_m_s" in tr:
+        raise ConfigError(f"{ctx}: trajectory.velocity_tolerance_m_s: applies to a trajectory file with velocity "
+                          "columns (segments have no measured velocity): remove it or give trajectory.file")
     if not (isinstance(tr, dict) and tr.get("file")):
         return
     extra = [f"trajectory.{k}" for k in ("segments", "speed_m_s", "transition_s") if k in tr]
@@ -700,7 +718,10 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
                 raise ConfigError(f"{ctx}: {exc}") from None
             for msg in msgs:
                 warnings.warn(msg, UserWarning, stacklevel=3)
-            vehicle = tj.SampledTrajectory.from_data(data)
+            if data.v_ned_m_s is None and spec.get("velocity_tolerance_written"):
+                raise ConfigError(f"{ctx}: trajectory.velocity_tolerance_m_s: applies to a file with velocity "
+                                  f"columns; {spec['file']} has none (vn_m_s, ve_m_s, vd_m_s): remove the key")
+            vehicle = tj.SampledTrajectory.from_data(data, v_tol_m_s=spec["velocity_tolerance_m_s"])
             where = f"trajectory.file ({spec['file']})"
         else:
             segs = []
@@ -729,15 +750,14 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
             vehicle = tj.Trajectory(site["lat_rad"], site["lon_rad"], site["height_m"], spec["speed_m_s"],
                                     site["heading_rad"], tuple(segs), transition_s=spec["transition_s"])
             where = "trajectory"
+            _check_latitude_reach(vehicle, min(need, vehicle.duration_s), ctx)
     except ConfigError:
         raise
     except ValueError as exc:
         if spec["file"]:  # the model's names -> the file's columns and rows
-            msg = re.sub(r"SampledTrajectory\.v_ned_m_s: sample (\d+) differs from the velocity of the position spline",
-                         lambda m: f"trajectory.file ({spec['file']}): row {int(m.group(1)) + 1}: the velocity columns "
-                                   f"(vn_m_s, ve_m_s, vd_m_s) differ from the velocity of the positions (lat_deg, "
-                                   f"lon_deg, height_m, interpolated)", str(exc))
-            raise ConfigError(f"{ctx}: {msg.replace('v_tol_m_s = ', 'the tolerance (m/s) ')}") from None
+            msg = tj.velocity_check_in_file_terms(str(exc), f"trajectory.file ({spec['file']})",
+                                                  "trajectory.velocity_tolerance_m_s")
+            raise ConfigError(f"{ctx}: {msg}") from None
         turn = re.match(r"Trajectory\.segments\[(\d+)\]\.delta_heading_rad: (.*), got (\S+)$", str(exc))
         if turn:  # the model's radians -> the key the user wrote
             raise ConfigError(f"{ctx}: trajectory.segments[{turn.group(1)}].heading_change_deg: {turn.group(2)}, got "
@@ -748,6 +768,21 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
                           f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): set "
                           f"{duration_key} <= {vehicle.duration_s - 0.1:g} or give a longer file")
     return vehicle
+
+
+def _check_latitude_reach(vehicle, t_end, ctx) -> None:
+    """A segment flight that would pass 89.5 deg of latitude is refused now, naming the keys (it stopped the engine
+    mid-run with the model's words): the position is integrated to the run's end once (RK4 at 100 Hz, the
+    engine's own integration)."""
+    from sins_sim.io.trajectory import MAX_ABS_LAT_DEG, POLE_REASON
+    try:
+        vehicle.evaluate(np.linspace(0.0, t_end, int(min(max(t_end, 1.0), 1e5)) + 1))  # the time within ~1 s
+    except ValueError as exc:
+        m = re.search(r"before t = (?:np\.float64\()?([0-9.eE+-]+)", str(exc))
+        when = f" before t = {float(m.group(1)):.4g} s" if m else ""
+        raise ConfigError(f"{ctx}: trajectory.segments: the flight from site.lat_deg "
+                          f"{math.degrees(vehicle.start_lat_rad):g} passes {MAX_ABS_LAT_DEG:g} deg of latitude{when}: "
+                          f"{POLE_REASON}; shorten the run, turn away from the pole or start farther from it") from None
 
 
 def _ends_at_rest(spec, segs) -> bool:

@@ -25,7 +25,8 @@ column          unit   required  meaning and rule
 ==============  =====  ========  =============================================================
 ``time_s``      s      yes       sample time; strictly increasing, steps of at most 1 s
                                  (sample rate >= 1 Hz; the spacing need not be uniform)
-``lat_deg``     deg    yes       geodetic latitude (WGS-84), in [-90, 90]
+``lat_deg``     deg    yes       geodetic latitude (WGS-84), in [-89.5, 89.5] (the NED
+                                 mechanisation is singular at the poles, see below)
 ``lon_deg``     deg    yes       longitude, in [-360, 360]
 ``height_m``    m      yes       height above the WGS-84 ellipsoid, in [-1000, 100000]
 ``roll_deg``    deg    yes       Euler angles of the vehicle body (x forward, y right,
@@ -43,6 +44,24 @@ empty cell). Between consecutive rows, the position may move at most
 by the time step), and each Euler angle may change by less than 90 deg and
 at most 720 deg/s (roll and yaw the shorter way round, so 359 -> 1 deg is a
 2 deg step).
+
+Latitude: the simulator navigates in north-east-down axes, whose transport
+rate ``(v_E / (R_E + h), -v_N / (R_N + h), -v_E tan(lat) / (R_E + h))`` and
+longitude rate ``v_E / ((R_E + h) cos lat)`` are singular at the poles
+(Titterton & Weston 2004, sec. 3.5; Savage 2000, ch. 4 and 5); a polar route
+needs a wander-azimuth mechanisation, which is not modelled. Rows beyond
+89.5 deg are refused naming the row and ``lat_deg``.
+
+Velocity columns: the velocity is taken as a measurement. The truth is then a
+smoothing fit of positions and velocities together
+(:mod:`sins_sim.models.motion.smoothing`: fixed-interval Rauch-Tung-Striebel
+smoother on a constant-acceleration model, noise levels estimated from the
+file), so rounded positions (7 decimals of a degree, 1 cm) and GNSS-grade
+velocity noise (0.01-0.1 m/s) are accepted; a velocity column that differs
+from the velocity of the positions' own fit by more than the scenario's
+``trajectory.velocity_tolerance_m_s`` (default 1 m/s) at some row is refused
+naming the row and the column. Without velocity columns the positions are
+interpolated (below).
 
 Resolution: the model differentiates the positions twice, so their
 rounding shows up in the specific force as about ``6 eps / dt^2`` for a
@@ -88,7 +107,7 @@ from sins_sim.units import DEG
 
 __all__ = ["TRAJECTORY_COLUMNS", "REQUIRED_COLUMNS", "VELOCITY_COLUMNS", "TrajectoryFileError", "TrajectoryData",
            "read_trajectory", "write_trajectory", "MAX_SPEED_M_S", "MAX_ANGLE_RATE_DEG_S", "MAX_ANGLE_STEP_DEG",
-           "MAX_TIME_STEP_S", "MIN_ROWS", "HEIGHT_RANGE_M"]
+           "MAX_TIME_STEP_S", "MIN_ROWS", "HEIGHT_RANGE_M", "MAX_ABS_LAT_DEG", "POLE_REASON"]
 
 #: Required columns, in the order the writer uses.
 REQUIRED_COLUMNS = ("time_s", "lat_deg", "lon_deg", "height_m", "roll_deg", "pitch_deg", "yaw_deg")
@@ -108,6 +127,12 @@ MAX_TIME_STEP_S = 1.0
 MIN_ROWS = 4
 #: Allowed heights (m).
 HEIGHT_RANGE_M = (-1000.0, 100000.0)
+#: Largest |latitude| (deg) of a trajectory: the simulator navigates in a north-east-down frame.
+MAX_ABS_LAT_DEG = 89.5
+#: Why (for messages and the schema reference).
+POLE_REASON = ("the north-east-down mechanisation's transport rate has tan(lat) and sec(lat) terms, singular at the "
+               "poles (Titterton & Weston 2004, sec. 3.5); a polar route needs a wander-azimuth mechanisation, "
+               "which sins-sim does not model")
 
 _PARQUET_SUFFIXES = (".parquet", ".pq")
 _COMMENT_KEY = b"sins_sim.comments"
@@ -162,8 +187,9 @@ def _check_values(cols, chk: _Checker):
                   lambda i: f"step of {float(t[i] - t[i - 1])!r} s from the previous row exceeds {MAX_TIME_STEP_S} s "
                             "(the sample rate must be >= 1 Hz)", "time_s")
     lat, lon, h = cols["lat_deg"], cols["lon_deg"], cols["height_m"]
-    chk.check_bad(np.abs(lat) > 90.0, lambda i: f"latitude must be in [-90, 90] deg, got {float(lat[i])!r}",
-                  "lat_deg")
+    chk.check_bad(np.abs(lat) > MAX_ABS_LAT_DEG,
+                  lambda i: f"latitude must be in [-{MAX_ABS_LAT_DEG:g}, {MAX_ABS_LAT_DEG:g}] deg, got "
+                            f"{float(lat[i])!r} ({POLE_REASON})", "lat_deg")
     chk.check_bad(np.abs(lon) > 360.0, lambda i: f"longitude must be in [-360, 360] deg, got {float(lon[i])!r}",
                   "lon_deg")
     lo, hi = HEIGHT_RANGE_M

@@ -336,8 +336,12 @@ def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> di
     if has_sensors:
         imu_doc["sensors"] = sensors
     doc["imu"] = copies["imu"]
+    written_tol = "velocity_tolerance_m_s" in (doc.get("trajectory") or {})
     doc = fill_defaults(doc, SCENARIO_SCHEMA)
     traj = doc.get("trajectory") or {}
+    if not written_tol and isinstance(doc.get("trajectory"), dict):
+        # refused beside segments and beside a file without velocity columns: only as the user wrote it
+        doc["trajectory"].pop("velocity_tolerance_m_s", None)
     if traj.get("file"):
         tpath = (base / traj["file"]).resolve()
         files["trajectory"] = tpath

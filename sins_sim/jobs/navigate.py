@@ -150,13 +150,15 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
     from sins_sim.jobs.output import atomic_write_text
     from sins_sim.jobs.run import _json_default
     from sins_sim.models.motion import SampledTrajectory
+    from sins_sim.models.motion.trajectory import velocity_check_in_file_terms
 
     t, dth, dv = read_increments(increments)
     try:
         data = read_trajectory(truth_file)
         truth = SampledTrajectory.from_data(data)
     except ValueError as exc:
-        raise ConfigError(f"--truth: {' '.join(str(exc).split())}") from None
+        msg = velocity_check_in_file_terms(" ".join(str(exc).split()), str(truth_file), "the tolerance (m/s)")
+        raise ConfigError(f"--truth: {msg}") from None
     offset = truth.time_offset_s
     try:
         metrics = navigate_increments(t - offset, dth, dv, truth, name=name, coning=coning, sculling=sculling,

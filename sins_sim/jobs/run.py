@@ -256,7 +256,9 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
         "duration_s": scenario.duration_s,
         "mission": {"site": {"lat_deg": math.degrees(scenario.site["lat_rad"]),
                              "lon_deg": math.degrees(scenario.site["lon_rad"]), "height_m": scenario.site["height_m"]},
-                    "trajectory": scenario.vehicle.describe() if hasattr(scenario.vehicle, "describe") else "file"},
+                    "trajectory": scenario.vehicle.describe() if hasattr(scenario.vehicle, "describe") else "file",
+                    # a file with velocity columns: the smoothing fit's residuals and noise levels (else None)
+                    "trajectory_fit": getattr(scenario.vehicle, "fit", None)},
         "navigation": {"coning": scenario.nav.coning, "sculling": scenario.nav.sculling,
                        "start_s": scenario.nav.start_s, "n_sub": scenario.nav.n_sub,
                        "update_rate_hz": res.filter_rate_hz / scenario.nav.n_sub,

@@ -103,6 +103,7 @@ from scipy.spatial.transform import Rotation
 from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim._kernels._config import jit
+from sins_sim.io.trajectory import MAX_ABS_LAT_DEG
 from sins_sim.models.motion._registry import build_typed
 
 __all__ = [
@@ -123,6 +124,8 @@ __all__ = [
     "DEFAULT_STEP_S",
     "MAX_ABS_LAT_RAD",
     "MAX_FLIGHT_PATH_ANGLE_RAD",
+    "CHECK_SIGMAS",
+    "velocity_check_in_file_terms",
 ]
 
 DEFAULT_TRANSITION_S = 4.0
@@ -131,9 +134,14 @@ DEFAULT_TRANSITION_S = 4.0
 DEFAULT_STEP_S = 0.01
 """Internal RK4 step (s) of the latitude/longitude integration (100 Hz); see :class:`TrajectoryStream`."""
 
-MAX_ABS_LAT_RAD = math.radians(89.5)
-"""Largest |latitude| (rad) a trajectory may reach: the longitude rate ``v_E / ((R_E + h) cos lat)``
-is singular at the poles."""
+MAX_ABS_LAT_RAD = math.radians(MAX_ABS_LAT_DEG)
+"""Largest |latitude| (rad) a trajectory may reach (89.5 deg, :data:`sins_sim.io.trajectory.MAX_ABS_LAT_DEG`): the
+longitude rate ``v_E / ((R_E + h) cos lat)`` and the NED transport rate (``tan lat``) are singular at the poles."""
+
+CHECK_SIGMAS = 5.0
+"""A velocity column is refused where it differs from the velocity of the positions' own smoothing fit by more
+than the tolerance and by more than this many standard deviations of that difference (the velocity noise and the
+fit's uncertainty: large at the ends of a short file of coarsely rounded positions)."""
 
 MAX_FLIGHT_PATH_ANGLE_RAD = math.radians(60.0)
 """Largest |flight-path angle| (rad) of a :class:`Climb` (the pitch stays well away from the Euler
@@ -1152,6 +1160,55 @@ def build_trajectory(spec) -> Trajectory:
 # --- sampled trajectory ----------------------------------------------------------------
 
 
+def velocity_check_in_file_terms(message: str, where: str, tolerance_key: str) -> str:
+    """A :class:`SampledTrajectory` refusal of its velocity check in a trajectory file's words: the row (1-based)
+    and the column (``vn_m_s``, ``ve_m_s``, ``vd_m_s``) for the sample and component, ``tolerance_key`` for
+    ``v_tol_m_s``, ``where`` (the file as the user named it) in front. Other messages are returned unchanged."""
+    import re
+
+    columns = ("vn_m_s", "ve_m_s", "vd_m_s")
+    return re.sub(r"SampledTrajectory\.v_ned_m_s\[:, (\d)\]: sample (\d+) differs from the velocity of the smoothing "
+                  r"fit of the positions by (\S+) m/s, beyond v_tol_m_s = (\S+) (and .*?\)) \((.*)\): the velocity "
+                  r"does not fit the positions",
+                  lambda m: f"{where}: row {int(m.group(2)) + 1}, column {columns[int(m.group(1))]}: "
+                            f"differs from the velocity of the smoothing fit of the positions (lat_deg, lon_deg, "
+                            f"height_m) by {m.group(3)} m/s, beyond {tolerance_key} = {m.group(4)} {m.group(5)} "
+                            f"({m.group(6)}): the velocity columns do not fit the positions (another flight's, a sign "
+                            "or a unit?)", message)
+
+
+def _fmt3(xs) -> str:
+    return "/".join(f"{x:.3g}" for x in xs)
+
+
+def _fit_positions_velocities(t, lat, lon, h, pos, vel):
+    """Position spline (a C2 piecewise quintic), the :class:`~sins_sim.models.motion.smoothing.SmoothFit` of the
+    positions ``pos`` (dlat, dlon rad; h m) and NED velocities ``vel`` at times ``t`` (from the first sample), and
+    the NED velocity of the fit of the positions alone at the samples.
+
+    The fit runs in metres: the latitude and longitude offsets scaled by the radii at the first sample
+    (``R_N + h``, ``(R_E + h) cos lat``), the height up; a velocity maps into these axes through the radii at
+    its own sample (``lat' = v_N / (R_N + h)``, ``lon' = v_E / ((R_E + h) cos lat)``, ``h' = -v_D``). The noise
+    estimates are bounded below by the rounding of the values as written (their decimals).
+    """
+    from sins_sim.models.motion.smoothing import fit_positions_velocities, quantisation_sigma, quintic_hermite
+
+    r_n, r_e = earth.radii(lat)
+    r_n0, r_e0 = earth.radii(lat[0])
+    scale = np.array([r_n0 + h[0], (r_e0 + h[0]) * math.cos(lat[0]), 1.0])
+    local = np.stack((r_n + h, (r_e + h) * np.cos(lat), np.ones_like(h)), axis=-1)  # m per fit unit, per sample
+    vel_scale = scale / local
+    deg = math.pi / 180.0
+    p_min = [quantisation_sigma(lat, deg) * scale[0], quantisation_sigma(lon, deg) * scale[1],
+             quantisation_sigma(h, 1.0)]
+    v_min = [quantisation_sigma(vel[:, i], 1.0) for i in range(3)]
+    sign = np.array([1.0, 1.0, -1.0])
+    fit = fit_positions_velocities(t, pos * scale, vel * sign * vel_scale, vel_scale, p_min, v_min)
+    v_positions = fit.v_positions / vel_scale * sign
+    sigma_check = fit.sigma_check / vel_scale
+    return quintic_hermite(t, fit.p / scale, fit.v / scale, fit.a / scale), fit, v_positions, sigma_check
+
+
 def _unit_quaternion_and_rate(s, ds):
     """``q = s / |s|`` and ``omega_nv^v = 2 vec(q* (x) dq/dt)`` from the quaternion spline ``s`` and its derivative.
 
@@ -1197,10 +1254,13 @@ class SampledTrajectory:
         Euler angles (rad, 3-2-1); ``|pitch| < pi/2``; roll and yaw are
         unwrapped (a step of more than pi between samples is taken as a wrap).
     v_ned_m_s : array_like (N, 3), optional
-        Sampled NED velocity (m/s), used only as a consistency check (see Notes).
+        Sampled NED velocity (m/s), a measurement: with it the truth is the
+        smoothing fit of positions and velocities (see Notes).
     v_tol_m_s : float
-        Largest allowed difference (m/s, norm) between ``v_ned_m_s`` and the
-        velocity of the position spline at the samples (default 0.05 m/s).
+        A velocity component is refused where it differs from the velocity of
+        the positions' own smoothing fit by more than ``v_tol_m_s`` (m/s,
+        default 1) and :data:`CHECK_SIGMAS` standard deviations of that
+        difference.
 
     Notes
     -----
@@ -1227,10 +1287,14 @@ class SampledTrajectory:
     C1 with a continuous angular acceleration; the specific force C1, C0
     with the cubic position spline of N < 6).
 
-    A given velocity does not enter the truth (differentiating the position
-    keeps the truth self-consistent); it must agree with the spline's
-    velocity at every sample within ``v_tol_m_s``, else ``ValueError``
-    naming the first sample that does not.
+    With ``v_ned_m_s`` the position spline is replaced by the smoothing fit
+    of positions and velocities of :mod:`sins_sim.models.motion.smoothing`
+    (a C2 piecewise quintic through the RTS-smoothed position, velocity and
+    acceleration at the samples; velocity and acceleration are still its
+    derivatives, so the truth stays self-consistent). :attr:`fit` then holds
+    the residuals (RMS per axis N/E/D), the noise levels and the check of the
+    velocity against the positions' own fit; a component beyond the rule of
+    ``v_tol_m_s`` raises ``ValueError`` naming the component and the sample.
 
     Accuracy is limited by the sampling and by the resolution of the
     samples: a position quantised to ``eps`` (m) at spacing ``dt`` (s)
@@ -1255,8 +1319,9 @@ class SampledTrajectory:
     pitch_rad: np.ndarray
     yaw_rad: np.ndarray
     v_ned_m_s: np.ndarray | None = None
-    v_tol_m_s: float = 0.05
+    v_tol_m_s: float = 1.0
     time_offset_s: float = field(init=False, default=0.0)
+    fit: dict | None = field(init=False, default=None)
     _pos: object = field(init=False, repr=False, default=None)
     _att: object = field(init=False, repr=False, default=None)
 
@@ -1294,7 +1359,12 @@ class SampledTrajectory:
         lon0 = float(lon_u[0])
         pos = np.stack((arrs["lat_rad"] - lat0, lon_u - lon0, arrs["h_m"]), axis=-1)
         k = 5 if n >= 6 else 3
-        spl_p = make_interp_spline(t, pos, k=k)
+        fit = None
+        if vel is None:
+            spl_p = make_interp_spline(t, pos, k=k)
+        else:  # the velocity is a measurement too: a smoothing fit of both (sins_sim.models.motion.smoothing)
+            spl_p, fit, v_positions, sigma_check = _fit_positions_velocities(t, arrs["lat_rad"], arrs["lon_rad"],
+                                                                             arrs["h_m"], pos, vel)
         pos_splines = (spl_p, spl_p.derivative(1), spl_p.derivative(2))
         # attitude on SO(3): C_nv = R_z(yaw) R_y(pitch) R_x(roll) at the samples, interpolated as a rotation
         rot = Rotation.from_euler("ZYX", np.stack((arrs["yaw_rad"], pitch, arrs["roll_rad"]), axis=-1))
@@ -1312,14 +1382,40 @@ class SampledTrajectory:
         _set(self, "time_offset_s", float(arrs["t_s"][0]))
         _set(self, "_pos", (lat0, lon0, pos_splines))
         _set(self, "_att", att_splines)
+        _set(self, "fit", None)
         if vel is not None:
-            got = self.evaluate(t).v_ned_m_s
-            err = np.linalg.norm(got - vel, axis=-1)
-            worst = int(np.argmax(err))
-            if err[worst] > tol:
-                raise ValueError(f"{own}.v_ned_m_s: sample {worst} differs from the velocity of the position spline "
-                                 f"by {err[worst]:.6g} m/s > v_tol_m_s = {tol!r} (position and velocity are "
-                                 "inconsistent)")
+            truth = self.evaluate(t)
+            res_v = vel - truth.v_ned_m_s
+            r_n, r_e = earth.radii(arrs["lat_rad"])
+            res_p = np.stack(((arrs["lat_rad"] - truth.lat_rad) * (r_n + arrs["h_m"]),
+                              np.angle(np.exp(1j * (arrs["lon_rad"] - truth.lon_rad))) * (r_e + arrs["h_m"])
+                              * np.cos(arrs["lat_rad"]),
+                              -(arrs["h_m"] - truth.h_m)), axis=-1)
+            res_c = vel - v_positions  # the check: the measured velocity against the positions' own
+            # beyond the tolerance and beyond what the file can tell (CHECK_SIGMAS standard deviations)
+            excess = np.abs(res_c) - np.maximum(tol, CHECK_SIGMAS * sigma_check)
+            worst = np.argmax(excess, axis=0)
+            worst_c = np.abs(res_c[worst, np.arange(3)])
+            worst_x = excess[worst, np.arange(3)]
+            _set(self, "fit", {
+                "method": "fixed-interval RTS smoother of positions and velocities, constant-acceleration (white "
+                          "jerk) model (sins_sim.models.motion.smoothing)",
+                "position_residual_rms_m": np.sqrt(np.mean(res_p ** 2, axis=0)).tolist(),
+                "velocity_residual_rms_m_s": np.sqrt(np.mean(res_v ** 2, axis=0)).tolist(),
+                "velocity_residual_max_m_s": np.max(np.abs(res_v), axis=0).tolist(),
+                "velocity_vs_positions_rms_m_s": np.sqrt(np.mean(res_c ** 2, axis=0)).tolist(),
+                "velocity_vs_positions_max_m_s": np.max(np.abs(res_c), axis=0).tolist(),
+                "position_noise_m": fit.sigma_p.tolist(), "velocity_noise_m_s": fit.sigma_v.tolist(),
+                "jerk_psd_m2_s5": fit.q.tolist(), "velocity_tolerance_m_s": tol})
+            axis = int(np.argmax(worst_x))
+            if worst_x[axis] > 0.0:
+                k = int(worst[axis])
+                raise ValueError(f"{own}.v_ned_m_s[:, {axis}]: sample {k} differs from the velocity of the smoothing "
+                                 f"fit of the positions by {res_c[k, axis]:.6g} m/s, beyond v_tol_m_s = {tol!r} "
+                                 f"and {CHECK_SIGMAS:g} standard deviations of the difference "
+                                 f"({sigma_check[k, axis]:.3g} m/s: the velocity noise and the fit's uncertainty) "
+                                 f"(RMS over the file N/E/D {_fmt3(self.fit['velocity_vs_positions_rms_m_s'])} m/s): "
+                                 "the velocity does not fit the positions")
 
     @staticmethod
     def _range(own, name, arr, lo, hi, rule):
@@ -1328,7 +1424,7 @@ class SampledTrajectory:
             raise ValueError(f"{own}.{name}: must satisfy {rule} (sample {int(bad[0])}, got {arr[bad[0]]!r})")
 
     @classmethod
-    def from_data(cls, data, v_tol_m_s: float = 0.05) -> SampledTrajectory:
+    def from_data(cls, data, v_tol_m_s: float = 1.0) -> SampledTrajectory:
         """Build from a :class:`sins_sim.io.TrajectoryData` or any object/mapping with its fields.
 
         Parameters
@@ -1363,8 +1459,11 @@ class SampledTrajectory:
         n = self.t_s.size
         return (f"sampled trajectory: {n} samples over {self.duration_s:.3f} s (mean {(n - 1) / self.duration_s:.3g} "
                 f"Hz), from {d(self.lat_rad[0]):.6f}, {d(self.lon_rad[0]):.6f} deg, h {self.h_m[0]:.1f} m to "
-                f"{d(self.lat_rad[-1]):.6f}, {d(self.lon_rad[-1]):.6f} deg, h {self.h_m[-1]:.1f} m; velocity "
-                f"{'given (checked)' if self.v_ned_m_s is not None else 'from the position spline'}")
+                f"{d(self.lat_rad[-1]):.6f}, {d(self.lon_rad[-1]):.6f} deg, h {self.h_m[-1]:.1f} m; "
+                + ("velocity from the position spline" if self.fit is None else
+                   "truth from a smoothing fit of positions and velocities, RMS residuals N/E/D: position "
+                   f"{_fmt3(self.fit['position_residual_rms_m'])} m, velocity "
+                   f"{_fmt3(self.fit['velocity_residual_rms_m_s'])} m/s"))
 
     def stream(self) -> SampledTrajectoryStream:
         """A forward-only :class:`SampledTrajectoryStream` (the interface of :class:`TrajectoryStream`)."""
