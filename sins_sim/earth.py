@@ -151,3 +151,7 @@ def schuler_rate_rad_s(lat=0.0, h=0.0):
     """Schuler frequency ``sqrt(g / R)`` (rad/s) with ``R = sqrt(R_N R_E)`` (period about 84.4 min)."""
     r_n, r_e = radii(lat)
     return np.sqrt(gravity_down(lat, h) / (np.sqrt(r_n * r_e) + h))
+
+#: Largest |latitude| (deg) of a trajectory: the simulator navigates in a north-east-down frame, whose transport
+#: rate has tan(lat) and sec(lat) terms (shared by the trajectory reader and the trajectory model).
+MAX_ABS_LAT_DEG = 89.5

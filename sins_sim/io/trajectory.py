@@ -127,8 +127,8 @@ MAX_TIME_STEP_S = 1.0
 MIN_ROWS = 4
 #: Allowed heights (m).
 HEIGHT_RANGE_M = (-1000.0, 100000.0)
-#: Largest |latitude| (deg) of a trajectory: the simulator navigates in a north-east-down frame.
-MAX_ABS_LAT_DEG = 89.5
+#: Largest |latitude| (deg) of a trajectory: the simulator navigates in a north-east-down frame (sins_sim.earth).
+MAX_ABS_LAT_DEG = earth.MAX_ABS_LAT_DEG
 #: Why (for messages and the schema reference).
 POLE_REASON = ("the north-east-down mechanisation's transport rate has tan(lat) and sec(lat) terms, singular at the "
                "poles (Titterton & Weston 2004, sec. 3.5); a polar route needs a wander-azimuth mechanisation, "

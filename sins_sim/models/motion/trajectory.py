@@ -103,7 +103,7 @@ from scipy.spatial.transform import Rotation
 from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim._kernels._config import jit
-from sins_sim.io.trajectory import MAX_ABS_LAT_DEG
+from sins_sim.earth import MAX_ABS_LAT_DEG
 from sins_sim.models.motion._registry import build_typed
 
 __all__ = [
