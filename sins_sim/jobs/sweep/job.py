@@ -94,9 +94,46 @@ def _local_workers(workers, n_tasks) -> int:
     return max(1, min(workers or os.cpu_count() or 1, n_tasks))
 
 
+#: Longest wait for the workers to stop and the cluster to close at the end (s).
+CLOSE_TIMEOUT_S = 30.0
+
+
+def _close_quietly(client, cluster) -> None:
+    """Close ``client`` then ``cluster`` (its workers, then its scheduler), with distributed's loggers muted
+    for the closing window only, in the workers and here.
+
+    Order: mute the workers' loggers (``client.run``), then this process's (the nannies and the scheduler
+    of a ``LocalCluster`` live here), close the client (no more heartbeats of ours to a closing scheduler),
+    close the cluster (it retires the workers and waits for them before the scheduler goes), restore this
+    process's levels. A worker's heartbeat that meets the scheduler while it closes otherwise prints
+    ``CommClosedError ... heartbeat_worker`` with a traceback (issue 25, item 12): a race between two
+    periodic callbacks that no order of the closing calls removes, hence the muting.
+    """
+    from sins_sim.jobs.sweep.worker import mute_distributed_logs, mute_worker_logs, restore_logs
+
+    if client is not None:
+        try:
+            client.run(mute_worker_logs, wait=True)
+        except Exception:  # noqa: BLE001 - a worker already gone has nothing left to print
+            pass
+    saved = mute_distributed_logs()
+    try:
+        if client is not None:
+            try:
+                client.close(timeout=CLOSE_TIMEOUT_S)
+            except Exception:  # noqa: BLE001 - closing a client whose scheduler is gone
+                pass
+        if cluster is not None:
+            cluster.close(timeout=CLOSE_TIMEOUT_S)
+    finally:
+        restore_logs(saved)
+
+
 @contextmanager
 def _dask_client(scheduler, workers, n_tasks):
     from dask.distributed import Client, LocalCluster
+
+    from sins_sim.jobs.sweep.worker import mute_distributed_logs, restore_logs
 
     if scheduler:
         try:
@@ -107,19 +144,21 @@ def _dask_client(scheduler, workers, n_tasks):
         try:
             yield client
         finally:
-            client.close()
+            saved = mute_distributed_logs()
+            try:
+                client.close(timeout=CLOSE_TIMEOUT_S)  # the cluster is not ours: its workers stay
+            finally:
+                restore_logs(saved)
         return
     n = _local_workers(workers, n_tasks)
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                            silence_logs=logging.ERROR)
+    client = None
     try:
         client = Client(cluster)
-        try:
-            yield client
-        finally:
-            client.close()
+        yield client
     finally:
-        cluster.close()
+        _close_quietly(client, cluster)
 
 
 def _failure_record(task, exc, tb) -> dict:
