@@ -25,7 +25,7 @@ from pathlib import Path
 
 from sins_sim.config.errors import ConfigError
 
-__all__ = ["package_version", "Task", "build_tasks", "run_task", "run_key", "flatten_metrics", "METRICS",
+__all__ = ["package_version", "Task", "build_tasks", "estimated_run_s", "TASK_FIXED_S", "run_task", "run_key", "flatten_metrics", "METRICS",
            "HEADLINE_METRICS", "ID_COLUMNS", "PARAM_PREFIX"]
 
 #: Columns that name a run (before the drawn parameters and the metrics).
@@ -57,6 +57,19 @@ HEADLINE_METRICS = ("horizontal_position_error_m_final", "velocity_error_m_s_fin
                     "attitude_error_arcsec_rms_total", "event_step_arcsec_max")
 
 
+#: A run's cost on a warm worker besides the simulation (s): reading the scenario, designing the filters, the
+#: metrics. Measured on the 2-core development machine on 2026-11-27 (loaded by other jobs): a 0.3 s run at rest of
+#: the default IMU took 42-45 ms warm, of which about 12 ms the simulation (:mod:`sins_sim.jobs.estimate`).
+TASK_FIXED_S = 0.035
+
+
+def estimated_run_s(est: dict) -> float:
+    """A sweep run's wall time on a warm worker (s): the engine's part of :func:`sins_sim.jobs.estimate.
+    estimate_run` (its ``wall_s`` without the command's start-up, plots and report, ``fixed_s``) plus
+    :data:`TASK_FIXED_S`."""
+    return max(float(est["wall_s"]) - float(est["breakdown"]["fixed_s"]), 0.0) + TASK_FIXED_S
+
+
 def package_version() -> str:
     """sins-sim's version (part of every run's key: a new version recomputes every run)."""
     from sins_sim._version import __version__
@@ -77,6 +90,8 @@ class Task:
     doc: dict = field(repr=False)
     ctx: str = ""
     base_dir: str = ""
+    #: estimated wall time of the run on a warm worker (s): :func:`estimated_run_s`
+    est_s: float = 0.0
 
     def spec(self, version: str) -> dict:
         """What a worker needs (plain data: pickles to any worker of the same sins-sim version)."""
@@ -113,7 +128,7 @@ def _scenario_base(entry: dict) -> dict:
         doc["duration_s"] = entry["duration_s"]
     doc["outputs"] = {"plots": False, "timeseries": False}
     scenario = Scenario(doc, str(path), path.parent)  # the scenario as the sweep runs it, before any draw
-    check_run(scenario)  # refuse a run that cannot finish (48 h, 8 GiB), before any task starts
+    est = check_run(scenario)  # refuse a run that cannot finish (48 h, 8 GiB), before any task starts
     imu = doc.get("imu")
     if isinstance(imu, str):
         imu_path = (path.parent / imu).resolve()
@@ -128,7 +143,7 @@ def _scenario_base(entry: dict) -> dict:
         files["trajectory.file"] = _sha256_file(tpath)
     label = entry["label"] or scenario.name
     return {"doc": doc, "imu_doc": imu_doc, "imu_ctx": imu_ctx, "files": files, "label": label,
-            "scenario": scenario, "path": path}
+            "scenario": scenario, "path": path, "est_s": estimated_run_s(est)}
 
 
 #: Population keys that act only together (f0 moves by coefficient x temperature offset).
@@ -264,7 +279,8 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
             key = run_key(keyed, base["files"], package_version(), {"unit": i, "scenario": base["label"]})
             tasks.append(Task(key=key, unit=i, scenario=base["label"],
                               scenario_index=j, seed=seed, params={k: v for k, v in unit.items() if k != "run_seed"},
-                              doc=doc, ctx=f"{base['path']} (unit {i})", base_dir=str(base["path"].parent)))
+                              doc=doc, ctx=f"{base['path']} (unit {i})", base_dir=str(base["path"].parent),
+                              est_s=base["est_s"]))
     return tasks, labels
 
 
