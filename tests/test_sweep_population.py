@@ -114,3 +114,22 @@ def test_the_named_unit_and_draws_are_the_first_refused_ones(tmp_path):
     sweep = load_sweep(p)
     first = next(i for i in range(40) if min(draw_unit(sweep, i)[f"k3_percent.{a}"] for a in "xyz") < -100.0)
     assert f" for unit {first}, " in str(exc.value)
+
+
+def test_keys_refused_only_together_are_named_together(tmp_path, capsys):
+    """An IMU at 25-35 Hz: f0_hz -4 Hz alone gives 21 Hz and the temperature pair alone -10 % (22.5 Hz), both inside
+    the IMU's [20, 5000] Hz; together 21 x 0.9 = 18.9 Hz is refused, and no single key is to blame."""
+    scen = tmp_path / "low.yaml"
+    scen.write_text(yaml.safe_dump({"name": "low", "seed": 1, "duration_s": 1.5, "motion": [{"type": "static"}],
+                                    "imu": {"channels": {"x": {"f0_hz": 25}, "y": {"f0_hz": 30}, "z": {"f0_hz": 35}}},
+                                    "navigation": {"start_s": 1.0}}))
+    doc = {"name": "combo", "seed": 1, "units": 1, "scenarios": [{"path": str(scen)}],
+           "population": {"f0_hz": {"distribution": "grid", "values": [-4]},
+                          "temperature_k": {"distribution": "grid", "values": [-100]},
+                          "temperature_coefficient_ppm_per_k": {"distribution": "grid", "values": [1000]}}}
+    p = tmp_path / "combo.yaml"
+    p.write_text(yaml.safe_dump(doc, sort_keys=False))  # the message lists the keys in file order
+    assert main(["sweep", str(p), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "population: f0_hz, temperature_k, temperature_coefficient_ppm_per_k together gives unit 0" in err
+    assert f"channels.x.f0_hz: must be >= 20, got {(25 - 4) * (1 + 1e-6 * 1000 * -100)!r}" in err

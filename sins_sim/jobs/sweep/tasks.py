@@ -214,8 +214,8 @@ def _population_error(sweep, base: dict, unit: dict, i: int, preset, rule: str) 
     if sweep.sensors["draw"] and refused({c: v for c, v in unit.items() if c.startswith(("gyro.", "accelerometer."))},
                                          draw_sensors=True):
         return ConfigError(f"{sweep.ctx}: population.sensors.draw: the sensor-error draw {tail}")
-    keys = ", ".join(f"population.{k}" for k in sweep.spreads)
-    return ConfigError(f"{sweep.ctx}: {keys}: together {tail}")
+    keys = ", ".join(sweep.spreads) or "sensors"  # no key alone is refused: their combination is
+    return ConfigError(f"{sweep.ctx}: population: {keys} together {tail}")
 
 
 def build_tasks(sweep, units=None) -> tuple[list, list]:
