@@ -128,8 +128,9 @@ def test_keys_refused_only_together_are_named_together(tmp_path, capsys):
                           "temperature_k": {"distribution": "grid", "values": [-100]},
                           "temperature_coefficient_ppm_per_k": {"distribution": "grid", "values": [1000]}}}
     p = tmp_path / "combo.yaml"
-    p.write_text(yaml.safe_dump(doc, sort_keys=False))  # the message lists the keys in file order
+    p.write_text(yaml.safe_dump(doc))
     assert main(["sweep", str(p), "--out", str(tmp_path / "out"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
-    assert "population: f0_hz, temperature_k, temperature_coefficient_ppm_per_k together gives unit 0" in err
+    # the keys in the order of ``sins-sim schema sweep`` (SPREAD_PARAMETERS)
+    assert "population: f0_hz, temperature_coefficient_ppm_per_k, temperature_k together gives unit 0" in err
     assert f"channels.x.f0_hz: must be >= 20, got {(25 - 4) * (1 + 1e-6 * 1000 * -100)!r}" in err
