@@ -718,11 +718,15 @@ def _cmd_sweep(args) -> int:
 
     from sins_sim.jobs.sweep import run_sweep
 
+    if args.rerun is not None:
+        return _rerun_sweep(args)
+    if args.out is None:
+        raise ConfigError("--out: name the sweep folder (required, except with --rerun)")
     bar = _TaskBar(Path(args.sweep).stem, args.quiet)
     try:
         res = run_sweep(args.sweep, args.out, scheduler=args.scheduler, workers=args.workers, progress=bar,
                         phase=bar.phase, log=lambda line: print(line, flush=True), force=args.force,
-                        manifest=_manifest(args))
+                        manifest=_manifest(args), batch=args.batch_size)
     finally:
         bar.close()
     s = res["summary"]
@@ -740,6 +744,33 @@ def _cmd_sweep(args) -> int:
         args.job_warnings.append(f"{res['warned_runs']} run(s) warned: see the warnings column of "
                                  f"{Path(args.out) / 'runs.parquet'}")
     print(f"wrote {args.out}: runs.parquet, summary.json, {len(res['files']) - 2} figure(s)")
+    return EXIT_OK
+
+
+def _rerun_sweep(args) -> int:
+    """``sins-sim sweep SWEEP --rerun RUN_ID [--out DIR]``: one run alone, compared with DIR's stored row."""
+    from sins_sim.jobs.sweep.job import rerun
+    from sins_sim.jobs.sweep.tasks import HEADLINE_METRICS, METRICS
+
+    res = rerun(args.sweep, args.rerun, args.out)
+    t, row = res["task"], res["row"]
+    print(f"unit {t.unit}, {t.scenario} (key {t.key}, seed {t.seed}): ran alone in {res['wall_s']:.2f} s")
+    filters = sorted({c.split(".")[0] for c in row if c.endswith(".status")})
+    for f in filters:
+        vals = [f"{METRICS[m]} {row[f'{f}.{m}']:.6g}" for m in HEADLINE_METRICS
+                if isinstance(row.get(f"{f}.{m}"), float) and row[f"{f}.{m}"] == row[f"{f}.{m}"]]
+        print(f"  {f} ({row[f'{f}.status']}): " + "; ".join(vals))
+    if row.get("warnings"):
+        args.job_warnings.extend(row["warnings"].splitlines())
+    if res["stored"] is None:
+        if args.out is not None:
+            print(f"no stored row of this run in {args.out} to compare with")
+        return EXIT_OK
+    if res["differs"]:
+        print(f"differs from {res['stored']} in {len(res['differs'])} column(s): {', '.join(res['differs'][:10])}"
+              + (" ..." if len(res["differs"]) > 10 else ""))
+        return EXIT_INTERNAL
+    print(f"identical to {res['stored']} (every column but wall_s and worker, compared exactly)")
     return EXIT_OK
 
 
@@ -1062,7 +1093,14 @@ def build_parser() -> argparse.ArgumentParser:
                                    "done are not run again. Figures: distributions.png and, for scenarios with at "
                                    "least 3 runs and drawn parameters, sensitivity_<scenario>_<metric>.png.")
     p.add_argument("sweep", help="sweep YAML file (see scenarios/sweep-*.yaml)")
-    p.add_argument("--out", required=True, help="sweep folder (created, or resumed when it holds this sweep)")
+    p.add_argument("--out", default=None, help="sweep folder (created, or resumed when it holds this sweep); "
+                                                "required but with --rerun, where it is the folder to compare with")
+    p.add_argument("--rerun", default=None, metavar="RUN_ID",
+                   help="run one run of the sweep alone in this process (its key in runs.parquet, or UNIT:SCENARIO, "
+                        "e.g. 3:stationary), print its metrics and, with --out, compare it with the stored row")
+    p.add_argument("--batch-size", type=_count, default=None,
+                   help="runs per Dask task [chosen from the estimated run time: tasks of about 1 s, at least 4 "
+                        "per worker thread, at most 64 runs]; the results do not depend on it")
     p.add_argument("--force", action="store_true",
                    help="run in a folder that holds another sweep (its stored runs stay as a cache; its table, "
                         "summary and figures are replaced)")

@@ -90,8 +90,10 @@ def local(tiny, tmp_path_factory):
     ({"scenarios": [{"path": "nowhere.yaml"}]}, "scenarios[0].path: file not found"),
     ({"scenarios": [{"path": str(SCEN / "stationary.yaml"), "duration_s": 0}]}, "scenarios[0].duration_s: must be > 0"),
     ({"scenarios": [{"path": str(SCEN / "stationary.yaml")}] * 2}, "scenarios[1].label: 'stationary' is already"),
-    # every unit's drawn IMU is checked before a task starts: k5 pushed to 0 is refused, naming unit and key
-    ({"population": {"k5_percent": {"distribution": "grid", "values": [0, -100]}}}, "unit 1: "),
+    # every unit's drawn IMU is checked before a task starts: k5 pushed to 0 is refused, naming the sweep key the
+    # user wrote, the grid value, the unit and the IMU key with its rule (issue 25, item 11)
+    ({"population": {"k5_percent": {"distribution": "grid", "values": [0, -100]}}},
+     "population.k5_percent.values: -100 gives unit 1 "),
 ])
 def test_bad_sweep_file_is_one_line_naming_the_field(tmp_path, capsys, edit, field):
     import yaml
@@ -104,7 +106,7 @@ def test_bad_sweep_file_is_one_line_naming_the_field(tmp_path, capsys, edit, fie
     err = capsys.readouterr().err.strip()
     assert err.startswith("sins-sim: error: ") and "\n" not in err and field in err, err
     if "unit 1" in field:
-        assert "k5_rad_per_v" in err and "!= 0" in err
+        assert "channels.x.suspension.k5_rad_per_v" in err and "!= 0" in err
     assert not (tmp_path / "out").exists()  # refused before anything was written or started
 
 

@@ -258,9 +258,16 @@ def test_progress_moves_per_run_and_says_what_happens_before_the_first(lot10):
     _, _, err = lot10
     frames = [f for f in err.replace("\r", "\n").splitlines() if "runs |" in f]
     assert any("starting a Dask cluster of 1 worker process" in f for f in frames)
-    assert any("waiting for the first run" in f for f in frames)
+    assert any("waiting for the first runs" in f for f in frames)
     counts = sorted({int(f.split(": ", 1)[1].split("/")[0]) for f in frames})
-    assert counts == list(range(11))  # every finished run moves the bar
+    # every finished task moves the bar by its runs (issue 26: several runs per task; batch_size's rule for 10
+    # runs of well under 1 s each on one worker thread: at least 4 tasks, so tasks of 3, 3, 3 and 1 run)
+    from sins_sim.jobs.sweep.job import _batches, prepare_sweep
+
+    sizes = [len(b) for b in _batches(prepare_sweep(lot10[0] / "sweep.yaml")[1], 1, None)]
+    assert sorted(sizes, reverse=True) == [3, 3, 3, 1]
+    assert counts[0] == 0 and counts[-1] == 10 and len(counts) == len(sizes) + 1
+    assert sorted(b - a for a, b in zip(counts, counts[1:])) == sorted(sizes)
     assert any("runs/min" in f for f in frames if f.split(": ", 1)[1].startswith("10/10"))
 
 

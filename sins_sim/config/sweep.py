@@ -131,6 +131,10 @@ SWEEP_SCHEMA = Map({
     "population": Map({**SPREAD_PARAMETERS, "sensors": _SENSORS}, default={},
                       doc="distributions of the units' true parameters around the IMU files' values"),
 }, rules=("population: f0_ppm and f0_hz not both",
+          "population: a normal or uniform spread needs a non-zero mean or width (else it draws nothing)",
+          "population: temperature_k and temperature_coefficient_ppm_per_k together (one alone draws nothing)",
+          "population.sensors.draw: the preset (else each scenario's IMU file) needs a sensors: block with a "
+          "non-zero 1-sigma value",
           "scenarios: labels unique",
           "every unit's drawn parameters must pass the IMU schema (checked for every unit before any task starts)"))
 
@@ -163,9 +167,19 @@ class Sweep:
             elif spec["values"]:
                 raise ConfigError(f"{ctx}: {where}.values: only a grid takes values (distribution "
                                   f"{spec['distribution']} takes mean and width)")
+            elif not spec["width"] and not spec["mean"]:
+                raise ConfigError(f"{ctx}: {where}: mean 0 and width 0 draw nothing (every unit keeps the IMU file's "
+                                  f"value): give a width or a mean, or remove the key")
             self.spreads[key] = spec
         if "f0_ppm" in self.spreads and "f0_hz" in self.spreads:
             raise ConfigError(f"{ctx}: population.f0_hz: give f0_ppm or f0_hz, not both")
+        for key, other in (("temperature_k", "temperature_coefficient_ppm_per_k"),
+                           ("temperature_coefficient_ppm_per_k", "temperature_k")):
+            if key in self.spreads and other not in self.spreads:
+                # f0 (1 + 1e-6 coefficient x offset): the IMU file has no coefficient nor temperature of its own
+                raise ConfigError(f"{ctx}: population.{key}: draws nothing without population.{other} (f0 moves by "
+                                  f"coefficient x temperature offset; the IMU file has neither): add {other} or "
+                                  f"remove {key}")
         self.sensors = pop["sensors"]
         self.sensor_preset = None
         if self.sensors["preset"]:

@@ -7,15 +7,17 @@ processes by default, or the scheduler at ``scheduler``), writes each part as it
 records a failed task (its parameters, error and traceback) without stopping the others. At the end
 it writes ``runs.parquet``, ``summary.json`` (:mod:`.summary`) and the plots.
 
-No batching of units inside a task: a run of a few simulated seconds already costs 30-100 ms against
-about 2 ms of dask overhead per task, so one run per task keeps the results streaming and the
-resume exact.
+Runs are grouped into tasks (:func:`batch_size`: a task of about :data:`TARGET_TASK_S`, every worker thread
+given several tasks); each run of a task is still written as its own part, so the resume stays exact. The
+workers are set up before the first task (:mod:`.worker`: one thread, a node-local numba cache, a warm-up
+run). :func:`rerun` runs one run of the sweep alone, in this process (``sins-sim sweep --rerun``).
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import time
 import traceback
@@ -30,8 +32,14 @@ from sins_sim.jobs.sweep.summary import (DRIVER_ALPHA, driver_tests, metric_filt
 from sins_sim.jobs.sweep.tasks import (HEADLINE_METRICS, METRICS, PARAM_PREFIX, build_tasks, package_version,
                                        run_task)
 
-__all__ = ["run_sweep", "prepare_sweep", "parameter_label", "CONNECT_TIMEOUT_S"]
+__all__ = ["run_sweep", "rerun", "prepare_sweep", "parameter_label", "batch_size", "CONNECT_TIMEOUT_S"]
 
+#: A Dask task (a batch of runs) should last about this long (s): :func:`batch_size`.
+TARGET_TASK_S = 1.0
+#: At most this many runs per task (a task's results are written when it finishes: the resume's granularity).
+MAX_BATCH = 64
+#: Every worker thread gets at least this many tasks where the runs allow it (load balance).
+TASKS_PER_SLOT = 4
 #: How long to wait for ``--scheduler`` to answer (s).
 CONNECT_TIMEOUT_S = 15.0
 #: About how long a worker's first run spends compiling the numba kernels without a cache (s; measured on the
@@ -94,9 +102,46 @@ def _local_workers(workers, n_tasks) -> int:
     return max(1, min(workers or os.cpu_count() or 1, n_tasks))
 
 
+#: Longest wait for the workers to stop and the cluster to close at the end (s).
+CLOSE_TIMEOUT_S = 30.0
+
+
+def _close_quietly(client, cluster) -> None:
+    """Close ``client`` then ``cluster`` (its workers, then its scheduler), with distributed's loggers muted
+    for the closing window only, in the workers and here.
+
+    Order: mute the workers' loggers (``client.run``), then this process's (the nannies and the scheduler
+    of a ``LocalCluster`` live here), close the client (no more heartbeats of ours to a closing scheduler),
+    close the cluster (it retires the workers and waits for them before the scheduler goes), restore this
+    process's levels. A worker's heartbeat that meets the scheduler while it closes otherwise prints
+    ``CommClosedError ... heartbeat_worker`` with a traceback (issue 25, item 12): a race between two
+    periodic callbacks that no order of the closing calls removes, hence the muting.
+    """
+    from sins_sim.jobs.sweep.worker import mute_distributed_logs, mute_worker_logs, restore_logs
+
+    if client is not None:
+        try:
+            client.run(mute_worker_logs, wait=True)
+        except Exception:  # noqa: BLE001 - a worker already gone has nothing left to print
+            pass
+    saved = mute_distributed_logs()
+    try:
+        if client is not None:
+            try:
+                client.close(timeout=CLOSE_TIMEOUT_S)
+            except Exception:  # noqa: BLE001 - closing a client whose scheduler is gone
+                pass
+        if cluster is not None:
+            cluster.close(timeout=CLOSE_TIMEOUT_S)
+    finally:
+        restore_logs(saved)
+
+
 @contextmanager
 def _dask_client(scheduler, workers, n_tasks):
     from dask.distributed import Client, LocalCluster
+
+    from sins_sim.jobs.sweep.worker import mute_distributed_logs, restore_logs
 
     if scheduler:
         try:
@@ -107,52 +152,113 @@ def _dask_client(scheduler, workers, n_tasks):
         try:
             yield client
         finally:
-            client.close()
+            saved = mute_distributed_logs()
+            try:
+                client.close(timeout=CLOSE_TIMEOUT_S)  # the cluster is not ours: its workers stay
+            finally:
+                restore_logs(saved)
         return
     n = _local_workers(workers, n_tasks)
+    from sins_sim.jobs.sweep.worker import worker_environment
+
+    # one thread per worker process, NUMBA_NUM_THREADS=1, a node-local numba cache: set before the process starts
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
+                           silence_logs=logging.ERROR, env=worker_environment())
+    client = None
     try:
         client = Client(cluster)
-        try:
-            yield client
-        finally:
-            client.close()
+        yield client
     finally:
-        cluster.close()
+        _close_quietly(client, cluster)
 
 
-def _failure_record(task, exc, tb) -> dict:
-    text = "".join(traceback.format_exception(type(exc), exc, tb)) if tb is not None else repr(exc)
+def batch_size(est_run_s: float, n_runs: int, slots: int) -> int:
+    """Runs per Dask task: enough that a task lasts about :data:`TARGET_TASK_S`, at most :data:`MAX_BATCH`, and
+    few enough that every worker thread still gets :data:`TASKS_PER_SLOT` tasks of the ``n_runs``.
+
+    ``ceil(TARGET_TASK_S / est_run_s)`` bounds the scheduling overhead (a few ms per task: submit, schedule,
+    serialise the specs and rows, store the result) to below 1 % of the task's time; the cap by
+    ``n_runs / (TASKS_PER_SLOT slots)`` keeps the load balanced: the last task to finish holds a worker at most
+    about a quarter of its share. Runs of 1 s or more are never batched.
+
+    Examples
+    --------
+    >>> batch_size(0.05, 10_000, 2), batch_size(0.05, 40, 2), batch_size(6.0, 400, 2)
+    (20, 5, 1)
+    """
+    by_time = math.ceil(TARGET_TASK_S / max(est_run_s, 1e-6))
+    by_balance = math.ceil(n_runs / (TASKS_PER_SLOT * max(slots, 1)))
+    return max(1, min(by_time, MAX_BATCH, by_balance))
+
+
+def _batches(todo, slots: int, batch: int | None) -> list:
+    """The runs grouped into tasks: runs of one scenario together (their estimated times are equal), in unit order."""
+    groups: dict = {}
+    for t in todo:
+        groups.setdefault(t.scenario_index, []).append(t)
+    out = []
+    for runs in groups.values():
+        b = batch or batch_size(runs[0].est_s, len(runs), slots)
+        out += [runs[k:k + b] for k in range(0, len(runs), b)]
+    return out
+
+
+def _failure_record(task, error: str, text: str) -> dict:
     return {"key": task.key, "unit": task.unit, "scenario": task.scenario, "seed": task.seed,
-            "params": task.params, "error": f"{type(exc).__name__}: {' '.join(str(exc).split())}",
-            "traceback": text}
+            "params": task.params, "error": error, "traceback": text}
 
 
-def _run_tasks(client, todo, store, progress, task_fn, version, phase=None) -> tuple[int, int]:
+def _exception_record(task, exc, tb) -> dict:
+    text = "".join(traceback.format_exception(type(exc), exc, tb)) if tb is not None else repr(exc)
+    return _failure_record(task, f"{type(exc).__name__}: {' '.join(str(exc).split())}", text)
+
+
+def _setup_workers(client, todo, version, phase=None) -> None:
+    """Register :class:`~sins_sim.jobs.sweep.worker.SweepWorkerSetup` (one thread, node-local numba cache,
+    a warm-up run) on every worker; returns when every worker has warmed."""
+    from sins_sim.jobs.sweep.worker import SweepWorkerSetup, warm_spec
+
+    if phase is not None:
+        phase(f"warming the workers: each loads the numba kernels once (a cold cache compiles them, about "
+              f"{FIRST_COMPILE_S:.0f} s on an idle core, once per node)")
+    client.register_plugin(SweepWorkerSetup(warm_spec(todo[0].spec(version))))
+
+
+def _run_tasks(client, todo, store, progress, task_fn, version, phase=None, batch=None) -> tuple[int, int]:
     from dask.distributed import as_completed
 
+    from sins_sim.jobs.sweep.worker import run_batch
+
+    slots = sum(client.nthreads().values()) or 1
     futures = {}
-    for t in todo:
-        # longest runs first (dask runs higher priorities first): the short ones then fill the workers' tails
-        # instead of one long run finishing alone at the end (longest-processing-time-first scheduling)
-        prio = int(min(float(t.doc.get("duration_s") or 0.0), 1e9))
-        fut = client.submit(task_fn, t.spec(version), key=f"sins-sim-run-{t.key}", pure=False, priority=prio)
-        futures[fut] = t
+    for runs in _batches(todo, slots, batch):
+        # longest tasks first (dask runs higher priorities first): the short ones then fill the workers' tails
+        # instead of one long task finishing alone at the end (longest-processing-time-first scheduling)
+        prio = int(min(sum(t.est_s for t in runs) * 1e3, 1e12))
+        fut = client.submit(run_batch, [t.spec(version) for t in runs], None if task_fn is run_task else task_fn,
+                            key=f"sins-sim-runs-{runs[0].key}-{len(runs)}", pure=False, priority=prio)
+        futures[fut] = runs
     ok = failed = 0
     if phase is not None:
-        workers = len(client.scheduler_info().get("workers", {}))
-        phase(f"waiting for the first run ({workers} worker(s); each compiles the numba kernels on its first "
-              f"run: about {FIRST_COMPILE_S:.0f} s on an idle core)")
+        phase(f"waiting for the first runs ({len(todo)} run(s) in {len(futures)} task(s) on {slots} worker "
+              f"thread(s); the bar moves as each task ends)")
     try:
         for fut in as_completed(list(futures)):
-            task = futures.pop(fut)
+            runs = futures.pop(fut)
             if fut.status == "finished":
-                store.write_row(fut.result())
-                ok += 1
-            else:
-                store.write_failure(_failure_record(task, fut.exception(), fut.traceback()))
-                failed += 1
+                by_key = {t.key: t for t in runs}
+                for item in fut.result():
+                    if "row" in item:
+                        store.write_row(item["row"])
+                        ok += 1
+                    else:
+                        store.write_failure(_failure_record(by_key[item["key"]], item["error"], item["traceback"]))
+                        failed += 1
+            else:  # the task itself failed (its worker died): every run of it is recorded
+                exc, tb = fut.exception(), fut.traceback()
+                for t in runs:
+                    store.write_failure(_exception_record(t, exc, tb))
+                    failed += 1
             fut.release()
             if progress is not None:
                 progress(ok + failed, len(todo), failed)
@@ -164,7 +270,7 @@ def _run_tasks(client, todo, store, progress, task_fn, version, phase=None) -> t
 
 def run_sweep(path, out, scheduler: str | None = None, workers: int | None = None, progress=None, log=print,
               client=None, task_fn=run_task, plots: bool = True, force: bool = False, manifest=None,
-              phase=None) -> dict:
+              phase=None, batch: int | None = None) -> dict:
     """Run a sweep file; results into ``out`` (resumed if it holds this sweep's earlier results).
 
     Parameters
@@ -185,7 +291,8 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
     log : callable(str)
         Where the one-line notes go (what was already done, what failed).
     client : dask.distributed.Client, optional
-        Use this client instead of making one (``scheduler`` and ``workers`` are then ignored).
+        Use this client instead of making one (``scheduler`` and ``workers`` are then ignored); its workers are
+        set up as a cluster of sins-sim's own (:mod:`.worker`: one numba thread, a warm-up run).
     task_fn : callable(spec) -> row
         The task (default :func:`sins_sim.jobs.sweep.tasks.run_task`).
     plots : bool
@@ -196,6 +303,8 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
         of the same sweep is always resumed.
     manifest : sins_sim.jobs.manifest.Manifest, optional
         Completed and written as ``manifest.json`` when the sweep ends (default: one without a command line).
+    batch : int, optional
+        Runs per Dask task (default: :func:`batch_size` from the estimated run time). The rows do not depend on it.
 
     Returns
     -------
@@ -232,8 +341,9 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
             progress(0, len(todo), 0)
         with _quiet_dask():
             if client is not None:
+                _setup_workers(client, todo, package_version(), phase)
                 t0 = time.perf_counter()
-                ok, failed = _run_tasks(client, todo, store, progress, task_fn, package_version(), phase)
+                ok, failed = _run_tasks(client, todo, store, progress, task_fn, package_version(), phase, batch)
                 wall = time.perf_counter() - t0
             else:
                 if phase is not None:
@@ -241,8 +351,9 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
                           f"starting a Dask cluster of {_local_workers(workers, len(todo))} "
                           "worker process(es)")
                 with _dask_client(scheduler, workers, len(todo)) as cl:
+                    _setup_workers(cl, todo, package_version(), phase)
                     t0 = time.perf_counter()
-                    ok, failed = _run_tasks(cl, todo, store, progress, task_fn, package_version(), phase)
+                    ok, failed = _run_tasks(cl, todo, store, progress, task_fn, package_version(), phase, batch)
                     wall = time.perf_counter() - t0
     table = store.table(keys)
     if len(table):
@@ -279,6 +390,79 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
                         "runs_per_s": (ok + failed) / wall if wall > 0 else None, "files": files,
                         "warned_runs": int((table["warnings"].fillna("") != "").sum()) if len(table) else 0,
                         "table": table})
+
+
+#: Columns of a row that say where and how fast it ran, not what it computed (left out of a rerun's comparison).
+VOLATILE_COLUMNS = ("wall_s", "worker")
+
+
+def _same_value(a, b) -> bool:
+    if isinstance(a, float) or isinstance(b, float):
+        try:
+            a, b = float(a), float(b)
+        except (TypeError, ValueError):
+            return False
+        return a == b or (math.isnan(a) and math.isnan(b))
+    return a == b
+
+
+def rerun(path, run_id: str, out=None, task_fn=run_task) -> dict:
+    """Run one run of a sweep alone, in this process, with the seed and drawn parameters it has in the sweep.
+
+    Unit ``i``'s draws and its run seed depend only on ``(sweep seed, i)`` (:mod:`.population`), so one run
+    needs neither the other units nor a cluster.
+
+    Parameters
+    ----------
+    path : path
+        The sweep YAML.
+    run_id : str
+        The run's key (column ``key`` of ``runs.parquet``, the name of ``runs/<key>.parquet`` and of
+        ``failed/<key>.json``) or ``UNIT:SCENARIO`` (unit index and scenario label, e.g. ``3:stationary``).
+    out : path, optional
+        A sweep folder: the row is compared with the stored part of the same key, column by column, exactly.
+    task_fn : callable(spec) -> row
+
+    Returns
+    -------
+    dict
+        ``task``, ``row``, ``wall_s``, ``stored`` (the part's path, or None), ``differs`` (the columns whose
+        values differ from the stored part's, :data:`VOLATILE_COLUMNS` aside; None without a stored part).
+    """
+    import re
+
+    sweep = load_sweep(path)
+    m = re.fullmatch(r"\s*(\d+):(.+?)\s*", run_id)
+    if m:
+        unit, label = int(m.group(1)), m.group(2)
+        if unit >= sweep.units:
+            raise ConfigError(f"--rerun: unit {unit} is not in {path} (units: {sweep.units}, numbered 0 to "
+                              f"{sweep.units - 1})")
+        _, tasks, labels = prepare_sweep(path, units=[unit])
+        found = [t for t in tasks if t.scenario == label]
+        if not found:
+            raise ConfigError(f"--rerun: {label!r} is not a scenario of {path} ({', '.join(labels)})")
+    else:
+        _, tasks, _ = prepare_sweep(path)
+        found = [t for t in tasks if t.key == run_id.strip()]
+        if not found:
+            raise ConfigError(f"--rerun: {run_id!r} is no run of {path}: give a key of its runs.parquet (20 hex "
+                              f"digits) or UNIT:SCENARIO")
+    task = found[0]
+    t0 = time.perf_counter()
+    row = task_fn(task.spec(package_version()))
+    wall = time.perf_counter() - t0
+    stored = differs = None
+    if out is not None:
+        part = SweepStore(out).runs / f"{task.key}.parquet"
+        if part.is_file():
+            import pandas as pd
+
+            old = pd.read_parquet(part).iloc[0].to_dict()
+            stored = str(part)
+            differs = sorted(c for c in set(old) | set(row) if c not in VOLATILE_COLUMNS
+                             and (c not in old or c not in row or not _same_value(old[c], row[c])))
+    return {"task": task, "row": row, "wall_s": wall, "stored": stored, "differs": differs}
 
 
 def _plots(table, labels, store, name, tests) -> list:

@@ -24,7 +24,7 @@ import numpy as np
 
 from sins_sim.config.sweep import SUSPENSION_KEYS
 
-__all__ = ["AXES", "SENSOR_SIGMA_KEYS", "draw_unit", "apply_unit", "parameter_columns", "grid_size"]
+__all__ = ["AXES", "SENSOR_SIGMA_KEYS", "sigma_values", "draw_unit", "apply_unit", "parameter_columns", "grid_size"]
 
 AXES = ("x", "y", "z")
 _MISALIGNMENT = ("xy", "xz", "yx", "yz", "zx", "zy")
@@ -125,6 +125,11 @@ def _per_axis(value, n: int) -> list:
     if n == 6 and len(value) == 3 and all(isinstance(r, (list, tuple)) for r in value):
         return [float(value[r][c]) for r, c in ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))]
     return [float(x) for x in value]
+
+
+def sigma_values(section: dict, key: str) -> list:
+    """The 1-sigma values of sensor key ``key`` of a ``sensors.<section>`` mapping, per axis (or per angle)."""
+    return _per_axis(section.get(key), 6 if key == "misalignment_arcsec" else 3)
 
 
 def _draw_sensors(base: dict | None, unit: dict) -> dict | None:

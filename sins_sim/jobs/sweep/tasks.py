@@ -25,7 +25,7 @@ from pathlib import Path
 
 from sins_sim.config.errors import ConfigError
 
-__all__ = ["package_version", "Task", "build_tasks", "run_task", "run_key", "flatten_metrics", "METRICS",
+__all__ = ["package_version", "Task", "build_tasks", "estimated_run_s", "TASK_FIXED_S", "run_task", "run_key", "flatten_metrics", "METRICS",
            "HEADLINE_METRICS", "ID_COLUMNS", "PARAM_PREFIX"]
 
 #: Columns that name a run (before the drawn parameters and the metrics).
@@ -57,6 +57,19 @@ HEADLINE_METRICS = ("horizontal_position_error_m_final", "velocity_error_m_s_fin
                     "attitude_error_arcsec_rms_total", "event_step_arcsec_max")
 
 
+#: A run's cost on a warm worker besides the simulation (s): reading the scenario, designing the filters, the
+#: metrics. Measured on the 2-core development machine on 2026-11-27 (loaded by other jobs): a 0.3 s run at rest of
+#: the default IMU took 42-45 ms warm, of which about 12 ms the simulation (:mod:`sins_sim.jobs.estimate`).
+TASK_FIXED_S = 0.035
+
+
+def estimated_run_s(est: dict) -> float:
+    """A sweep run's wall time on a warm worker (s): the engine's part of :func:`sins_sim.jobs.estimate.
+    estimate_run` (its ``wall_s`` without the command's start-up, plots and report, ``fixed_s``) plus
+    :data:`TASK_FIXED_S`."""
+    return max(float(est["wall_s"]) - float(est["breakdown"]["fixed_s"]), 0.0) + TASK_FIXED_S
+
+
 def package_version() -> str:
     """sins-sim's version (part of every run's key: a new version recomputes every run)."""
     from sins_sim._version import __version__
@@ -77,6 +90,8 @@ class Task:
     doc: dict = field(repr=False)
     ctx: str = ""
     base_dir: str = ""
+    #: estimated wall time of the run on a warm worker (s): :func:`estimated_run_s`
+    est_s: float = 0.0
 
     def spec(self, version: str) -> dict:
         """What a worker needs (plain data: pickles to any worker of the same sins-sim version)."""
@@ -113,7 +128,7 @@ def _scenario_base(entry: dict) -> dict:
         doc["duration_s"] = entry["duration_s"]
     doc["outputs"] = {"plots": False, "timeseries": False}
     scenario = Scenario(doc, str(path), path.parent)  # the scenario as the sweep runs it, before any draw
-    check_run(scenario)  # refuse a run that cannot finish (48 h, 8 GiB), before any task starts
+    est = check_run(scenario)  # refuse a run that cannot finish (48 h, 8 GiB), before any task starts
     imu = doc.get("imu")
     if isinstance(imu, str):
         imu_path = (path.parent / imu).resolve()
@@ -128,7 +143,79 @@ def _scenario_base(entry: dict) -> dict:
         files["trajectory.file"] = _sha256_file(tpath)
     label = entry["label"] or scenario.name
     return {"doc": doc, "imu_doc": imu_doc, "imu_ctx": imu_ctx, "files": files, "label": label,
-            "scenario": scenario, "path": path}
+            "scenario": scenario, "path": path, "est_s": estimated_run_s(est)}
+
+
+#: Population keys that act only together (f0 moves by coefficient x temperature offset).
+_TOGETHER = ("temperature_k", "temperature_coefficient_ppm_per_k")
+
+
+def _check_sensor_draw(sweep, j: int, base: dict, preset) -> None:
+    """``population.sensors.draw: true`` must draw something in scenario ``j``: its sensors block (the preset's,
+    else the scenario's IMU file's) needs a non-zero 1-sigma key (:data:`~.population.SENSOR_SIGMA_KEYS`)."""
+    from sins_sim.jobs.sweep.population import SENSOR_SIGMA_KEYS, sigma_values
+
+    block = preset if preset is not None else base["imu_doc"].get("sensors")
+    where = f"the preset {sweep.sensor_preset}" if preset is not None else f"the IMU file {base['imu_ctx']}"
+    for section, keys in SENSOR_SIGMA_KEYS.items():
+        sec = block.get(section) if isinstance(block, dict) else None
+        for key in keys if isinstance(sec, dict) else ():
+            try:
+                if any(sigma_values(sec, key)):
+                    return
+            except (TypeError, ValueError, IndexError):
+                return  # not a number: the IMU schema names it when the unit is checked
+    names = ", ".join(f"{section}.{key}" for section, keys in SENSOR_SIGMA_KEYS.items() for key in keys)
+    what = "has no sensors: block" if not block else f"has no non-zero 1-sigma value ({names})"
+    raise ConfigError(f"{sweep.ctx}: population.sensors.draw: true would draw nothing for scenarios[{j}] "
+                      f"({base['label']}): {where} {what}; name a population.sensors.preset with those values or "
+                      f"remove draw")
+
+
+def _population_error(sweep, base: dict, unit: dict, i: int, preset, rule: str) -> ConfigError:
+    """The error of a drawn unit the IMU schema refuses, naming the sweep key the user wrote.
+
+    The culprit is found by elimination: the sweep's IMU without any draw (then ``population.sensors.preset``
+    or ``filter_parameters`` is at fault), else the first population key whose draws alone are refused; of that
+    key the grid value (``values``), the centre (``mean``: refused already at the mean) or the spread
+    (``width``). ``rule`` is the IMU schema's message (key inside the IMU and its rule)."""
+    from sins_sim.config.imu import imu_from_dict
+    from sins_sim.jobs.sweep.population import apply_unit
+
+    imu_ctx = base["imu_ctx"]
+
+    def refused(draws: dict, fp=sweep.filter_parameters, sensors=preset, draw_sensors=False) -> bool:
+        try:
+            imu_from_dict(apply_unit(base["imu_doc"], draws, fp, sensors, draw_sensors), imu_ctx)
+        except ConfigError:
+            return True
+        return False
+
+    tail = f"gives unit {i} an IMU the IMU schema refuses: {imu_ctx}: {rule}"
+    if preset is not None and refused({}, fp="true"):
+        return ConfigError(f"{sweep.ctx}: population.sensors.preset: {sweep.sensor_preset} {tail}")
+    if refused({}):
+        return ConfigError(f"{sweep.ctx}: filter_parameters: {sweep.filter_parameters!r} {tail}")
+    for key, spec in sweep.spreads.items():
+        own = {c: v for c, v in unit.items() if c == key or c.startswith(key + ".")}
+        group = (key,)
+        if key in _TOGETHER:  # they act only together: f0 (1 + tc 1e-6 dT)
+            group = _TOGETHER
+        cols = {c: v for c, v in unit.items() if c.split(".")[0] in group}
+        if not refused(cols):
+            continue
+        if spec["distribution"] == "grid":
+            return ConfigError(f"{sweep.ctx}: population.{key}.values: {next(iter(own.values())):g} {tail}")
+        if refused({**cols, **dict.fromkeys(own, float(spec["mean"]))}):
+            return ConfigError(f"{sweep.ctx}: population.{key}.mean: {spec['mean']:g} {tail}")
+        drawn = ", ".join(f"{c} {v:+.4g}" for c, v in own.items())
+        return ConfigError(f"{sweep.ctx}: population.{key}.width: {spec['width']:g} draws {drawn} for unit {i}, "
+                           f"which the IMU schema refuses: {imu_ctx}: {rule}")
+    if sweep.sensors["draw"] and refused({c: v for c, v in unit.items() if c.startswith(("gyro.", "accelerometer."))},
+                                         draw_sensors=True):
+        return ConfigError(f"{sweep.ctx}: population.sensors.draw: the sensor-error draw {tail}")
+    keys = ", ".join(sweep.spreads) or "sensors"  # no key alone is refused: their combination is
+    return ConfigError(f"{sweep.ctx}: population: {keys} together {tail}")
 
 
 def build_tasks(sweep, units=None) -> tuple[list, list]:
@@ -162,6 +249,9 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
         preset = load_yaml(sweep.sensor_preset).get("sensors")
         if not preset:
             raise ConfigError(f"{sweep.ctx}: population.sensors.preset: {sweep.sensor_preset} has no sensors: block")
+    if sweep.sensors["draw"]:
+        for j, base in enumerate(bases):
+            _check_sensor_draw(sweep, j, base, preset)
     tasks = []
     checked: dict = {}
     for i in (range(sweep.units) if units is None else units):
@@ -170,7 +260,12 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
             imu_doc = apply_unit(base["imu_doc"], unit, sweep.filter_parameters, preset, sweep.sensors["draw"])
             ident = (base["imu_ctx"], json.dumps(imu_doc, sort_keys=True, default=str))
             if ident not in checked:  # scenarios naming the same IMU file share the unit's check
-                imu_from_dict(imu_doc, f"{sweep.ctx}: unit {i}: {base['imu_ctx']}")
+                ctx = f"{sweep.ctx}: unit {i}: {base['imu_ctx']}"
+                try:
+                    imu_from_dict(imu_doc, ctx)
+                except ConfigError as exc:
+                    raise _population_error(sweep, base, unit, i, preset, str(exc).removeprefix(ctx + ": ")) \
+                        from None
                 checked[ident] = True
             doc = copy.deepcopy(base["doc"])
             doc["imu"] = imu_doc
@@ -184,7 +279,8 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
             key = run_key(keyed, base["files"], package_version(), {"unit": i, "scenario": base["label"]})
             tasks.append(Task(key=key, unit=i, scenario=base["label"],
                               scenario_index=j, seed=seed, params={k: v for k, v in unit.items() if k != "run_seed"},
-                              doc=doc, ctx=f"{base['path']} (unit {i})", base_dir=str(base["path"].parent)))
+                              doc=doc, ctx=f"{base['path']} (unit {i})", base_dir=str(base["path"].parent),
+                              est_s=base["est_s"]))
     return tasks, labels
 
 
