@@ -75,7 +75,7 @@ def _positive(arr: np.ndarray, name: str, allow_zero: bool = False) -> None:
         raise ValueError(f"{name}: every value must be {rule}, got {arr.tolist()}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class BlockParams:
     """A rigid sensor block on linear isolators, carrying three dithered gyros (SI units).
 
@@ -149,6 +149,19 @@ class BlockParams:
             _positive(v, name, allow_zero=True)
             set_(self, name, v)
         set_(self, "elastic_centre_m", _vec3(self.elastic_centre_m, "elastic_centre_m"))
+
+    def __eq__(self, other):
+        """Equal when every parameter is (arrays compared element by element: a frozen dataclass compares its
+        array fields with ``==``, which has no single truth value)."""
+        if not isinstance(other, BlockParams):
+            return NotImplemented
+        from dataclasses import fields
+
+        return all(np.array_equal(getattr(self, f.name), getattr(other, f.name)) for f in fields(self))
+
+    def __hash__(self):
+        return hash(tuple(np.asarray(getattr(self, f)).tobytes() for f in ("mass_kg", "inertia_kg_m2",
+                                                                          "gyro_inertia_kg_m2", "input_axes")))
 
     # --- the matrices ------------------------------------------------------------------------------------------
     def mass_matrix(self) -> np.ndarray:
