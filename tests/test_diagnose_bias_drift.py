@@ -17,7 +17,7 @@ from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recordin
 from sins_sim.models.effects import make_effect
 from sins_sim.units import ARCSEC, DEG_PER_H, INTERPOLATED_QUANTUM_RAD
 
-from tests.test_diagnose import _recording
+from test_diagnose import _recording  # noqa: E402  (the shared bench unit)
 
 BIAS_DEG_H = 0.6
 

@@ -28,7 +28,7 @@ from sins_sim.jobs import recording_jobs
 from sins_sim.models.effects import make_effect
 from sins_sim.units import ARCSEC
 
-from tests.test_diagnose import _recording
+from test_diagnose import _recording  # noqa: E402  (the shared bench unit)
 
 EFFECTS = ["piezo_lag", "resonance_drift", "readout_delay"]
 

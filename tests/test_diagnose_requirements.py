@@ -14,7 +14,7 @@ from sins_sim.identification.checks import MIN_BLOCKS, require_inputs
 from sins_sim.identification.diagnose import diagnose_recording
 from sins_sim.io.recording import Recording, RecordingError
 
-from tests.test_diagnose import _recording
+from test_diagnose import _recording  # noqa: E402  (the shared bench unit)
 
 
 def _cut(rec: Recording, n: int) -> Recording:
