@@ -60,7 +60,7 @@ def _complete(words: list, shell_script: str) -> list:
 @pytest.mark.skipif(shutil.which("bash") is None, reason="bash is not installed")
 def test_bash_completes_subcommands_flags_and_choices(tmp_path):
     script = completion_script(build_parser(), "bash")
-    assert _complete(["sins-sim", "s"], script) == ["simulate-recording", "schema", "sweep"]
+    assert _complete(["sins-sim", "s"], script) == ["simulate-recording", "schema", "separation-study", "sweep"]
     assert _complete(["sins-sim", "run", "--fi"], script) == ["--filter-parameters"]
     assert _complete(["sins-sim", "run", "--filter-parameters", ""], script) == ["true", "nominal"]
     assert _complete(["sins-sim", "schema", "tr"], script) == ["trajectory"]

@@ -211,10 +211,14 @@ class Map:
                 _fail(ctx, _join(path, str(key)), "keys must be strings")
             if key not in known:
                 _fail(ctx, _join(path, key), _unknown_rule(key, known))
+        # the values the file gives are checked before any missing required key is named: a wrong value the
+        # user wrote is the first thing to hear about (the result keeps the schema's order)
+        given = {ykey: spec.check(value[ykey], ctx, _join(path, ykey)) for ykey, (key, spec) in known.items()
+                 if ykey in value}
         for ykey, (key, spec) in known.items():
             sub = _join(path, ykey)
             if ykey in value:
-                out[_si_key(key, getattr(spec, "unit", None))] = spec.check(value[ykey], ctx, sub)
+                out[_si_key(key, getattr(spec, "unit", None))] = given[ykey]
             elif spec.required:
                 _fail(ctx, sub, "is required")
             else:
