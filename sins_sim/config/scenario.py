@@ -770,11 +770,26 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
     return vehicle
 
 
+#: Longest flight (s) whose latitude reach is integrated at load (2 days of flight, about 20 s of integration);
+#: beyond it the engine itself stops at the limit, in the model's words.
+_LAT_CHECK_MAX_S = 2.0e5
+
+
 def _check_latitude_reach(vehicle, t_end, ctx) -> None:
     """A segment flight that would pass 89.5 deg of latitude is refused now, naming the keys (it stopped the engine
     mid-run with the model's words): the position is integrated to the run's end once (RK4 at 100 Hz, the
     engine's own integration)."""
     from sins_sim.io.trajectory import MAX_ABS_LAT_DEG, POLE_REASON
+
+    # a flight that cannot cover the distance to 89.5 deg at its fastest is not integrated (the default vehicle at
+    # rest, and huge durations that the run-time estimate refuses next: the integration costs 100 steps per
+    # simulated second); 110 km per degree is below the shortest meridian degree (110.57 km at the equator)
+    speeds = [abs(vehicle.start_speed_m_s)]
+    for sg in vehicle.segments:
+        speeds.append(speeds[-1] + abs(getattr(sg, "delta_speed_m_s", 0.0)))
+    reach_m = (max(speeds) + 1e-9) * t_end
+    if reach_m < (MAX_ABS_LAT_DEG - abs(math.degrees(vehicle.start_lat_rad))) * 110.0e3 or t_end > _LAT_CHECK_MAX_S:
+        return
     try:
         vehicle.evaluate(np.linspace(0.0, t_end, int(min(max(t_end, 1.0), 1e5)) + 1))  # the time within ~1 s
     except ValueError as exc:
