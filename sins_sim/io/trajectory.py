@@ -175,7 +175,7 @@ def _check_values(cols, chk: _Checker):
     """
     n = cols["time_s"].size
     if n < MIN_ROWS:
-        raise TrajectoryFileError(f"{chk.where}: needs at least {MIN_ROWS} rows, got {n}")
+        raise TrajectoryFileError(f"{chk.where}: column time_s: needs at least {MIN_ROWS} rows, got {n}")
     for name, arr in cols.items():
         chk.check_bad(~np.isfinite(arr), lambda i, a=arr: f"must be a finite number, got {float(a[i])!r}", name)
     t = cols["time_s"]
@@ -444,7 +444,8 @@ def _read_csv(p, where):
         rows.append(cells)
         line_no.append(ln)
     if not rows:
-        raise TrajectoryFileError(f"{where}: needs at least {MIN_ROWS} rows, got 0")
+        raise TrajectoryFileError(f"{where}: column time_s: needs at least {MIN_ROWS} rows, got 0: the file "
+                                  "holds a header and no data")
     try:
         values = np.array([[_number(x) for x in cells] for cells in rows])
     except ValueError:
