@@ -1,7 +1,7 @@
 """The fast fuzz tier (issue 12): a few hundred mutated inputs through the loaders, validation only.
 
 Every input either validates or is refused by a ConfigError/ValueError naming a field; no other exception,
-no hang (10 s per case); a valid input is never refused and an invalid one never accepted. Inputs the format
+no hang (30 s per case); a valid input is never refused and an invalid one never accepted. Inputs the format
 cannot tell apart today are counted as known gaps (``generate.Case.gap``, ``harness.KNOWN_DEFECTS``) and listed.
 The full tier runs the same generator through the command line: ``python -m tests.fuzz.run --n 1000``.
 """
@@ -16,12 +16,16 @@ from .harness import format_summary, run_in_process, summarize
 
 N_CASES = 300
 SEED = 12
+#: Seconds per case before it counts as a hang. The slowest legal case (an 800 kB experiment file through the
+#: pure-Python YAML loader) takes 2-3 s on an idle 2-core machine and 9-13 s under a load of 10-14; 30 s still
+#: tells a hang from a slow case.
+TIMEOUT_S = 30.0
 
 
 @pytest.fixture(scope="module")
 def results():
     fams = families()  # a family without an in-process check runs in the full tier only
-    return [run_in_process(case, timeout=10.0) for case in generate(N_CASES, SEED)
+    return [run_in_process(case, timeout=TIMEOUT_S) for case in generate(N_CASES, SEED)
             if case.family is None or fams[case.family].validate is not None]
 
 
