@@ -34,6 +34,7 @@ from sins_sim.models.effects import EFFECTS, Effect
 from sins_sim.models.motion import as_motion
 from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.readout import Decimator, Readout, ReadoutParams
+from sins_sim.navigation.attitude import quat_from_rotvec, quat_multiply
 from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
 from sins_sim.simulation.temperature import ThermalModel
 
@@ -811,15 +812,7 @@ def apply_block_to_truth(tc, outs, block_phi):
     cum = block_phi + np.cumsum(dth, axis=0)
     tc.phi_rad[lead:] += cum
     theta = np.stack([o["block_theta_end"] for o in outs], axis=1)
-    ang = np.linalg.norm(theta, axis=1)
-    half = 0.5 * ang
-    sinc = np.where(ang > 0, np.sin(half) / np.where(ang > 0, ang, 1.0), 0.5)
-    dq = np.column_stack([np.cos(half), sinc[:, None] * theta])
-    q = tc.q_nb[lead:]
-    w1, x1, y1, z1 = q.T
-    w2, x2, y2, z2 = dq.T
-    tc.q_nb[lead:] = np.column_stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                                      w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+    tc.q_nb[lead:] = quat_multiply(tc.q_nb[lead:], quat_from_rotvec(theta))
     tavg = np.stack([o["block_theta_avg"] for o in outs], axis=1)
     dvel = np.stack([o["block_dvel"] for o in outs], axis=1)
     dv = tc.dv_m_s[lead:]
