@@ -329,23 +329,18 @@ def dither_voltage_factor(block: BlockParams, omega_rad_s, q) -> np.ndarray:
     om = np.asarray(omega_rad_s, dtype=float)
     q = np.asarray(q, dtype=float)
     f_c = coupled_dither_frequencies(block, om)
-    m, c, k = block.mass_matrix(), block.damping_matrix(), block.stiffness_matrix()
-    bt, u, jg = block.torque_matrix(), block.input_axes, block.gyro_inertia_kg_m2
+    m9, k9 = _matrices9(block, om)
+    jg = block.gyro_inertia_kg_m2
+    c9 = np.zeros((9, 9))
+    c9[:6, :6] = block.damping_matrix()
+    for j in range(3):  # the suspension's loss at its amplitude as viscous damping: 2 zeta w0 J_g = J_g w0 / Q
+        c9[6 + j, 6 + j] = jg[j] * om[j] / q[j]
     out = np.empty(3)
     for i in range(3):
         w = 2 * math.pi * f_c[i]
-        a = np.zeros((9, 9), complex)
-        rhs = np.zeros(9, complex)
-        a[:6, :6] = -w ** 2 * m + 1j * w * c + k
-        for j in range(3):
-            g = jg[j] * om[j] ** 2 * (1 + 1j * w / (q[j] * om[j]))
-            a[:6, 6 + j] = bt[:, j] * g
-            a[6 + j, 3:6] = -w ** 2 * jg[j] * u[j]
-            a[6 + j, 6 + j] = -w ** 2 * jg[j] + g
-        drive = jg[i] * om[i] ** 2  # unit k5 V on axis i
-        rhs[:6] = -bt[:, i] * drive
-        rhs[6 + i] = -drive
-        out[i] = q[i] / abs(np.linalg.solve(a, rhs)[6 + i])
+        drive = np.zeros(9, complex)
+        drive[6 + i] = jg[i] * om[i] ** 2  # unit k5 V: the piezo torque acts on the deflection only
+        out[i] = q[i] / abs(np.linalg.solve(k9 - w * w * m9 + 1j * w * c9, drive)[6 + i])
     return out
 
 
