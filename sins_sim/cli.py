@@ -940,7 +940,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "integration and navigation error; writes metrics.json, timeseries.npz, "
                                    "report.md and the figures that have data: navigation_error.png, "
                                    "attitude_error.png, trajectory.png, gyro_error_spectrum.png (for filters other "
-                                   "than ideal) and allan.png (where a filter's gyro error has an Allan curve); "
+                                   "than ideal), allan.png (where a filter's gyro error has an Allan curve), "
+                                   "and with an IMU block, block_spectrum.png and block_coning.png (two dithers "
+                                   "that beat slowly); "
                                    "report.md lists the figures written. Also manifest.json (versions, command "
                                    "line, timings, input hashes, the parameters each filter used) and inputs/ (the "
                                    "scenario and IMU as run, for --rerun).")

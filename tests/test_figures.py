@@ -173,15 +173,31 @@ def _report_figures(out: Path) -> list:
 
 # --- run ---------------------------------------------------------------------------------------------
 def test_run_writes_every_figure_with_data(tmp_path, record):
-    """All filters plus the raw readout: the five figures of a run, each with data, labels and units."""
+    """All filters plus the raw readout: the five figures of a run on a rigid block, each with data, labels and
+    units (the block figures need an IMU with a block: below)."""
+    from sins_sim.jobs.run import run_scenario
+    from sins_sim.plots.navigation import RUN_FIGURES
+
+    rigid = [f for f in RUN_FIGURES if not f.startswith("block_")]
+    out = tmp_path / "run"
+    with record() as log:
+        run_scenario(_scenario(tmp_path, "[ideal, raw, eliminator, correcting, correcting_paper]"), out)
+    log.check(rigid)
+    assert sorted(p.name for p in out.glob("*.png")) == sorted(rigid)
+    assert _report_figures(out) == rigid
+
+
+def test_a_block_run_writes_its_block_figures(tmp_path, record):
+    """``scenarios/block-dither-coupling.yaml`` (shortened to 6 s): every figure, the block's spectrum and its
+    dither coning included, with data, labels and units."""
     from sins_sim.jobs.run import run_scenario
     from sins_sim.plots.navigation import RUN_FIGURES
 
     out = tmp_path / "run"
     with record() as log:
-        run_scenario(_scenario(tmp_path, "[ideal, raw, eliminator, correcting, correcting_paper]"), out)
+        run_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "block-dither-coupling.yaml", out,
+                     overrides={"duration_s": 6.0})
     log.check(RUN_FIGURES)
-    assert sorted(p.name for p in out.glob("*.png")) == sorted(RUN_FIGURES)
     assert _report_figures(out) == list(RUN_FIGURES)
 
 

@@ -643,11 +643,12 @@ T_THETA = 0  # theta at the last step, 3 values
 T_XDOT = 3  # x' at the last step, 3 values
 T_G = 6  # the second-order rate g at the last step, 3 values
 T_C = 9  # its integral c, 3 values
-T_SIZE = 12
+T_THD = 12  # theta' at the last step, 3 values
+T_SIZE = 15
 
 
 @jit
-def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel):
+def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel, xdot_end):
     """What the block's relative motion adds to the gyros and the truth, from its state at the plant steps.
 
     The block's inertial rate in block axes is ``w_b = R(theta)^T w_c + J_r(theta) theta'``, to second order
@@ -680,7 +681,14 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
         ``theta`` averaged over each filter sample and at its end (block axes, rad): the accelerometers' tilt and
         the block's attitude relative to the chassis.
     dvel : (3, m), filled
-        ``Delta x'`` over each filter sample (m/s): the block's velocity increment relative to the chassis.
+        What the block's relative translation adds to its accelerometers' velocity increment over each filter
+        sample (m/s): ``int (I - [theta x]) x'' dt = Delta x' - Delta(theta x x') + int theta' x x' dt`` (by
+        parts; the integral by the trapezoid over the plant steps, error ``(w h)^2 / 12`` of a second-order term).
+        The ``theta x x''`` part is sculling: under chassis vibration the relative acceleration is as large as the
+        chassis' own, and a rocking in phase with it rectifies (``(1/2) theta x''`` cos of their phase).
+    xdot_end : (3, m), filled
+        ``x'`` at the end of each filter sample (m/s, block axes): the block's c.g. velocity relative to the
+        chassis (cm/s under chassis vibration near the isolator modes).
     """
     n = z.shape[0]
     th = np.empty(3)
@@ -699,11 +707,21 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
     xd = np.empty(3)
     for i in range(3):
         xd[i] = carry[T_XDOT + i]
+    # theta x x' at the sample's start and theta' x x' at the last step (the sculling of the relative translation)
+    cs0 = th[1] * xd[2] - th[2] * xd[1]
+    cs1 = th[2] * xd[0] - th[0] * xd[2]
+    cs2 = th[0] * xd[1] - th[1] * xd[0]
+    q0 = carry[T_THD + 1] * xd[2] - carry[T_THD + 2] * xd[1]
+    q1 = carry[T_THD + 2] * xd[0] - carry[T_THD] * xd[2]
+    q2 = carry[T_THD] * xd[1] - carry[T_THD + 1] * xd[0]
     half_h = 0.5 * h
     for k in range(n // r):
         s0 = 0.0
         s1 = 0.0
         s2 = 0.0
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
         for jj in range(r):
             j = k * r + jj
             t0 = z[j, 3]
@@ -712,6 +730,18 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
             d0 = z[j, 9]
             d1 = z[j, 10]
             d2 = z[j, 11]
+            v0 = z[j, 6]
+            v1 = z[j, 7]
+            v2 = z[j, 8]
+            p0 = d1 * v2 - d2 * v1
+            p1 = d2 * v0 - d0 * v2
+            p2 = d0 * v1 - d1 * v0
+            a0 += half_h * (q0 + p0)
+            a1 += half_h * (q1 + p1)
+            a2 += half_h * (q2 + p2)
+            q0 = p0
+            q1 = p1
+            q2 = p2
             w0 = rate[0, j]
             w1 = rate[1, j]
             w2 = rate[2, j]
@@ -730,12 +760,21 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
             s1 += t1
             s2 += t2
         j = k * r + r - 1
+        e0 = z[j, 4] * z[j, 8] - z[j, 5] * z[j, 7]
+        e1 = z[j, 5] * z[j, 6] - z[j, 3] * z[j, 8]
+        e2 = z[j, 3] * z[j, 7] - z[j, 4] * z[j, 6]
+        dvel[0, k] = z[j, 6] - xd[0] - (e0 - cs0) + a0
+        dvel[1, k] = z[j, 7] - xd[1] - (e1 - cs1) + a1
+        dvel[2, k] = z[j, 8] - xd[2] - (e2 - cs2) + a2
+        cs0 = e0
+        cs1 = e1
+        cs2 = e2
         for i in range(3):
             dth[i, k] = add[i, j] - prev_add[i]
             prev_add[i] = add[i, j]
             theta_end[i, k] = z[j, 3 + i]
-            dvel[i, k] = z[j, 6 + i] - xd[i]
             xd[i] = z[j, 6 + i]
+            xdot_end[i, k] = xd[i]
         theta_avg[0, k] = s0 / r
         theta_avg[1, k] = s1 / r
         theta_avg[2, k] = s2 / r
@@ -743,6 +782,7 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
         for i in range(3):
             carry[T_THETA + i] = z[n - 1, 3 + i]
             carry[T_XDOT + i] = z[n - 1, 6 + i]
+            carry[T_THD + i] = z[n - 1, 9 + i]
     carry[T_G] = gp0
     carry[T_G + 1] = gp1
     carry[T_G + 2] = gp2

@@ -299,7 +299,13 @@ SCENARIO_SCHEMA = Map({
     "motion": ListOf(MOTION_SCHEMA, default=[{"type": "static"}], min_len=1, max_len=1000,
                      doc="the block's own motion on its mounts: parts that add up"),
     "linear_vibration": ListOf(LINEAR_SCHEMA, default=[], max_len=1000,
-                               doc="the block's translational vibration (mount axes)"),
+                               doc="the translational vibration (mount axes): the block's, or with an IMU block "
+                                   "the chassis' (vibration_enters)"),
+    "vibration_enters": Str(choices=("chassis", "block"), default="chassis",
+                            doc="with an IMU block: chassis = linear_vibration shakes the chassis and reaches the "
+                                "block through the isolators (rocking it when the elastic centre is off the c.g.); "
+                                "block = it is the block's own, as without a block. Angular motion enters at the "
+                                "chassis. Without an IMU block: no effect"),
     "filters": ListOf(_FilterName(choices=SINS_FILTERS + filter_registry.shipped_plugin_names()),
                       default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
     "navigation": Map({
@@ -490,6 +496,7 @@ class Scenario:
             self.site = _site_of(self.vehicle)
         self.events = _events(c["motion"], self.vehicle)
         self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
+        self.vibration_enters = c["vibration_enters"]
         self.outputs = c["outputs"]
         #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
         self.advisories = advisories.vibration_advisories(self.imu, c["motion"], self.filters)

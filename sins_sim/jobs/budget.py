@@ -138,7 +138,8 @@ def _one_run(path: str, overrides: dict, off: tuple) -> dict:
     sc = load_scenario(path, overrides)
     imu = apply_off(sc.imu, off)
     res = simulate_sins(imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters, threads=1,
-                        vehicle=sc.vehicle, translation=sc.translation)
+                        vehicle=sc.vehicle, translation=sc.translation,
+                        vibration_enters=sc.vibration_enters)
     out = {}
     for name in sc.filters:
         st = res.stats.get(name)

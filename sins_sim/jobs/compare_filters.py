@@ -363,7 +363,8 @@ def _coning(names, st, progress, p0, p1):
                "outputs": {"plots": False, "timeseries": False}}
         sc = _scenario(doc, f"compare-filters: coning {f:g} Hz")
         res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
-                            vehicle=sc.vehicle, translation=sc.translation)
+                            vehicle=sc.vehicle, translation=sc.translation,
+                            vibration_enters=sc.vibration_enters)
         for n in out:
             ser = res.series[n]
             fit = ramp_fit(ser["t_s"], drift_angle_of_series(ser, res.truth_series)[1][:, 2])
@@ -386,7 +387,8 @@ def _mission(names, st):
         doc["duration_s"] = st.mission_s
     sc = _scenario(doc, "compare-filters: nav-stationary-1h")
     res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
-                        vehicle=sc.vehicle, translation=sc.translation)
+                        vehicle=sc.vehicle, translation=sc.translation,
+                        vibration_enters=sc.vibration_enters)
     m = scenario_metrics(res, sc)
     return {n: m[n]["horizontal_position_error_m"]["final"] if m[n]["status"] == "ok" else None for n in m}, \
         float(sc.duration_s)

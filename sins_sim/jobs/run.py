@@ -11,7 +11,8 @@ Writes into the output folder:
   decimated sample), the truth path, and the gyro-angle errors at the full filter rate over
   ``navigation.spectrum_s``;
 * the figures that have data (``navigation_error.png``, ``attitude_error.png``, ``trajectory.png``,
-  ``gyro_error_spectrum.png``, ``allan.png``: see :func:`sins_sim.plots.navigation.plot_run`) and
+  ``gyro_error_spectrum.png``, ``allan.png``, with a block ``block_spectrum.png`` and ``block_coning.png``: see
+  :func:`sins_sim.plots.navigation.plot_run`) and
   ``report.md``, which lists them and the parameters each filter used;
 * ``manifest.json`` and ``inputs/`` (:mod:`sins_sim.jobs.manifest`): versions, command line,
   timings, the scenario and IMU as run with every default filled in, input hashes, the seed
@@ -150,23 +151,17 @@ def excess_over_ideal(last: dict, ideal_last: dict) -> dict:
 
 def _events_ned(scenario):
     """Block turns get their axis in NED (vehicle attitude at the turn's start times the body axis)."""
+    from sins_sim.navigation.attitude import dcm_from_quat
+
     out = []
     for ev in scenario.events:
         ev = dict(ev)
         if ev["kind"] == "turn":
             stream = scenario.vehicle.stream() if hasattr(scenario.vehicle, "stream") else scenario.vehicle
             q = np.asarray(stream.evaluate(np.array([ev["start_s"]])).q_nv)[0]
-            ev["axis_ned"] = _rotate(q, np.asarray(ev["axis_body"]))
+            ev["axis_ned"] = (dcm_from_quat(q) @ np.asarray(ev["axis_body"])).tolist()
         out.append(ev)
     return out
-
-
-def _rotate(q, x):
-    q0, q1, q2, q3 = q
-    c = np.array([[1 - 2 * (q2 * q2 + q3 * q3), 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
-                  [2 * (q1 * q2 + q0 * q3), 1 - 2 * (q1 * q1 + q3 * q3), 2 * (q2 * q3 - q0 * q1)],
-                  [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), 1 - 2 * (q1 * q1 + q2 * q2)]])
-    return (c @ x).tolist()
 
 
 def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, threads: int | None = None,
@@ -248,7 +243,7 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
 
     res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
                         filters=scenario.filters, progress=progress, threads=threads, vehicle=scenario.vehicle,
-                        translation=scenario.translation)
+                        translation=scenario.translation, vibration_enters=scenario.vibration_enters)
     metrics = {
         "scenario": scenario.name,
         "description": scenario.description,
@@ -283,7 +278,45 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
     ct = _coning_table_section(scenario, res, metrics["filters"])
     if ct:
         metrics["coning_algorithms"] = ct
+    blk = _block_section(scenario, res)
+    if blk:
+        metrics["block"] = blk
     return res, metrics
+
+
+def _block_section(scenario, res) -> dict | None:
+    """With a block on isolators: its own rotation over the record (``SinsResult.block``), the line at each dither
+    against the linear coupled model, and the isolator modes (issue 27)."""
+    rec = res.block
+    if rec is None or rec["theta_rad"].shape[0] < 64:
+        return None
+    from sins_sim.models.block import block_rotation_per_deflection
+    from sins_sim.simulation.responses import line_amplitudes
+    from sins_sim.simulation.sins import AXES
+
+    block = scenario.imu.block
+    t, theta = rec["t_s"], rec["theta_rad"]
+    freqs = [d["frequency_hz"] for d in res.drives]
+    om = [2.0 * math.pi * ch.suspension.f0_hz for ch in scenario.imu.channels]
+    lines = {}
+    for i, ax in enumerate(AXES):
+        meas = line_amplitudes(t, theta[:, i], freqs)
+        lines[ax] = {f"{AXES[j]}_dither": {
+            "frequency_hz": freqs[j], "simulated_arcsec": meas[j] / ARCSEC,
+            "linear_model_arcsec": float(abs(block_rotation_per_deflection(block, j, freqs[j], om)[i])
+                                         * res.drives[j]["amplitude_measured_rad"] / ARCSEC)}
+            for j in range(3)}
+    return {"record_s": float(t[-1] - t[0] + 1.0 / rec["rate_hz"]),
+            "dither_coning": _dither_coning(scenario, res, freqs, lines),
+            "rotation_rms_arcsec": {ax: float(np.sqrt(np.mean((theta[:, i] - theta[:, i].mean()) ** 2)) / ARCSEC)
+                                    for i, ax in enumerate(AXES)},
+            "dither_lines": lines,
+            "isolator_modes_hz": rec["isolator_modes_hz"], "isolator_damping": rec["isolator_damping"],
+            "vibration_enters": scenario.vibration_enters if scenario.translation is not None else None,
+            "note": "the block's rotation relative to the chassis about block axes x, y, z; dither_lines: the line "
+                    "of that rotation at each gyro's drive (least squares on the three at once) beside the linear "
+                    "coupled model (models.block.block_rotation_per_deflection x the gyro's measured amplitude; "
+                    "the other gyros on undamped linear suspensions)"}
 
 
 def _coning_table_section(scenario, res, filt_metrics) -> dict | None:
@@ -407,7 +440,7 @@ def write_run(out, scenario, res, metrics: dict, manifest) -> list:
     if scenario.outputs["plots"]:
         from sins_sim.plots import navigation as pn
 
-        figures = pn.plot_run(res, out, scenario.name)
+        figures = pn.plot_run(res, out, scenario.name, metrics)
     (out / "report.md").write_text(_report(scenario, metrics, figures,
                                            _filter_parameters_report(manifest.doc["run"]["filter_parameters"])))
     manifest.write(out)
@@ -635,6 +668,76 @@ def _report(scenario, metrics, figures, filter_table: str = "") -> str:
                   f"Design band of the tuned algorithm: {ct['tuned_band_hz'][0]:g}-{ct['tuned_band_hz'][1]:g} Hz. "
                   f"The run's own navigation (`{ct['full_navigation_deg_h']['algorithm']}`) is the drift table above.",
                   ""]
+    lines += _block_report(metrics.get("block"))
     lines += [filter_table] if filter_table else []
     lines += [""] + [f"![{f}]({f})" for f in figures] + [""]
     return "\n".join(lines)
+
+
+def _dither_coning(scenario, res, freqs, lines) -> list:
+    """Each pair of dithers whose beat the stored series resolve: the coning beat's closed form from the block's
+    measured rocking, and the beat in each filter's attitude error about the third axis (at rest only).
+
+    Two axes rocking at ``f_a`` and ``f_b`` make a coning angle about the third that beats at ``|f_a - f_b|`` with
+    amplitude ``a_a a_b (w_a + w_b) / (4 |w_a - w_b|)`` (:func:`sins_sim.models.block.coning_beat_amplitude`). The
+    stored series are means over ``1 / rate``: the dither lines average out and a beat below a quarter of the
+    rate is measured (:func:`sins_sim.simulation.metrics.stored_line`). At rest and level the body axes are the
+    NED axes turned by the site's heading about down.
+    """
+    from sins_sim.models.block import coning_beat_amplitude
+    from sins_sim.simulation.metrics import stored_line
+
+    traj = scenario.trajectory_spec or {}
+    if scenario.nav is None or traj.get("file") or traj.get("segments") or traj.get("speed_m_s"):
+        return []
+    rate = scenario.nav.series_rate_hz(scenario.duration_s)
+    psi = float(scenario.site.get("heading_rad", 0.0))
+    c_h, s_h = math.cos(psi), math.sin(psi)
+    body_of_ned = np.array([[c_h, s_h, 0.0], [-s_h, c_h, 0.0], [0.0, 0.0, 1.0]])  # body = R_z(psi)^T NED
+    out = []
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        delta = abs(freqs[a] - freqs[b])
+        if not 0.0 < delta <= 0.25 * rate:
+            continue
+        c = 3 - a - b
+        ax_a, ax_b = "xyz"[a], "xyz"[b]
+        rock_a = lines[ax_a][f"{ax_a}_dither"]["simulated_arcsec"] * ARCSEC
+        rock_b = lines[ax_b][f"{ax_b}_dither"]["simulated_arcsec"] * ARCSEC
+        beat = coning_beat_amplitude(rock_a, rock_b, 2 * math.pi * freqs[a], 2 * math.pi * freqs[b])
+        filt = {}
+        for name in res.filters:
+            ser = res.series.get(name)
+            if name in res.diverged or ser is None or ser["t_s"].size < 8:
+                continue
+            err = np.asarray(ser["attitude_ned_rad"]) @ body_of_ned.T
+            filt[name] = stored_line(ser["t_s"], err[:, c], delta, rate) / ARCSEC
+        out.append({"pair": [ax_a, ax_b], "about": "xyz"[c], "separation_hz": delta, "heading_rad": psi,
+                    "beat_closed_form_arcsec": beat / ARCSEC, "beat_in_attitude_error_arcsec": filt,
+                    "series_rate_hz": rate})
+    return out
+
+
+def _block_report(blk) -> list:
+    """The report's section on the block on its isolators (``metrics.json`` ``block``)."""
+    if not blk:
+        return []
+    lines = ["", f"## The block on its isolators ({blk['record_s']:.3g} s record)", "",
+             "Its own rotation relative to the chassis: RMS and the line at each gyro's drive, beside the linear "
+             "coupled model (`models.block.block_rotation_per_deflection` x the measured dither amplitude).", "",
+             "| about | RMS (arcsec) | " + " | ".join(f"at {a} drive: simulated / model (arcsec)" for a in "xyz") + " |",
+             "|---|---|---|---|---|"]
+    for ax, row in blk["dither_lines"].items():
+        cells = " | ".join(f"{r['simulated_arcsec']:.4g} / {r['linear_model_arcsec']:.4g}" for r in row.values())
+        lines.append(f"| block {ax} | {blk['rotation_rms_arcsec'][ax]:.4g} | {cells} |")
+    for cn in blk.get("dither_coning") or []:
+        a, b = cn["pair"]
+        lines += ["", f"Dither coning of gyros {a} and {b}, {cn['separation_hz']:.4g} Hz apart: a beat about {cn['about']} "
+                  f"of {cn['beat_closed_form_arcsec']:.3g} arcsec (closed form from the block's measured rocking). "
+                  f"The beat in each filter's attitude error about {cn['about']} (from the stored means):", "",
+                  "| filter | beat (arcsec) |", "|---|---|"]
+        lines += [f"| {n} | {v:.3g} |" for n, v in cn["beat_in_attitude_error_arcsec"].items()]
+    modes = ", ".join(f"{f:.1f}" for f in blk["isolator_modes_hz"])
+    lines += ["", f"Isolator modes: {modes} Hz."]
+    if blk.get("vibration_enters"):
+        lines.append(f"The linear vibration enters at the {blk['vibration_enters']}.")
+    return lines

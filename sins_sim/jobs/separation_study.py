@@ -93,17 +93,10 @@ def _place(imu, a: int, b: int, delta_hz: float):
     return unit
 
 
-def _lines(t, y, freqs):
-    """Amplitudes of the lines ``freqs`` in ``y`` (least squares on all of them at once, with an offset)."""
-    cols = [np.ones_like(t)]
-    for f in freqs:
-        cols += [np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t)]
-    c, *_ = np.linalg.lstsq(np.column_stack(cols), y, rcond=None)
-    return [float(math.hypot(c[1 + 2 * i], c[2 + 2 * i])) for i in range(len(freqs))]
-
-
 def _point(imu, a: int, b: int, delta_hz: float, duration_s: float, start_s: float, seed: int) -> dict:
     from sins_sim.models.block import coning_beat_amplitude, counter_rotation
+    from sins_sim.simulation.metrics import stored_line
+    from sins_sim.simulation.responses import line_amplitudes
     from sins_sim.models.motion.rotations import Static
     from sins_sim.simulation.sins import NavSettings, drives_on_block, simulate_sins
 
@@ -129,17 +122,17 @@ def _point(imu, a: int, b: int, delta_hz: float, duration_s: float, start_s: flo
             continue
         st = res.stats[name]
         # the series holds means over 1 / SERIES_HZ: the dither lines average out, a beat at delta is attenuated
-        # by sinc(delta / SERIES_HZ), which the fit undoes
+        # by sinc(delta / SERIES_HZ), which stored_line undoes
         ser = res.series[name]
         beat_meas = None
         if delta_hz <= MAX_BEAT_HZ:
             tt = np.asarray(ser["t_s"])
             yy = np.asarray(ser["attitude_ned_rad"])[:, c]
-            beat_meas = _lines(tt, yy, (fb - fa,))[0] / abs(np.sinc(delta_hz / SERIES_HZ)) / ARCSEC
+            beat_meas = stored_line(tt, yy, fb - fa, SERIES_HZ) / ARCSEC
         heading[name] = {"rms_arcsec": float(np.sqrt(st.att_sum2[c] / st.n) / ARCSEC), "beat_arcsec": beat_meas}
     t = np.asarray(res.spectra["t"])
     raw = np.asarray(res.spectra["raw"])[:, b]
-    cross, own = _lines(t, raw, (fa, fb))
+    cross, own = line_amplitudes(t, raw, (fa, fb))
     return {"separation_hz": delta_hz, "drive_hz": {_AXES[a]: fa, _AXES[b]: fb},
             "f0_hz": {_AXES[a]: unit.channels[a].suspension.f0_hz, _AXES[b]: unit.channels[b].suspension.f0_hz},
             "counter_rotation_arcsec": {_AXES[a]: rock[0] / ARCSEC, _AXES[b]: rock[1] / ARCSEC},

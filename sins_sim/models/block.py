@@ -365,6 +365,32 @@ def counter_rotation(j_g: float, j_b: float, k: float, c: float, f_hz) -> np.nda
     return j_g * w ** 2 / (k + 1j * c * w - (j_b + j_g) * w ** 2)
 
 
+def block_rotation_per_deflection(block: "BlockParams", axis: int, f_hz: float, omega0_rad_s=None) -> np.ndarray:
+    """The block's rotation vector per unit deflection of gyro ``axis`` at ``f_hz`` (complex (3,), block axes):
+    :func:`counter_rotation` for the whole block (6 degrees of freedom, products of inertia, an elastic centre off
+    the c.g., input axes off the block axes).
+
+    Gyro ``i``'s body turns by ``u_i . theta + delta_i`` about ``u_i``; its reaction on the block is
+    ``J_g,i (u_i . theta'' + delta_i'') u_i``. With ``delta_axis`` prescribed at ``w``:
+    ``(K + i w C - w^2 (M + sum_i J_i [0; u_i][0; u_i]^T)) q = w^2 J_g,axis [0; u_axis] Delta``
+    (reference-model.md, "The block as a body"). ``J_axis = J_g,axis``; each other gyro either moves with the
+    block (``J_i = J_g,i``; ``omega0_rad_s`` None) or follows on its undamped linear suspension,
+    ``J_i = J_g,i w0_i^2 / (w0_i^2 - w^2)`` (``omega0_rad_s``: (3,)).
+    """
+    w = 2.0 * math.pi * float(f_hz)
+    m = block.mass_matrix().astype(float)
+    for i in range(3):
+        e = np.concatenate((np.zeros(3), block.input_axes[i]))
+        dyn = 1.0
+        if omega0_rad_s is not None and i != axis:
+            w0 = float(omega0_rad_s[i])
+            dyn = w0 * w0 / (w0 * w0 - w * w)
+        m = m + block.gyro_inertia_kg_m2[i] * dyn * np.outer(e, e)
+    rhs = np.concatenate((np.zeros(3), block.input_axes[axis])) * (w * w * block.gyro_inertia_kg_m2[axis])
+    q = np.linalg.solve(block.stiffness_matrix() + 1j * w * block.damping_matrix() - w * w * m, rhs)
+    return q[3:]
+
+
 def coning_beat_amplitude(a_x: float, a_y: float, w_x: float, w_y: float) -> float:
     """Amplitude of the coning angle about z from rocking ``a_x sin(w_x t)`` about x and ``a_y sin(w_y t + phi)``
     about y (rad, ``w`` in rad/s, ``w_x != w_y``): ``a_x a_y (w_x + w_y) / (4 |w_x - w_y|)``.

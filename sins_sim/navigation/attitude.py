@@ -50,6 +50,7 @@ from sins_sim.navigation.coning import (
 )
 
 __all__ = [
+    "dcm_from_quat",
     "ConingAlgorithm",
     "CONING_ALGORITHMS",
     "integrate_attitude",
@@ -163,6 +164,26 @@ def quat_conjugate(q) -> np.ndarray:
     q = np.array(q, dtype=np.float64)
     q[..., 1:] *= -1.0
     return q
+
+
+def dcm_from_quat(q) -> np.ndarray:
+    """Direction cosine matrices of unit quaternions (scalar first), ``v_n = C v_b`` for ``q = q_nb``
+    (Titterton and Weston 2004, eq. 3.63), broadcasting over leading axes.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
+    q0, q1, q2, q3 = np.moveaxis(np.asarray(q, dtype=np.float64), -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (q2 * q2 + q3 * q3), 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)], axis=-1),
+        np.stack([2 * (q1 * q2 + q0 * q3), 1 - 2 * (q1 * q1 + q3 * q3), 2 * (q2 * q3 - q0 * q1)], axis=-1),
+        np.stack([2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), 1 - 2 * (q1 * q1 + q2 * q2)], axis=-1),
+    ], axis=-2)
 
 
 def quat_from_rotvec(rotvec) -> np.ndarray:

@@ -24,7 +24,7 @@ __all__ = ["plot_run", "run_figure", "available_figures", "plot_navigation_error
 
 #: Every figure ``sins-sim run`` can write, in the order written; each only when it has data.
 RUN_FIGURES = ("navigation_error.png", "attitude_error.png", "trajectory.png", "gyro_error_spectrum.png",
-               "allan.png")
+               "allan.png", "block_spectrum.png", "block_coning.png")
 _NED = ("north", "east", "down")
 #: Welch segment length of the gyro-error spectrum (s), when the record is long enough; 50 % overlap.
 SPECTRUM_SEGMENT_S = 0.25
@@ -79,8 +79,10 @@ def _gyro_allan(res) -> dict:
     return {n: a for n, a in (getattr(res, "allan", None) or {}).items() if n in res.filters}
 
 
-def available_figures(res) -> list:
+def available_figures(res, metrics: dict | None = None) -> list:
     """The kinds of :data:`RUN_FIGURES` (file names without ``.png``) that ``res`` has data for, in order.
+
+    ``block_coning`` needs the run's metrics (``metrics.json``: ``block.dither_coning``).
 
     A figure without data is not drawn (e.g. ``filters: [ideal]`` has no gyro-error spectrum: the
     ideal increments have no error; a result read back from a folder has no Allan curves).
@@ -96,10 +98,15 @@ def available_figures(res) -> list:
 
         if has_curves(gyro_allan):
             kinds.append("allan")
+    blk = getattr(res, "block", None)
+    if blk is not None and blk["theta_rad"].shape[0] >= 128:
+        kinds.append("block_spectrum")
+    if ((metrics or {}).get("block") or {}).get("dither_coning") and _drawn(res):
+        kinds.append("block_coning")
     return kinds
 
 
-def run_figure(res, kind: str, name: str, path=None):
+def run_figure(res, kind: str, name: str, path=None, metrics: dict | None = None):
     """One figure of a run by its kind (a :data:`RUN_FIGURES` name without ``.png``); returns the Figure.
 
     Parameters
@@ -112,6 +119,8 @@ def run_figure(res, kind: str, name: str, path=None):
         The scenario's name, for the title.
     path : path, optional
         Write the figure there and close it; None (default) leaves it open.
+    metrics : dict, optional
+        The run's metrics (``metrics.json``), which ``block_coning`` needs.
     """
     if kind == "navigation_error":
         return plot_navigation_error(res, path, f"{name}: navigation error against truth")
@@ -128,14 +137,28 @@ def run_figure(res, kind: str, name: str, path=None):
         return plot_allan_filters(_gyro_allan(res), path,
                                   f"{name}: Allan deviation of each filter's gyro error ({res.allan['record_s']:.4g} s "
                                   f"at {res.allan['rate_hz']:.3g} Hz)")
+    if kind == "block_spectrum":
+        from sins_sim.plots.block import plot_block_spectrum
+
+        return plot_block_spectrum(res, path, f"{name}: the block's own rotation on its isolators, amplitude spectral "
+                                              "density")
+    if kind == "block_coning":
+        from sins_sim.plots.block import plot_block_coning
+
+        blk = (metrics or {}).get("block") or {}
+        if not blk.get("dither_coning"):
+            raise ValueError("block_coning: needs the run's metrics with block.dither_coning (a block whose dithers "
+                             "beat slowly enough for the stored series)")
+        return plot_block_coning(res, blk["dither_coning"], path, f"{name}: dither coning in each filter's attitude "
+                                                                 "error")
     raise ValueError(f"unknown figure {kind!r}: one of {[k[:-4] for k in RUN_FIGURES]}")
 
 
-def plot_run(res, out, name: str) -> list:
+def plot_run(res, out, name: str, metrics: dict | None = None) -> list:
     """The figures of a run that have data (:func:`available_figures`), into folder ``out``; returns their file names."""
     figs = []
-    for kind in available_figures(res):
-        run_figure(res, kind, name, out / f"{kind}.png")
+    for kind in available_figures(res, metrics):
+        run_figure(res, kind, name, out / f"{kind}.png", metrics)
         figs.append(f"{kind}.png")
     return figs
 

@@ -34,7 +34,7 @@ from sins_sim.models.effects import EFFECTS, Effect
 from sins_sim.models.motion import as_motion
 from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.readout import Decimator, Readout, ReadoutParams
-from sins_sim.navigation.attitude import quat_from_rotvec, quat_multiply
+from sins_sim.navigation.attitude import dcm_from_quat, quat_from_rotvec, quat_multiply
 from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
 from sins_sim.simulation.temperature import ThermalModel
 
@@ -706,14 +706,18 @@ class SideBySide:
 
     def _block_work(self, n: int):
         """The block's plant-rate work buffers, kept while the chunk length stays: its state and inputs (step-major),
-        the chassis' linear acceleration (zero: it does not drive the isolators yet) and each gyro's added angle."""
+        a zero chassis linear acceleration (for a run without one) and each gyro's added angle."""
         if getattr(self, "_bn", -1) != n:
             self._bbuf = (np.empty((n, 12)), np.empty((n, 12)), np.zeros((3, n)), np.empty((3, n)))
             self._bn = n
         return self._bbuf
 
-    def run(self, i0: int, angle: np.ndarray, rate: np.ndarray) -> list:
+    def run(self, i0: int, angle: np.ndarray, rate: np.ndarray, lin=None) -> list:
         """Advance the three chains over a chunk; ``angle, rate``: (n, 3) at the ends of the plant steps.
+
+        ``lin``: with a block, the chassis' linear acceleration that drives the isolators, ``(lin0, lin1)``
+        ((3, n) each: at each step's start and its slope over the step, m/s^2 and m/s^3;
+        ``simulation.truth.MissionTruth.chassis_linear``); None: none.
 
         Each output's ``delta`` is a view of a work buffer, valid until the next call (as on the
         per-channel fused path).
@@ -741,14 +745,14 @@ class SideBySide:
             seen = angle_ax
         else:
             rate_ax = np.ascontiguousarray(rate.T)
-            z, cin, lin, add = self._block_work(n)
+            z, cin, zero, add = self._block_work(n)
+            lin0, lin1 = (zero, zero) if lin is None else lin
             st = self._step
             kblock.drive_plant_three_block(i0, angle_ax, rate_ax, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
                                            delta, volts, q0s, q1s, used, self._gain, st.umat, st.phi, st.phit, st.tt,
-                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, lin, lin, self.bstate, cin, z)
-            extra = np.empty((4, 3, m))  # block_dth, block_theta_avg, block_theta_end, block_dvel
-            kblock.block_truth(z, rate_ax, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, extra[0],
-                               extra[1], extra[2], extra[3])
+                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, lin0, lin1, self.bstate, cin, z)
+            extra = np.empty((len(BLOCK_KEYS), 3, m))  # BLOCK_KEYS, in order
+            kblock.block_truth(z, rate_ax, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, *extra)
             seen = angle_ax + add  # each gyro: the chassis angle plus the block's own rotation about its axis
         x = np.empty((2, 3, m))  # readout angle and drive at the filter rate, per axis
         for a, ch in enumerate(chains):
@@ -789,7 +793,7 @@ class SideBySide:
 
 
 #: What :meth:`SideBySide.run` adds to each axis's output with a block (filter rate, see ``_kernels.block.block_truth``).
-BLOCK_KEYS = ("block_dth", "block_theta_avg", "block_theta_end", "block_dvel")
+BLOCK_KEYS = ("block_dth", "block_theta_avg", "block_theta_end", "block_dvel", "block_xdot_end")
 
 
 def apply_block_to_truth(tc, outs, block_phi):
@@ -799,10 +803,13 @@ def apply_block_to_truth(tc, outs, block_phi):
     - ideal gyro increments and angles: ``+ u_i . Delta(theta + c)`` (``_kernels.block.block_truth``); the running
       sum ``block_phi`` (3,) is carried between chunks and returned;
     - attitude: ``q_nb (x) exp(theta)`` (the block rotated by ``theta`` relative to the chassis);
-    - velocity increments, in the rocked block's axes: ``dv - theta_avg x dv + Delta x'`` (first order).
+    - velocity increments, in the rocked block's axes: ``dv - theta_avg x dv`` plus what its relative translation
+      adds, sculling included (``_kernels.block.block_truth``: ``int (I - [theta x]) x'' dt``);
+    - velocity: the chassis' plus the block's relative c.g. velocity ``x'`` (block axes, rotated by the chassis'
+      attitude: cm/s under chassis vibration near the isolator modes).
 
-    The first chunk's truth also holds node 0 (increments zero), which the block leaves as it is. Position and
-    velocity stay the chassis': the block's relative translation is micrometres.
+    The first chunk's truth also holds node 0 (increments zero, the block at rest on its mounts), which the block
+    leaves as it is. The position stays the chassis': the block's relative translation is tens of micrometres.
     """
     m = outs[0]["block_dth"].shape[0]
     rows = tc.dtheta_rad.shape[0]
@@ -812,11 +819,14 @@ def apply_block_to_truth(tc, outs, block_phi):
     cum = block_phi + np.cumsum(dth, axis=0)
     tc.phi_rad[lead:] += cum
     theta = np.stack([o["block_theta_end"] for o in outs], axis=1)
-    tc.q_nb[lead:] = quat_multiply(tc.q_nb[lead:], quat_from_rotvec(theta))
+    q_chassis = tc.q_nb[lead:].copy()
+    tc.q_nb[lead:] = quat_multiply(q_chassis, quat_from_rotvec(theta))
     tavg = np.stack([o["block_theta_avg"] for o in outs], axis=1)
     dvel = np.stack([o["block_dvel"] for o in outs], axis=1)
     dv = tc.dv_m_s[lead:]
     tc.dv_m_s[lead:] = dv - np.cross(tavg, dv) + dvel
+    xdot = np.stack([o["block_xdot_end"] for o in outs], axis=1)
+    tc.v_ned_m_s[lead:] += np.einsum("nij,nj->ni", dcm_from_quat(q_chassis), xdot)
     return cum[-1] if m else block_phi
 
 

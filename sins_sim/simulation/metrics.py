@@ -23,7 +23,8 @@ from sins_sim._kernels import truth as ktruth
 from sins_sim.units import ARCSEC, DEG_PER_H
 
 __all__ = ["ErrorSeries", "NavErrorStats", "ramp_fit", "drift_metrics", "gyro_drift", "psi_angle",
-           "attitude_drift_angle", "track_on_series", "drift_angle_of_series", "event_steps", "SERIES_FIELDS", "N_COLS", "DRIFT_RESOLUTION_RAD_S"]
+           "attitude_drift_angle", "track_on_series", "drift_angle_of_series", "event_steps", "SERIES_FIELDS", "N_COLS", "DRIFT_RESOLUTION_RAD_S",
+           "stored_line"]
 
 #: Smallest drift reported as a drift (rad/s): 1e-4 deg/h, a tenth of the bias stability of the best
 #: navigation-grade gyros (0.001 deg/h). Below it a ramp is the simulation's own numerical floor (the ideal
@@ -307,3 +308,14 @@ def event_steps(t_s, att_ned, events, window_s: float = 0.5, settle_s: float = 0
             rec["scale_factor_error_ppm"] = float(step @ axis / ev["angle_rad"] * 1e6)
         out.append(rec)
     return out
+
+
+def stored_line(t_s, y, f_hz: float, series_rate_hz: float) -> float:
+    """Amplitude of a line at ``f_hz`` in a stored series (block means over ``1 / series_rate_hz``, module
+    docstring): the least-squares lock-in (:func:`sins_sim.simulation.responses.line_amplitudes`, with an offset
+    and a linear trend: an attitude error that drifts) divided by the block mean's gain at that frequency,
+    ``|sinc(f / rate)|`` (a boxcar's transfer function). Meaningful below a quarter of the series rate, where that
+    gain is above 0.9 and the line is not aliased."""
+    from sins_sim.simulation.responses import line_amplitudes
+
+    return line_amplitudes(t_s, y, (f_hz,), trend=True)[0] / abs(float(np.sinc(f_hz / series_rate_hz)))

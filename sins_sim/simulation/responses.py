@@ -42,7 +42,8 @@ import numpy as np
 from sins_sim.filters import registry as filter_registry
 from sins_sim.navigation.coning import flat_coefficients, tuned_coefficients, tuned_residual
 
-__all__ = ["mechanical_response", "fir_response", "increment_responses", "tuned_design", "measured_response", "N_BAND_POINTS"]
+__all__ = ["mechanical_response", "fir_response", "increment_responses", "tuned_design", "measured_response",
+           "line_amplitudes", "N_BAND_POINTS"]
 
 #: Band frequencies of the least-squares design (uniform in Hz).
 N_BAND_POINTS = 201
@@ -169,6 +170,33 @@ def tuned_design(channels, name: str, band_hz, rate_hz: float) -> dict:
         res[label] = {"rms": np.sqrt(np.mean(e * e, axis=1)), "max": np.max(np.abs(e), axis=1)}
     return {"coefficients": coef, "flat_coefficients": flat_coefficients(band_hz, rate_hz, N_BAND_POINTS),
             "band_hz": (float(band_hz[0]), float(band_hz[1])), "residual": res}
+
+
+def line_amplitudes(t_s, y, freqs_hz, trend: bool = False) -> list:
+    """Amplitudes of the sinusoidal lines ``freqs_hz`` in the record ``y`` (least squares on all of them at once,
+    with an offset: a multi-frequency lock-in; exact for sinusoids at those frequencies, and lines that are
+    resolved over the record, ``|f_i - f_j| T >> 1``, do not leak into each other).
+
+    Parameters
+    ----------
+    t_s, y : array_like, shape (N,)
+    freqs_hz : sequence of float
+    trend : bool
+        Fit a linear trend with the lines (a drifting record: a ramp over a few periods of a slow line would
+        otherwise leak into it).
+
+    Returns
+    -------
+    list of float
+        One amplitude per frequency, in the unit of ``y``.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    cols = [np.ones_like(t)] + ([t - t.mean()] if trend else [])
+    k = len(cols)
+    for f in freqs_hz:
+        cols += [np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t)]
+    c, *_ = np.linalg.lstsq(np.column_stack(cols), np.asarray(y, dtype=np.float64), rcond=None)
+    return [float(math.hypot(c[k + 2 * i], c[k + 1 + 2 * i])) for i in range(len(freqs_hz))]
 
 
 def measured_response(t_s, error_rad, amplitude_rad, f_hz: float, phase_rad=0.0) -> np.ndarray:

@@ -279,6 +279,7 @@ class NavSettings:
         v.positive("navigation", "height_aid_tau_s", self.height_aid_tau_s)
         v.choice("navigation", "accel_delay", self.accel_delay, ("matched", "none"))
         v.non_negative("navigation", "align_s", self.align_s)
+        v.non_negative("navigation", "spectrum_s", self.spectrum_s)
         if self.timeseries_rate_hz is not None:
             v.positive("navigation", "timeseries_rate_hz", self.timeseries_rate_hz)
 
@@ -298,7 +299,6 @@ class NavSettings:
         if self.timeseries_rate_hz is not None:
             return self.timeseries_rate_hz
         return min(DEFAULT_SERIES_RATE_HZ, MAX_SERIES_BLOCKS / max(duration_s - self.start_s, 1e-9))
-        v.non_negative("navigation", "spectrum_s", self.spectrum_s)
 
 
 @dataclass
@@ -349,6 +349,12 @@ class SinsResult:
     filter_reports : dict name -> dict
         What a plug-in reports about itself at the end (its ``report()``; e.g. ``lms_stripper``: the adapted
         gains, the convergence time, the divergence).
+    block : dict or None
+        With a block on isolators (``imu.block``): its own rotation relative to the chassis at the filter rate
+        over the spectrum window (``navigation.spectrum_s`` from the navigation start; the first 2 s without
+        navigation): ``t_s`` (N,), ``theta_rad`` (N, 3) about block axes x, y, z, ``rate_hz``, and the
+        block's ``isolator_modes_hz`` with their ``isolator_damping`` (:meth:`BlockParams.isolator_modes`).
+        None without a block.
     """
 
     stats: dict
@@ -368,6 +374,7 @@ class SinsResult:
     allan: dict = field(default_factory=dict)
     records: dict = field(default_factory=dict)
     filter_reports: dict = field(default_factory=dict)
+    block: dict | None = None
 
 
 def axis_pool(threads: int, n_axes: int = 3):
@@ -383,14 +390,15 @@ def axis_pool(threads: int, n_axes: int = 3):
     return [ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"sins-axis-{AXES[i]}") for i in range(n_axes)]
 
 
-def submit_axes(chains, i0, ang, rate, pool, three=None, worker=None):
+def submit_axes(chains, i0, ang, rate, pool, three=None, worker=None, lin=None):
     """Start the three chains on one chunk: futures on ``pool`` (one thread per axis), or through
     ``three`` (a :class:`~sins_sim.simulation.channel.SideBySide`, when given) on ``worker`` (one
-    thread) or deferred to this thread."""
+    thread) or deferred to this thread. ``lin``: the chassis' linear acceleration for a block's isolators
+    (:meth:`SideBySide.run`)."""
     if pool is None and three is not None:
         if worker is not None:
-            return ("future", worker.submit(three.run, i0, ang, rate))
-        return ("three", three, i0, ang, rate)
+            return ("future", worker.submit(three.run, i0, ang, rate, lin))
+        return ("three", three, i0, ang, rate, lin)
     if pool is None or any(ch.path != "fused" for ch in chains):
         return ("serial", i0, ang, rate)
     return ("futures", [pool[i].submit(ch.run_kernel, i0, np.ascontiguousarray(ang[:, i]),
@@ -407,8 +415,8 @@ def collect_axes(chains, job, caught):
 
     outs = []
     if job[0] == "three":  # one thread: the three suspensions side by side
-        _, runner, i0, ang, rate = job
-        outs = runner.run(i0, ang, rate)
+        _, runner, i0, ang, rate, lin = job
+        outs = runner.run(i0, ang, rate, lin)
     elif job[0] == "serial":
         _, i0, ang, rate = job
         for i, ch in enumerate(chains):
@@ -571,7 +579,7 @@ def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
 
 def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav: NavSettings | None = NavSettings(),
                   filters=DEFAULT_FILTERS, chunk_s: float = 1.0, progress=None, threads: int | None = None,
-                  vehicle=None, translation=None) -> SinsResult:
+                  vehicle=None, translation=None, vibration_enters: str = "chassis") -> SinsResult:
     """Run the three-axis SINS (module docstring).
 
     Parameters
@@ -602,14 +610,20 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         The vehicle (``sins_sim.models.motion.trajectory``); None: at rest at 45 deg N, level,
         heading north.
     translation : translational vibration or None
-        The block's linear vibration in vehicle axes (``accel``, ``velocity``,
-        ``velocity_increment``).
+        The linear vibration in vehicle axes (``accel``, ``velocity``, ``velocity_increment``).
+    vibration_enters : {"chassis", "block"}
+        With a block on isolators (``imu.block``): where ``translation`` enters. ``"chassis"``: it is the
+        chassis' vibration and reaches the block through the isolators (base excitation; with the elastic centre
+        off the c.g. it rocks the block); ``"block"``: it is the block's own (as without a block). Angular motion
+        always enters at the chassis with a block. Without a block it is the block's.
 
     Returns
     -------
     SinsResult
     """
     duration_s = v.positive("run", "duration_s", duration_s)
+    if vibration_enters not in ("chassis", "block"):
+        raise ValueError(f"run.vibration_enters: must be 'chassis' or 'block', got {vibration_enters!r}")
     filters = tuple(dict.fromkeys(filters))
     for name in filters:
         if not filter_registry.is_known(name):
@@ -738,11 +752,17 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     g_cum = np.zeros(3)
     a_cum = np.zeros(3)
     block_phi = np.zeros(3)
+    chassis_linear = imu.block is not None and translation is not None and vibration_enters == "chassis"
+    block_rec = []
+    block_win = ((k_start, min(k_start + n_spec, n_out + 1)) if nav is not None
+                 else (1, min(1 + int(round(2.0 * fs)), n_out + 1)))
 
     def stage(k_a, k_b):
         """The truth of filter nodes up to ``k_b`` and the chains started on its plant steps."""
         tc, ang, rate = truth.advance(k_b, plant=plant_inputs)
-        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker) if run_chains else None
+        # the isolators' linear input, sampled here (the vibration streams are not for sampling from two threads)
+        lin = truth.chassis_linear(k_a, k_b) if chassis_linear else None
+        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker, lin) if run_chains else None
         return k_a, k_b, tc, job
 
     try:
@@ -755,6 +775,11 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             outs = collect_axes(chains, job, caught) if run_chains else []
             if nav is not None and imu.block is not None:  # what the block's own motion adds to the truth
                 block_phi = apply_block_to_truth(tc, outs, block_phi)
+            if imu.block is not None:  # the block's own rotation over the spectrum window (row j: node k_prev + 1 + j)
+                lo, hi = max(block_win[0], k_prev + 1), min(block_win[1], k1 + 1)
+                if lo < hi:
+                    block_rec.append(np.stack([o["block_theta_end"][lo - k_prev - 1:hi - k_prev - 1] for o in outs],
+                                              axis=1))
             if flt3:
                 _run_three_axis(flt3, pickoffs, outs)
             if nav is not None:  # the truth rows for nodes tc.k0 .. k1 and the sensors feed only the navigation
@@ -832,7 +857,18 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                       filter_rate_hz=fs, duration_s=duration_s, nav_start_s=(nav.start_s if nav else 0.0),
                       warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out,
                       allan=allan, records=records,
-                      filter_reports={n: f.report() for n, f in flt3.items() if hasattr(f, "report")})
+                      filter_reports={n: f.report() for n, f in flt3.items() if hasattr(f, "report")},
+                      block=_block_record(imu.block, block_rec, block_win[0], fs))
+
+
+def _block_record(block, rows, k0: int, fs: float) -> dict | None:
+    """:attr:`SinsResult.block` from the kept rows of the block's rotation (filter nodes ``k0 ..``)."""
+    if block is None:
+        return None
+    theta = np.concatenate(rows) if rows else np.zeros((0, 3))
+    modes = [m for m in block.isolator_modes() if m[0] > 0.0]
+    return {"t_s": (k0 + np.arange(theta.shape[0])) / fs, "theta_rad": theta, "rate_hz": fs,
+            "isolator_modes_hz": [float(f) for f, _ in modes], "isolator_damping": [float(z) for _, z in modes]}
 
 
 def _run_three_axis(flt3, pickoffs, outs) -> None:
