@@ -470,3 +470,59 @@ def test_block_rotation_per_deflection_is_the_coupled_linear_solution():
     got = block_rotation_per_deflection(diag, 1, 352.0)
     want = counter_rotation(2.5e-4, 0.013, 5100.0, 0.8, 352.0)
     assert abs(got[1] - want) < 1e-12 * abs(want) and got[0] == 0 and got[2] == 0
+
+
+def test_the_free_block_coupling_is_the_recordings_axis_coupling():
+    """Isolators removed, chassis still, two gyros dithering on a block with products of inertia and a tilted
+    input axis: at every plant step each gyro's block angle ``u_i . theta`` equals ``sum_j C_ij delta_j`` with
+    ``C = free_block_coupling(block)`` (momentum balance from rest; reference-model.md). The off-diagonal
+    ``C_ij`` are what the recordings' ``axis_coupling`` gives gyro ``i`` from gyro ``j``. The staggered coupling
+    does not conserve momentum exactly (the test above: within 1e-5 of ``J_g a w``), so the block angle drifts
+    off the momentum balance by at most ``1e-5 J_g a w / J_b`` = 4.4e-7 rad/s (measured 5.8e-9); beside that
+    drift (a fitted line removed) the match is within 1e-4 of the largest block angle (measured 3.4e-5)."""
+    from sins_sim.models.block import free_block_coupling
+
+    axes = np.eye(3)
+    axes[1, 0] = 2e-3
+    block = _block(inertia_kg_m2=np.array([[0.012, 3e-4, 1e-4], [3e-4, 0.013, 0.0], [1e-4, 0.0, 0.015]]),
+                   k_trans_n_per_m=[0.0] * 3, k_rot_n_m_per_rad=[0.0] * 3, c_trans_n_s_per_m=[0.0] * 3,
+                   c_rot_n_m_s_per_rad=[0.0] * 3, input_axes=axes)
+    c = free_block_coupling(block)
+    cp = CoupledPlant(PAPER, block, PlantSettings(rate_hz=FS))
+    n = 7200
+    t = np.arange(n) * H
+    volts = np.zeros((3, n))
+    volts[0] = 0.12 * np.cos(2 * np.pi * 386.0 * (t + 0.5 * H))
+    volts[1] = 0.12 * np.cos(2 * np.pi * 352.0 * (t + 0.5 * H))
+    delta, z = cp.step(np.zeros((3, n)), np.zeros((3, n)), volts)
+    seen = block.input_axes @ z[3:6]
+    err = seen - c @ delta
+    for i in range(3):
+        drift, offset = np.polyfit(t, err[i], 1)
+        assert abs(drift) < 1e-5 * 2.5e-4 * 3 * ARCMIN * 2 * np.pi * 386.0 / 0.012
+        assert np.max(np.abs(err[i] - drift * t - offset)) < 1e-4 * np.max(np.abs(seen))
+    assert abs(c[0, 1]) > 1e-4 and abs(c[1, 0]) > 1e-4  # the cross terms are there (4.2e-4: product of inertia + tilt)
+    assert c[0, 1] / block.gyro_inertia_kg_m2[1] == pytest.approx(c[1, 0] / block.gyro_inertia_kg_m2[0], rel=1e-12)
+
+
+def test_inertia_for_coupling_reproduces_the_cross_terms():
+    """An ``axis_coupling`` set (reciprocal) turned into the block's products of inertia, and back through
+    :func:`free_block_coupling`: the cross terms to rounding (1e-12), the moments kept; a non-reciprocal set is
+    reported by its asymmetry; a coupling near ``J_g / J_b`` has no rigid block."""
+    from sins_sim.models.block import free_block_coupling, inertia_for_coupling
+
+    cc = np.zeros((3, 3))
+    cc[0, 1] = cc[1, 0] = -0.004
+    cc[0, 2] = cc[2, 0] = 0.001
+    jg, jp = [2e-4] * 3, [0.012, 0.013, 0.015]
+    inertia, asym = inertia_for_coupling(cc, jg, jp)
+    assert asym == 0.0
+    assert np.allclose(np.diag(inertia), jp, rtol=1e-12)
+    back = free_block_coupling(_block(inertia_kg_m2=inertia, gyro_inertia_kg_m2=jg))
+    off = ~np.eye(3, dtype=bool)
+    assert np.max(np.abs(back[off] - cc[off])) < 1e-12
+    skew = cc.copy()
+    skew[1, 0] = -0.002
+    assert inertia_for_coupling(skew, jg, jp)[1] == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="axis_coupling"):
+        inertia_for_coupling(np.full((3, 3), -0.015), jg, jp)

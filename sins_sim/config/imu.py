@@ -184,8 +184,8 @@ IMU_SCHEMA = Map({
             "drive": Map(_drive_fields(False), default={}, doc="overrides of the shared drive"),
         }, required=True) for axis in ("x", "y", "z")
     }, required=True, rules=("the three f0_hz must differ",)),
-    "effects": EffectsList(doc="axis_coupling is refused in the SINS engine (it couples the axes within a plant "
-                               "step)"),
+    "effects": EffectsList(doc="axis_coupling is refused in a mission: there the axes couple through the block "
+                               "as a body (block:), whose cross terms above the isolator modes it is"),
     "block": _block.BLOCK_SCHEMA,
     "pickoff": Map({
         "scale_v_per_rad_s": Num(default=1.0, nonzero=True, min=-1e6, max=1e6,

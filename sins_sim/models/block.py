@@ -391,6 +391,82 @@ def block_rotation_per_deflection(block: "BlockParams", axis: int, f_hz: float, 
     return q[3:]
 
 
+def free_block_coupling(block: "BlockParams") -> np.ndarray:
+    """What each gyro's SINS angle picks up from each gyro's deflection well above the isolator modes (3, 3).
+
+    With the isolators far below the dithers the block rotates freely under the gyros' reactions:
+    ``(J_b + sum_k J_g,k u_k u_k^T) theta'' = -sum_j J_g,j u_j delta_j''`` (reference-model.md, "The block as a
+    body", with ``M_iso`` = 0), so from rest ``u_i . theta = sum_j C_ij delta_j`` with
+    ``C_ij = -J_g,j u_i . (J_b + sum_k J_g,k u_k u_k^T)^-1 u_j``.
+
+    The off-diagonal terms are the recordings' ``axis_coupling`` (``models.effects.AxisCoupling``: gyro ``i``'s block
+    angle gains ``C_ij delta_j``): that effect is this model's cross-axis part above the isolator modes. The diagonal
+    is each gyro's own counter-rotation (about ``-J_g / J_b``), which ``axis_coupling`` leaves out: a single axis's
+    refit takes it as its suspension's (the dither it sees is ``(1 + C_ii) delta``, and its resonance moves by about
+    ``sqrt(1 + J_g / J_b)``, :func:`coupled_dither_frequencies`). Reciprocity: ``C_ij / J_g,j = C_ji / J_g,i``.
+    """
+    u = np.asarray(block.input_axes, dtype=float)
+    jg = np.asarray(block.gyro_inertia_kg_m2, dtype=float)
+    m_eff = np.asarray(block.inertia_kg_m2, dtype=float) + (u.T * jg) @ u
+    return -(u @ np.linalg.solve(m_eff, u.T)) * jg[None, :]
+
+
+def inertia_for_coupling(coefficients, gyro_inertia_kg_m2, principal_kg_m2) -> np.ndarray:
+    """The block inertia tensor whose free-block coupling (:func:`free_block_coupling`, input axes on the block
+    axes) has the given cross-axis coefficients: the products of inertia an ``axis_coupling`` implies.
+
+    Parameters
+    ----------
+    coefficients : array_like (3, 3)
+        ``C_ij`` for ``i != j`` (the diagonal is ignored). A rigid block couples reciprocally,
+        ``C_ij / J_g,j = C_ji / J_g,i``; the symmetric part of ``-C_ij / J_g,j`` is used, and its departure is
+        returned.
+    gyro_inertia_kg_m2 : array_like (3,)
+    principal_kg_m2 : array_like (3,)
+        The block's moments of inertia about x, y, z (kept; the products of inertia are solved for).
+
+    Returns
+    -------
+    inertia : ndarray (3, 3)
+        ``J_b`` with those moments and the products that reproduce the cross terms (exactly, for reciprocal ones).
+    asymmetry : float
+        ``max |P_ij - P_ji| / max |P_ij|`` of ``P_ij = -C_ij / J_g,j`` (0 for a reciprocal set).
+
+    Raises
+    ------
+    ValueError
+        When no positive-definite block has those cross terms with those moments (a coupling too strong for the
+        inertia: ``|C_ij|`` near ``J_g / J_b``).
+    """
+    c = np.asarray(coefficients, dtype=float)
+    jg = np.asarray(gyro_inertia_kg_m2, dtype=float)
+    jp = np.asarray(principal_kg_m2, dtype=float)
+    p = -c / jg[None, :]
+    off = ~np.eye(3, dtype=bool)
+    scale = float(np.max(np.abs(p[off]))) if np.any(p[off]) else 1.0
+    asym = float(np.max(np.abs(p - p.T)[off]) / scale) if np.any(p[off]) else 0.0
+    p = 0.5 * (p + p.T)
+    # P = (J_b + J_g)^-1: its diagonal is unknown, J_b's is given; a fixed point on the diagonal of P
+    d = 1.0 / (jp + jg)
+    for _ in range(200):
+        pm = p.copy()
+        np.fill_diagonal(pm, d)
+        if np.any(np.linalg.eigvalsh(pm) <= 0.0):
+            raise ValueError("axis_coupling: no rigid block with these moments of inertia couples the axes this "
+                             "strongly (the coupling must stay well below J_g / J_b)")
+        m_eff = np.linalg.inv(pm)
+        err = np.diag(m_eff) - (jp + jg)
+        if np.max(np.abs(err)) < 1e-14 * np.max(jp):
+            break
+        d = d * np.diag(m_eff) / (jp + jg)
+    inertia = m_eff - np.diag(jg)
+    inertia = 0.5 * (inertia + inertia.T)
+    if np.any(np.linalg.eigvalsh(inertia) <= 0.0):
+        raise ValueError("axis_coupling: the block these coefficients imply is not a physical body (its inertia "
+                         "tensor is not positive definite)")
+    return inertia, asym
+
+
 def coning_beat_amplitude(a_x: float, a_y: float, w_x: float, w_y: float) -> float:
     """Amplitude of the coning angle about z from rocking ``a_x sin(w_x t)`` about x and ``a_y sin(w_y t + phi)``
     about y (rad, ``w`` in rad/s, ``w_x != w_y``): ``a_x a_y (w_x + w_y) / (4 |w_x - w_y|)``.

@@ -838,11 +838,14 @@ def check_engine_effects(effects) -> tuple:
     """The effects a SINS engine can run, as a tuple; one line naming the rule otherwise.
 
     Catalogue effects only (:data:`sins_sim.models.effects.EFFECTS`; the off-catalogue disturbances
-    exist for the blind evaluation of recordings). ``axis_coupling`` is refused: it feeds each
-    gyro's block angle with the other gyros' deflections *within the same plant step*, while the
-    engine advances each axis's chunk on its own (the experiment simulator iterates whole passes
-    over a recording instead; a per-chunk fixed-point iteration over the three chains would be
-    the way to add it).
+    exist for the blind evaluation of recordings). ``axis_coupling`` is refused as an effect: in a
+    mission the axes couple through the block as a body (an IMU ``block:`` section,
+    :mod:`sins_sim.models.block`), of which ``axis_coupling`` is the cross-axis part well above the
+    isolator modes (:func:`~sins_sim.models.block.free_block_coupling`;
+    :func:`~sins_sim.models.block.inertia_for_coupling` turns a diagnosed set of coefficients into the
+    block's products of inertia). Running the effect's bare kinematic coupling as well would count the
+    coupling twice with a block, and without one it is not a body: it moves the block without a
+    reaction.
     """
     if effects is None:
         return ()
@@ -853,9 +856,11 @@ def check_engine_effects(effects) -> tuple:
         if not isinstance(e, Effect) or EFFECTS.get(e.name) is not type(e):
             raise ValueError(f"effects[{i}]: must be a catalogue effect ({', '.join(EFFECTS)}), got {e!r}")
         if e.name == "axis_coupling":
-            raise ValueError("effects[%d]: axis_coupling does not run in the SINS engine: it couples the three "
-                             "axes' plants within each plant step, while the engine advances each axis's chunk on "
-                             "its own (simulate-recording supports it)" % i)
+            raise ValueError("effects[%d]: axis_coupling is not a mission effect: in a mission the axes couple "
+                             "through the block as a body (an IMU block: section, e.g. configs/isolated-block.yaml), "
+                             "whose cross-axis terms above the isolator modes are axis_coupling's coefficients; "
+                             "models.block.inertia_for_coupling gives the products of inertia that reproduce a set "
+                             "(simulate-recording runs the effect itself)" % i)
         out.append(e)
     return tuple(out)
 
