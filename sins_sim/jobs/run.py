@@ -342,6 +342,11 @@ def _coning_table_section(scenario, res, filt_metrics) -> dict | None:
                     "navigation (attitude drift, down)"}
 
 
+#: Frequency at which a filter's DC gain is read (Hz): far below every filter's corner, above zero so that the
+#: response functions' frequency grid stays regular.
+DC_PROBE_HZ = 1e-3
+
+
 def _pseudo_pairs(scenario):
     """``(amplitudes rad, frequency Hz, phases rad, [(i, j, k)])`` of an in-phase planar vibration, or None.
 
@@ -378,6 +383,7 @@ def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
     t = res.spectra.get("t") if res.spectra else None
     if found is None or t is None or len(t) < 2:
         return None
+    from sins_sim.earth import EARTH_RATE_RAD_S
     from sins_sim.navigation.coning import pseudo_coning_drift
     from sins_sim.simulation.responses import increment_responses, measured_response
 
@@ -389,7 +395,8 @@ def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
            "note": "false drift about body axis i of the in-phase vibration of axes j, k: "
                    "(1/2) a b w |H_j||H_k| sin(phi_j - phi_k) x the coning algorithm's factor, with H measured "
                    "from the run's gyro-angle error (lock-in at the vibration frequency) and from the model "
-                   "response (suspension x readout FIR x filter); simulated: the attitude drift of the "
+                   "response (suspension x readout FIR x filter); closed_form_total adds the Earth rate about the "
+                   "axis times the filter's DC gain error (H(0) - 1); simulated: the attitude drift of the "
                    "navigation about the same axis (body = NED at rest)", "filters": {}}
     for name in res.filters:
         err = res.spectra.get(name)
@@ -399,6 +406,12 @@ def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
         h_meas = measured_response(t, err, amp, f, ph)
         h_model = increment_responses(scenario.imu.channels, name, [f])[:, 0] if name != "ideal" else np.ones(3)
         coef = res.nav.compensation(name)[0]
+        # a filter whose DC gain is not one scales the Earth rate the gyro sees at rest (body = NED): that is a drift
+        # of (H(0) - 1) Omega_ie about the axis, beside the pseudo-coning (the paper form of eq. 5: about 1 %)
+        dc = (increment_responses(scenario.imu.channels, name, [DC_PROBE_HZ])[:, 0].real if name != "ideal"
+              else np.ones(3))
+        lat = scenario.site["lat_rad"]
+        earth_ned = EARTH_RATE_RAD_S * np.array([math.cos(lat), 0.0, -math.sin(lat)])
         rows = {}
         for i, j, k in pairs:
             axis = "xyz"[i]
@@ -407,8 +420,11 @@ def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
             for label, hh in (("measured_response", h_meas), ("model_response", h_model)):
                 rate = pseudo_coning_drift(amp[j], amp[k], w, hh[j], hh[k], 1.0 / fs, coef=coef, component=i)
                 closed[label] = math.degrees(rate) * 3600.0
+            earth_term = math.degrees((dc[i] - 1.0) * earth_ned[i]) * 3600.0 + 0.0  # + 0.0: no -0 in the table
             rows[axis] = {
                 "closed_form_deg_h": closed,
+                "dc_gain_earth_rate_deg_h": earth_term,
+                "closed_form_total_deg_h": {k_: v_ + earth_term for k_, v_ in closed.items()},
                 "simulated_deg_h": drift.get("value"),
                 "simulated_bound_95_deg_h": drift.get("bound_95"),
                 "response": {"xyz"[a]: {"gain": float(abs(h_meas[a])), "phase_deg": float(np.degrees(np.angle(h_meas[a])))}
@@ -542,16 +558,20 @@ def _pseudo_coning_report(pc) -> list:
              f"In-phase planar vibration at {pc['frequency_hz']:g} Hz: no true coning, but each filter's phase "
              "difference between the axes makes the navigation see one. Closed form "
              "`(1/2) a b w |H_j||H_k| sin(phi_j - phi_k)` (times the coning algorithm's factor) from the response "
-             "measured in this run and from the model response, beside the simulated attitude drift.", "",
-             "| filter | axis | phase difference (deg) | closed form, measured H (deg/h) | closed form, model H "
-             "(deg/h) | simulated (deg/h) |", "|---|---|---|---|---|---|"]
+             "measured in this run and from the model response, plus the Earth rate about the axis scaled by the "
+             "filter's DC gain error, `(H(0) - 1) Omega_ie` (the paper form of eq. 5: about 1 %), beside the "
+             "simulated attitude drift.", "",
+             "| filter | axis | phase difference (deg) | pseudo-coning, measured H (deg/h) | pseudo-coning, model H "
+             "(deg/h) | Earth rate x (H(0) - 1) (deg/h) | total, measured H (deg/h) | simulated (deg/h) |",
+             "|---|---|---|---|---|---|---|---|"]
     for name, rows in pc["filters"].items():
         for axis, r in rows.items():
             sim = r["simulated_deg_h"]
             sim_s = f"{sim:.4g}" if sim is not None else f"< {r['simulated_bound_95_deg_h']:.2g}"
             lines.append(f"| {name} | {axis} | {r['phase_difference_deg']:.3g} | "
                          f"{r['closed_form_deg_h']['measured_response']:.4g} | "
-                         f"{r['closed_form_deg_h']['model_response']:.4g} | {sim_s} |")
+                         f"{r['closed_form_deg_h']['model_response']:.4g} | {r['dc_gain_earth_rate_deg_h']:.3g} | "
+                         f"{r['closed_form_total_deg_h']['measured_response']:.4g} | {sim_s} |")
     return lines + [""]
 
 
