@@ -436,11 +436,15 @@ def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
 
 
 def timeseries_arrays(res) -> dict:
-    """The arrays of ``timeseries.npz``: ``truth_<key>``, ``<filter>__<key>`` and ``gyro_error_<filter>`` / ``_t``."""
+    """The arrays of ``timeseries.npz``: ``truth_<key>``, ``<filter>__<key>``, ``gyro_error_<filter>`` / ``_t`` and,
+    with a block on isolators, ``block_t_s`` and ``block_theta_rad``."""
     arrays = {f"truth_{k}": val for k, val in res.truth_series.items()}
     for name, ser in res.series.items():
         arrays.update({f"{name}__{k}": val for k, val in ser.items()})
     arrays.update({f"gyro_error_{k}": val for k, val in res.spectra.items()})
+    blk = getattr(res, "block", None)
+    if blk is not None:  # the block's own rotation over the spectrum window (SinsResult.block)
+        arrays.update({"block_t_s": blk["t_s"], "block_theta_rad": blk["theta_rad"]})
     return arrays
 
 
