@@ -18,7 +18,7 @@ import pytest
 import yaml
 
 import sins_sim
-from sins_sim.jobs.results import FIGURE_KINDS, SERIES_COLUMNS, MissionResult, StoredRun
+from sins_sim.results import FIGURE_KINDS, SERIES_COLUMNS, MissionResult, StoredRun
 from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC
 
@@ -324,7 +324,7 @@ population:
 def sweep(tmp_path_factory):
     """The rows of a 3-unit sweep, computed serially (the tasks a cluster would run: test_sweep.py shows they
     are equal), as run_sweep hands them back."""
-    from sins_sim.jobs.results import SweepResult
+    from sins_sim.results import SweepResult
     from sins_sim.jobs.sweep.job import prepare_sweep
     from sins_sim.jobs.sweep.tasks import run_task
 
@@ -336,7 +336,7 @@ def sweep(tmp_path_factory):
 
 
 def test_sweep_to_pandas_is_one_row_per_run_and_to_xarray_has_a_run_dimension(sweep, tmp_path):
-    from sins_sim.jobs.results import SweepResult
+    from sins_sim.results import SweepResult
     from sins_sim.jobs.sweep.summary import metric_filters
 
     df = sweep.to_pandas()
@@ -371,7 +371,7 @@ def test_sweep_plot_is_the_distribution_figure(sweep):
 def _budget():
     """A budget of two sources over two filters, assembled from made-up final error vectors."""
     from sins_sim.jobs.budget import _assemble
-    from sins_sim.jobs.results import BudgetResult
+    from sins_sim.results import BudgetResult
 
     def e(n, ea, att):
         return {"position_ne_m": [n, ea], "attitude_ned_arcsec": att}
@@ -409,7 +409,7 @@ def test_budget_plot_returns_the_budget_figure():
 
 
 def test_diagnosis_to_pandas_tables():
-    from sins_sim.jobs.results import DiagnosisResult
+    from sins_sim.results import DiagnosisResult
 
     js = DiagnosisResult({
         "noise_floor_arcsec": 0.01, "noise_floor_axes_arcsec": {"x": 0.01, "y": 0.02},
@@ -449,7 +449,7 @@ def test_saving_from_a_session_with_pyplot_keeps_its_backend_and_figures(mission
 
 def test_load_dispatches_on_the_folders_command(tmp_path):
     from sins_sim.jobs.manifest import Manifest
-    from sins_sim.jobs.results import BudgetResult
+    from sins_sim.results import BudgetResult
 
     b = _budget()
     folder = tmp_path / "budget"

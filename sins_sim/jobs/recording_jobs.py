@@ -146,7 +146,7 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
     Returns
     -------
     DiagnosisResult
-        The JSON as a dict, with ``to_pandas()`` (:class:`sins_sim.jobs.results.DiagnosisResult`).
+        The JSON as a dict, with ``to_pandas()`` (:class:`sins_sim.results.DiagnosisResult`).
     """
     from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording, write_report
 
@@ -154,7 +154,7 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
     settings = DiagnoseSettings(effects=tuple(effects) if effects else None)
     if threads is not None:
         settings = replace(settings, threads=int(threads))
-    from sins_sim.jobs.results import DiagnosisResult
+    from sins_sim.results import DiagnosisResult
 
     diag = diagnose_recording(rec, settings)
     if report_dir is not None:

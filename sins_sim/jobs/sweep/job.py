@@ -383,7 +383,7 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
     manifest.doc["sweep"] = {"name": sweep.name, "tasks": len(tasks), "already_done": already, "computed": ok,
                              "failed": failed}
     manifest.write(store.root)  # the folder grows over resumes: the manifest is the last invocation's
-    from sins_sim.jobs.results import SweepResult
+    from sins_sim.results import SweepResult
 
     return SweepResult({"name": sweep.name, "summary": summary, "tasks": len(tasks), "already_done": already,
                         "computed": ok, "failed": failed, "wall_s": wall,
