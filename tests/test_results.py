@@ -464,3 +464,42 @@ def test_load_dispatches_on_the_folders_command(tmp_path):
     Manifest("channel").write(other)
     with pytest.raises(ConfigError, match="holds a 'sins-sim channel' result, not a run, budget or sweep"):
         sins_sim.load(other)
+
+
+@pytest.mark.parametrize("status", ["explained", "invalid data"])
+def test_diagnosis_plot_draws_the_reports_figures(tmp_path, status):
+    """``DiagnosisResult.plot(kind)`` is the figure ``diagnose --report`` writes as ``<kind>.png``: drawn by the
+    same function, written at the report's dpi it gives the same pixels (exact: the same Agg renderer on the
+    same data). A refit gives spectrum, envelope and ranking; refused data the angle with the failures marked.
+    Pickled (between processes, as ``diagnose_many`` does) the result keeps its JSON and drops the diagnosis."""
+    import pickle
+
+    import matplotlib.image as mpimg
+    import matplotlib.pyplot as plt
+    from test_diagnose_report_statuses import CASES, EFFECTS
+
+    from sins_sim.io.recording import write_recording
+    from sins_sim.jobs import recording_jobs
+
+    path = write_recording(tmp_path / "rec.npz", CASES[status]())
+    res = recording_jobs.diagnose(path, report_dir=tmp_path / "report", effects=EFFECTS)
+    assert res["verdict"]["status"] == status
+    want = ["spectrum", "envelope", "ranking"] if status == "explained" else ["angle"]
+    assert res.figures == want
+    linked = sorted(p.stem for p in (tmp_path / "report").glob("*.png"))
+    assert linked == sorted(want)
+    for kind in want:
+        fig = res.plot(kind)
+        try:
+            fig.savefig(tmp_path / f"mine-{kind}.png", dpi=110)
+        finally:
+            plt.close(fig)
+        mine, report = mpimg.imread(tmp_path / f"mine-{kind}.png"), mpimg.imread(tmp_path / "report" / f"{kind}.png")
+        assert mine.shape == report.shape and np.array_equal(mine, report), kind
+    other = "angle" if status == "explained" else "spectrum"
+    with pytest.raises(ValueError, match=f"diagnosis figure '{other}'"):
+        res.plot(other)
+    back = pickle.loads(pickle.dumps(res))
+    assert dict(back) == dict(res) and back.diagnosis is None
+    with pytest.raises(ValueError, match="JSON only"):
+        back.plot()

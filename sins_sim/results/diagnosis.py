@@ -7,7 +7,63 @@ __all__ = ["DiagnosisResult"]
 
 class DiagnosisResult(dict):
     """A recording's diagnosis (:func:`sins_sim.jobs.recording_jobs.diagnose`): its JSON as a dict, with
-    :meth:`to_pandas` of its tables. Its figures are those of the report folder (``report_dir``)."""
+    :meth:`to_pandas` of its tables and :meth:`plot` of the report's figures.
+
+    Parameters
+    ----------
+    data : mapping
+        The diagnosis' JSON (``Diagnosis.to_json``).
+    diagnosis : Diagnosis, optional
+        The diagnosis itself (:class:`sins_sim.identification.report.Diagnosis`: the recording, the fits, the
+        localisation), which the figures are drawn from. ``diagnose`` keeps it; the results of
+        ``diagnose_many`` (made in worker processes) and a JSON read back hold the JSON only.
+
+    Attributes
+    ----------
+    diagnosis : Diagnosis or None
+    """
+
+    def __init__(self, data=(), diagnosis=None):
+        super().__init__(data)
+        self.diagnosis = diagnosis
+
+    @property
+    def figures(self) -> list:
+        """The figures :meth:`plot` can draw (the report's ``<kind>.png``); empty without the diagnosis."""
+        if self.diagnosis is None:
+            return []
+        from sins_sim.identification.report import figure_kinds
+
+        return figure_kinds(self.diagnosis)
+
+    def plot(self, kind: str | None = None):
+        """One figure of ``sins-sim diagnose --report``, returned (not written): a
+        :class:`matplotlib.figure.Figure` drawn by the report's own function
+        (:func:`sins_sim.identification.report.diagnosis_figure`).
+
+        Parameters
+        ----------
+        kind : str, optional
+            ``spectrum``, ``envelope`` or ``ranking`` after a refit, ``angle`` after data the checks refused
+            (:attr:`figures`); default the first of :attr:`figures`.
+
+        Raises
+        ------
+        ValueError
+            No diagnosis in memory (the JSON only), or a kind this diagnosis has no data for.
+        """
+        if self.diagnosis is None:
+            raise ValueError("plot: this result holds the diagnosis' JSON only; the figures need the recording and "
+                             "the fits: diagnose(path) keeps them")
+        from sins_sim.identification.report import diagnosis_figure
+        from sins_sim.plots.common import _pyplot
+
+        kinds = self.figures
+        return diagnosis_figure(self.diagnosis, kinds[0] if kind is None else kind, _pyplot(headless=False))
+
+    def __reduce__(self):
+        """Pickled as its JSON alone (the diagnosis holds the recording: too heavy between processes)."""
+        return (DiagnosisResult, (dict(self),))
 
     def to_pandas(self) -> dict:
         """``candidates``: one row per effect tried (index ``effect``), in the diagnosis' order (best first):
