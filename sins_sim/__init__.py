@@ -46,7 +46,8 @@ Public API (imported lazily, so ``import sins_sim`` stays light and never loads 
 * configuration: :func:`load_imu`, :func:`load_scenario` (a file or a dict), :func:`run_scenario`;
 * notebooks: :func:`run` (a scenario file, dict or object -> :class:`MissionResult` with tables,
   figures and ``save``), :func:`load` (a result folder -> :class:`MissionResult`, :class:`BudgetResult`
-  or :class:`SweepResult`); :class:`DiagnosisResult` is what ``diagnose`` returns.
+  or :class:`SweepResult`), :func:`sweep_run` (one run of a sweep -> :class:`MissionResult`);
+  :class:`DiagnosisResult` is what ``diagnose`` returns.
 """
 
 from __future__ import annotations
@@ -75,6 +76,7 @@ _API = {
     "run_scenario": "sins_sim.jobs.run",
     "run": "sins_sim.jobs.notebook",
     "load": "sins_sim.jobs.notebook",
+    "sweep_run": "sins_sim.jobs.notebook",
     "MissionResult": "sins_sim.results",
     "BudgetResult": "sins_sim.results",
     "SweepResult": "sins_sim.results",

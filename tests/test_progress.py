@@ -132,13 +132,19 @@ def test_a_scenario_error_comes_before_numba_and_the_engine(tmp_path, body, mess
     instead of after the 3-15 s those imports take (measured here: 0.4 s against 3.7-4.1 s before)."""
     sc = tmp_path / "bad.yaml"
     sc.write_text(body.format(imu=ROOT / "configs" / "default-imu.yaml"))
-    r = subprocess.run([sys.executable, "-c", _PROBE, str(sc), str(tmp_path / "out")], capture_output=True,
+    line = _refused_light(_PROBE, sc, tmp_path / "out")
+    assert line.startswith("sins-sim: error: ") and message in line and "\n" not in line
+
+
+def _refused_light(probe: str, scenario, out) -> str:
+    """Run ``probe`` on ``scenario`` in a fresh interpreter; assert exit status 2 with nothing heavy imported and
+    return the error line."""
+    r = subprocess.run([sys.executable, "-c", probe, str(scenario), str(out)], capture_output=True,
                        text=True, cwd=ROOT, timeout=120)
     status, heavy = r.stdout.split()[0], r.stdout.split()[1:]
     assert status == "2", r.stdout + r.stderr
     assert heavy == [], f"imported before the error: {heavy}"
-    line = r.stderr.strip()
-    assert line.startswith("sins-sim: error: ") and message in line and "\n" not in line
+    return r.stderr.strip()
 
 
 _IMU = (ROOT / "configs" / "default-imu.yaml").read_text()
@@ -175,12 +181,7 @@ def test_an_imu_error_comes_before_numba_and_the_models(tmp_path, old, new, mess
     imu.write_text(_IMU.replace(old, new, 1))
     sc = tmp_path / "bad.yaml"
     sc.write_text(f"name: bad\nimu: {imu}\nduration_s: 5\n")
-    r = subprocess.run([sys.executable, "-c", _IMU_PROBE, str(sc), str(tmp_path / "out")], capture_output=True,
-                       text=True, cwd=ROOT, timeout=120)
-    status, heavy = r.stdout.split()[0], r.stdout.split()[1:]
-    assert status == "2", r.stdout + r.stderr
-    assert heavy == [], f"imported before the error: {heavy}"
-    line = r.stderr.strip()
+    line = _refused_light(_IMU_PROBE, sc, tmp_path / "out")
     assert line.startswith(f"sins-sim: error: {sc} -> imu.yaml:") and message in line and "\n" not in line
 
 

@@ -52,9 +52,21 @@ def _npz(folder):
 
 # --- the public names --------------------------------------------------------------------------------------------
 def test_public_api_is_lazy_and_complete():
-    for name in ("run", "load", "MissionResult"):
+    import subprocess
+    import sys
+
+    from sins_sim import results
+
+    for name in ("run", "load", "sweep_run", "MissionResult", "BudgetResult", "SweepResult", "DiagnosisResult"):
         assert name in sins_sim.__all__
     assert sins_sim.MissionResult is MissionResult
+    assert (sins_sim.BudgetResult, sins_sim.SweepResult, sins_sim.DiagnosisResult) == \
+        (results.BudgetResult, results.SweepResult, results.DiagnosisResult)
+    # the result objects' room is light: importing it loads neither matplotlib, pandas, xarray nor the engine
+    code = ("import sys, sins_sim.results; print(sorted(m for m in ('matplotlib', 'pandas', 'xarray', 'numba', "
+            "'sins_sim.simulation.sins', 'sins_sim.jobs') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr
 
 
 # --- to_pandas / to_xarray against the run's own files ------------------------------------------------------------
@@ -337,7 +349,7 @@ def sweep(tmp_path_factory):
 
 def test_sweep_to_pandas_is_one_row_per_run_and_to_xarray_has_a_run_dimension(sweep, tmp_path):
     from sins_sim.results import SweepResult
-    from sins_sim.jobs.sweep.summary import metric_filters
+    from sins_sim.results.sweep import metric_filters
 
     df = sweep.to_pandas()
     assert len(df) == 3 and df["unit"].tolist() == [0, 1, 2]
@@ -356,6 +368,31 @@ def test_sweep_to_pandas_is_one_row_per_run_and_to_xarray_has_a_run_dimension(sw
     df.to_parquet(tmp_path / "runs.parquet", index=False)
     (tmp_path / "summary.json").write_text("{}")
     pd.testing.assert_frame_equal(SweepResult.from_folder(tmp_path).to_pandas(), df)
+
+
+def test_sweep_run_gives_one_run_of_the_sweep_with_its_time_series(sweep, tmp_path):
+    """The sweep keeps per-run scalars, not time series; ``sweep_run`` runs one run again (same document, draws and
+    seed) as a MissionResult. Its metrics are the sweep row's exactly (the same computation on the same inputs;
+    the row was computed on one thread, this on the default threads: the axes do not share state), and it has
+    the stored series an envelope over time needs."""
+    from sins_sim.results.sweep import metric_filters
+
+    sweep_run = sins_sim.sweep_run
+
+    p = tmp_path / "tiny.yaml"
+    p.write_text(SWEEP)
+    df = sweep.to_pandas()
+    row = df[df["unit"] == 1].iloc[0]
+    r = sweep_run(p, f"1:{row['scenario']}")
+    assert r.seed == row["seed"]
+    for f in metric_filters(df):
+        m = r.metrics["filters"][f]
+        assert m["horizontal_position_error_m"]["final"] == row[f"{f}.horizontal_position_error_m_final"], f
+        assert m["horizontal_position_error_m"]["max"] == row[f"{f}.horizontal_position_error_m_max"], f
+    assert r.to_pandas()["correcting"]["horizontal_m"].size > 0
+    assert sweep_run(p, row["key"]).metrics == r.metrics  # by key as well
+    with pytest.raises(ConfigError, match=r"^sweep_run: unit 7 is not in"):
+        sweep_run(p, "7:stationary")
 
 
 def test_sweep_plot_is_the_distribution_figure(sweep):

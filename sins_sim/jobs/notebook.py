@@ -1,4 +1,5 @@
-"""The notebook's commands: :func:`run` a scenario in memory, :func:`load` a result folder.
+"""The notebook's commands: :func:`run` a scenario in memory, :func:`load` a result folder, :func:`sweep_run`
+one run of a sweep with its time series.
 
 Both return the result objects of :mod:`sins_sim.results` (the rooms below the commands): :func:`run` a
 :class:`~sins_sim.results.mission.MissionResult` that keeps a :class:`RunOrigin`, the part of this command
@@ -16,7 +17,7 @@ import numpy as np
 from sins_sim.config.errors import ConfigError
 from sins_sim.results import BudgetResult, MissionResult, StoredRun, SweepResult
 
-__all__ = ["run", "load", "RunOrigin"]
+__all__ = ["run", "load", "sweep_run", "RunOrigin"]
 
 
 class RunOrigin:
@@ -85,8 +86,6 @@ def run(scenario, *, seed: int | None = None, duration_s: float | None = None, i
     """
     from collections.abc import Mapping
 
-    from sins_sim.jobs.manifest import Manifest
-    from sins_sim.jobs.run import compute_run, prepare_run
     from sins_sim.config.scenario import Scenario
 
     overrides = {k: v for k, v in (("seed", seed), ("duration_s", duration_s), ("imu", imu)) if v is not None}
@@ -102,11 +101,53 @@ def run(scenario, *, seed: int | None = None, duration_s: float | None = None, i
         source, base = Path(scenario), None
     else:
         raise ConfigError(f"run: scenario must be a path, a mapping or a Scenario, got {type(scenario).__name__}")
-    manifest = Manifest("run", settings={"overrides": dict(overrides), "api": "sins_sim.run"})
+    return _run(source, base, overrides, threads, progress, "sins_sim.run")
+
+
+def _run(source, base, overrides: dict, threads, progress, api: str) -> MissionResult:
+    """:func:`run` of a validated source (a path or a mapping whose relative paths are taken from ``base``)."""
+    from sins_sim.jobs.manifest import Manifest
+    from sins_sim.jobs.run import compute_run, prepare_run
+
+    manifest = Manifest("run", settings={"overrides": dict(overrides), "api": api})
     sc, config_warnings = prepare_run(source, overrides or None, progress, base_dir=base)
     res, metrics = compute_run(sc, config_warnings, progress, threads)
     manifest.stop_clock()
     return MissionResult(sc, metrics, res, origin=RunOrigin(source, overrides, manifest))
+
+
+def sweep_run(sweep, run_id: str, *, threads: int | None = None, progress=None) -> MissionResult:
+    """One run of a sweep as a :class:`MissionResult`, with the time series the sweep does not keep.
+
+    A sweep keeps one row of scalar metrics per run (:class:`~sins_sim.results.SweepResult`); the time
+    series of a run (for an envelope over time of chosen runs, or a look at an outlier) come from running
+    it again: the same scenario document, drawn parameters and seed as in the sweep (unit ``i``'s draws
+    depend only on the sweep's seed and ``i``), so its metrics are the row's (``tests/test_results.py``).
+
+    Parameters
+    ----------
+    sweep : path
+        The sweep YAML.
+    run_id : str
+        The run's key (column ``key`` of ``runs.parquet``) or ``UNIT:SCENARIO`` (``3:stationary``).
+    threads : int, optional
+        Threads for the three axes (the result does not depend on it).
+    progress : callable(fraction), optional
+
+    Returns
+    -------
+    MissionResult
+
+    Raises
+    ------
+    ConfigError
+        No such run in the sweep, or a sweep file that does not validate.
+    """
+    from sins_sim.jobs.sweep.job import find_task
+    from sins_sim.jobs.sweep.tasks import package_version
+
+    spec = find_task(sweep, run_id, flag="sweep_run").spec(package_version())
+    return _run(spec["doc"], Path(spec["base_dir"]), {}, threads, progress, "sins_sim.jobs.notebook.sweep_run")
 
 
 def load(folder):

@@ -91,7 +91,8 @@ def quantile_n_required(q: float, confidence: float = CONFIDENCE) -> int:
 
 class SweepResult(dict):
     """A sweep (:func:`sins_sim.jobs.sweep.run_sweep`): its dict (``summary``, ``table``, counts) with
-    :meth:`to_pandas` (one row per run) and :meth:`to_xarray` (a ``run`` dimension)."""
+    :meth:`to_pandas` (one row per run), :meth:`to_xarray` (a ``run`` dimension) and :meth:`plot`.
+    A run's time series are not kept: :func:`sins_sim.sweep_run` recomputes one run."""
 
     def to_pandas(self):
         """``runs.parquet``: one row per run (unit x scenario), the drawn parameters (``param.*``) and per
@@ -106,6 +107,15 @@ class SweepResult(dict):
         variable on ``run``. Percentiles over the population are then
         ``ds.groupby("scenario").quantile([0.05, 0.5, 0.95], dim="run")``. Attributes: the sweep's name and
         sins-sim's version.
+
+        What a run keeps: its scalars only, the :data:`METRICS` per filter (final and largest horizontal
+        and vertical position error, final and largest velocity error, RMS and final attitude error per
+        NED axis, CEP rate, drifts where a ramp explains them, the largest step across an event, RMS
+        gyro-angle error per axis), its status, its drawn parameters, seed and warnings. An envelope over
+        the population is one of these, per scenario (or against a drawn parameter). The sweep does not
+        keep time series (a sweep of 400 one-hour runs would hold them all); for an envelope over time of
+        chosen runs, :func:`sins_sim.sweep_run` runs each again as a
+        :class:`~sins_sim.results.MissionResult` with its stored series, the row's metrics exactly.
         """
         import xarray as xr
 
