@@ -465,6 +465,25 @@ def test_diagnosis_to_pandas_tables():
     assert empty["candidates"].shape == (0, 9) and empty["axes"].empty
 
 
+def test_load_of_a_diagnosis_json_is_its_result(tmp_path):
+    """``sins_sim.load`` of the file ``diagnose --json`` writes gives the DiagnosisResult of that JSON (tables, no
+    figures); a JSON that is no diagnosis is refused in one line naming the file."""
+    from sins_sim.results import DiagnosisResult
+
+    js = {"noise_floor_arcsec": 0.01, "noise_floor_axes_arcsec": {"x": 0.01}, "verdict": {"status": "none"},
+          "baseline": {"residual_rms_axes_arcsec": {"x": 0.4}},
+          "candidates": [{"effect": "backlash", "residual_rms_arcsec": 0.02, "gap_reduction": 0.9, "score": 3.0,
+                          "closes_gap": True, "remaining_excess_arcsec": 0.001, "p_heldout": 0.001, "p_f": 1e-6,
+                          "significant": True, "unresolved": False}]}
+    (tmp_path / "d.json").write_text(json.dumps(js))
+    d = sins_sim.load(tmp_path / "d.json")
+    assert isinstance(d, DiagnosisResult) and dict(d) == js and d.diagnosis is None
+    pd.testing.assert_frame_equal(d.to_pandas()["candidates"], DiagnosisResult(js).to_pandas()["candidates"])
+    (tmp_path / "m.json").write_text(json.dumps({"scenario": "x"}))
+    with pytest.raises(ConfigError, match=r"m\.json is not the JSON of 'sins-sim diagnose --json'"):
+        sins_sim.load(tmp_path / "m.json")
+
+
 def test_saving_from_a_session_with_pyplot_keeps_its_backend_and_figures(mission, tmp_path):
     """A notebook has pyplot loaded with its own backend: writing the CLI's figures must not switch it to Agg
     (switching closes every open figure of the session)."""

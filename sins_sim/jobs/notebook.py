@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from sins_sim.config.errors import ConfigError
-from sins_sim.results import BudgetResult, MissionResult, StoredRun, SweepResult
+from sins_sim.results import BudgetResult, DiagnosisResult, MissionResult, StoredRun, SweepResult
+from sins_sim.results._folder import read_json
 
 __all__ = ["run", "load", "sweep_run", "RunOrigin"]
 
@@ -153,7 +154,9 @@ def sweep_run(sweep, run_id: str, *, threads: int | None = None, progress=None) 
 def load(folder):
     """A result folder as its object: a :class:`MissionResult` from a ``sins-sim run`` folder (or one
     :meth:`MissionResult.save` wrote); a :class:`BudgetResult` from a ``sins-sim budget`` folder and a
-    :class:`SweepResult` from a ``sins-sim sweep`` folder (by the command in its ``manifest.json``).
+    :class:`SweepResult` from a ``sins-sim sweep`` folder (by the command in its ``manifest.json``); a
+    :class:`~sins_sim.results.DiagnosisResult` from the JSON file of ``sins-sim diagnose --json`` (the JSON
+    only: its ``to_pandas``, not its figures, which need the recording: diagnose it again).
 
     Restored: :attr:`~MissionResult.metrics` (``metrics.json``), the stored series (``timeseries.npz``),
     hence :meth:`~MissionResult.to_pandas`, :meth:`~MissionResult.to_xarray` and every figure but
@@ -172,6 +175,12 @@ def load(folder):
     from sins_sim.config.scenario import load_scenario
 
     folder = Path(folder)
+    if folder.is_file():  # a diagnosis is one JSON file, not a folder
+        js = read_json(folder, "diagnosis")
+        if not isinstance(js, dict) or "verdict" not in js:
+            raise ConfigError(f"load: {folder} is not the JSON of 'sins-sim diagnose --json' (no 'verdict'); a run, "
+                              "budget or sweep result is a folder")
+        return DiagnosisResult(js)
     doc = read_manifest(folder, "load")
     if doc.get("command") == "budget":
         return BudgetResult.from_folder(folder)
