@@ -27,12 +27,13 @@ see :mod:`sins_sim.units`.
 
 Layers (imports point one way, checked by import-linter, contracts in ``pyproject.toml``)::
 
-    cli -> bench -> jobs -> config -> identification -> simulation -> plots
+    cli -> bench -> jobs -> results -> config -> identification -> simulation -> plots
         -> {models, filters, navigation} -> io -> _kernels -> {earth, units}
 
-``jobs`` holds the commands (run, budget, sweep, reproduce, ...); ``config`` below them turns YAML
-files into the engine's inputs (schemas, loaders, :class:`~sins_sim.config.errors.ConfigError`) and
-never imports a command.
+``jobs`` holds the commands (run, budget, sweep, reproduce, ...); ``results`` below them the result
+objects the commands return (tables, figures, files); ``config`` below those turns YAML files into the
+engine's inputs (schemas, loaders, :class:`~sins_sim.config.errors.ConfigError`) and never imports a
+command.
 
 Public API (imported lazily, so ``import sins_sim`` stays light and never loads matplotlib):
 
@@ -44,7 +45,9 @@ Public API (imported lazily, so ``import sins_sim`` stays light and never loads 
 * navigation: :class:`StrapdownNavigator`;
 * configuration: :func:`load_imu`, :func:`load_scenario` (a file or a dict), :func:`run_scenario`;
 * notebooks: :func:`run` (a scenario file, dict or object -> :class:`MissionResult` with tables,
-  figures and ``save``), :func:`load` (a result folder -> :class:`MissionResult`).
+  figures and ``save``), :func:`load` (a result folder -> :class:`MissionResult`, :class:`BudgetResult`
+  or :class:`SweepResult`), :func:`sweep_run` (one run of a sweep -> :class:`MissionResult`);
+  :class:`DiagnosisResult` is what ``diagnose`` returns.
 """
 
 from __future__ import annotations
@@ -71,9 +74,13 @@ _API = {
     "load_imu": "sins_sim.config.imu",
     "load_scenario": "sins_sim.config.scenario",
     "run_scenario": "sins_sim.jobs.run",
-    "run": "sins_sim.jobs.results",
-    "load": "sins_sim.jobs.results",
-    "MissionResult": "sins_sim.jobs.results",
+    "run": "sins_sim.jobs.notebook",
+    "load": "sins_sim.jobs.notebook",
+    "sweep_run": "sins_sim.jobs.notebook",
+    "MissionResult": "sins_sim.results",
+    "BudgetResult": "sins_sim.results",
+    "SweepResult": "sins_sim.results",
+    "DiagnosisResult": "sins_sim.results",
 }
 
 __all__ = sorted(_API) + ["__version__"]

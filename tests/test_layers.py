@@ -1,6 +1,6 @@
-"""The package's import direction (style.md): cli -> jobs -> config -> identification -> simulation ->
+"""The package's import direction (style.md): cli -> jobs -> results -> config -> identification -> simulation ->
 {models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
-each other; config/ never imports jobs/, bench/ or cli, and inside it a file's path reads top to bottom
+each other; config/ and results/ never import jobs/, bench/ or cli, and inside config/ a file's path reads top to bottom
 (reference -> {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
 -> schema -> errors).
 Checked on the source with ``ast`` (module-level and function-level imports alike)."""
@@ -31,7 +31,11 @@ ALLOWED = {
     "simulation": BASE | {"models", "filters", "navigation", "io"},
     "identification": BASE | {"simulation", "models", "filters", "navigation", "io", "plots"},
     "config": BASE | {"simulation", "models", "filters", "navigation", "io"},
-    "jobs": BASE | {"config", "simulation", "models", "filters", "navigation", "io", "identification", "plots"},
+    # the result objects: below the commands, above configuration; figures through plots/ and the diagnosis'
+    # own figures (lazily); no engine, no command
+    "results": BASE | {"config", "identification", "plots"},
+    "jobs": BASE | {"results", "config", "simulation", "models", "filters", "navigation", "io", "identification",
+                    "plots"},
 }
 
 #: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank

@@ -18,7 +18,7 @@ import pytest
 import yaml
 
 import sins_sim
-from sins_sim.jobs.results import FIGURE_KINDS, SERIES_COLUMNS, MissionResult, StoredRun
+from sins_sim.results import FIGURE_KINDS, SERIES_COLUMNS, MissionResult, StoredRun
 from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC
 
@@ -52,9 +52,21 @@ def _npz(folder):
 
 # --- the public names --------------------------------------------------------------------------------------------
 def test_public_api_is_lazy_and_complete():
-    for name in ("run", "load", "MissionResult"):
+    import subprocess
+    import sys
+
+    from sins_sim import results
+
+    for name in ("run", "load", "sweep_run", "MissionResult", "BudgetResult", "SweepResult", "DiagnosisResult"):
         assert name in sins_sim.__all__
     assert sins_sim.MissionResult is MissionResult
+    assert (sins_sim.BudgetResult, sins_sim.SweepResult, sins_sim.DiagnosisResult) == \
+        (results.BudgetResult, results.SweepResult, results.DiagnosisResult)
+    # the result objects' room is light: importing it loads neither matplotlib, pandas, xarray nor the engine
+    code = ("import sys, sins_sim.results; print(sorted(m for m in ('matplotlib', 'pandas', 'xarray', 'numba', "
+            "'sins_sim.simulation.sins', 'sins_sim.jobs') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr
 
 
 # --- to_pandas / to_xarray against the run's own files ------------------------------------------------------------
@@ -324,7 +336,7 @@ population:
 def sweep(tmp_path_factory):
     """The rows of a 3-unit sweep, computed serially (the tasks a cluster would run: test_sweep.py shows they
     are equal), as run_sweep hands them back."""
-    from sins_sim.jobs.results import SweepResult
+    from sins_sim.results import SweepResult
     from sins_sim.jobs.sweep.job import prepare_sweep
     from sins_sim.jobs.sweep.tasks import run_task
 
@@ -336,8 +348,8 @@ def sweep(tmp_path_factory):
 
 
 def test_sweep_to_pandas_is_one_row_per_run_and_to_xarray_has_a_run_dimension(sweep, tmp_path):
-    from sins_sim.jobs.results import SweepResult
-    from sins_sim.jobs.sweep.summary import metric_filters
+    from sins_sim.results import SweepResult
+    from sins_sim.results.sweep import metric_filters
 
     df = sweep.to_pandas()
     assert len(df) == 3 and df["unit"].tolist() == [0, 1, 2]
@@ -358,6 +370,31 @@ def test_sweep_to_pandas_is_one_row_per_run_and_to_xarray_has_a_run_dimension(sw
     pd.testing.assert_frame_equal(SweepResult.from_folder(tmp_path).to_pandas(), df)
 
 
+def test_sweep_run_gives_one_run_of_the_sweep_with_its_time_series(sweep, tmp_path):
+    """The sweep keeps per-run scalars, not time series; ``sweep_run`` runs one run again (same document, draws and
+    seed) as a MissionResult. Its metrics are the sweep row's exactly (the same computation on the same inputs;
+    the row was computed on one thread, this on the default threads: the axes do not share state), and it has
+    the stored series an envelope over time needs."""
+    from sins_sim.results.sweep import metric_filters
+
+    sweep_run = sins_sim.sweep_run
+
+    p = tmp_path / "tiny.yaml"
+    p.write_text(SWEEP)
+    df = sweep.to_pandas()
+    row = df[df["unit"] == 1].iloc[0]
+    r = sweep_run(p, f"1:{row['scenario']}")
+    assert r.seed == row["seed"]
+    for f in metric_filters(df):
+        m = r.metrics["filters"][f]
+        assert m["horizontal_position_error_m"]["final"] == row[f"{f}.horizontal_position_error_m_final"], f
+        assert m["horizontal_position_error_m"]["max"] == row[f"{f}.horizontal_position_error_m_max"], f
+    assert r.to_pandas()["correcting"]["horizontal_m"].size > 0
+    assert sweep_run(p, row["key"]).metrics == r.metrics  # by key as well
+    with pytest.raises(ConfigError, match=r"^sweep_run: unit 7 is not in"):
+        sweep_run(p, "7:stationary")
+
+
 def test_sweep_plot_is_the_distribution_figure(sweep):
     import matplotlib.pyplot as plt
 
@@ -371,7 +408,7 @@ def test_sweep_plot_is_the_distribution_figure(sweep):
 def _budget():
     """A budget of two sources over two filters, assembled from made-up final error vectors."""
     from sins_sim.jobs.budget import _assemble
-    from sins_sim.jobs.results import BudgetResult
+    from sins_sim.results import BudgetResult
 
     def e(n, ea, att):
         return {"position_ne_m": [n, ea], "attitude_ned_arcsec": att}
@@ -409,7 +446,7 @@ def test_budget_plot_returns_the_budget_figure():
 
 
 def test_diagnosis_to_pandas_tables():
-    from sins_sim.jobs.results import DiagnosisResult
+    from sins_sim.results import DiagnosisResult
 
     js = DiagnosisResult({
         "noise_floor_arcsec": 0.01, "noise_floor_axes_arcsec": {"x": 0.01, "y": 0.02},
@@ -426,6 +463,25 @@ def test_diagnosis_to_pandas_tables():
     assert t["axes"].loc["y"].tolist() == [0.02, 0.6]
     empty = DiagnosisResult({"candidates": [], "findings": [{"check": "x"}]}).to_pandas()
     assert empty["candidates"].shape == (0, 9) and empty["axes"].empty
+
+
+def test_load_of_a_diagnosis_json_is_its_result(tmp_path):
+    """``sins_sim.load`` of the file ``diagnose --json`` writes gives the DiagnosisResult of that JSON (tables, no
+    figures); a JSON that is no diagnosis is refused in one line naming the file."""
+    from sins_sim.results import DiagnosisResult
+
+    js = {"noise_floor_arcsec": 0.01, "noise_floor_axes_arcsec": {"x": 0.01}, "verdict": {"status": "none"},
+          "baseline": {"residual_rms_axes_arcsec": {"x": 0.4}},
+          "candidates": [{"effect": "backlash", "residual_rms_arcsec": 0.02, "gap_reduction": 0.9, "score": 3.0,
+                          "closes_gap": True, "remaining_excess_arcsec": 0.001, "p_heldout": 0.001, "p_f": 1e-6,
+                          "significant": True, "unresolved": False}]}
+    (tmp_path / "d.json").write_text(json.dumps(js))
+    d = sins_sim.load(tmp_path / "d.json")
+    assert isinstance(d, DiagnosisResult) and dict(d) == js and d.diagnosis is None
+    pd.testing.assert_frame_equal(d.to_pandas()["candidates"], DiagnosisResult(js).to_pandas()["candidates"])
+    (tmp_path / "m.json").write_text(json.dumps({"scenario": "x"}))
+    with pytest.raises(ConfigError, match=r"m\.json is not the JSON of 'sins-sim diagnose --json'"):
+        sins_sim.load(tmp_path / "m.json")
 
 
 def test_saving_from_a_session_with_pyplot_keeps_its_backend_and_figures(mission, tmp_path):
@@ -449,7 +505,7 @@ def test_saving_from_a_session_with_pyplot_keeps_its_backend_and_figures(mission
 
 def test_load_dispatches_on_the_folders_command(tmp_path):
     from sins_sim.jobs.manifest import Manifest
-    from sins_sim.jobs.results import BudgetResult
+    from sins_sim.results import BudgetResult
 
     b = _budget()
     folder = tmp_path / "budget"
@@ -464,3 +520,42 @@ def test_load_dispatches_on_the_folders_command(tmp_path):
     Manifest("channel").write(other)
     with pytest.raises(ConfigError, match="holds a 'sins-sim channel' result, not a run, budget or sweep"):
         sins_sim.load(other)
+
+
+@pytest.mark.parametrize("status", ["explained", "invalid data"])
+def test_diagnosis_plot_draws_the_reports_figures(tmp_path, status):
+    """``DiagnosisResult.plot(kind)`` is the figure ``diagnose --report`` writes as ``<kind>.png``: drawn by the
+    same function, written at the report's dpi it gives the same pixels (exact: the same Agg renderer on the
+    same data). A refit gives spectrum, envelope and ranking; refused data the angle with the failures marked.
+    Pickled (between processes, as ``diagnose_many`` does) the result keeps its JSON and drops the diagnosis."""
+    import pickle
+
+    import matplotlib.image as mpimg
+    import matplotlib.pyplot as plt
+    from test_diagnose_report_statuses import CASES, EFFECTS
+
+    from sins_sim.io.recording import write_recording
+    from sins_sim.jobs import recording_jobs
+
+    path = write_recording(tmp_path / "rec.npz", CASES[status]())
+    res = recording_jobs.diagnose(path, report_dir=tmp_path / "report", effects=EFFECTS)
+    assert res["verdict"]["status"] == status
+    want = ["spectrum", "envelope", "ranking"] if status == "explained" else ["angle"]
+    assert res.figures == want
+    linked = sorted(p.stem for p in (tmp_path / "report").glob("*.png"))
+    assert linked == sorted(want)
+    for kind in want:
+        fig = res.plot(kind)
+        try:
+            fig.savefig(tmp_path / f"mine-{kind}.png", dpi=110)
+        finally:
+            plt.close(fig)
+        mine, report = mpimg.imread(tmp_path / f"mine-{kind}.png"), mpimg.imread(tmp_path / "report" / f"{kind}.png")
+        assert mine.shape == report.shape and np.array_equal(mine, report), kind
+    other = "angle" if status == "explained" else "spectrum"
+    with pytest.raises(ValueError, match=f"diagnosis figure '{other}'"):
+        res.plot(other)
+    back = pickle.loads(pickle.dumps(res))
+    assert dict(back) == dict(res) and back.diagnosis is None
+    with pytest.raises(ValueError, match="JSON only"):
+        back.plot()

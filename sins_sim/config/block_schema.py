@@ -28,7 +28,6 @@ import numpy as np
 
 from sins_sim.config.errors import ConfigError
 from sins_sim.config.schema import Map, Num, Vec
-from sins_sim.models.block import BlockParams
 
 __all__ = ["BLOCK_SCHEMA", "block_from_section"]
 
@@ -75,6 +74,8 @@ BLOCK_SCHEMA = Map({
 
 def block_from_section(c: dict | None, ctx: str, path: str) -> BlockParams | None:
     """The validated ``block`` section (SI keys, :data:`BLOCK_SCHEMA`) as :class:`BlockParams`; None stays None."""
+    from sins_sim.models.block import BlockParams  # the model (scipy) once the section has passed its schema
+
     if c is None:
         return None
     j = c["inertia_kg_m2"]

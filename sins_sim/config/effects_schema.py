@@ -14,7 +14,6 @@ names, ranges and unknown keys, so the file and the catalogue cannot disagree.
 from __future__ import annotations
 
 from sins_sim.config.errors import ConfigError
-from sins_sim.models.effects import EFFECTS, make_effect
 
 __all__ = ["EffectsList", "ENGINE_AXES"]
 
@@ -47,6 +46,8 @@ class EffectsList:
 
     def describe_rows(self, path):
         """One reference row (``sins_sim.config.schema.describe``)."""
+        from sins_sim.models.effects import EFFECTS
+
         names = ", ".join(EFFECTS)
         return [{"key": path, "kind": "list", "unit": "", "range": "catalogue effects", "default": "(none)",
                  "doc": f"[{{name: EFFECT, axes: [...], SI parameters}}, ...]; EFFECT one of {names}; parameters: "
@@ -54,6 +55,8 @@ class EffectsList:
 
     def json_schema(self):
         """JSON Schema for editors: a list of mappings with a catalogue ``name`` (parameters checked by the loader)."""
+        from sins_sim.models.effects import EFFECTS
+
         item = {"type": "object", "required": ["name"],
                 "properties": {"name": {"enum": list(EFFECTS)} if self.catalogue_only else {"type": "string"}}}
         if self.axes is not None:
@@ -65,6 +68,9 @@ class EffectsList:
         """Validate the list; one line naming the item and the rule on error."""
         if value is None:
             return ()
+        # the catalogue (scipy, numba) only for a file that lists effects
+        from sins_sim.models.effects import EFFECTS, make_effect
+
         if not isinstance(value, list):
             raise ConfigError(f"{ctx}: {path}: must be a list of effects, got {value!r}")
         out = []

@@ -35,59 +35,51 @@ from __future__ import annotations
 import math
 import re
 
-from sins_sim.filters import eliminator as _elim
-from sins_sim.models import drive as _drive
-from sins_sim.models import plant as _plant
-from sins_sim.models import readout as _readout
-from sins_sim.models import suspension as _sus
-from sins_sim.models.drive import DriveParams
-from sins_sim.models.pickoff import PickoffParams, PickoffTriadParams
-from sins_sim.models.plant import PlantSettings, check_resolution
-from sins_sim.models.readout import AntiAliasParams, ReadoutParams
-from sins_sim.models.suspension import SuspensionParams
+# Only light imports here: the schema is built from the models' declared ranges (sins_sim.models.ranges,
+# sins_sim.filters.ranges), so a file is checked key by key before the models, the engine, numba and scipy are
+# imported (imu_from_dict imports them once the schema has passed): a wrong file fails in a fraction of a second.
+from sins_sim.filters import ranges as _elim
+from sins_sim.models import ranges as _ranges
 from sins_sim.units import ARCSEC
 from sins_sim.config import block_schema as _block
 from sins_sim.config import filter_params as _fparams
 from sins_sim.config.effects_schema import EffectsList
 from sins_sim.config.schema import ConfigError, ListOf, Map, Num, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml  # re-exported: other modules import it from here
-from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
-from sins_sim.simulation.sins import DriveControl, ImuConfig
 
 __all__ = ["IMU_SCHEMA", "load_yaml", "load_imu", "imu_from_dict"]
 
 
-# The ranges are the models' physical ranges (sins_sim.models.suspension, .drive, .plant, .readout, where each
-# is justified); the schema repeats them so that an error names the YAML key and the reference lists them.
-_K5 = _sus.K5_RANGE_RAD_PER_V[1]
+# The ranges are the models' physical ranges (sins_sim.models.ranges, where each is justified); the schema repeats them so that an error names the YAML key and the reference lists them.
+_K5 = _ranges.K5_RANGE_RAD_PER_V[1]
 
 
 def _suspension_fields(defaults: bool):
     d = (lambda x: x) if defaults else (lambda x: None)
     return {
-        "k1": Num(min=0.0, max=_sus.K1_MAX, default=d(1.75e-4), doc="eq. 9 scale; also k1 < 2 k2"),
-        "k2": Num(unit="rad", min=_sus.K2_RANGE_RAD[0], max=_sus.K2_RANGE_RAD[1], default=d(1.05e-3),
+        "k1": Num(min=0.0, max=_ranges.K1_MAX, default=d(1.75e-4), doc="eq. 9 scale; also k1 < 2 k2"),
+        "k2": Num(unit="rad", min=_ranges.K2_RANGE_RAD[0], max=_ranges.K2_RANGE_RAD[1], default=d(1.05e-3),
                   doc="eq. 9 angle"),
-        "k3": Num(min=0.0, max=_sus.K3_MAX, default=d(4.4e-3), doc="eq. 10 dissipation"),
-        "k4": Num(unit="per_rad", min=_sus.K4_MIN_PER_RAD, max=_sus.K4_MAX_PER_RAD, default=d(250.0),
+        "k3": Num(min=0.0, max=_ranges.K3_MAX, default=d(4.4e-3), doc="eq. 10 dissipation"),
+        "k4": Num(unit="per_rad", min=_ranges.K4_MIN_PER_RAD, max=_ranges.K4_MAX_PER_RAD, default=d(250.0),
                   doc=f"eq. 10 amplitude dependence; the loss k3 (1 + k4 a) + 2 zeta < 1 up to "
-                      f"a = {_sus.LOSS_AMPLITUDE_RAD:g} rad"),
+                      f"a = {_ranges.LOSS_AMPLITUDE_RAD:g} rad"),
         "k5": Num(unit="rad_per_v", min=-_K5, max=_K5, nonzero=True, default=d(-1.2e-5),
-                  doc=f"eq. 14 piezo gain; |k5| >= {_sus.K5_RANGE_RAD_PER_V[0]:g}"),
-        "zeta": Num(min=0.0, max=_sus.ZETA_MAX, default=d(0.0), doc="extra viscous damping ratio"),
+                  doc=f"eq. 14 piezo gain; |k5| >= {_ranges.K5_RANGE_RAD_PER_V[0]:g}"),
+        "zeta": Num(min=0.0, max=_ranges.ZETA_MAX, default=d(0.0), doc="extra viscous damping ratio"),
     }
 
 
 def _drive_fields(defaults: bool):
     d = (lambda x: x) if defaults else (lambda x: None)
-    lo, hi = _drive.AMPLITUDE_RANGE_ARCMIN
-    tlo, thi = _drive.AMPLITUDE_TYPICAL_ARCMIN
+    lo, hi = _ranges.AMPLITUDE_RANGE_ARCMIN
+    tlo, thi = _ranges.AMPLITUDE_TYPICAL_ARCMIN
     return {"amplitude": Num(unit="arcmin", min=lo, max=hi, default=d(3.0),
                              doc=f"dither amplitude; usual {tlo:g}-{thi:g} arcmin (outside: a warning)")}
 
 
-_RATE = dict(min=_plant.RATE_RANGE_HZ[0], max=_plant.RATE_RANGE_HZ[1])
-_F0 = _sus.F0_RANGE_HZ
+_RATE = dict(min=_ranges.PLANT_RATE_RANGE_HZ[0], max=_ranges.PLANT_RATE_RANGE_HZ[1])
+_F0 = _ranges.F0_RANGE_HZ
 
 
 class _SensorsReference:
@@ -145,27 +137,27 @@ IMU_SCHEMA = Map({
                             doc="dither cycles per amplitude measurement"),
         "modulation_depth": Num(min=0.0, max=0.5, default=0.0),
     }, default={}, rules=(
-        f"the drive voltage that holds the amplitude at resonance (eq. 17) must be <= {_drive.V_MAX:g} V (a piezo "
-        f"stack); above {_drive.V_TYPICAL_MAX:g} V a warning",
-        f"the mechanical Q at the amplitude must lie in [{_sus.Q_RANGE[0]:g}, {_sus.Q_RANGE[1]:g}]",
+        f"the drive voltage that holds the amplitude at resonance (eq. 17) must be <= {_ranges.V_MAX:g} V (a piezo "
+        f"stack); above {_ranges.V_TYPICAL_MAX:g} V a warning",
+        f"the mechanical Q at the amplitude must lie in [{_ranges.Q_RANGE[0]:g}, {_ranges.Q_RANGE[1]:g}]",
     )),
     "plant": Map({
         "rate": Num(unit="hz", **_RATE, default=72000.0, doc="integration and readout rate"),
         "hysteresis": Str(choices=("paper", "masing"), default="paper"),
-    }, default={}, rules=(f"rate_hz >= {_plant.MIN_STEPS_PER_PERIOD} x f0_hz of every channel "
-                          f"({_plant.MIN_STEPS_PER_PERIOD} steps per dither period)",)),
+    }, default={}, rules=(f"rate_hz >= {_ranges.MIN_STEPS_PER_PERIOD} x f0_hz of every channel "
+                          f"({_ranges.MIN_STEPS_PER_PERIOD} steps per dither period)",)),
     "readout": Map({
-        "quantum": Num(unit="arcsec", min=_readout.QUANTUM_REAL_RANGE_RAD[0] / ARCSEC,
-                       max=_readout.QUANTUM_REAL_RANGE_RAD[1] / ARCSEC, default=2.42 / 16,
+        "quantum": Num(unit="arcsec", min=_ranges.QUANTUM_REAL_RANGE_RAD[0] / ARCSEC,
+                       max=_ranges.QUANTUM_REAL_RANGE_RAD[1] / ARCSEC, default=2.42 / 16,
                        doc="angle per count (2.42/16: the paper's interpolated fringe)"),
-        "noise": Num(unit="arcsec", min=0.0, max=_readout.NOISE_MAX_RAD / ARCSEC, default=0.0,
+        "noise": Num(unit="arcsec", min=0.0, max=_ranges.NOISE_MAX_RAD / ARCSEC, default=0.0,
                      doc="white noise before quantisation (RMS)"),
-        "output_rate": Num(unit="hz", min=100.0, max=_readout.RATE_MAX_HZ, default=7200.0,
+        "output_rate": Num(unit="hz", min=100.0, max=_ranges.RATE_MAX_HZ, default=7200.0,
                            doc="filter rate; plant.rate_hz / output_rate_hz an integer, > 2 f0"),
         "anti_alias": Map({
-            "cutoff": Num(unit="hz", min=0.0, min_exclusive=True, max=_readout.RATE_MAX_HZ / 2, default=9000.0,
+            "cutoff": Num(unit="hz", min=0.0, min_exclusive=True, max=_ranges.RATE_MAX_HZ / 2, default=9000.0,
                           doc="< plant.rate_hz / 2"),
-            "numtaps": Num(min=1, max=_readout.MAX_NUMTAPS, integer=True, default=21, doc="odd"),
+            "numtaps": Num(min=1, max=_ranges.MAX_NUMTAPS, integer=True, default=21, doc="odd"),
         }, default={}, allow_null=True, doc="null: no anti-alias filter"),
     }, default={}),
     "correcting": Map({"hysteresis": Str(choices=("paper", "masing"), default="paper")}, default={}),
@@ -178,7 +170,7 @@ IMU_SCHEMA = Map({
     "channels": Map({
         axis: Map({
             "f0": Num(unit="hz", min=_F0[0], max=_F0[1], required=True,
-                      doc=f"small-amplitude resonance; usual {_sus.F0_TYPICAL_HZ[0]:g}-{_sus.F0_TYPICAL_HZ[1]:g} Hz "
+                      doc=f"small-amplitude resonance; usual {_ranges.F0_TYPICAL_HZ[0]:g}-{_ranges.F0_TYPICAL_HZ[1]:g} Hz "
                           "(outside: a warning)"),
             "suspension": Map(_suspension_fields(False), default={}, doc="overrides of the shared suspension"),
             "drive": Map(_drive_fields(False), default={}, doc="overrides of the shared drive"),
@@ -229,6 +221,9 @@ def _merged(shared: dict, own: dict) -> dict:
 
 def _check_shared(c: dict, ctx: str, path: str) -> None:
     """The shared suspension and drive must be physical on their own, even where every channel overrides them."""
+    from sins_sim.models.drive import DriveParams
+    from sins_sim.models.suspension import SuspensionParams
+
     sus, where = c["suspension"], f"{path + '.' if path else ''}suspension"
     try:
         shared = SuspensionParams(f0_hz=c["channels"]["x"]["f0_hz"], k1=sus["k1"], k2=sus["k2_rad"], k3=sus["k3"],
@@ -274,6 +269,10 @@ def _check_rates(plant_hz: float, output_hz: float, ctx: str, pre: str) -> None:
                       f"e.g. output_rate_hz {hint} Hz, or a plant.rate_hz that is a multiple of {output_hz:g}")
 
 
+#: ``imu_from_dict``'s marker for an IMU without a ``sensors:`` section (``sensors: null`` is a section).
+_NO_SENSORS = object()
+
+
 def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConfig:
     """Validate an IMU mapping and build the ImuConfig (errors name ``ctx`` and the key path).
 
@@ -282,26 +281,36 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
     (what the filters believe, :mod:`sins_sim.config.filter_params`) are validated by their own
     parsers; ``base_dir`` resolves a diagnosis file named there (default: the working directory).
     """
-    from sins_sim.models.sensor_errors import sensor_params_from_dict
-
     pre = f"{path + '.' if path else ''}"
     fspec = _fparams.parse_filter_parameters(True, ctx, f"{pre}filter_parameters")
     if isinstance(doc, dict) and "filter_parameters" in doc:
         doc = dict(doc)
         fspec = _fparams.parse_filter_parameters(doc.pop("filter_parameters"), ctx, f"{pre}filter_parameters")
-    sensors = None
+    sensors_doc = _NO_SENSORS
     if isinstance(doc, dict) and "sensors" in doc:
         doc = dict(doc)
-        try:
-            sensors = sensor_params_from_dict(doc.pop("sensors"), ctx, f"{path + '.' if path else ''}sensors")
-        except ConfigError:
-            raise
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: {exc}" if not str(exc).startswith(ctx) else str(exc)) from None
+        sensors_doc = doc.pop("sensors")
     c = validate(doc, IMU_SCHEMA, ctx, path)
     ro = c["readout"]
     anti = ro["anti_alias"]
     _check_rates(c["plant"]["rate_hz"], ro["output_rate_hz"], ctx, pre)
+    # The keys, types, ranges and rates are right: the models and the engine (numba, scipy) are needed from here on.
+    from sins_sim.models.drive import DriveParams
+    from sins_sim.models.plant import PlantSettings, check_resolution
+    from sins_sim.models.readout import AntiAliasParams, ReadoutParams
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+    from sins_sim.models.suspension import SuspensionParams
+    from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
+    from sins_sim.simulation.sins import DriveControl, ImuConfig
+
+    sensors = None
+    if sensors_doc is not _NO_SENSORS:
+        try:
+            sensors = sensor_params_from_dict(sensors_doc, ctx, f"{pre}sensors")
+        except ConfigError:
+            raise
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: {exc}" if not str(exc).startswith(ctx) else str(exc)) from None
     try:
         readout = ReadoutParams(
             quantum_rad=ro["quantum_rad"], noise_rad=ro["noise_rad"], input_rate_hz=c["plant"]["rate_hz"],
@@ -354,6 +363,7 @@ def _pickoff_and_lms(c: dict, fs_hz: float, ctx: str, pre: str, dither_hz: tuple
     """The pickoff triad and the LMS stripper's settings, checked as the engine will build them (one line naming
     the key otherwise)."""
     from sins_sim.filters.lms_stripper import LmsStripperDesign
+    from sins_sim.models.pickoff import PickoffParams, PickoffTriadParams
 
     p = c["pickoff"]
     try:

@@ -422,9 +422,9 @@ class Scenario:
             raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {c['duration_s']:g}, "
                               f"got {c['navigation']['start_s']:g}")
         _check_file_trajectory(doc, ctx)
-        # the IMU, the motion and the navigation are built from here on: the models and the engine are needed
+        # the IMU, the motion and the navigation are built from here on; the IMU's own schema is checked before
+        # the models and the engine are imported (sins_sim.config.imu), so a wrong IMU file fails as fast
         from sins_sim.config.imu import imu_from_dict
-        from sins_sim.simulation.sins import NavSettings
 
         self.ctx = ctx
         #: the mapping validated (overrides applied) and the folder its relative paths are taken from
@@ -473,6 +473,8 @@ class Scenario:
         self.motion = _build_motion(c["motion"], self.seed, ctx)
         self.filters = tuple(dict.fromkeys(c["filters"]))
         nv = c["navigation"]
+        from sins_sim.simulation.sins import NavSettings
+
         try:
             self.nav = NavSettings(coning=nv["coning"], sculling=nv["sculling"], start_s=nv["start_s"],
                                    n_sub=nv["n_sub"], vertical=nv["vertical"],

@@ -38,10 +38,9 @@ FS_MAX_HZ = 1.0e6
 #: Prototype order: the paper's band-stop has order 5 (10 poles); beyond 20 (40 poles) the sections' poles
 #: crowd the unit circle and the design says more about rounding than about a filter.
 MAX_ORDER = 20
-#: Pass-band ripple (dB): a band-stop that ripples more than 6 dB (a factor 2) in its pass band is no
-#: dither eliminator. Stop-band attenuation (dB): 200 dB is 1e-10, below float64 rounding of the angles.
-MAX_RP_DB = 6.0
-MAX_RS_DB = 200.0
+# the ripple limits: declared in sins_sim.filters.ranges (no heavy import: a configuration file is checked against
+# them before scipy and numba load), re-exported here
+from sins_sim.filters.ranges import MAX_RP_DB, MAX_RS_DB  # noqa: E402
 
 # scipy >= 1.15 names it freqz_sos; sosfreqz is the older name (same function).
 _freqz_sos = getattr(signal, "freqz_sos", None) or signal.sosfreqz

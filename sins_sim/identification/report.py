@@ -166,6 +166,141 @@ def _json_clean(x):
     return x
 
 
+# --- figures ---------------------------------------------------------------------------------------------
+#: The figures of a diagnosis, each ``<kind>.png`` of the report folder (:func:`write_report`): after a refit
+#: ``spectrum`` (the worst axis' residual spectrum before and after the best effect), ``envelope`` (the residual
+#: RMS over time, every axis) and ``ranking`` (gap closed and held-out error per candidate, when one was fitted);
+#: after data the checks refused, ``angle`` (measured minus table angle with the failures marked).
+DIAGNOSIS_FIGURES = ("spectrum", "envelope", "ranking", "angle")
+
+
+def figure_kinds(diag: Diagnosis) -> list:
+    """The figures ``diag`` has data for, in the report's order (no empty figure)."""
+    if diag.findings:
+        return ["angle"]
+    return ["spectrum", "envelope"] + (["ranking"] if diag.candidates else [])
+
+
+def diagnosis_figure(diag: Diagnosis, kind: str, plt=None):
+    """One figure of the report (:data:`DIAGNOSIS_FIGURES`) as a :class:`matplotlib.figure.Figure`, left open.
+
+    Parameters
+    ----------
+    diag : Diagnosis
+    kind : str
+        One of :func:`figure_kinds` of ``diag``.
+    plt : module, optional
+        ``matplotlib.pyplot`` as the caller set it up (the report forces Agg; a notebook keeps its backend).
+
+    Raises
+    ------
+    ValueError
+        A kind ``diag`` has no data for.
+    """
+    if kind not in figure_kinds(diag):
+        raise ValueError(f"diagnosis figure {kind!r}: this diagnosis has {', '.join(figure_kinds(diag))} "
+                         f"(of {', '.join(DIAGNOSIS_FIGURES)})")
+    if plt is None:
+        import matplotlib.pyplot as plt
+    return {"spectrum": _spectrum_figure, "envelope": _envelope_figure, "ranking": _ranking_figure,
+            "angle": _angle_figure}[kind](diag, plt)
+
+
+def _spectrum_figure(diag: Diagnosis, plt):
+    """The worst axis' residual spectrum before and after the best effect, with the floor and the excess band."""
+    rec = diag.recording
+    axis = diag.gap["axis"] or max(rec.axes, key=lambda a: diag.baseline["fits"][a].rms)
+    best = diag.candidates[0] if diag.candidates else None
+    floor = diag.floors[axis]["floor_rad"]
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    loc = diag.localisation[axis]
+    ax.semilogy(loc["spectrum"]["f"], np.sqrt(loc["spectrum"]["psd"]) / ARCSEC, label="baseline refit")
+    if best is not None:
+        lb = localise(best["fits"][axis].residual, floor, rec.fs_hz)
+        ax.semilogy(lb["spectrum"]["f"], np.sqrt(lb["spectrum"]["psd"]) / ARCSEC, label=f"with {best['effect']}")
+    ax.axhline(math.sqrt(loc["spectrum"]["floor_psd"]) / ARCSEC, color="k", ls="--", label="noise floor")
+    if diag.gap["band_hz"]:
+        ax.axvspan(*diag.gap["band_hz"], color="orange", alpha=0.2, label="band with the excess")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("residual ASD (arcsec/sqrt(Hz))")
+    ax.set_title(f"axis {axis}: residual spectrum")
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def _envelope_figure(diag: Diagnosis, plt):
+    """The residual RMS over time on every axis, before and after the best effect."""
+    rec = diag.recording
+    axis = diag.gap["axis"] or max(rec.axes, key=lambda a: diag.baseline["fits"][a].rms)
+    best = diag.candidates[0] if diag.candidates else None
+    floor = diag.floors[axis]["floor_rad"]
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for a in rec.axes:
+        env = diag.localisation[a]["envelope"]
+        ax.plot(env["t"], env["rms"] / ARCSEC, label=f"{a} baseline")
+        if best is not None and a in best["fits"] and best["fits"][a] is not diag.baseline["fits"][a]:
+            eb = localise(best["fits"][a].residual, diag.floors[a]["floor_rad"], rec.fs_hz)["envelope"]
+            ax.plot(eb["t"], eb["rms"] / ARCSEC, ls=":", label=f"{a} with {best['effect']}")
+    ax.axhline(floor / ARCSEC, color="k", ls="--", label="noise floor")
+    if diag.gap["time_s"]:
+        ax.axvspan(*diag.gap["time_s"], color="orange", alpha=0.15, label="window with the excess")
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("residual RMS (arcsec)")
+    ax.set_title("residual envelope")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def _ranking_figure(diag: Diagnosis, plt):
+    """Per candidate effect the gap it closed and its held-out error (best first, from the top)."""
+    from sins_sim.identification.verdict import MIN_PARTIAL
+
+    names = [c["effect"] for c in diag.candidates]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
+    a1.barh(names[::-1], [c["gap_reduction"] for c in diag.candidates][::-1])
+    a1.axvline(MIN_PARTIAL, color="0.5", ls=":", label=f"partly explained ({MIN_PARTIAL:g})")
+    g_min = DiagnoseSettings().min_gap_reduction
+    a1.axvline(g_min, color="k", ls="--", label=f"explained ({g_min:g}, default)")
+    a1.legend(fontsize=7)
+    a2.barh(names[::-1], [c["score"] for c in diag.candidates][::-1])
+    if diag.verdict.get("baseline_score"):
+        a2.axvline(diag.verdict["baseline_score"], color="k", ls="--", label="baseline")
+        a2.legend()
+    a1.set_xlabel("gap reduction (fraction of the excess power)")
+    a2.set_xlabel("held-out residual RMS (arcsec)")
+    a1.set_title("candidates: gap closed")
+    a2.set_title("candidates: held-out error")
+    fig.tight_layout()
+    return fig
+
+
+def _angle_figure(diag: Diagnosis, plt):
+    """Each axis' measured angle minus the table angle over time, with the time of each finding marked."""
+    from sins_sim.identification.recording_inputs import _table_angles
+
+    rec = diag.recording
+    t = np.arange(rec.n_samples) / rec.fs_hz
+    table = _table_angles(rec)
+    fig, axs = plt.subplots(len(rec.axes), 1, figsize=(8, 2.2 + 1.6 * len(rec.axes)), sharex=True, squeeze=False)
+    for ax, a in zip(axs[:, 0], rec.axes):
+        ax.plot(t, (rec.angle(a) - table[a]) / ARCSEC, lw=0.5)
+        for f in diag.findings:
+            if f["axis"] != a or f["time_s"] is None:
+                continue
+            if isinstance(f["time_s"], (list, tuple)):
+                ax.axvspan(f["time_s"][0], f["time_s"][1], color="red", alpha=0.15)
+            else:
+                ax.axvline(f["time_s"], color="red", ls="--")
+        ax.set_ylabel(f"{a} (arcsec)")
+    axs[-1, 0].set_xlabel("time (s)")
+    axs[0, 0].set_title("measured angle minus table angle; red: where a data check failed")
+    fig.tight_layout()
+    return fig
+
+
 # --- report ----------------------------------------------------------------------------------------------
 def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     """Write ``report.md`` with ``spectrum.png``, ``envelope.png``, ``ranking.png`` (and the JSON if asked).
@@ -191,69 +326,12 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     if diag.findings:
         _write_findings_report(diag, js, out, plt)
         return js
-    axis = diag.gap["axis"] or max(rec.axes, key=lambda a: diag.baseline["fits"][a].rms)
-    best = diag.candidates[0] if diag.candidates else None
-    floor = diag.floors[axis]["floor_rad"]
-    # spectrum before / after the best effect
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    loc = diag.localisation[axis]
-    ax.semilogy(loc["spectrum"]["f"], np.sqrt(loc["spectrum"]["psd"]) / ARCSEC, label="baseline refit")
-    if best is not None:
-        lb = localise(best["fits"][axis].residual, floor, fs)
-        ax.semilogy(lb["spectrum"]["f"], np.sqrt(lb["spectrum"]["psd"]) / ARCSEC, label=f"with {best['effect']}")
-    ax.axhline(math.sqrt(loc["spectrum"]["floor_psd"]) / ARCSEC, color="k", ls="--", label="noise floor")
-    if diag.gap["band_hz"]:
-        ax.axvspan(*diag.gap["band_hz"], color="orange", alpha=0.2, label="band with the excess")
-    ax.set_xlabel("frequency (Hz)")
-    ax.set_ylabel("residual ASD (arcsec/sqrt(Hz))")
-    ax.set_title(f"axis {axis}: residual spectrum")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(out / "spectrum.png", dpi=110)
-    plt.close(fig)
-    # envelope over time, every axis
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    for a in rec.axes:
-        env = diag.localisation[a]["envelope"]
-        ax.plot(env["t"], env["rms"] / ARCSEC, label=f"{a} baseline")
-        if best is not None and a in best["fits"] and best["fits"][a] is not diag.baseline["fits"][a]:
-            eb = localise(best["fits"][a].residual, diag.floors[a]["floor_rad"], fs)["envelope"]
-            ax.plot(eb["t"], eb["rms"] / ARCSEC, ls=":", label=f"{a} with {best['effect']}")
-    ax.axhline(floor / ARCSEC, color="k", ls="--", label="noise floor")
-    if diag.gap["time_s"]:
-        ax.axvspan(*diag.gap["time_s"], color="orange", alpha=0.15, label="window with the excess")
-    ax.set_yscale("log")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("residual RMS (arcsec)")
-    ax.set_title("residual envelope")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / "envelope.png", dpi=110)
-    plt.close(fig)
-    # ranking (only when an effect was fitted: no empty figure)
-    names = [c["effect"] for c in diag.candidates]
-    figures = ["spectrum.png", "envelope.png"]
-    if names:
-        fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
-        from sins_sim.identification.verdict import MIN_PARTIAL
-
-        a1.barh(names[::-1], [c["gap_reduction"] for c in diag.candidates][::-1])
-        a1.axvline(MIN_PARTIAL, color="0.5", ls=":", label=f"partly explained ({MIN_PARTIAL:g})")
-        g_min = DiagnoseSettings().min_gap_reduction
-        a1.axvline(g_min, color="k", ls="--", label=f"explained ({g_min:g}, default)")
-        a1.legend(fontsize=7)
-        a2.barh(names[::-1], [c["score"] for c in diag.candidates][::-1])
-        if diag.verdict.get("baseline_score"):
-            a2.axvline(diag.verdict["baseline_score"], color="k", ls="--", label="baseline")
-            a2.legend()
-        a1.set_xlabel("gap reduction (fraction of the excess power)")
-        a2.set_xlabel("held-out residual RMS (arcsec)")
-        a1.set_title("candidates: gap closed")
-        a2.set_title("candidates: held-out error")
-        fig.tight_layout()
-        fig.savefig(out / "ranking.png", dpi=110)
+    figures = []
+    for kind in figure_kinds(diag):
+        fig = diagnosis_figure(diag, kind, plt)
+        fig.savefig(out / f"{kind}.png", dpi=110)
         plt.close(fig)
-        figures.append("ranking.png")
+        figures.append(f"{kind}.png")
     v = js["verdict"]
     lines = [f"# Sim-to-real diagnosis: {rec.source}", "",
              f"- experiment `{rec.experiment}`, axes {', '.join(rec.axes)}, {rec.n_samples} samples at "
@@ -326,25 +404,8 @@ def _write_findings_report(diag: Diagnosis, js: dict, out: Path, plt) -> None:
     The figure shows each axis' measured angle minus the table angle over time, with the time of each
     finding marked, so that the user sees where the data went wrong.
     """
-    from sins_sim.identification.recording_inputs import _table_angles
-
     rec = diag.recording
-    t = np.arange(rec.n_samples) / rec.fs_hz
-    table = _table_angles(rec)
-    fig, axs = plt.subplots(len(rec.axes), 1, figsize=(8, 2.2 + 1.6 * len(rec.axes)), sharex=True, squeeze=False)
-    for ax, a in zip(axs[:, 0], rec.axes):
-        ax.plot(t, (rec.angle(a) - table[a]) / ARCSEC, lw=0.5)
-        for f in diag.findings:
-            if f["axis"] != a or f["time_s"] is None:
-                continue
-            if isinstance(f["time_s"], (list, tuple)):
-                ax.axvspan(f["time_s"][0], f["time_s"][1], color="red", alpha=0.15)
-            else:
-                ax.axvline(f["time_s"], color="red", ls="--")
-        ax.set_ylabel(f"{a} (arcsec)")
-    axs[-1, 0].set_xlabel("time (s)")
-    axs[0, 0].set_title("measured angle minus table angle; red: where a data check failed")
-    fig.tight_layout()
+    fig = diagnosis_figure(diag, "angle", plt)
     fig.savefig(out / "angle.png", dpi=110)
     plt.close(fig)
     v = js["verdict"]

@@ -243,7 +243,7 @@ def run_budget(path, out_dir, overrides: dict | None = None, workers: int = 2, p
 
     plot_budget(budget, out / "budget.png", f"{sc.name}: error budget after {sc.duration_s:g} s")
     (out / "report.md").write_text(_report(budget))
-    from sins_sim.jobs.results import BudgetResult
+    from sins_sim.results import BudgetResult
 
     return BudgetResult(budget)
 

@@ -155,7 +155,7 @@ class Manifest:
 
     def stop_clock(self) -> None:
         """Finish the timings now, for a job computed in memory and written later (a notebook's
-        :meth:`~sins_sim.jobs.results.MissionResult.save`): its wall time is the run's, not the session's."""
+        :meth:`~sins_sim.results.MissionResult.save`): its wall time is the run's, not the session's."""
         t = os.times()
         self.doc.update(finished_utc=_utc_now(), wall_s=time.perf_counter() - self._t0,
                         cpu_s=(t.user - self._times0.user) + (t.system - self._times0.system),

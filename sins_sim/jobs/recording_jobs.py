@@ -146,7 +146,8 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
     Returns
     -------
     DiagnosisResult
-        The JSON as a dict, with ``to_pandas()`` (:class:`sins_sim.jobs.results.DiagnosisResult`).
+        The JSON as a dict, with ``to_pandas()`` and ``plot(kind)`` (:class:`sins_sim.results.DiagnosisResult`,
+        which keeps the diagnosis for its figures).
     """
     from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording, write_report
 
@@ -154,18 +155,18 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
     settings = DiagnoseSettings(effects=tuple(effects) if effects else None)
     if threads is not None:
         settings = replace(settings, threads=int(threads))
-    from sins_sim.jobs.results import DiagnosisResult
+    from sins_sim.results import DiagnosisResult
 
     diag = diagnose_recording(rec, settings)
     if report_dir is not None:
-        return DiagnosisResult(write_report(diag, report_dir, json_out))
+        return DiagnosisResult(write_report(diag, report_dir, json_out), diagnosis=diag)
     js = diag.to_json()
     if json_out is not None:
         import json
 
         Path(json_out).parent.mkdir(parents=True, exist_ok=True)
         Path(json_out).write_text(json.dumps(js, indent=2) + "\n")
-    return DiagnosisResult(js)
+    return DiagnosisResult(js, diagnosis=diag)
 
 
 def _diagnose_task(task) -> dict:

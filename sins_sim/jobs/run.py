@@ -169,8 +169,8 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
     """Run a scenario file end to end; write the results into ``out_dir``; return the metrics.
 
     The steps are :func:`prepare_run` (validate), :func:`compute_run` (the engine and the metrics, in
-    memory) and :func:`write_run` (the folder); :func:`sins_sim.jobs.results.run` does the first two
-    for a notebook and :meth:`~sins_sim.jobs.results.MissionResult.save` the last.
+    memory) and :func:`write_run` (the folder); :func:`sins_sim.jobs.notebook.run` does the first two
+    for a notebook and :meth:`~sins_sim.results.MissionResult.save` the last.
 
     Parameters
     ----------

@@ -15,27 +15,14 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim.models.suspension import Q_RANGE, SuspensionParams
-from sins_sim.units import PIEZO_V_MAX
 from sins_sim.units import ARCMIN
 
 __all__ = ["DriveParams", "DriveSignal", "AMPLITUDE_RANGE_ARCMIN", "AMPLITUDE_TYPICAL_ARCMIN", "V_MAX",
            "V_TYPICAL_MAX", "RATE_MAX_HZ"]
 
-# --- physical ranges (issue 12, point 4) ------------------------------------------------------------------
-#: Dither amplitude a_m (arcmin). RLG dithers run at 0.1-30 arcmin (the paper: 3 arcmin, a peak rate of
-#: ~130 deg/s, far above the lock-in band): the usual band, outside it a warning. Below 0.01 arcmin
-#: (0.6 arcsec, a few readout quanta) there is no dither to remove; above 60 arcmin (1 deg) the flexure
-#: would be far beyond its elastic range and eq. 9/10 beyond their domain.
-AMPLITUDE_RANGE_ARCMIN = (0.01, 60.0)
-AMPLITUDE_TYPICAL_ARCMIN = (0.1, 30.0)
-#: Drive voltage amplitude V_m (V): piezo stacks are rated to 100-200 V (low-voltage stacks) and up to
-#: ~1000 V (high-voltage stacks). Above V_TYPICAL_MAX a warning, above V_MAX refused: the suspension's k5
-#: (rad/V) or the amplitude is then wrong (k5 = 1e-30 asked for 1.25e25 V).
-V_MAX = PIEZO_V_MAX  # 1000 V, shared with the recording reader (a recorded drive beyond it is refused there)
-V_TYPICAL_MAX = 200.0
-#: DAC, plant and readout rates (Hz): at most 1 MHz (14 x the paper's 72 kHz). The engine holds one 1 s chunk
-#: at the plant rate in memory per axis (~20 float64 per step: 160 MB at 1 MHz).
-RATE_MAX_HZ = 1.0e6
+# --- physical ranges (issue 12, point 4): declared in sins_sim.models.ranges, re-exported here
+from sins_sim.models.ranges import (AMPLITUDE_RANGE_ARCMIN, AMPLITUDE_TYPICAL_ARCMIN, RATE_MAX_HZ,  # noqa: E402
+                                    V_MAX, V_TYPICAL_MAX)
 
 
 @dataclass(frozen=True)

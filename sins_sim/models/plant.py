@@ -38,16 +38,8 @@ from sins_sim.models.suspension import SuspensionParams
 __all__ = ["HYSTERESIS_RULES", "INTEGRATORS", "PlantSettings", "Plant", "simulate_plant", "RATE_RANGE_HZ",
            "MIN_STEPS_PER_PERIOD", "check_resolution"]
 
-#: Plant rate (Hz). At least 1 kHz; at most 1 MHz (14 x the paper's 72 kHz): the engine keeps one 1 s chunk
-#: at the plant rate in memory per axis (~20 float64 per step, 160 MB at 1 MHz) and a second costs ~0.2 s of
-#: CPU per axis there.
-RATE_RANGE_HZ = (1.0e3, 1.0e6)
-#: Plant steps per period of the small-amplitude resonance f0. The integrators locate the turning points
-#: of eq. 10 inside a step and the exact one propagates the oscillator exactly, but the drive is held over
-#: a step and eq. 9/10 are sampled per step: at 72 kHz (48 steps per period of a 1.5 kHz motion) the exact
-#: integrator agrees with RK4 at 288 kHz within 0.003 arcsec RMS (tests/test_plant_exact.py). 40 steps keep
-#: the whole 100-1500 Hz band of dither suspensions on the default 72 kHz plant.
-MIN_STEPS_PER_PERIOD = 40
+# the plant's ranges: declared in sins_sim.models.ranges, re-exported here
+from sins_sim.models.ranges import MIN_STEPS_PER_PERIOD, PLANT_RATE_RANGE_HZ as RATE_RANGE_HZ  # noqa: E402
 
 
 def check_resolution(suspension: SuspensionParams, rate_hz: float) -> None:

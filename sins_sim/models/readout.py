@@ -38,20 +38,9 @@ from sins_sim.units import INTERPOLATED_QUANTUM_RAD
 __all__ = ["AntiAliasParams", "ReadoutParams", "quantise", "Decimator", "Readout", "QUANTUM_RANGE_RAD",
            "QUANTUM_REAL_RANGE_RAD", "NOISE_MAX_RAD", "RATE_MAX_HZ", "MAX_NUMTAPS"]
 
-# --- physical ranges (issue 12, point 4) ------------------------------------------------------------------
-_ARCSEC = 4.84813681109536e-06
-#: Readout quantum q (rad): one fringe is 1.2-6 arcsec for 10-50 cm cavities (2.42 arcsec at 28 cm) and
-#: interpolators split it into up to 1/256, so real readouts lie in 0.001-60 arcsec (QUANTUM_REAL_RANGE_RAD, what
-#: the YAML files accept). The library goes down to 1e-15 rad for "unquantised" references (the reproduction
-#: uses 1e-13 rad): the int64 counts floor(phi / q) still hold block angles up to 9e3 rad.
-QUANTUM_RANGE_RAD = (1e-15, 60.0 * _ARCSEC)
-QUANTUM_REAL_RANGE_RAD = (0.001 * _ARCSEC, 60.0 * _ARCSEC)
-#: White readout noise before quantisation (rad): at most 60 arcsec RMS (25 fringes).
-NOISE_MAX_RAD = 60.0 * _ARCSEC
-#: Sampling rates (Hz): at most 1 MHz (see sins_sim.models.plant.RATE_RANGE_HZ).
-RATE_MAX_HZ = 1.0e6
-#: Anti-alias taps: at most 1001 (a 500-sample delay, 7 ms at 72 kHz; the paper's FIR has 21).
-MAX_NUMTAPS = 1001
+# --- physical ranges (issue 12, point 4): declared in sins_sim.models.ranges, re-exported here
+from sins_sim.models.ranges import (MAX_NUMTAPS, NOISE_MAX_RAD, QUANTUM_RANGE_RAD,  # noqa: E402
+                                    QUANTUM_REAL_RANGE_RAD, RATE_MAX_HZ)
 
 
 @dataclass(frozen=True)

@@ -22,45 +22,11 @@ __all__ = ["SuspensionParams", "PAPER_SUSPENSION", "nonl_array", "F0_RANGE_HZ", 
            "K2_RANGE_RAD", "K3_MAX", "K4_MAX_PER_RAD", "K4_MIN_PER_RAD", "LOSS_AMPLITUDE_RAD", "K5_RANGE_RAD_PER_V",
            "ZETA_MAX", "Q_RANGE", "check_range"]
 
-# --- physical ranges (issue 12, point 4) ------------------------------------------------------------------
-# A value outside a RANGE is refused with a ValueError naming the field; one outside a TYPICAL band is
-# legal but unusual and draws one warning. The YAML schemas (sins_sim/config/imu.py) use the same numbers.
-#
-#: f0 (Hz). Mechanically dithered RLGs resonate at 100-1500 Hz (the paper's 28 cm gyro: 386 Hz; small
-#: tactical gyros up to ~1.5 kHz): that is the usual band. Below 20 Hz the "dither" would sit inside the
-#: vehicle's own motion band; above 5 kHz no flexure carries a laser block at arcminute amplitudes.
-F0_RANGE_HZ = (20.0, 5000.0)
-F0_TYPICAL_HZ = (100.0, 1500.0)
-#: k1 (eq. 9 softening scale). The slope of Nonl tends to -k1 / (2 k2) at large deflection, so the
-#: restoring term delta + Nonl(delta) keeps growing only while k1 < 2 k2 (checked too); the paper's
-#: 1.75e-4 is 8 % of that. 0.1 bounds k1 on its own (a 10 % stiffness change is an extreme spring).
-K1_MAX = 0.1
-#: k2 (rad), the deflection at which eq. 9 sets in: the paper's 1.05e-3 rad (3.6 arcmin) is of the order
-#: of the dither; 1e-6 rad (0.2 arcsec) to 0.1 rad (5.7 deg) covers any flexure.
-K2_RANGE_RAD = (1e-6, 0.1)
-#: k3 (eq. 10 hysteretic loss): 1/Q = k3 (1 + k4 a); metal flexures have loss factors of 1e-4..1e-2
-#: (the paper: 4.4e-3, Q = 187 at 3 arcmin). 0.2 (Q = 5) is a suspension that barely resonates.
-K3_MAX = 0.2
-#: k4 (1/rad), eq. 10's amplitude dependence: the paper's 250 /rad doubles the loss at 14 arcmin;
-#: 1e4 /rad would multiply it by 90 at 30 arcmin. It is bounded below by the loss rule (LOSS_AMPLITUDE_RAD).
-K4_MAX_PER_RAD = 1.0e4
-#: The loss rule: 1/Q(a) = k3 (1 + k4 a) + 2 zeta must stay in (0, 1) for every deflection a up to 0.05 rad
-#: (172 arcmin; beyond it a deflection is unphysical in this model: the correcting filter's D_LIMIT_RAD).
-#: A negative loss pumps energy into the suspension and a loss above 1 is no resonance: with either, eq. 5,
-#: which inverts eq. 10 on its own deflection estimate, runs away to inf (found by tests/test_properties.py:
-#: k3 = 0.17, k4 = -9200 /rad, Q = 8 at the dither, NaN within 0.2 s). Hence k4 >= -1 / 0.05 = -20 /rad.
-LOSS_AMPLITUDE_RAD = 0.05
-K4_MIN_PER_RAD = -1.0 / LOSS_AMPLITUDE_RAD
-#: |k5| (rad/V), eq. 14 piezo gain: a stack deflects the suspension by 1e-7..1e-4 rad per volt at DC (the
-#: paper: 1.2e-5). Outside 1e-9..1e-2 the drive voltage for any dither is absurd (1e-30 asked for a
-#: 1e25 V drive); the drive voltage itself is checked in sins_sim.models.drive (<= 1000 V).
-K5_RANGE_RAD_PER_V = (1e-9, 1e-2)
-#: zeta, the extra viscous damping ratio: 0.1 alone gives Q = 5 (see K3_MAX).
-ZETA_MAX = 0.1
-#: Mechanical Q at the dither amplitude: RLG dither suspensions have Q of 50-1000; below 5 it is no
-#: resonance (the drive at F(a) and eq. 5's notch lose their meaning), above 1e6 the dither would take
-#: Q / (pi f0) > 10 min to settle at 500 Hz. Checked where the amplitude is known (DriveParams.resolve).
-Q_RANGE = (5.0, 1.0e6)
+# --- physical ranges (issue 12, point 4): declared in sins_sim.models.ranges (no heavy import there, so a
+# configuration file is checked against them before numba and scipy load) and re-exported here
+from sins_sim.models.ranges import (F0_RANGE_HZ, F0_TYPICAL_HZ, K1_MAX, K2_RANGE_RAD, K3_MAX,  # noqa: E402
+                                    K4_MAX_PER_RAD, K4_MIN_PER_RAD, K5_RANGE_RAD_PER_V, LOSS_AMPLITUDE_RAD,
+                                    Q_RANGE, ZETA_MAX)
 
 
 def check_range(owner: str, field: str, value: float, lo: float, hi: float, unit: str = "", why: str = "") -> float:

@@ -94,7 +94,7 @@ def symlog_threshold(values, quantile: float = 0.5, floor: float = 1e-12) -> flo
 def _pyplot(headless: bool = True):
     """pyplot; ``headless`` (figures written to files) selects Agg when pyplot is not loaded yet (a command
     line run opens no window). A session that already has pyplot (a notebook, whose inline backend shows
-    the figures :meth:`sins_sim.jobs.results.MissionResult.plot` returns) keeps its backend: switching it
+    the figures :meth:`sins_sim.results.MissionResult.plot` returns) keeps its backend: switching it
     would close the session's open figures."""
     import sys
 

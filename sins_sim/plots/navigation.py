@@ -6,7 +6,7 @@ the same colour, so nothing between two stored samples is hidden or aliased. Col
 come from :mod:`sins_sim.plots.common` (one map for every figure); a figure without data is not
 written. Every ``plot_*`` function returns its matplotlib Figure: given a ``path`` it writes the
 figure there and closes it (the CLI), without one it leaves it open (a notebook,
-:meth:`sins_sim.jobs.results.MissionResult.plot`).
+:meth:`sins_sim.results.MissionResult.plot`).
 """
 
 from __future__ import annotations

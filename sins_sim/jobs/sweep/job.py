@@ -32,7 +32,7 @@ from sins_sim.jobs.sweep.summary import (DRIVER_ALPHA, driver_tests, metric_filt
 from sins_sim.jobs.sweep.tasks import (HEADLINE_METRICS, METRICS, PARAM_PREFIX, build_tasks, package_version,
                                        run_task)
 
-__all__ = ["run_sweep", "rerun", "prepare_sweep", "parameter_label", "batch_size", "CONNECT_TIMEOUT_S"]
+__all__ = ["run_sweep", "rerun", "find_task", "prepare_sweep", "parameter_label", "batch_size", "CONNECT_TIMEOUT_S"]
 
 #: A Dask task (a batch of runs) should last about this long (s): :func:`batch_size`.
 TARGET_TASK_S = 1.0
@@ -383,7 +383,7 @@ def run_sweep(path, out, scheduler: str | None = None, workers: int | None = Non
     manifest.doc["sweep"] = {"name": sweep.name, "tasks": len(tasks), "already_done": already, "computed": ok,
                              "failed": failed}
     manifest.write(store.root)  # the folder grows over resumes: the manifest is the last invocation's
-    from sins_sim.jobs.results import SweepResult
+    from sins_sim.results import SweepResult
 
     return SweepResult({"name": sweep.name, "summary": summary, "tasks": len(tasks), "already_done": already,
                         "computed": ok, "failed": failed, "wall_s": wall,
@@ -404,6 +404,36 @@ def _same_value(a, b) -> bool:
             return False
         return a == b or (math.isnan(a) and math.isnan(b))
     return a == b
+
+
+def find_task(path, run_id: str, flag: str = "--rerun"):
+    """The task of one run of a sweep file: by its key or as ``UNIT:SCENARIO`` (:func:`rerun`).
+
+    Raises
+    ------
+    ConfigError
+        No such run (the message starts with ``flag``, the option or function the user called).
+    """
+    import re
+
+    sweep = load_sweep(path)
+    m = re.fullmatch(r"\s*(\d+):(.+?)\s*", run_id)
+    if m:
+        unit, label = int(m.group(1)), m.group(2)
+        if unit >= sweep.units:
+            raise ConfigError(f"{flag}: unit {unit} is not in {path} (units: {sweep.units}, numbered 0 to "
+                              f"{sweep.units - 1})")
+        _, tasks, labels = prepare_sweep(path, units=[unit])
+        found = [t for t in tasks if t.scenario == label]
+        if not found:
+            raise ConfigError(f"{flag}: {label!r} is not a scenario of {path} ({', '.join(labels)})")
+    else:
+        _, tasks, _ = prepare_sweep(path)
+        found = [t for t in tasks if t.key == run_id.strip()]
+        if not found:
+            raise ConfigError(f"{flag}: {run_id!r} is no run of {path}: give a key of its runs.parquet (20 hex "
+                              f"digits) or UNIT:SCENARIO")
+    return found[0]
 
 
 def rerun(path, run_id: str, out=None, task_fn=run_task) -> dict:
@@ -429,26 +459,7 @@ def rerun(path, run_id: str, out=None, task_fn=run_task) -> dict:
         ``task``, ``row``, ``wall_s``, ``stored`` (the part's path, or None), ``differs`` (the columns whose
         values differ from the stored part's, :data:`VOLATILE_COLUMNS` aside; None without a stored part).
     """
-    import re
-
-    sweep = load_sweep(path)
-    m = re.fullmatch(r"\s*(\d+):(.+?)\s*", run_id)
-    if m:
-        unit, label = int(m.group(1)), m.group(2)
-        if unit >= sweep.units:
-            raise ConfigError(f"--rerun: unit {unit} is not in {path} (units: {sweep.units}, numbered 0 to "
-                              f"{sweep.units - 1})")
-        _, tasks, labels = prepare_sweep(path, units=[unit])
-        found = [t for t in tasks if t.scenario == label]
-        if not found:
-            raise ConfigError(f"--rerun: {label!r} is not a scenario of {path} ({', '.join(labels)})")
-    else:
-        _, tasks, _ = prepare_sweep(path)
-        found = [t for t in tasks if t.key == run_id.strip()]
-        if not found:
-            raise ConfigError(f"--rerun: {run_id!r} is no run of {path}: give a key of its runs.parquet (20 hex "
-                              f"digits) or UNIT:SCENARIO")
-    task = found[0]
+    task = find_task(path, run_id)
     t0 = time.perf_counter()
     row = task_fn(task.spec(package_version()))
     wall = time.perf_counter() - t0

@@ -65,7 +65,8 @@ import math
 
 import numpy as np
 
-from sins_sim.jobs.sweep.tasks import HEADLINE_METRICS, METRICS, PARAM_PREFIX
+from sins_sim.jobs.sweep.tasks import PARAM_PREFIX
+from sins_sim.results.sweep import CONFIDENCE, HEADLINE_METRICS, METRICS, metric_filters, quantile_n_required
 
 __all__ = ["summarize", "metric_filters", "parameter_names", "quantile_n_required",
            "order_statistic_interval", "quantile_summary", "driver_tests", "CONFIDENCE", "DRIVER_ALPHA",
@@ -73,8 +74,6 @@ __all__ = ["summarize", "metric_filters", "parameter_names", "quantile_n_require
 
 #: The quantiles of ``percentiles`` (key -> probability).
 _QUANTILES = {"p50": 0.50, "p95": 0.95, "p99": 0.99}
-#: Confidence level of every interval (two-sided, equal tails).
-CONFIDENCE = 0.95
 #: Resamples of the percentile bootstrap (Efron & Tibshirani 1993, ch. 13: 1000-2000 for a percentile interval).
 BOOTSTRAP_RESAMPLES = 2000
 #: Random permutations of the units behind the drivers' p-values (smallest p-value 1 / (1 + this)).
@@ -86,16 +85,6 @@ _MIN_PAIRS = 3
 #: Seeds of the resampling (fixed: the same table gives the same summary, and resumed sweeps compare equal).
 _BOOTSTRAP_SEED = 20260
 _PERMUTATION_SEED = 20261
-
-
-def metric_filters(table) -> list:
-    """The filters with metric columns in ``table``, in column order."""
-    out = []
-    for col in table.columns:
-        name, _, metric = col.partition(".")
-        if metric == "status" and name not in out:
-            out.append(name)
-    return out
 
 
 def parameter_names(table) -> list:
@@ -122,39 +111,6 @@ def _per_metric(table, filters, metrics, stat) -> dict:
 
 
 # --- percentiles ------------------------------------------------------------------------------------------------
-def quantile_n_required(q: float, confidence: float = CONFIDENCE) -> int:
-    """Fewest values whose order statistics bracket the ``q`` quantile with an equal-tailed two-sided interval.
-
-    The smallest value is a lower confidence bound at ``1 - (1-confidence)/2`` when ``(1-q)^n <= (1-confidence)/2``
-    and the largest an upper bound when ``q^n <= (1-confidence)/2`` (module docstring).
-
-    Parameters
-    ----------
-    q : float
-        The quantile's probability, in (0, 1).
-    confidence : float
-        Two-sided confidence level.
-
-    Returns
-    -------
-    int
-        The smallest sample size that supports the quantile.
-
-    Examples
-    --------
-    >>> [quantile_n_required(q) for q in (0.5, 0.95, 0.99)]
-    [6, 72, 368]
-    """
-    tail = 0.5 * (1.0 - confidence)
-    worst = max(q, 1.0 - q)
-    n = max(1, math.ceil(math.log(tail) / math.log(worst)))
-    while worst ** n > tail:  # guard the rounding of the logarithms both ways
-        n += 1
-    while n > 1 and worst ** (n - 1) <= tail:
-        n -= 1
-    return n
-
-
 def order_statistic_interval(n: int, q: float, confidence: float = CONFIDENCE) -> tuple[int, int] | None:
     """Ranks of the distribution-free equal-tailed confidence interval of a quantile (Hahn & Meeker 1991, 5.2).
 

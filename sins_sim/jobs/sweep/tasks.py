@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from sins_sim.config.errors import ConfigError
+from sins_sim.results.sweep import HEADLINE_METRICS, METRICS  # the table's columns, defined with its object
 
 __all__ = ["package_version", "Task", "build_tasks", "estimated_run_s", "TASK_FIXED_S", "run_task", "run_key", "flatten_metrics", "METRICS",
            "HEADLINE_METRICS", "ID_COLUMNS", "PARAM_PREFIX"]
@@ -33,28 +34,6 @@ ID_COLUMNS = ("key", "scenario", "scenario_index", "unit", "seed")
 #: Prefix of the drawn-parameter columns (``param.f0_ppm.x``).
 PARAM_PREFIX = "param."
 _NED = ("north", "east", "down")
-#: Per-filter metric columns (``<filter>.<metric>``) with their axis labels (units in the names).
-METRICS = {
-    "horizontal_position_error_m_final": "final horizontal position error (m)",
-    "horizontal_position_error_m_max": "largest horizontal position error (m)",
-    "vertical_position_error_m_final": "final vertical position error (m)",
-    "velocity_error_m_s_final": "final velocity error (m/s)",
-    "velocity_error_m_s_max": "largest velocity error (m/s)",
-    **{f"attitude_error_arcsec_rms_{a}": f"RMS attitude error about {a} (arcsec)" for a in _NED},
-    "attitude_error_arcsec_rms_total": "RMS attitude error, root sum of squares N, E, D (arcsec)",
-    **{f"attitude_error_arcsec_final_{a}": f"final attitude error about {a} (arcsec)" for a in _NED},
-    "cep_rate_nmi_h": "CEP rate (nmi/h)",
-    **{f"attitude_drift_deg_h_{a}": f"effective attitude drift about {a} (deg/h; only where a ramp explains it)"
-       for a in _NED},
-    **{f"gyro_drift_deg_h_{a}": f"gyro drift of the filter's output, axis {a} (deg/h; only where a ramp explains it)"
-       for a in ("x", "y", "z")},
-    "excess_over_ideal_horizontal_m": "final horizontal error beyond ideal's: norm of the vector difference (m)",
-    "event_step_arcsec_max": "largest attitude step across a shock or turn (arcsec)",
-    **{f"gyro_error_rms_arcsec_{a}": f"RMS gyro-angle error, axis {a} (arcsec)" for a in ("x", "y", "z")},
-}
-#: The metrics summarised in the plots (all of :data:`METRICS` are in ``summary.json``).
-HEADLINE_METRICS = ("horizontal_position_error_m_final", "velocity_error_m_s_final",
-                    "attitude_error_arcsec_rms_total", "event_step_arcsec_max")
 
 
 #: A run's cost on a warm worker besides the simulation (s): reading the scenario, designing the filters, the

@@ -1,4 +1,4 @@
-"""A mission as a Python object: :func:`run` in a notebook, :func:`load` of a result folder.
+"""A mission as a Python object (:func:`sins_sim.run` in a notebook, :func:`sins_sim.load` of a result folder).
 
 ``sins-sim run`` writes a folder; a notebook wants the same run as an object it can show, tabulate
 and plot without a file in between::
@@ -32,8 +32,7 @@ import numpy as np
 from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC
 
-__all__ = ["MissionResult", "StoredRun", "BudgetResult", "SweepResult", "DiagnosisResult", "run", "load",
-           "FIGURE_KINDS", "SERIES_COLUMNS"]
+__all__ = ["MissionResult", "StoredRun", "FIGURE_KINDS", "SERIES_COLUMNS"]
 
 #: The figures :meth:`MissionResult.plot` draws (the CLI's ``<kind>.png``).
 FIGURE_KINDS = ("navigation_error", "attitude_error", "trajectory", "gyro_error_spectrum", "allan")
@@ -111,7 +110,7 @@ class StoredRun:
 class MissionResult:
     """One mission: the scenario, its metrics and the engine's result, with tables, figures and a folder.
 
-    Made by :func:`run` (in memory) or :func:`load` (from a result folder).
+    Made by :func:`sins_sim.run` (in memory) or :func:`sins_sim.load` (from a result folder).
 
     Attributes
     ----------
@@ -126,16 +125,19 @@ class MissionResult:
         After :func:`load`, the folder's ``manifest.json``; None for a run not yet saved.
     folder : Path or None
         Where the result was saved or loaded from.
+
+    Notes
+    -----
+    ``origin`` is the command that made the run in memory (:class:`sins_sim.jobs.notebook.RunOrigin`):
+    it knows the run's inputs and writes its folder, so :meth:`configuration` and :meth:`save` hand off
+    to it and this room never imports a command. A result loaded from a folder has none.
     """
 
-    def __init__(self, scenario, metrics: dict, result, *, source=None, overrides=None, manifest=None,
-                 folder=None):
+    def __init__(self, scenario, metrics: dict, result, *, origin=None, folder=None):
         self.scenario = scenario
         self.metrics = metrics
         self.result = result
-        self._source = source
-        self._overrides = dict(overrides or {})
-        self._manifest = manifest  # a Manifest (in memory, saved by save) or None
+        self._origin = origin  # configuration(base_dir) -> dict; save(folder, force, mission) -> manifest
         self.manifest = None
         self.folder = Path(folder) if folder is not None else None
 
@@ -307,10 +309,10 @@ class MissionResult:
         the manifest; :func:`sins_sim.jobs.manifest.resolve_run_inputs`)."""
         if self.manifest is not None and "run" in self.manifest:
             return {"scenario": self.manifest["run"]["scenario"], "imu": self.manifest["run"]["imu"]}
-        from sins_sim.jobs.manifest import resolve_run_inputs
-
-        r = resolve_run_inputs(self._source, self._overrides, getattr(self.scenario, "base_dir", None))
-        return {"scenario": r["scenario"], "imu": r["imu"]}
+        if self._origin is None:
+            raise ConfigError(f"{self.name}: the folder this result was loaded from has no run inputs in its "
+                              "manifest.json")
+        return self._origin.configuration(getattr(self.scenario, "base_dir", None))
 
     def to_xarray(self):
         """The run as one :class:`xarray.Dataset`.
@@ -431,267 +433,8 @@ class MissionResult:
         -------
         Path
         """
-        from sins_sim.jobs.manifest import record_run, result_dir
-        from sins_sim.jobs.run import write_run
-
-        if self._manifest is None or self.scenario is None or isinstance(self.result, StoredRun):
+        if self._origin is None or self.scenario is None or isinstance(self.result, StoredRun):
             raise ConfigError("save: this result was loaded from a folder; copy that folder instead")
-        with result_dir(folder, self._manifest, "save", force=force) as tmp:
-            record_run(self._manifest, self.scenario, self._source, self._overrides, tmp)
-            write_run(tmp, self.scenario, self.result, self.metrics, self._manifest)
+        self.manifest = self._origin.save(folder, force, self)
         self.folder = Path(folder)
-        self.manifest = self._manifest.doc
         return self.folder
-
-
-def run(scenario, *, seed: int | None = None, duration_s: float | None = None, imu=None, threads: int | None = None,
-        progress=None) -> MissionResult:
-    """Run a scenario in memory and return its :class:`MissionResult` (nothing is written).
-
-    Parameters
-    ----------
-    scenario : path, mapping or Scenario
-        A scenario file; the same content as a dict (validated exactly like a file, errors naming
-        ``scenario (dict)`` and the key; relative paths taken from the working directory); or a
-        :class:`~sins_sim.config.scenario.Scenario` from :func:`~sins_sim.config.scenario.load_scenario`.
-    seed, duration_s : optional
-        Replace the scenario's (like ``--seed`` and ``--duration``).
-    imu : path or mapping, optional
-        Replaces the scenario's IMU (like ``--imu``).
-    threads : int, optional
-        Threads for the three axes (default: the cores available, at most 3).
-    progress : callable(fraction), optional
-
-    Returns
-    -------
-    MissionResult
-
-    Raises
-    ------
-    ConfigError
-        One line naming the file (or ``scenario (dict)``), the key and the rule.
-    """
-    from collections.abc import Mapping
-
-    from sins_sim.jobs.manifest import Manifest
-    from sins_sim.jobs.run import compute_run, prepare_run
-    from sins_sim.config.scenario import Scenario
-
-    overrides = {k: v for k, v in (("seed", seed), ("duration_s", duration_s), ("imu", imu)) if v is not None}
-    if isinstance(scenario, Scenario):
-        if scenario.document is None:
-            raise ConfigError("run: this Scenario keeps no document to run again; give its file or dict")
-        source, base = scenario.document, scenario.base_dir
-    elif isinstance(scenario, Mapping):
-        import copy
-
-        source, base = copy.deepcopy(dict(scenario)), None
-    elif isinstance(scenario, (str, Path)):
-        source, base = Path(scenario), None
-    else:
-        raise ConfigError(f"run: scenario must be a path, a mapping or a Scenario, got {type(scenario).__name__}")
-    manifest = Manifest("run", settings={"overrides": dict(overrides), "api": "sins_sim.run"})
-    sc, config_warnings = prepare_run(source, overrides or None, progress, base_dir=base)
-    res, metrics = compute_run(sc, config_warnings, progress, threads)
-    manifest.stop_clock()
-    return MissionResult(sc, metrics, res, source=source, overrides=overrides, manifest=manifest)
-
-
-def load(folder):
-    """A result folder as its object: a :class:`MissionResult` from a ``sins-sim run`` folder (or one
-    :meth:`MissionResult.save` wrote); a :class:`BudgetResult` from a ``sins-sim budget`` folder and a
-    :class:`SweepResult` from a ``sins-sim sweep`` folder (by the command in its ``manifest.json``).
-
-    Restored: :attr:`~MissionResult.metrics` (``metrics.json``), the stored series (``timeseries.npz``),
-    hence :meth:`~MissionResult.to_pandas`, :meth:`~MissionResult.to_xarray` and every figure but
-    ``allan``; the manifest; the scenario, validated again from ``inputs/scenario.yaml``. Not restored:
-    the engine's full-rate statistics, the sensor-level error records and the Allan curves (only their
-    readings are in ``metrics.json``); :attr:`~MissionResult.result` is a :class:`StoredRun`.
-
-    Raises
-    ------
-    ConfigError
-        The folder is not a readable run result.
-    """
-    import warnings
-
-    from sins_sim.jobs.manifest import INPUTS, read_manifest
-    from sins_sim.config.scenario import load_scenario
-
-    folder = Path(folder)
-    doc = read_manifest(folder, "load")
-    if doc.get("command") == "budget":
-        return BudgetResult.from_folder(folder)
-    if doc.get("command") == "sweep":
-        return SweepResult.from_folder(folder)
-    if doc.get("command") != "run":
-        raise ConfigError(f"load: {folder} holds a 'sins-sim {doc.get('command')}' result, not a run, budget "
-                          "or sweep")
-    try:
-        metrics = json.loads((folder / "metrics.json").read_text())
-    except (OSError, ValueError) as exc:
-        raise ConfigError(f"load: {folder / 'metrics.json'} cannot be read ({type(exc).__name__})") from None
-    arrays = {}
-    if (folder / "timeseries.npz").is_file():
-        with np.load(folder / "timeseries.npz") as z:
-            arrays = {k: z[k] for k in z.files}
-    scenario = None
-    if (folder / INPUTS / "scenario.yaml").is_file():
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # told when the run was made; kept in metrics['warnings']
-            try:
-                scenario = load_scenario(folder / INPUTS / "scenario.yaml")
-            except ConfigError:
-                scenario = None
-    out = MissionResult(scenario, metrics, StoredRun(arrays, metrics), folder=folder)
-    out.manifest = doc
-    return out
-
-
-# --- the other jobs' results: the dict each job returns (and writes as JSON), with notebook views -----------------
-class BudgetResult(dict):
-    """The error budget of a scenario (:func:`sins_sim.jobs.budget.run_budget`): the content of ``budget.json``
-    as a dict, with :meth:`to_pandas` and :meth:`plot`.
-
-    Each term (``total``, every source, ``dither_residual``, ``floor``, ``remainder``) holds per filter the
-    final north/east position error vector (m) and NED attitude error vector (arcsec) and their magnitudes
-    (``note`` says how each is formed).
-    """
-
-    def terms(self) -> list:
-        """The rows in the order of ``budget.png``: total, the sources, floor, remainder."""
-        return ["total", *self["sources"], "floor", "remainder"]
-
-    def _term(self, term) -> dict:
-        return self["sources"][term] if term in self["sources"] else self[term]
-
-    def to_pandas(self):
-        """One row per (term, filter): ``horizontal_position_error_m``, ``position_north_m``,
-        ``position_east_m``, ``attitude_error_arcsec`` and ``attitude_<north|east|down>_arcsec``
-        (NaN where the budget has no entry)."""
-        import pandas as pd
-
-        rows, index = [], []
-        for term in self.terms():
-            for f in self["filters"]:
-                e = self._term(term).get(f) or {}
-                pos = e.get("position_ne_m") or [np.nan, np.nan]
-                att = e.get("attitude_ned_arcsec") or [np.nan] * 3
-                rows.append({"horizontal_position_error_m": e.get("horizontal_position_error_m", np.nan),
-                             "position_north_m": pos[0], "position_east_m": pos[1],
-                             "attitude_error_arcsec": e.get("attitude_error_arcsec", np.nan),
-                             **{f"attitude_{a}_arcsec": x for a, x in zip(_NED, att)}})
-                index.append((term, f))
-        df = pd.DataFrame(rows, index=pd.MultiIndex.from_tuples(index, names=["term", "filter"]))
-        return df.astype(float)
-
-    def plot(self):
-        """``budget.png``'s figure, returned (not written)."""
-        from sins_sim.plots.budget import plot_budget
-
-        return plot_budget(self, None, f"{self['scenario']}: error budget after {self['duration_s']:g} s")
-
-    @classmethod
-    def from_folder(cls, folder) -> "BudgetResult":
-        """The budget of a ``sins-sim budget`` folder (its ``budget.json``)."""
-        return cls(_read_json(Path(folder) / "budget.json", "budget"))
-
-
-class SweepResult(dict):
-    """A sweep (:func:`sins_sim.jobs.sweep.run_sweep`): its dict (``summary``, ``table``, counts) with
-    :meth:`to_pandas` (one row per run) and :meth:`to_xarray` (a ``run`` dimension)."""
-
-    def to_pandas(self):
-        """``runs.parquet``: one row per run (unit x scenario), the drawn parameters (``param.*``) and per
-        filter its metrics (``<filter>.<metric>``, the unit in the metric's name)."""
-        return self["table"].copy()
-
-    def to_xarray(self):
-        """The runs as a Dataset with dimensions ``run`` and ``filter``.
-
-        Each per-filter metric (``<filter>.<metric>`` columns) becomes one variable ``<metric>`` on
-        ``(run, filter)``; every other column (``unit``, ``scenario``, ``seed``, ``param.*``, ...) a
-        variable on ``run``. Percentiles over the population are then
-        ``ds.groupby("scenario").quantile([0.05, 0.5, 0.95], dim="run")``. Attributes: the sweep's name and
-        sins-sim's version.
-        """
-        import xarray as xr
-
-        from sins_sim._version import __version__
-        from sins_sim.jobs.sweep.summary import metric_filters
-
-        table = self["table"].reset_index(drop=True)
-        filters = metric_filters(table)
-        data, metrics = {}, {}
-        for col in table.columns:
-            name, dot, metric = col.partition(".")
-            if dot and name in filters:
-                metrics.setdefault(metric, {})[name] = table[col].to_numpy()
-            else:
-                data[col] = ("run", table[col].to_numpy())
-        for metric, per in metrics.items():
-            cols = [per.get(f, np.full(len(table), np.nan)) for f in filters]
-            data[metric] = (("run", "filter"), np.stack(cols, axis=1))
-        return xr.Dataset(data, coords={"run": np.arange(len(table)), "filter": np.array(filters, dtype=str)},
-                          attrs={"sweep": str(self.get("name", "")), "sins_sim_version": __version__})
-
-    def plot(self):
-        """``distributions.png``'s figure (the ECDF of the headline metrics per filter), returned."""
-        from sins_sim.jobs.sweep.summary import metric_filters, quantile_n_required
-        from sins_sim.jobs.sweep.tasks import HEADLINE_METRICS, METRICS
-        from sins_sim.plots.sweep import plot_distributions
-
-        table = self["table"]
-        labels = list(dict.fromkeys(table["scenario"])) if len(table) else []
-        fig = plot_distributions(table, {m: METRICS[m] for m in HEADLINE_METRICS}, metric_filters(table), labels,
-                                 None, f"{self.get('name', 'sweep')}: distribution over "
-                                       f"{table['unit'].nunique() if len(table) else 0} units",
-                                 p95_min_n=quantile_n_required(0.95))
-        if fig is None:
-            raise ValueError("plot: the sweep has no positive finite headline metric to draw")
-        return fig
-
-    @classmethod
-    def from_folder(cls, folder) -> "SweepResult":
-        """A sweep folder's ``runs.parquet`` and ``summary.json``."""
-        import pandas as pd
-
-        folder = Path(folder)
-        if not (folder / "runs.parquet").is_file():
-            raise ConfigError(f"load: {folder} has no runs.parquet (not a finished sweep)")
-        name = _read_json(folder / "sweep.json", "sweep").get("name") if (folder / "sweep.json").is_file() else None
-        return cls(name=name, summary=_read_json(folder / "summary.json", "sweep"),
-                   table=pd.read_parquet(folder / "runs.parquet"))
-
-
-class DiagnosisResult(dict):
-    """A recording's diagnosis (:func:`sins_sim.jobs.recording_jobs.diagnose`): its JSON as a dict, with
-    :meth:`to_pandas` of its tables. Its figures are those of the report folder (``report_dir``)."""
-
-    def to_pandas(self) -> dict:
-        """``candidates``: one row per effect tried (index ``effect``), in the diagnosis' order (best first):
-        ``residual_rms_arcsec``, ``gap_reduction``, ``score``, ``closes_gap``, ``remaining_excess_arcsec``,
-        ``p_heldout``, ``p_f``, ``significant``, ``unresolved``; ``axes``: per axis (index ``axis``) the
-        ``noise_floor_arcsec`` and the nominal refit's ``baseline_residual_rms_arcsec`` (empty when the
-        data failed the checks: see ``findings``)."""
-        import pandas as pd
-
-        cols = ["residual_rms_arcsec", "gap_reduction", "score", "closes_gap", "remaining_excess_arcsec",
-                "p_heldout", "p_f", "significant", "unresolved"]
-        cand = pd.DataFrame([{k: c.get(k) for k in cols} for c in self.get("candidates") or []], columns=cols,
-                            index=pd.Index([c["effect"] for c in self.get("candidates") or []], name="effect"))
-        floors = self.get("noise_floor_axes_arcsec") or {}
-        base = (self.get("baseline") or {}).get("residual_rms_axes_arcsec") or {}
-        axes = pd.DataFrame({"noise_floor_arcsec": pd.Series(floors, dtype=float),
-                             "baseline_residual_rms_arcsec": pd.Series(base, dtype=float)})
-        axes.index.name = "axis"
-        return {"candidates": cand, "axes": axes}
-
-
-def _read_json(path: Path, what: str) -> dict:
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"load: {path.parent} has no {path.name} (not a {what} result)") from None
-    except (OSError, ValueError) as exc:
-        raise ConfigError(f"load: {path} cannot be read ({type(exc).__name__})") from None
