@@ -19,6 +19,9 @@ import yaml
 
 import sins_sim
 from sins_sim.results import FIGURE_KINDS, SERIES_COLUMNS, MissionResult, StoredRun
+
+#: The figures of a mission on the rigid block (the block's two need an IMU block:).
+RIGID_KINDS = [k for k in FIGURE_KINDS if not k.startswith("block_")]
 from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC
 
@@ -153,7 +156,7 @@ def test_to_xarray_agrees_with_files_and_carries_attributes(mission, saved):
 def test_save_writes_the_cli_folder_and_load_round_trips(mission, saved):
     names = {p.relative_to(saved).as_posix() for p in saved.rglob("*") if p.is_file()}
     for f in ("metrics.json", "timeseries.npz", "report.md", "manifest.json", "inputs/scenario.yaml",
-              "inputs/imu.yaml", *(f"{k}.png" for k in FIGURE_KINDS)):
+              "inputs/imu.yaml", *(f"{k}.png" for k in RIGID_KINDS)):
         assert f in names
     back = sins_sim.load(saved)
     assert isinstance(back.result, StoredRun)
@@ -167,7 +170,7 @@ def test_save_writes_the_cli_folder_and_load_round_trips(mission, saved):
     assert x.identical(y)
     assert repr(back) == repr(mission)
     # every figure but the Allan one (its curves are not stored) is drawn again from the folder
-    assert back.figures == [k for k in FIGURE_KINDS if k != "allan"]
+    assert back.figures == [k for k in RIGID_KINDS if k != "allan"]
     with pytest.raises(ValueError, match="Allan curves are not stored"):
         back.plot("allan")
     with pytest.raises(ConfigError, match="loaded from a folder"):
@@ -272,7 +275,7 @@ def test_repr_shows_the_headline_numbers(mission):
         assert final in html and rms in html
 
 
-@pytest.mark.parametrize("kind", FIGURE_KINDS)
+@pytest.mark.parametrize("kind", RIGID_KINDS)
 def test_plot_returns_a_figure_with_data(mission, kind):
     import matplotlib.pyplot as plt
     from matplotlib.figure import Figure
@@ -559,3 +562,21 @@ def test_diagnosis_plot_draws_the_reports_figures(tmp_path, status):
     assert dict(back) == dict(res) and back.diagnosis is None
     with pytest.raises(ValueError, match="JSON only"):
         back.plot()
+
+
+def test_a_block_mission_draws_its_block_figures_and_keeps_them_through_a_folder(tmp_path):
+    """``scenarios/block-dither-coupling.yaml`` cut to 6 s: the block's spectrum and its dither coning are among
+    the figures, drawn with data, and again from the saved folder (``timeseries.npz`` keeps the block's record)."""
+    import matplotlib.pyplot as plt
+
+    root = Path(__file__).resolve().parents[1]
+    r = sins_sim.run(root / "scenarios" / "block-dither-coupling.yaml", duration_s=6.0)
+    assert {"block_spectrum", "block_coning"} <= set(r.figures)
+    back = sins_sim.load(r.save(tmp_path / "blk"))
+    assert {"block_spectrum", "block_coning"} <= set(back.figures)
+    np.testing.assert_array_equal(back.result.block["theta_rad"], r.result.block["theta_rad"])
+    for res in (r, back):
+        for kind in ("block_spectrum", "block_coning"):
+            fig = res.plot(kind)
+            assert any(np.size(ln.get_xdata()) for ax in fig.axes for ln in ax.get_lines())
+            plt.close(fig)

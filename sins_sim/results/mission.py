@@ -34,8 +34,10 @@ from sins_sim.units import ARCSEC
 
 __all__ = ["MissionResult", "StoredRun", "FIGURE_KINDS", "SERIES_COLUMNS"]
 
-#: The figures :meth:`MissionResult.plot` draws (the CLI's ``<kind>.png``).
-FIGURE_KINDS = ("navigation_error", "attitude_error", "trajectory", "gyro_error_spectrum", "allan")
+#: The figures :meth:`MissionResult.plot` draws (the CLI's ``<kind>.png``, ``plots.navigation.RUN_FIGURES``; the
+#: block's two only with an IMU ``block:``).
+FIGURE_KINDS = ("navigation_error", "attitude_error", "trajectory", "gyro_error_spectrum", "allan", "block_spectrum",
+                "block_coning")
 _NED = ("north", "east", "down")
 _BODY = ("x", "y", "z")
 _STATS = ("", "_min", "_max")
@@ -85,6 +87,9 @@ class StoredRun:
         From ``metrics.json`` (the measured drives).
     allan : dict
         Always empty: the Allan curves are not stored, only their readings (in ``metrics.json``).
+    block : dict or None
+        With an IMU ``block:``, the block's rotation record (``block_t_s``, ``block_theta_rad``) and its isolator
+        modes (``metrics.json`` ``block``), as ``SinsResult.block``.
     """
 
     def __init__(self, arrays: dict, metrics: dict):
@@ -97,6 +102,13 @@ class StoredRun:
                 self.truth_series[key[len("truth_"):]] = val
             elif key.startswith("gyro_error_"):
                 self.spectra[key[len("gyro_error_"):]] = val
+        blk = metrics.get("block")
+        self.block = None
+        if blk is not None and "block_theta_rad" in arrays:  # SinsResult.block, from the npz and metrics.json
+            self.block = {"t_s": arrays["block_t_s"], "theta_rad": arrays["block_theta_rad"],
+                          "rate_hz": float(metrics["navigation"]["update_rate_hz"]) * int(metrics["navigation"]["n_sub"]),
+                          "isolator_modes_hz": list(blk["isolator_modes_hz"]),
+                          "isolator_damping": list(blk["isolator_damping"])}
         nav = metrics["navigation"]
         self.filters = tuple(metrics["filters"])
         self.filter_rate_hz = float(nav["update_rate_hz"]) * int(nav["n_sub"])
@@ -167,7 +179,7 @@ class MissionResult:
         """The figure kinds this result has data for (:meth:`plot`)."""
         from sins_sim.plots.navigation import available_figures
 
-        return available_figures(self.result)
+        return available_figures(self.result, self.metrics)
 
     def _headline(self):
         """Per filter: (name, final horizontal error m, phi RMS N/E/D arcsec, status)."""
@@ -418,7 +430,7 @@ class MissionResult:
                    if kind == "allan" and isinstance(self.result, StoredRun) else "")
             raise ValueError(f"plot: {self.name} has no data for the figure {kind!r}{why}; it has: "
                              f"{', '.join(have) or 'none'}")
-        return run_figure(self.result, kind, self.name)
+        return run_figure(self.result, kind, self.name, metrics=self.metrics)
 
     # --- the folder --------------------------------------------------------------------------------------------
     def save(self, folder, force: bool = False) -> Path:
