@@ -543,6 +543,9 @@ def _cmd_diagnose(args) -> int:
             # the report folder is replaced as a whole when the run succeeds: the JSON would go with it
             raise ConfigError(f"--json: must not be inside --report {args.report} (the folder is replaced as a "
                               "whole); write it beside the folder")
+    if len(args.recording) > 1 and args.suggest is not None:
+        raise ConfigError("--suggest: names one experiment file, so it takes one recording (got "
+                          f"{len(args.recording)})")
     if len(args.recording) > 1:  # several: --json and --report name folders, one entry per recording
         progress = lambda line: print(line, file=sys.stderr, flush=True)  # noqa: E731
         with ExitStack() as stack:
@@ -560,8 +563,15 @@ def _cmd_diagnose(args) -> int:
         json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
         report_tmp = (stack.enter_context(_result_dir(args, args.report, "--report", inputs=args.recording))
                       if args.report is not None else None)
-        result = diagnose(args.recording[0], json_out=json_tmp, report_dir=report_tmp, effects=effects)
+        suggest_tmp = (stack.enter_context(atomic_output_file(args.suggest, "--suggest"))
+                       if args.suggest is not None else None)
+        result = diagnose(args.recording[0], json_out=json_tmp, report_dir=report_tmp, effects=effects,
+                          suggest_out=suggest_tmp)
     print(format_diagnosis(result))
+    if args.suggest is not None:
+        print(f"wrote {args.suggest}: the experiment that separates the close call"
+              if result["verdict"].get("close_call") else
+              f"no close call: nothing to separate, {args.suggest} not written")
     return EXIT_OK
 
 
@@ -1023,6 +1033,8 @@ def build_parser() -> argparse.ArgumentParser:
                                     "ranking.png into this directory (several recordings: a folder of STEM/)")
     p.add_argument("--effects", help="comma-separated subset of the catalogue to try (default: all)")
     p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in separate processes [1]")
+    p.add_argument("--suggest", help="when the verdict is a close call, write the experiment that separates it "
+                                     "here (YAML for simulate-recording; one recording only)")
     _force_flag(p)
     p.set_defaults(func=_cmd_diagnose)
 
