@@ -580,10 +580,25 @@ def _cmd_diagnose_eval(args) -> int:
     from sins_sim.jobs.recording_jobs import diagnose_eval, format_eval
 
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    seeds = None
+    if args.holdout:
+        from sins_sim.identification.blind_hard import HOLDOUT_SEEDS
+
+        if not args.hard or args.seeds is not None:
+            raise ConfigError("--holdout: runs the hard set's unlooked-at seeds: give it with --hard and without "
+                              "--seeds")
+        seeds = list(HOLDOUT_SEEDS)
+    elif args.seeds is not None:
+        try:
+            seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
+        except ValueError:
+            raise ConfigError(f"--seeds: must be comma-separated integers, got {args.seeds!r}") from None
+        if not seeds or any(x < 0 for x in seeds):
+            raise ConfigError(f"--seeds: must be comma-separated integers >= 0, got {args.seeds!r}")
     with ExitStack() as stack:
         json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
         result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=json_tmp, progress=progress,
-                               jobs=args.jobs)
+                               jobs=args.jobs, suite="hard" if args.hard else "standard", seeds=seeds)
     print(format_eval(result))
     return EXIT_OK
 
@@ -1048,6 +1063,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the result JSON here")
     p.add_argument("--quiet", action="store_true", help="no per-case progress lines")
     p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in processes [1]")
+    p.add_argument("--hard", action="store_true", help="the harder set: time gaps and sign flips under table motion, "
+                                                       "bias drift, structural modes, near-degenerate pairs, "
+                                                       "randomised units (identification.blind_hard)")
+    p.add_argument("--seeds", help="comma-separated seeds instead of --seed: --n recordings each, accuracy pooled "
+                                   "per class")
+    p.add_argument("--holdout", action="store_true", help="with --hard: the two seeds kept unlooked-at during "
+                                                          "development (blind_hard.HOLDOUT_SEEDS)")
     p.set_defaults(func=_cmd_diagnose_eval)
 
     p = sub.add_parser("schema", help="every key of an input format with its unit, range and default",

@@ -259,7 +259,8 @@ def diagnose_many(rec_paths, json_dir=None, report_dir=None, effects=None, jobs:
     return out
 
 
-def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None, jobs: int = 1) -> dict:
+def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None, jobs: int = 1,
+                  suite: str = "standard", seeds=None) -> dict:
     """Blind evaluation (``sins_sim.identification.blind.evaluate``); the result dictionary.
 
     Parameters
@@ -276,10 +277,21 @@ def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, pro
         Called after each case with a one-line summary.
     jobs : int
         Recordings diagnosed at once (separate processes).
+    suite : str
+        ``standard`` (:mod:`sins_sim.identification.blind`) or ``hard``
+        (:mod:`sins_sim.identification.blind_hard`).
+    seeds : sequence of int, optional
+        Several seeds instead of ``seed``: ``n`` recordings each, accuracy pooled per class
+        (:func:`sins_sim.identification.blind_hard.evaluate_seeds`).
     """
-    from sins_sim.identification.blind import evaluate
+    if seeds is not None:
+        from sins_sim.identification.blind_hard import evaluate_seeds
 
-    res = evaluate(n, seed, duration_s=duration_s, progress=progress, jobs=jobs)
+        res = evaluate_seeds(n, seeds, duration_s=duration_s, suite=suite, progress=progress, jobs=jobs)
+    else:
+        from sins_sim.identification.blind import evaluate
+
+        res = evaluate(n, seed, duration_s=duration_s, progress=progress, jobs=jobs, suite=suite)
     if json_out is not None:
         import json
 
@@ -323,6 +335,10 @@ def format_diagnosis(js: dict) -> str:
 
 def format_eval(res: dict) -> str:
     """The blind evaluation's confusion matrix and statistics as text (for the CLI to print)."""
+    if "per_seed" in res:
+        from sins_sim.identification.blind_hard import format_seeds
+
+        return format_seeds(res)
     from sins_sim.identification.blind import format_result
 
     return format_result(res)
