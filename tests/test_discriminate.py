@@ -134,3 +134,11 @@ def test_suggest_takes_one_recording(tmp_path, capsys):
     err = capsys.readouterr().err
     assert rc != 0 and "--suggest" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "s.yaml").exists()
+
+
+def test_report_says_the_close_call(dither_only, tmp_path):
+    from sins_sim.identification.report import write_report
+
+    write_report(dither_only, tmp_path / "rep")
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "## Close call" in text and "readout_delay" in text and "rate_table" in text

@@ -135,7 +135,7 @@ def make_hard_case(label: str, rng: np.random.Generator, duration_s: float = 1.0
     drive = stationary_drive(nominal, axes, amp, FS, n)
     table = {a: _table(rng) for a in axes} if experiment == "rate_table" else None
     inputs = ExperimentInputs(axes, FS, n, FS, drive, table)
-    effects, desc, expected, inner = [], label, HARD_EXPECTED[label], None
+    effects, desc, expected, inner, defect = [], label, HARD_EXPECTED[label], None, None
     if label == "bias_drift":
         bias = (1.0 if rng.uniform() < 0.5 else -1.0) * _log_uniform(rng, 0.5, 10.0) * DEG_PER_H
         ramp = bias * rng.uniform(-1.0, 1.0) / duration_s
@@ -172,12 +172,14 @@ def make_hard_case(label: str, rng: np.random.Generator, duration_s: float = 1.0
         i0 = int(rng.uniform(0.3, 0.7) * (n - m))
         rec = _drop(rec, i0, m)
         desc = f"{m} samples dropped at {i0 / FS:.3f} s"
+        defect = {"first_sample": i0, "samples": m}
     elif label == "sign_flip":
         rec = Recording(dict(rec.meta), -np.asarray(rec.counts), np.asarray(rec.drive_v), rec.sins_angle)
         desc = "counts negated"
     info = {"label": label, "form": form, "weak": False, "experiment": experiment, "effect": desc,
             "integrator": integrator, "noise_arcsec": noise / ARCSEC, "initial_state": rec.initial_state,
             "axes": axes, "params": [e.to_dict() for e in effects] or None, "pair": None, "inner": inner,
+            "defect": defect,
             "expected": expected, "amplitude_arcmin": amp / ARCMIN, "f0_hz": {a: truth[a].f0_hz for a in axes},
             "truth": {a: nominal_from_suspension(truth[a]) for a in axes}}
     return rec, info

@@ -45,6 +45,7 @@ parameters, dither amplitude) and no effects: the unit on the bench supplies the
    feasible_experiments
    design
    experiment_yaml
+   close_call_lines
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ from sins_sim.simulation.experiment import (FIT_SETTINGS, ExperimentInputs, afc_
 from sins_sim.units import ARCMIN, ARCSEC, DEG
 
 __all__ = ["TARGET_NONCENTRALITY", "RATE_TABLE_HZ", "RATE_TABLE_ARCMIN", "close_rivals", "close_call",
-           "feasible_experiments", "design", "experiment_yaml"]
+           "feasible_experiments", "design", "experiment_yaml", "close_call_lines"]
 
 #: Non-centrality the separating experiment must give the pair hardest to tell apart: the usual
 #: normal-approximation rule ``(z_{1 - alpha/2} + z_{power})^2`` for a one-degree-of-freedom test at the
@@ -333,3 +334,20 @@ def close_call(rec: Recording, verdict: dict, candidates: list, floors: dict, se
         "ranking": des["ranking"][:5],
     }
     return out
+
+
+def close_call_lines(cc: dict) -> list:
+    """The report's section on a close call (Markdown lines): the rivals' fractions and the experiment."""
+    lines = ["## Close call", "", "The recording cannot tell these apart (each closes the gap within the allowance "
+             "for model error):", "", "| effect | explained fraction | held-out RMS (arcsec) | parameters |",
+             "|---|---|---|---|"]
+    for e in cc["effects"]:
+        pars = "; ".join(f"{ax}: " + ", ".join(f"{k} = {val:.4g}" for k, val in pv.items())
+                         for ax, pv in e["params"].items())
+        lines.append(f"| {e['effect']} | {e['explained_fraction']:.5f} | {e['score_arcsec']:.4g} | {pars} |")
+    doc = cc["experiment"]
+    lines += ["", f"What would separate them: {cc['why']}. As an experiment file (`sins-sim diagnose --suggest "
+              f"FILE` writes it): `{doc['experiment']}`, {doc['duration_s']:g} s, dither {doc['amplitude_arcmin']:g} "
+              f"arcmin" + (f", table {doc['rate_table']}" if "rate_table" in doc else "") + ".",
+              f"Criterion: {cc['criterion']}.", ""]
+    return lines
