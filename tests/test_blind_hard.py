@@ -43,22 +43,22 @@ def _replay_without_drop():
         bh._drop = original
 
 
-def test_sign_flip_negates_the_counts():
-    rec, _ = _case("sign_flip", "rate_table", i=1)
-    original = bh.Recording
-    kept = {}
-
-    def spy(meta, counts, drive, sins):
-        kept["counts"] = -np.asarray(counts)
-        return original(meta, counts, drive, sins)
-
-    bh.Recording = spy
-    try:
-        bh.make_hard_case("sign_flip", np.random.default_rng([7, 2, 1]), 0.5, form="rate_table")
-    finally:
-        bh.Recording = original
-    assert np.array_equal(rec.counts, -kept["counts"]) or np.array_equal(-rec.counts, kept["counts"])
-    assert rec.sins_angle is not None and np.ptp(rec.sins_angle) > 0
+def test_sign_flip_negates_the_counts_or_the_table_angle():
+    """The two forms draw the same recording (the flip draws nothing) and negate one array each: the ``counts``
+    form's counts are the ``table`` form's negated, its table angle the ``table`` form's negated, the drive
+    the same."""
+    by_counts, _ = _case("sign_flip", "counts", i=1)
+    by_table, _ = _case("sign_flip", "table", i=1)
+    assert np.array_equal(by_counts.counts, -by_table.counts)
+    assert np.array_equal(by_counts.sins_angle, -by_table.sins_angle)
+    assert np.array_equal(by_counts.drive_v, by_table.drive_v)
+    assert np.ptp(by_table.sins_angle) > 0
+    # the unflipped angle follows the table (slope +1, a closed form of the sign the gyro must have): regress the
+    # table form's counts on its negated table angle
+    q = by_table.quantum_rad
+    slope = np.polyfit(-by_table.sins_angle[:, 0], by_table.counts[:, 0] * q, 1)[0]
+    # the dither (at most 4.2 arcmin) is uncorrelated with a table that turns 2.5 deg or more in 0.5 s
+    assert slope == pytest.approx(1.0, abs=0.05)
 
 
 @pytest.mark.parametrize("label", [lab for lab in bh.HARD_LABELS])
@@ -87,11 +87,14 @@ def test_rules():
     inv = {"status": "invalid data", "effect": "invalid_data", "alternatives": [],
            "findings": [{"check": "time continuity"}]}
     assert j({"label": "time_gap", "form": "rate_table"}, inv)[1]
-    assert not j({"label": "sign_flip", "form": "rate_table"}, inv)[1]
-    assert j({"label": "sign_flip", "form": "rate_table"}, {**inv, "findings": [{"check": "sign"}]})[1]
+    assert not j({"label": "sign_flip", "form": "counts"}, inv)[1]
+    assert j({"label": "sign_flip", "form": "table"}, {**inv, "findings": [{"check": "sign"}]})[1]
     close = {"status": "explained", "effect": "piezo_lag", "alternatives": ["readout_delay"], "effects": []}
-    assert j({"label": "near_degenerate", "form": "readout_delay"}, close)[1]
-    assert not j({"label": "near_degenerate", "form": "readout_delay"}, {**close, "alternatives": []})[1]
+    said = {"label": "near_degenerate", "form": "readout_delay", "round_trip_right": True,
+            "round_trip_verdict": "readout_delay (explained)"}
+    assert j(said, close)[1]
+    assert not j(said, {**close, "alternatives": []})[1]  # the close call not said
+    assert not j({**said, "round_trip_right": False}, close)[1]  # the suggested experiment did not separate them
     unk = {"status": "unknown", "effect": "unknown", "alternatives": []}
     assert j({"label": "structural_mode", "form": "stationary"}, unk)[1]
     assert not j({"label": "structural_mode", "form": "stationary"}, inv)[1]

@@ -10,22 +10,28 @@ the cases. The classes (:data:`HARD_LABELS`) and what counts as right (:func:`ju
 =================== ============================================================ ==========================
 class               the recording                                                right when
 =================== ============================================================ ==========================
-``time_gap``        rate table; 20-120 samples dropped from every array at a      ``invalid data`` naming
-                    random instant in the middle 30-70 % (the header claims a     ``time continuity``
-                    continuous record)
-``sign_flip``       rate table; the counts negated                                ``invalid data`` naming
-                                                                                  ``sign``
+``time_gap``        rate table; 1-120 samples (log-uniform) dropped from every    ``invalid data`` naming
+                    array at a random instant in the middle 30-70 % (the header   ``time continuity``
+                    claims a continuous record)
+``sign_flip``       rate table; the counts negated (``counts``) or the table      ``invalid data`` naming
+                    angle ``sins_angle`` negated (``table``)                      ``sign``
 ``bias_drift``      stationary; a readout bias drift (0.5-10 deg/h, a ramp of     ``none`` (``alone``), the
                     up to the bias over the record and a random walk of 1-10 %    effect's name
                     of it per sqrt(s)), ``alone`` or ``with_effect``              (``with_effect``, as in
                     (``resonance_drift`` or ``lock_in`` at moderate strength)     the standard set)
 ``structural_mode`` stationary or rate table; a clean mount mode                  ``unknown`` (never
                     (``mount_mode``) at 1.5-2.5 kHz, damping ratio 0.01-0.05,     ``invalid data``)
-                    0.5-4 arcsec RMS
+                    0.2-4 arcsec RMS
 ``near_degenerate`` stationary (the dither only); a drive lag (``piezo_lag``,     the verdict names one of
-                    50-300 us) or a readout delay (20-150 us)                     the pair and lists the
-                                                                                  other as an alternative
-                                                                                  (the close call is said)
+                    50-300 us) or a readout delay (20-150 us); then the           the pair and lists the
+                    experiment the verdict suggests is recorded on the same unit  other as an alternative
+                    with the same effect and diagnosed (:func:`follow_up`)        (the close call is said),
+                                                                                  and the suggested
+                                                                                  experiment's recording is
+                                                                                  diagnosed as the true
+                                                                                  effect, ``explained``, the
+                                                                                  other not an alternative
+                                                                                  (the round trip)
 ``randomised``      a catalogue effect (in the experiments of                     as in the standard set
                     :data:`~sins_sim.identification.blind.EXPERIMENTS`) or a
                     clean case, made by the standard generator with the
@@ -39,6 +45,7 @@ tuned to.
 .. autosummary::
 
    make_hard_case
+   follow_up
    judge_hard
    evaluate_seeds
    format_seeds
@@ -47,10 +54,12 @@ tuned to.
 from __future__ import annotations
 
 import math
+import zlib
 
 import numpy as np
 
-from sins_sim.identification.blind import FS, _draw_effect, _judge, _log_uniform, evaluate, make_case
+from sins_sim.identification.blind import (FS, _draw_effect, _judge, _log_uniform, evaluate, make_case,
+                                           perturbed_unit)
 from sins_sim.io.recording import Recording
 from sins_sim.models.effects import EFFECTS, make_effect
 from sins_sim.models.suspension import SuspensionParams
@@ -58,13 +67,14 @@ from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings
                                             stationary_drive, table_motion)
 from sins_sim.units import ARCMIN, ARCSEC, DEG, DEG_PER_H, INTERPOLATED_QUANTUM_RAD
 
-__all__ = ["HARD_LABELS", "HARD_FORMS", "HARD_EXPECTED", "DEV_SEEDS", "HOLDOUT_SEEDS", "make_hard_case", "judge_hard",
+__all__ = ["HARD_LABELS", "HARD_FORMS", "HARD_EXPECTED", "DEV_SEEDS", "HOLDOUT_SEEDS", "make_hard_case", "follow_up",
+           "judge_hard",
            "evaluate_seeds", "format_seeds"]
 
 #: The classes of the hard set.
 HARD_LABELS = ("time_gap", "sign_flip", "bias_drift", "structural_mode", "near_degenerate", "randomised")
 #: The forms a class is drawn in.
-HARD_FORMS = {"time_gap": ("rate_table",), "sign_flip": ("rate_table",), "bias_drift": ("alone", "with_effect"),
+HARD_FORMS = {"time_gap": ("rate_table",), "sign_flip": ("counts", "table"), "bias_drift": ("alone", "with_effect"),
               "structural_mode": ("stationary", "rate_table"), "near_degenerate": ("piezo_lag", "readout_delay"),
               "randomised": tuple(EFFECTS) + ("none",)}
 #: The verdict expected per class (``randomised`` and ``bias_drift/with_effect``: the effect drawn).
@@ -82,14 +92,7 @@ AMPLITUDE_RANGE_ARCMIN = (1.8, 4.2)
 def _unit(rng, axes):
     """Randomised nominal and true suspensions per axis and the dither amplitude (rad)."""
     nominal = {a: SuspensionParams(f0_hz=_log_uniform(rng, *F0_RANGE_HZ)) for a in axes}
-    truth = {}
-    for a in axes:
-        s = nominal[a]
-        z = rng.standard_normal(6)
-        truth[a] = s.replace(f0_hz=s.f0_hz * (1 + 0.002 * z[0]), k1=s.k1 * (1 + 0.05 * z[1]),
-                             k2=s.k2 * (1 + 0.05 * z[2]), k3=s.k3 * (1 + 0.05 * z[3]),
-                             k4=s.k4 * (1 + 0.05 * z[4]), k5=s.k5 * (1 + 0.05 * z[5]))
-    return nominal, truth, rng.uniform(*AMPLITUDE_RANGE_ARCMIN) * ARCMIN
+    return nominal, perturbed_unit(nominal, axes, rng), rng.uniform(*AMPLITUDE_RANGE_ARCMIN) * ARCMIN
 
 
 def _table(rng):
@@ -130,7 +133,7 @@ def make_hard_case(label: str, rng: np.random.Generator, duration_s: float = 1.0
     if label == "structural_mode":
         experiment = form
     if label == "time_gap":
-        m = int(rng.integers(20, 121))
+        m = int(round(_log_uniform(rng, 1.0, 120.0)))
     n = int(round(duration_s * FS)) + 1 + m
     drive = stationary_drive(nominal, axes, amp, FS, n)
     table = {a: _table(rng) for a in axes} if experiment == "rate_table" else None
@@ -151,7 +154,7 @@ def make_hard_case(label: str, rng: np.random.Generator, duration_s: float = 1.0
             desc += " & " + d
             expected = inner
     elif label == "structural_mode":
-        f, z, rms = rng.uniform(1500.0, 2500.0), rng.uniform(0.01, 0.05), _log_uniform(rng, 0.5, 4.0) * ARCSEC
+        f, z, rms = rng.uniform(1500.0, 2500.0), rng.uniform(0.01, 0.05), _log_uniform(rng, 0.2, 4.0) * ARCSEC
         effects.append(make_effect("mount_mode", frequency_hz=f, zeta=z, rms_rad=rms,
                                    seed=float(rng.integers(2 ** 31))))
         desc = f"mount_mode {f:.0f} Hz, zeta {z:.3f}, {rms / ARCSEC:.2f} arcsec RMS"
@@ -173,9 +176,12 @@ def make_hard_case(label: str, rng: np.random.Generator, duration_s: float = 1.0
         rec = _drop(rec, i0, m)
         desc = f"{m} samples dropped at {i0 / FS:.3f} s"
         defect = {"first_sample": i0, "samples": m}
-    elif label == "sign_flip":
+    elif label == "sign_flip" and form == "counts":
         rec = Recording(dict(rec.meta), -np.asarray(rec.counts), np.asarray(rec.drive_v), rec.sins_angle)
         desc = "counts negated"
+    elif label == "sign_flip":
+        rec = Recording(dict(rec.meta), np.asarray(rec.counts), np.asarray(rec.drive_v), -np.asarray(rec.sins_angle))
+        desc = "table angle (sins_angle) negated"
     info = {"label": label, "form": form, "weak": False, "experiment": experiment, "effect": desc,
             "integrator": integrator, "noise_arcsec": noise / ARCSEC, "initial_state": rec.initial_state,
             "axes": axes, "params": [e.to_dict() for e in effects] or None, "pair": None, "inner": inner,
@@ -183,6 +189,41 @@ def make_hard_case(label: str, rng: np.random.Generator, duration_s: float = 1.0
             "expected": expected, "amplitude_arcmin": amp / ARCMIN, "f0_hz": {a: truth[a].f0_hz for a in axes},
             "truth": {a: nominal_from_suspension(truth[a]) for a in axes}}
     return rec, info
+
+
+def follow_up(info: dict, verdict: dict, rec: Recording, settings) -> dict:
+    """The round trip of a ``near_degenerate`` case whose verdict is a close call (else ``{}``).
+
+    The experiment the verdict suggests (``verdict["close_call"]["experiment"]``, built as
+    ``simulate-recording`` builds it: :func:`sins_sim.identification.discriminate.experiment_inputs`) is
+    recorded on the same true unit with the same effect, integrator and readout noise, and diagnosed. Returns
+    ``round_trip`` (the experiment's label), ``round_trip_verdict``, ``round_trip_alternatives`` and
+    ``round_trip_right`` (the true effect named, ``explained``, the rival not among the alternatives).
+    """
+    cc = verdict.get("close_call")
+    if info["label"] != "near_degenerate" or not cc:
+        return {}
+    from sins_sim.identification.diagnose import diagnose_recording
+    from sins_sim.identification.discriminate import experiment_inputs
+    from sins_sim.simulation.experiment import suspension_from_nominal
+
+    doc = cc["experiment"]
+    inputs = experiment_inputs(rec, doc, doc["duration_s"])
+    truth = {a: suspension_from_nominal(info["truth"][a]) for a in info["axes"]}
+    nominal = {a: suspension_from_nominal(rec.nominal[a]) for a in rec.axes}
+    p = dict(info["params"][0])
+    effect = make_effect(p.pop("name"), **p)
+    seed = zlib.crc32(info["effect"].encode())  # the readout noise's seed: fixed by the case, apart from its own
+    rec2 = record(inputs, truth, nominal, rec.quantum_rad, [effect],
+                  ExperimentSettings(plant_rate_hz=72000.0, integrator=info["integrator"]),
+                  noise_rad=info["noise_arcsec"] * ARCSEC, seed=seed, experiment=doc["experiment"],
+                  description="blind evaluation case (hard): round trip")
+    v2 = diagnose_recording(rec2, settings).verdict
+    rival = ({"piezo_lag", "readout_delay"} - {info["inner"]}).pop()
+    return {"round_trip": doc["description"], "round_trip_verdict": f"{v2['effect']} ({v2['status']})",
+            "round_trip_alternatives": list(v2.get("alternatives", [])),
+            "round_trip_right": bool(v2["effect"] == info["inner"] and v2["status"] == "explained"
+                                     and rival not in v2.get("alternatives", []))}
 
 
 def judge_hard(info: dict, verdict: dict) -> tuple:
@@ -198,7 +239,10 @@ def judge_hard(info: dict, verdict: dict) -> tuple:
         pair = {"piezo_lag", "readout_delay"}
         pred = verdict["effect"] + (" | " + ", ".join(verdict["alternatives"]) if verdict.get("alternatives") else "")
         said = {verdict["effect"], *verdict.get("alternatives", [])}
-        return pred, status == "explained" and verdict["effect"] in pair and pair <= said
+        if info.get("round_trip_verdict"):
+            pred += " -> " + info["round_trip_verdict"]
+        return pred, (status == "explained" and verdict["effect"] in pair and pair <= said
+                      and bool(info.get("round_trip_right")))
     if label == "structural_mode":
         return verdict["effect"], status == "unknown"
     if label == "bias_drift" and info["form"] == "alone":

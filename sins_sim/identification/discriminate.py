@@ -43,6 +43,7 @@ parameters, dither amplitude) and no effects: the unit on the bench supplies the
    close_rivals
    close_call
    feasible_experiments
+   experiment_inputs
    design
    experiment_yaml
    close_call_lines
@@ -62,7 +63,7 @@ from sins_sim.simulation.experiment import (FIT_SETTINGS, ExperimentInputs, afc_
 from sins_sim.units import ARCMIN, ARCSEC, DEG
 
 __all__ = ["TARGET_NONCENTRALITY", "RATE_TABLE_HZ", "RATE_TABLE_ARCMIN", "close_rivals", "close_call",
-           "feasible_experiments", "design", "experiment_yaml", "close_call_lines"]
+           "feasible_experiments", "experiment_inputs", "design", "experiment_yaml", "close_call_lines"]
 
 #: Non-centrality the separating experiment must give the pair hardest to tell apart: the usual
 #: normal-approximation rule ``(z_{1 - alpha/2} + z_{power})^2`` for a one-degree-of-freedom test at the
@@ -144,8 +145,9 @@ def feasible_experiments(rec: Recording, axes) -> list:
     return out
 
 
-def _inputs(rec: Recording, spec: dict, duration_s: float) -> ExperimentInputs:
-    """The engine's inputs for an experiment of the list, built as ``simulate-recording`` builds them."""
+def experiment_inputs(rec: Recording, spec: dict, duration_s: float) -> ExperimentInputs:
+    """The engine's inputs for an experiment of the list (or a document of :func:`experiment_yaml`) on the
+    recording's axes, rates and nominal parameters, built as ``simulate-recording`` builds them (from rest)."""
     fs, dfs = rec.fs_hz, rec.drive_fs_hz
     ratio = int(round(dfs / fs))
     n = int(math.floor(duration_s * fs + 1e-9)) + 1
@@ -258,7 +260,7 @@ def design(rec: Recording, cands: list, floors: dict, settings: DiagnoseSettings
     pi = 1.0 / len(models)
     rows = []
     for spec in experiments:
-        inputs = _inputs(rec, spec, dur)
+        inputs = experiment_inputs(rec, spec, dur)
         n = inputs.n_samples
         preds = [m.predict(inputs) for m in models]
         jacs = [m.jacobian(inputs, p, weight) for m, p in zip(models, preds)]
