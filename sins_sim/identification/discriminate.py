@@ -16,8 +16,8 @@ fraction and held-out score, and the experiment that separates them.
 (its refit nominal parameters and fitted effect) is simulated under every experiment of a short
 feasible list (:func:`feasible_experiments`: the recorded experiment type, the dither amplitude
 halved and raised by half, the default AFC sweep, and a rate table turning at 10 deg/s with one
-sine of 7, 30, 80 or 230 Hz at 1, 3 or 10 arcmin on one of the close call's axes, or the
-default three sines). For two models with known noise variance ``sigma^2`` and no predictive
+sine of 7, 30, 80 or 230 Hz at a peak rate of 5 or 25 deg/s on one of the close call's axes, or
+the default three sines). For two models with known noise variance ``sigma^2`` and no predictive
 variance, Box and Hill's criterion (their eq. 13) is
 ``D = sum_{i<j} pi_i pi_j (eta_i - eta_j)^2 (2 / sigma^2)``, summed over the independent
 observations, with equal prior weights ``pi_i``. A rival refits its parameters to any new recording,
@@ -62,7 +62,7 @@ from sins_sim.simulation.experiment import (FIT_SETTINGS, ExperimentInputs, afc_
                                             stationary_drive, suspension_from_nominal, table_motion)
 from sins_sim.units import ARCMIN, ARCSEC, DEG
 
-__all__ = ["TARGET_NONCENTRALITY", "RATE_TABLE_HZ", "RATE_TABLE_ARCMIN", "close_rivals", "close_call",
+__all__ = ["TARGET_NONCENTRALITY", "RATE_TABLE_HZ", "RATE_TABLE_PEAK_DEG_S", "close_rivals", "close_call",
            "feasible_experiments", "experiment_inputs", "design", "experiment_yaml", "close_call_lines"]
 
 #: Non-centrality the separating experiment must give the pair hardest to tell apart: the usual
@@ -72,8 +72,10 @@ TARGET_NONCENTRALITY = float((stats.norm.ppf(1.0 - 0.01 / 2.0) + stats.norm.ppf(
 #: The rate table's sine frequencies tried (Hz): the low, middle and high lines of the experiment
 #: format's default table motion and one between.
 RATE_TABLE_HZ = (7.0, 30.0, 80.0, 230.0)
-#: The sine amplitudes tried (arcmin).
-RATE_TABLE_ARCMIN = (1.0, 3.0, 10.0)
+#: The sines' peak rates tried (deg/s): the amplitude is ``peak / (2 pi f)``. At most 25 deg/s, the peak rate of each
+#: sine of the experiment format's default table motion (30 arcmin at 7 Hz, 3 at 80 Hz, 1 at 230 Hz: 22-25 deg/s),
+#: what a bench is taken to manage; 5 deg/s a gentler one.
+RATE_TABLE_PEAK_DEG_S = (5.0, 25.0)
 #: The table's constant rate in every rate-table experiment tried (deg/s), as in the format's default.
 RATE_TABLE_DEG_S = 10.0
 #: Shortest and longest suggested duration (s).
@@ -130,7 +132,8 @@ def feasible_experiments(rec: Recording, axes) -> list:
         out.append({"label": "afc_sweep (default plan)", "experiment": "afc_sweep", "amplitude_arcmin": amp})
     for a in axes:
         for f in RATE_TABLE_HZ:
-            for s in RATE_TABLE_ARCMIN:
+            for peak in RATE_TABLE_PEAK_DEG_S:
+                s = round(math.radians(peak) / (2.0 * math.pi * f) / ARCMIN, 2)
                 out.append({"label": f"rate_table on {a}: {RATE_TABLE_DEG_S:g} deg/s + {s:g} arcmin at {f:g} Hz",
                             "experiment": "rate_table", "amplitude_arcmin": amp,
                             "rate_table": {"rate_deg_s": RATE_TABLE_DEG_S, "axes": [a],
