@@ -142,3 +142,28 @@ def test_report_says_the_close_call(dither_only, tmp_path):
     write_report(dither_only, tmp_path / "rep")
     text = (tmp_path / "rep" / "report.md").read_text()
     assert "## Close call" in text and "readout_delay" in text and "rate_table" in text
+
+
+def test_experiment_yaml_keeps_the_header_and_loads():
+    """Every nominal key of the header (zeta too) reaches the experiment file under the format's name, and the
+    loader builds the same drive the design simulated (``experiment_inputs``)."""
+    from sins_sim.identification.discriminate import experiment_inputs, experiment_yaml, feasible_experiments
+    from sins_sim.io.recording import FORMAT, Recording
+
+    nominal = {"f0_hz": 371.0, "k1": 1.7e-4, "k2": 1.0e-3, "k3": 4.0e-3, "k4": 240.0, "k5": -1.1e-5, "zeta": 1e-4}
+    meta = {"format": FORMAT, "axes": ["x"], "fs_hz": 7200.0, "drive_fs_hz": 7200.0, "quantum_rad": 7.33e-7,
+            "initial_state": "rest", "experiment": "stationary", "nominal": {"x": nominal}}
+    t = np.arange(7201) / 7200.0
+    counts = np.round(8.7e-4 * np.sin(2 * np.pi * 371.0 * t) / 7.33e-7).astype(np.int64)[:, None]
+    rec = Recording(meta, counts, np.zeros((7201, 1)))
+    spec = next(s for s in feasible_experiments(rec, ["x"]) if s["experiment"] == "rate_table")
+    doc = experiment_yaml(rec, {"spec": spec, "label": spec["label"], "duration_s": 1.5}, ["a", "b"])
+    assert doc["nominal"]["x"] == {"f0_hz": 371.0, "k1": 1.7e-4, "k2_rad": 1.0e-3, "k3": 4.0e-3, "k4_per_rad": 240.0,
+                                   "k5_rad_per_v": -1.1e-5, "zeta": 1e-4}
+    built = experiment_from_dict(copy.deepcopy(doc))
+    mine = experiment_inputs(rec, spec, 1.5)
+    assert built["inputs"].n_samples == mine.n_samples == 10801
+    assert np.array_equal(built["inputs"].drive_v, mine.drive_v)
+    tt = mine.time()
+    assert np.allclose(built["inputs"].table["x"].angle_rate(tt)[0], mine.table["x"].angle_rate(tt)[0], rtol=0,
+                       atol=1e-12)

@@ -299,7 +299,8 @@ def design(rec: Recording, cands: list, floors: dict, settings: DiagnoseSettings
 def experiment_yaml(rec: Recording, chosen: dict, models) -> dict:
     """The chosen experiment as a ``simulate-recording`` document (no effects: the bench unit has them)."""
     spec = chosen["spec"]
-    keys = {"f0_hz": "f0_hz", "k1": "k1", "k2": "k2_rad", "k3": "k3", "k4": "k4_per_rad", "k5": "k5_rad_per_v"}
+    keys = {"f0_hz": "f0_hz", "k1": "k1", "k2": "k2_rad", "k3": "k3", "k4": "k4_per_rad", "k5": "k5_rad_per_v",
+            "zeta": "zeta"}  # the header's names -> the experiment format's (config.experiment.SUSPENSION_YAML_KEYS)
     doc = {"name": "separate-" + "-".join(models), "experiment": spec["experiment"],
            "description": f"separates {', '.join(models)} (suggested by sins-sim diagnose: {chosen['label']})",
            "axes": list(rec.axes), "duration_s": chosen["duration_s"], "fs_hz": float(rec.fs_hz),
