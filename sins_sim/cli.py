@@ -543,6 +543,9 @@ def _cmd_diagnose(args) -> int:
             # the report folder is replaced as a whole when the run succeeds: the JSON would go with it
             raise ConfigError(f"--json: must not be inside --report {args.report} (the folder is replaced as a "
                               "whole); write it beside the folder")
+    if len(args.recording) > 1 and args.suggest is not None:
+        raise ConfigError("--suggest: names one experiment file, so it takes one recording (got "
+                          f"{len(args.recording)})")
     if len(args.recording) > 1:  # several: --json and --report name folders, one entry per recording
         progress = lambda line: print(line, file=sys.stderr, flush=True)  # noqa: E731
         with ExitStack() as stack:
@@ -560,8 +563,15 @@ def _cmd_diagnose(args) -> int:
         json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
         report_tmp = (stack.enter_context(_result_dir(args, args.report, "--report", inputs=args.recording))
                       if args.report is not None else None)
-        result = diagnose(args.recording[0], json_out=json_tmp, report_dir=report_tmp, effects=effects)
+        suggest_tmp = (stack.enter_context(atomic_output_file(args.suggest, "--suggest"))
+                       if args.suggest is not None else None)
+        result = diagnose(args.recording[0], json_out=json_tmp, report_dir=report_tmp, effects=effects,
+                          suggest_out=suggest_tmp)
     print(format_diagnosis(result))
+    if args.suggest is not None:
+        print(f"wrote {args.suggest}: the experiment that separates the close call"
+              if result["verdict"].get("close_call") else
+              f"no close call: nothing to separate, {args.suggest} not written")
     return EXIT_OK
 
 
@@ -570,10 +580,25 @@ def _cmd_diagnose_eval(args) -> int:
     from sins_sim.jobs.recording_jobs import diagnose_eval, format_eval
 
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    seeds = None
+    if args.holdout:
+        from sins_sim.identification.blind_hard import HOLDOUT_SEEDS
+
+        if not args.hard or args.seeds is not None:
+            raise ConfigError("--holdout: runs the hard set's unlooked-at seeds: give it with --hard and without "
+                              "--seeds")
+        seeds = list(HOLDOUT_SEEDS)
+    elif args.seeds is not None:
+        try:
+            seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
+        except ValueError:
+            raise ConfigError(f"--seeds: must be comma-separated integers, got {args.seeds!r}") from None
+        if not seeds or any(x < 0 for x in seeds):
+            raise ConfigError(f"--seeds: must be comma-separated integers >= 0, got {args.seeds!r}")
     with ExitStack() as stack:
         json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
         result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=json_tmp, progress=progress,
-                               jobs=args.jobs)
+                               jobs=args.jobs, suite="hard" if args.hard else "standard", seeds=seeds)
     print(format_eval(result))
     return EXIT_OK
 
@@ -1025,6 +1050,8 @@ def build_parser() -> argparse.ArgumentParser:
                                     "ranking.png into this directory (several recordings: a folder of STEM/)")
     p.add_argument("--effects", help="comma-separated subset of the catalogue to try (default: all)")
     p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in separate processes [1]")
+    p.add_argument("--suggest", help="when the verdict is a close call, write the experiment that separates it "
+                                     "here (YAML for simulate-recording; one recording only)")
     _force_flag(p)
     p.set_defaults(func=_cmd_diagnose)
 
@@ -1038,6 +1065,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the result JSON here")
     p.add_argument("--quiet", action="store_true", help="no per-case progress lines")
     p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in processes [1]")
+    p.add_argument("--hard", action="store_true", help="the harder set: time gaps and sign flips under table motion, "
+                                                       "bias drift, structural modes, near-degenerate pairs, "
+                                                       "randomised units (identification.blind_hard)")
+    p.add_argument("--seeds", help="comma-separated seeds instead of --seed: --n recordings each, accuracy pooled "
+                                   "per class")
+    p.add_argument("--holdout", action="store_true", help="with --hard: the two seeds kept unlooked-at during "
+                                                          "development (blind_hard.HOLDOUT_SEEDS)")
     p.set_defaults(func=_cmd_diagnose_eval)
 
     p = sub.add_parser("schema", help="every key of an input format with its unit, range and default",

@@ -44,7 +44,7 @@ from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings
                                             nominal_from_suspension, record, stationary_drive, table_motion)
 from sins_sim.units import ARCMIN, ARCSEC, DEG, INTERPOLATED_QUANTUM_RAD
 
-__all__ = ["LABELS", "EXPERIMENTS", "FORMS", "PAIRS", "make_case", "evaluate", "format_result"]
+__all__ = ["LABELS", "EXPERIMENTS", "FORMS", "PAIRS", "make_case", "evaluate", "format_result", "perturbed_unit"]
 
 #: Hidden labels: every catalogue effect, clean cases, off-catalogue disturbances and pairs of effects.
 LABELS = tuple(EFFECTS) + ("none", "off_catalogue", "pair")
@@ -158,8 +158,21 @@ def _draw_alt(label: str, rng, axes, k: float, truth: dict, sines, duration_s: f
     return e, e.name + " " + ", ".join(f"{key} = {val:.3g}" for key, val in p.items())
 
 
+def perturbed_unit(nominal: dict, axes, rng) -> dict:
+    """The true unit: per axis the nominal suspension with f0 off by 0.2 % and k1..k5 by 5 % (one sigma, normal)."""
+    truth = {}
+    for a in axes:
+        s = nominal[a]
+        z = rng.standard_normal(6)
+        truth[a] = s.replace(f0_hz=s.f0_hz * (1 + 0.002 * z[0]), k1=s.k1 * (1 + 0.05 * z[1]),
+                             k2=s.k2 * (1 + 0.05 * z[2]), k3=s.k3 * (1 + 0.05 * z[3]),
+                             k4=s.k4 * (1 + 0.05 * z[4]), k5=s.k5 * (1 + 0.05 * z[5]))
+    return truth
+
+
 def make_case(label: str, rng: np.random.Generator, duration_s: float = 1.0, experiment: str | None = None,
-              form: str | None = None, weak: bool | None = None):
+              form: str | None = None, weak: bool | None = None, f0_hz: dict | None = None,
+              amplitude_rad: float | None = None):
     """Generate one recording with a hidden label.
 
     Parameters
@@ -174,6 +187,10 @@ def make_case(label: str, rng: np.random.Generator, duration_s: float = 1.0, exp
         One of ``FORMS[label]`` (default: drawn; ``catalogue`` or an alternative with equal chance).
     weak : bool, optional
         Strength near the detection limit (default: drawn, :data:`WEAK_FRACTION`).
+    f0_hz : dict, optional
+        Axis -> the nominal resonance (default 386 / 352 Hz, each moved by up to 3 %).
+    amplitude_rad : float, optional
+        The dither amplitude (default: drawn, 2.5-3.5 arcmin).
 
     Returns
     -------
@@ -189,16 +206,12 @@ def make_case(label: str, rng: np.random.Generator, duration_s: float = 1.0, exp
         weak = label in EFFECTS and rng.uniform() < WEAK_FRACTION
     k = rng.uniform(0.05, 0.2) if weak else 1.0
     axes = ["x", "y"] if label == "axis_coupling" else ["x"]
-    base = {"x": 386.0, "y": 352.0}
-    nominal = {a: SuspensionParams(f0_hz=base[a] * (1.0 + 0.03 * rng.uniform(-1, 1))) for a in axes}
-    truth = {}
-    for a in axes:
-        s = nominal[a]
-        z = rng.standard_normal(6)
-        truth[a] = s.replace(f0_hz=s.f0_hz * (1 + 0.002 * z[0]), k1=s.k1 * (1 + 0.05 * z[1]),
-                             k2=s.k2 * (1 + 0.05 * z[2]), k3=s.k3 * (1 + 0.05 * z[3]),
-                             k4=s.k4 * (1 + 0.05 * z[4]), k5=s.k5 * (1 + 0.05 * z[5]))
-    amp = rng.uniform(2.5, 3.5) * ARCMIN
+    if f0_hz is None:
+        base = {"x": 386.0, "y": 352.0}
+        f0_hz = {a: base[a] * (1.0 + 0.03 * rng.uniform(-1, 1)) for a in axes}
+    nominal = {a: SuspensionParams(f0_hz=f0_hz[a]) for a in axes}
+    truth = perturbed_unit(nominal, axes, rng)
+    amp = rng.uniform(2.5, 3.5) * ARCMIN if amplitude_rad is None else float(amplitude_rad)
     # a recording that starts mid-operation (the drive running 13 time constants before it), for the
     # clean and the off-catalogue cases (with an effect, the start state the diagnosis fits trades against
     # slow effects such as a drift over a 1 s recording)
@@ -275,16 +288,27 @@ def _judge(info: dict, verdict: dict) -> tuple:
 
 
 def _run_case(task) -> dict:
-    """Generate and diagnose one blind case: ``(label, seed, index, duration_s, form, settings)`` -> row."""
-    label, seed, i, duration_s, form, settings = task
+    """Generate and diagnose one blind case: ``(label, seed, index, duration_s, form, settings, suite)`` -> row.
+
+    ``suite`` ``hard``: the case comes from :mod:`sins_sim.identification.blind_hard`."""
+    label, seed, i, duration_s, form, settings, suite = task
     rng = np.random.default_rng([int(seed), 2, i])
-    rec, info = make_case(label, rng, duration_s, form=form)
+    judge = _judge
+    if suite == "hard":
+        from sins_sim.identification import blind_hard
+
+        rec, info = blind_hard.make_hard_case(label, rng, duration_s, form=form)
+        judge = blind_hard.judge_hard
+    else:
+        rec, info = make_case(label, rng, duration_s, form=form)
     t0 = time.perf_counter()
     js = diagnose_recording(rec, settings).to_json()  # the recording alone: the label stays hidden
     dt = time.perf_counter() - t0
     v = js["verdict"]
-    pred, right = _judge(info, v)
-    expected = EXPECTED[label]
+    if suite == "hard":
+        info = {**info, **blind_hard.follow_up(info, v, rec, settings)}  # the round trip of a close call
+    pred, right = judge(info, v)
+    expected = info.get("expected") or EXPECTED[label]
     alts = v.get("alternatives", [])
     true_red = next((c["gap_reduction"] for c in js["candidates"] if c["effect"] == label), None)
     return {**info, "verdict": pred, "status": v.get("status"), "expected": expected, "correct": bool(right),
@@ -297,7 +321,7 @@ def _run_case(task) -> dict:
 
 
 def evaluate(n: int, seed: int, duration_s: float = 1.0, labels=None, settings: DiagnoseSettings | None = None,
-             progress=None, forms=None, jobs: int = 1) -> dict:
+             progress=None, forms=None, jobs: int = 1, suite: str = "standard") -> dict:
     """Run ``n`` blind cases; the confusion matrix, accuracies per class and per form, and the cases.
 
     Labels cycle through a seeded permutation of :data:`LABELS` (or of ``labels``), so
@@ -311,14 +335,24 @@ def evaluate(n: int, seed: int, duration_s: float = 1.0, labels=None, settings: 
 
     ``jobs`` > 1 diagnoses that many recordings at once, in separate processes (each case's
     recording and result are the same as with ``jobs = 1``: every case has its own seed).
+
+    ``suite`` ``hard`` draws the cases of :mod:`sins_sim.identification.blind_hard` (its classes and
+    rules of what is right) instead.
     """
     n = int(n)
     if n < 1:
         raise ValueError(f"diagnose_eval.n: must be >= 1, got {n!r}")
-    pool = list(labels or LABELS)
+    if suite not in ("standard", "hard"):
+        raise ValueError(f"diagnose_eval.suite: must be 'standard' or 'hard', got {suite!r}")
+    if suite == "hard":
+        from sins_sim.identification.blind_hard import HARD_FORMS, HARD_LABELS
+        all_labels, all_forms = HARD_LABELS, HARD_FORMS
+    else:
+        all_labels, all_forms = LABELS, FORMS
+    pool = list(labels or all_labels)
     for lab in pool:
-        if lab not in LABELS:
-            raise ValueError(f"diagnose_eval.labels: must be in {list(LABELS)}, got {lab!r}")
+        if lab not in all_labels:
+            raise ValueError(f"diagnose_eval.labels: must be in {list(all_labels)}, got {lab!r}")
     order = [pool[i] for i in np.random.default_rng([int(seed), 1]).permutation(len(pool))]
     settings = settings or DiagnoseSettings()
     jobs = int(jobs)
@@ -329,9 +363,9 @@ def evaluate(n: int, seed: int, duration_s: float = 1.0, labels=None, settings: 
     for i in range(n):
         label = order[i % len(order)]
         form = None if forms is None else forms[i % len(forms)]
-        if form is not None and form not in FORMS[label]:
+        if form is not None and form not in all_forms[label]:
             form = None
-        tasks.append((label, int(seed), i, float(duration_s), form, settings))
+        tasks.append((label, int(seed), i, float(duration_s), form, settings, suite))
     cases = [None] * n
 
     def report(i, row):
@@ -347,10 +381,10 @@ def evaluate(n: int, seed: int, duration_s: float = 1.0, labels=None, settings: 
     else:
         # recordings are independent: one process per recording at a time (the kernels inside a
         # diagnosis use threads too, so each process gets one thread)
-        one = [(lab, sd, i, dur, form, replace(sett, threads=1)) for lab, sd, i, dur, form, sett in tasks]
+        one = [(lab, sd, i, dur, form, replace(sett, threads=1), st) for lab, sd, i, dur, form, sett, st in tasks]
         in_processes(_run_case, one, jobs, report)
     predicted = sorted({c["verdict"] for c in cases} | {"none", "unknown"})
-    true_labels = [lab for lab in LABELS if any(c["label"] == lab for c in cases)]
+    true_labels = [lab for lab in all_labels if any(c["label"] == lab for c in cases)]
     confusion = {t: {p: sum(1 for c in cases if c["label"] == t and c["verdict"] == p) for p in predicted}
                  for t in true_labels}
 
@@ -359,7 +393,7 @@ def evaluate(n: int, seed: int, duration_s: float = 1.0, labels=None, settings: 
                 "accuracy": sum(c["correct"] for c in group) / len(group)}
 
     per_class = {t: acc([c for c in cases if c["label"] == t]) for t in true_labels}
-    keys = sorted({(c["label"], c["form"]) for c in cases}, key=lambda k: (LABELS.index(k[0]), k[1]))
+    keys = sorted({(c["label"], c["form"]) for c in cases}, key=lambda k: (all_labels.index(k[0]), k[1]))
     per_form = {f"{lab}/{form}": acc([c for c in cases if c["label"] == lab and c["form"] == form])
                 for lab, form in keys}
     strength = {w: acc([c for c in cases if c["weak"] == (w == "weak") and c["label"] in EFFECTS])
@@ -369,7 +403,7 @@ def evaluate(n: int, seed: int, duration_s: float = 1.0, labels=None, settings: 
     reds = [c["true_effect_gap_reduction"] for c in eff if c["true_effect_gap_reduction"] is not None]
     vreds = [c["verdict_gap_reduction"] for c in eff if c["correct"] and c["verdict_gap_reduction"] is not None]
     return {
-        "n": n, "seed": int(seed), "duration_s": float(duration_s),
+        "n": n, "seed": int(seed), "duration_s": float(duration_s), "suite": suite,
         "accuracy": sum(c["correct"] for c in cases) / n,
         "accuracy_up_to_alternatives": sum(c["equivalent"] for c in cases) / n,
         "per_class": per_class, "per_form": per_form, "per_strength": strength,

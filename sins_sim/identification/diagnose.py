@@ -64,6 +64,9 @@ Given a recording (``sins_sim.io.recording``), :func:`diagnose_recording`
    significant against the selected model and removes at least ``MIN_STEP`` of what remains. The
    verdict lists the selected effects in order, with the share of the gap each closes and the axes
    it is kept on (``verdict.effects``).
+7. says a **close call** (:mod:`~sins_sim.identification.discriminate`): when other candidates close
+   the gap as well as the verdict's effect, they join ``alternatives`` and ``verdict.close_call``
+   gives each one's explained fraction and the experiment that would separate them (Box & Hill 1967).
 
 Conventions: the measured angle is ``counts * q + q / 2`` (the floor of the
 counter makes ``counts * q`` half a quantum low on average). A recording
@@ -105,6 +108,7 @@ from dataclasses import replace
 import numpy as np
 
 from sins_sim.identification.checks import check_recording, require_inputs
+from sins_sim.identification.discriminate import close_call
 from sins_sim.identification.explain import explain
 from sins_sim.identification.localise import localise, noise_floor, operating_points
 from sins_sim.identification.recording_inputs import (_coupling_sources, _masks, _model_inputs, _table_angles, _tau,
@@ -327,6 +331,8 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
                          "excess_rms_arcsec": {a: math.sqrt(excess[a]) / ARCSEC for a in sig_axes}}
     # 6. the verdict
     verdict = give_verdict(fits, sig_axes, candidates, settings, steps, remainder)
+    # 7. a close call is said, with the experiment that separates it (discriminate.close_call)
+    verdict = close_call(rec, verdict, candidates, floors, settings)
     timing["total"] = time.perf_counter() - t_start
     return Diagnosis(recording=rec, floors=floors, baseline=baseline, gap=gap, candidates=candidates,
                      verdict=verdict, localisation=locs, timing=timing, skipped=skipped, steps=steps or [])

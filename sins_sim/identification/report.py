@@ -355,6 +355,10 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     if v.get("remainder"):
         r = v["remainder"]
         lines += [f"- what remains sits on axis {r['axis']}, band {r['band_hz']} Hz, time window {r['time_s']} s", ""]
+    if v.get("close_call"):
+        from sins_sim.identification.discriminate import close_call_lines
+
+        lines += close_call_lines(v["close_call"])
     if js.get("flags"):
         lines += ["## Implausible refit values", ""] + [f"- {f['message']}" for f in js["flags"]] + [""]
     lines += ["## Baseline refit (+- 1 sigma)", "",

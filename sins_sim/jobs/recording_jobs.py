@@ -29,7 +29,7 @@ from sins_sim.units import ARCSEC
 #: ``EXPERIMENT_SCHEMA``, ``DEFAULT_F0_HZ`` and ``experiment_from_dict`` are re-exported from
 #: :mod:`sins_sim.config.experiment`, where they live
 __all__ = ["EXPERIMENT_SCHEMA", "DEFAULT_F0_HZ", "experiment_from_dict", "simulate_recording", "import_csv",
-           "diagnose", "diagnose_many", "diagnose_eval", "format_diagnosis", "format_eval"]
+           "diagnose", "diagnose_many", "diagnose_eval", "format_diagnosis", "format_eval", "write_suggestion"]
 
 
 def simulate_recording(yaml_path, out_npz) -> dict:
@@ -127,7 +127,8 @@ def import_csv(csv_path, out_npz, **meta) -> dict:
             "duration_s": rec.duration_s, "has_sins_angle": rec.sins_angle is not None}
 
 
-def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: int | None = None) -> dict:
+def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: int | None = None,
+             suggest_out=None) -> dict:
     """Diagnose a recording; write the JSON and the report directory when given; return the JSON dict.
 
     Parameters
@@ -142,6 +143,9 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
         Catalogue effects to try (default all).
     threads : int, optional
         Worker threads of the diagnosis (default ``DiagnoseSettings``'s: the cores it may use).
+    suggest_out : path, optional
+        When the verdict is a close call, write the experiment that separates it here (a
+        ``simulate-recording`` YAML, :func:`write_suggestion`); otherwise nothing is written.
 
     Returns
     -------
@@ -158,6 +162,8 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
     from sins_sim.results import DiagnosisResult
 
     diag = diagnose_recording(rec, settings)
+    if suggest_out is not None:
+        write_suggestion(diag.verdict, suggest_out)
     if report_dir is not None:
         return DiagnosisResult(write_report(diag, report_dir, json_out), diagnosis=diag)
     js = diag.to_json()
@@ -167,6 +173,29 @@ def diagnose(rec_path, json_out=None, report_dir=None, effects=None, threads: in
         Path(json_out).parent.mkdir(parents=True, exist_ok=True)
         Path(json_out).write_text(json.dumps(js, indent=2) + "\n")
     return DiagnosisResult(js, diagnosis=diag)
+
+
+def write_suggestion(verdict: dict, out_yaml) -> bool:
+    """Write a close call's separating experiment (``verdict["close_call"]["experiment"]``) as YAML.
+
+    The document is checked by the experiment loader first (it must run as written). Returns whether a
+    file was written (``False``: the verdict is no close call, nothing to separate).
+    """
+    cc = verdict.get("close_call")
+    if not cc:
+        return False
+    import yaml
+
+    doc = cc["experiment"]
+    experiment_from_dict(doc, "suggested experiment")  # runs as written, or a ConfigError here
+    effects = ", ".join(e["effect"] for e in cc["effects"])
+    head = (f"# Suggested by sins-sim diagnose: the experiment that separates {effects}\n"
+            f"# ({cc['why']}).\n# {cc['criterion']}.\n"
+            "# Record it on the unit (or simulate it: sins-sim simulate-recording THIS.yaml --out REC.npz, with the\n"
+            "# effect under test added to an effects: list), then diagnose that recording.\n")
+    Path(out_yaml).parent.mkdir(parents=True, exist_ok=True)
+    Path(out_yaml).write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=120))
+    return True
 
 
 def _diagnose_task(task) -> dict:
@@ -231,7 +260,8 @@ def diagnose_many(rec_paths, json_dir=None, report_dir=None, effects=None, jobs:
     return out
 
 
-def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None, jobs: int = 1) -> dict:
+def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None, jobs: int = 1,
+                  suite: str = "standard", seeds=None) -> dict:
     """Blind evaluation (``sins_sim.identification.blind.evaluate``); the result dictionary.
 
     Parameters
@@ -248,10 +278,21 @@ def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, pro
         Called after each case with a one-line summary.
     jobs : int
         Recordings diagnosed at once (separate processes).
+    suite : str
+        ``standard`` (:mod:`sins_sim.identification.blind`) or ``hard``
+        (:mod:`sins_sim.identification.blind_hard`).
+    seeds : sequence of int, optional
+        Several seeds instead of ``seed``: ``n`` recordings each, accuracy pooled per class
+        (:func:`sins_sim.identification.blind_hard.evaluate_seeds`).
     """
-    from sins_sim.identification.blind import evaluate
+    if seeds is not None:
+        from sins_sim.identification.blind_hard import evaluate_seeds
 
-    res = evaluate(n, seed, duration_s=duration_s, progress=progress, jobs=jobs)
+        res = evaluate_seeds(n, seeds, duration_s=duration_s, suite=suite, progress=progress, jobs=jobs)
+    else:
+        from sins_sim.identification.blind import evaluate
+
+        res = evaluate(n, seed, duration_s=duration_s, progress=progress, jobs=jobs, suite=suite)
     if json_out is not None:
         import json
 
@@ -281,6 +322,10 @@ def format_diagnosis(js: dict) -> str:
     alts = f" (or: {', '.join(v['alternatives'])})" if v.get("alternatives") else ""
     lines.append(f"verdict: {v['effect']}{alts} [{v.get('status')}], explained fraction "
                  f"{v.get('explained_fraction') or 0.0:.3f}")
+    cc = v.get("close_call")
+    if cc:
+        lines.append("close call: " + ", ".join(f"{e['effect']} {e['explained_fraction']:.5f}" for e in cc["effects"])
+                     + f"; separated by {cc['why']}")
     if len(v.get("effects", [])) > 1:
         lines.append("effects: " + ", ".join(f"{e['effect']} {e['explained_fraction']:.3f}" for e in v["effects"]))
     r = v.get("remainder")
@@ -291,6 +336,10 @@ def format_diagnosis(js: dict) -> str:
 
 def format_eval(res: dict) -> str:
     """The blind evaluation's confusion matrix and statistics as text (for the CLI to print)."""
+    if "per_seed" in res:
+        from sins_sim.identification.blind_hard import format_seeds
+
+        return format_seeds(res)
     from sins_sim.identification.blind import format_result
 
     return format_result(res)
