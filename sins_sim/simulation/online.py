@@ -6,7 +6,8 @@ electronics have), at the filter rate, and every ``update_s`` (counted from t = 
 grid, so results do not depend on chunking):
 
 1. solves the estimator (``OnlineEstimator.solve``, with its guards);
-2. with ``apply``: moves the values the correcting filters use (both forms of eq. 5) toward the
+2. with ``apply``: moves the values the correcting filters use (both forms of eq. 5, and the
+   plug-ins that take a new design in operation: the wideband filters) toward the
    estimate by first-order smoothing, ``p += (1 - exp(-update_s / smoothing_s)) (p_est - p)``
    (``smoothing_s = 0``: the estimate itself), and loads them into the filters from the next
    sample on. Causal: the filters never see an estimate made from data after the sample they
@@ -127,10 +128,10 @@ class OnlineLoop:
                 try:
                     designs = {name: dataclasses.replace(d0, f0_hz=new["f0_hz"], **{k: new[k] for k in _KS})
                                for name, d0 in self.designs0.items()}
+                    self._load(chain, designs)
                 except ValueError as exc:
                     self.estimator._event("filter", f"not loaded into the filters: {exc}")
                 else:
-                    self._load(chain, designs)
                     self.fed = new
         s = chain.plant.suspension
         a_ref = chain.cfg.drive.amplitude_rad
@@ -141,6 +142,12 @@ class OnlineLoop:
 
     @staticmethod
     def _load(chain, designs):
+        """Both eq. 5 forms (objects and the fused kernel's ``cpar`` rows) and the plug-ins that can change their
+        design in operation (``set_design``: the wideband filters) get the values of ``designs``."""
+        d = designs["correcting"]
+        for flt in chain.plugins.values():
+            if hasattr(flt, "set_design"):
+                flt.set_design(dataclasses.replace(flt.design, f0_hz=d.f0_hz, **{k: getattr(d, k) for k in _KS}))
         for row, (name, design) in enumerate(designs.items()):
             flt = chain.filters[name]
             flt.design = design

@@ -349,6 +349,10 @@ class SinsResult:
     filter_reports : dict name -> dict
         What a plug-in reports about itself at the end (its ``report()``; e.g. ``lms_stripper``: the adapted
         gains, the convergence time, the divergence).
+    online : dict axis -> dict
+        With ``filter_parameters: {source: online}``: per axis the estimator's ``history`` (one row per update: the
+        estimate, its standard deviations, the values fed to the filters and the plant's truth,
+        :meth:`sins_sim.simulation.online.OnlineLoop`) and its ``events`` (``(t_s, kind, message)``).
     """
 
     stats: dict
@@ -368,6 +372,7 @@ class SinsResult:
     allan: dict = field(default_factory=dict)
     records: dict = field(default_factory=dict)
     filter_reports: dict = field(default_factory=dict)
+    online: dict = field(default_factory=dict)
 
 
 def axis_pool(threads: int, n_axes: int = 3):
@@ -832,7 +837,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                       filter_rate_hz=fs, duration_s=duration_s, nav_start_s=(nav.start_s if nav else 0.0),
                       warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out,
                       allan=allan, records=records,
-                      filter_reports={n: f.report() for n, f in flt3.items() if hasattr(f, "report")})
+                      filter_reports={n: f.report() for n, f in flt3.items() if hasattr(f, "report")},
+                      online={AXES[i]: {"history": ch.online.history, "events": list(ch.online.estimator.events)}
+                              for i, ch in enumerate(chains) if ch.online is not None})
 
 
 def _run_three_axis(flt3, pickoffs, outs) -> None:
