@@ -1,0 +1,41 @@
+"""The online-estimation study (issue 29, item 3): its convergence measure and one short run of its four variants."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from sins_sim.jobs.online_study import VARIANTS, convergence, online_study
+
+
+def test_convergence_of_a_decaying_error_against_its_closed_form():
+    """err(t) = c + A exp(-t): steady error ~ c; the error stays within 3 x steady from t* = ln(A / (bound - c))."""
+    t = np.arange(0.0, 20.0, 0.1)
+    c, amp = 1e-3, 0.1
+    truth = np.full(t.size, 2.0)
+    est = truth * (1.0 + c + amp * np.exp(-t))
+    out = convergence(t, est, truth)
+    tail = t >= 0.75 * t[-1]
+    steady = math.sqrt(np.mean((c + amp * np.exp(-t[tail])) ** 2))
+    assert out["steady_rel_error_rms"] == np.float64(steady) or abs(out["steady_rel_error_rms"] / steady - 1) < 1e-12
+    t_star = math.log(amp / (3.0 * steady - c))
+    assert out["convergence_s"] == t[np.searchsorted(t, t_star - 1e-12)]
+    # an error that never settles within its bound has no convergence time
+    wild = truth * (1.0 + 0.1 * np.where(np.arange(t.size) == t.size - 1, 5.0, 1e-6))
+    assert math.isnan(convergence(t, wild, truth)["convergence_s"])
+
+
+def test_study_runs_its_four_variants(tmp_path):
+    """Two seconds of the bundled scenario: four variants, the estimator's table for three axes, the files."""
+    res = online_study("scenarios/online-estimation-ramp.yaml", tmp_path, duration_s=2.0, threads=1)
+    assert set(res["variants"]) == set(VARIANTS({"source": "online"}))
+    assert res["variants"]["online"]["filter_parameters"]["source"] == "online"
+    assert res["variants"]["nominal_track"]["filter_parameters"] == {"source": "nominal", "track": True}
+    assert set(res["estimator"]) == {"x", "y", "z"}
+    for axis in "xyz":
+        assert set(res["estimator"][axis]) >= {"f0_hz", "k1", "k2", "k3", "k5", "q", "events"}
+    for name in ("online-study.json", "online-study.md", "online-estimates.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    assert json.loads((tmp_path / "online-study.json").read_text())["scenario"] == "online-estimation-ramp"
