@@ -43,7 +43,7 @@ def test_online_source_builds_one_estimator_per_axis_on_the_datasheet():
 @pytest.mark.parametrize("fp, drive, match", [
     ({"source": "nominal", "online": {"update_s": 0.2}}, {}, r"filter_parameters.online: only with source: online"),
     ({"source": "online", "online": {"window_cycles": 8}}, {},
-     r"filter_parameters.online.window_cycles: must be <= interval_cycles = 4"),
+     r"filter_parameters.online.window_cycles: must be <= interval_cycles = 2"),
     ({"source": "online", "online": {"forgetting_s": 0.0}}, {}, r"filter_parameters.online.forgetting_s: must be"),
     ({"source": "online", "f0": "given"}, {}, r"filter_parameters.f0: given has no value with source: online"),
     ("online", {"modulation_depth": 0.0}, r"filter_parameters.source: online learns from the amplitude modulation"),
