@@ -39,3 +39,25 @@ def test_study_runs_its_four_variants(tmp_path):
     for name in ("online-study.json", "online-study.md", "online-estimates.png"):
         assert (tmp_path / name).stat().st_size > 0
     assert json.loads((tmp_path / "online-study.json").read_text())["scenario"] == "online-estimation-ramp"
+
+
+def test_metrics_carry_the_estimator_and_its_events():
+    """A run of the bundled scenario: metrics.json's online_estimator holds each axis's last estimate, what was fed
+    and the truth, and counts the events (the start-up's intervals outside the band among them); events of the
+    kinds in _ONLINE_WARN become one warning line each."""
+    from sins_sim.jobs.run import compute_run, online_warnings, prepare_run
+
+    scenario, warn = prepare_run("scenarios/online-estimation-ramp.yaml", overrides={"duration_s": 1.5})
+    _, metrics = compute_run(scenario, warn, threads=1)
+    sec = metrics["online_estimator"]
+    assert set(sec) == {"x", "y", "z"}
+    for row in sec.values():
+        assert row["updates"] == 15
+        assert set(row["estimate"]) >= {"f0_hz", "k1", "k2", "k3", "k4", "k5", "q"}
+        assert all(math.isfinite(v) for v in row["estimate"].values())
+        assert row["events"]["band"]["count"] >= 1
+    json.dumps(metrics, default=float, allow_nan=False)  # metrics.json refuses NaN
+    fake = {"x": {"events": {"range": {"count": 2, "first_t_s": 1.5, "first": "k5 not applied"},
+                             "band": {"count": 9, "first_t_s": 0.1, "first": "start-up"}}}}
+    assert online_warnings(fake) == ["online estimator, axis x: 2 range event(s), the first at t = 1.5 s: "
+                                     "k5 not applied"]

@@ -170,6 +170,8 @@ def parse_filter_parameters(value, ctx: str, path: str = "filter_parameters") ->
         raise ConfigError(f"{ctx}: {path}: suspension and channels only with source: explicit")
     if c["source"] != "online" and isinstance(value, dict) and value.get("online") is not None:
         raise ConfigError(f"{ctx}: {path}.online: only with source: online (source is {c['source']!r})")
+    if c["source"] != "online":
+        c.pop("online")  # the estimator's settings mean nothing to another source (and keep manifests as they were)
     if c["source"] == "online":
         if c["f0"] == "given":
             raise ConfigError(f"{ctx}: {path}.f0: given has no value with source: online (pll or unit)")
