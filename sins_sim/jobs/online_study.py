@@ -18,6 +18,13 @@ Usage::
 
 writes ``online-study.json``, ``online-study.md`` and ``online-estimates.png`` (estimates against truth over
 time, per axis).
+
+The cross-check (issue 29, item 4): :func:`estimate_recording` runs the same estimator offline over a
+``sins-sim-recording/1`` file made with the amplitude modulated (e.g. an ``afc_sweep`` experiment stepping the
+voltage at one frequency), and :func:`crosscheck` sets its estimate beside the ``sins-sim diagnose`` refit of the
+same recording::
+
+    python -m sins_sim.jobs.online_study --crosscheck REC.npz DIAGNOSIS.json
 """
 
 from __future__ import annotations
@@ -29,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["VARIANTS", "convergence", "online_study", "main"]
+__all__ = ["VARIANTS", "convergence", "online_study", "estimate_recording", "crosscheck", "main"]
 
 PARAMS = ("f0_hz", "k1", "k2", "k3", "k5", "q")
 
@@ -101,6 +108,70 @@ def online_study(scenario_path, out_dir, duration_s: float | None = None, thread
     return result
 
 
+def _drive_frequency(v: np.ndarray, fs_hz: float) -> float:
+    """The drive's frequency (Hz): the peak of its Hann-windowed spectrum (zero-padded 8 x), refined by the parabola
+    through the log magnitudes of the three bins around it (a recording does not store the PLL's frequency; a
+    unit's electronics know it)."""
+    n = v.size
+    spec = np.abs(np.fft.rfft((v - v.mean()) * np.hanning(n), 8 * n))
+    k = int(np.argmax(spec[1:-1])) + 1
+    a, b, c = np.log(spec[k - 1:k + 2])
+    return (k + 0.5 * (a - c) / (a - 2.0 * b + c)) * fs_hz / (8 * n)
+
+
+def estimate_recording(path, settings=None, amplitude_rad: float | None = None) -> dict:
+    """The online estimator run offline over a recording, per axis (``OnlineEstimate`` of its end).
+
+    The prior and the units are the header's nominal parameters; ``amplitude_rad`` (default: the median of the
+    amplitude seen in the readout) is the reference amplitude; the drive frequency is read off the drive
+    (:func:`_drive_frequency`). Forgetting defaults to 1000 s: a batch estimate over the whole record.
+    """
+    from sins_sim.filters.online_estimator import OnlineEstimator, OnlineSettings
+    from sins_sim.io.recording import read_recording
+
+    rec = read_recording(path)
+    meta = rec.meta
+    fs = float(meta["fs_hz"])
+    ratio = int(round(float(meta.get("drive_fs_hz", fs)) / fs))
+    settings = settings or OnlineSettings(forgetting_s=1e3)
+    out = {}
+    for i, axis in enumerate(meta["axes"]):
+        x = rec.counts[:, i].astype(np.float64) * float(meta["quantum_rad"])
+        v = np.asarray(rec.drive_v[::ratio, i], dtype=np.float64)[:x.size]
+        x = x[:v.size]
+        f = _drive_frequency(v, fs)
+        nom = meta["nominal"][axis]
+        ds = {k: float(nom[k]) for k in ("f0_hz", "k1", "k2", "k3", "k4", "k5")}
+        if amplitude_rad is None:  # the dither amplitude seen, from the readout's own spectrum line
+            t = np.arange(x.size) / fs
+            z = np.diff(x) * np.exp(-2j * np.pi * f * t[1:])
+            m = int(round(fs / f))
+            env = np.abs(np.convolve(z, np.ones(m) / m, mode="valid")) * 2.0 / abs(1.0 - np.exp(-2j * np.pi * f / fs))
+            a_ref = float(np.median(env))
+        else:
+            a_ref = float(amplitude_rad)
+        v_ref = float(np.sqrt(2.0) * np.std(v))
+        est = OnlineEstimator(settings, fs, f, a_ref, v_ref, 1e3 * v_ref, ds)
+        est.process(x, v)
+        out[axis] = {"estimate": est.solve(), "drive_hz": f, "a_ref_rad": a_ref, "events": list(est.events)}
+    return out
+
+
+def crosscheck(recording, diagnosis_json) -> dict:
+    """The online estimate of a recording beside the offline refit (``baseline.params``) of its diagnosis, per axis
+    and parameter: both values, their relative difference and the online sigma."""
+    diag = json.loads(Path(diagnosis_json).read_text())["baseline"]["params"]
+    online = estimate_recording(recording)
+    out = {}
+    for axis, row in online.items():
+        e = row["estimate"]
+        out[axis] = {p: {"diagnose": float(diag[axis][p]), "online": float(e.values[p]),
+                         "online_sigma": (float(e.std[p]) if math.isfinite(e.std.get(p, math.nan)) else None),
+                         "relative_difference": float(e.values[p] / diag[axis][p] - 1.0)}
+                     for p in ("f0_hz", "k1", "k2", "k3", "k4", "k5")}
+    return out
+
+
 def markdown(result: dict) -> str:
     """The study's tables."""
     lines = [f"# Online estimation: {result['scenario']}", "",
@@ -124,11 +195,22 @@ def markdown(result: dict) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m sins_sim.jobs.online_study", description=__doc__.split("\n\n")[0])
-    ap.add_argument("scenario")
-    ap.add_argument("--out", required=True)
+    ap.add_argument("scenario", nargs="?")
+    ap.add_argument("--out")
+    ap.add_argument("--crosscheck", nargs=2, metavar=("RECORDING", "DIAGNOSIS_JSON"),
+                    help="the online estimate of a recording beside its diagnosis' refit (issue 29, item 4)")
     ap.add_argument("--duration", type=float, default=None)
     ap.add_argument("--threads", type=int, default=None)
     a = ap.parse_args(argv)
+    if a.crosscheck:
+        for axis, rows in crosscheck(*a.crosscheck).items():
+            print(f"axis {axis}: parameter, diagnose (offline refit), online, online sigma, online / diagnose - 1")
+            for p, r in rows.items():
+                print(f"  {p:6} {r['diagnose']:12.6g} {r['online']:12.6g} {r['online_sigma'] or float('nan'):10.3g} "
+                      f"{100 * r['relative_difference']:+8.2f} %")
+        return 0
+    if not a.scenario or not a.out:
+        ap.error("a scenario and --out are required (or --crosscheck RECORDING DIAGNOSIS_JSON)")
     res = online_study(a.scenario, a.out, a.duration, a.threads)
     print(markdown(res))
     return 0
