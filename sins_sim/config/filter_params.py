@@ -16,6 +16,7 @@ into account a relative mismatch", the paper, section on Fig. 6). The IMU file's
       channels: {x: {f0_hz: 386.1, suspension: {k3: 4.5e-3}}}                          # explicit, per axis
       file: unit-17-diagnosis.json   # source: diagnose; a ``sins-sim diagnose --json`` file
       track: false                   # true: the PLL follows the resonance over the mission (temperature)
+      online: {forgetting_s: 5.0, update_s: 0.1, smoothing_s: 0.0}   # source: online (issue 29)
 
 Sources of k1..k5 (eq. 9, 10, 14):
 
@@ -30,6 +31,13 @@ Sources of k1..k5 (eq. 9, 10, 14):
 ``diagnose``
     ``baseline.params[axis]`` of a diagnosis JSON: the refit of that unit's nominal model
     (``f0_hz``, ``k1`` .. ``k5``).
+``online``
+    Learned in operation (:mod:`sins_sim.filters.online_estimator`, :mod:`sins_sim.simulation.online`):
+    the filters start on the datasheet (as ``nominal``, f0 from the PLL) and every ``online.update_s``
+    take the estimator's current f0, k1 .. k5 (smoothed over ``online.smoothing_s``). The estimator
+    learns from the amplitude modulation (``drive.modulation_depth`` > 0 is required; ``drive.modulation``
+    chooses its schedule) with exponential forgetting of time constant ``online.forgetting_s``; k4 stays
+    at the datasheet (the paper's choice).
 
 Source of omega0 (``f0``):
 
@@ -49,7 +57,7 @@ filters' f0 follows the drive by the same inversion (``sins_sim.simulation.chann
 without it the drive and the filters keep their t = 0 values while a temperature profile or a
 resonance drift moves the plant.
 
-Defaults: ``true`` takes ``unit``; ``nominal`` and ``explicit`` take ``pll``; ``diagnose`` takes
+Defaults: ``true`` takes ``unit``; ``nominal``, ``explicit`` and ``online`` take ``pll``; ``diagnose`` takes
 ``given``. ``f0_mismatch_ppm`` scales the result by ``1 + ppm 1e-6`` (the PLL's relative
 mismatch, Fig. 6).
 """
@@ -65,9 +73,9 @@ from sins_sim.config.schema import Bool, ConfigError, Map, Num, Str, json_schema
 __all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions",
            "filters_used"]
 
-SOURCES = ("true", "nominal", "explicit", "diagnose")
+SOURCES = ("true", "nominal", "explicit", "diagnose", "online")
 F0_SOURCES = ("pll", "unit", "given")
-_DEFAULT_F0 = {"true": "unit", "nominal": "pll", "explicit": "pll", "diagnose": "given"}
+_DEFAULT_F0 = {"true": "unit", "nominal": "pll", "explicit": "pll", "diagnose": "given", "online": "pll"}
 _K_KEYS = (("k1", "k1"), ("k2_rad", "k2"), ("k3", "k3"), ("k4_per_rad", "k4"), ("k5_rad_per_v", "k5"))
 
 
@@ -79,6 +87,26 @@ def _k_fields():
         "k4": Num(unit="per_rad", min=-20.0, max=1.0e4, doc="eq. 10 amplitude dependence (default: the nominal)"),
         "k5": Num(unit="rad_per_v", min=-1e-2, max=1e-2, nonzero=True, doc="eq. 14 piezo gain (default: the nominal)"),
     }
+
+
+ONLINE_SCHEMA = Map({
+    "forgetting": Num(unit="s", min=0.05, max=1e4, default=5.0,
+                      doc="time constant of the estimator's exponential forgetting: a steady drift is followed with "
+                          "this lag"),
+    "update": Num(unit="s", min=1e-3, max=100.0, default=0.1, doc="interval between updates of the filters"),
+    "smoothing": Num(unit="s", min=0.0, max=1e4, default=0.0,
+                     doc="time constant of the first-order smoothing of the values fed to the filters (0: none)"),
+    "interval_cycles": Num(min=1, max=1000, integer=True, default=2,
+                           doc="dither periods per integration interval of the estimator"),
+    "window_cycles": Num(min=1, max=1000, integer=True, default=2,
+                         doc="dither periods of the envelope's Hann window (<= interval_cycles)"),
+    "band": Num(min=0.01, max=0.99, default=0.5,
+                doc="intervals whose amplitude leaves a_m (1 +- band) are left out (a dead readout, a start-up)"),
+    "k_prior": Num(min=0.01, max=10.0, default=0.5,
+                   doc="standard deviation of the log-normal prior of k1, k2 around the datasheet"),
+    "min_spread": Num(min=1e-4, max=0.5, default=0.005,
+                      doc="RMS relative amplitude modulation below which no estimate is applied"),
+}, default={}, doc="source: online; the estimator's settings (sins_sim.filters.online_estimator)")
 
 
 FILTER_PARAMETERS_SCHEMA = Map({
@@ -96,6 +124,7 @@ FILTER_PARAMETERS_SCHEMA = Map({
                                 "suspension": Map(_k_fields(), default={})}, default={})
                      for axis in ("x", "y", "z")}, default={}, doc="explicit: per-axis values"),
     "file": Str(default=None, doc="source: diagnose; a `sins-sim diagnose --json` file, relative to the IMU file"),
+    "online": ONLINE_SCHEMA,
     "track": Bool(default=False,
                   doc="the dither PLL follows the unit's current resonance F(a) over the mission (under a scenario's "
                       "temperature profile or resonance drift) and the filters' f0 follows the drive, f0_filter = "
@@ -139,6 +168,17 @@ def parse_filter_parameters(value, ctx: str, path: str = "filter_parameters") ->
                                              or any(v is not None for v in c["channels"][a]["suspension"].values())
                                              for a in ("x", "y", "z"))):
         raise ConfigError(f"{ctx}: {path}: suspension and channels only with source: explicit")
+    if c["source"] != "online" and isinstance(value, dict) and value.get("online") is not None:
+        raise ConfigError(f"{ctx}: {path}.online: only with source: online (source is {c['source']!r})")
+    if c["source"] != "online":
+        c.pop("online")  # the estimator's settings mean nothing to another source (and keep manifests as they were)
+    if c["source"] == "online":
+        if c["f0"] == "given":
+            raise ConfigError(f"{ctx}: {path}.f0: given has no value with source: online (pll or unit)")
+        o = c["online"]
+        if o["window_cycles"] > o["interval_cycles"]:
+            raise ConfigError(f"{ctx}: {path}.online.window_cycles: must be <= interval_cycles = "
+                              f"{int(o['interval_cycles'])}, got {int(o['window_cycles'])}")
     if c["source"] == "explicit" and c["f0"] == "given":
         missing = [a for a in ("x", "y", "z") if c["channels"][a]["f0_hz"] is None]
         if missing:
@@ -200,7 +240,7 @@ def filter_suspensions(spec: dict, true_by_axis: dict, nominal: dict, design_f0:
         given_f0 = design_f0[axis]
         if src == "true":
             ks = {k: getattr(true, k) for k in ("k1", "k2", "k3", "k4", "k5")}
-        elif src == "nominal":
+        elif src in ("nominal", "online"):  # online: the datasheet until the estimator has learnt
             ks = dict(nominal)
         elif src == "explicit":
             ks = dict(nominal)

@@ -136,6 +136,11 @@ IMU_SCHEMA = Map({
         "block_cycles": Num(min=1, max=10000, integer=True, default=10,
                             doc="dither cycles per amplitude measurement"),
         "modulation_depth": Num(min=0.0, max=0.5, default=0.0),
+        "modulation": Str(choices=("random", "steps", "sine"), default="random",
+                          doc="schedule of the amplitude modulation: a uniform draw per block (against dynamic "
+                              "lock-in), a square wave or a sine of period modulation_period_s"),
+        "modulation_period": Num(unit="s", min=0.01, max=1e4, default=2.0,
+                                 doc="period of the steps and sine modulation schedules"),
     }, default={}, rules=(
         f"the drive voltage that holds the amplitude at resonance (eq. 17) must be <= {_ranges.V_MAX:g} V (a piezo "
         f"stack); above {_ranges.V_TYPICAL_MAX:g} V a warning",
@@ -322,7 +327,9 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
                                   rs_db=c["eliminator"]["rs_db"])
         control = DriveControl(mode=c["drive"]["control"], loop_time_s=c["drive"]["loop_time_s"],
                                block_cycles=int(c["drive"]["block_cycles"]),
-                               modulation_depth=c["drive"]["modulation_depth"])
+                               modulation_depth=c["drive"]["modulation_depth"],
+                               modulation=c["drive"]["modulation"],
+                               modulation_period_s=c["drive"]["modulation_period_s"])
         _check_shared(c, ctx, path)
         channels = []
         for axis in ("x", "y", "z"):
@@ -395,10 +402,26 @@ def _with_filter_parameters(channels, fspec, c, ctx, where, base_dir):
         {a: ch.drive_signal().frequency_hz for a, ch in zip(axes, channels)},
         {a: ch.drive.amplitude_rad for a, ch in zip(axes, channels)}, ctx,
         Path(base_dir) if base_dir is not None else None, where)
+    online = {a: None for a in axes}
+    if fspec["source"] == "online":
+        from sins_sim.filters.online_estimator import OnlineSettings
+        from sins_sim.simulation.online import OnlineSpec
+
+        if c["drive"]["modulation_depth"] <= 0.0:
+            raise ConfigError(f"{ctx}: {where}.source: online learns from the amplitude modulation: needs "
+                              f"drive.modulation_depth > 0, got {c['drive']['modulation_depth']!r}")
+        o = fspec["online"]
+        settings = OnlineSettings(forgetting_s=o["forgetting_s"], interval_cycles=int(o["interval_cycles"]),
+                                  window_cycles=int(o["window_cycles"]), band=o["band"], k_prior=o["k_prior"],
+                                  min_spread=o["min_spread"])
+        for a in axes:
+            online[a] = OnlineSpec(settings=settings, update_s=o["update_s"], smoothing_s=o["smoothing_s"],
+                                   apply=True, datasheet={"f0_hz": c["channels"][a]["f0_hz"], **nominal})
     out = []
     for a, ch in zip(axes, channels):
         try:
-            out.append(dataclasses.replace(ch, filter_suspension=believed[a], pll_tracking=bool(fspec["track"])))
+            out.append(dataclasses.replace(ch, filter_suspension=believed[a], pll_tracking=bool(fspec["track"]),
+                                           online=online[a]))
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {where} (axis {a}): {exc}") from None
     return out

@@ -307,6 +307,16 @@ class WidebandFilter:
         self._xhist = xx[-lh:].copy()
         self._vhist = vv[-self._k:].copy()
 
+    def set_design(self, design: WidebandDesign) -> None:
+        """Run on ``design`` from the next sample on (its parameters changed in operation, e.g. by an online
+        estimator); the state and the input history stay, so the output stays continuous."""
+        if design.kind != self.design.kind or design.half_length != self.design.half_length:
+            raise ValueError("wideband.set_design: the kind and half_length cannot change in operation")
+        self.design = design
+        self._e = np.ascontiguousarray(design.equaliser, dtype=np.float64)
+        self._c = design.scale
+        self._fast_dt = 0.25 / design.f0_hz
+
     def check_output(self, x=None, y=None, stacklevel: int = 2) -> None:
         """Warn once per run when eq. 10's turning-point rule leaves its domain on the filter's own D."""
         if self.design.k3 > 0.0 and self._rule == kphys.RULE_PAPER and self.hyst[5] > 0 and not self._warned:

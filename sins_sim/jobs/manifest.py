@@ -274,6 +274,8 @@ def _filter_parameters_doc(value) -> dict:
         value = dict(value, source="true")
     out = fill_defaults(dict(value), fp.FILTER_PARAMETERS_SCHEMA)
     out.setdefault("f0", fp._DEFAULT_F0[out["source"]])
+    if out["source"] != "online":
+        out.pop("online", None)  # the estimator's settings belong to source online only (as the parser keeps them)
     return out
 
 

@@ -272,6 +272,10 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
         "warnings": list(dict.fromkeys([*config_warnings, *res.warnings,
                                         *advisories.drive_advisories(res.drives, scenario.imu, scenario.duration_s)])),
     }
+    online = _online_section(res)
+    if online:
+        metrics["online_estimator"] = online
+        metrics["warnings"] = list(dict.fromkeys([*metrics["warnings"], *online_warnings(online)]))
     pc = _pseudo_coning_section(scenario, res, metrics["filters"])
     if pc:
         metrics["pseudo_coning"] = pc
@@ -317,6 +321,47 @@ def _block_section(scenario, res) -> dict | None:
                     "of that rotation at each gyro's drive (least squares on the three at once) beside the linear "
                     "coupled model (models.block.block_rotation_per_deflection x the gyro's measured amplitude; "
                     "the other gyros on undamped linear suspensions)"}
+
+
+#: Estimator events that reach the user as a warning (a start-up's amplitude outside the band and a modulation
+#: too small to estimate from are routine and only counted).
+_ONLINE_WARN = ("range", "saturation", "nonfinite", "filter")
+
+
+def _online_section(res) -> dict | None:
+    """With ``filter_parameters: {source: online}``: per axis the estimator's last estimate (SI), its stated standard
+    deviations, the values fed to the filters, the unit's truth then, and the count of each kind of event with its
+    first message."""
+    if not getattr(res, "online", None):
+        return None
+    out = {}
+    for axis, d in res.online.items():
+        hist = d["history"]
+        events = {}
+        for t_s, kind, message in d["events"]:
+            e = events.setdefault(kind, {"count": 0, "first_t_s": float(t_s), "first": message})
+            e["count"] += 1
+        row = {"events": events, "updates": len(hist)}
+        if hist:
+            last = hist[-1]
+            def finite(d):  # JSON has no NaN: a standard deviation not stated yet (or of k4, held) is null
+                return {k: (float(v) if math.isfinite(v) else None) for k, v in d.items()}
+
+            row.update(t_s=last["t_s"], estimate=finite(last["estimate"]), std=finite(last["std"]),
+                       fed=finite(last["fed"]), truth=finite(last["truth"]), applied=last["applied"])
+        out[axis] = row
+    return out
+
+
+def online_warnings(section: dict) -> list:
+    """One line per axis and kind of estimator event that the user should hear of (:data:`_ONLINE_WARN`)."""
+    lines = []
+    for axis, row in section.items():
+        for kind, e in row["events"].items():
+            if kind in _ONLINE_WARN:
+                lines.append(f"online estimator, axis {axis}: {e['count']} {kind} event(s), the first at "
+                             f"t = {e['first_t_s']:.3g} s: {e['first']}")
+    return lines
 
 
 def _coning_table_section(scenario, res, filt_metrics) -> dict | None:

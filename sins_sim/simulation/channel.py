@@ -36,6 +36,7 @@ from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.readout import Decimator, Readout, ReadoutParams
 from sins_sim.navigation.attitude import dcm_from_quat, quat_from_rotvec, quat_multiply
 from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
+from sins_sim.simulation.online import OnlineLoop, OnlineSpec
 from sins_sim.simulation.temperature import ThermalModel
 
 __all__ = ["EliminatorSettings", "ChannelConfig", "ChannelResult", "DriveControl", "ChannelChain",
@@ -97,6 +98,9 @@ class ChannelConfig:
         continuous) and the correcting filters' f0 follows the drive (``f0_filter = f_drive f0_b /
         F_b(a)``, as ``filter_parameters: {f0: pll}`` at t = 0). False: drive and filters stay where
         they were at t = 0.
+    online : OnlineSpec or None
+        An online estimator on this channel (:mod:`sins_sim.simulation.online`), feeding the
+        correcting filters when its ``apply`` is set. None: no estimator.
     """
 
     suspension: SuspensionParams = PAPER_SUSPENSION
@@ -108,12 +112,15 @@ class ChannelConfig:
     eliminator: EliminatorSettings = field(default_factory=EliminatorSettings)
     temperature: ThermalModel | None = None
     pll_tracking: bool = False
+    online: OnlineSpec | None = None
 
     def __post_init__(self):
         if self.temperature is not None and not isinstance(self.temperature, ThermalModel):
             raise ValueError(f"channel.temperature: must be a ThermalModel or None, got {self.temperature!r}")
         if not isinstance(self.pll_tracking, bool):
             raise ValueError(f"channel.pll_tracking: must be true or false, got {self.pll_tracking!r}")
+        if self.online is not None and not isinstance(self.online, OnlineSpec):
+            raise ValueError(f"channel.online: must be an OnlineSpec or None, got {self.online!r}")
         if abs(self.readout.input_rate_hz - self.plant.rate_hz) > 1e-9 * self.plant.rate_hz:
             raise ValueError(
                 f"readout.input_rate_hz: must equal plant.rate_hz = {self.plant.rate_hz!r}, "
@@ -204,18 +211,33 @@ class ChannelResult:
         return out
 
 
+#: Amplitude-modulation schedules of :class:`DriveControl` (the target of control block ``b`` is
+#: ``a_m (1 + depth u_b)``): ``random``: ``u_b`` uniform in [-1, 1] (the randomised modulation against
+#: dynamic lock-in); ``steps``: a square wave of period ``modulation_period_s`` (+1 in its first half);
+#: ``sine``: ``sin(2 pi t_b / modulation_period_s)``, ``t_b`` the block's end.
+MODULATIONS = ("random", "steps", "sine")
+
+
 @dataclass(frozen=True)
 class DriveControl:
-    """Amplitude control of the three drives (see module docstring)."""
+    """Amplitude control of the three drives (see module docstring).
+
+    ``modulation`` and ``modulation_period_s`` choose the schedule of the target amplitude
+    (:data:`MODULATIONS`); ``modulation_depth`` its size.
+    """
 
     mode: str = "closed_loop"
     loop_time_s: float = 0.1
     block_cycles: int = 10
     modulation_depth: float = 0.0
     v_max_factor: float = 4.0
+    modulation: str = "random"
+    modulation_period_s: float = 2.0
 
     def __post_init__(self):
         v.choice("drive_control", "mode", self.mode, ("open_loop", "closed_loop"))
+        v.choice("drive_control", "modulation", self.modulation, MODULATIONS)
+        v.positive("drive_control", "modulation_period_s", self.modulation_period_s)
         v.positive("drive_control", "loop_time_s", self.loop_time_s)
         if int(self.block_cycles) != self.block_cycles or self.block_cycles < 1:
             raise ValueError(f"drive_control.block_cycles: must be an integer >= 1, got {self.block_cycles!r}")
@@ -316,6 +338,7 @@ class ChannelChain:
         self._pack()
         self.dstate = np.zeros(kchain.N_DSTATE)
         self._thermal = _ThermalSchedule.build(self)
+        self._online = OnlineLoop(self, cfg.online) if cfg.online is not None else None
         self.reset(0.0, 0.0)
 
     # -- parameters of the fused kernel -------------------------------------------------------
@@ -379,6 +402,9 @@ class ChannelChain:
         self._chunk_n = -1
         if self._fx is not None:
             self._fx.reset(angle0, rate0)
+        if getattr(self, "_online", None) is not None:  # the estimator forgets; the filters are back at t = 0
+            self._online.reset(self)
+            self._online._load(self, self._online.designs0)
 
     # -- drive state, readable on both paths --------------------------------------------------
     @property
@@ -397,6 +423,11 @@ class ChannelChain:
         return self._thermal
 
     @property
+    def online(self):
+        """The online estimator loop (:class:`~sins_sim.simulation.online.OnlineLoop`), or None."""
+        return self._online
+
+    @property
     def amp_meas(self) -> float:
         """Dither amplitude measured at the last block's end (rad)."""
         return float(self.dstate[kchain.D_AMP])
@@ -404,9 +435,16 @@ class ChannelChain:
     def _uniforms(self, i0: int, n: int) -> np.ndarray:
         """One draw per control block ending in steps ``i0 + 1 .. i0 + n`` (blocks end at multiples of ``block``)."""
         nb = (i0 + n) // self.block - i0 // self.block
-        if self.control.modulation_depth > 0.0:
+        c = self.control
+        if c.modulation_depth <= 0.0:
+            return np.zeros(nb)
+        if c.modulation == "random":
             return self.rng_mod.uniform(-1.0, 1.0, size=nb)
-        return np.zeros(nb)
+        t_end = (i0 // self.block + 1 + np.arange(nb)) * self.block_s_time  # each block's end (s)
+        phase = t_end / c.modulation_period_s
+        if c.modulation == "sine":
+            return np.sin(2.0 * np.pi * phase)
+        return np.where(phase - np.floor(phase) < 0.5, 1.0, -1.0)
 
     def _buffers(self, n: int):
         if self._chunk_n != n:
@@ -431,6 +469,9 @@ class ChannelChain:
             out = self.run_kernel(i0, angle, rate)
             self.check_chunk(out)
             return out
+        if self._online is not None:
+            return self._online.run(self, i0, angle, rate,
+                                    lambda k0, a, r: self._in_blocks(k0, a, r, self._run_python))
         return self._in_blocks(i0, angle, rate, self._run_python)
 
     def _run_python(self, i0: int, angle: np.ndarray, rate: np.ndarray):
@@ -473,8 +514,14 @@ class ChannelChain:
         Thread-safe across chains (each chain owns its state and random streams; the kernel
         releases the GIL). Call :meth:`check_chunk` on the result afterwards, in the thread
         that collects warnings. With a temperature profile or PLL tracking the chunk runs as one
-        kernel call per parameter block (``fpar`` and ``cpar`` updated between the calls).
+        kernel call per parameter block (``fpar`` and ``cpar`` updated between the calls); with an
+        online estimator, in pieces that end at its updates.
         """
+        if self._online is not None and uniforms is None:
+            return self._online.run(self, i0, angle, rate, self._kernel_blocks)
+        return self._kernel_blocks(i0, angle, rate, uniforms)
+
+    def _kernel_blocks(self, i0: int, angle: np.ndarray, rate: np.ndarray, uniforms: np.ndarray | None = None):
         if self._thermal is None:
             return self._kernel_once(i0, angle, rate, uniforms)
         if uniforms is None:
@@ -659,7 +706,8 @@ class ChannelChain:
 def side_by_side(chains) -> bool:
     """Whether :class:`SideBySide` can run these chains: three, each on the fused path, without a
     temperature or PLL schedule (which splits a chunk into parameter blocks per channel)."""
-    return len(chains) == 3 and all(ch.path == "fused" and ch._fx is None and ch._thermal is None for ch in chains)
+    return len(chains) == 3 and all(ch.path == "fused" and ch._fx is None and ch._thermal is None
+                                    and ch._online is None for ch in chains)
 
 
 class SideBySide:
@@ -1028,6 +1076,7 @@ class _ThermalSchedule:
         self.f_drive0 = chain.drive.frequency_hz
         self.designs0 = {name: chain.filters[name].design for name in _CORRECTING}
         self.history = None  # a list of (block, t_mid_s, temp_k, plant f0_hz, drive_hz, filter f0_hz) when set
+        self.filters_follow_drive = True  # False while an online estimator feeds the filters
         self.loaded = -1
         self.f_drive = self.f_drive0
         self.temp_k = self.model.profile.at(0.0) if self.model is not None else math.nan
@@ -1107,6 +1156,8 @@ class _ThermalSchedule:
         fp[kchain.P_CYC_DAC] = c_dac
         fp[kchain.P_CYC_STEP] = c_step
         self.f_drive = f
+        if not self.filters_follow_drive:
+            return
         ratio = f / self.f_drive0
         for row, name in enumerate(_CORRECTING):
             d0 = self.designs0[name]

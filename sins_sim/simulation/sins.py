@@ -355,6 +355,10 @@ class SinsResult:
         navigation): ``t_s`` (N,), ``theta_rad`` (N, 3) about block axes x, y, z, ``rate_hz``, and the
         block's ``isolator_modes_hz`` with their ``isolator_damping`` (:meth:`BlockParams.isolator_modes`).
         None without a block.
+    online : dict axis -> dict
+        With ``filter_parameters: {source: online}``: per axis the estimator's ``history`` (one row per update: the
+        estimate, its standard deviations, the values fed to the filters and the plant's truth,
+        :meth:`sins_sim.simulation.online.OnlineLoop`) and its ``events`` (``(t_s, kind, message)``).
     """
 
     stats: dict
@@ -375,6 +379,7 @@ class SinsResult:
     records: dict = field(default_factory=dict)
     filter_reports: dict = field(default_factory=dict)
     block: dict | None = None
+    online: dict = field(default_factory=dict)
 
 
 def axis_pool(threads: int, n_axes: int = 3):
@@ -858,7 +863,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                       warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out,
                       allan=allan, records=records,
                       filter_reports={n: f.report() for n, f in flt3.items() if hasattr(f, "report")},
-                      block=_block_record(imu.block, block_rec, block_win[0], fs))
+                      block=_block_record(imu.block, block_rec, block_win[0], fs),
+                      online={AXES[i]: {"history": ch.online.history, "events": list(ch.online.estimator.events)}
+                              for i, ch in enumerate(chains) if ch.online is not None})
 
 
 def _block_record(block, rows, k0: int, fs: float) -> dict | None:
