@@ -171,7 +171,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim._kernels.vibration import hermite5_coefficients, hermite5_slope, hermite5_value, hermite5_value_slope
+from sins_sim._kernels.vibration import hermite5_slope, hermite5_value, hermite5_value_slope
 from sins_sim.models.motion.base import (_STATIC, Motion3D, _cos_diff, _loglog_segment_integral, _psd_table, _set,
                                          _vec3, radd_zero, superpose)
 from sins_sim.models.motion.specific_force import STANDARD_GRAVITY
@@ -476,7 +476,6 @@ class _Shaper:
         self.channel = channel
         self._tails = OrderedDict()
         self._nodes = OrderedDict()
-        self._segments = OrderedDict()
         self._free = {}
         self._buffers = None
         self._zero = np.zeros(3)
@@ -597,39 +596,27 @@ class _Shaper:
         self._keep(self._nodes, b, blk, recycle=True)
         return blk
 
-    def _segment_block(self, b):
-        """Coefficients of segments ``b Nb .. (b + 1) Nb - 1`` as (Nb, 18) (node blocks b and b + 1)."""
-        blk = self._segments.get(b)
-        if blk is not None:
-            self._segments.move_to_end(b)
-            return blk
-        start = self.d.taps - 1
-        nodes = self._node_block(b)
-        after = np.ascontiguousarray(self._node_block(b + 1)[:, :, start])
-        blk = self._take((self.d.block, 18))
-        hermite5_coefficients(nodes, start, after, blk)
-        del nodes
-        self._keep(self._segments, b, blk, recycle=True)
-        return blk
+    def _node_range(self, n_lo, n_hi):
+        """Nodes ``n_lo .. n_hi + 1`` (segments ``n_lo .. n_hi``): ``(array (3, 3, m), column of node n_lo)``.
 
-    def _segment_range(self, n_lo, n_hi):
-        """Coefficients of segments ``n_lo .. n_hi`` (inclusive) as one C-contiguous (n, 18) array."""
-        nb = self.d.block
-        b_lo, b_hi = n_lo // nb, n_hi // nb
+        A view of the node block when they lie in one, else a copy of the slices of the blocks they span.
+        """
+        nb, start = self.d.block, self.d.taps - 1
+        b_lo, b_hi = n_lo // nb, (n_hi + 1) // nb
         with self._lock:
             if b_lo == b_hi:
-                return self._segment_block(b_lo)[n_lo - b_lo * nb:n_hi - b_lo * nb + 1]
+                return self._node_block(b_lo), start + n_lo - b_lo * nb
             parts = []
             for b in range(b_lo, b_hi + 1):
-                start = max(n_lo, b * nb) - b * nb
-                stop = min(n_hi, (b + 1) * nb - 1) - b * nb + 1
-                parts.append(self._segment_block(b)[start:stop])
-            return np.concatenate(parts)
+                lo = max(n_lo, b * nb) - b * nb
+                hi = min(n_hi + 1, (b + 1) * nb - 1) - b * nb + 1
+                parts.append(self._node_block(b)[:, :, start + lo:start + hi])
+            return np.concatenate(parts, axis=2), 0
 
     # -- evaluation ----------------------------------------------------------------
 
     def _evaluate(self, kernel, t, *extra, outputs=1):
-        """``kernel(t, fs, n0, coef, *extra, *outs)`` over the segments the times need; the (N, 3) outputs."""
+        """``kernel(t, fs, n0, nodes, col, *extra, *outs)`` over the segments the times need; the (N, 3) outputs."""
         outs = tuple(np.empty((t.size, 3)) for _ in range(outputs))
         if t.size == 0:
             return outs
@@ -644,7 +631,7 @@ class _Shaper:
             raise ValueError(f"{self.owner}.t: |t| must stay below {_MAX_BLOCK * nb / fs:.3g} s")
         t = np.ascontiguousarray(t)
         if n_hi - n_lo < 2 * nb:
-            kernel(t, fs, n_lo, self._segment_range(n_lo, n_hi), *extra, *outs)
+            kernel(t, fs, n_lo, *self._node_range(n_lo, n_hi), *extra, *outs)
             return outs
         # times far apart: one pass per block
         blocks = np.floor_divide(n, nb)
@@ -653,7 +640,7 @@ class _Shaper:
         for idx in np.split(order, cuts):
             lo, hi = int(n[idx].min()), int(n[idx].max())
             parts = tuple(np.empty((idx.size, 3)) for _ in range(outputs))
-            kernel(np.ascontiguousarray(t[idx]), fs, lo, self._segment_range(lo, hi), *extra, *parts)
+            kernel(np.ascontiguousarray(t[idx]), fs, lo, *self._node_range(lo, hi), *extra, *parts)
             for out, part in zip(outs, parts):
                 out[idx] = part
         return outs
