@@ -535,7 +535,7 @@ class _Shaper:
         """An array of ``shape`` (contents undefined): a recycled block if one is free, else a new one.
 
         Fresh arrays of several MB cost more to fault in than to fill (4.7 ms
-        against 0.5 ms for a segment block here), so evicted blocks that no
+        against 0.5 ms to fill a block of that size), so evicted blocks that no
         view references any more are reused.
         """
         free = self._free.get(shape)
