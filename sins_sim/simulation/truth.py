@@ -382,14 +382,6 @@ class MissionTruth:
     def _v_ned(self, v, q_nv, t):
         if self.translation is None:
             return v
-        return v + np.einsum("nij,nj->ni", _rot_matrix(q_nv), self.translation.velocity(t))
-
-
-def _rot_matrix(q):
-    """Direction cosine matrices ``C`` (..., 3, 3) of unit quaternions (scalar first), ``v_n = C v_b``."""
-    q0, q1, q2, q3 = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (q2 * q2 + q3 * q3), 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)], axis=-1),
-        np.stack([2 * (q1 * q2 + q0 * q3), 1 - 2 * (q1 * q1 + q3 * q3), 2 * (q2 * q3 - q0 * q1)], axis=-1),
-        np.stack([2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), 1 - 2 * (q1 * q1 + q2 * q2)], axis=-1),
-    ], axis=-2)
+        out = np.empty((q_nv.shape[0], 3))
+        ktruth.add_rotated(np.ascontiguousarray(v), np.ascontiguousarray(q_nv), self.translation.velocity(t), out)
+        return out
