@@ -74,12 +74,12 @@ def _segment(t, fs, fh, fl):
 @jit
 def _coefficients(nodes, a, i):
     """``c_0 .. c_5`` (module docstring) of the segment from node column ``i`` to ``i + 1``, axis ``a``."""
-    x0 = nodes[0, a, i]
-    d0 = nodes[1, a, i]
-    s0 = nodes[2, a, i]
-    x1 = nodes[0, a, i + 1]
-    d1 = nodes[1, a, i + 1]
-    s1 = nodes[2, a, i + 1]
+    x0 = np.float64(nodes[0, a, i])  # float32 nodes are widened first: the arithmetic is float64 for both
+    d0 = np.float64(nodes[1, a, i])
+    s0 = np.float64(nodes[2, a, i])
+    x1 = np.float64(nodes[0, a, i + 1])
+    d1 = np.float64(nodes[1, a, i + 1])
+    s1 = np.float64(nodes[2, a, i + 1])
     dd = x1 - x0
     c3 = 10.0 * dd - 6.0 * d0 - 4.0 * d1 - 1.5 * s0 + 0.5 * s1
     c4 = -15.0 * dd + 8.0 * d0 + 7.0 * d1 + 1.5 * s0 - s1
@@ -111,7 +111,7 @@ def hermite5_value(t, fs, n0, nodes, col, offset, out):
         Node rate (Hz); node ``n`` sits at ``t = n / fs``.
     n0 : int
         Index of the node in column ``col`` of ``nodes``.
-    nodes : float64[3, 3, M]
+    nodes : float64 or float32 [3, 3, M]
         ``nodes[q, a, col + n - n0]``: quantity ``q`` of node ``n`` on axis ``a``, ``q = 0, 1, 2``
         for the value ``x``, ``h x'`` and ``h^2 x''`` (``h = 1 / fs``; units of the value). Every
         segment the times fall in needs both its nodes.

@@ -459,9 +459,12 @@ class _Shaper:
     decimation : int
         ``D``: the noise is drawn at ``fs / D`` and zero-stuffed to ``fs``
         (1: white noise at the node rate; at most ``design.max_decimation``).
+    single : bool
+        Convolve in single precision and keep the nodes as float32 (the noise is drawn in float64, as
+        the keys document, and rounded once); the segments are evaluated in float64 from them.
     """
 
-    def __init__(self, owner, design, weights, seed, channel, decimation=1):
+    def __init__(self, owner, design, weights, seed, channel, decimation=1, single=False):
         self.owner = owner
         self.d = design
         self.decimation = decimation
@@ -471,6 +474,9 @@ class _Shaper:
         # zero-stuffing by D multiplies the noise's spectrum by nothing but repeats it; sqrt(D) keeps
         # the variance per node-rate sample (the PSD) of white noise at fs
         self.weights = np.array(weights, dtype=np.float64) * math.sqrt(decimation)
+        self.single = single
+        self.dtype = np.float32 if single else np.float64
+        self._spectra = design.spectra.astype(np.complex64) if single else design.spectra
         self.live = [a for a in range(3) if weights[a] != 0.0]
         self.seed = seed
         self.channel = channel
@@ -508,9 +514,11 @@ class _Shaper:
         if self._buffers is None:
             d = self.d
             x = np.empty((len(self.live), self.n_work))
-            spec = np.empty((len(self.live), d.fft_size // 2 + 1), dtype=np.complex128)
-            short = np.empty((len(self.live), self.n_work // 2 + 1), dtype=np.complex128)
-            self._buffers = (x, spec, np.empty_like(spec), short)
+            cplx = np.complex64 if self.single else np.complex128
+            spec = np.empty((len(self.live), d.fft_size // 2 + 1), dtype=cplx)
+            short = np.empty((len(self.live), self.n_work // 2 + 1), dtype=cplx)
+            x1 = np.empty(x.shape, dtype=np.float32) if self.single else x
+            self._buffers = (x, spec, np.empty_like(spec), short, x1)
         return self._buffers
 
     def _stuffed_spectrum(self, x, spec, short):
@@ -543,7 +551,7 @@ class _Shaper:
             arr = free.pop()
             arr.setflags(write=True)
             return arr
-        return np.empty(shape)
+        return np.empty(shape, dtype=self.dtype)
 
     def _keep(self, cache, b, arr, recycle=False):
         """Cache ``arr`` (read-only) as block ``b``; past the limit drop the least recently used
@@ -573,22 +581,24 @@ class _Shaper:
         tail = self.n_tail
         live = self.live
         previous = self._noise_tail(b - 1)
-        x, spec, prod, short = self._work()
+        x, spec, prod, short, x1 = self._work()
         x[:, :tail] = previous
         for i, a in enumerate(live):
             self._rng(a, b).standard_normal(out=x[i, tail:])
         self._keep(self._tails, b, x[:, self.n_work - tail:].copy())
+        if x1 is not x:
+            x1[:] = x  # single precision: the documented float64 draws, rounded once
         if self.decimation == 1:
-            np.fft.rfft(x, axis=-1, out=spec)
+            np.fft.rfft(x1, axis=-1, out=spec)
         else:
-            self._stuffed_spectrum(x, spec, short)
-        spec *= self.weights[live, None]
+            self._stuffed_spectrum(x1, spec, short)
+        spec *= self.weights[live, None].astype(spec.real.dtype)
         blk = self._take((3, 3, d.fft_size))
         all_live = len(live) == 3
         if not all_live:
             blk[:] = 0.0
         for q in range(3):
-            np.multiply(spec, d.spectra[q], out=prod)
+            np.multiply(spec, self._spectra[q], out=prod)
             if all_live:
                 np.fft.irfft(prod, d.fft_size, axis=-1, out=blk[q])
             else:
@@ -709,7 +719,8 @@ class _FilteredNoise:
                     si = tuple((f, p * self._TO_SI) for f, p in self.psd_table)
                     design = _design(si, self.f_lo_hz, self.f_hi_hz, self.node_rate_hz)
                     decimation = design.max_decimation if self.generator == "decimated_noise" else 1
-                    shaper = _Shaper(self._OWNER, design, self.axis_weights, self.seed, self._CHANNEL, decimation)
+                    shaper = _Shaper(self._OWNER, design, self.axis_weights, self.seed, self._CHANNEL, decimation,
+                                     single=self.generator == "decimated_noise")
                     object.__setattr__(self, "_shaper", shaper)
         return shaper
 
