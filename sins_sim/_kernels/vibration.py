@@ -95,6 +95,41 @@ def _load(nodes, i, c):
 
 
 @jit
+def _at(t, fs, fh, fl, n0, nodes, col, c, last):
+    """Position ``u`` of ``t`` in its segment, with ``c`` holding that segment's coefficients (:func:`_load`).
+
+    ``last`` is the column whose coefficients ``c`` holds; returns ``(u, column)``. Times in order share a
+    segment's coefficients (5 per segment on the plant grid), so they are formed only on entering a segment.
+    """
+    k, u = _segment(t, fs, fh, fl)
+    i = k - n0 + col
+    if i != last:
+        _load(nodes, i, c)
+    return u, i
+
+
+@jit
+def _value(c, a, u):
+    """``x(u)`` of axis ``a`` by Horner's rule on the coefficients ``c`` (:func:`_load`)."""
+    b = 6 * a
+    p = c[b + 4] + u * c[b + 5]
+    p = c[b + 3] + u * p
+    p = c[b + 2] + u * p
+    p = c[b + 1] + u * p
+    return c[b] + u * p
+
+
+@jit
+def _slope(c, a, u):
+    """``dx/du`` of axis ``a`` by Horner's rule on the coefficients ``c`` (:func:`_load`)."""
+    b = 6 * a
+    p = 4.0 * c[b + 4] + u * (5.0 * c[b + 5])
+    p = 3.0 * c[b + 3] + u * p
+    p = 2.0 * c[b + 2] + u * p
+    return c[b + 1] + u * p
+
+
+@jit
 def hermite5_value(t, fs, n0, nodes, col, offset, out):
     """Quintic Hermite interpolant at the times ``t``, less ``offset``.
 
@@ -128,18 +163,9 @@ def hermite5_value(t, fs, n0, nodes, col, offset, out):
     c = np.empty(18)
     last = -1
     for j in range(n):
-        k, u = _segment(t[j], fs, fh, fl)
-        i = k - n0 + col
-        if i != last:  # times in order share a segment's coefficients (5 per segment on the plant grid)
-            _load(nodes, i, c)
-            last = i
+        u, last = _at(t[j], fs, fh, fl, n0, nodes, col, c, last)
         for a in range(3):
-            c0, c1, c2, c3, c4, c5 = c[6 * a], c[6 * a + 1], c[6 * a + 2], c[6 * a + 3], c[6 * a + 4], c[6 * a + 5]
-            p = c4 + u * c5
-            p = c3 + u * p
-            p = c2 + u * p
-            p = c1 + u * p
-            out[j, a] = (c0 + u * p) - offset[a]
+            out[j, a] = _value(c, a, u) - offset[a]
 
 
 @jit
@@ -162,17 +188,9 @@ def hermite5_slope(t, fs, n0, nodes, col, out):
     c = np.empty(18)
     last = -1
     for j in range(n):
-        k, u = _segment(t[j], fs, fh, fl)
-        i = k - n0 + col
-        if i != last:  # times in order share a segment's coefficients (5 per segment on the plant grid)
-            _load(nodes, i, c)
-            last = i
+        u, last = _at(t[j], fs, fh, fl, n0, nodes, col, c, last)
         for a in range(3):
-            c0, c1, c2, c3, c4, c5 = c[6 * a], c[6 * a + 1], c[6 * a + 2], c[6 * a + 3], c[6 * a + 4], c[6 * a + 5]
-            p = 4.0 * c4 + u * (5.0 * c5)
-            p = 3.0 * c3 + u * p
-            p = 2.0 * c2 + u * p
-            out[j, a] = fs * (c1 + u * p)
+            out[j, a] = fs * _slope(c, a, u)
 
 
 @jit
@@ -199,19 +217,7 @@ def hermite5_value_slope(t, fs, n0, nodes, col, offset, value, slope):
     c = np.empty(18)
     last = -1
     for j in range(n):
-        k, u = _segment(t[j], fs, fh, fl)
-        i = k - n0 + col
-        if i != last:  # times in order share a segment's coefficients (5 per segment on the plant grid)
-            _load(nodes, i, c)
-            last = i
+        u, last = _at(t[j], fs, fh, fl, n0, nodes, col, c, last)
         for a in range(3):
-            c0, c1, c2, c3, c4, c5 = c[6 * a], c[6 * a + 1], c[6 * a + 2], c[6 * a + 3], c[6 * a + 4], c[6 * a + 5]
-            p = c4 + u * c5
-            p = c3 + u * p
-            p = c2 + u * p
-            p = c1 + u * p
-            value[j, a] = (c0 + u * p) - offset[a]
-            q = 4.0 * c4 + u * (5.0 * c5)
-            q = 3.0 * c3 + u * q
-            q = 2.0 * c2 + u * q
-            slope[j, a] = fs * (c1 + u * q)
+            value[j, a] = _value(c, a, u) - offset[a]
+            slope[j, a] = fs * _slope(c, a, u)
