@@ -104,7 +104,8 @@ def test_tones_refusal_names_the_cheaper_method(tmp_path):
 
 
 def test_stored_series_that_do_not_fit_are_refused(tmp_path):
-    sc = load_scenario(_scenario(tmp_path, duration_s=3600.0, navigation={"start_s": 1.0, "timeseries_rate_hz": 7200}))
+    sc = load_scenario(_scenario(tmp_path, duration_s=3600.0, navigation={"start_s": 1.0, "timeseries_rate_hz": 7200,
+                                                                           "rate_hz": 7200}))
     with pytest.raises(ConfigError, match=r"navigation\.timeseries_rate_hz: 7200 Hz over 3600 s stores .* lower"):
         est.check_run(sc)
 

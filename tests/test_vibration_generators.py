@@ -13,7 +13,9 @@ Tolerances
 * Convolution: the FFT (overlap-save, length 2^17) against scipy's
   overlap-add of different block sizes; both are accurate to a few ``eps``
   times the norm of the taps and noise: ``1e-12`` of the RMS of the node
-  quantity allowed (measured 4e-15).
+  quantity allowed (measured 4e-15). ``decimated_noise`` convolves in single
+  precision (issue 26): ``eps = 6e-8`` times the FFT's error growth
+  (``log2`` of its length, 17): ``5e-6`` allowed (measured 7.9e-7 at most).
 * Welch (Hann, 1 Hz bins, 50 % overlap, ``T = 40`` s): a bin's estimate is
   ``S chi^2_nu / nu`` with ``nu = 2 K / 1.056`` (``K = 2 T - 1`` segments,
   the overlap correlation of the Hann window, Welch 1967); a third-octave
@@ -27,7 +29,12 @@ Tolerances
   window (sidelobes -92 dB; measured 5e-10 decimated, 3e-10 node rate, next
   to the band). Where the images of the decimated noise fall
   (``fs / D - f`` for ``f`` in the band: 5.2-7.18 kHz here) below 1e-11
-  (measured 4.2e-13 and 4.4e-13: the FIR's stopband, the same for both). The
+  for ``node_rate_noise`` (measured 4.4e-13: the FIR's stopband); for
+  ``decimated_noise``, convolved in single precision, below 1e-10: the
+  rounding floor of float32, white over the node band, lies there above the
+  stuffing images (4.2e-13 in double precision) at 2.1e-11 (-107 dB,
+  measured: the largest Welch bin), 5 dB below the quintic images the truth
+  has above the node Nyquist (-102.5 dB). The
   quintic Hermite images above the node Nyquist: the design's
   ``image_level_db`` within 1 dB (measured -102.2 and -102.1 dB against
   -102.5 dB).
@@ -100,7 +107,8 @@ def test_nodes_are_the_linear_convolution_of_the_documented_noise(generator):
             g = np.fft.irfft(d.spectra[q], d.fft_size)[:taps]  # the taps (the rest is zero padding)
             ref = signal.oaconvolve(full, g)[nb:2 * nb]  # nodes nb .. 2 nb - 1
             got = nodes[q, a, taps - 1:taps - 1 + nb]
-            assert np.abs(got - ref).max() < 1e-12 * np.sqrt(np.mean(ref**2)), (a, q)
+            tol = 5e-6 if generator == "decimated_noise" else 1e-12  # single precision (module docstring)
+            assert np.abs(got - ref).max() < tol * np.sqrt(np.mean(ref**2)), (a, q)
 
 
 def test_decimated_noise_gives_a_stationary_process():
@@ -152,7 +160,8 @@ def test_psd_against_the_table_with_chi_square_confidence(generator):
     gap = (f > 2000.0 + edge + 4 * f[1]) & (f < vib.node_rate_hz / 2)
     assert p[gap].max() < 1e-9 * level, p[gap].max() / level
     images = (f > vib.node_rate_hz / 2 - 2000.0) & (f < vib.node_rate_hz / 2 - 20.0)
-    assert p[images].max() < 1e-11 * level, p[images].max() / level
+    floor = 1e-10 if generator == "decimated_noise" else 1e-11  # float32's rounding floor (module docstring)
+    assert p[images].max() < floor * level, p[images].max() / level
     # the interpolation images above the node Nyquist: the design's level (as for node_rate_noise)
     inband = f < vib.node_rate_hz / 2
     measured = 10 * np.log10(p[~inband].sum() / p[inband].sum())

@@ -4,7 +4,7 @@ The vibration's primary quantity ``x(t)`` (the angle of an angular vibration,
 the velocity of a translational one) is a quintic Hermite interpolant of its
 node values: at node ``n`` (time ``n h``, ``h = 1 / fs``) the caller gives,
 per axis ``a``, the value ``x_n``, the scaled first derivative ``h x'_n`` and
-the scaled second derivative ``h^2 x''_n`` (:func:`hermite5_coefficients`).
+the scaled second derivative ``h^2 x''_n`` (:func:`_coefficients`).
 On segment ``[n h, (n + 1) h]``, with ``u = t fs - n`` in ``[0, 1)``
 (computed without the rounding of the product ``t fs``, :func:`_segment`),
 
@@ -20,17 +20,19 @@ Analysis*, sect. 3.4, written in powers of ``u`` for Horner evaluation). The
 derivative ``x'(t) = fs dx/du`` (the rate, or the acceleration) is the exact
 derivative of that polynomial, so ``x(t_b) - x(t_a)`` is its exact integral.
 
-:func:`hermite5_coefficients` turns node values into the six power-basis
-coefficients of each segment once, so that an evaluation is one Horner
+:func:`_coefficients` turns the two node values of a segment into its six
+power-basis coefficients when an evaluation enters a segment, then one Horner
 polynomial per axis. Each time is evaluated on its own (segment from
 ``floor(t fs)``), so the results do not depend on how the times are chunked.
 Kernels never validate: the caller guarantees that every
-``floor(t fs) - n0`` is a row of ``coef``.
+``floor(t fs) - n0 + col`` and the column after it are columns of ``nodes``.
 """
 
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from sins_sim._kernels._config import jit
 
@@ -70,53 +72,71 @@ def _segment(t, fs, fh, fl):
 
 
 @jit
-def hermite5_coefficients(nodes, start, after, coef):
-    """Power-basis coefficients of the quintic Hermite segments between consecutive nodes.
-
-    Parameters
-    ----------
-    nodes : float64[3, 3, M]
-        ``nodes[q, a, start + i]``: quantity ``q`` of node ``i`` on axis ``a``,
-        ``q = 0, 1, 2`` for the value ``x``, ``h x'`` and ``h^2 x''``
-        (``h = 1 / fs``; units of the value).
-    start : int
-        Column of node 0.
-    after : float64[3, 3]
-        ``after[q, a]``: the node after the last one (the end of the last
-        segment).
-    coef : float64[m, 18]
-        Filled with ``c_0 .. c_5`` of segment ``i`` (from node ``i`` to
-        ``i + 1``, ``i < m``) and axis ``a`` in columns ``6a .. 6a + 5``
-        (module docstring), units of the value.
-    """
-    m = coef.shape[0]
-    for i in range(m):  # row by row: each row of coef written whole (31 % faster than axis by axis, same bits)
-        k = start + i
-        for a in range(3):
-            c = 6 * a
-            x0 = nodes[0, a, k]
-            d0 = nodes[1, a, k]
-            s0 = nodes[2, a, k]
-            if i + 1 < m:
-                x1 = nodes[0, a, k + 1]
-                d1 = nodes[1, a, k + 1]
-                s1 = nodes[2, a, k + 1]
-            else:
-                x1 = after[0, a]
-                d1 = after[1, a]
-                s1 = after[2, a]
-            dd = x1 - x0
-            coef[i, c] = x0
-            coef[i, c + 1] = d0
-            coef[i, c + 2] = 0.5 * s0
-            coef[i, c + 3] = 10.0 * dd - 6.0 * d0 - 4.0 * d1 - 1.5 * s0 + 0.5 * s1
-            coef[i, c + 4] = -15.0 * dd + 8.0 * d0 + 7.0 * d1 + 1.5 * s0 - s1
-            coef[i, c + 5] = 6.0 * dd - 3.0 * d0 - 3.0 * d1 - 0.5 * s0 + 0.5 * s1
+def _coefficients(nodes, a, i):
+    """``c_0 .. c_5`` (module docstring) of the segment from node column ``i`` to ``i + 1``, axis ``a``."""
+    x0 = np.float64(nodes[0, a, i])  # float32 nodes are widened first: the arithmetic is float64 for both
+    d0 = np.float64(nodes[1, a, i])
+    s0 = np.float64(nodes[2, a, i])
+    x1 = np.float64(nodes[0, a, i + 1])
+    d1 = np.float64(nodes[1, a, i + 1])
+    s1 = np.float64(nodes[2, a, i + 1])
+    dd = x1 - x0
+    c3 = 10.0 * dd - 6.0 * d0 - 4.0 * d1 - 1.5 * s0 + 0.5 * s1
+    c4 = -15.0 * dd + 8.0 * d0 + 7.0 * d1 + 1.5 * s0 - s1
+    c5 = 6.0 * dd - 3.0 * d0 - 3.0 * d1 - 0.5 * s0 + 0.5 * s1
+    return x0, d0, 0.5 * s0, c3, c4, c5
 
 
 @jit
-def hermite5_value(t, fs, n0, coef, offset, out):
+def _load(nodes, i, c):
+    """``c[6 a .. 6 a + 5]`` = :func:`_coefficients` of column ``i``, axes ``a = 0, 1, 2``."""
+    for a in range(3):
+        c[6 * a], c[6 * a + 1], c[6 * a + 2], c[6 * a + 3], c[6 * a + 4], c[6 * a + 5] = _coefficients(nodes, a, i)
+
+
+@jit
+def _at(t, fs, fh, fl, n0, nodes, col, c, last):
+    """Position ``u`` of ``t`` in its segment, with ``c`` holding that segment's coefficients (:func:`_load`).
+
+    ``last`` is the column whose coefficients ``c`` holds; returns ``(u, column)``. Times in order share a
+    segment's coefficients (5 per segment on the plant grid), so they are formed only on entering a segment.
+    """
+    k, u = _segment(t, fs, fh, fl)
+    i = k - n0 + col
+    if i != last:
+        _load(nodes, i, c)
+    return u, i
+
+
+@jit
+def _value(c, a, u):
+    """``x(u)`` of axis ``a`` by Horner's rule on the coefficients ``c`` (:func:`_load`)."""
+    b = 6 * a
+    p = c[b + 4] + u * c[b + 5]
+    p = c[b + 3] + u * p
+    p = c[b + 2] + u * p
+    p = c[b + 1] + u * p
+    return c[b] + u * p
+
+
+@jit
+def _slope(c, a, u):
+    """``dx/du`` of axis ``a`` by Horner's rule on the coefficients ``c`` (:func:`_load`)."""
+    b = 6 * a
+    p = 4.0 * c[b + 4] + u * (5.0 * c[b + 5])
+    p = 3.0 * c[b + 3] + u * p
+    p = 2.0 * c[b + 2] + u * p
+    return c[b + 1] + u * p
+
+
+@jit
+def hermite5_value(t, fs, n0, nodes, col, offset, out):
     """Quintic Hermite interpolant at the times ``t``, less ``offset``.
+
+    The segment's coefficients are formed from its two nodes when a time falls in another segment than
+    the time before (:func:`_coefficients`, about 20 operations per axis), not kept in a table: a table
+    of 18 float64 per node, written once per node block, cost more in memory traffic than forming them
+    here for the 2 to 5 times per segment of the engine's grids (issue 26).
 
     Parameters
     ----------
@@ -125,10 +145,13 @@ def hermite5_value(t, fs, n0, coef, offset, out):
     fs : float
         Node rate (Hz); node ``n`` sits at ``t = n / fs``.
     n0 : int
-        Index of the segment in ``coef[0]`` (segment ``n`` runs from node
-        ``n`` to ``n + 1``).
-    coef : float64[m, 18]
-        Segment coefficients from :func:`hermite5_coefficients`.
+        Index of the node in column ``col`` of ``nodes``.
+    nodes : float64 or float32 [3, 3, M]
+        ``nodes[q, a, col + n - n0]``: quantity ``q`` of node ``n`` on axis ``a``, ``q = 0, 1, 2``
+        for the value ``x``, ``h x'`` and ``h^2 x''`` (``h = 1 / fs``; units of the value). Every
+        segment the times fall in needs both its nodes.
+    col : int
+        Column of node ``n0``.
     offset : float64[3]
         Subtracted from the value of each axis (``x(0)`` for the integral
         from 0; zeros for the value itself).
@@ -137,20 +160,16 @@ def hermite5_value(t, fs, n0, coef, offset, out):
     """
     n = t.shape[0]
     fh, fl = _split(fs)
+    c = np.empty(18)
+    last = -1
     for j in range(n):
-        k, u = _segment(t[j], fs, fh, fl)
-        i = k - n0
+        u, last = _at(t[j], fs, fh, fl, n0, nodes, col, c, last)
         for a in range(3):
-            c = 6 * a
-            p = coef[i, c + 4] + u * coef[i, c + 5]
-            p = coef[i, c + 3] + u * p
-            p = coef[i, c + 2] + u * p
-            p = coef[i, c + 1] + u * p
-            out[j, a] = (coef[i, c] + u * p) - offset[a]
+            out[j, a] = _value(c, a, u) - offset[a]
 
 
 @jit
-def hermite5_slope(t, fs, n0, coef, out):
+def hermite5_slope(t, fs, n0, nodes, col, out):
     """Time derivative of :func:`hermite5_value` at the times ``t``.
 
     Parameters
@@ -159,28 +178,23 @@ def hermite5_slope(t, fs, n0, coef, out):
         Times (s).
     fs : float
         Node rate (Hz).
-    n0 : int
-        Index of the segment in ``coef[0]``.
-    coef : float64[m, 18]
-        Segment coefficients from :func:`hermite5_coefficients`.
+    n0, nodes, col
+        As for :func:`hermite5_value`.
     out : float64[N, 3]
         Filled with ``dx/dt = fs dx/du`` (units of the value per second).
     """
     n = t.shape[0]
     fh, fl = _split(fs)
+    c = np.empty(18)
+    last = -1
     for j in range(n):
-        k, u = _segment(t[j], fs, fh, fl)
-        i = k - n0
+        u, last = _at(t[j], fs, fh, fl, n0, nodes, col, c, last)
         for a in range(3):
-            c = 6 * a
-            p = 4.0 * coef[i, c + 4] + u * (5.0 * coef[i, c + 5])
-            p = 3.0 * coef[i, c + 3] + u * p
-            p = 2.0 * coef[i, c + 2] + u * p
-            out[j, a] = fs * (coef[i, c + 1] + u * p)
+            out[j, a] = fs * _slope(c, a, u)
 
 
 @jit
-def hermite5_value_slope(t, fs, n0, coef, offset, value, slope):
+def hermite5_value_slope(t, fs, n0, nodes, col, offset, value, slope):
     """:func:`hermite5_value` and :func:`hermite5_slope` in one pass (same operations, same bits).
 
     Parameters
@@ -189,10 +203,8 @@ def hermite5_value_slope(t, fs, n0, coef, offset, value, slope):
         Times (s).
     fs : float
         Node rate (Hz).
-    n0 : int
-        Index of the segment in ``coef[0]``.
-    coef : float64[m, 18]
-        Segment coefficients from :func:`hermite5_coefficients`.
+    n0, nodes, col
+        As for :func:`hermite5_value`.
     offset : float64[3]
         Subtracted from the value of each axis.
     value : float64[N, 3]
@@ -202,17 +214,10 @@ def hermite5_value_slope(t, fs, n0, coef, offset, value, slope):
     """
     n = t.shape[0]
     fh, fl = _split(fs)
+    c = np.empty(18)
+    last = -1
     for j in range(n):
-        k, u = _segment(t[j], fs, fh, fl)
-        i = k - n0
+        u, last = _at(t[j], fs, fh, fl, n0, nodes, col, c, last)
         for a in range(3):
-            c = 6 * a
-            p = coef[i, c + 4] + u * coef[i, c + 5]
-            p = coef[i, c + 3] + u * p
-            p = coef[i, c + 2] + u * p
-            p = coef[i, c + 1] + u * p
-            value[j, a] = (coef[i, c] + u * p) - offset[a]
-            q = 4.0 * coef[i, c + 4] + u * (5.0 * coef[i, c + 5])
-            q = 3.0 * coef[i, c + 3] + u * q
-            q = 2.0 * coef[i, c + 2] + u * q
-            slope[j, a] = fs * (coef[i, c + 1] + u * q)
+            value[j, a] = _value(c, a, u) - offset[a]
+            slope[j, a] = fs * _slope(c, a, u)

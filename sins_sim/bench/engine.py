@@ -6,7 +6,8 @@ closed-loop drives, every filter) under a 1 arcmin block vibration about each ax
 
 * :func:`engine_run`: ``simulate_sins`` without navigation (``nav=None``: truth at the
   plant rate, the three fused channel kernels, every filter) or with the full INS loop
-  (every filter navigated by its own strapdown against the truth);
+  (every filter navigated by its own strapdown against the truth, at a mission's default
+  rate: :func:`~sins_sim.simulation.sins.default_n_sub`);
 * :class:`BareKernels`: the same three channels' kernels (side by side, as the one-thread
   engine runs them) called directly on precomputed inputs, nothing else: the floor the engine
   is compared with (a same-run ratio in CI, so the user path cannot fall behind the kernels
@@ -28,7 +29,7 @@ import numpy as np
 from sins_sim.models.motion import AxisSines
 from sins_sim.models.suspension import PAPER_SUSPENSION
 from sins_sim.simulation.channel import ChannelChain, ChannelConfig, SideBySide
-from sins_sim.simulation.sins import ImuConfig, NavSettings, simulate_sins
+from sins_sim.simulation.sins import ImuConfig, NavSettings, default_n_sub, simulate_sins
 from sins_sim.units import ARCMIN
 
 __all__ = ["CHAIN_F0_HZ", "CHAIN_VIBRATION_HZ", "bench_imu", "bench_motion", "engine_run", "BareKernels",
@@ -52,8 +53,12 @@ def bench_motion() -> AxisSines:
 
 def engine_run(duration_s: float, navigation: bool, threads: int = 1, imu=None, motion=None):
     """One ``simulate_sins`` run of the bench case; returns the result."""
-    nav = NavSettings(start_s=min(0.5, 0.25 * duration_s)) if navigation else None
-    return simulate_sins(imu or bench_imu(), motion or bench_motion(), duration_s, seed=0, nav=nav, threads=threads)
+    imu = imu or bench_imu()
+    # navigated at a mission's default rate (400 Hz: the coning and sculling sums at the filter rate, the
+    # update every 18 filter samples; issue 26), as ``sins-sim run`` navigates a scenario
+    nav = (NavSettings(start_s=min(0.5, 0.25 * duration_s), n_sub=default_n_sub(imu.filter_rate_hz))
+           if navigation else None)
+    return simulate_sins(imu, motion or bench_motion(), duration_s, seed=0, nav=nav, threads=threads)
 
 
 class BareKernels:

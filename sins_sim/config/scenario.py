@@ -315,11 +315,13 @@ SCENARIO_SCHEMA = Map({
         "tuned_band": Vec(2, unit="hz", min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ, default=None,
                           doc="design band of filter_tuned coning/sculling; required with it"),
         "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
-        "n_sub": Num(integer=True, min=1, max=1000, default=1, doc="filter samples per navigation update"),
+        "n_sub": Num(integer=True, min=1, max=1000, default=None,
+                     doc="filter samples per navigation update; default: from rate_hz"),
         "rate": Num(unit="hz", **_POS, max=1.0e6, default=None,
                     doc="navigation update rate (attitude, velocity, position); the coning and sculling sums run "
                         "at the filter rate; sets n_sub = readout.output_rate_hz / rate_hz (a whole number); "
-                        "default: every filter sample"),
+                        "default: about 400 Hz, n_sub = round(readout.output_rate_hz / 400) (18 at 7.2 kHz); "
+                        "readout.output_rate_hz for every filter sample"),
         "vertical": Str(choices=("height_aid", "free"), default="height_aid"),
         "height_aid_tau": Num(unit="s", **_POS, max=1.0e5, default=100.0),
         "accel_delay": Str(choices=("matched", "none"), default="matched"),
@@ -464,11 +466,15 @@ class Scenario:
         _check_motion(c["motion"], c["linear_vibration"], fs, ctx, self.imu.plant_rate_hz)
         nv = c["navigation"]
         if nv["rate_hz"] is not None:
-            nv["n_sub"] = _n_sub_of_rate(nv["rate_hz"], fs, (doc.get("navigation") or {}).get("n_sub"), ctx)
+            nv["n_sub"] = _n_sub_of_rate(nv["rate_hz"], fs, nv["n_sub"], ctx)
+        elif nv["n_sub"] is None:  # the mission default (issue 26): about 400 Hz
+            from sins_sim.simulation.sins import default_n_sub  # the IMU is valid: the engine may load now
+
+            nv["n_sub"] = default_n_sub(fs)
         if nv["timeseries_rate_hz"] is not None and nv["timeseries_rate_hz"] > fs / nv["n_sub"]:
             raise ConfigError(f"{ctx}: navigation.timeseries_rate_hz: must be <= the navigation update rate "
-                              f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub), "
-                              f"got {nv['timeseries_rate_hz']:g}")
+                              f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub; navigation.rate_hz "
+                              f"raises it), got {nv['timeseries_rate_hz']:g}")
         self.motion_spec = c["motion"]
         self.motion = _build_motion(c["motion"], self.seed, ctx)
         self.filters = tuple(dict.fromkeys(c["filters"]))

@@ -52,7 +52,6 @@ import numpy as np
 
 from sins_sim._kernels import truth as ktruth
 from sins_sim.models.motion import AttitudeStream, Motion3D
-from sins_sim.navigation.attitude import dcm_from_quat
 
 __all__ = ["MissionTruth", "TruthChunk", "VehicleSampler"]
 
@@ -408,4 +407,6 @@ class MissionTruth:
     def _v_ned(self, v, q_nv, t):
         if self.translation is None:
             return v
-        return v + np.einsum("nij,nj->ni", dcm_from_quat(q_nv), self.translation.velocity(t))
+        out = np.empty((q_nv.shape[0], 3))
+        ktruth.add_rotated(np.ascontiguousarray(v), np.ascontiguousarray(q_nv), self.translation.velocity(t), out)
+        return out
