@@ -745,7 +745,8 @@ class SideBySide:
             st = self._step
             kblock.drive_plant_three_block(i0, angle_ax, rate_ax, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
                                            delta, volts, q0s, q1s, used, self._gain, st.umat, st.phi, st.phit, st.tt,
-                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, lin, lin, self.bstate, cin, z)
+                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, st.ax, lin, lin, self.bstate, cin,
+                                           z)
             extra = np.empty((4, 3, m))  # block_dth, block_theta_avg, block_theta_end, block_dvel
             kblock.block_truth(z, rate_ax, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, extra[0],
                                extra[1], extra[2], extra[3])
