@@ -26,9 +26,29 @@ quadratic through ``t_{n-2} .. t_n`` left 2.2e-5 (third order); the cubic from o
 ``(w h)^4``-order errors (``tests/test_block.py`` states the measured figures against the frequency-domain
 solution of the coupled linear system).
 
+Kernels, by the block's structure (``models.block.BlockStep`` decides from exact zeros of the discrete matrices):
+
+- axis-decoupled (:func:`run_three_block_axes`): a diagonal inertia with the elastic centre at the c.g. (the
+  bundled preset): each rotation axis is a 2x2 step of its own, the gyros' torques enter as the moments they exert
+  about the block's axes (``-sum_i T_i u_i``, formed once per step, so a tilted input axis costs three products,
+  not a denser step), and the chassis' angular acceleration and the piezo torques are formed inside the step loop
+  (no ``chassis_input`` pass, no input buffer); the translation, which neither the gyros nor the rotation reach,
+  follows in its own pass (:func:`propagate_translation_axes`);
+- otherwise the general kernel (:func:`run_three_block`, and :func:`run_three_block6` for the six rotation states
+  of a decoupled mount) on the ``nc`` chained states, the inputs prepared by :func:`chassis_input`. Each state sums
+  its inputs first and the previous state last, so the chain from ``z(n)`` to ``z(n+1)`` is ``nc`` additions long;
+- a translation at rest with no linear input over a chunk (the decoupled mounts, while linear vibration does not
+  reach the isolators) stays exactly zero and is written so, without its steps.
+
+Cost per plant step of three axes on the engine's channel path against the rigid engine (``benchmarks/
+test_block_speed.py``): about 1.7 times with the axis-decoupled kernel, 2.8 times with twelve chained states; the
+suspensions' step itself, a latency-bound chain that the rigid engine overlaps three ways, roughly doubles once the
+block's arithmetic and the coupling share its loop.
+
 Block state (``bstate``, float64[B_SIZE]): ``z`` (12: translation, rotation vector, and their rates, relative to
 the chassis), the relative angle and rate about each input axis at ``t_n``, and the torques' smooth parts at
-``t_n .. t_{n-4}``. All zeros is rest.
+``t_n .. t_{n-4}`` (the axis-decoupled kernel keeps there the moments they exert about the block's axes x, y, z
+instead). All zeros is rest.
 """
 
 from __future__ import annotations
@@ -168,15 +188,15 @@ def run_three_block(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat,
     for n in range(j0, j1):
         for r in range(nc):
             zn[r] = cin[n, idx[r]]
-        for j in range(nc):
-            zj = z[j]
-            for r in range(nc):
-                zn[r] += phit[j, r] * zj
         for kind in range(nh):  # from t_{n-1} back: independent of the suspensions' step that ends at t_n
             for a in range(3):
                 s_ = sm[kind + 1, a]
                 for r in range(nc):
                     zn[r] += tt[kind, a, r] * s_
+        for j in range(nc):  # the state last: the chain from z(n) to z(n+1) is nc additions long, not nc + 3 nh
+            zj = z[j]
+            for r in range(nc):
+                zn[r] += phit[j, r] * zj
         # the relative motion's share of each suspension's forcing (Hermite, as plant_exact._forcing)
         for a in range(3):
             r_, rr = _relative(umat, zn, pos, a)
@@ -383,42 +403,6 @@ def run_three_block6(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat
         n3 = cin[n, idx[3]]
         n4 = cin[n, idx[4]]
         n5 = cin[n, idx[5]]
-        n0 += p00 * z0
-        n1 += p01 * z0
-        n2 += p02 * z0
-        n3 += p03 * z0
-        n4 += p04 * z0
-        n5 += p05 * z0
-        n0 += p10 * z1
-        n1 += p11 * z1
-        n2 += p12 * z1
-        n3 += p13 * z1
-        n4 += p14 * z1
-        n5 += p15 * z1
-        n0 += p20 * z2
-        n1 += p21 * z2
-        n2 += p22 * z2
-        n3 += p23 * z2
-        n4 += p24 * z2
-        n5 += p25 * z2
-        n0 += p30 * z3
-        n1 += p31 * z3
-        n2 += p32 * z3
-        n3 += p33 * z3
-        n4 += p34 * z3
-        n5 += p35 * z3
-        n0 += p40 * z4
-        n1 += p41 * z4
-        n2 += p42 * z4
-        n3 += p43 * z4
-        n4 += p44 * z4
-        n5 += p45 * z4
-        n0 += p50 * z5
-        n1 += p51 * z5
-        n2 += p52 * z5
-        n3 += p53 * z5
-        n4 += p54 * z5
-        n5 += p55 * z5
         n0 += t000 * s10
         n1 += t001 * s10
         n2 += t002 * s10
@@ -491,6 +475,42 @@ def run_three_block6(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat
         n3 += t323 * s42
         n4 += t324 * s42
         n5 += t325 * s42
+        n0 += p00 * z0
+        n1 += p01 * z0
+        n2 += p02 * z0
+        n3 += p03 * z0
+        n4 += p04 * z0
+        n5 += p05 * z0
+        n0 += p10 * z1
+        n1 += p11 * z1
+        n2 += p12 * z1
+        n3 += p13 * z1
+        n4 += p14 * z1
+        n5 += p15 * z1
+        n0 += p20 * z2
+        n1 += p21 * z2
+        n2 += p22 * z2
+        n3 += p23 * z2
+        n4 += p24 * z2
+        n5 += p25 * z2
+        n0 += p30 * z3
+        n1 += p31 * z3
+        n2 += p32 * z3
+        n3 += p33 * z3
+        n4 += p34 * z3
+        n5 += p35 * z3
+        n0 += p40 * z4
+        n1 += p41 * z4
+        n2 += p42 * z4
+        n3 += p43 * z4
+        n4 += p44 * z4
+        n5 += p45 * z4
+        n0 += p50 * z5
+        n1 += p51 * z5
+        n2 += p52 * z5
+        n3 += p53 * z5
+        n4 += p54 * z5
+        n5 += p55 * z5
         r0 = u00 * n0 + u01 * n1 + u02 * n2
         rr0 = u00 * n3 + u01 * n4 + u02 * n5
         sl0 = (r0 - rel0) * ih
