@@ -85,11 +85,15 @@ class BareKernels:
         self.rate = np.asfortranarray(ARCMIN * w[None, :] * np.cos(w[None, :] * t[:, None]))
         self.simulated_s = self.n_chunks * self.n / fp
 
-    def run(self) -> None:
+    def chains(self) -> list:
+        """The three channel chains at rest, each moving with its axis's vibration."""
         chains = [ChannelChain(c, self.control, np.random.default_rng(i)) for i, c in enumerate(self.cfgs)]
         for ch, w in zip(chains, CHAIN_VIBRATION_HZ):
             ch.reset(0.0, ARCMIN * 2.0 * math.pi * w)
-        three = SideBySide(chains)  # the kernels of the engine's one-thread path
+        return chains
+
+    def run(self) -> None:
+        three = SideBySide(self.chains())  # the kernels of the engine's one-thread path
         for k in range(self.n_chunks):
             three.run(k * self.n, self.ang, self.rate)
 
@@ -102,11 +106,7 @@ class SideBySideRun:
 
     def __init__(self, duration_s: float, block=None, chunk_s: float = 1.0):
         self.inputs = BareKernels(duration_s, chunk_s)
-        chains = [ChannelChain(c, self.inputs.control, np.random.default_rng(i))
-                  for i, c in enumerate(self.inputs.cfgs)]
-        for ch, w in zip(chains, CHAIN_VIBRATION_HZ):
-            ch.reset(0.0, ARCMIN * 2.0 * math.pi * w)
-        self.three = SideBySide(chains, block=block)
+        self.three = SideBySide(self.inputs.chains(), block=block)
         self.n, self.n_chunks = self.inputs.n, self.inputs.n_chunks
         self.steps_per_call = self.n * self.n_chunks
         self._i0 = 0

@@ -400,7 +400,10 @@ class BlockStep:
     ``t_{n-1} .. t_{n-4}``, folded into one input matrix per history value (``tt``: (4, 3, nc)); only the states
     the torques reach are chained (all 12, or the rotation's 6 when
     the isolators do not couple translation and rotation); the chassis inputs ``(a0, P0, a1, P1)`` go through
-    ``gch = [F0, F1]`` (their columns) and the held piezo torques through ``f0t``.
+    ``gch = [F0, F1]`` (their columns) and the held piezo torques through ``f0t``. ``ax`` (3, ``AX_SIZE``): the
+    per-axis coefficients of the axis-decoupled kernel when the block's rotation axes and translations move
+    independently (exact zeros off each axis: a diagonal inertia with the elastic centre at the c.g.), else (0,
+    ``AX_SIZE``); :attr:`axes` says which.
     """
 
     def __init__(self, block: BlockParams, h: float):
