@@ -41,7 +41,7 @@ Kernels, by the block's structure (``models.block.BlockStep`` decides from exact
   reach the isolators) stays exactly zero and is written so, without its steps.
 
 Cost per plant step of three axes on the engine's channel path against the rigid engine (``benchmarks/
-test_block_speed.py``): about 1.75 times with the axis-decoupled kernel, 2.85 with twelve chained states; the
+test_block_speed.py``): about 1.8 times with the axis-decoupled kernel, 2.9 with twelve chained states; the
 suspensions' step itself, a latency-bound chain that the rigid engine overlaps three ways, roughly doubles once the
 block's arithmetic and the coupling share its loop.
 
