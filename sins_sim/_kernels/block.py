@@ -26,9 +26,29 @@ quadratic through ``t_{n-2} .. t_n`` left 2.2e-5 (third order); the cubic from o
 ``(w h)^4``-order errors (``tests/test_block.py`` states the measured figures against the frequency-domain
 solution of the coupled linear system).
 
+Kernels, by the block's structure (``models.block.BlockStep`` decides from exact zeros of the discrete matrices):
+
+- axis-decoupled (:func:`run_three_block_axes`): a diagonal inertia with the elastic centre at the c.g. (the
+  bundled preset): each rotation axis is a 2x2 step of its own, the gyros' torques enter as the moments they exert
+  about the block's axes (``-sum_i T_i u_i``, formed once per step, so a tilted input axis costs three products,
+  not a denser step), and the chassis' angular acceleration and the piezo torques are formed inside the step loop
+  (no ``chassis_input`` pass, no input buffer); the translation, which neither the gyros nor the rotation reach,
+  follows in its own pass (:func:`propagate_translation_axes`);
+- otherwise the general kernel (:func:`run_three_block`, and :func:`run_three_block6` for the six rotation states
+  of a decoupled mount) on the ``nc`` chained states, the inputs prepared by :func:`chassis_input`. Each state sums
+  its inputs first and the previous state last, so the chain from ``z(n)`` to ``z(n+1)`` is ``nc`` additions long;
+- a translation at rest with no linear input over a chunk (the decoupled mounts, while linear vibration does not
+  reach the isolators) stays exactly zero and is written so, without its steps.
+
+Cost per plant step of three axes on the engine's channel path against the rigid engine (``benchmarks/
+test_block_speed.py``): about 1.8 times with the axis-decoupled kernel, 2.9 with twelve chained states; the
+suspensions' step itself, a latency-bound chain that the rigid engine overlaps three ways, roughly doubles once the
+block's arithmetic and the coupling share its loop.
+
 Block state (``bstate``, float64[B_SIZE]): ``z`` (12: translation, rotation vector, and their rates, relative to
 the chassis), the relative angle and rate about each input axis at ``t_n``, and the torques' smooth parts at
-``t_n .. t_{n-4}``. All zeros is rest.
+``t_n .. t_{n-4}`` (the axis-decoupled kernel keeps there the moments they exert about the block's axes x, y, z
+instead). All zeros is rest.
 """
 
 from __future__ import annotations
@@ -45,6 +65,32 @@ B_RELR = 15  # relative rate about u_i at t_n, 3 values
 B_SM = 18  # smooth torque parts at t_n, t_{n-1}, ..., t_{n-4}: 5 rows of 3 values
 N_HIST = 5
 B_SIZE = 33
+
+# per-axis coefficients of the axis-decoupled kernel (``ax``: (3, AX_SIZE), ``BlockStep``): rotation about axis k
+# (theta_k, theta_k'): its 2x2 step matrix, the chassis' P0 and P1, the held piezo moment, the moment history at
+# t_{n-1} .. t_{n-4} (theta_k and theta_k' interleaved); translation along k (x_k, x_k'): its 2x2 step matrix, the
+# chassis' a0 and a1
+AX_PAA = 0
+AX_PAB = 1
+AX_PBA = 2
+AX_PBB = 3
+AX_CA0 = 4
+AX_CB0 = 5
+AX_CA1 = 6
+AX_CB1 = 7
+AX_MA = 8
+AX_MB = 9
+AX_HA = 10
+AX_HB = 11
+AX_TAA = 18
+AX_TAB = 19
+AX_TBA = 20
+AX_TBB = 21
+AX_LA0 = 22
+AX_LB0 = 23
+AX_LA1 = 24
+AX_LB1 = 25
+AX_SIZE = 26
 
 
 @jit
@@ -142,15 +188,15 @@ def run_three_block(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat,
     for n in range(j0, j1):
         for r in range(nc):
             zn[r] = cin[n, idx[r]]
-        for j in range(nc):
-            zj = z[j]
-            for r in range(nc):
-                zn[r] += phit[j, r] * zj
         for kind in range(nh):  # from t_{n-1} back: independent of the suspensions' step that ends at t_n
             for a in range(3):
                 s_ = sm[kind + 1, a]
                 for r in range(nc):
                     zn[r] += tt[kind, a, r] * s_
+        for j in range(nc):  # the state last: the chain from z(n) to z(n+1) is nc additions long, not nc + 3 nh
+            zj = z[j]
+            for r in range(nc):
+                zn[r] += phit[j, r] * zj
         # the relative motion's share of each suspension's forcing (Hermite, as plant_exact._forcing)
         for a in range(3):
             r_, rr = _relative(umat, zn, pos, a)
@@ -357,42 +403,6 @@ def run_three_block6(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat
         n3 = cin[n, idx[3]]
         n4 = cin[n, idx[4]]
         n5 = cin[n, idx[5]]
-        n0 += p00 * z0
-        n1 += p01 * z0
-        n2 += p02 * z0
-        n3 += p03 * z0
-        n4 += p04 * z0
-        n5 += p05 * z0
-        n0 += p10 * z1
-        n1 += p11 * z1
-        n2 += p12 * z1
-        n3 += p13 * z1
-        n4 += p14 * z1
-        n5 += p15 * z1
-        n0 += p20 * z2
-        n1 += p21 * z2
-        n2 += p22 * z2
-        n3 += p23 * z2
-        n4 += p24 * z2
-        n5 += p25 * z2
-        n0 += p30 * z3
-        n1 += p31 * z3
-        n2 += p32 * z3
-        n3 += p33 * z3
-        n4 += p34 * z3
-        n5 += p35 * z3
-        n0 += p40 * z4
-        n1 += p41 * z4
-        n2 += p42 * z4
-        n3 += p43 * z4
-        n4 += p44 * z4
-        n5 += p45 * z4
-        n0 += p50 * z5
-        n1 += p51 * z5
-        n2 += p52 * z5
-        n3 += p53 * z5
-        n4 += p54 * z5
-        n5 += p55 * z5
         n0 += t000 * s10
         n1 += t001 * s10
         n2 += t002 * s10
@@ -465,6 +475,42 @@ def run_three_block6(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat
         n3 += t323 * s42
         n4 += t324 * s42
         n5 += t325 * s42
+        n0 += p00 * z0
+        n1 += p01 * z0
+        n2 += p02 * z0
+        n3 += p03 * z0
+        n4 += p04 * z0
+        n5 += p05 * z0
+        n0 += p10 * z1
+        n1 += p11 * z1
+        n2 += p12 * z1
+        n3 += p13 * z1
+        n4 += p14 * z1
+        n5 += p15 * z1
+        n0 += p20 * z2
+        n1 += p21 * z2
+        n2 += p22 * z2
+        n3 += p23 * z2
+        n4 += p24 * z2
+        n5 += p25 * z2
+        n0 += p30 * z3
+        n1 += p31 * z3
+        n2 += p32 * z3
+        n3 += p33 * z3
+        n4 += p34 * z3
+        n5 += p35 * z3
+        n0 += p40 * z4
+        n1 += p41 * z4
+        n2 += p42 * z4
+        n3 += p43 * z4
+        n4 += p44 * z4
+        n5 += p45 * z4
+        n0 += p50 * z5
+        n1 += p51 * z5
+        n2 += p52 * z5
+        n3 += p53 * z5
+        n4 += p54 * z5
+        n5 += p55 * z5
         r0 = u00 * n0 + u01 * n1 + u02 * n2
         rr0 = u00 * n3 + u01 * n4 + u02 * n5
         sl0 = (r0 - rel0) * ih
@@ -552,6 +598,327 @@ def run_three_block6(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat
 
 
 @jit
+def run_three_block_axes(j0, j1, q0s, q1s, cs, rules, state, hyst, stack, gain, umat, ax, ang, rate, volts, gk5, phi_a,
+                         rate_a, bstate, out_delta, out_z):
+    """:func:`run_three_block` for a block whose three rotation axes are independent (module docstring,
+    "Axis-decoupled kernel"): written out in scalars (generated), so that the block's 2x2 steps, their inputs and
+    the moment history stay in registers; the chassis' angular acceleration (the Hermite of ``ang, rate``, from
+    ``phi_a, rate_a`` (3,) at ``t_{j0}``, updated) and the held piezo torques (``gk5 volts``, ``gk5``: (3,)
+    ``gain k5``) are formed inside the step loop. ``ax`` (3, AX_SIZE): the per-axis
+    coefficients (``BlockStep``). Writes rows 3-5 and 9-11 of ``out_z``."""
+    ka = kexact._lane_constants(cs, 0)
+    kb = kexact._lane_constants(cs, 1)
+    kc = kexact._lane_constants(cs, 2)
+    la = kexact._lane_load(state, 0, cs, rules[0], hyst[0], stack[0])
+    lb = kexact._lane_load(state, 1, cs, rules[1], hyst[1], stack[1])
+    lc = kexact._lane_load(state, 2, cs, rules[2], hyst[2], stack[2])
+    h = ka[kexact.C_H]
+    ih = 1.0 / h
+    ih2 = ih * ih
+    # axis 0: state, step matrix, inputs
+    a0 = bstate[B_Z + 3]
+    b0 = bstate[B_Z + 9]
+    paa0 = ax[0, AX_PAA]
+    pab0 = ax[0, AX_PAB]
+    pba0 = ax[0, AX_PBA]
+    pbb0 = ax[0, AX_PBB]
+    ca00 = ax[0, AX_CA0]
+    cb00 = ax[0, AX_CB0]
+    ca10 = ax[0, AX_CA1]
+    cb10 = ax[0, AX_CB1]
+    ma0 = ax[0, AX_MA]
+    mb0 = ax[0, AX_MB]
+    ha10 = ax[0, AX_HA + 0]
+    hb10 = ax[0, AX_HB + 0]
+    ha20 = ax[0, AX_HA + 2]
+    hb20 = ax[0, AX_HB + 2]
+    ha30 = ax[0, AX_HA + 4]
+    hb30 = ax[0, AX_HB + 4]
+    ha40 = ax[0, AX_HA + 6]
+    hb40 = ax[0, AX_HB + 6]
+    m00 = bstate[B_SM + 0]
+    m10 = bstate[B_SM + 3]
+    m20 = bstate[B_SM + 6]
+    m30 = bstate[B_SM + 9]
+    m40 = bstate[B_SM + 12]
+    pa0 = phi_a[0]
+    ra0 = rate_a[0]
+    # axis 1: state, step matrix, inputs
+    a1 = bstate[B_Z + 4]
+    b1 = bstate[B_Z + 10]
+    paa1 = ax[1, AX_PAA]
+    pab1 = ax[1, AX_PAB]
+    pba1 = ax[1, AX_PBA]
+    pbb1 = ax[1, AX_PBB]
+    ca01 = ax[1, AX_CA0]
+    cb01 = ax[1, AX_CB0]
+    ca11 = ax[1, AX_CA1]
+    cb11 = ax[1, AX_CB1]
+    ma1 = ax[1, AX_MA]
+    mb1 = ax[1, AX_MB]
+    ha11 = ax[1, AX_HA + 0]
+    hb11 = ax[1, AX_HB + 0]
+    ha21 = ax[1, AX_HA + 2]
+    hb21 = ax[1, AX_HB + 2]
+    ha31 = ax[1, AX_HA + 4]
+    hb31 = ax[1, AX_HB + 4]
+    ha41 = ax[1, AX_HA + 6]
+    hb41 = ax[1, AX_HB + 6]
+    m01 = bstate[B_SM + 1]
+    m11 = bstate[B_SM + 4]
+    m21 = bstate[B_SM + 7]
+    m31 = bstate[B_SM + 10]
+    m41 = bstate[B_SM + 13]
+    pa1 = phi_a[1]
+    ra1 = rate_a[1]
+    # axis 2: state, step matrix, inputs
+    a2 = bstate[B_Z + 5]
+    b2 = bstate[B_Z + 11]
+    paa2 = ax[2, AX_PAA]
+    pab2 = ax[2, AX_PAB]
+    pba2 = ax[2, AX_PBA]
+    pbb2 = ax[2, AX_PBB]
+    ca02 = ax[2, AX_CA0]
+    cb02 = ax[2, AX_CB0]
+    ca12 = ax[2, AX_CA1]
+    cb12 = ax[2, AX_CB1]
+    ma2 = ax[2, AX_MA]
+    mb2 = ax[2, AX_MB]
+    ha12 = ax[2, AX_HA + 0]
+    hb12 = ax[2, AX_HB + 0]
+    ha22 = ax[2, AX_HA + 2]
+    hb22 = ax[2, AX_HB + 2]
+    ha32 = ax[2, AX_HA + 4]
+    hb32 = ax[2, AX_HB + 4]
+    ha42 = ax[2, AX_HA + 6]
+    hb42 = ax[2, AX_HB + 6]
+    m02 = bstate[B_SM + 2]
+    m12 = bstate[B_SM + 5]
+    m22 = bstate[B_SM + 8]
+    m32 = bstate[B_SM + 11]
+    m42 = bstate[B_SM + 14]
+    pa2 = phi_a[2]
+    ra2 = rate_a[2]
+    rel0 = bstate[B_REL + 0]
+    relr0 = bstate[B_RELR + 0]
+    u00 = umat[0, 0]
+    v00 = -umat[0, 0]
+    u01 = umat[0, 1]
+    v01 = -umat[0, 1]
+    u02 = umat[0, 2]
+    v02 = -umat[0, 2]
+    g0 = gain[0]
+    rel1 = bstate[B_REL + 1]
+    relr1 = bstate[B_RELR + 1]
+    u10 = umat[1, 0]
+    v10 = -umat[1, 0]
+    u11 = umat[1, 1]
+    v11 = -umat[1, 1]
+    u12 = umat[1, 2]
+    v12 = -umat[1, 2]
+    g1 = gain[1]
+    rel2 = bstate[B_REL + 2]
+    relr2 = bstate[B_RELR + 2]
+    u20 = umat[2, 0]
+    v20 = -umat[2, 0]
+    u21 = umat[2, 1]
+    v21 = -umat[2, 1]
+    u22 = umat[2, 2]
+    v22 = -umat[2, 2]
+    g2 = gain[2]
+    gk50 = gk5[0]
+    gk51 = gk5[1]
+    gk52 = gk5[2]
+    for n in range(j0, j1):
+        pz0 = gk50 * volts[0, n]  # the held piezo torques
+        pz1 = gk51 * volts[1, n]
+        pz2 = gk52 * volts[2, n]
+        # axis 0: the chassis' angular acceleration over the step, P0 + P1 tau (as chassis_input)
+        an0 = ang[0, n]
+        rn0 = rate[0, n]
+        sl0 = (an0 - pa0) * ih
+        c00 = (6.0 * sl0 - 4.0 * ra0 - 2.0 * rn0) * ih
+        c10 = 6.0 * (ra0 + rn0 - 2.0 * sl0) * ih2
+        pa0 = an0
+        ra0 = rn0
+        mp0 = (v00 * pz0 + v10 * pz1) + v20 * pz2
+        ia0 = ((ca00 * c00 + ca10 * c10) + ma0 * mp0) + ((ha10 * m10 + ha20 * m20) + (ha30 * m30 + ha40 * m40))
+        ib0 = ((cb00 * c00 + cb10 * c10) + mb0 * mp0) + ((hb10 * m10 + hb20 * m20) + (hb30 * m30 + hb40 * m40))
+        na0 = ia0 + (paa0 * a0 + pab0 * b0)
+        nb0 = ib0 + (pba0 * a0 + pbb0 * b0)
+        # axis 1: the chassis' angular acceleration over the step, P0 + P1 tau (as chassis_input)
+        an1 = ang[1, n]
+        rn1 = rate[1, n]
+        sl1 = (an1 - pa1) * ih
+        c01 = (6.0 * sl1 - 4.0 * ra1 - 2.0 * rn1) * ih
+        c11 = 6.0 * (ra1 + rn1 - 2.0 * sl1) * ih2
+        pa1 = an1
+        ra1 = rn1
+        mp1 = (v01 * pz0 + v11 * pz1) + v21 * pz2
+        ia1 = ((ca01 * c01 + ca11 * c11) + ma1 * mp1) + ((ha11 * m11 + ha21 * m21) + (ha31 * m31 + ha41 * m41))
+        ib1 = ((cb01 * c01 + cb11 * c11) + mb1 * mp1) + ((hb11 * m11 + hb21 * m21) + (hb31 * m31 + hb41 * m41))
+        na1 = ia1 + (paa1 * a1 + pab1 * b1)
+        nb1 = ib1 + (pba1 * a1 + pbb1 * b1)
+        # axis 2: the chassis' angular acceleration over the step, P0 + P1 tau (as chassis_input)
+        an2 = ang[2, n]
+        rn2 = rate[2, n]
+        sl2 = (an2 - pa2) * ih
+        c02 = (6.0 * sl2 - 4.0 * ra2 - 2.0 * rn2) * ih
+        c12 = 6.0 * (ra2 + rn2 - 2.0 * sl2) * ih2
+        pa2 = an2
+        ra2 = rn2
+        mp2 = (v02 * pz0 + v12 * pz1) + v22 * pz2
+        ia2 = ((ca02 * c02 + ca12 * c12) + ma2 * mp2) + ((ha12 * m12 + ha22 * m22) + (ha32 * m32 + ha42 * m42))
+        ib2 = ((cb02 * c02 + cb12 * c12) + mb2 * mp2) + ((hb12 * m12 + hb22 * m22) + (hb32 * m32 + hb42 * m42))
+        na2 = ia2 + (paa2 * a2 + pab2 * b2)
+        nb2 = ib2 + (pba2 * a2 + pbb2 * b2)
+        r0 = (u00 * na0 + u01 * na1) + u02 * na2
+        rr0 = (u00 * nb0 + u01 * nb1) + u02 * nb2
+        sl0 = (r0 - rel0) * ih
+        qa0 = q0s[0, n] - (6.0 * sl0 - 4.0 * relr0 - 2.0 * rr0) * ih
+        qb0 = q1s[0, n] - 6.0 * (relr0 + rr0 - 2.0 * sl0) * ih2
+        rel0 = r0
+        relr0 = rr0
+        r1 = (u10 * na0 + u11 * na1) + u12 * na2
+        rr1 = (u10 * nb0 + u11 * nb1) + u12 * nb2
+        sl1 = (r1 - rel1) * ih
+        qa1 = q0s[1, n] - (6.0 * sl1 - 4.0 * relr1 - 2.0 * rr1) * ih
+        qb1 = q1s[1, n] - 6.0 * (relr1 + rr1 - 2.0 * sl1) * ih2
+        rel1 = r1
+        relr1 = rr1
+        r2 = (u20 * na0 + u21 * na1) + u22 * na2
+        rr2 = (u20 * nb0 + u21 * nb1) + u22 * nb2
+        sl2 = (r2 - rel2) * ih
+        qa2 = q0s[2, n] - (6.0 * sl2 - 4.0 * relr2 - 2.0 * rr2) * ih
+        qb2 = q1s[2, n] - 6.0 * (relr2 + rr2 - 2.0 * sl2) * ih2
+        rel2 = r2
+        relr2 = rr2
+        la = _lane_step(ka, la, qa0, qb0, rules[0], hyst[0], stack[0])
+        lb = _lane_step(kb, lb, qa1, qb1, rules[1], hyst[1], stack[1])
+        lc = _lane_step(kc, lc, qa2, qb2, rules[2], hyst[2], stack[2])
+        t0 = g0 * (la[0] + la[2])
+        t1 = g1 * (lb[0] + lb[2])
+        t2 = g2 * (lc[0] + lc[2])
+        out_delta[0, n] = la[0]
+        out_delta[1, n] = lb[0]
+        out_delta[2, n] = lc[0]
+        m40 = m30
+        m30 = m20
+        m20 = m10
+        m10 = m00
+        m00 = (v00 * t0 + v10 * t1) + v20 * t2  # the moment on the block about axis 0
+        a0 = na0
+        b0 = nb0
+        out_z[n, 3] = na0
+        out_z[n, 9] = nb0
+        m41 = m31
+        m31 = m21
+        m21 = m11
+        m11 = m01
+        m01 = (v01 * t0 + v11 * t1) + v21 * t2  # the moment on the block about axis 1
+        a1 = na1
+        b1 = nb1
+        out_z[n, 4] = na1
+        out_z[n, 10] = nb1
+        m42 = m32
+        m32 = m22
+        m22 = m12
+        m12 = m02
+        m02 = (v02 * t0 + v12 * t1) + v22 * t2  # the moment on the block about axis 2
+        a2 = na2
+        b2 = nb2
+        out_z[n, 5] = na2
+        out_z[n, 11] = nb2
+    kexact._lane_store(state, 0, la)
+    kexact._lane_store(state, 1, lb)
+    kexact._lane_store(state, 2, lc)
+    bstate[B_Z + 3] = a0
+    bstate[B_Z + 9] = b0
+    bstate[B_SM + 0] = m00
+    bstate[B_SM + 3] = m10
+    bstate[B_SM + 6] = m20
+    bstate[B_SM + 9] = m30
+    bstate[B_SM + 12] = m40
+    phi_a[0] = pa0
+    rate_a[0] = ra0
+    bstate[B_Z + 4] = a1
+    bstate[B_Z + 10] = b1
+    bstate[B_SM + 1] = m01
+    bstate[B_SM + 4] = m11
+    bstate[B_SM + 7] = m21
+    bstate[B_SM + 10] = m31
+    bstate[B_SM + 13] = m41
+    phi_a[1] = pa1
+    rate_a[1] = ra1
+    bstate[B_Z + 5] = a2
+    bstate[B_Z + 11] = b2
+    bstate[B_SM + 2] = m02
+    bstate[B_SM + 5] = m12
+    bstate[B_SM + 8] = m22
+    bstate[B_SM + 11] = m32
+    bstate[B_SM + 14] = m42
+    phi_a[2] = pa2
+    rate_a[2] = ra2
+    bstate[B_REL + 0] = rel0
+    bstate[B_RELR + 0] = relr0
+    bstate[B_REL + 1] = rel1
+    bstate[B_RELR + 1] = relr1
+    bstate[B_REL + 2] = rel2
+    bstate[B_RELR + 2] = relr2
+
+@jit
+def _translation_at_rest(bstate, lin0, lin1, out_z):
+    """Whether the block's translation (rows 0-2, 6-8 of ``z``) is at rest and no linear input moves it over the
+    chunk; if so its rows of ``out_z`` are written as zeros. For a block whose mount does not couple translation and
+    rotation that is exact: its step matrix and inputs from rotation, chassis rotation and torques are exact zeros
+    (``BlockStep``)."""
+    for k in range(3):
+        if bstate[B_Z + k] != 0.0 or bstate[B_Z + 6 + k] != 0.0:
+            return False
+    for k in range(3):
+        for j in range(lin0.shape[1]):
+            if lin0[k, j] != 0.0 or lin1[k, j] != 0.0:
+                return False
+    for j in range(out_z.shape[0]):
+        for k in range(3):
+            out_z[j, k] = 0.0
+            out_z[j, 6 + k] = 0.0
+    return True
+
+
+@jit
+def propagate_translation_axes(ax, lin0, lin1, bstate, out_z):
+    """The translation of an axis-decoupled block (``run_three_block_axes``) over the chunk: along each axis
+    ``(x_k, x_k')`` by its 2x2 step under the chassis' linear acceleration ``a0 + a1 tau`` (``lin0, lin1``: (3, N)),
+    rows 0-2 and 6-8 of ``out_z``. The gyros neither feel nor move it; at rest with no linear input over the chunk
+    it stays exactly zero and is written as such without the steps."""
+    if _translation_at_rest(bstate, lin0, lin1, out_z):
+        return
+    n = out_z.shape[0]
+    for k in range(3):
+        x = bstate[B_Z + k]
+        xd = bstate[B_Z + 6 + k]
+        taa = ax[k, AX_TAA]
+        tab = ax[k, AX_TAB]
+        tba = ax[k, AX_TBA]
+        tbb = ax[k, AX_TBB]
+        la0 = ax[k, AX_LA0]
+        lb0 = ax[k, AX_LB0]
+        la1 = ax[k, AX_LA1]
+        lb1 = ax[k, AX_LB1]
+        for j in range(n):
+            a0 = lin0[k, j]
+            a1 = lin1[k, j]
+            nx = (la0 * a0 + la1 * a1) + (taa * x + tab * xd)
+            xd = (lb0 * a0 + lb1 * a1) + (tba * x + tbb * xd)
+            x = nx
+            out_z[j, k] = x
+            out_z[j, 6 + k] = xd
+        bstate[B_Z + k] = x
+        bstate[B_Z + 6 + k] = xd
+
+
+@jit
 def propagate_rest(ridx, phi, cin, bstate, out_z):
     """The rows ``ridx`` of ``z`` that the torques do not reach (the translation of a block whose elastic centre is
     at its c.g.), over the chunk, after :func:`run_three_block` wrote the others: ``z_r(n+1) = Phi[r, :] z(n) +
@@ -578,7 +945,7 @@ def propagate_rest(ridx, phi, cin, bstate, out_z):
 
 @jit
 def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt, pstack, delta, volts, q0s,
-                            q1s, used, gain, umat, phi, phit, tt, f0t, gch, idx, ridx, pos, lin0, lin1, bstate, cin,
+                            q1s, used, gain, umat, phi, phit, tt, f0t, gch, idx, ridx, pos, ax, lin0, lin1, bstate, cin,
                             out_z):
     """``chain.drive_plant_three`` with the three suspensions on one block (module docstring).
 
@@ -587,7 +954,9 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
     :func:`run_three_block`. ``ang, rate``: (3, n) the chassis angle and rate about block axes; ``lin0, lin1``:
     (3, n) the chassis linear acceleration at the c.g. and its slope over each step; ``f0t`` (12, 3): ``F0``'s torque
     columns, through which each segment's piezo torques (held, ``gain k5 V``) enter; the block matrices as
-    ``BlockStep``; ``bstate``: float64[B_SIZE]; ``cin``: (n, 12) a work buffer (the caller keeps it from chunk to
+    ``BlockStep`` (``ax``: (3, AX_SIZE) for an axis-decoupled block, which then runs
+    :func:`run_three_block_axes` and :func:`propagate_translation_axes` and leaves ``cin`` alone; (0, AX_SIZE)
+    otherwise); ``bstate``: float64[B_SIZE]; ``cin``: (n, 12) a work buffer (the caller keeps it from chunk to
     chunk: a fresh 7 MB array per chunk costs its page faults); ``out_z``: (n, 12). Other arguments as ``chain.drive_plant_three``.
     """
     n = ang.shape[1]
@@ -604,7 +973,12 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
     for a in range(3):
         phi0[a] = pstate[a, kexact.X_PHI]
         rate0[a] = pstate[a, kexact.X_RATE]
-    chassis_input(ang, rate, phi0, rate0, consts[0, kexact.C_IH], consts[0, kexact.C_IH2], lin0, lin1, gch, cin)
+    axes = ax.shape[0] == 3
+    gk5 = np.empty(3)
+    for a in range(3):
+        gk5[a] = gain[a] * consts[a, kexact.C_K5]
+    if not axes:
+        chassis_input(ang, rate, phi0, rate0, consts[0, kexact.C_IH], consts[0, kexact.C_IH2], lin0, lin1, gch, cin)
     bz0 = bstate[B_Z:B_Z + 12].copy()
     j = 0
     while j < n:
@@ -616,23 +990,30 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
                                     dstate[a], pstate[a], consts[a], q0s[a][j:j + m], q1s[a][j:j + m])
             pstate[a, kexact.X_PHI] = ang[a, j + m - 1]
             pstate[a, kexact.X_RATE] = rate[a, j + m - 1]
-        for k in range(j, j + m):  # the piezo torques, held over each step, through F0's torque columns
-            p0 = gain[0] * consts[0, kexact.C_K5] * volts[0, k]
-            p1 = gain[1] * consts[1, kexact.C_K5] * volts[1, k]
-            p2 = gain[2] * consts[2, kexact.C_K5] * volts[2, k]
-            for r in range(12):
-                cin[k, r] += f0t[r, 0] * p0 + f0t[r, 1] * p1 + f0t[r, 2] * p2
-        if idx.shape[0] == 6 and tt.shape[0] == 4:
-            run_three_block6(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, gain, umat, phit, tt, idx, pos,
-                             cin, bstate, delta, out_z)
+        if axes:  # the chassis' and the piezo inputs formed in the step loop; phi0, rate0 advance there
+            run_three_block_axes(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, gain, umat, ax, ang, rate,
+                                 volts, gk5, phi0, rate0, bstate, delta, out_z)
         else:
-            run_three_block(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, gain, umat, phit, tt, idx, pos,
-                            cin, bstate, delta, out_z)
+            for k in range(j, j + m):  # the piezo torques, held over each step, through F0's torque columns
+                p0 = gk5[0] * volts[0, k]
+                p1 = gk5[1] * volts[1, k]
+                p2 = gk5[2] * volts[2, k]
+                for r in range(12):
+                    cin[k, r] += f0t[r, 0] * p0 + f0t[r, 1] * p1 + f0t[r, 2] * p2
+            if idx.shape[0] == 6 and tt.shape[0] == 4:
+                run_three_block6(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, gain, umat, phit, tt, idx,
+                                 pos, cin, bstate, delta, out_z)
+            else:
+                run_three_block(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, gain, umat, phit, tt, idx,
+                                pos, cin, bstate, delta, out_z)
         for a in range(3):
             used[a] = kchain._close_segment(i0, j, m, delta[a][j:j + m], fpar[a], ipar[a], dstate[a], uniforms[a],
                                             used[a])
         j += m
-    if ridx.shape[0] > 0:  # the rows the torques do not reach, from the chunk's start
+    if axes:
+        propagate_translation_axes(ax, lin0, lin1, bstate, out_z)
+    elif ridx.shape[0] > 0 and not _translation_at_rest(bstate, lin0, lin1, out_z):
+        # the rows the torques do not reach (the translation), from the chunk's start
         for r in range(12):
             bstate[B_Z + r] = bz0[r]
         propagate_rest(ridx, phi, cin, bstate, out_z)

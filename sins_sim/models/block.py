@@ -190,8 +190,11 @@ class BlockParams:
         out[3:, :] = -self.input_axes.T
         return out
 
-    def state_space(self) -> tuple:
-        """``(A, B)`` of ``z' = A z + B u``, ``z = (x, theta, x', theta')``, ``u = (a_c, alpha_c, T)``."""
+    def state_space(self, moments: bool = False) -> tuple:
+        """``(A, B)`` of ``z' = A z + B u``, ``z = (x, theta, x', theta')``, ``u = (a_c, alpha_c, T)``.
+
+        ``moments``: the last three inputs are the moment on the block about its axes x, y, z instead of the gyros'
+        torques (``T`` acts as the moment ``-sum_i T_i u_i``)."""
         minv = np.linalg.inv(self.mass_matrix())
         a = np.zeros((STATE_SIZE, STATE_SIZE))
         a[:6, 6:] = np.eye(6)
@@ -199,11 +202,12 @@ class BlockParams:
         a[6:, 6:] = -minv @ self.damping_matrix()
         b = np.zeros((STATE_SIZE, N_INPUTS))
         b[6:, :6] = -np.eye(6)  # base excitation: -M (a_c, alpha_c), divided by M
-        b[6:, 6:] = minv @ self.torque_matrix()
+        b[6:, 6:] = minv[:, 3:] if moments else minv @ self.torque_matrix()
         return a, b
 
-    def discrete(self, h: float, order: int = 3) -> tuple:
-        """``(Phi, F0, ..., F_order)``: the exact step of length ``h`` for an input ``sum_k u_k tau^k``.
+    def discrete(self, h: float, order: int = 3, moments: bool = False) -> tuple:
+        """``(Phi, F0, ..., F_order)``: the exact step of length ``h`` for an input ``sum_k u_k tau^k``
+        (``moments``: as :meth:`state_space`).
 
         Van Loan (1978): the exponential of the system augmented by a chain of integrators,
         ``x' = A x + B p_0, p_0' = p_1, ..., p_order' = 0``; started from ``p_k = I`` (the others 0),
@@ -212,7 +216,7 @@ class BlockParams:
         """
         if not (h > 0 and math.isfinite(h)):
             raise ValueError(f"h: must be a finite step > 0 s, got {h!r}")
-        a, b = self.state_space()
+        a, b = self.state_space(moments)
         n, m = STATE_SIZE, N_INPUTS
         size = n + (order + 1) * m
         big = np.zeros((size, size))
@@ -498,11 +502,20 @@ class BlockStep:
     ``t_{n-1} .. t_{n-4}``, folded into one input matrix per history value (``tt``: (4, 3, nc)); only the states
     the torques reach are chained (all 12, or the rotation's 6 when
     the isolators do not couple translation and rotation); the chassis inputs ``(a0, P0, a1, P1)`` go through
-    ``gch = [F0, F1]`` (their columns) and the held piezo torques through ``f0t``.
+    ``gch = [F0, F1]`` (their columns) and the held piezo torques through ``f0t``. ``ax`` (3, ``AX_SIZE``): the
+    per-axis coefficients of the axis-decoupled kernel when the block's rotation axes and translations move
+    independently (exact zeros off each axis: a diagonal inertia with the elastic centre at the c.g.), else (0,
+    ``AX_SIZE``); :attr:`axes` says which.
     """
 
     def __init__(self, block: BlockParams, h: float):
-        phi, *fk = block.discrete(h, order=LAG_ORDER)
+        from sins_sim._kernels import block as kblock
+
+        # one matrix exponential, with the moments about the block's axes as the last inputs; a gyro's torque T_i
+        # acts as the moment -T_i u_i, so its input columns are the moments' times -U^T (the step is linear in B)
+        phi, *fm = block.discrete(h, order=LAG_ORDER, moments=True)
+        to_torque = -block.input_axes.T
+        fk = [np.hstack([f[:, :6], f[:, 6:9] @ to_torque]) for f in fm]
         f0, f1 = fk[0], fk[1]
         k, c = block.stiffness_matrix(), block.damping_matrix()
         coupled = bool(np.any(k[:3, 3:] != 0.0) or np.any(c[:3, 3:] != 0.0))
@@ -522,6 +535,52 @@ class BlockStep:
         self.pos = np.array([where[r] for r in (3, 4, 5, 9, 10, 11)], dtype=np.int64)
         self.umat = np.ascontiguousarray(block.input_axes)
         self.jg = np.ascontiguousarray(block.gyro_inertia_kg_m2)
+        self.ax = _axis_coefficients(phi, fm, lag) if not coupled else np.zeros((0, kblock.AX_SIZE))
+
+    @property
+    def axes(self) -> bool:
+        """Whether the block's three rotation axes and three translations are independent (``ax`` filled)."""
+        return self.ax.shape[0] == 3
+
+
+def _groups() -> np.ndarray:
+    """Group of each state of ``z``: rotation about axis k is group k, translation along axis k group 3 + k."""
+    g = np.empty(STATE_SIZE, dtype=np.int64)
+    for k in range(3):
+        g[k] = g[6 + k] = 3 + k
+        g[3 + k] = g[9 + k] = k
+    return g
+
+
+def _axis_coefficients(phi, fm, lag):
+    """``BlockStep.ax`` (``_kernels.block``, ``AX_*``) when the discrete step moves each rotation axis and each
+    translation on its own, the gyros' torques entering as the moments they exert about the block's axes
+    (``-sum_i T_i u_i``): exactly, with the off-axis entries of the matrices exact zeros (a diagonal inertia with
+    the elastic centre at the c.g.; the matrix exponential keeps structural zeros). ``(0, AX_SIZE)`` otherwise."""
+    from sins_sim._kernels import block as kblock
+
+    f0, f1 = fm[0], fm[1]
+    g = _groups()
+    col_group = np.concatenate([3 + np.arange(3), np.arange(3)])  # chassis inputs (a_c, alpha_c)
+    if np.any(phi[g[:, None] != g[None, :]] != 0.0):
+        return np.zeros((0, kblock.AX_SIZE))
+    for f in fm:
+        if (np.any(f[:, :6][g[:, None] != col_group[None, :]] != 0.0)
+                or np.any(f[:, 6:9][g[:, None] != np.arange(3)[None, :]] != 0.0)):
+            return np.zeros((0, kblock.AX_SIZE))
+    folded = [sum(fm[kk][:, 6:9] * lag[kk, mm] for kk in range(LAG_ORDER + 1)) for mm in range(LAG_ORDER + 1)]
+    ax = np.zeros((3, kblock.AX_SIZE))
+    for k in range(3):
+        a, b, x, xd = 3 + k, 9 + k, k, 6 + k
+        ax[k, kblock.AX_PAA:kblock.AX_PBB + 1] = phi[a, a], phi[a, b], phi[b, a], phi[b, b]
+        ax[k, kblock.AX_CA0:kblock.AX_CB1 + 1] = f0[a, 3 + k], f0[b, 3 + k], f1[a, 3 + k], f1[b, 3 + k]
+        ax[k, kblock.AX_MA:kblock.AX_MB + 1] = fm[0][a, 6 + k], fm[0][b, 6 + k]
+        for mm in range(LAG_ORDER + 1):
+            ax[k, kblock.AX_HA + 2 * mm] = folded[mm][a, k]
+            ax[k, kblock.AX_HB + 2 * mm] = folded[mm][b, k]
+        ax[k, kblock.AX_TAA:kblock.AX_TBB + 1] = phi[x, x], phi[x, xd], phi[xd, x], phi[xd, xd]
+        ax[k, kblock.AX_LA0:kblock.AX_LB1 + 1] = f0[x, k], f0[xd, k], f1[x, k], f1[xd, k]
+    return ax
 
 
 class CoupledPlant:
@@ -599,11 +658,22 @@ class CoupledPlant:
         for a in range(3):
             kx._forcing(ang[a], rate[a], volts[a], self.state[a, kx.X_PHI], self.state[a, kx.X_RATE], cs[a, kx.C_IH],
                         cs[a, kx.C_IH2], cs[a, kx.C_W0SQ], cs[a, kx.C_K5], q0s[a], q1s[a])
+        delta, z = np.empty((3, n)), np.empty((n, STATE_SIZE))
+        if st.axes:  # the axis-decoupled kernel forms the chassis' and the piezo inputs in its step loop
+            gk5 = self._gain * cs[:, kx.C_K5]
+            pa, ra = self.state[:, kx.X_PHI].copy(), self.state[:, kx.X_RATE].copy()
+            self._k.run_three_block_axes(0, n, q0s, q1s, cs, self._rules, self.state, self.hyst, self.stack,
+                                         self._gain, st.umat, st.ax, ang, rate, volts, gk5, pa, ra, self.bstate, delta,
+                                         z)
+            self._k.propagate_translation_axes(st.ax, lin0, lin1, self.bstate, z)
+            if n:
+                self.state[:, kx.X_PHI] = ang[:, -1]
+                self.state[:, kx.X_RATE] = rate[:, -1]
+            return delta, z.T
         cin = np.empty((n, STATE_SIZE))  # step-major (``_kernels.block``)
         self._k.chassis_input(ang, rate, self.state[:, kx.X_PHI].copy(), self.state[:, kx.X_RATE].copy(),
                               cs[0, kx.C_IH], cs[0, kx.C_IH2], lin0, lin1, st.gch, cin)
         cin += (st.f0t @ (self._gain[:, None] * cs[:, kx.C_K5][:, None] * volts)).T  # the held piezo torques
-        delta, z = np.empty((3, n)), np.empty((n, STATE_SIZE))
         z0 = self.bstate[:STATE_SIZE].copy()
         self._k.run_three_block(0, n, q0s, q1s, cs, self._rules, self.state, self.hyst, self.stack, self._gain,
                                 st.umat, st.phit, st.tt, st.idx, st.pos, cin, self.bstate, delta, z)

@@ -798,7 +798,8 @@ class SideBySide:
             st = self._step
             kblock.drive_plant_three_block(i0, angle_ax, rate_ax, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
                                            delta, volts, q0s, q1s, used, self._gain, st.umat, st.phi, st.phit, st.tt,
-                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, lin0, lin1, self.bstate, cin, z)
+                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, st.ax, lin0, lin1, self.bstate,
+                                           cin, z)
             extra = np.empty((len(BLOCK_KEYS), 3, m))  # BLOCK_KEYS, in order
             kblock.block_truth(z, rate_ax, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, *extra)
             seen = angle_ax + add  # each gyro: the chassis angle plus the block's own rotation about its axis
