@@ -11,7 +11,7 @@ The rules (:func:`candidate_plausibility`), each a reason in words:
 ``no gap there``
     The effect is fitted on an axis without a significant gap, or on an axis where it is switched on (a
     switch parameter, one whose range holds the value 0 at which the effect vanishes, e.g. ``tau_s``,
-    ``threshold_rad_s``, ``gain``, ``c_<axis>``, at least :data:`SWITCH_SIGMA` of its uncertainty from 0)
+    ``threshold_rad_s``, ``gain``, ``c_<axis>``, and no phase, at least :data:`SWITCH_SIGMA` of its uncertainty from 0)
     but removes no more of that axis' excess power than the gap's detection tolerance (``tol^2``,
     :mod:`~sins_sim.identification.detection`): the axis shows no gap the effect explains, so the value is
     fitting something else (issue 24: a ``lock_in`` threshold of 4.2e-3 rad/s on an axis that carried only a
@@ -57,6 +57,12 @@ def _param_ranges(effect: str, axis: str, axes) -> dict:
     return {p.name: (p.lo, p.hi) for p in cls.fit_space(axis, axes)}
 
 
+def _is_switch(name: str, ranges: dict) -> bool:
+    """Whether a fitted parameter switches its effect off at 0: its declared range holds 0, and it is no phase
+    (a lock-in's backscatter phase holds 0 too, but at any phase the effect acts)."""
+    return name in ranges and ranges[name][0] <= 0.0 <= ranges[name][1] and not name.startswith("phase")
+
+
 def candidate_plausibility(c: dict, ref_fits: dict, floors: dict, tol: dict, sig_axes, rec_axes,
                            base_flags=None, nominal_flags=None) -> dict:
     """The plausibility of one candidate: ``{"plausible": bool, "reasons": [str, ...]}``.
@@ -88,7 +94,7 @@ def candidate_plausibility(c: dict, ref_fits: dict, floors: dict, tol: dict, sig
         ranges = _param_ranges(c["effect"], a, rec_axes)
         sd = c.get("uncertainty", {}).get(a, {})
         gain = excess_power(ref_fits[a], floors[a]) - excess_power(c["fits"][a], floors[a])
-        on = [k for k, val in values.items() if k in ranges and ranges[k][0] <= 0.0 <= ranges[k][1]
+        on = [k for k, val in values.items() if _is_switch(k, ranges)
               and sd.get(k) and math.isfinite(sd[k]) and abs(val) > SWITCH_SIGMA * sd[k]]
         if on and gain <= tol[a] ** 2:
             k = on[0]

@@ -338,6 +338,7 @@ def first_step(candidates: list, base_held: float, settings: DiagnoseSettings) -
     the others give no first step are they considered too: first the plausible resolved ones, then all
     resolved ones, then all.
     """
+    candidates = sorted(candidates, key=lambda c: c["score"])  # best-scoring first (the list may be re-ranked)
     resolved = [c for c in candidates if not c.get("unresolved")]
     tiers = [[c for c in resolved if c.get("plausibility", {}).get("plausible", True)], resolved]
     for tier in tiers:
