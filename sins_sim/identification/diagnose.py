@@ -249,7 +249,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
            "peaks_hz": lw["peaks_hz"] if significant else [],
            "excess_rms_arcsec": {a: math.sqrt(excess[a]) / ARCSEC for a in rec.axes},
            "tolerance_arcsec": {a: tol[a] / ARCSEC for a in rec.axes},
-           "test": {a: {"statistic": "mean square residual / floor^2 (F test)", "ratio": tests[a]["ratio"],
+           "test": {a: {"statistic": "mean square residual / floor^2", "ratio": tests[a]["ratio"],
                         "critical_ratio": tests[a]["critical_ratio"], "p_value": tests[a]["p_value"],
                         "n_eff": tests[a]["n_eff"], "floor_dof": tests[a]["floor_dof"],
                         "alpha_axis": level, "alpha": settings.gap_alpha} for a in rec.axes},
