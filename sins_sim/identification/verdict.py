@@ -3,14 +3,15 @@
 Statuses
 --------
 ``none``
-    No axis has a significant gap: the refit nominal model sits at the noise floor.
+    No axis has a significant gap: the refit nominal model sits at the noise floor (the test of
+    :mod:`~sins_sim.identification.detection`).
 ``explained``
     The selected effects bring the residual to the floor: the excess RMS they leave on every axis
     with a gap is within the significance tolerance, or below ``close_fraction`` of the excess the
     baseline left, and they remove at least ``min_gap_reduction`` of the excess power.
 ``partly explained``
     The best effect is significant (below) and clearly ahead of the others, and closes at least
-    :data:`MIN_PARTIAL` of the gap, but not all of it: ``explained_fraction`` says how much, and
+    :data:`MIN_PARTIAL` of the gap (or, not clearly ahead, at least :data:`DOMINANT`), but not all of it: ``explained_fraction`` says how much, and
     ``remainder`` where the rest sits (axis, band, time window).
 ``unknown``
     No effect passes: the localisation is the answer.
@@ -61,9 +62,16 @@ does with one.
 **Clearly ahead** (for ``partly explained``): the held-out test of the named candidate against the
 runner-up rejects at :data:`AHEAD_ALPHA` (the runner-up: the best-scoring other candidate, leaving out
 those with more parameters that parsimony set aside). Without that, two effects explain the data about as
-well: the best one is kept only if the greedy selection (below) adds a second effect to it (two effects
-present at once each explain much of the gap alone); else the verdict stays ``unknown`` (the
-ranking is in the report).
+well: the best one is kept if the greedy selection (below) adds a second effect to it (two effects
+present at once each explain much of the gap alone), or alone when it is **dominant**, closing at least
+:data:`DOMINANT` of the gap (:func:`keep_dominant`): then ``partly explained`` with the runner-up in
+``alternatives`` and the remainder localised (issue 24: a piezo lag plus a weak axis coupling was
+``unknown``); else the verdict stays ``unknown`` (the ranking is in the report).
+
+**Plausible** (:mod:`~sins_sim.identification.plausibility`): a candidate whose fit needs values no unit
+has (an effect switched on where it explains no gap, a parameter at the end of its declared range, a nominal
+refit bent to a limit) comes after the plausible ones, like an unresolved one, in the first step and in
+every greedy round; ``verdict.plausibility`` gives the reasons.
 
 **Several effects** (greedy forward selection, Efroymson 1960 / Hocking 1976, "The analysis and
 selection of variables in linear regression", Biometrics 32), per axis: a selected effect is kept
