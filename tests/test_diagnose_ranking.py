@@ -146,13 +146,13 @@ def test_a_dominant_first_effect_not_clearly_ahead_is_partly_explained_with_its_
 @pytest.mark.slow
 @pytest.mark.parametrize("experiment", ["stationary", "rate_table"])
 def test_piezo_lag_plus_a_weak_axis_coupling_is_partly_explained_with_the_remainder_localised(experiment):
-    """A piezo lag of 120 us on both axes (the dominant effect) plus a coupling of y into x of 0.002, the
+    """A piezo lag of 120 us on both axes (the dominant effect) plus a coupling of y into x of 0.0008, the
     greedy selection stopped after the first effect (``max_effects = 1``; on the issue's independent
     recording the coupling's step failed the held-out test): ``partly explained``, the lag named with the
     share it closes, the remainder on axis x at y's dither line and in time. In a dither-only recording a
     drive lag and a readout delay are nearly the same phase shift, so there the pair is named (one as the
     effect, the other as alternative); on the rate table the lag alone."""
-    effects = [make_effect("piezo_lag", tau_s=1.2e-4), make_effect("axis_coupling", coefficients={"x": {"y": 0.002}})]
+    effects = [make_effect("piezo_lag", tau_s=1.2e-4), make_effect("axis_coupling", coefficients={"x": {"y": 0.0008}})]
     rec = _recording(experiment, effects, duration=0.8 if experiment == "stationary" else 0.6, axes=("x", "y"))
     v = diagnose_recording(rec, DiagnoseSettings(max_effects=1)).to_json()["verdict"]
     assert v["status"] == "partly explained", v
@@ -160,7 +160,7 @@ def test_piezo_lag_plus_a_weak_axis_coupling_is_partly_explained_with_the_remain
         assert {v["effect"], *v["alternatives"]} == {"piezo_lag", "readout_delay"}
     else:
         assert v["effect"] == "piezo_lag"
-    assert DOMINANT <= v["explained_fraction"] < 0.95  # the coupling's share is left
+    assert DOMINANT <= v["explained_fraction"] < 0.99  # the coupling's share is left
     r = v["remainder"]
     f_y = NOM["y"].resonance_hz(3 * ARCMIN)
     assert r["axis"] == "x" and r["band_hz"][0] - 3 <= f_y <= r["band_hz"][1] + 3
