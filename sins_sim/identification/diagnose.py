@@ -44,9 +44,11 @@ Given a recording (``sins_sim.io.recording``), :func:`diagnose_recording`
    (the recording is cut in blocks; even blocks fit, odd blocks score), so
    an extra parameter that only fits noise gains nothing;
 5. gives a **verdict** (:mod:`~sins_sim.identification.verdict`, where the criteria and their
-   sources are): ``none`` when the refit nominal model sits at the floor (excess RMS below
-   ``max(rel_tol * floor, abs_tol)``: a tolerance that covers integration-method, interpolation
-   and noise differences between simulators); else the best candidate (the one with the fewest
+   sources are): ``none`` when the refit nominal model sits at the floor (the excess RMS is
+   within what noise gives at the false-alarm level ``gap_alpha`` over the axes, for the number of
+   effectively independent samples: :mod:`~sins_sim.identification.detection`, floored by
+   ``abs_tol``, which covers integration-method and interpolation differences between
+   simulators); else the best candidate (the one with the fewest
    parameters among those the held-out data cannot tell from the best-scoring one, leaving out fits
    that lack the feature defining their effect, such as a block mode without a resonance) when it is
    significant
@@ -108,6 +110,7 @@ from dataclasses import replace
 import numpy as np
 
 from sins_sim.identification.checks import check_recording, require_inputs
+from sins_sim.identification.detection import axis_level, gap_test
 from sins_sim.identification.discriminate import close_call
 from sins_sim.identification.explain import explain
 from sins_sim.identification.localise import localise, noise_floor, operating_points
@@ -115,10 +118,11 @@ from sins_sim.identification.recording_inputs import (_coupling_sources, _masks,
                                                       _truncate)
 from sins_sim.identification.refit import (CANCEL, AxisFit, DiagnoseSettings, _Problem, _rms, blas_threads, fit_axis,
                                           worker_pool)
-from sins_sim.identification.report import Diagnosis, write_report
+from sins_sim.identification.plausibility import assess_plausibility, plausible_first
+from sins_sim.identification.report import Diagnosis, plausibility_flags, write_report
 from sins_sim.identification.verdict import (ALTERNATIVE_MARGIN, MAX_EFFECTS, MIN_STEP, _step,  # noqa: F401
                                              assess, closes, excess_power, first_step, give_verdict,
-                                             resolved_first)
+                                             keep_dominant, resolved_first)
 from sins_sim.models.effects import EFFECTS
 from sins_sim.io.recording import Recording
 from sins_sim.simulation.experiment import suspension_from_nominal
@@ -221,7 +225,12 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
     timing["baseline"] = time.perf_counter() - t_start
     # 2. noise floor and significance per axis
     floors = {a: noise_floor(fits[a].residual[used], q, fs) for a in rec.axes}
-    tol = {a: max(settings.rel_tol * floors[a]["floor_rad"], settings.abs_tol_arcsec * ARCSEC) for a in rec.axes}
+    # the gap's test per axis: the residual's power against the floor's at the Sidak level of the axes
+    # (detection.gap_test), its tolerance floored by the model-error allowance
+    level = axis_level(settings.gap_alpha, rec.n_axes)
+    tests = {a: gap_test(fits[a].residual[used], floors[a], level) for a in rec.axes}
+    tol = {a: max(tests[a]["tolerance_rad"], settings.rel_tol * floors[a]["floor_rad"],
+                  settings.abs_tol_arcsec * ARCSEC) for a in rec.axes}
     excess = {a: excess_power(fits[a], floors[a]) for a in rec.axes}
     sig_axes = [a for a in rec.axes if math.sqrt(excess[a]) > tol[a]]
     worst = max(rec.axes, key=lambda a: excess[a] / tol[a] ** 2)
@@ -244,6 +253,10 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
            "peaks_hz": lw["peaks_hz"] if significant else [],
            "excess_rms_arcsec": {a: math.sqrt(excess[a]) / ARCSEC for a in rec.axes},
            "tolerance_arcsec": {a: tol[a] / ARCSEC for a in rec.axes},
+           "test": {a: {"statistic": "mean square residual / floor^2", "ratio": tests[a]["ratio"],
+                        "critical_ratio": tests[a]["critical_ratio"], "p_value": tests[a]["p_value"],
+                        "n_eff": tests[a]["n_eff"], "floor_dof": tests[a]["floor_dof"],
+                        "alpha_axis": level, "alpha": settings.gap_alpha} for a in rec.axes},
            "significant_axes": sig_axes,
            "operating_points": sorted(points, key=lambda p: -(p["excess_rms_arcsec"] or 0.0))}
     base_rms = math.sqrt(np.mean([fits[a].rms ** 2 for a in rec.axes]))
@@ -281,10 +294,15 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
     remainder = None
     train = full[2]
     n_nom = 6 + (2 if offset else 0) + (2 if drift else 0)  # the bias drift's two nuisance terms too
+    def flags_of(fs_):
+        return plausibility_flags(rec, fs_)
+
     if significant:
         candidates, skipped = explain(rec, settings, fits, floors, excess, tol, sig_axes, locs,
                                       fit_effect_from(fits), timing, progress)
         assess(candidates, fits, sig_axes, train, used, n_nom)
+        assess_plausibility(candidates, fits, floors, tol, sig_axes, rec.axes, flags_of)
+        candidates = plausible_first(candidates)  # implausible fits ranked after the plausible ones
         base_held = math.sqrt(np.mean([fits[a].heldout_rms ** 2 for a in sig_axes]))
         steps = first_step(candidates, base_held, settings)
         # 5. greedy forward selection, per axis: the next effect on what the selected ones leave; an effect is
@@ -310,15 +328,15 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
                               reuse=first_round)
             n_ref = {a: n_nom + sum(len(c.fit_space(a, rec.axes)) for c in cur_base.get(a, ())) for a in sig_axes}
             assess(more, cur, sig_axes, train, used, n_ref)
+            assess_plausibility(more, cur, floors, tol, sig_axes, rec.axes, flags_of)
             cur_held = math.sqrt(np.mean([cur[a].heldout_rms ** 2 for a in sig_axes])) / ARCSEC
-            pick = next((c for c in resolved_first(more) if c["significant"] and c["gap_reduction"] >= MIN_STEP
-                         and c["score"] < cur_held), None)
+            pick = next((c for c in plausible_first(resolved_first(more))
+                         if c["significant"] and c["gap_reduction"] >= MIN_STEP and c["score"] < cur_held), None)
             if pick is None:
                 break
             steps.append(_step(pick, 0.0, False))
             cur, cur_base = hold(steps[-1], cur, cur_base)
-        if len(steps) == 1 and steps[0].get("tentative"):
-            steps = []  # the best effect was not clearly ahead and no second effect joined it
+        steps = keep_dominant(steps)  # a lone first effect not clearly ahead is named only when dominant
         if steps and not (steps[-1]["closes_gap"] and sum(s["explained_fraction"] for s in steps)
                           >= settings.min_gap_reduction):
             last = steps[-1]["fits"]

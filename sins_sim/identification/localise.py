@@ -59,7 +59,8 @@ def noise_floor(residual: np.ndarray, quantum_rad: float, fs_hz: float) -> dict:
     mode at 1.5-2.5 kHz, whose peak and skirts fill much of the band, was
     read as a noise floor 25 times the quantisation). On white noise the
     test leaves out about one bin in a thousand and the level is that of
-    the plain median. At least a quarter of the band's bins are kept (the
+    the plain median, divided by the median of ``chi2_nu / nu`` (the median of
+    a chi-square law lies below its mean). At least a quarter of the band's bins are kept (the
     lowest, when the spectrum has no flat part).
 
     Returns
@@ -68,7 +69,9 @@ def noise_floor(residual: np.ndarray, quantum_rad: float, fs_hz: float) -> dict:
         ``floor_rad`` (the larger of the two), ``quantisation_rad``, ``white_rad``, ``excluded_hz``
         (the bands left out as lines or peaks, merged runs of bins ``[f0, f1]``), ``spread`` (the ratio of
         the 90 % and 10 % quantiles of the band's PSD bins) and ``spread_white`` (the same ratio of the
-        white floor's chi-square law, ``chi2_nu``: what a white floor gives).
+        white floor's chi-square law, ``chi2_nu``: what a white floor gives), ``bin_dof`` (``nu``) and
+        ``n_bins`` (the bins the level is the median of: with ``bin_dof`` the estimate's own degrees of
+        freedom, :func:`sins_sim.identification.detection.floor_dof`).
     """
     from scipy import stats
 
@@ -80,7 +83,7 @@ def noise_floor(residual: np.ndarray, quantum_rad: float, fs_hz: float) -> dict:
     excluded = []
     if not np.any(band):
         return {"floor_rad": qn, "quantisation_rad": qn, "white_rad": 0.0, "excluded_hz": excluded, "spread": math.nan,
-                "spread_white": math.nan}
+                "spread_white": math.nan, "bin_dof": math.nan, "n_bins": 0}
     nu = _welch_dof(x.size, min(nper, x.size))
     law = stats.chi2(nu)
     thr = float(law.ppf(1.0 - LINE_LEVEL) / law.median())  # bin / (median of the floor's bins)
@@ -98,7 +101,10 @@ def noise_floor(residual: np.ndarray, quantum_rad: float, fs_hz: float) -> dict:
         if np.array_equal(new, keep):
             break
         keep = new
-    white = math.sqrt(float(np.median(p[keep])) * fs_hz / 2.0)
+    # the median of a white floor's bins is ``level median(chi2_nu) / nu``, a little below the level (by about
+    # 2 / (3 nu) relative; Wilson & Hilferty 1931): divided out, so that the floor is unbiased, which the gap's
+    # test against it needs (``sins_sim.identification.detection``)
+    white = math.sqrt(float(np.median(p[keep])) * nu / float(law.median()) * fs_hz / 2.0)
     # how evenly the band is filled: the ratio of its bins' 90 % and 10 % quantiles, and that of a white
     # floor's chi-square law (a resonance's peak and skirts fill the band unevenly)
     spread = float(np.quantile(p[band], 0.9) / np.quantile(p[band], 0.1)) if np.quantile(p[band], 0.1) > 0 else math.inf
@@ -108,7 +114,7 @@ def noise_floor(residual: np.ndarray, quantum_rad: float, fs_hz: float) -> dict:
         runs = np.split(gone, np.flatnonzero(np.diff(gone) > 1) + 1)
         excluded = [[float(f[r[0]]), float(f[r[-1]])] for r in runs]
     return {"floor_rad": max(qn, white), "quantisation_rad": qn, "white_rad": white, "excluded_hz": excluded,
-            "spread": spread, "spread_white": spread_white}
+            "spread": spread, "spread_white": spread_white, "bin_dof": nu, "n_bins": int(np.count_nonzero(keep))}
 
 
 # --- localisation ------------------------------------------------------------------------------------

@@ -85,9 +85,14 @@ class DiagnoseSettings:
         the whole recording.
     polish_nfev : int
         Evaluation budget of that refinement.
+    gap_alpha : float
+        False-alarm level of the gap's test over all axes (``sins_sim.identification.detection``:
+        each axis at the Sidak level ``1 - (1 - gap_alpha)^(1 / n_axes)``).
     rel_tol, abs_tol_arcsec : float
         The gap is significant when the excess RMS over the floor exceeds
-        ``max(rel_tol * floor, abs_tol)``.
+        ``max(test tolerance, rel_tol * floor, abs_tol)``: ``abs_tol`` covers model error between
+        simulators that no noise statistic knows of; ``rel_tol`` (0: off) restores a fixed fraction of
+        the floor (before issue 24 it was 0.5).
     min_gap_reduction : float
         Fraction of the excess power an effect must remove to be the verdict.
     close_fraction : float
@@ -123,8 +128,9 @@ class DiagnoseSettings:
     candidate_nfev: int = 16
     window_s: float | None = 3.0
     polish_nfev: int = 4
-    rel_tol: float = 0.5
+    rel_tol: float = 0.0
     abs_tol_arcsec: float = 0.02
+    gap_alpha: float = 0.05
     min_gap_reduction: float = 0.6
     close_fraction: float = 0.15
     block_s: float | None = None
@@ -146,6 +152,9 @@ class DiagnoseSettings:
                 raise ValueError(f"diagnose.{name}: must be an integer >= 2, got {val!r}")
         v.non_negative("diagnose", "rel_tol", self.rel_tol)
         v.non_negative("diagnose", "abs_tol_arcsec", self.abs_tol_arcsec)
+        a = v.finite("diagnose", "gap_alpha", self.gap_alpha)
+        if not 0.0 < a < 1.0:
+            raise ValueError(f"diagnose.gap_alpha: must be in (0, 1), got {a!r}")
         g = v.finite("diagnose", "min_gap_reduction", self.min_gap_reduction)
         if not 0.0 < g <= 1.0:
             raise ValueError(f"diagnose.min_gap_reduction: must be in (0, 1], got {g!r}")

@@ -71,6 +71,7 @@ class Diagnosis:
                             "closes_gap": c["closes_gap"], "remaining_excess_arcsec": c["remaining_excess_arcsec"],
                             "p_heldout": c.get("p_heldout"), "p_f": c.get("p_f"),
                             "significant": c.get("significant"), "unresolved": c.get("unresolved"),
+                            "plausibility": c.get("plausibility"),
                             "params": c["params"], "uncertainty": c["uncertainty"],
                             "nominal": {ax: _susp_dict(f.suspension) for ax, f in c["fits"].items()}}
                            for c in self.candidates],
@@ -395,11 +396,29 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
     unres = [c for c in js["candidates"] if c.get("unresolved")]
     if unres:
         lines += [""] + [f"- {c['effect']} comes after the other candidates: {c['unresolved']}" for c in unres]
+    lines += _plausibility_lines(v)
     for f in figures:
         lines += ["", f"![{f[:-4]}]({f})"]
     lines.append("")
     (out / "report.md").write_text("\n".join(lines))
     return js
+
+
+def _plausibility_lines(v: dict) -> list:
+    """The report's account of implausible fits: the named effects' reasons and the candidates ranked after
+    the plausible ones (``verdict.plausibility``, ``sins_sim.identification.plausibility``)."""
+    pl = v.get("plausibility") or {}
+    named = {k: p for k, p in (pl.get("named") or {}).items() if not p.get("plausible", True)}
+    aside = pl.get("ranked_after") or []
+    if not named and not aside:
+        return []
+    lines = ["", "## Plausibility", ""]
+    for name, p in named.items():
+        lines += [f"- the named effect {name} is implausible (no plausible candidate explains the gap): "
+                  + "; ".join(p["reasons"])]
+    for c in aside:
+        lines += [f"- {c['effect']} is ranked after the plausible candidates: " + "; ".join(c["reasons"])]
+    return lines
 
 
 def _write_findings_report(diag: Diagnosis, js: dict, out: Path, plt) -> None:
