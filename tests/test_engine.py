@@ -64,7 +64,7 @@ def test_three_channels_side_by_side_equal_each_chain_alone(modulation):
     """The one-thread engine steps the three suspensions in turn (``SideBySide``); every output of every
     channel must equal that channel's own fused kernel, bit for bit, over uneven chunks (blocks of
     different lengths per axis end inside them), with readout noise and amplitude modulation."""
-    from sins_sim.simulation.channel import SideBySide
+    from sins_sim.simulation.unit import SideBySide
 
     cfgs = [dataclasses.replace(c, readout=dataclasses.replace(c.readout, noise_rad=0.02 * c.readout.quantum_rad))
             for c in IMU.channels]

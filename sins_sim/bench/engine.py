@@ -29,7 +29,8 @@ import numpy as np
 from sins_sim.models.block import BlockParams
 from sins_sim.models.motion import AxisSines
 from sins_sim.models.suspension import PAPER_SUSPENSION
-from sins_sim.simulation.channel import ChannelChain, ChannelConfig, SideBySide
+from sins_sim.simulation.channel import ChannelChain, ChannelConfig
+from sins_sim.simulation.unit import SideBySide
 from sins_sim.simulation.sins import ImuConfig, NavSettings, default_n_sub, simulate_sins
 from sins_sim.units import ARCMIN
 

@@ -80,7 +80,7 @@ def _tilted(imu, a: int, b: int, offset_rad: float):
 def _place(imu, a: int, b: int, delta_hz: float):
     """The unit with axis ``b``'s resonance moved so that its drive on the block runs ``delta_hz`` below axis
     ``a``'s (a few secant steps: the coupled frequency is nearly linear in f0)."""
-    from sins_sim.simulation.sins import drives_on_block
+    from sins_sim.simulation.unit import drives_on_block
 
     target = drives_on_block(imu)[a].drive.frequency_hz - delta_hz
     f0 = imu.channels[a].suspension.f0_hz - delta_hz
@@ -98,7 +98,8 @@ def _point(imu, a: int, b: int, delta_hz: float, duration_s: float, start_s: flo
     from sins_sim.simulation.metrics import stored_line
     from sins_sim.simulation.responses import line_amplitudes
     from sins_sim.models.motion.rotations import Static
-    from sins_sim.simulation.sins import NavSettings, drives_on_block, simulate_sins
+    from sins_sim.simulation.sins import NavSettings, simulate_sins
+    from sins_sim.simulation.unit import drives_on_block
 
     unit = _place(imu, a, b, delta_hz)
     drives = drives_on_block(unit)

@@ -21,11 +21,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim._kernels import block as kblock
 from sins_sim._kernels import chain as kchain
-from sins_sim._kernels import correcting as kcor
 from sins_sim._kernels import drive as kdrive
-from sins_sim._kernels import sos as ksos
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator, EliminatorDesign
 from sins_sim.filters import registry as filter_registry
@@ -34,7 +31,6 @@ from sins_sim.models.effects import EFFECTS, Effect
 from sins_sim.models.motion import as_motion
 from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.readout import Decimator, Readout, ReadoutParams
-from sins_sim.navigation.attitude import dcm_from_quat, quat_from_rotvec, quat_multiply
 from sins_sim.models.suspension import PAPER_SUSPENSION, SuspensionParams
 from sins_sim.simulation.online import OnlineLoop, OnlineSpec
 from sins_sim.simulation.temperature import ThermalModel
@@ -45,7 +41,7 @@ __all__ = ["EliminatorSettings", "ChannelConfig", "ChannelResult", "DriveControl
 #: Outputs of a channel run, in plotting order.
 FILTER_NAMES = ("raw", "eliminator", "correcting", "correcting_paper")
 #: The correcting filters (eq. 5) of a channel, in the order of its ``cpar`` rows: unity-DC form, then paper form.
-_CORRECTING = ("correcting", "correcting_paper")
+CORRECTING_FORMS = ("correcting", "correcting_paper")
 
 
 @dataclass(frozen=True)
@@ -366,7 +362,7 @@ class ChannelChain:
         self.fpar = fp
         self.ipar = np.array([self.r_dac, self.block, self.plant._rule, self.r_dec], dtype=np.int64)
         cp = np.zeros((2, kchain.N_CPAR))
-        for f, name in enumerate(_CORRECTING):
+        for f, name in enumerate(CORRECTING_FORMS):
             flt = self.filters[name]
             d = flt.design
             cp[f, kchain.C_A2], cp[f, kchain.C_G] = flt._a2, flt._g
@@ -387,7 +383,7 @@ class ChannelChain:
         self.vdec.reset()
         if self.ddec is not None:
             self.ddec.reset()
-        for name in _CORRECTING:
+        for name in CORRECTING_FORMS:
             self.filters[name].reset(0.0)
         self.filters["eliminator"].reset()
         for flt in self.plugins.values():
@@ -603,7 +599,7 @@ class ChannelChain:
         return self._fk
 
     def _sync_filters(self):
-        for f, name in enumerate(_CORRECTING):
+        for f, name in enumerate(CORRECTING_FORMS):
             flt = self.filters[name]
             flt.state[:] = self._fs[f]
             flt.hyst[:] = self._fh[f]
@@ -701,186 +697,6 @@ class ChannelChain:
         out["sensed"] = feed
         out["lock_in_error"] = err
         return out
-
-
-def side_by_side(chains) -> bool:
-    """Whether :class:`SideBySide` can run these chains: three, each on the fused path, without a
-    temperature or PLL schedule (which splits a chunk into parameter blocks per channel)."""
-    return len(chains) == 3 and all(ch.path == "fused" and ch._fx is None and ch._thermal is None
-                                    and ch._online is None for ch in chains)
-
-
-class SideBySide:
-    """The three channels of a SINS over each chunk, their suspensions stepped side by side.
-
-    One call of ``_kernels.chain.drive_plant_three`` per chunk (the three suspensions advance
-    one step each in turn, so that the processor overlaps their dependency chains), then each
-    channel's readout (``readout_fir``), the six correcting filters side by side
-    (``_kernels.correcting.correcting_lanes``, for the same reason) and each eliminator. :meth:`run` returns what :meth:`ChannelChain.run_kernel`
-    returns for each chain, bit for bit (``tests/test_engine.py``); call
-    :meth:`ChannelChain.check_chunk` on each afterwards. The plant-rate work buffers are kept
-    from one chunk to the next: a fresh 1.7 MB array per chunk costs its page faults (about
-    0.3 ms per simulated second each). Requires :func:`side_by_side`.
-
-    With ``block`` (:class:`~sins_sim.models.block.BlockParams`) the three suspensions hang on one
-    block on its isolators (reference-model.md, "The block as a body"): the chunk's plant steps run
-    through ``_kernels.block.drive_plant_three_block`` (the same drives, the block and the three
-    suspensions stepped together), each readout sees the chassis angle plus the block's own rotation
-    about its gyro's axis (``_kernels.block.block_truth``), and each output carries what the block
-    adds to the truth at the filter rate (``block_dth``, ``block_theta_avg``, ``block_theta_end``,
-    ``block_dvel``; :func:`apply_block_to_truth` in the engine).
-    """
-
-    def __init__(self, chains, block=None):
-        if not side_by_side(chains):
-            raise ValueError("channel.side_by_side: needs three chains on the fused path without a temperature "
-                             "or PLL schedule")
-        self.chains = list(chains)
-        self._n = -1
-        self.block = block
-        if block is not None:
-            from sins_sim.models.block import BlockStep
-
-            self._step = BlockStep(block, chains[0].plant.h)
-            self._gain = np.array([-self._step.jg[a] * ch.fpar[kchain.P_W0SQ] for a, ch in enumerate(chains)])
-            self.bstate = np.zeros(kblock.B_SIZE)
-            self.tcarry = np.zeros(kblock.T_SIZE)
-
-    def _work(self, n: int):
-        if n != self._n:
-            self._buf = np.empty((4, 3, n))  # deflection, drive, and the plant's forcing q0, q1
-            self._n = n
-        return self._buf
-
-    def _block_work(self, n: int):
-        """The block's plant-rate work buffers, kept while the chunk length stays: its state and inputs (step-major),
-        a zero chassis linear acceleration (for a run without one) and each gyro's added angle."""
-        if getattr(self, "_bn", -1) != n:
-            self._bbuf = (np.empty((n, 12)), np.empty((n, 12)), np.zeros((3, n)), np.empty((3, n)))
-            self._bn = n
-        return self._bbuf
-
-    def run(self, i0: int, angle: np.ndarray, rate: np.ndarray, lin=None) -> list:
-        """Advance the three chains over a chunk; ``angle, rate``: (n, 3) at the ends of the plant steps.
-
-        ``lin``: with a block, the chassis' linear acceleration that drives the isolators, ``(lin0, lin1)``
-        ((3, n) each: at each step's start and its slope over the step, m/s^2 and m/s^3;
-        ``simulation.truth.MissionTruth.chassis_linear``); None: none.
-
-        Each output's ``delta`` is a view of a work buffer, valid until the next call (as on the
-        per-channel fused path).
-        """
-        chains = self.chains
-        n = angle.shape[0]
-        draws = [ch._kernel_draws(i0, n) for ch in chains]
-        uniforms = np.zeros((3, max(1, max(u.size for _, u in draws))))
-        for a, (_, u) in enumerate(draws):
-            uniforms[a, :u.size] = u
-        plants = [ch.plant for ch in chains]
-        dstate = np.stack([ch.dstate for ch in chains])
-        pstate = np.stack([p.state for p in plants])
-        physt = np.stack([p.hyst for p in plants])
-        pstack = np.stack([p.stack for p in plants])
-        angle_ax = np.ascontiguousarray(angle.T)  # axis-major input: a view, no copy
-        delta, volts, q0s, q1s = self._work(n)
-        used = np.zeros(3, dtype=np.int64)
-        m = n // chains[0].r_dec
-        fpar = np.stack([ch.fpar for ch in chains])
-        ipar = np.stack([ch.ipar for ch in chains])
-        if self.block is None:
-            kchain.drive_plant_three(i0, angle_ax, np.ascontiguousarray(rate.T), uniforms, fpar, ipar,
-                                     dstate, pstate, physt, pstack, delta, volts, q0s, q1s, used)
-            seen = angle_ax
-        else:
-            rate_ax = np.ascontiguousarray(rate.T)
-            z, cin, zero, add = self._block_work(n)
-            lin0, lin1 = (zero, zero) if lin is None else lin
-            st = self._step
-            kblock.drive_plant_three_block(i0, angle_ax, rate_ax, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
-                                           delta, volts, q0s, q1s, used, self._gain, st.umat, st.phi, st.phit, st.tt,
-                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, st.ax, lin0, lin1, self.bstate,
-                                           cin, z)
-            extra = np.empty((len(BLOCK_KEYS), 3, m))  # BLOCK_KEYS, in order
-            kblock.block_truth(z, rate_ax, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, *extra)
-            seen = angle_ax + add  # each gyro: the chassis angle plus the block's own rotation about its axis
-        x = np.empty((2, 3, m))  # readout angle and drive at the filter rate, per axis
-        for a, ch in enumerate(chains):
-            ch.dstate[:] = dstate[a]
-            plants[a].state[:] = pstate[a]
-            plants[a].hyst[:] = physt[a]
-            plants[a].stack[:] = pstack[a]
-            kchain.readout_fir(seen[a], draws[a][0], ch.fpar, ch.ipar, ch.dstate, ch.taps,
-                               ch.readout.decimator._hist, ch.vdec._hist, delta[a], volts[a], ch._buffers(n)[2],
-                               x[0, a], x[1, a])
-        # the six correcting filters (two forms per axis, rows of cpar) side by side, their state read from
-        # and written back to the filter objects; then each eliminator
-        eq5 = [ch.filters[name] for ch in chains for name in _CORRECTING]
-        cpar = np.concatenate([ch.cpar for ch in chains])
-        fstate = np.stack([f.state for f in eq5])
-        fhyst = np.stack([f.hyst for f in eq5])
-        fstack = np.stack([f.stack for f in eq5])
-        y = np.empty((6, m))
-        kcor.correcting_lanes(x[0], x[1], _LANE_ROWS, np.ascontiguousarray(cpar[:, :kchain.C_RULE]),
-                              cpar[:, kchain.C_RULE].astype(np.int64), fstate, fhyst, fstack, y)
-        for f, st, hy, sk in zip(eq5, fstate, fhyst, fstack):
-            f.state[:] = st
-            f.hyst[:] = hy
-            f.stack[:] = sk
-        outs = []
-        for a, ch in enumerate(chains):
-            el = ch.filters["eliminator"]
-            out = {"raw": x[0, a], "volts": x[1, a], "correcting": y[2 * a], "correcting_paper": y[2 * a + 1],
-                   "eliminator": np.empty(m)}
-            ksos.sos_filter(el._sos, out["raw"], el._zi, out["eliminator"])
-            ch._run_plugins(out)
-            ch._keep_deflection(out, delta[a])
-            if self.block is not None:
-                for key, row in zip(BLOCK_KEYS, extra):
-                    out[key] = row[a]
-            outs.append(out)
-        return outs
-
-
-#: What :meth:`SideBySide.run` adds to each axis's output with a block (filter rate, see ``_kernels.block.block_truth``).
-BLOCK_KEYS = ("block_dth", "block_theta_avg", "block_theta_end", "block_dvel", "block_xdot_end")
-
-
-def apply_block_to_truth(tc, outs, block_phi):
-    """The truth as the block's sensors see it: the chunk ``tc`` (``simulation.truth.TruthChunk``) amended in place
-    by the block's relative motion that :class:`SideBySide` returned with ``outs``.
-
-    - ideal gyro increments and angles: ``+ u_i . Delta(theta + c)`` (``_kernels.block.block_truth``); the running
-      sum ``block_phi`` (3,) is carried between chunks and returned;
-    - attitude: ``q_nb (x) exp(theta)`` (the block rotated by ``theta`` relative to the chassis);
-    - velocity increments, in the rocked block's axes: ``dv - theta_avg x dv`` plus what its relative translation
-      adds, sculling included (``_kernels.block.block_truth``: ``int (I - [theta x]) x'' dt``);
-    - velocity: the chassis' plus the block's relative c.g. velocity ``x'`` (block axes, rotated by the chassis'
-      attitude: cm/s under chassis vibration near the isolator modes).
-
-    The first chunk's truth also holds node 0 (increments zero, the block at rest on its mounts), which the block
-    leaves as it is. The position stays the chassis': the block's relative translation is tens of micrometres.
-    """
-    m = outs[0]["block_dth"].shape[0]
-    rows = tc.dtheta_rad.shape[0]
-    lead = rows - m
-    dth = np.stack([o["block_dth"] for o in outs], axis=1)
-    tc.dtheta_rad[lead:] += dth
-    cum = block_phi + np.cumsum(dth, axis=0)
-    tc.phi_rad[lead:] += cum
-    theta = np.stack([o["block_theta_end"] for o in outs], axis=1)
-    q_chassis = tc.q_nb[lead:].copy()
-    tc.q_nb[lead:] = quat_multiply(q_chassis, quat_from_rotvec(theta))
-    tavg = np.stack([o["block_theta_avg"] for o in outs], axis=1)
-    dvel = np.stack([o["block_dvel"] for o in outs], axis=1)
-    dv = tc.dv_m_s[lead:]
-    tc.dv_m_s[lead:] = dv - np.cross(tavg, dv) + dvel
-    xdot = np.stack([o["block_xdot_end"] for o in outs], axis=1)
-    tc.v_ned_m_s[lead:] += np.einsum("nij,nj->ni", dcm_from_quat(q_chassis), xdot)
-    return cum[-1] if m else block_phi
-
-
-#: Input row of each correcting filter in :meth:`SideBySide.run`: the two forms of axis ``a`` read row ``a``.
-_LANE_ROWS = np.array([0, 0, 1, 1, 2, 2], dtype=np.int64)
 
 
 def check_engine_effects(effects) -> tuple:
@@ -1075,7 +891,7 @@ class _ThermalSchedule:
         self.dac_rate = cfg.drive.dac_rate_hz
         self.plant_rate = cfg.plant.rate_hz
         self.f_drive0 = chain.drive.frequency_hz
-        self.designs0 = {name: chain.filters[name].design for name in _CORRECTING}
+        self.designs0 = {name: chain.filters[name].design for name in CORRECTING_FORMS}
         self.history = None  # a list of (block, t_mid_s, temp_k, plant f0_hz, drive_hz, filter f0_hz) when set
         self.filters_follow_drive = True  # False while an online estimator feeds the filters
         self.loaded = -1
@@ -1097,7 +913,7 @@ class _ThermalSchedule:
     def restore(self, chain):
         """The t = 0 suspension, drive and filters (``ChannelChain.reset`` packs them again)."""
         self._set_plant(chain, self.base, pack=False)
-        for name in _CORRECTING:
+        for name in CORRECTING_FORMS:
             self._set_filter(chain.filters[name], self.designs0[name])
         self.loaded = -1
         self.f_drive = self.f_drive0
@@ -1160,7 +976,7 @@ class _ThermalSchedule:
         if not self.filters_follow_drive:
             return
         ratio = f / self.f_drive0
-        for row, name in enumerate(_CORRECTING):
+        for row, name in enumerate(CORRECTING_FORMS):
             d0 = self.designs0[name]
             flt = chain.filters[name]
             self._set_filter(flt, dataclasses.replace(d0, f0_hz=d0.f0_hz * ratio))

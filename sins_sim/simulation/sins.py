@@ -4,12 +4,14 @@ One run is a pure function of (configuration, mission, duration, seed) and strea
 (memory does not grow with the duration). Per chunk:
 
 1. the mission truth (:class:`~sins_sim.simulation.truth.MissionTruth`: vehicle on the Earth,
-   block motion on its mounts) gives each gyro's angle and rate at the plant rate, and the
+   the chassis' motion profiles) gives each gyro's angle and rate at the plant rate, and the
    navigation truth, ideal gyro increments and accelerometer increments at the filter rate;
-2. each axis (reference-model.md, "Three axes": its own suspension, drive, readout, eq. 5 in
-   both forms and eliminator) runs in fused kernels
-   (:class:`~sins_sim.simulation.channel.ChannelChain`), the three suspensions stepped side by
-   side (:class:`~sins_sim.simulation.channel.SideBySide`) or the axes on threads;
+2. the unit (:class:`~sins_sim.simulation.unit.SensorUnit`: the sensor block, rigid or on its
+   isolators, carrying three channels) takes the chunk: each axis (reference-model.md, "Three
+   axes": its own suspension, drive, readout, eq. 5 in both forms and eliminator) runs in fused
+   kernels (:class:`~sins_sim.simulation.channel.ChannelChain`), the three suspensions stepped
+   side by side, with the block when it is a body (:class:`~sins_sim.simulation.unit.SideBySide`),
+   or the axes on threads; the block's own motion then amends the truth;
 3. every filter's output is differenced into angle increments and navigated by its own
    :class:`~sins_sim.navigation.strapdown.StrapdownNavigator`, all fed by the same
    accelerometers, and compared with the truth (:mod:`~sins_sim.simulation.metrics`).
@@ -61,10 +63,10 @@ from sins_sim.filters import registry as filter_registry
 from sins_sim.navigation.coning import CONING_ALGORITHMS
 from sins_sim.simulation.responses import tuned_design
 from sins_sim.navigation.strapdown import StrapdownNavigator
-from sins_sim.simulation.channel import (ChannelChain, ChannelConfig, DriveControl, SideBySide, apply_block_to_truth,
-                                         side_by_side)
+from sins_sim.simulation.channel import ChannelConfig, DriveControl
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
 from sins_sim.simulation.truth import MissionTruth
+from sins_sim.simulation.unit import AXES, SensorUnit
 
 #: The coning/sculling choice whose coefficients are designed per filter (issue 28).
 TUNED = "filter_tuned"
@@ -79,7 +81,6 @@ SINS_FILTERS = filter_registry.BUILTIN_FILTERS
 #: The filters navigated by default: the dither filters and the ideal floor (``raw``, the readout with the
 #: dither still in it, on request).
 DEFAULT_FILTERS = filter_registry.DEFAULT_FILTERS
-AXES = ("x", "y", "z")
 #: Default rate of the stored error series (Hz) and the most blocks stored per filter by default.
 DEFAULT_SERIES_RATE_HZ = 10.0
 MAX_SERIES_BLOCKS = 7200
@@ -413,7 +414,7 @@ def axis_pool(threads: int, n_axes: int = 3):
 
 def submit_axes(chains, i0, ang, rate, pool, three=None, worker=None, lin=None):
     """Start the three chains on one chunk: futures on ``pool`` (one thread per axis), or through
-    ``three`` (a :class:`~sins_sim.simulation.channel.SideBySide`, when given) on ``worker`` (one
+    ``three`` (a :class:`~sins_sim.simulation.unit.SideBySide`, when given) on ``worker`` (one
     thread) or deferred to this thread. ``lin``: the chassis' linear acceleration for a block's isolators
     (:meth:`SideBySide.run`)."""
     if pool is None and three is not None:
@@ -557,25 +558,6 @@ class _FilterNav:
         self.ref = None  # gyro angle the first increment starts from (alignment)
 
 
-def drives_on_block(imu: ImuConfig) -> list:
-    """The channels with each drive at its suspension's resonance on the block (where a PLL would hold it).
-
-    On a block that yields, a suspension resonates above its rigid-fixture resonance
-    (:func:`~sins_sim.models.block.coupled_dither_frequencies`: about ``sqrt(1 + J_g / J_b)``, 3 Hz at 386 Hz for
-    the bundled block). A drive left at the rigid resonance is then off by about 3 half-bandwidths (Q near 190)
-    and needs three times the eq. 17 voltage. A channel whose drive frequency the file sets keeps it.
-    """
-    import dataclasses
-
-    from sins_sim.models.block import coupled_dither_frequencies
-
-    om = [2.0 * math.pi * c.drive_signal().frequency_hz for c in imu.channels]
-    f = coupled_dither_frequencies(imu.block, om)
-    return [c if c.drive.frequency_hz is not None else
-            dataclasses.replace(c, drive=dataclasses.replace(c.drive, frequency_hz=float(fi)))
-            for c, fi in zip(imu.channels, f)]
-
-
 def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
     """The filter-tuned coning design of each filter (:func:`sins_sim.simulation.responses.tuned_design`).
 
@@ -675,11 +657,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     plant_inputs = any(name != "ideal" for name in filters) or imu.block is not None
     # without navigation the truth forms only the plant's gyro inputs
     truth = MissionTruth(stream, motion, translation, fp, fs, navigation=nav is not None or not plant_inputs)
-    # independent random streams per axis: readout noise [seed, axis], amplitude modulation [seed, axis, 1]
-    channels = imu.channels if imu.block is None else drives_on_block(imu)
-    chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]), np.random.default_rng([seed, i, 1]),
-                           plugins=plugins, axis=AXES[i], effects=imu.effects, deflection=bool(plugins3))
-              for i, c in enumerate(channels)]
+    # the unit: its block (rigid, or on isolators) and the three channels on it
+    unit = SensorUnit(imu, seed, plugins=plugins, deflection=bool(plugins3))
+    chains = unit.chains
     # three-axis plug-ins: the pickoffs sampled at the filter rate, one noise stream per coil [seed, 6, axis]
     flt3 = {}
     pickoffs = None
@@ -755,14 +735,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     # while this thread prepares the next chunk's truth and navigates (they take about as long as the
     # kernels); without navigation, one thread per axis (the truth alone is too light to fill this one).
     run_chains = bool(outs_buf) or imu.block is not None
-    if imu.block is not None:
-        if not side_by_side(chains):
-            raise ValueError("imu.block: the block on its isolators runs the three channels side by side, which a "
-                             "temperature ramp or a tracking PLL (a parameter schedule per channel) does not allow yet")
-        three = SideBySide(chains, block=imu.block)
-    else:
-        three = (SideBySide(chains) if outs_buf and side_by_side(chains) and (threads <= 1 or nav is not None)
-                 else None)
+    three = unit.mechanics(bool(outs_buf) and (threads <= 1 or nav is not None))
     pool = axis_pool(threads) if run_chains and three is None else None
     worker = None
     if three is not None and threads > 1:
@@ -772,9 +745,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     last_out = {}
     g_cum = np.zeros(3)
     a_cum = np.zeros(3)
-    block_phi = np.zeros(3)
     chassis_linear = imu.block is not None and translation is not None and vibration_enters == "chassis"
-    block_rec = []
     block_win = ((k_start, min(k_start + n_spec, n_out + 1)) if nav is not None
                  else (1, min(1 + int(round(2.0 * fs)), n_out + 1)))
 
@@ -794,13 +765,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
             # axis) while this chunk's kernels run; this chunk is navigated while the next one's kernels run
             pending = stage(k1, min(k1 + chunk, n_out)) if k1 < n_out else None
             outs = collect_axes(chains, job, caught) if run_chains else []
-            if nav is not None and imu.block is not None:  # what the block's own motion adds to the truth
-                block_phi = apply_block_to_truth(tc, outs, block_phi)
-            if imu.block is not None:  # the block's own rotation over the spectrum window (row j: node k_prev + 1 + j)
-                lo, hi = max(block_win[0], k_prev + 1), min(block_win[1], k1 + 1)
-                if lo < hi:
-                    block_rec.append(np.stack([o["block_theta_end"][lo - k_prev - 1:hi - k_prev - 1] for o in outs],
-                                              axis=1))
+            if nav is not None:  # the truth out of the mechanics: what the block's own motion adds to it
+                unit.amend_truth(tc, outs)
+            unit.keep(outs, k_prev, k1, block_win)  # the block's rotation over the spectrum window
             if flt3:
                 _run_three_axis(flt3, pickoffs, outs)
             if nav is not None:  # the truth rows for nodes tc.k0 .. k1 and the sensors feed only the navigation
@@ -879,19 +846,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                       warnings=list(dict.fromkeys(caught)), filters=filters, nav=nav, outputs_last=last_out,
                       allan=allan, records=records,
                       filter_reports={n: f.report() for n, f in flt3.items() if hasattr(f, "report")},
-                      block=_block_record(imu.block, block_rec, block_win[0], fs),
+                      block=unit.record(block_win[0], fs),
                       online={AXES[i]: {"history": ch.online.history, "events": list(ch.online.estimator.events)}
                               for i, ch in enumerate(chains) if ch.online is not None})
-
-
-def _block_record(block, rows, k0: int, fs: float) -> dict | None:
-    """:attr:`SinsResult.block` from the kept rows of the block's rotation (filter nodes ``k0 ..``)."""
-    if block is None:
-        return None
-    theta = np.concatenate(rows) if rows else np.zeros((0, 3))
-    modes = [m for m in block.isolator_modes() if m[0] > 0.0]
-    return {"t_s": (k0 + np.arange(theta.shape[0])) / fs, "theta_rad": theta, "rate_hz": fs,
-            "isolator_modes_hz": [float(f) for f, _ in modes], "isolator_damping": [float(z) for _, z in modes]}
 
 
 def _run_three_axis(flt3, pickoffs, outs) -> None:

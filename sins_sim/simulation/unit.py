@@ -1,0 +1,317 @@
+"""The sensor unit: one sensor block carrying three dithered gyro channels (reference-model.md, "Three axes" and
+"The block as a body").
+
+The rooms read as the machine is built:
+
+- **the block** (:class:`SensorUnit`): rigid, its motion prescribed (the nominal model), or a body on its
+  isolators (:class:`~sins_sim.models.block.BlockParams`: mass, inertia, the isolators and their elastic centre,
+  each gyro's body and input axis);
+- **three channels** on it (:class:`~sins_sim.simulation.channel.ChannelChain`): each with its electronics, drive,
+  readout and filters, around its suspension;
+- **the mechanics** of a chunk (:class:`SideBySide`): the three suspensions stepped side by side, and with a block
+  the block stepped with them in one kernel (``sins_sim._kernels.block``: the dither reactions load the block, the
+  block's rotation about each input axis drives that gyro; the coupling);
+- **the truth out of the mechanics**: the block's own motion amends the mission truth (:func:`apply_block_to_truth`:
+  its attitude, its gyros' ideal increments, its accelerometers' velocity increments, its velocity), and the unit
+  keeps the block's record for the run's spectrum (:meth:`SensorUnit.keep`).
+
+:func:`sins_sim.simulation.sins.simulate_sins` drives a unit with the mission truth and navigates what it outputs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from sins_sim._kernels import block as kblock
+from sins_sim._kernels import chain as kchain
+from sins_sim._kernels import correcting as kcor
+from sins_sim._kernels import sos as ksos
+from sins_sim.models.block import coupled_dither_frequencies
+from sins_sim.navigation.attitude import dcm_from_quat, quat_from_rotvec, quat_multiply
+from sins_sim.simulation.channel import CORRECTING_FORMS, ChannelChain
+
+__all__ = ["SensorUnit", "SideBySide", "side_by_side", "drives_on_block", "apply_block_to_truth", "block_record",
+           "BLOCK_KEYS", "AXES"]
+
+AXES = ("x", "y", "z")
+
+
+class SensorUnit:
+    """The block and its three channels, built from an IMU (module docstring).
+
+    Parameters
+    ----------
+    imu : ImuConfig
+        The unit (:class:`~sins_sim.simulation.sins.ImuConfig`); ``imu.block`` None is the rigid block.
+    seed : int
+        Independent random streams per axis: readout noise ``[seed, axis]``, amplitude modulation
+        ``[seed, axis, 1]``.
+    plugins : tuple of str
+        Single-axis plug-in filters each channel runs.
+    deflection : bool
+        Keep each channel's plant-rate deflection (the pickoffs of the three-axis plug-ins read it).
+
+    Attributes
+    ----------
+    chains : list of ChannelChain
+        x, y, z; with a block each drive runs at its suspension's resonance on the block (:func:`drives_on_block`).
+    block : BlockParams or None
+    """
+
+    def __init__(self, imu, seed: int, plugins=(), deflection: bool = False):
+        self.block = imu.block
+        channels = imu.channels if imu.block is None else drives_on_block(imu)
+        self.chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]),
+                                    np.random.default_rng([seed, i, 1]), plugins=plugins, axis=AXES[i],
+                                    effects=imu.effects, deflection=deflection)
+                       for i, c in enumerate(channels)]
+        self._phi = np.zeros(3)  # the block's added gyro angles, carried between chunks (apply_block_to_truth)
+        self._rows = []  # the block's rotation over the kept window, chunk by chunk
+
+    def mechanics(self, side_by_side_wanted: bool):
+        """The chunk stepper: with a block, :class:`SideBySide` with the block (always: the block couples the three
+        channels); without, :class:`SideBySide` when ``side_by_side_wanted`` and the chains allow it, else None (each
+        channel steps alone).
+
+        Raises
+        ------
+        ValueError
+            A block with a channel that cannot run side by side (a temperature ramp, a tracking PLL or an online
+            estimator: a parameter schedule per channel).
+        """
+        if self.block is not None:
+            if not side_by_side(self.chains):
+                raise ValueError("imu.block: the block on its isolators runs the three channels side by side, which a "
+                                 "temperature ramp, a tracking PLL or an online estimator (a parameter schedule per "
+                                 "channel) does not allow yet")
+            return SideBySide(self.chains, block=self.block)
+        return SideBySide(self.chains) if side_by_side_wanted and side_by_side(self.chains) else None
+
+    def amend_truth(self, tc, outs) -> None:
+        """The block's own motion into the chunk's truth ``tc`` (:func:`apply_block_to_truth`); no-op when rigid."""
+        if self.block is not None:
+            self._phi = apply_block_to_truth(tc, outs, self._phi)
+
+    def keep(self, outs, k_prev: int, k1: int, window) -> None:
+        """Keep the block's rotation at filter nodes ``window[0] <= k < window[1]`` of a chunk's outputs (row ``j``:
+        node ``k_prev + 1 + j``, up to ``k1``); no-op when rigid."""
+        if self.block is None:
+            return
+        lo, hi = max(window[0], k_prev + 1), min(window[1], k1 + 1)
+        if lo < hi:
+            self._rows.append(np.stack([o["block_theta_end"][lo - k_prev - 1:hi - k_prev - 1] for o in outs], axis=1))
+
+    def record(self, k0: int, fs: float) -> dict | None:
+        """``SinsResult.block``: what :meth:`keep` kept, from filter node ``k0`` (:func:`block_record`)."""
+        return block_record(self.block, self._rows, k0, fs)
+
+
+def drives_on_block(imu) -> list:
+    """The channels with each drive at its suspension's resonance on the block (where a PLL would hold it).
+
+    On a block that yields, a suspension resonates above its rigid-fixture resonance
+    (:func:`~sins_sim.models.block.coupled_dither_frequencies`: about ``sqrt(1 + J_g / J_b)``, 3 Hz at 386 Hz for
+    the bundled block). A drive left at the rigid resonance is then off by about 3 half-bandwidths (Q near 190)
+    and needs three times the eq. 17 voltage. A channel whose drive frequency the file sets keeps it.
+    ``imu``: an :class:`~sins_sim.simulation.sins.ImuConfig` with a ``block``.
+    """
+
+    om = [2.0 * math.pi * c.drive_signal().frequency_hz for c in imu.channels]
+    f = coupled_dither_frequencies(imu.block, om)
+    return [c if c.drive.frequency_hz is not None else
+            dataclasses.replace(c, drive=dataclasses.replace(c.drive, frequency_hz=float(fi)))
+            for c, fi in zip(imu.channels, f)]
+
+
+
+def side_by_side(chains) -> bool:
+    """Whether :class:`SideBySide` can run these chains: three, each on the fused path, without a
+    temperature or PLL schedule (which splits a chunk into parameter blocks per channel)."""
+    return len(chains) == 3 and all(ch.path == "fused" and ch._fx is None and ch._thermal is None
+                                    and ch._online is None for ch in chains)
+
+
+class SideBySide:
+    """The three channels of a SINS over each chunk, their suspensions stepped side by side.
+
+    One call of ``_kernels.chain.drive_plant_three`` per chunk (the three suspensions advance
+    one step each in turn, so that the processor overlaps their dependency chains), then each
+    channel's readout (``readout_fir``), the six correcting filters side by side
+    (``_kernels.correcting.correcting_lanes``, for the same reason) and each eliminator. :meth:`run` returns what :meth:`ChannelChain.run_kernel`
+    returns for each chain, bit for bit (``tests/test_engine.py``); call
+    :meth:`ChannelChain.check_chunk` on each afterwards. The plant-rate work buffers are kept
+    from one chunk to the next: a fresh 1.7 MB array per chunk costs its page faults (about
+    0.3 ms per simulated second each). Requires :func:`side_by_side`.
+
+    With ``block`` (:class:`~sins_sim.models.block.BlockParams`) the three suspensions hang on one
+    block on its isolators (reference-model.md, "The block as a body"): the chunk's plant steps run
+    through ``_kernels.block.drive_plant_three_block`` (the same drives, the block and the three
+    suspensions stepped together), each readout sees the chassis angle plus the block's own rotation
+    about its gyro's axis (``_kernels.block.block_truth``), and each output carries what the block
+    adds to the truth at the filter rate (``block_dth``, ``block_theta_avg``, ``block_theta_end``,
+    ``block_dvel``; :func:`apply_block_to_truth` in the engine).
+    """
+
+    def __init__(self, chains, block=None):
+        if not side_by_side(chains):
+            raise ValueError("channel.side_by_side: needs three chains on the fused path without a temperature "
+                             "or PLL schedule")
+        self.chains = list(chains)
+        self._n = -1
+        self.block = block
+        if block is not None:
+            from sins_sim.models.block import BlockStep
+
+            self._step = BlockStep(block, chains[0].plant.h)
+            self._gain = np.array([-self._step.jg[a] * ch.fpar[kchain.P_W0SQ] for a, ch in enumerate(chains)])
+            self.bstate = np.zeros(kblock.B_SIZE)
+            self.tcarry = np.zeros(kblock.T_SIZE)
+
+    def _work(self, n: int):
+        if n != self._n:
+            self._buf = np.empty((4, 3, n))  # deflection, drive, and the plant's forcing q0, q1
+            self._n = n
+        return self._buf
+
+    def _block_work(self, n: int):
+        """The block's plant-rate work buffers, kept while the chunk length stays: its state and inputs (step-major),
+        a zero chassis linear acceleration (for a run without one) and each gyro's added angle."""
+        if getattr(self, "_bn", -1) != n:
+            self._bbuf = (np.empty((n, 12)), np.empty((n, 12)), np.zeros((3, n)), np.empty((3, n)))
+            self._bn = n
+        return self._bbuf
+
+    def run(self, i0: int, angle: np.ndarray, rate: np.ndarray, lin=None) -> list:
+        """Advance the three chains over a chunk; ``angle, rate``: (n, 3) at the ends of the plant steps.
+
+        ``lin``: with a block, the chassis' linear acceleration that drives the isolators, ``(lin0, lin1)``
+        ((3, n) each: at each step's start and its slope over the step, m/s^2 and m/s^3;
+        ``simulation.truth.MissionTruth.chassis_linear``); None: none.
+
+        Each output's ``delta`` is a view of a work buffer, valid until the next call (as on the
+        per-channel fused path).
+        """
+        chains = self.chains
+        n = angle.shape[0]
+        draws = [ch._kernel_draws(i0, n) for ch in chains]
+        uniforms = np.zeros((3, max(1, max(u.size for _, u in draws))))
+        for a, (_, u) in enumerate(draws):
+            uniforms[a, :u.size] = u
+        plants = [ch.plant for ch in chains]
+        dstate = np.stack([ch.dstate for ch in chains])
+        pstate = np.stack([p.state for p in plants])
+        physt = np.stack([p.hyst for p in plants])
+        pstack = np.stack([p.stack for p in plants])
+        angle_ax = np.ascontiguousarray(angle.T)  # axis-major input: a view, no copy
+        delta, volts, q0s, q1s = self._work(n)
+        used = np.zeros(3, dtype=np.int64)
+        m = n // chains[0].r_dec
+        fpar = np.stack([ch.fpar for ch in chains])
+        ipar = np.stack([ch.ipar for ch in chains])
+        if self.block is None:
+            kchain.drive_plant_three(i0, angle_ax, np.ascontiguousarray(rate.T), uniforms, fpar, ipar,
+                                     dstate, pstate, physt, pstack, delta, volts, q0s, q1s, used)
+            seen = angle_ax
+        else:
+            rate_ax = np.ascontiguousarray(rate.T)
+            z, cin, zero, add = self._block_work(n)
+            lin0, lin1 = (zero, zero) if lin is None else lin
+            st = self._step
+            kblock.drive_plant_three_block(i0, angle_ax, rate_ax, uniforms, fpar, ipar, dstate, pstate, physt, pstack,
+                                           delta, volts, q0s, q1s, used, self._gain, st.umat, st.phi, st.phit, st.tt,
+                                           st.f0t, st.gch, st.idx, st.ridx, st.pos, st.ax, lin0, lin1, self.bstate,
+                                           cin, z)
+            extra = np.empty((len(BLOCK_KEYS), 3, m))  # BLOCK_KEYS, in order
+            kblock.block_truth(z, rate_ax, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, *extra)
+            seen = angle_ax + add  # each gyro: the chassis angle plus the block's own rotation about its axis
+        x = np.empty((2, 3, m))  # readout angle and drive at the filter rate, per axis
+        for a, ch in enumerate(chains):
+            ch.dstate[:] = dstate[a]
+            plants[a].state[:] = pstate[a]
+            plants[a].hyst[:] = physt[a]
+            plants[a].stack[:] = pstack[a]
+            kchain.readout_fir(seen[a], draws[a][0], ch.fpar, ch.ipar, ch.dstate, ch.taps,
+                               ch.readout.decimator._hist, ch.vdec._hist, delta[a], volts[a], ch._buffers(n)[2],
+                               x[0, a], x[1, a])
+        # the six correcting filters (two forms per axis, rows of cpar) side by side, their state read from
+        # and written back to the filter objects; then each eliminator
+        eq5 = [ch.filters[name] for ch in chains for name in CORRECTING_FORMS]
+        cpar = np.concatenate([ch.cpar for ch in chains])
+        fstate = np.stack([f.state for f in eq5])
+        fhyst = np.stack([f.hyst for f in eq5])
+        fstack = np.stack([f.stack for f in eq5])
+        y = np.empty((6, m))
+        kcor.correcting_lanes(x[0], x[1], _LANE_ROWS, np.ascontiguousarray(cpar[:, :kchain.C_RULE]),
+                              cpar[:, kchain.C_RULE].astype(np.int64), fstate, fhyst, fstack, y)
+        for f, st, hy, sk in zip(eq5, fstate, fhyst, fstack):
+            f.state[:] = st
+            f.hyst[:] = hy
+            f.stack[:] = sk
+        outs = []
+        for a, ch in enumerate(chains):
+            el = ch.filters["eliminator"]
+            out = {"raw": x[0, a], "volts": x[1, a], "correcting": y[2 * a], "correcting_paper": y[2 * a + 1],
+                   "eliminator": np.empty(m)}
+            ksos.sos_filter(el._sos, out["raw"], el._zi, out["eliminator"])
+            ch._run_plugins(out)
+            ch._keep_deflection(out, delta[a])
+            if self.block is not None:
+                for key, row in zip(BLOCK_KEYS, extra):
+                    out[key] = row[a]
+            outs.append(out)
+        return outs
+
+
+#: What :meth:`SideBySide.run` adds to each axis's output with a block (filter rate, see ``_kernels.block.block_truth``).
+BLOCK_KEYS = ("block_dth", "block_theta_avg", "block_theta_end", "block_dvel", "block_xdot_end")
+
+
+def apply_block_to_truth(tc, outs, block_phi):
+    """The truth as the block's sensors see it: the chunk ``tc`` (``simulation.truth.TruthChunk``) amended in place
+    by the block's relative motion that :class:`SideBySide` returned with ``outs``.
+
+    - ideal gyro increments and angles: ``+ u_i . Delta(theta + c)`` (``_kernels.block.block_truth``); the running
+      sum ``block_phi`` (3,) is carried between chunks and returned;
+    - attitude: ``q_nb (x) exp(theta)`` (the block rotated by ``theta`` relative to the chassis);
+    - velocity increments, in the rocked block's axes: ``dv - theta_avg x dv`` plus what its relative translation
+      adds, sculling included (``_kernels.block.block_truth``: ``int (I - [theta x]) x'' dt``);
+    - velocity: the chassis' plus the block's relative c.g. velocity ``x'`` (block axes, rotated by the chassis'
+      attitude: cm/s under chassis vibration near the isolator modes).
+
+    The first chunk's truth also holds node 0 (increments zero, the block at rest on its mounts), which the block
+    leaves as it is. The position stays the chassis': the block's relative translation is tens of micrometres.
+    """
+    m = outs[0]["block_dth"].shape[0]
+    rows = tc.dtheta_rad.shape[0]
+    lead = rows - m
+    dth = np.stack([o["block_dth"] for o in outs], axis=1)
+    tc.dtheta_rad[lead:] += dth
+    cum = block_phi + np.cumsum(dth, axis=0)
+    tc.phi_rad[lead:] += cum
+    theta = np.stack([o["block_theta_end"] for o in outs], axis=1)
+    q_chassis = tc.q_nb[lead:].copy()
+    tc.q_nb[lead:] = quat_multiply(q_chassis, quat_from_rotvec(theta))
+    tavg = np.stack([o["block_theta_avg"] for o in outs], axis=1)
+    dvel = np.stack([o["block_dvel"] for o in outs], axis=1)
+    dv = tc.dv_m_s[lead:]
+    tc.dv_m_s[lead:] = dv - np.cross(tavg, dv) + dvel
+    xdot = np.stack([o["block_xdot_end"] for o in outs], axis=1)
+    tc.v_ned_m_s[lead:] += np.einsum("nij,nj->ni", dcm_from_quat(q_chassis), xdot)
+    return cum[-1] if m else block_phi
+
+
+#: Input row of each correcting filter in :meth:`SideBySide.run`: the two forms of axis ``a`` read row ``a``.
+_LANE_ROWS = np.array([0, 0, 1, 1, 2, 2], dtype=np.int64)
+
+
+def block_record(block, rows, k0: int, fs: float) -> dict | None:
+    """:attr:`SinsResult.block` from the kept rows of the block's rotation (filter nodes ``k0 ..``)."""
+    if block is None:
+        return None
+    theta = np.concatenate(rows) if rows else np.zeros((0, 3))
+    modes = [m for m in block.isolator_modes() if m[0] > 0.0]
+    return {"t_s": (k0 + np.arange(theta.shape[0])) / fs, "theta_rad": theta, "rate_hz": fs,
+            "isolator_modes_hz": [float(f) for f, _ in modes], "isolator_damping": [float(z) for _, z in modes]}
