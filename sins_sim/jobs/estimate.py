@@ -25,7 +25,9 @@ constant                       value       source
                                            every filter, the block truth at the plant rate)
 ``NAV_SAMPLE_FILTER_S``        0.26 us     full loop with four filters: 20.6 ms per simulated s =
                                            49x real time; one filter: 15.0 ms (67x); the difference
-                                           per navigated filter and filter sample
+                                           per navigated filter and filter sample, updating at every
+                                           filter sample; with ``n_sub`` samples per update it scales by
+                                           ``0.17 + 0.83 / n_sub`` (``NAV_ACCUMULATE_SHARE``)
 ``TRUTH_SAMPLE_S``             0.105 us    the navigation truth per filter sample beside the chains
                                            (one filter's 15.0 ms minus chains and its navigation)
 ``TRUTH_ONLY_SAMPLE_S``        0.97 us     an ``ideal``-only run (no gyro chains): 8.9 ms per
@@ -76,7 +78,8 @@ from pathlib import Path
 from sins_sim.config.errors import ConfigError
 
 __all__ = ["estimate_run", "check_run", "estimate_channel", "check_channel", "announce", "format_duration",
-           "MAX_WALL_S", "MAX_MEMORY_BYTES", "PLANT_STEP_AXIS_S", "NAV_SAMPLE_FILTER_S", "TRUTH_SAMPLE_S",
+           "MAX_WALL_S", "MAX_MEMORY_BYTES", "PLANT_STEP_AXIS_S", "NAV_SAMPLE_FILTER_S", "NAV_ACCUMULATE_SHARE",
+           "TRUTH_SAMPLE_S",
            "TRUTH_ONLY_SAMPLE_S", "TONE_STEP_AXIS_S", "FILTERED_NOISE_STEP_AXIS_S", "CHANNEL_PLANT_STEP_S",
            "CHANNEL_OUTPUT_SAMPLE_S", "FIXED_S", "COMPILE_S", "CALIBRATION_KEEP", "cache_dir", "kernels_cold",
            "calibrate", "record_timing", "load_calibration"]
@@ -88,6 +91,11 @@ MAX_MEMORY_BYTES = 8 * 2 ** 30
 
 PLANT_STEP_AXIS_S = 57e-9
 NAV_SAMPLE_FILTER_S = 0.26e-6
+#: The share of :data:`NAV_SAMPLE_FILTER_S` that runs at every filter sample whatever the navigation rate (the
+#: coning and sculling sums); the rest is the attitude, velocity and position update, once per ``n_sub`` samples.
+#: From issue 26's profile of nav-stationary-1h (four filters): the navigators took 5.1 ms per simulated second
+#: updating at every filter sample and 1.1 ms at 400 Hz (n_sub 18): ``a + (1 - a) / 18 = 1.1 / 5.1`` gives 0.17.
+NAV_ACCUMULATE_SHARE = 0.17
 TRUTH_SAMPLE_S = 0.105e-6
 TRUTH_ONLY_SAMPLE_S = 0.97e-6
 TONE_STEP_AXIS_S = 2.15e-9
@@ -177,7 +185,8 @@ def estimate_run(scenario) -> dict:
     breakdown = {
         "gyro_chains_s": PLANT_STEP_AXIS_S * 3 * steps if chains else 0.0,
         "truth_s": (TRUTH_SAMPLE_S if chains else TRUTH_ONLY_SAMPLE_S) * samples,
-        "navigation_s": NAV_SAMPLE_FILTER_S * samples * len(filters),
+        "navigation_s": NAV_SAMPLE_FILTER_S * (NAV_ACCUMULATE_SHARE + (1.0 - NAV_ACCUMULATE_SHARE) / nav.n_sub)
+                        * samples * len(filters),
         # tones are evaluated at the plant rate (chains) and at the filter rate (navigation truth)
         "motion_tones_s": TONE_STEP_AXIS_S * 3 * tones * ((steps if chains else 0.0) + samples),
         "motion_filtered_noise_s": FILTERED_NOISE_STEP_AXIS_S * 3 * n_noise * (steps if chains else samples),
