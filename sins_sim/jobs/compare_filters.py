@@ -359,7 +359,9 @@ def _coning(names, st, progress, p0, p1):
                "imu": "../configs/default-imu.yaml",
                "motion": [{"type": "coning", "amplitude_arcmin": 1.0, "frequency_hz": f, "phase_deg": 90}],
                "filters": ["ideal", *names],
-               "navigation": {"coning": "two_sample", "start_s": st.coning_start_s},
+               # every filter sample (n_sub 1), as the attitude replay of each algorithm: the coning column is the
+               # filters' response at the filter rate, not the 400 Hz mission default's major-interval residual
+               "navigation": {"coning": "two_sample", "start_s": st.coning_start_s, "n_sub": 1},
                "outputs": {"plots": False, "timeseries": False}}
         sc = _scenario(doc, f"compare-filters: coning {f:g} Hz")
         res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
