@@ -116,6 +116,12 @@ class NavErrorStats:
         return np.sqrt(self.att_sum2 / max(self.n, 1))
 
 
+def _dot(a, b) -> float:
+    """``sum a b`` by numpy's pairwise summation: the same bits whatever the cores (a BLAS dot product splits long
+    vectors over threads, and the drift fits of one run then differed in their last digit between 1 and 2 cores)."""
+    return float(np.sum(a * b))
+
+
 def ramp_fit(t_s, y, r2_min: float = 0.9):
     """Least-squares ramp ``a + b t`` with a 95 % confidence interval on ``b`` for correlated residuals.
 
@@ -137,13 +143,13 @@ def ramp_fit(t_s, y, r2_min: float = 0.9):
         return {"slope": math.nan, "ci95": math.nan, "r2": math.nan, "n_eff": float(n), "explains": False}
     tc = t - t.mean()
     yc = y - y.mean()
-    stt = float(tc @ tc)
-    b = float(tc @ yc) / stt
+    stt = _dot(tc, tc)
+    b = _dot(tc, yc) / stt
     res = yc - b * tc
-    ss_res = float(res @ res)
-    ss_tot = float(yc @ yc)
+    ss_res = _dot(res, res)
+    ss_tot = _dot(yc, yc)
     r2 = 1.0 - ss_res / ss_tot if ss_tot > 0 else 0.0
-    rho = float(res[1:] @ res[:-1]) / ss_res if ss_res > 0 else 0.0
+    rho = _dot(res[1:], res[:-1]) / ss_res if ss_res > 0 else 0.0
     rho = min(max(rho, 0.0), 0.999)
     n_eff = max(3.0, n * (1.0 - rho) / (1.0 + rho))
     se = math.sqrt(ss_res / max(n - 2, 1) / stt) * math.sqrt(n / n_eff)
