@@ -42,7 +42,7 @@ __all__ = [
     "WGS84_A_M", "WGS84_F", "WGS84_B_M", "WGS84_E2", "EARTH_RATE_RAD_S", "WGS84_GM_M3_S2",
     "GAMMA_EQUATOR_M_S2", "SOMIGLIANA_K", "WGS84_M",
     "radii", "earth_rate_ned", "transport_rate_ned", "gravity_down", "gravity_ned", "horizontal_error_m",
-    "schuler_rate_rad_s",
+    "schuler_rate_rad_s", "level_body_from_ned",
 ]
 
 #: Semi-major axis (m), [1] table 3.1.
@@ -155,3 +155,11 @@ def schuler_rate_rad_s(lat=0.0, h=0.0):
 #: Largest |latitude| (deg) of a trajectory: the simulator navigates in a north-east-down frame, whose transport
 #: rate has tan(lat) and sec(lat) terms (shared by the trajectory reader and the trajectory model).
 MAX_ABS_LAT_DEG = 89.5
+
+
+def level_body_from_ned(vec_ned, heading_rad: float) -> np.ndarray:
+    """NED vectors (..., 3) in the body axes of a level vehicle heading ``heading_rad`` from north towards east: the
+    local-level frame turned by the heading about down, ``(N cos h + E sin h, -N sin h + E cos h, D)``."""
+    v = np.asarray(vec_ned, dtype=np.float64)
+    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    return np.stack([c * v[..., 0] + s * v[..., 1], -s * v[..., 0] + c * v[..., 1], v[..., 2]], axis=-1)

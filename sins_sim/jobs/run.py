@@ -759,10 +759,11 @@ def _dither_coning(scenario, res, freqs, lines) -> list:
     traj = scenario.trajectory_spec or {}
     if scenario.nav is None or traj.get("file") or traj.get("segments") or traj.get("speed_m_s"):
         return []
+    from sins_sim.earth import level_body_from_ned
+
     rate = scenario.nav.series_rate_hz(scenario.duration_s)
     psi = float(scenario.site.get("heading_rad", 0.0))
-    c_h, s_h = math.cos(psi), math.sin(psi)
-    body_of_ned = np.array([[c_h, s_h, 0.0], [-s_h, c_h, 0.0], [0.0, 0.0, 1.0]])  # body = R_z(psi)^T NED
+    record_s = scenario.duration_s - scenario.nav.start_s
     out = []
     for a, b in ((0, 1), (0, 2), (1, 2)):
         delta = abs(freqs[a] - freqs[b])
@@ -773,16 +774,19 @@ def _dither_coning(scenario, res, freqs, lines) -> list:
         rock_a = lines[ax_a][f"{ax_a}_dither"]["simulated_arcsec"] * ARCSEC
         rock_b = lines[ax_b][f"{ax_b}_dither"]["simulated_arcsec"] * ARCSEC
         beat = coning_beat_amplitude(rock_a, rock_b, 2 * math.pi * freqs[a], 2 * math.pi * freqs[b])
+        # a beat is measured over at least one of its periods: over less, the fitted line and trend trade off and
+        # the amplitude is not the beat's (the closed form stands alone then)
+        resolved = record_s * delta >= 1.0
         filt = {}
         for name in res.filters:
             ser = res.series.get(name)
-            if name in res.diverged or ser is None or ser["t_s"].size < 8:
+            if not resolved or name in res.diverged or ser is None or ser["t_s"].size < 8:
                 continue
-            err = np.asarray(ser["attitude_ned_rad"]) @ body_of_ned.T
+            err = level_body_from_ned(ser["attitude_ned_rad"], psi)
             filt[name] = stored_line(ser["t_s"], err[:, c], delta, rate) / ARCSEC
         out.append({"pair": [ax_a, ax_b], "about": "xyz"[c], "separation_hz": delta, "heading_rad": psi,
                     "beat_closed_form_arcsec": beat / ARCSEC, "beat_in_attitude_error_arcsec": filt,
-                    "series_rate_hz": rate})
+                    "record_s": record_s, "beat_resolved": resolved, "series_rate_hz": rate})
     return out
 
 
@@ -805,6 +809,9 @@ def _block_report(blk) -> list:
                   f"The beat in each filter's attitude error about {cn['about']} (from the stored means):", "",
                   "| filter | beat (arcsec) |", "|---|---|"]
         lines += [f"| {n} | {v:.3g} |" for n, v in cn["beat_in_attitude_error_arcsec"].items()]
+        if not cn["beat_resolved"]:
+            lines.append(f"| (not measured: the {cn['record_s']:.3g} s navigated are less than one beat period, "
+                         f"{1.0 / cn['separation_hz']:.3g} s) | |")
     modes = ", ".join(f"{f:.1f}" for f in blk["isolator_modes_hz"])
     lines += ["", f"Isolator modes: {modes} Hz."]
     if blk.get("vibration_enters"):

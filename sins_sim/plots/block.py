@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sins_sim.earth import level_body_from_ned
 from sins_sim.plots.common import _pyplot, filter_color, filter_label, finish_figure, line_style
 from sins_sim.units import ARCSEC
 
@@ -118,8 +119,6 @@ def plot_block_coning(res, coning: list, path=None, title: str = ""):
     names = [n for n in res.filters if n != "raw" and n in res.series and res.series[n]["t_s"].size]
     fig, axes = plt.subplots(len(coning), 1, figsize=(10, 3.6 + 2.6 * len(coning)), squeeze=False,
                              layout="constrained")
-    import math
-
     for ax, cn in zip(axes[:, 0], coning):
         c = "xyz".index(cn["about"])
         beat = cn["beat_closed_form_arcsec"]
@@ -127,11 +126,7 @@ def plot_block_coning(res, coning: list, path=None, title: str = ""):
             ser = res.series[name]
             t = np.asarray(ser["t_s"])
             # body axis c at rest and level: NED turned by the heading about down (as the metrics)
-            att = np.asarray(ser["attitude_ned_rad"]) / ARCSEC
-            psi = cn.get("heading_rad", 0.0)
-            rot = np.array([[math.cos(psi), math.sin(psi), 0.0], [-math.sin(psi), math.cos(psi), 0.0],
-                            [0.0, 0.0, 1.0]])
-            y = (att @ rot.T)[:, c]
+            y = level_body_from_ned(ser["attitude_ned_rad"], cn["heading_rad"])[:, c] / ARCSEC
             meas = cn["beat_in_attitude_error_arcsec"].get(name)
             lab = filter_label(name) + ("" if meas is None else f" (beat {meas:.3g} arcsec)")
             ax.plot(t, y - np.polyval(np.polyfit(t, y, 1), t), label=lab, lw=1.2, **{k: v for k, v in line_style(name).items() if k != "lw"})
