@@ -1029,7 +1029,7 @@ T_SIZE = 15
 
 
 @jit
-def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel, xdot_end):
+def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel, xdot_end, x_end):
     """What the block's relative motion adds to the gyros and the truth, from its state at the plant steps.
 
     The block's inertial rate in block axes is ``w_b = R(theta)^T w_c + J_r(theta) theta'``, to second order
@@ -1070,6 +1070,9 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
     xdot_end : (3, m), filled
         ``x'`` at the end of each filter sample (m/s, block axes): the block's c.g. velocity relative to the
         chassis (cm/s under chassis vibration near the isolator modes).
+    x_end : (3, m), filled
+        ``x`` at the end of each filter sample (m, block axes): the block's c.g. displacement relative to the
+        chassis (tens of micrometres under chassis vibration near the isolator modes), the position truth's part.
     """
     n = z.shape[0]
     th = np.empty(3)
@@ -1156,6 +1159,7 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
             theta_end[i, k] = z[j, 3 + i]
             xd[i] = z[j, 6 + i]
             xdot_end[i, k] = xd[i]
+            x_end[i, k] = z[j, i]
         theta_avg[0, k] = s0 / r
         theta_avg[1, k] = s1 / r
         theta_avg[2, k] = s2 / r

@@ -29,6 +29,7 @@ from sins_sim._kernels import block as kblock
 from sins_sim._kernels import chain as kchain
 from sins_sim._kernels import correcting as kcor
 from sins_sim._kernels import sos as ksos
+from sins_sim.earth import radii
 from sins_sim.models.block import coupled_dither_frequencies
 from sins_sim.navigation.attitude import dcm_from_quat, quat_from_rotvec, quat_multiply
 from sins_sim.simulation.channel import CORRECTING_FORMS, ChannelChain
@@ -266,7 +267,7 @@ class SideBySide:
 
 
 #: What :meth:`SideBySide.run` adds to each axis's output with a block (filter rate, see ``_kernels.block.block_truth``).
-BLOCK_KEYS = ("block_dth", "block_theta_avg", "block_theta_end", "block_dvel", "block_xdot_end")
+BLOCK_KEYS = ("block_dth", "block_theta_avg", "block_theta_end", "block_dvel", "block_xdot_end", "block_x_end")
 
 
 def apply_block_to_truth(tc, outs, block_phi):
@@ -279,10 +280,17 @@ def apply_block_to_truth(tc, outs, block_phi):
     - velocity increments, in the rocked block's axes: ``dv - theta_avg x dv`` plus what its relative translation
       adds, sculling included (``_kernels.block.block_truth``: ``int (I - [theta x]) x'' dt``);
     - velocity: the chassis' plus the block's relative c.g. velocity ``x'`` (block axes, rotated by the chassis'
-      attitude: cm/s under chassis vibration near the isolator modes).
+      attitude: cm/s under chassis vibration near the isolator modes);
+    - position: the chassis' plus the block's relative c.g. displacement ``x`` (block axes, rotated to NED by the
+      chassis' attitude: ``d_ned = C_nb,chassis x``), as latitude ``+ d_N / (R_N + h)``, longitude
+      ``+ d_E / ((R_E + h) cos lat)`` and height ``- d_D`` (radii of :func:`sins_sim.earth.radii`; Titterton and
+      Weston 2004, eq. 3.87-3.89 for the small displacement). Tens of micrometres under chassis vibration near the
+      isolator modes. The navigated position is then the block's, the reference trajectory the chassis'. The
+      velocity above omits ``omega x x`` (the chassis' rate times the micrometre displacement: below 1e-7 m/s at
+      1 rad/s), as the displacement is rotated at each node by the chassis' attitude at that node.
 
     The first chunk's truth also holds node 0 (increments zero, the block at rest on its mounts), which the block
-    leaves as it is. The position stays the chassis': the block's relative translation is tens of micrometres.
+    leaves as it is.
     """
     m = outs[0]["block_dth"].shape[0]
     rows = tc.dtheta_rad.shape[0]
@@ -299,7 +307,17 @@ def apply_block_to_truth(tc, outs, block_phi):
     dv = tc.dv_m_s[lead:]
     tc.dv_m_s[lead:] = dv - np.cross(tavg, dv) + dvel
     xdot = np.stack([o["block_xdot_end"] for o in outs], axis=1)
-    tc.v_ned_m_s[lead:] += np.einsum("nij,nj->ni", dcm_from_quat(q_chassis), xdot)
+    c_nb = dcm_from_quat(q_chassis)
+    tc.v_ned_m_s[lead:] += np.einsum("nij,nj->ni", c_nb, xdot)
+    d_ned = np.einsum("nij,nj->ni", c_nb, np.stack([o["block_x_end"] for o in outs], axis=1))
+    lat, h = tc.lat_rad[lead:], tc.h_m[lead:]
+    r_n, r_e = radii(lat)
+    tc.lat_rad = tc.lat_rad.copy()  # the chunk's position rows may be views of the vehicle sampler's rows
+    tc.lon_rad = tc.lon_rad.copy()
+    tc.h_m = tc.h_m.copy()
+    tc.lat_rad[lead:] += d_ned[:, 0] / (r_n + h)
+    tc.lon_rad[lead:] += d_ned[:, 1] / ((r_e + h) * np.cos(lat))
+    tc.h_m[lead:] -= d_ned[:, 2]
     return cum[-1] if m else block_phi
 
 
