@@ -946,7 +946,7 @@ def propagate_rest(ridx, phi, cin, bstate, out_z):
 @jit
 def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate, physt, pstack, delta, volts, q0s,
                             q1s, used, gain, umat, phi, phit, tt, f0t, gch, idx, ridx, pos, ax, lin0, lin1, bstate, cin,
-                            out_z):
+                            out_z, base_ang, base_rate, base_prev):
     """``chain.drive_plant_three`` with the three suspensions on one block (module docstring).
 
     The drive, detector and amplitude loop of each channel are those of ``chain.drive_plant_three`` (the same
@@ -957,7 +957,11 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
     ``BlockStep`` (``ax``: (3, AX_SIZE) for an axis-decoupled block, which then runs
     :func:`run_three_block_axes` and :func:`propagate_translation_axes` and leaves ``cin`` alone; (0, AX_SIZE)
     otherwise); ``bstate``: float64[B_SIZE]; ``cin``: (n, 12) a work buffer (the caller keeps it from chunk to
-    chunk: a fresh 7 MB array per chunk costs its page faults); ``out_z``: (n, 12). Other arguments as ``chain.drive_plant_three``.
+    chunk: a fresh 7 MB array per chunk costs its page faults); ``out_z``: (n, 12). ``base_ang, base_rate``:
+    (3, n) the angle and rate of the frame that excites the block through its isolators (``ang, rate`` themselves
+    when every angular profile enters at the chassis; without the profiles that enter at the block otherwise,
+    ``sins_sim.simulation.unit.SideBySide.run``), ``base_prev`` (6,): their values at the chunk's start (zeros at
+    rest), updated. Other arguments as ``chain.drive_plant_three``.
     """
     n = ang.shape[1]
     consts = np.empty((3, kexact.N_CONSTS))
@@ -971,14 +975,15 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
     phi0 = np.empty(3)
     rate0 = np.empty(3)
     for a in range(3):
-        phi0[a] = pstate[a, kexact.X_PHI]
-        rate0[a] = pstate[a, kexact.X_RATE]
+        phi0[a] = base_prev[a]
+        rate0[a] = base_prev[3 + a]
     axes = ax.shape[0] == 3
     gk5 = np.empty(3)
     for a in range(3):
         gk5[a] = gain[a] * consts[a, kexact.C_K5]
     if not axes:
-        chassis_input(ang, rate, phi0, rate0, consts[0, kexact.C_IH], consts[0, kexact.C_IH2], lin0, lin1, gch, cin)
+        chassis_input(base_ang, base_rate, phi0, rate0, consts[0, kexact.C_IH], consts[0, kexact.C_IH2], lin0, lin1,
+                      gch, cin)
     bz0 = bstate[B_Z:B_Z + 12].copy()
     j = 0
     while j < n:
@@ -991,8 +996,8 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
             pstate[a, kexact.X_PHI] = ang[a, j + m - 1]
             pstate[a, kexact.X_RATE] = rate[a, j + m - 1]
         if axes:  # the chassis' and the piezo inputs formed in the step loop; phi0, rate0 advance there
-            run_three_block_axes(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, gain, umat, ax, ang, rate,
-                                 volts, gk5, phi0, rate0, bstate, delta, out_z)
+            run_three_block_axes(j, j + m, q0s, q1s, consts, rules, pstate, physt, pstack, gain, umat, ax, base_ang,
+                                 base_rate, volts, gk5, phi0, rate0, bstate, delta, out_z)
         else:
             for k in range(j, j + m):  # the piezo torques, held over each step, through F0's torque columns
                 p0 = gk5[0] * volts[0, k]
@@ -1010,6 +1015,10 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
             used[a] = kchain._close_segment(i0, j, m, delta[a][j:j + m], fpar[a], ipar[a], dstate[a], uniforms[a],
                                             used[a])
         j += m
+    if n > 0:
+        for a in range(3):
+            base_prev[a] = base_ang[a, n - 1]
+            base_prev[3 + a] = base_rate[a, n - 1]
     if axes:
         propagate_translation_axes(ax, lin0, lin1, bstate, out_z)
     elif ridx.shape[0] > 0 and not _translation_at_rest(bstate, lin0, lin1, out_z):

@@ -304,8 +304,14 @@ SCENARIO_SCHEMA = Map({
     "vibration_enters": Str(choices=("chassis", "block"), default="chassis",
                             doc="with an IMU block: chassis = linear_vibration shakes the chassis and reaches the "
                                 "block through the isolators (rocking it when the elastic centre is off the c.g.); "
-                                "block = it is the block's own, as without a block. Angular motion enters at the "
-                                "chassis. Without an IMU block: no effect"),
+                                "block = it is the block's own, as without a block. Angular motion: motion_enters. "
+                                "Without an IMU block: no effect"),
+    "motion_enters": Str(choices=("chassis", "block"), default="chassis",
+                         doc="with an IMU block: chassis = the motion profiles rotate the chassis and the block "
+                             "follows through the isolators; block = they are the block's own rotation as measured "
+                             "on it (as without a block), the block's response to the dithers and to what enters at "
+                             "the chassis superposed (the block's model is linear). Without an IMU block: no "
+                             "effect"),
     "filters": ListOf(_FilterName(choices=SINS_FILTERS + filter_registry.shipped_plugin_names()),
                       default=list(DEFAULT_FILTERS), min_len=1, max_len=20),
     "navigation": Map({
@@ -505,6 +511,7 @@ class Scenario:
         self.events = _events(c["motion"], self.vehicle)
         self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.vibration_enters = c["vibration_enters"]
+        self.motion_enters = c["motion_enters"]
         self.outputs = c["outputs"]
         #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
         self.advisories = advisories.vibration_advisories(self.imu, c["motion"], self.filters)

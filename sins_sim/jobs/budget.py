@@ -139,7 +139,7 @@ def _one_run(path: str, overrides: dict, off: tuple) -> dict:
     imu = apply_off(sc.imu, off)
     res = simulate_sins(imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters, threads=1,
                         vehicle=sc.vehicle, translation=sc.translation,
-                        vibration_enters=sc.vibration_enters)
+                        vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
     out = {}
     for name in sc.filters:
         st = res.stats.get(name)

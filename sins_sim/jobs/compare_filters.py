@@ -366,7 +366,7 @@ def _coning(names, st, progress, p0, p1):
         sc = _scenario(doc, f"compare-filters: coning {f:g} Hz")
         res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
                             vehicle=sc.vehicle, translation=sc.translation,
-                            vibration_enters=sc.vibration_enters)
+                            vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
         for n in out:
             ser = res.series[n]
             fit = ramp_fit(ser["t_s"], drift_angle_of_series(ser, res.truth_series)[1][:, 2])
@@ -390,7 +390,7 @@ def _mission(names, st):
     sc = _scenario(doc, "compare-filters: nav-stationary-1h")
     res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
                         vehicle=sc.vehicle, translation=sc.translation,
-                        vibration_enters=sc.vibration_enters)
+                        vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
     m = scenario_metrics(res, sc)
     return {n: m[n]["horizontal_position_error_m"]["final"] if m[n]["status"] == "ok" else None for n in m}, \
         float(sc.duration_s)

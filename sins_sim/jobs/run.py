@@ -243,7 +243,8 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
 
     res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
                         filters=scenario.filters, progress=progress, threads=threads, vehicle=scenario.vehicle,
-                        translation=scenario.translation, vibration_enters=scenario.vibration_enters)
+                        translation=scenario.translation, vibration_enters=scenario.vibration_enters,
+                        motion_enters=scenario.motion_enters)
     metrics = {
         "scenario": scenario.name,
         "description": scenario.description,
@@ -317,6 +318,7 @@ def _block_section(scenario, res) -> dict | None:
             "dither_lines": lines,
             "isolator_modes_hz": rec["isolator_modes_hz"], "isolator_damping": rec["isolator_damping"],
             "vibration_enters": scenario.vibration_enters if scenario.translation is not None else None,
+            "motion_enters": scenario.motion_enters,
             "note": "the block's rotation relative to the chassis about block axes x, y, z; dither_lines: the line "
                     "of that rotation at each gyro's drive (least squares on the three at once) beside the linear "
                     "coupled model (models.block.block_rotation_per_deflection x the gyro's measured amplitude; "
@@ -816,4 +818,7 @@ def _block_report(blk) -> list:
     lines += ["", f"Isolator modes: {modes} Hz."]
     if blk.get("vibration_enters"):
         lines.append(f"The linear vibration enters at the {blk['vibration_enters']}.")
+    if blk.get("motion_enters") == "block":
+        lines.append("The angular motion profiles enter at the block (its own rotation as measured on it; the "
+                     "rotation above is the response to the dithers and the chassis, superposed on them).")
     return lines

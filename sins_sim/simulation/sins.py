@@ -412,15 +412,15 @@ def axis_pool(threads: int, n_axes: int = 3):
     return [ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"sins-axis-{AXES[i]}") for i in range(n_axes)]
 
 
-def submit_axes(chains, i0, ang, rate, pool, three=None, worker=None, lin=None):
+def submit_axes(chains, i0, ang, rate, pool, three=None, worker=None, lin=None, base=None):
     """Start the three chains on one chunk: futures on ``pool`` (one thread per axis), or through
     ``three`` (a :class:`~sins_sim.simulation.unit.SideBySide`, when given) on ``worker`` (one
-    thread) or deferred to this thread. ``lin``: the chassis' linear acceleration for a block's isolators
-    (:meth:`SideBySide.run`)."""
+    thread) or deferred to this thread. ``lin``: the chassis' linear acceleration for a block's isolators;
+    ``base``: the chassis' angle and rate without the profiles that enter at the block (:meth:`SideBySide.run`)."""
     if pool is None and three is not None:
         if worker is not None:
-            return ("future", worker.submit(three.run, i0, ang, rate, lin))
-        return ("three", three, i0, ang, rate, lin)
+            return ("future", worker.submit(three.run, i0, ang, rate, lin, base))
+        return ("three", three, i0, ang, rate, lin, base)
     if pool is None or any(ch.path != "fused" for ch in chains):
         return ("serial", i0, ang, rate)
     return ("futures", [pool[i].submit(ch.run_kernel, i0, np.ascontiguousarray(ang[:, i]),
@@ -437,8 +437,8 @@ def collect_axes(chains, job, caught):
 
     outs = []
     if job[0] == "three":  # one thread: the three suspensions side by side
-        _, runner, i0, ang, rate, lin = job
-        outs = runner.run(i0, ang, rate, lin)
+        _, runner, i0, ang, rate, lin, base = job
+        outs = runner.run(i0, ang, rate, lin, base)
     elif job[0] == "serial":
         _, i0, ang, rate = job
         for i, ch in enumerate(chains):
@@ -582,7 +582,8 @@ def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
 
 def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav: NavSettings | None = NavSettings(),
                   filters=DEFAULT_FILTERS, chunk_s: float = 1.0, progress=None, threads: int | None = None,
-                  vehicle=None, translation=None, vibration_enters: str = "chassis") -> SinsResult:
+                  vehicle=None, translation=None, vibration_enters: str = "chassis",
+                  motion_enters: str = "chassis") -> SinsResult:
     """Run the three-axis SINS (module docstring).
 
     Parameters
@@ -617,8 +618,13 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     vibration_enters : {"chassis", "block"}
         With a block on isolators (``imu.block``): where ``translation`` enters. ``"chassis"``: it is the
         chassis' vibration and reaches the block through the isolators (base excitation; with the elastic centre
-        off the c.g. it rocks the block); ``"block"``: it is the block's own (as without a block). Angular motion
-        always enters at the chassis with a block. Without a block it is the block's.
+        off the c.g. it rocks the block); ``"block"``: it is the block's own (as without a block). Without a
+        block it is the block's.
+    motion_enters : {"chassis", "block"}
+        With a block on isolators: where ``motion`` (the angular profiles) enters. ``"chassis"``: it rotates the
+        chassis and the block follows through its isolators; ``"block"``: it is the block's own rotation as
+        measured on it, and the block's response to the dither reactions and to what enters at the chassis is
+        superposed (:func:`sins_sim.simulation.unit.block_base_excitation`). Without a block it is the block's.
 
     Returns
     -------
@@ -627,6 +633,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     duration_s = v.positive("run", "duration_s", duration_s)
     if vibration_enters not in ("chassis", "block"):
         raise ValueError(f"run.vibration_enters: must be 'chassis' or 'block', got {vibration_enters!r}")
+    if motion_enters not in ("chassis", "block"):
+        raise ValueError(f"run.motion_enters: must be 'chassis' or 'block', got {motion_enters!r}")
     filters = tuple(dict.fromkeys(filters))
     for name in filters:
         if not filter_registry.is_known(name):
@@ -656,7 +664,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     # a filter to feed, or a block whose motion comes out of the suspensions: the plant runs
     plant_inputs = any(name != "ideal" for name in filters) or imu.block is not None
     # without navigation the truth forms only the plant's gyro inputs
-    truth = MissionTruth(stream, motion, translation, fp, fs, navigation=nav is not None or not plant_inputs)
+    motion_on_block = imu.block is not None and motion_enters == "block"
+    truth = MissionTruth(stream, motion, translation, fp, fs, navigation=nav is not None or not plant_inputs,
+                         keep_chassis=motion_on_block)
     # the unit: its block (rigid, or on isolators) and the three channels on it
     unit = SensorUnit(imu, seed, plugins=plugins, deflection=bool(plugins3))
     chains = unit.chains
@@ -754,7 +764,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         tc, ang, rate = truth.advance(k_b, plant=plant_inputs)
         # the isolators' linear input, sampled here (the vibration streams are not for sampling from two threads)
         lin = truth.chassis_linear(k_a, k_b) if chassis_linear else None
-        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker, lin) if run_chains else None
+        base = truth.chassis_angle_rate() if motion_on_block else None  # the chassis without the block's profile
+        job = submit_axes(chains, k_a * r_dec, ang, rate, pool, three, worker, lin, base) if run_chains else None
         return k_a, k_b, tc, job
 
     try:

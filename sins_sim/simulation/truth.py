@@ -225,6 +225,9 @@ class MissionTruth:
         no chunk): the vehicle's rate alone is interpolated, and neither the velocity increments
         nor the attitude, position and velocity truth are computed (the same gyro angles and
         rates, bit for bit).
+    keep_chassis : bool
+        Keep what :meth:`chassis_angle_rate` needs after each :meth:`advance` (the vehicle's part of the
+        gyro angles without ``block``'s motion: a block on isolators whose angular profile enters at the block).
 
     :meth:`advance` moves the truth forward to filter node ``k1``: it returns the truth at the
     new nodes and the gyro angles and rates at the plant steps up to ``k1 R``.
@@ -232,10 +235,12 @@ class MissionTruth:
 
     def __init__(self, vehicle, block: Motion3D, translation=None, plant_rate_hz: float = 72000.0,
                  filter_rate_hz: float = 7200.0, vehicle_rate_hz: float = 200.0, substeps: int = 2,
-                 navigation: bool = True):
+                 navigation: bool = True, keep_chassis: bool = False):
         if not isinstance(block, Motion3D):
             raise ValueError(f"truth.block: must be a Motion3D, got {type(block).__name__}")
         self.navigation = bool(navigation)
+        self.keep_chassis = bool(keep_chassis)
+        self._s_last = None
         self.vehicle = VehicleSampler(vehicle, vehicle_rate_hz)
         self.block = block
         self.translation = translation
@@ -342,6 +347,8 @@ class MissionTruth:
         q_nb = np.empty((n if navigation else 0, 4))
         ktruth.truth_samples(self.hf, om, fv, acc, dv_vib, phib, q_vb, q_nv, self._state, dth, dv, s_nodes,
                              ds_nodes, q_nb, not navigation)
+        if self.keep_chassis:
+            self._s_last = (s_nodes, ds_nodes)
         # gyro inputs at the plant rate: block angle (closed form) + Hermite interpolant of S
         angle = rate = None
         if plant:  # block angle (closed form) + Hermite interpolant of S, in place
@@ -378,6 +385,25 @@ class MissionTruth:
         chunk = TruthChunk(k0=int(ks[0]), t_s=ks * self.hf, q_nb=q_nb, lat_rad=lat, lon_rad=lon, h_m=h,
                            v_ned_m_s=v_ned, dtheta_rad=dth, dv_m_s=dv, phi_rad=phi)
         return chunk, angle, rate
+
+    def chassis_angle_rate(self):
+        """The gyro angles and rates of the last :meth:`advance` without the block's own motion: the vehicle's
+        part ``S`` alone (the same Hermite interpolant, at the same plant steps; needs ``keep_chassis``).
+
+        Returns
+        -------
+        angle, rate : ndarray (n R, 3)
+            As :meth:`advance`'s (axis-major storage).
+        """
+        if self._s_last is None:
+            raise ValueError("truth.chassis_angle_rate: needs keep_chassis and a call of advance")
+        s_nodes, ds_nodes = self._s_last
+        n = (s_nodes.shape[0] - 1) * self.r
+        zero = np.zeros((n, 3))
+        ang = np.empty((3, n))
+        rate = np.empty((3, n))
+        ktruth.hermite_plant_axes(s_nodes, ds_nodes, self._herm, self._dherm, zero, zero, ang, rate)
+        return ang.T, rate.T
 
     def chassis_linear(self, k_a: int, k_b: int):
         """The chassis' linear acceleration over the plant steps of filter nodes ``k_a + 1 .. k_b``, as the block's

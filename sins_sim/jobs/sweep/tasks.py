@@ -329,7 +329,7 @@ def run_task(spec: dict) -> dict:
         sc = Scenario(spec["doc"], spec["ctx"], Path(spec["base_dir"]))
         res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
                             threads=1, vehicle=sc.vehicle, translation=sc.translation,
-                            vibration_enters=sc.vibration_enters)
+                            vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
         filters = scenario_metrics(res, sc)
     gyro_rms = {name: np.sqrt(np.mean((e - e.mean(axis=0)) ** 2, axis=0)) / ARCSEC
                 for name, e in res.spectra.items() if name != "t" and e.shape[0]}
