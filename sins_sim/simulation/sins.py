@@ -591,7 +591,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     imu : ImuConfig
         The unit: three channels, drive control, accelerometers.
     motion : Motion3D
-        The block's motion on its mounts, relative to the vehicle (vibration, coning, shock...).
+        The angular motion profiles relative to the vehicle (vibration, coning, shock...): the block's own, or with
+        a block on isolators the chassis' or the block's (``motion_enters``).
     duration_s : float
         Mission length (s), > 0.
     seed : int

@@ -12,8 +12,9 @@ The rooms read as the machine is built:
   the block stepped with them in one kernel (``sins_sim._kernels.block``: the dither reactions load the block, the
   block's rotation about each input axis drives that gyro; the coupling);
 - **the truth out of the mechanics**: the block's own motion amends the mission truth (:func:`apply_block_to_truth`:
-  its attitude, its gyros' ideal increments, its accelerometers' velocity increments, its velocity), and the unit
-  keeps the block's record for the run's spectrum (:meth:`SensorUnit.keep`).
+  its attitude, its gyros' ideal increments, its accelerometers' velocity increments, its velocity and position;
+  with ``motion_enters: block`` about the frame of the block's own profile, :func:`block_base_excitation`), and
+  the unit keeps the block's record for the run's spectrum (:meth:`SensorUnit.keep`).
 
 :func:`sins_sim.simulation.sins.simulate_sins` drives a unit with the mission truth and navigates what it outputs.
 """
@@ -153,8 +154,7 @@ class SideBySide:
     through ``_kernels.block.drive_plant_three_block`` (the same drives, the block and the three
     suspensions stepped together), each readout sees the chassis angle plus the block's own rotation
     about its gyro's axis (``_kernels.block.block_truth``), and each output carries what the block
-    adds to the truth at the filter rate (``block_dth``, ``block_theta_avg``, ``block_theta_end``,
-    ``block_dvel``; :func:`apply_block_to_truth` in the engine).
+    adds to the truth at the filter rate (:data:`BLOCK_KEYS`; :func:`apply_block_to_truth` in the engine).
     """
 
     def __init__(self, chains, block=None):
