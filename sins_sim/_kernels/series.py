@@ -138,3 +138,38 @@ def interval_fast_means(n, q_t, y, phi, gerr, aerr, dv_fed, dv_here, state, out)
     state[0], state[1], state[2] = p0, p1, p2
     state[3], state[4], state[5] = g0, g1, g2
     state[6], state[7], state[8] = u0, u1, u2
+
+
+#: Columns of the error rows (:func:`sins_sim._kernels.truth.nav_errors`) that :func:`interval_means` touches:
+#: velocity 4-6 and attitude 7-9 gain the between-epoch part, the free attitude 12-14 too; the solution's
+#: latitude and longitude (10, 11) stay the values at the updates.
+_COL_V, _COL_ATT, _COL_LAT, _COL_LON, _COL_FREE = 4, 7, 10, 11, 12
+
+
+@jit
+def interval_means(n, q_t, y, phi, gerr, aerr, dv_fed, dv_here, rows, prev_row, state, fast, means):
+    """The error rows averaged over each update's ``n`` filter samples (module docstring), in one pass.
+
+    ``means[i] = rows[i] - k (rows[i] - rows[i-1])`` (``rows[-1]``: ``prev_row``; ``k = (n - 1) / (2 n)``), the
+    mean of the straight line between the updates, for every column but the solution's latitude and longitude
+    (10, 11), which stay ``rows[i]``; plus :func:`interval_fast_means` (written to ``fast``, shape (m, 6)) on the
+    attitude (7-9) and the free attitude (12-14), and its velocity part on the velocity (4-6). ``prev_row``
+    becomes ``rows[-1]``. Arguments as :func:`interval_fast_means`; ``rows``, ``means``: (m, C), ``prev_row``: (C,).
+    """
+    interval_fast_means(n, q_t, y, phi, gerr, aerr, dv_fed, dv_here, state, fast)
+    k = 0.5 * (n - 1) / n
+    c = rows.shape[1]
+    for i in range(rows.shape[0]):
+        for j in range(c):
+            x = rows[i, j]
+            p = prev_row[j] if i == 0 else rows[i - 1, j]
+            means[i, j] = x - k * (x - p)
+        means[i, _COL_LAT] = rows[i, _COL_LAT]
+        means[i, _COL_LON] = rows[i, _COL_LON]
+        for j in range(3):
+            means[i, _COL_ATT + j] += fast[i, j]
+            means[i, _COL_FREE + j] += fast[i, j]
+            means[i, _COL_V + j] += fast[i, 3 + j]
+    if rows.shape[0] > 0:
+        for j in range(c):
+            prev_row[j] = rows[rows.shape[0] - 1, j]

@@ -1000,16 +1000,9 @@ def _interval_means(name, nf, tr_buf, outs_buf, phi_buf, lo, hi, step, q_t, rows
     if nf.dv_shift:
         dv_fed, dv_here = tr_buf["dv"].get(a + nf.dv_shift, hi + nf.dv_shift), tr_buf["dv"].get(a, hi)
     fast = np.empty((rows.shape[0], 6))
-    kseries.interval_fast_means(step, q_t, y, phi, tr_buf["gerr"].get(a, hi), tr_buf["aerr"].get(a, hi), dv_fed,
-                                dv_here, nf.fast_state, fast)
-    k = 0.5 * (step - 1) / step  # the mean of the line over the interval: x_m - k (x_m - x_{m-1})
-    prev = np.concatenate([nf.prev_row[None, :], rows[:-1]])
-    means = rows - k * (rows - prev)
-    means[:, 10:12] = rows[:, 10:12]
-    means[:, 7:10] += fast[:, :3]
-    means[:, 12:15] += fast[:, :3]
-    means[:, 4:7] += fast[:, 3:]
-    nf.prev_row = rows[-1].copy()
+    means = np.empty_like(rows)
+    kseries.interval_means(step, q_t, y, phi, tr_buf["gerr"].get(a, hi), tr_buf["aerr"].get(a, hi), dv_fed, dv_here,
+                           rows, nf.prev_row, nf.fast_state, fast, means)
     return means
 
 
