@@ -45,6 +45,16 @@ from sins_sim._kernels._config import jit
 
 
 @jit
+def body_to_ned(q, x0, x1, x2):
+    """``C(q) x``: the body vector ``x`` in NED, ``C(q)`` the direction cosine matrix of the unit quaternion ``q``
+    (scalar first, body to NED; Titterton & Weston 2004, ch. 3)."""
+    w0, w1, w2, w3 = q[0], q[1], q[2], q[3]
+    return ((1.0 - 2.0 * (w2 * w2 + w3 * w3)) * x0 + 2.0 * (w1 * w2 - w0 * w3) * x1 + 2.0 * (w1 * w3 + w0 * w2) * x2,
+            2.0 * (w1 * w2 + w0 * w3) * x0 + (1.0 - 2.0 * (w1 * w1 + w3 * w3)) * x1 + 2.0 * (w2 * w3 - w0 * w1) * x2,
+            2.0 * (w1 * w3 - w0 * w2) * x0 + 2.0 * (w2 * w3 + w0 * w1) * x1 + (1.0 - 2.0 * (w1 * w1 + w2 * w2)) * x2)
+
+
+@jit
 def interval_fast_means(n, q_t, y, phi, gerr, aerr, dv_fed, dv_here, state, out):
     """Per navigation interval, the NED mean of the between-epoch attitude and velocity error (module docstring).
 
@@ -119,22 +129,8 @@ def interval_fast_means(n, q_t, y, phi, gerr, aerr, dv_fed, dv_here, state, out)
         f1 = su1 * inv_n - u1 + k * (u1 - v1)
         f2 = su2 * inv_n - u2 + k * (u2 - v2)
         p0, p1, p2 = e0, e1, e2
-        w0, w1, w2, w3 = q_t[i, 0], q_t[i, 1], q_t[i, 2], q_t[i, 3]
-        c00 = 1.0 - 2.0 * (w2 * w2 + w3 * w3)
-        c01 = 2.0 * (w1 * w2 - w0 * w3)
-        c02 = 2.0 * (w1 * w3 + w0 * w2)
-        c10 = 2.0 * (w1 * w2 + w0 * w3)
-        c11 = 1.0 - 2.0 * (w1 * w1 + w3 * w3)
-        c12 = 2.0 * (w2 * w3 - w0 * w1)
-        c20 = 2.0 * (w1 * w3 - w0 * w2)
-        c21 = 2.0 * (w2 * w3 + w0 * w1)
-        c22 = 1.0 - 2.0 * (w1 * w1 + w2 * w2)
-        out[i, 0] = c00 * d0 + c01 * d1 + c02 * d2
-        out[i, 1] = c10 * d0 + c11 * d1 + c12 * d2
-        out[i, 2] = c20 * d0 + c21 * d1 + c22 * d2
-        out[i, 3] = c00 * f0 + c01 * f1 + c02 * f2
-        out[i, 4] = c10 * f0 + c11 * f1 + c12 * f2
-        out[i, 5] = c20 * f0 + c21 * f1 + c22 * f2
+        out[i, 0], out[i, 1], out[i, 2] = body_to_ned(q_t[i], d0, d1, d2)
+        out[i, 3], out[i, 4], out[i, 5] = body_to_ned(q_t[i], f0, f1, f2)
     state[0], state[1], state[2] = p0, p1, p2
     state[3], state[4], state[5] = g0, g1, g2
     state[6], state[7], state[8] = u0, u1, u2

@@ -4,7 +4,10 @@ Every metric comes from the full-rate solution (one value per navigation update)
 chunk by chunk; storage settings change only what is stored. Stored series are block
 averages over ``1 / timeseries_rate_hz`` (a boxcar anti-alias filter before the
 decimation) with the minimum and maximum of each block beside them, so a plot shows the
-envelope of what happened between stored samples instead of an aliased sample of it.
+envelope of what happened between stored samples instead of an aliased sample of it. With a
+navigation rate below the filter rate the average is over every filter sample, not over the
+updates: each update brings its interval mean (:mod:`sins_sim._kernels.series`), without which
+content above the navigation Nyquist (dither lines, vibration) would fold into the block means.
 
 Derived figures (:func:`ramp_fit`, :func:`event_steps`) report what the data supports: a
 drift only when a ramp explains the attitude error (with its 95 % confidence interval), a
