@@ -24,13 +24,13 @@ between-epoch term measured from its own straight line between the epochs::
     C_nb,m (mean_l e(l) - e_m + k (e_m - e_{m-1})),      k = (n - 1) / (2 n)
 
 (the mean of the line through ``e_{m-1}`` and ``e_m`` over the interval is ``e_m - k (e_m - e_{m-1})``).
-:func:`interval_means` adds it to the interval mean of the line through the epochs' errors,
-``x_m - k (x_m - x_{m-1})``: the slowly varying part (``psi - C_nb e``: alignment, Schuler, coning drift) is linear across a 2.5 ms interval, the fast part
-is measured. The sum is the interval mean of ``psi(l)`` to the order above; a block mean of such rows is the block
-mean over every filter sample (a boxcar of the filter-rate error: an anti-alias filter before the stored rate) and
-lies at the block's centre in filter samples, as a full-rate navigation's would, instead of a mean over samples at
-the navigation rate, where content at and above the navigation Nyquist (the dither lines at 300-450 Hz,
-vibration) folds into the stored series.
+:func:`interval_means` adds it to the interval mean of the line through the epochs' errors, ``x_m - k (x_m -
+x_{m-1})``: the slowly varying part (``psi - C_nb e``: alignment, Schuler, coning drift) is linear across a 2.5 ms
+interval, the fast part is measured. The sum is the interval mean of ``psi(l)`` to the order above; a block mean of
+such rows is the block mean over every filter sample (a boxcar of the filter-rate error: an anti-alias filter
+before the stored rate) and lies at the block's centre in filter samples, as a full-rate navigation's would,
+instead of a mean over samples at the navigation rate, where content at and above the navigation Nyquist (the
+dither lines at 300-450 Hz, vibration) folds into the stored series.
 
 References
 ----------
