@@ -193,7 +193,8 @@ def _tones(x: np.ndarray, fs: float, f0: float, window: int):
     The dither is the largest peak of the Hann-windowed spectrum within :data:`STEP_SEARCH` of the nominal ``f0``
     (a unit's resonance differs from its nominal by per cent; under a rate table the dither is driven where the
     drive puts it), its frequency refined by the parabola through the log magnitudes of the peak's bin and its
-    neighbours (a Hann window's main lobe is a Gaussian in log magnitude to within 1 % of a bin; Grandke 1983).
+    neighbours (Gasior & Gonzalez 2004; a residual error of a fraction of a bin turns the phase by the same
+    angle in every window, which the step statistic of :func:`_phase_step` cancels).
     The other lines are the spectrum's local maxima of at least :data:`STEP_TONE_FRACTION` of the dither's peak
     (the table's motion seen through the suspension: 80 and 230 Hz lines as large as half the dither), at least
     ``1.5 fs / window`` from the dither and from each other (closer, a window cannot tell them apart), the
