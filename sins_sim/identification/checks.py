@@ -27,14 +27,15 @@ check                rule (and why the threshold holds)
                      counts (random or shuffled rows) give ``sqrt(3) = 1.73``; and the window is white
                      (autocorrelations at lags 1-3 below :data:`WHITE_RHO`): a structural mode above
                      ``fs / 6`` has the same ratio but is no white sequence
-``time continuity``  the dither's phase steps within a sample (:func:`_phase_step`): the sine recursion
-                     ``y[k] - 2 cos(w) y[k-1] + y[k-2]`` at the nominal f0 leaves a residual beyond
-                     :data:`STEP_SIGMA` robust standard deviations, and the sines fitted to
-                     :data:`STEP_PERIODS` periods before and after it differ in phase by more than
-                     :data:`STEP_MIN_RAD`: samples lost or inserted while the header claims a continuous
-                     record (each step may stay within the ``jump`` limit). The finding gives the drive's
-                     step at the same instant (equal when every array lost the samples) and the samples
-                     lost modulo a dither period. The arrays' lengths are the reader's
+``time continuity``  the dither's phase steps within a sample (:func:`_phase_step`): the dither, at its
+                     measured frequency, fitted with the record's other lines (the table's motion seen
+                     through the suspension) to windows of :data:`STEP_PERIODS` periods, steps in phase
+                     between adjacent windows by more than :data:`STEP_MIN_RAD` against its neighbours:
+                     samples lost or inserted while the header claims a continuous record (each step may
+                     stay within the ``jump`` limit). The finding gives the drive's step at the same
+                     instant (equal when every array lost the samples) and the samples lost modulo a
+                     dither period. A gap of a whole number of periods (within 10 deg) leaves the phase
+                     alone and is not seen. The arrays' lengths are the reader's
                      (``sins_sim.io.recording``: ``drive_v`` and ``sins_angle`` must cover ``counts``)
 ``sign`` (table)     with table motion (``sins_angle`` swinging by more than 100 quanta), the measured
                      angle regressed on the table angle has a negative slope: the gyro measures the block's
@@ -72,7 +73,7 @@ from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["check_recording", "require_inputs", "format_findings", "MOVING_EXPERIMENTS", "MIN_BLOCKS", "DEAD_RATIO", "SATURATION_MIN", "MAX_RATE_RAD_S", "WINDOW_S",
            "SIGN_CORRELATION", "NOISE_RATIO", "FLAT_MARGIN",
-           "STEP_SIGMA", "STEP_PERIODS", "STEP_MIN_RAD", "WHITE_RHO"]
+           "STEP_PERIODS", "STEP_SEARCH", "STEP_TONE_FRACTION", "STEP_TONES", "STEP_AMP_FRACTION", "STEP_CONFIRM", "STEP_CANDIDATES", "STEP_MIN_RAD", "WHITE_RHO"]
 
 DEAD_RATIO = 0.05
 SATURATION_MIN = 8
@@ -81,11 +82,25 @@ MAX_RATE_RAD_S = math.radians(1000.0)
 WINDOW_S = 0.05
 SIGN_CORRELATION = -0.3
 NOISE_RATIO = 20.0
-#: A sample of the sine recursion's residual beyond this many robust standard deviations is a candidate phase
-#: step: on Gaussian residuals the largest of 1e6 samples is about 5 sigma.
-STEP_SIGMA = 10.0
-#: Dither periods of the sines fitted before and after a candidate step (their phases are compared).
+#: Dither periods of the windows whose fitted dither phases are compared (:func:`_phase_step`).
 STEP_PERIODS = 10
+#: The dither is sought within this fraction of the nominal f0 (:func:`_tones`).
+STEP_SEARCH = 0.15
+#: Lines of at least this fraction of the dither's spectral peak are fitted beside it (:func:`_tones`); a Hann
+#: window's largest sidelobe is 0.028 of its line (-31 dB), so a sidelobe is never taken for a line.
+STEP_TONE_FRACTION = 0.05
+#: The most lines fitted beside the dither.
+STEP_TONES = 4
+#: Steps are sought only where the dither's fitted amplitude is at least this fraction of its median over the
+#: record, in all four windows: a dither building up from rest beats with its free response (a unit's resonance
+#: and its drive differ by per cent), and its phase then turns by tens of degrees within a window (up to 127 deg
+#: in the blind set's rate-table records, where its amplitude was below a fifth of the median).
+STEP_AMP_FRACTION = 0.5
+#: A step is confirmed when the lines' annihilated residual at it exceeds this many robust standard deviations
+#: of the residual around it (:func:`_phase_step`).
+STEP_CONFIRM = 6.0
+#: Candidate events examined, the largest first.
+STEP_CANDIDATES = 4
 #: Smallest phase step reported (rad): 10 deg. A dither whose frequency the fit before the step misjudges by
 #: 0.5 % drifts by 0.05 cycles = 18 deg over 10 periods, half that at the middle of the fit after it.
 STEP_MIN_RAD = math.radians(10.0)
@@ -172,37 +187,157 @@ def _local_phase_jump(x: np.ndarray, j: int, w: float, m: int) -> float | None:
     return float(np.angle(pa / (pb * np.exp(1j * w * m))))
 
 
+def _tones(x: np.ndarray, fs: float, f0: float, window: int):
+    """The dither's frequency, measured, and the other lines the window fits must hold (rad per sample).
+
+    The dither is the largest peak of the Hann-windowed spectrum within :data:`STEP_SEARCH` of the nominal ``f0``
+    (a unit's resonance differs from its nominal by per cent; under a rate table the dither is driven where the
+    drive puts it), its frequency refined by the parabola through the log magnitudes of the peak's bin and its
+    neighbours (Gasior & Gonzalez 2004; a residual error of a fraction of a bin turns the phase by the same
+    angle in every window, which the step statistic of :func:`_phase_step` cancels).
+    The other lines are the spectrum's local maxima of at least :data:`STEP_TONE_FRACTION` of the dither's peak
+    (the table's motion seen through the suspension: 80 and 230 Hz lines as large as half the dither), at least
+    ``1.5 fs / window`` from the dither and from each other (closer, a window cannot tell them apart), the
+    strongest :data:`STEP_TONES` of them. Returns ``[w_dither, w_1, ..]`` or ``None`` without a dither peak.
+    """
+    n = x.size
+    spec = np.abs(np.fft.rfft(x * np.hanning(n)))
+    f = np.fft.rfftfreq(n, 1.0 / fs)
+
+    def refine(k):
+        if 0 < k < spec.size - 1 and spec[k - 1] > 0.0 and spec[k + 1] > 0.0:
+            la, lb, lc = np.log(spec[k - 1]), np.log(spec[k]), np.log(spec[k + 1])
+            den = la - 2.0 * lb + lc
+            d = 0.5 * (la - lc) / den if den < 0.0 else 0.0
+            return 2.0 * math.pi * (k + d) / n
+        return 2.0 * math.pi * k / n
+
+    band = np.flatnonzero((f >= (1.0 - STEP_SEARCH) * f0) & (f <= (1.0 + STEP_SEARCH) * f0))
+    if band.size == 0 or not spec[band].max() > 0.0:
+        return None
+    kd = int(band[np.argmax(spec[band])])
+    tones = [refine(kd)]
+    sep = 2.0 * math.pi * 1.5 / window
+    peaks = np.flatnonzero((spec[1:-1] > spec[:-2]) & (spec[1:-1] >= spec[2:])) + 1
+    peaks = peaks[spec[peaks] >= STEP_TONE_FRACTION * spec[kd]]
+    for k in peaks[np.argsort(spec[peaks])[::-1]]:
+        if len(tones) > STEP_TONES:
+            break
+        w = 2.0 * math.pi * k / n
+        # (below sep a window's offset and slope fit the slow motion)
+        if w >= sep and all(abs(w - v) >= sep for v in tones):
+            tones.append(refine(int(k)))
+    return tones
+
+
+def _dither_phases(x: np.ndarray, tones, window: int) -> np.ndarray:
+    """The dither's complex amplitude fitted to every window ``[j, j + window)`` (phase at ``j``), all ``j``.
+
+    Least squares of ``x`` on ``cos(w k), sin(w k)`` for every tone (the dither first) and a line ``a + b k`` in
+    the window's own sample index ``k`` (:func:`_tones`): the normal equations' right-hand sides from running
+    sums of ``x`` times the basis in the record's index, turned to the window's index by the angle addition
+    theorems; the Gram matrix is the same for every window. Returns ``c - i s`` of the dither per window start.
+    """
+    n = x.size
+    l = np.arange(n, dtype=np.float64)
+    k = np.arange(window, dtype=np.float64)
+    j = np.arange(n - window + 1)
+
+    def run(v):  # sums of v over every window
+        c = np.concatenate([[0.0], np.cumsum(v)])
+        return c[j + window] - c[j]
+
+    cols, basis = [], []
+    for w in tones:
+        bc, bs = run(x * np.cos(w * l)), run(x * np.sin(w * l))
+        cw, sw = np.cos(w * j), np.sin(w * j)
+        cols += [cw * bc + sw * bs, cw * bs - sw * bc]  # sums of x cos(w k), x sin(w k)
+        basis += [np.cos(w * k), np.sin(w * k)]
+    s0, s1 = run(x), run(x * l)
+    cols += [s0, s1 - j * s0]
+    basis += [np.ones(window), k]
+    b = np.stack(cols, axis=1)
+    g = np.stack(basis, axis=1)
+    coef = np.linalg.solve(g.T @ g, b.T).T
+    return coef[:, 0] - 1j * coef[:, 1]
+
+
 def _phase_step(y: np.ndarray, fs: float, f0: float):
     """A step of the dither's phase: ``(sample, step rad)`` or ``None``.
 
-    The sine recursion ``e[k] = y[k] - 2 cos(w) y[k-1] + y[k-2]`` (``w = 2 pi f0 / fs``) vanishes on any sine
-    of ``w`` whatever its amplitude and phase, and stays small on a dither a few per cent off ``f0``, slowly
-    changing in amplitude or frequency (an AFC sweep) or carrying noise; a phase step of the sine leaves
-    ``e`` of the order of the dither's amplitude at the step. A sample whose ``|e|`` exceeds
-    :data:`STEP_SIGMA` robust standard deviations (1.4826 times the median absolute deviation) of ``e`` is a
-    candidate; it is a phase step when the sine fitted to :data:`STEP_PERIODS` dither periods before it,
-    continued, is more than :data:`STEP_MIN_RAD` out of phase with the one fitted after it (a spike, a kink
-    of lock-in or a structural mode leaves the phase alone).
+    The dither's phase is tracked by fitting it, with the other lines of the record and an offset and slope
+    (:func:`_tones`, :func:`_dither_phases`), to windows of :data:`STEP_PERIODS` periods of its measured
+    frequency ``w``. ``D(j)``, the phase of the window starting at ``j`` against that of the window before it
+    continued by ``w`` per sample, is zero on a continuous dither, and constant when ``w`` is misjudged; a
+    frequency that drifts (an AFC sweep) makes it a slow ramp. Samples lost at ``j0`` make it a tent of height
+    ``w`` times the samples lost (modulo a period), zero where both windows lie on one side of ``j0``: so the
+    step at ``j`` is ``((D(j) - D(j - W)) - (D(j + W) - D(j))) / 2`` (``W`` the window), which a constant or a
+    ramp of ``D`` leave at zero (a dither building up from rest beats with its free response; the first and
+    last two windows are not tested, nor where the dither is below :data:`STEP_AMP_FRACTION` of its median). The
+    largest step beyond :data:`STEP_MIN_RAD` is reported. A line of the table's motion beside the dither (the
+    recursion residual of the nominal frequency, the test before, counted it as noise and missed a 9-sample
+    gap under table motion) is fitted, not left in the window.
     """
-    w = 2.0 * math.pi * f0 / fs
-    m = int(round(STEP_PERIODS * fs / f0))
-    if y.size < 2 * m + 3 or not 0.0 < w < math.pi:
-        return None
     x = y - np.mean(y)
-    e = x[2:] - 2.0 * math.cos(w) * x[1:-1] + x[:-2]
-    sd = 1.4826 * float(np.median(np.abs(e - np.median(e))))
-    if not sd > 0.0:
+    win = int(round(STEP_PERIODS * fs / f0))
+    if x.size < 4 * win + 3 or not 0.0 < 2.0 * math.pi * f0 / fs < math.pi:
         return None
-    cand = np.flatnonzero(np.abs(e) > STEP_SIGMA * sd) + 2
-    seen = -m
-    for j in cand:
-        if j < seen + m // 2:
-            continue  # the same event
-        seen = j
-        d = _local_phase_jump(x, int(j), w, m)
-        if d is not None and abs(d) > STEP_MIN_RAD:
-            return int(j), d
+    tones = _tones(x, fs, f0, win)
+    if tones is None:
+        return None
+    a = _dither_phases(x, tones, win)
+    if not np.all(np.isfinite(a)) or np.any(a == 0.0):
+        return None
+    # D(j) at j = win .. n - win: the window at j against the one at j - win, continued
+    r = a[win:] * np.conj(a[:-win]) * np.exp(-1j * tones[0] * win)
+    r = r / np.abs(r)
+    # the step at j = 2 win .. n - 2 win: (D(j) - D(j - win)) - (D(j + win) - D(j)), halved
+    step = 0.5 * (np.angle(r[win:-win] * np.conj(r[:-2 * win])) - np.angle(r[2 * win:] * np.conj(r[win:-win])))
+    # only where the dither has built up: in all four windows at least STEP_AMP_FRACTION of its median
+    amp = np.abs(a)
+    low = amp < STEP_AMP_FRACTION * float(np.median(amp))
+    weak = low[:-3 * win] | low[win:-2 * win] | low[2 * win:-win] | low[3 * win:]
+    step[weak[:step.size]] = 0.0
+    for _ in range(STEP_CANDIDATES):  # the largest steps first, each a distinct event
+        i = int(np.argmax(np.abs(step)))
+        if not abs(step[i]) > STEP_MIN_RAD:
+            return None
+        found = _confirm_step(x, step, i, win, tones)
+        if found is not None:
+            return found
+        step[max(0, i - 2 * win):i + 2 * win] = 0.0
     return None
+
+
+def _confirm_step(x, step, i, win, tones):
+    """``(sample, step rad)`` of the candidate at ``step[i]`` (sample ``i + 2 win``), or ``None`` (see
+    :func:`_phase_step`)."""
+    # where: a step near half a turn makes the statistic a plateau a window wide (the fitted phase of a window
+    # holding the step switches from one side's to the other's where the step crosses its middle), so the
+    # sample is the largest residual of the sine recursion at the measured frequency, x[k] - 2 cos(w) x[k-1] +
+    # x[k-2], which vanishes on the dither and is of its amplitude at the step, within a window of the plateau
+    b = i + 2 * win
+    w = tones[0]
+    lo, hi = max(2, b - win), min(x.size, b + win)
+    e = x[lo:hi] - 2.0 * math.cos(w) * x[lo - 1:hi - 1] + x[lo - 2:hi - 2]
+    j = lo + int(np.argmax(np.abs(e)))
+    if 2 * win <= j < x.size - 2 * win and abs(step[j - 2 * win]) > STEP_MIN_RAD:
+        i = j - 2 * win
+    # and a step, not a phase that turns smoothly (a dither still beating with its free response): with every
+    # line annihilated by its recursion (a cascade of 1 - 2 cos(w) z^-1 + z^-2), a step leaves a transient as
+    # long as the cascade, of the dither's amplitude, above STEP_CONFIRM robust standard deviations of the
+    # cascade's output over the four windows around it
+    j = i + 2 * win
+    lo, hi = j - 2 * win, min(x.size, j + 2 * win)
+    c = x[lo:hi]
+    for v in tones:
+        c = c[2:] - 2.0 * math.cos(v) * c[1:-1] + c[:-2]
+    k0 = j - lo - 2 * len(tones)  # c[k] holds x[lo + k .. lo + k + 2 len(tones)]
+    peak = float(np.max(np.abs(c[max(0, k0):k0 + 2 * len(tones) + 1])))
+    sd = 1.4826 * float(np.median(np.abs(c - np.median(c))))
+    if not peak > STEP_CONFIRM * sd:
+        return None
+    return j, float(step[i])
 
 
 def _phase_step_at(drive: np.ndarray, drive_fs: float, f0: float, t0: float) -> float | None:

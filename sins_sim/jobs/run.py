@@ -54,6 +54,12 @@ DEFINITIONS = {
         "the drift of each filter's increments per body axis: the slope of its gyro-angle error (output minus the "
         "true increments, accumulated), where a ramp explains it; a gyro bias shows here"),
     "excess_over_ideal": "a filter's cost: the norm of the difference of its and ideal's final error vectors",
+    "timeseries": (
+        "timeseries.npz (and the figures, drifts, beats and steps read from it): per stored interval the mean of the "
+        "error over every filter sample, never over the navigation updates alone (below the filter rate each "
+        "update's attitude and velocity error gains its between-update part, measured from the filter-rate "
+        "gyro-angle and accelerometer errors; position takes the line between updates), with the min/max envelope "
+        "of those means and of the errors at the updates; 'rms', 'max' and 'final' are taken at the updates"),
     "allan": ("noise terms read only on the longest span at rest, a line removed, where the power-law model "
               "describes the curve and the term's region shows its own slope; otherwise null with the reason"),
     "filter_report": ("what a plug-in reports about itself (lms_stripper: its final gain matrices E and F in rad "

@@ -4,7 +4,10 @@ Every metric comes from the full-rate solution (one value per navigation update)
 chunk by chunk; storage settings change only what is stored. Stored series are block
 averages over ``1 / timeseries_rate_hz`` (a boxcar anti-alias filter before the
 decimation) with the minimum and maximum of each block beside them, so a plot shows the
-envelope of what happened between stored samples instead of an aliased sample of it.
+envelope of what happened between stored samples instead of an aliased sample of it. With a
+navigation rate below the filter rate the average is over every filter sample, not over the
+updates: each update brings its interval mean (:mod:`sins_sim._kernels.series`), without which
+content above the navigation Nyquist (dither lines, vibration) would fold into the block means.
 
 Derived figures (:func:`ramp_fit`, :func:`event_steps`) report what the data supports: a
 drift only when a ramp explains the attitude error (with its 95 % confidence interval), a
@@ -52,21 +55,34 @@ class ErrorSeries:
 
     Rows arrive in chunks; a block is stored when complete, so chunking does not change the
     stored series. The block's time is its centre.
+
+    With a multi-rate navigation (``n_sub > 1``) each update also brings its interval mean (the error averaged
+    over the update's filter samples, :func:`sins_sim._kernels.series.interval_fast_means`): the block means are
+    then those of the interval means, i.e. of the error at every filter sample, and the envelope spans both the
+    errors at the updates and the interval means (so that it holds the mean).
     """
 
-    def __init__(self, every: int, dt_s: float, t0_s: float):
+    def __init__(self, every: int, dt_s: float, t0_s: float, samples_per_update: int = 1):
         self.every = max(1, int(every))
+        self.n_sub = max(1, int(samples_per_update))
         self.dt = float(dt_s)
         self.t0 = float(t0_s)
         self._acc = np.zeros(1 + 3 * N_COLS)
+        self._acc_epochs = np.zeros(1 + 3 * N_COLS)
         self._n_blocks = 0
         self._mean, self._lo, self._hi = [], [], []
 
-    def add(self, rows: np.ndarray):
-        """Add error rows ``(n, N_COLS)``."""
+    def add(self, rows: np.ndarray, interval_means: np.ndarray | None = None):
+        """Add error rows ``(n, N_COLS)`` at the updates and, optionally, their interval means (same shape)."""
         nb_max = (rows.shape[0] + int(self._acc[0])) // self.every
         out = [np.empty((nb_max, N_COLS)) for _ in range(3)]
-        m = ktruth.block_stats(np.ascontiguousarray(rows), self.every, self._acc, *out)
+        src = rows if interval_means is None else interval_means
+        m = ktruth.block_stats(np.ascontiguousarray(src), self.every, self._acc, *out)
+        if interval_means is not None:  # the envelope of the errors at the updates joins that of the means
+            ep = [np.empty((nb_max, N_COLS)) for _ in range(3)]
+            ktruth.block_stats(np.ascontiguousarray(rows), self.every, self._acc_epochs, *ep)
+            np.minimum(out[1], ep[1], out=out[1])
+            np.maximum(out[2], ep[2], out=out[2])
         if m:
             self._mean.append(out[0][:m])
             self._lo.append(out[1][:m])
@@ -76,7 +92,10 @@ class ErrorSeries:
     def arrays(self) -> dict:
         """``t_s`` and, per channel, ``NAME``, ``NAME_min``, ``NAME_max`` as arrays."""
         nb = self._n_blocks
-        t = self.t0 + (self.every * np.arange(nb) + 0.5 * (self.every - 1) + 1) * self.dt
+        if self.n_sub == 1:  # the centre of the block's updates
+            t = self.t0 + (self.every * np.arange(nb) + 0.5 * (self.every - 1) + 1) * self.dt
+        else:  # the centre of the block's filter samples (the means are over them)
+            t = self.t0 + (self.every * np.arange(nb) + 0.5 * self.every + 0.5 / self.n_sub) * self.dt
         out = {"t_s": t}
         for suffix, src in (("", self._mean), ("_min", self._lo), ("_max", self._hi)):
             a = np.concatenate(src) if src else np.zeros((0, N_COLS))
