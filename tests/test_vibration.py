@@ -252,15 +252,31 @@ def test_grid_angle_rate_is_one_pass_of_both():
     h = 1.0 / FS
     angle, rate = vib.grid_angle_rate(99, 50_000, h)
     t = np.arange(100, 50_100) * h
-    assert_array_equal(angle, vib.gyro_angle(t))
-    assert_array_equal(rate, vib.body_rate(t))
+    assert angle.flags.f_contiguous and rate.flags.f_contiguous  # axis-major, as the engine adds to it in place
+    # 72 kHz is 5 steps per 14.4 kHz node segment: the grid's positions are the exact (m mod 5) / 5, the
+    # general kernel's those of the rounded times m h, which differ by at most eps t (the rounding of
+    # m h, eps t / 2, and of the position in the segment, eps / fs); the values by that times the
+    # derivative (bounded by 1.5 times the largest finite difference on the grid) plus their own
+    # rounding (8 eps of the largest value: about 10 operations each)
+    dt = np.finfo(float).eps * t[-1]
+    accel = np.abs(np.diff(rate, axis=0)).max() / h
+    ref_angle, ref_rate = vib.gyro_angle(t), vib.body_rate(t)
+    eps8 = 8 * np.finfo(float).eps
+    assert_allclose(angle, ref_angle, rtol=0, atol=np.abs(rate).max() * dt + eps8 * np.abs(ref_angle).max())
+    assert_allclose(rate, ref_rate, rtol=0, atol=1.5 * accel * dt + eps8 * np.abs(ref_rate).max())
+    assert not np.array_equal(rate, ref_rate)  # the grid path was taken (exact positions, other roundings)
+    a0, r0 = vib.grid_angle_rate(-1, 1, h)  # t = 0, a node: the same operations as the general kernel
+    assert_array_equal(a0, 0.0)
+    assert_array_equal(r0, vib.body_rate([0.0]))
     parts = [vib.grid_angle_rate(i0, i1 - i0, h) for i0, i1 in uneven_bounds(50_000, SIZES)]
     assert_array_equal(np.concatenate([p[0] for p in parts]), vib.grid_angle_rate(0, 50_000, h)[0])
     assert_array_equal(np.concatenate([p[1] for p in parts]), vib.grid_angle_rate(0, 50_000, h)[1])
     mot = Coning(ARCMIN, 100.0) + vib  # a sum uses it through its parts
     a2, r2 = mot.grid_angle_rate(99, 1000, h)
-    assert_allclose(a2, mot.gyro_angle(t[:1000]), rtol=0, atol=1e-17)
-    assert_allclose(r2, mot.body_rate(t[:1000]), rtol=0, atol=1e-14)
+    # the coning's recurrence to 1e-17 rad and 1e-14 rad/s, plus the vibration's grid positions (above)
+    dt = np.finfo(float).eps * t[999]
+    assert_allclose(a2, mot.gyro_angle(t[:1000]), rtol=0, atol=1e-17 + np.abs(rate).max() * dt)
+    assert_allclose(r2, mot.body_rate(t[:1000]), rtol=0, atol=1e-14 + 1.5 * accel * dt + eps8 * np.abs(rate).max())
 
 
 def test_random_access_equals_sequential():

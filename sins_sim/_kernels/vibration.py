@@ -221,3 +221,56 @@ def hermite5_value_slope(t, fs, n0, nodes, col, offset, value, slope):
         for a in range(3):
             value[j, a] = _value(c, a, u) - offset[a]
             slope[j, a] = fs * _slope(c, a, u)
+
+
+@jit
+def hermite5_grid(i0, r, fs, n0, nodes, col, offset, value, slope):
+    """:func:`hermite5_value_slope` on a grid of ``r`` points per segment, axis-major, positions exact.
+
+    Point ``j`` is step ``m = i0 + 1 + j`` of the grid ``t_m = m / (r fs)`` (``r`` an integer: the
+    plant rate a multiple of the node rate), in segment ``k = floor(m / r)`` at ``u = (m mod r) / r``:
+    the exact position of ``t_m``, taken from the integers instead of from the rounded time (the
+    general kernels' :func:`_segment` restores the rounding of ``t fs`` but not that of ``t`` itself,
+    ``eps t / 2``: at ``t = 3600`` s a difference of ``rate' 4e-13 s`` in the rate). Each segment's
+    coefficients are formed once for its ``r`` points, axis by axis; the Horner polynomials are
+    :func:`_value` and :func:`_slope`, so the angle is still the exact integral of the rate.
+
+    Parameters
+    ----------
+    i0 : int
+        Step before the first point (``m >= 0``).
+    r : int
+        Grid points per node segment.
+    fs : float
+        Node rate (Hz).
+    n0, nodes, col
+        As for :func:`hermite5_value`; the segments ``floor((i0 + 1) / r) .. floor((i0 + n) / r)``
+        and the node after the last must be columns of ``nodes``.
+    offset : float64[3]
+        Subtracted from the value of each axis.
+    value, slope : float64[3, n]
+        Filled with ``x(t_m) - offset`` and ``dx/dt`` (rows: axes; ``n`` points).
+    """
+    n = value.shape[1]
+    if n == 0:
+        return
+    us = np.empty(r)
+    for p in range(r):
+        us[p] = p / r
+    c = np.empty(18)
+    m_first = i0 + 1
+    k_first = m_first // r
+    k_last = (i0 + n) // r
+    for a in range(3):
+        b = 6 * a
+        off = offset[a]
+        for k in range(k_first, k_last + 1):
+            i = k - n0 + col
+            c[b], c[b + 1], c[b + 2], c[b + 3], c[b + 4], c[b + 5] = _coefficients(nodes, a, i)
+            p_lo = m_first - k * r if k == k_first else 0
+            p_hi = i0 + n - k * r + 1 if k == k_last else r
+            j0 = k * r - m_first
+            for p in range(p_lo, p_hi):
+                u = us[p]
+                value[a, j0 + p] = _value(c, a, u) - off
+                slope[a, j0 + p] = fs * _slope(c, a, u)

@@ -186,7 +186,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim._kernels.vibration import hermite5_slope, hermite5_value, hermite5_value_slope
+from sins_sim._kernels.vibration import hermite5_grid, hermite5_slope, hermite5_value, hermite5_value_slope
 from sins_sim.models.motion.base import (_STATIC, Motion3D, _cos_diff, _loglog_segment_integral, _psd_table, _set,
                                          _vec3, radd_zero, superpose)
 from sins_sim.models.motion.specific_force import STANDARD_GRAVITY
@@ -682,6 +682,32 @@ class _Shaper:
         """``(x(t) - x(0), x'(t))`` in one pass, bit for bit :meth:`increment` from 0 and :meth:`slope`."""
         return self._evaluate(hermite5_value_slope, t, self.value0(), outputs=2)
 
+    def grid_since_zero_and_slope(self, i0, n, r):
+        """:meth:`since_zero_and_slope` on the grid ``t_m = m / (r fs)``, ``m = i0 + 1 .. i0 + n``, axis-major.
+
+        ``r`` (an integer) grid points per node segment; positions in a segment from the integers
+        (:func:`~sins_sim._kernels.vibration.hermite5_grid`), so the values equal those at the rounded
+        times to rounding, and are a pure function of ``m``: chunks reproduce one call bit for bit.
+        Returns two new ``(n, 3)`` arrays in Fortran order (each axis contiguous).
+        """
+        value = np.empty((3, n))
+        slope = np.empty((3, n))
+        if n == 0 or not self.live:
+            value[:] = 0.0
+            slope[:] = 0.0
+            return value.T, slope.T
+        fs, nb = self.d.fs, self.d.block
+        if not (-_MAX_BLOCK <= (i0 + 1) // r // nb and (i0 + n) // r // nb < _MAX_BLOCK):
+            raise ValueError(f"{self.owner}.t: |t| must stay below {_MAX_BLOCK * nb / fs:.3g} s")
+        offset = self.value0()
+        step = r * nb  # at most one block of segments per pass: the nodes of two blocks at most
+        for j in range(0, n, step):
+            m = min(step, n - j)
+            k_lo, k_hi = (i0 + 1 + j) // r, (i0 + j + m) // r
+            hermite5_grid(i0 + j, r, fs, k_lo, *self._node_range(k_lo, k_hi), offset, value[:, j:j + m],
+                          slope[:, j:j + m])
+        return value.T, slope.T
+
     def value0(self):
         """``x(0)`` (3,), computed once."""
         if self._value0 is None:
@@ -901,8 +927,14 @@ class FilteredNoiseVibration(_FilteredNoise, Motion3D):
     def grid_angle_rate(self, i0: int, n: int, h: float):
         """Gyro angles and body rates on the grid ``t_j = (i0 + 1 + j) h``, ``j < n`` (the plant steps).
 
-        One kernel pass for both (the engine's fast path): equal bit for bit
-        to ``gyro_angle(t), body_rate(t)``.
+        One kernel pass for both (the engine's fast path). When ``1 / h`` is a
+        multiple ``r`` of the node rate (72 kHz and 14.4 kHz: ``r = 5``) each
+        segment's polynomial is formed once for its ``r`` steps and the steps'
+        positions in it are the exact ``(m mod r) / r`` (``m = i0 + 1 + j``):
+        equal to ``gyro_angle(t), body_rate(t)`` to the rounding of ``t``
+        (``eps t / 2``), a pure function of the step index (chunks reproduce
+        one call bit for bit), axis-major (Fortran order) arrays. Otherwise
+        the general kernel at ``t``: equal bit for bit.
 
         Parameters
         ----------
@@ -918,8 +950,13 @@ class FilteredNoiseVibration(_FilteredNoise, Motion3D):
         angle, rate : ndarray, shape (n, 3)
             Gyro angles (rad) and body rates (rad/s).
         """
+        noise = self._noise()
+        per_node = 1.0 / (h * noise.d.fs)  # plant steps per node segment
+        r = round(per_node)
+        if r >= 1 and abs(per_node - r) <= 1e-9 * r:  # the plant rate a multiple of the node rate
+            return noise.grid_since_zero_and_slope(i0, n, r)
         t = np.arange(i0 + 1, i0 + n + 1) * h
-        return self._noise().since_zero_and_slope(t)
+        return noise.since_zero_and_slope(t)
 
     def _fixed_axis(self):
         live = [i for i in range(3) if self.axis_weights[i] != 0.0]
