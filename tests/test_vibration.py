@@ -411,6 +411,38 @@ def test_linear_random_vibration():
     assert abs(vel.mean()) < rms_vel
 
 
+def test_linear_sample_grid_is_the_truth_at_exact_positions():
+    """The mission truth's pass (acceleration at the Gauss-Legendre nodes and sample ends, velocity increments
+    and end velocities at 7.2 kHz) against the public methods at the rounded times, chunked against whole."""
+    lin = LinearRandomVibration(ENGINE_G2, axis_weights=(1.0, 0.3, 0.7), seed=21)
+    h, inner = 1.0 / 7200.0, np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
+    k0, n = 7200 * 3600 - 17, 60_000  # an hour in, across a block end (7.96 s)
+    acc, dv, vel = lin.sample_grid(k0, n, h, inner)
+    ref_acc, ref_dv, ref_vel = Translation.sample_grid(lin, k0, n, h, inner)  # the default: rounded times
+    # positions differ by the rounding of t (eps t): values by that times the derivative (bounded by 1.5 times
+    # the largest finite difference between the grid's points, spaced at most 0.39 h) plus 8 eps of the values
+    dt, eps8 = np.finfo(float).eps * (k0 + n) * h, 8 * np.finfo(float).eps
+    jerk = np.abs(np.diff(acc.reshape(-1, 3), axis=0)).max() / (0.39 * h)
+    assert_allclose(acc, ref_acc, rtol=0, atol=1.5 * jerk * dt + eps8 * np.abs(acc).max())
+    assert_allclose(vel, ref_vel, rtol=0, atol=np.abs(acc).max() * dt + eps8 * np.abs(vel).max())
+    assert_allclose(dv, ref_dv, rtol=0, atol=2 * np.abs(acc).max() * dt + eps8 * np.abs(vel).max())
+    # the increments are differences of consecutive end velocities (node values): they telescope exactly
+    start = lin.sample_grid(k0 - 1, 1, h, inner)[2][0]
+    assert_array_equal(dv[1:], np.diff(vel, axis=0))
+    assert_array_equal(dv[0], vel[0] - start)
+    # a pure function of the sample index: uneven chunks reproduce the whole
+    fresh = LinearRandomVibration(ENGINE_G2, axis_weights=(1.0, 0.3, 0.7), seed=21)
+    parts = [fresh.sample_grid(k0 + i0, i1 - i0, h, inner) for i0, i1 in uneven_bounds(n, SIZES)]
+    for q in range(3):
+        assert_array_equal(np.concatenate([p[q] for p in parts]), (acc, dv, vel)[q])
+    # a sum passes it to its parts
+    s = LinearSines((1.0, 0.0, 2.0), 50.0, 0.0)
+    both = s + lin
+    for got, a, b in zip(both.sample_grid(k0, 100, h, inner), s.sample_grid(k0, 100, h, inner),
+                         lin.sample_grid(k0, 100, h, inner)):
+        assert_array_equal(got, (np.zeros_like(a) + a) + b)
+
+
 def test_translation_sum():
     s = LinearSines((1.0, 0.0, 0.0), 50.0, 0.0)
     r = LinearRandomVibration(ENGINE_G2, seed=2)

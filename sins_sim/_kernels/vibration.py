@@ -274,3 +274,61 @@ def hermite5_grid(i0, r, fs, n0, nodes, col, offset, value, slope):
                 u = us[p]
                 value[a, j0 + p] = _value(c, a, u) - off
                 slope[a, j0 + p] = fs * _slope(c, a, u)
+
+
+@jit
+def hermite5_samples(k0, q, cs, fs, n0, nodes, col, slope, value):
+    """The derivative at fixed points of each sample of a grid ``q`` times coarser than the nodes, and the
+    value at the samples' ends.
+
+    Sample ``j`` spans ``[(k0 + j) H, (k0 + j + 1) H]`` with ``H = q / fs`` (``q`` an integer: the node
+    rate a multiple of the sample rate), i.e. node segments ``(k0 + j) q .. (k0 + j + 1) q - 1``; its point
+    ``g`` at ``(k0 + j + cs[g]) H`` lies in segment ``(k0 + j) q + floor(cs[g] q)`` at
+    ``u = cs[g] q - floor(cs[g] q)``, from the integers (as :func:`hermite5_grid`: the exact positions, not
+    those of rounded times). The value at a sample boundary ``(k0 + j) H`` is node ``(k0 + j) q`` itself
+    (``u = 0``: the polynomial's ``c_0``), so that differences of consecutive values are the exact integral
+    of the derivative over each sample, and telescope.
+
+    Parameters
+    ----------
+    k0 : int
+        First sample.
+    q : int
+        Node segments per sample.
+    cs : float64[G]
+        Points within a sample as fractions of it, ``0 <= cs[g] <= 1``.
+    fs : float
+        Node rate (Hz).
+    n0, nodes, col
+        As for :func:`hermite5_value`; segments ``k0 q .. (k0 + n) q`` must be columns of ``nodes``
+        with the node after the last.
+    slope : float64[n, G, 3]
+        Filled with ``dx/dt`` at the points.
+    value : float64[n + 1, 3]
+        Filled with ``x`` at the boundaries ``(k0 + j) H``, ``j = 0 .. n``.
+    """
+    n = slope.shape[0]
+    ng = cs.shape[0]
+    shift = np.empty(ng, dtype=np.int64)
+    us = np.empty(ng)
+    for g in range(ng):
+        x = cs[g] * q
+        s = math.floor(x)
+        shift[g] = int(s)
+        us[g] = x - s
+    c = np.empty(18)
+    last = -1
+    for j in range(n):
+        base = (k0 + j) * q - n0 + col
+        for g in range(ng):
+            i = base + shift[g]
+            if i != last:
+                _load(nodes, i, c)
+                last = i
+            u = us[g]
+            for a in range(3):
+                slope[j, g, a] = fs * _slope(c, a, u)
+    for j in range(n + 1):
+        i = (k0 + j) * q - n0 + col
+        for a in range(3):
+            value[j, a] = np.float64(nodes[0, a, i])

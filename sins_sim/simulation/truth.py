@@ -329,12 +329,12 @@ class MissionTruth:
             phib = np.ascontiguousarray(self.block.gyro_angle(grid).reshape(n, 4, 3))
         if not self._grid_attitude:  # closed forms, or the Magnus integration of the motion itself
             q_vb = np.ascontiguousarray(self._att.advance(t_end))
-        if self.translation is not None and navigation:
-            acc = np.ascontiguousarray(self.translation.accel(grid).reshape(n, 4, 3))
-            dv_vib = np.ascontiguousarray(self.translation.velocity_increment(t_start, t_end))
+        if self.translation is not None and navigation:  # acceleration at the nodes, increments, end velocities
+            acc, dv_vib, v_vib = self.translation.sample_grid(k_prev, n, self.hf, GL_NODES)
         else:
             acc = np.zeros((0, 4, 3))
             dv_vib = np.zeros((0, 3))
+            v_vib = None
         dth = np.empty((n, 3))
         dv = np.empty((n if navigation else 0, 3))
         s_nodes = np.empty((n + 1, 3))
@@ -362,13 +362,14 @@ class MissionTruth:
             return None, angle, rate
         phi = phib[:, 3] + s_nodes[1:]
         lat, lon, h = f(end, "lat_rad"), f(end, "lon_rad"), f(end, "h_m")
-        v_ned = self._v_ned(f(end, "v_ned_m_s"), q_nv, t_end)
+        v_ned = self._v_ned(f(end, "v_ned_m_s"), q_nv, v_vib)
         if first:
             q0 = f(row0, "q_nv")
             lat = np.concatenate((f(row0, "lat_rad"), lat))
             lon = np.concatenate((f(row0, "lon_rad"), lon))
             h = np.concatenate((f(row0, "h_m"), h))
-            v_ned = np.concatenate((self._v_ned(f(row0, "v_ned_m_s"), q0, np.zeros(1)), v_ned))
+            v0 = None if self.translation is None else self.translation.velocity(np.zeros(1))
+            v_ned = np.concatenate((self._v_ned(f(row0, "v_ned_m_s"), q0, v0), v_ned))
             q_nb = np.concatenate((q0, q_nb))
             dth = np.concatenate((np.zeros((1, 3)), dth))
             dv = np.concatenate((np.zeros((1, 3)), dv))
@@ -404,9 +405,11 @@ class MissionTruth:
         lin1 = np.ascontiguousarray(np.diff(acc, axis=0).T * self.fp)
         return lin0, lin1
 
-    def _v_ned(self, v, q_nv, t):
-        if self.translation is None:
+    @staticmethod
+    def _v_ned(v, q_nv, v_vib):
+        """The vehicle's NED velocity plus the vibration's velocity ``v_vib`` (vehicle axes) rotated by ``q_nv``."""
+        if v_vib is None:
             return v
         out = np.empty((q_nv.shape[0], 3))
-        ktruth.add_rotated(np.ascontiguousarray(v), np.ascontiguousarray(q_nv), self.translation.velocity(t), out)
+        ktruth.add_rotated(np.ascontiguousarray(v), np.ascontiguousarray(q_nv), np.ascontiguousarray(v_vib), out)
         return out

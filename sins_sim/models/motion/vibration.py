@@ -186,7 +186,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim import _validate as v
-from sins_sim._kernels.vibration import hermite5_grid, hermite5_slope, hermite5_value, hermite5_value_slope
+from sins_sim._kernels.vibration import (hermite5_grid, hermite5_samples, hermite5_slope, hermite5_value,
+                                         hermite5_value_slope)
 from sins_sim.models.motion.base import (_STATIC, Motion3D, _cos_diff, _loglog_segment_integral, _psd_table, _set,
                                          _vec3, radd_zero, superpose)
 from sins_sim.models.motion.specific_force import STANDARD_GRAVITY
@@ -708,6 +709,27 @@ class _Shaper:
                           slope[:, j:j + m])
         return value.T, slope.T
 
+    def samples(self, k0, n, q, cs):
+        """Derivative at the points ``cs`` of samples ``k0 .. k0 + n - 1`` of the grid ``q / fs`` and the value at
+        their ``n + 1`` boundaries (:func:`~sins_sim._kernels.vibration.hermite5_samples`): ``(n, len(cs), 3)``
+        and ``(n + 1, 3)``; a pure function of the sample index (chunks reproduce one call bit for bit)."""
+        slope = np.empty((n, len(cs), 3))
+        value = np.empty((n + 1, 3))
+        if not self.live:
+            slope[:] = 0.0
+            value[:] = 0.0
+            return slope, value
+        fs, nb = self.d.fs, self.d.block
+        if not (-_MAX_BLOCK <= k0 * q // nb and (k0 + n) * q // nb < _MAX_BLOCK):
+            raise ValueError(f"{self.owner}.t: |t| must stay below {_MAX_BLOCK * nb / fs:.3g} s")
+        cs = np.ascontiguousarray(cs, dtype=np.float64)
+        step = max(1, nb // q - 1)  # at most one block of segments per pass
+        for j in range(0, max(n, 1), step):
+            m = min(step, n - j)
+            lo, hi = (k0 + j) * q, (k0 + j + m) * q
+            hermite5_samples(k0 + j, q, cs, fs, lo, *self._node_range(lo, hi), slope[j:j + m], value[j:j + m + 1])
+        return slope, value
+
     def value0(self):
         """``x(0)`` (3,), computed once."""
         if self._value0 is None:
@@ -1053,6 +1075,40 @@ class Translation(abc.ABC):
         fb, _ = _times("translation", tb)
         return self._velocity_increment(fa, fb).reshape(shape + (3,))
 
+    def sample_grid(self, k0: int, n: int, h: float, inner):
+        """What the mission truth needs of the vibration over samples ``k0 + 1 .. k0 + n`` of period ``h``.
+
+        Sample ``k`` spans ``[(k - 1) h, k h]``. Subclasses whose node grid divides ``h`` override this with
+        positions from the integers (:class:`LinearRandomVibration`); this default evaluates the public methods
+        at the rounded times ``t_end = k h``, ``t_start = t_end - h``.
+
+        Parameters
+        ----------
+        k0 : int
+            The sample before the first.
+        n : int
+            Number of samples.
+        h : float
+            Sample period (s).
+        inner : array_like (G,)
+            Points inside each sample, as fractions of it (the Gauss-Legendre nodes).
+
+        Returns
+        -------
+        accel : ndarray (n, G + 1, 3)
+            Acceleration (m/s^2) at the inner points and at the end of each sample.
+        dv : ndarray (n, 3)
+            The exact velocity increment over each sample (m/s).
+        velocity : ndarray (n, 3)
+            The velocity at the end of each sample (m/s).
+        """
+        inner = np.asarray(inner, dtype=np.float64)
+        t_end = np.arange(k0 + 1, k0 + n + 1) * h
+        t_start = t_end - h
+        grid = np.concatenate((t_start[:, None] + inner[None, :] * h, t_end[:, None]), axis=1).reshape(-1)
+        accel = np.ascontiguousarray(self._accel(grid).reshape(n, inner.size + 1, 3))
+        return accel, np.ascontiguousarray(self._velocity_increment(t_start, t_end)), self._velocity(t_end)
+
     def __add__(self, other):
         return superpose(self, other, Translation, SumTranslation)
 
@@ -1096,6 +1152,17 @@ class SumTranslation(Translation):
         for p in self.parts:
             out += p._velocity_increment(ta, tb)
         return out
+
+    def sample_grid(self, k0, n, h, inner):
+        accel = np.zeros((n, len(inner) + 1, 3))
+        dv = np.zeros((n, 3))
+        vel = np.zeros((n, 3))
+        for p in self.parts:
+            a, d, w = p.sample_grid(k0, n, h, inner)
+            accel += a
+            dv += d
+            vel += w
+        return accel, dv, vel
 
 
 @dataclass(frozen=True)
@@ -1218,6 +1285,21 @@ class LinearRandomVibration(_FilteredNoise, Translation):
 
     def _velocity_increment(self, ta, tb):
         return self._noise().value(tb) - self._noise().value(ta)
+
+    def sample_grid(self, k0, n, h, inner):
+        """:meth:`Translation.sample_grid`; when the node rate is a multiple ``q`` of ``1 / h`` (14.4 kHz and
+        7.2 kHz: ``q = 2``), one kernel pass at the exact positions of the points
+        (:func:`~sins_sim._kernels.vibration.hermite5_samples`): the velocity at a sample's end is a node
+        value, the increments are differences of consecutive ones (they telescope exactly). Equal to the
+        default evaluation at the rounded times to the rounding of ``t``."""
+        noise = self._noise()
+        per_sample = h * noise.d.fs  # node segments per sample
+        q = round(per_sample)
+        if not (q >= 1 and abs(per_sample - q) <= 1e-9 * q):
+            return super().sample_grid(k0, n, h, inner)
+        cs = np.append(np.asarray(inner, dtype=np.float64), 1.0)
+        accel, vel = noise.samples(k0, n, q, cs)
+        return accel, np.diff(vel, axis=0), vel[1:]
 
     @property
     def rms_accel_g(self):
