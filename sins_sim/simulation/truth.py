@@ -142,16 +142,21 @@ class VehicleSampler:
         _wrap_lon(out[:, _LON])
         return out
 
-    def sample_field(self, t, name: str) -> np.ndarray:
+    def sample_field(self, t, name: str, last: str | None = None, out=None) -> np.ndarray:
         """One field (not ``q_nv``) at increasing times ``t`` (s), ``(len(t), width)``: the values of
-        that field in :meth:`sample`'s rows, without the other columns."""
+        that field in :meth:`sample`'s rows, without the other columns.
+
+        With ``last``, the fields from ``name`` to ``last`` (adjacent in :data:`VEHICLE_FIELDS`, no
+        ``q_nv``) side by side; ``out`` (float64, C-contiguous, of that shape) receives them if given.
+        """
         t = np.ascontiguousarray(t, dtype=np.float64)
         self._window(t)
-        col = _COLS[name]
-        out = np.empty((t.size, col.stop - col.start))
-        ktruth.lagrange4_columns(self._nodes, self._j0, self.h, t, col.start, out)
-        if name == "lon_rad":
-            _wrap_lon(out[:, 0])
+        c_lo, c_hi = _COLS[name].start, _COLS[last or name].stop
+        if out is None:
+            out = np.empty((t.size, c_hi - c_lo))
+        ktruth.lagrange4_columns(self._nodes, self._j0, self.h, t, c_lo, out)
+        if c_lo <= _LON < c_hi:
+            _wrap_lon(out[:, _LON - c_lo])
         return out
 
     def _window(self, t):
@@ -262,6 +267,7 @@ class MissionTruth:
         u = pos - self._gl_r0
         self._gl_w = np.ascontiguousarray(np.stack([2 * u ** 3 - 3 * u ** 2 + 1, u ** 3 - 2 * u ** 2 + u,
                                                     -2 * u ** 3 + 3 * u ** 2, u ** 3 - u ** 2], axis=1))
+        self._om_fv = None  # vehicle rate and specific force at the nodes of a chunk (reused buffer)
         self._blk = np.zeros(6)  # block angle and rate at the last node
         a0, r0_ = self.block.grid_angle_rate(-1, 1, 1.0 / self.fp)
         self._blk[:3], self._blk[3:] = a0[0], r0_[0]
@@ -302,11 +308,13 @@ class MissionTruth:
         if first:
             row0 = self.vehicle.sample(np.zeros(1))
             self._state[3:6] = f(row0, "omega_iv_v_rad_s")[0]
-        if navigation:  # the rates and specific force at every node, the rest only at the sample's end (row 3 of 4)
-            rows = self.vehicle.sample(grid, 4, ("omega_iv_v_rad_s", "f_v_m_s2")).reshape(n, 4, N_VEHICLE_COLS)
-            om = f(rows, "omega_iv_v_rad_s")  # strided views (the kernel reads them in place)
-            fv = f(rows, "f_v_m_s2")
-            end = rows[:, 3]
+        if navigation:  # the rates and specific force at every node, the rest only at the sample's end
+            if self._om_fv is None or self._om_fv.shape[0] != grid.size:  # reused: read by truth_samples only
+                self._om_fv = np.empty((grid.size, 6))
+            om_fv = self.vehicle.sample_field(grid, "omega_iv_v_rad_s", "f_v_m_s2", self._om_fv).reshape(n, 4, 6)
+            om = om_fv[:, :, 0:3]  # strided views (the kernel reads them in place)
+            fv = om_fv[:, :, 3:6]
+            end = self.vehicle.sample(t_end)  # the same times as the grid's 4th node: the same values there
             q_nv = f(end, "q_nv")
         else:  # the rates alone
             om = self.vehicle.sample_field(grid, "omega_iv_v_rad_s").reshape(n, 4, 3)
