@@ -224,6 +224,34 @@ def hermite5_value_slope(t, fs, n0, nodes, col, offset, value, slope):
 
 
 @jit
+def _grid_basis(r, fs):
+    """Quintic Hermite basis (module docstring) at ``u = p / r``, ``p < r``: weights of ``x_0, d_0, s_0, x_1, d_1,
+    s_1`` in the value, ``bv[p]``, and in ``dx/dt = fs dx/du``, ``bs[p]`` (the coefficients of ``c_3 .. c_5``
+    collected per node quantity)."""
+    bv = np.empty((r, 6))
+    bs = np.empty((r, 6))
+    for p in range(r):
+        u = p / r
+        u2 = u * u
+        u3 = u2 * u
+        u4 = u3 * u
+        u5 = u4 * u
+        bv[p, 0] = 1.0 - 10.0 * u3 + 15.0 * u4 - 6.0 * u5
+        bv[p, 1] = u - 6.0 * u3 + 8.0 * u4 - 3.0 * u5
+        bv[p, 2] = 0.5 * u2 - 1.5 * u3 + 1.5 * u4 - 0.5 * u5
+        bv[p, 3] = 10.0 * u3 - 15.0 * u4 + 6.0 * u5
+        bv[p, 4] = -4.0 * u3 + 7.0 * u4 - 3.0 * u5
+        bv[p, 5] = 0.5 * u3 - u4 + 0.5 * u5
+        bs[p, 0] = fs * (-30.0 * u2 + 60.0 * u3 - 30.0 * u4)
+        bs[p, 1] = fs * (1.0 - 18.0 * u2 + 32.0 * u3 - 15.0 * u4)
+        bs[p, 2] = fs * (u - 4.5 * u2 + 6.0 * u3 - 2.5 * u4)
+        bs[p, 3] = fs * (30.0 * u2 - 60.0 * u3 + 30.0 * u4)
+        bs[p, 4] = fs * (-12.0 * u2 + 28.0 * u3 - 15.0 * u4)
+        bs[p, 5] = fs * (1.5 * u2 - 4.0 * u3 + 2.5 * u4)
+    return bv, bs
+
+
+@jit
 def hermite5_grid(i0, r, fs, n0, nodes, col, offset, value, slope):
     """:func:`hermite5_value_slope` on a grid of ``r`` points per segment, axis-major, positions exact.
 
@@ -231,9 +259,13 @@ def hermite5_grid(i0, r, fs, n0, nodes, col, offset, value, slope):
     plant rate a multiple of the node rate), in segment ``k = floor(m / r)`` at ``u = (m mod r) / r``:
     the exact position of ``t_m``, taken from the integers instead of from the rounded time (the
     general kernels' :func:`_segment` restores the rounding of ``t fs`` but not that of ``t`` itself,
-    ``eps t / 2``: at ``t = 3600`` s a difference of ``rate' 4e-13 s`` in the rate). Each segment's
-    coefficients are formed once for its ``r`` points, axis by axis; the Horner polynomials are
-    :func:`_value` and :func:`_slope`, so the angle is still the exact integral of the rate.
+    ``eps t / 2``: at ``t = 3600`` s a difference of ``rate' 4e-13 s`` in the rate). The positions
+    repeat in every segment, so the quintic is evaluated in the Hermite basis at those ``r``
+    positions (:func:`_grid_basis`, tabulated once per call): six products per value from the six
+    node quantities, no per-segment coefficients and no Horner chain (0.59 against 0.89 ms for
+    72,000 steps on 3 axes in the Horner form, same run). The same polynomial as the general
+    kernels' to rounding (3e-15 of the largest rate); the value at a node is the node's exactly, so
+    the angle is still the integral of the rate to rounding.
 
     Parameters
     ----------
@@ -254,26 +286,28 @@ def hermite5_grid(i0, r, fs, n0, nodes, col, offset, value, slope):
     n = value.shape[1]
     if n == 0:
         return
-    us = np.empty(r)
-    for p in range(r):
-        us[p] = p / r
-    c = np.empty(18)
+    bv, bs = _grid_basis(r, fs)
     m_first = i0 + 1
     k_first = m_first // r
     k_last = (i0 + n) // r
     for a in range(3):
-        b = 6 * a
         off = offset[a]
         for k in range(k_first, k_last + 1):
             i = k - n0 + col
-            c[b], c[b + 1], c[b + 2], c[b + 3], c[b + 4], c[b + 5] = _coefficients(nodes, a, i)
+            x0 = np.float64(nodes[0, a, i])  # float32 nodes widened: the arithmetic is float64
+            d0 = np.float64(nodes[1, a, i])
+            s0 = np.float64(nodes[2, a, i])
+            x1 = np.float64(nodes[0, a, i + 1])
+            d1 = np.float64(nodes[1, a, i + 1])
+            s1 = np.float64(nodes[2, a, i + 1])
             p_lo = m_first - k * r if k == k_first else 0
             p_hi = i0 + n - k * r + 1 if k == k_last else r
             j0 = k * r - m_first
             for p in range(p_lo, p_hi):
-                u = us[p]
-                value[a, j0 + p] = _value(c, a, u) - off
-                slope[a, j0 + p] = fs * _slope(c, a, u)
+                value[a, j0 + p] = (bv[p, 0] * x0 + bv[p, 1] * d0 + bv[p, 2] * s0 + bv[p, 3] * x1 + bv[p, 4] * d1
+                                    + bv[p, 5] * s1) - off
+                slope[a, j0 + p] = (bs[p, 0] * x0 + bs[p, 1] * d0 + bs[p, 2] * s0 + bs[p, 3] * x1 + bs[p, 4] * d1
+                                    + bs[p, 5] * s1)
 
 
 @jit
