@@ -28,7 +28,9 @@ Gauss-Legendre quadrature with ``C_bv(tau) = (I - [alpha x] + [alpha x]^2 / 2) C
 to first order). The neglected terms are of order ``|alpha|^2 |omega_iv|`` (below 1e-11
 rad/s for a 1 arcmin, 600 Hz vibration on a vehicle turning at 3 deg/s) and
 ``|alpha|^2 g`` (below 0.1 ug). The accelerometer's unrotated vibration term uses its
-closed-form velocity increment. Between filter samples ``S`` is the cubic Hermite
+closed-form velocity increment (``Translation.sample_grid``: for the filtered-noise vibration the
+difference of its velocity at consecutive sample ends, which are nodes of its interpolant, so that
+the increments telescope exactly). Between filter samples ``S`` is the cubic Hermite
 interpolant of its node values and rates (``S`` is smooth: its ripple is below 1e-11 rad).
 The vehicle is evaluated at ``vehicle_rate_hz`` nodes and interpolated by 4-point
 Lagrange polynomials (error of order ``(h_v / T)^4`` for motions with time scale ``T``:
