@@ -3,8 +3,9 @@
 Issue 26, item 2: a cheaper random-vibration truth of the same spectrum. Both generators stream
 nav-stationary-1h's vibrations (angular 1e-6 (deg/s)^2/Hz and translational 0.002 g^2/Hz, 20 Hz to
 2 kHz, 3 axes, node rate 14.4 kHz) the way the engine asks for them (``sins_sim.simulation.truth``):
-gyro angle and rate on the 72 kHz plant grid, acceleration at the three Gauss-Legendre nodes and the
-end of each 7.2 kHz filter sample, velocity increments per sample; one-second chunks. Each timed call
+gyro angle and rate on the 72 kHz plant grid (``grid_angle_rate``), acceleration at the three
+Gauss-Legendre nodes and the end of each 7.2 kHz filter sample, velocity increments and end velocities per
+sample (``Translation.sample_grid``); one-second chunks. Each timed call
 streams at least one noise block (7.96 s) of both vibrations, so block generation is part of every
 call. ``vibration_truth/node_rate_noise`` is the same-run ratio of their CPU times per simulated
 second (thresholds.json).
@@ -38,11 +39,7 @@ def _streamer(generator: str, seconds: int):
             s = state["s"]
             state["s"] += 1
             _, rate = ang.grid_angle_rate(s * PLANT_HZ - 1, PLANT_HZ, 1.0 / PLANT_HZ)
-            t_start = (s * FILTER_HZ + np.arange(FILTER_HZ)) * hf
-            t_end = t_start + hf
-            grid = np.concatenate((t_start[:, None] + GL_NODES[None, :] * hf, t_end[:, None]), axis=1).reshape(-1)
-            lin.accel(grid)
-            lin.velocity_increment(t_start, t_end)
+            lin.sample_grid(s * FILTER_HZ, FILTER_HZ, hf, GL_NODES)  # acceleration, increments, end velocities
         return rate, ang
 
     return run

@@ -307,3 +307,44 @@ def test_scale_factor_and_misalignment_give_the_closed_form_attitude_error_on_a_
         m = 200.0 * ARCSEC
         assert np.allclose(np.abs(err[:2]), m, rtol=0.01), err / ARCSEC
         assert abs(err[2]) < 0.01 * m
+
+
+def test_truth_with_random_vibrations_streams_bit_for_bit():
+    """The mission truth under nav-stationary-1h's two random vibrations (their grid passes: the plant grid at 5
+    steps per node segment, the Gauss-Legendre nodes and sample ends at 2 segments per filter sample), advanced
+    in uneven chunks across a noise block's end (7.96 s), equals one advance bit for bit; the velocity truth
+    carries the translational vibration's velocity at each sample's end (at rest the vehicle's NED velocity is
+    zero, so ``v_ned = C_nv v_vib``: equal to its evaluation at the rounded times to the rounding of ``t``,
+    ``eps t`` times the acceleration, plus the rotation's rounding)."""
+    from sins_sim.models.motion import FilteredNoiseVibration, LinearRandomVibration
+    from sins_sim.simulation.truth import VehicleSampler
+
+    def truth():
+        ang = FilteredNoiseVibration(((20.0, 1e-6 * DEG**2), (2000.0, 1e-6 * DEG**2)), seed=21)
+        lin = LinearRandomVibration(((20.0, 0.002), (2000.0, 0.002)), seed=22)
+        return MissionTruth(stationary_vehicle(12.0).stream(), ang, lin, 72000.0, 7200.0), lin
+
+    whole, lin = truth()
+    k_end = 7200 * 9
+    ref, ang_ref, rate_ref = whole.advance(k_end)
+    parts, _ = truth()
+    got = [parts.advance(k) for k in (1, 3000, 7200 * 8 - 5, 7200 * 8 + 777, k_end)]
+    for name in ("t_s", "q_nb", "lat_rad", "lon_rad", "h_m", "v_ned_m_s", "dtheta_rad", "dv_m_s", "phi_rad"):
+        np.testing.assert_array_equal(np.concatenate([getattr(c, name) for c, _, _ in got]), getattr(ref, name))
+    np.testing.assert_array_equal(np.concatenate([a for _, a, _ in got]), ang_ref)
+    np.testing.assert_array_equal(np.concatenate([r for _, _, r in got]), rate_ref)
+    t = ref.t_s[1:]
+    v_vib = lin.velocity(t)
+    stream = stationary_vehicle(12.0).stream()
+    q_nv = stream.evaluate(t).q_nv
+    v_rot = np.stack([_dcm(q) @ v for q, v in zip(q_nv, v_vib)])
+    acc_max = np.abs(lin.accel(t)).max()
+    tol = acc_max * np.finfo(float).eps * t[-1] + 16 * np.finfo(float).eps * np.abs(v_vib).max()
+    np.testing.assert_allclose(ref.v_ned_m_s[1:], v_rot, rtol=0, atol=tol)
+    # the sampler's adjacent fields side by side equal those columns of its full rows
+    sampler = VehicleSampler(stationary_vehicle(12.0).stream())
+    ts = np.linspace(0.0, 3.0, 1001)
+    rows = sampler.sample(ts)
+    both = sampler.sample_field(ts, "omega_iv_v_rad_s", "f_v_m_s2")
+    np.testing.assert_array_equal(both, np.concatenate((VehicleSampler.field(rows, "omega_iv_v_rad_s"),
+                                                        VehicleSampler.field(rows, "f_v_m_s2")), axis=1))

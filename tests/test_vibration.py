@@ -252,15 +252,31 @@ def test_grid_angle_rate_is_one_pass_of_both():
     h = 1.0 / FS
     angle, rate = vib.grid_angle_rate(99, 50_000, h)
     t = np.arange(100, 50_100) * h
-    assert_array_equal(angle, vib.gyro_angle(t))
-    assert_array_equal(rate, vib.body_rate(t))
+    assert angle.flags.f_contiguous and rate.flags.f_contiguous  # axis-major, as the engine adds to it in place
+    # 72 kHz is 5 steps per 14.4 kHz node segment: the grid's positions are the exact (m mod 5) / 5, the
+    # general kernel's those of the rounded times m h, which differ by at most eps t (the rounding of
+    # m h, eps t / 2, and of the position in the segment, eps / fs); the values by that times the
+    # derivative (bounded by 1.5 times the largest finite difference on the grid) plus their own
+    # rounding (8 eps of the largest value: about 10 operations each)
+    dt = np.finfo(float).eps * t[-1]
+    accel = np.abs(np.diff(rate, axis=0)).max() / h
+    ref_angle, ref_rate = vib.gyro_angle(t), vib.body_rate(t)
+    eps8 = 8 * np.finfo(float).eps
+    assert_allclose(angle, ref_angle, rtol=0, atol=np.abs(rate).max() * dt + eps8 * np.abs(ref_angle).max())
+    assert_allclose(rate, ref_rate, rtol=0, atol=1.5 * accel * dt + eps8 * np.abs(ref_rate).max())
+    assert not np.array_equal(rate, ref_rate)  # the grid path was taken (exact positions, other roundings)
+    a0, r0 = vib.grid_angle_rate(-1, 1, h)  # t = 0, a node: the same operations as the general kernel
+    assert_array_equal(a0, 0.0)
+    assert_array_equal(r0, vib.body_rate([0.0]))
     parts = [vib.grid_angle_rate(i0, i1 - i0, h) for i0, i1 in uneven_bounds(50_000, SIZES)]
     assert_array_equal(np.concatenate([p[0] for p in parts]), vib.grid_angle_rate(0, 50_000, h)[0])
     assert_array_equal(np.concatenate([p[1] for p in parts]), vib.grid_angle_rate(0, 50_000, h)[1])
     mot = Coning(ARCMIN, 100.0) + vib  # a sum uses it through its parts
     a2, r2 = mot.grid_angle_rate(99, 1000, h)
-    assert_allclose(a2, mot.gyro_angle(t[:1000]), rtol=0, atol=1e-17)
-    assert_allclose(r2, mot.body_rate(t[:1000]), rtol=0, atol=1e-14)
+    # the coning's recurrence to 1e-17 rad and 1e-14 rad/s, plus the vibration's grid positions (above)
+    dt = np.finfo(float).eps * t[999]
+    assert_allclose(a2, mot.gyro_angle(t[:1000]), rtol=0, atol=1e-17 + np.abs(rate).max() * dt)
+    assert_allclose(r2, mot.body_rate(t[:1000]), rtol=0, atol=1e-14 + 1.5 * accel * dt + eps8 * np.abs(rate).max())
 
 
 def test_random_access_equals_sequential():
@@ -393,6 +409,38 @@ def test_linear_random_vibration():
     vel = lin.velocity(3600.0 + np.arange(7200) / 7200.0)[:, 0]
     assert np.abs(vel).max() < 6 * rms_vel
     assert abs(vel.mean()) < rms_vel
+
+
+def test_linear_sample_grid_is_the_truth_at_exact_positions():
+    """The mission truth's pass (acceleration at the Gauss-Legendre nodes and sample ends, velocity increments
+    and end velocities at 7.2 kHz) against the public methods at the rounded times, chunked against whole."""
+    lin = LinearRandomVibration(ENGINE_G2, axis_weights=(1.0, 0.3, 0.7), seed=21)
+    h, inner = 1.0 / 7200.0, np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
+    k0, n = 7200 * 3600 - 17, 60_000  # an hour in, across a block end (7.96 s)
+    acc, dv, vel = lin.sample_grid(k0, n, h, inner)
+    ref_acc, ref_dv, ref_vel = Translation.sample_grid(lin, k0, n, h, inner)  # the default: rounded times
+    # positions differ by the rounding of t (eps t): values by that times the derivative (bounded by 1.5 times
+    # the largest finite difference between the grid's points, spaced at most 0.39 h) plus 8 eps of the values
+    dt, eps8 = np.finfo(float).eps * (k0 + n) * h, 8 * np.finfo(float).eps
+    jerk = np.abs(np.diff(acc.reshape(-1, 3), axis=0)).max() / (0.39 * h)
+    assert_allclose(acc, ref_acc, rtol=0, atol=1.5 * jerk * dt + eps8 * np.abs(acc).max())
+    assert_allclose(vel, ref_vel, rtol=0, atol=np.abs(acc).max() * dt + eps8 * np.abs(vel).max())
+    assert_allclose(dv, ref_dv, rtol=0, atol=2 * np.abs(acc).max() * dt + eps8 * np.abs(vel).max())
+    # the increments are differences of consecutive end velocities (node values): they telescope exactly
+    start = lin.sample_grid(k0 - 1, 1, h, inner)[2][0]
+    assert_array_equal(dv[1:], np.diff(vel, axis=0))
+    assert_array_equal(dv[0], vel[0] - start)
+    # a pure function of the sample index: uneven chunks reproduce the whole
+    fresh = LinearRandomVibration(ENGINE_G2, axis_weights=(1.0, 0.3, 0.7), seed=21)
+    parts = [fresh.sample_grid(k0 + i0, i1 - i0, h, inner) for i0, i1 in uneven_bounds(n, SIZES)]
+    for q in range(3):
+        assert_array_equal(np.concatenate([p[q] for p in parts]), (acc, dv, vel)[q])
+    # a sum passes it to its parts
+    s = LinearSines((1.0, 0.0, 2.0), 50.0, 0.0)
+    both = s + lin
+    for got, a, b in zip(both.sample_grid(k0, 100, h, inner), s.sample_grid(k0, 100, h, inner),
+                         lin.sample_grid(k0, 100, h, inner)):
+        assert_array_equal(got, (np.zeros_like(a) + a) + b)
 
 
 def test_translation_sum():

@@ -28,7 +28,9 @@ Gauss-Legendre quadrature with ``C_bv(tau) = (I - [alpha x] + [alpha x]^2 / 2) C
 to first order). The neglected terms are of order ``|alpha|^2 |omega_iv|`` (below 1e-11
 rad/s for a 1 arcmin, 600 Hz vibration on a vehicle turning at 3 deg/s) and
 ``|alpha|^2 g`` (below 0.1 ug). The accelerometer's unrotated vibration term uses its
-closed-form velocity increment. Between filter samples ``S`` is the cubic Hermite
+closed-form velocity increment (``Translation.sample_grid``: for the filtered-noise vibration the
+difference of its velocity at consecutive sample ends, which are nodes of its interpolant, so that
+the increments telescope exactly). Between filter samples ``S`` is the cubic Hermite
 interpolant of its node values and rates (``S`` is smooth: its ripple is below 1e-11 rad).
 The vehicle is evaluated at ``vehicle_rate_hz`` nodes and interpolated by 4-point
 Lagrange polynomials (error of order ``(h_v / T)^4`` for motions with time scale ``T``:
@@ -142,16 +144,21 @@ class VehicleSampler:
         _wrap_lon(out[:, _LON])
         return out
 
-    def sample_field(self, t, name: str) -> np.ndarray:
+    def sample_field(self, t, name: str, last: str | None = None, out=None) -> np.ndarray:
         """One field (not ``q_nv``) at increasing times ``t`` (s), ``(len(t), width)``: the values of
-        that field in :meth:`sample`'s rows, without the other columns."""
+        that field in :meth:`sample`'s rows, without the other columns.
+
+        With ``last``, the fields from ``name`` to ``last`` (adjacent in :data:`VEHICLE_FIELDS`, no
+        ``q_nv``) side by side; ``out`` (float64, C-contiguous, of that shape) receives them if given.
+        """
         t = np.ascontiguousarray(t, dtype=np.float64)
         self._window(t)
-        col = _COLS[name]
-        out = np.empty((t.size, col.stop - col.start))
-        ktruth.lagrange4_columns(self._nodes, self._j0, self.h, t, col.start, out)
-        if name == "lon_rad":
-            _wrap_lon(out[:, 0])
+        c_lo, c_hi = _COLS[name].start, _COLS[last or name].stop
+        if out is None:
+            out = np.empty((t.size, c_hi - c_lo))
+        ktruth.lagrange4_columns(self._nodes, self._j0, self.h, t, c_lo, out)
+        if c_lo <= _LON < c_hi:
+            _wrap_lon(out[:, _LON - c_lo])
         return out
 
     def _window(self, t):
@@ -267,6 +274,7 @@ class MissionTruth:
         u = pos - self._gl_r0
         self._gl_w = np.ascontiguousarray(np.stack([2 * u ** 3 - 3 * u ** 2 + 1, u ** 3 - 2 * u ** 2 + u,
                                                     -2 * u ** 3 + 3 * u ** 2, u ** 3 - u ** 2], axis=1))
+        self._om_fv = None  # vehicle rate and specific force at the nodes of a chunk (reused buffer)
         self._blk = np.zeros(6)  # block angle and rate at the last node
         a0, r0_ = self.block.grid_angle_rate(-1, 1, 1.0 / self.fp)
         self._blk[:3], self._blk[3:] = a0[0], r0_[0]
@@ -307,11 +315,13 @@ class MissionTruth:
         if first:
             row0 = self.vehicle.sample(np.zeros(1))
             self._state[3:6] = f(row0, "omega_iv_v_rad_s")[0]
-        if navigation:  # the rates and specific force at every node, the rest only at the sample's end (row 3 of 4)
-            rows = self.vehicle.sample(grid, 4, ("omega_iv_v_rad_s", "f_v_m_s2")).reshape(n, 4, N_VEHICLE_COLS)
-            om = f(rows, "omega_iv_v_rad_s")  # strided views (the kernel reads them in place)
-            fv = f(rows, "f_v_m_s2")
-            end = rows[:, 3]
+        if navigation:  # the rates and specific force at every node, the rest only at the sample's end
+            if self._om_fv is None or self._om_fv.shape[0] != grid.size:  # reused: read by truth_samples only
+                self._om_fv = np.empty((grid.size, 6))
+            om_fv = self.vehicle.sample_field(grid, "omega_iv_v_rad_s", "f_v_m_s2", self._om_fv).reshape(n, 4, 6)
+            om = om_fv[:, :, 0:3]  # strided views (the kernel reads them in place)
+            fv = om_fv[:, :, 3:6]
+            end = self.vehicle.sample(t_end)  # the same times as the grid's 4th node: the same values there
             q_nv = f(end, "q_nv")
         else:  # the rates alone
             om = self.vehicle.sample_field(grid, "omega_iv_v_rad_s").reshape(n, 4, 3)
@@ -334,12 +344,12 @@ class MissionTruth:
             phib = np.ascontiguousarray(self.block.gyro_angle(grid).reshape(n, 4, 3))
         if not self._grid_attitude:  # closed forms, or the Magnus integration of the motion itself
             q_vb = np.ascontiguousarray(self._att.advance(t_end))
-        if self.translation is not None and navigation:
-            acc = np.ascontiguousarray(self.translation.accel(grid).reshape(n, 4, 3))
-            dv_vib = np.ascontiguousarray(self.translation.velocity_increment(t_start, t_end))
+        if self.translation is not None and navigation:  # acceleration at the nodes, increments, end velocities
+            acc, dv_vib, v_vib = self.translation.sample_grid(k_prev, n, self.hf, GL_NODES)
         else:
             acc = np.zeros((0, 4, 3))
             dv_vib = np.zeros((0, 3))
+            v_vib = None
         dth = np.empty((n, 3))
         dv = np.empty((n if navigation else 0, 3))
         s_nodes = np.empty((n + 1, 3))
@@ -369,13 +379,14 @@ class MissionTruth:
             return None, angle, rate
         phi = phib[:, 3] + s_nodes[1:]
         lat, lon, h = f(end, "lat_rad"), f(end, "lon_rad"), f(end, "h_m")
-        v_ned = self._v_ned(f(end, "v_ned_m_s"), q_nv, t_end)
+        v_ned = self._v_ned(f(end, "v_ned_m_s"), q_nv, v_vib)
         if first:
             q0 = f(row0, "q_nv")
             lat = np.concatenate((f(row0, "lat_rad"), lat))
             lon = np.concatenate((f(row0, "lon_rad"), lon))
             h = np.concatenate((f(row0, "h_m"), h))
-            v_ned = np.concatenate((self._v_ned(f(row0, "v_ned_m_s"), q0, np.zeros(1)), v_ned))
+            v0 = None if self.translation is None else self.translation.velocity(np.zeros(1))
+            v_ned = np.concatenate((self._v_ned(f(row0, "v_ned_m_s"), q0, v0), v_ned))
             q_nb = np.concatenate((q0, q_nb))
             dth = np.concatenate((np.zeros((1, 3)), dth))
             dv = np.concatenate((np.zeros((1, 3)), dv))
@@ -430,9 +441,11 @@ class MissionTruth:
         lin1 = np.ascontiguousarray(np.diff(acc, axis=0).T * self.fp)
         return lin0, lin1
 
-    def _v_ned(self, v, q_nv, t):
-        if self.translation is None:
+    @staticmethod
+    def _v_ned(v, q_nv, v_vib):
+        """The vehicle's NED velocity plus the vibration's velocity ``v_vib`` (vehicle axes) rotated by ``q_nv``."""
+        if v_vib is None:
             return v
         out = np.empty((q_nv.shape[0], 3))
-        ktruth.add_rotated(np.ascontiguousarray(v), np.ascontiguousarray(q_nv), self.translation.velocity(t), out)
+        ktruth.add_rotated(np.ascontiguousarray(v), np.ascontiguousarray(q_nv), np.ascontiguousarray(v_vib), out)
         return out
