@@ -17,7 +17,13 @@ What it measures
   scheduling, (de)serialising, the result's round trip and the part written by the client while the worker waits)
   and ``overhead_vs_alone_ms = W wall_s / units - alone_s`` (against the run alone, which also catches runs made
   slower by sharing the machine);
-* ``speedup = wall_s(1) / wall_s(2)``.
+* ``speedup = wall_s(1) / wall_s(2)``;
+* CPU per run of each process over the tasks' phase (``psutil`` ``cpu_times``, user + system): the client's
+  (the sweep's own process: the ``LocalCluster``'s scheduler and nannies, the result writer) and each worker's
+  (the runs, the batch's packing, the worker's event loop), and the workers' system CPU per run. On ``C`` cores
+  the runs' rate cannot pass ``C / (client + sum of workers' CPU per run)``; with one worker on two cores the client
+  has a core of its own, so ``speedup <= 2 (w1 + o1) / (w2 + o2 + client2)`` where ``w`` is a worker's CPU per run
+  and ``o`` the other costs; the script prints the measured shares.
 
 The load average of the machine before and after each phase is recorded with the numbers: on a shared machine
 the speed-up measures the cores the other jobs left free, not the sweep.
@@ -83,12 +89,38 @@ def main(argv=None) -> int:
           f"(estimate {1e3 * tasks[0].est_s:.1f} ms); load {out['machine_load']['after_alone']}")
 
     import pandas as pd
+    import psutil
 
+    import sins_sim.jobs.sweep.job as job
+
+    run_tasks = job._run_tasks
+    cpu: dict = {}
+
+    def counted(client, *a, **k):
+        """The tasks' phase with the CPU times of this process and of the worker processes around it."""
+        me = psutil.Process()
+        procs = [me, *me.children(recursive=True)]
+        before = {p.pid: (p.cpu_times(),) for p in procs}
+        r = run_tasks(client, *a, **k)
+        cpu.clear()
+        for p in procs:
+            try:
+                t = p.cpu_times()
+            except psutil.NoSuchProcess:
+                continue
+            t0 = before[p.pid][0]
+            cpu[p.pid] = {"client": p.pid == me.pid, "s": (t.user - t0.user) + (t.system - t0.system),
+                          "system_s": t.system - t0.system}
+        return r
+
+    job._run_tasks = counted
     out["runs"] = {}
     for w in args.workers:
         out["machine_load"][f"before_{w}"] = _load()
         folder = tmp / f"w{w}"
         res = run_sweep(path, folder, workers=w, batch=args.batch, log=lambda s: None, plots=False)
+        client_s = sum(c["s"] for c in cpu.values() if c["client"])
+        workers_s = [c for c in cpu.values() if not c["client"] and c["s"] > 0.05]  # not the resource tracker
         rows = pd.read_parquet(folder / "runs.parquet")
         wall = float(res["wall_s"])
         in_runs = float(rows["wall_s"].sum())
@@ -97,13 +129,22 @@ def main(argv=None) -> int:
              "batch": -(-args.units // n_tasks), "run_wall_s_mean": in_runs / args.units,
              "overhead_in_tasks_ms": 1e3 * (w * wall - in_runs) / args.units,
              "overhead_vs_alone_ms": 1e3 * (w * wall / args.units - out["alone_s"]),
-             "failed": res["failed"]}
+             "failed": res["failed"],
+             "client_cpu_ms_per_run": 1e3 * client_s / args.units,
+             "client_cpu_share_of_a_core": client_s / wall,
+             "workers_cpu_ms_per_run": 1e3 * sum(c["s"] for c in workers_s) / args.units,
+             "workers_system_ms_per_run": 1e3 * sum(c["system_s"] for c in workers_s) / args.units,
+             "workers_cpu_share_of_a_core": [c["s"] / wall for c in workers_s]}
         out["runs"][str(w)] = r
         out["machine_load"][f"after_{w}"] = _load()
         print(f"{w} worker(s): {args.units} runs in {wall:.2f} s = {r['runs_per_s']:.2f} runs/s, {n_tasks} tasks of "
               f"about {r['batch']} run(s); mean run {1e3 * r['run_wall_s_mean']:.1f} ms in the workers; overhead "
               f"per run {r['overhead_in_tasks_ms']:.2f} ms outside the runs, {r['overhead_vs_alone_ms']:.2f} ms "
               f"against the run alone; load {out['machine_load'][f'after_{w}']}")
+        print(f"    CPU per run: client {r['client_cpu_ms_per_run']:.2f} ms ({100 * r['client_cpu_share_of_a_core']:.0f} % "
+              f"of a core), workers {r['workers_cpu_ms_per_run']:.2f} ms (of which system "
+              f"{r['workers_system_ms_per_run']:.2f} ms; each worker busy "
+              f"{', '.join(f'{100 * x:.0f} %' for x in r['workers_cpu_share_of_a_core'])} of the wall time)")
     if "1" in out["runs"] and "2" in out["runs"]:
         out["speedup_1_to_2"] = out["runs"]["1"]["wall_s"] / out["runs"]["2"]["wall_s"]
         print(f"speed-up from 1 to 2 workers: {out['speedup_1_to_2']:.2f}x")
