@@ -137,11 +137,22 @@ def test_workers_have_one_thread_and_a_warm_node_local_numba_cache(small):
 def test_local_workers_start_with_the_heap_settings_and_leave_this_process_as_it_was():
     """dask's nanny would start the workers with MALLOC_TRIM_THRESHOLD_=65536 (a fixed 128 kB mmap threshold: the
     runs' arrays page-faulted in anew each run); they get MALLOC_VARIABLES, read by glibc at the process's start,
-    and this process's environment is what it was before the cluster."""
+    and DASK_CONFIG (no profiler sampling the runs' stacks); this process's environment and dask configuration are
+    what they were before the cluster."""
     import os
 
+    import dask
+
     from sins_sim.jobs.sweep.job import _dask_client
-    from sins_sim.jobs.sweep.worker import MALLOC_VARIABLES
+    from sins_sim.jobs.sweep.worker import DASK_CONFIG, MALLOC_VARIABLES
+
+    config_before = {k: dask.config.get(k) for k in DASK_CONFIG}
+    assert config_before != DASK_CONFIG  # dask's defaults differ: the check below can fail
+
+    def worker_config():
+        import dask
+
+        return {k: dask.config.get(k) for k in DASK_CONFIG}
 
     before = {k: os.environ.get(k) for k in MALLOC_VARIABLES}
 
@@ -153,8 +164,10 @@ def test_local_workers_start_with_the_heap_settings_and_leave_this_process_as_it
     for _ in range(2):  # the second cluster too: the first one's nannies wrote dask's value into os.environ
         with _dask_client(None, 1, 1) as client:
             seen = list(client.run(start_environment).values())
-        assert seen == [MALLOC_VARIABLES]
+            config = list(client.run(worker_config).values())
+        assert seen == [MALLOC_VARIABLES] and config == [DASK_CONFIG]
         assert {k: os.environ.get(k) for k in MALLOC_VARIABLES} == before
+        assert {k: dask.config.get(k) for k in DASK_CONFIG} == config_before
 
 
 def test_packed_rows_read_back_as_pandas_builds_them():

@@ -139,8 +139,9 @@ def _close_quietly(client, cluster) -> None:
 
 
 @contextmanager
-def _malloc_environment():
-    """While a ``LocalCluster`` starts: its nannies give the worker processes
+def _cluster_settings():
+    """While a ``LocalCluster`` starts: :data:`~sins_sim.jobs.sweep.worker.DASK_CONFIG` (read by its scheduler,
+    nannies and workers when they start), and the nannies give the worker processes
     :data:`~sins_sim.jobs.sweep.worker.MALLOC_VARIABLES` instead of dask's ``MALLOC_TRIM_THRESHOLD_=65536``.
 
     glibc reads them when a process starts, so they must be in the nanny's ``pre-spawn-environ``, which the nanny
@@ -151,12 +152,13 @@ def _malloc_environment():
     """
     import dask
 
-    from sins_sim.jobs.sweep.worker import MALLOC_VARIABLES
+    from sins_sim.jobs.sweep.worker import DASK_CONFIG, MALLOC_VARIABLES
 
     saved = {k: os.environ.get(k) for k in MALLOC_VARIABLES}
     os.environ.update(MALLOC_VARIABLES)
     try:
-        with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in MALLOC_VARIABLES.items()}):
+        with dask.config.set({**DASK_CONFIG, **{f"distributed.nanny.pre-spawn-environ.{k}": v
+                                                for k, v in MALLOC_VARIABLES.items()}}):
             yield
     finally:
         for k, v in saved.items():
@@ -191,7 +193,7 @@ def _dask_client(scheduler, workers, n_tasks):
     from sins_sim.jobs.sweep.worker import worker_environment
 
     # one thread per worker process, NUMBA_NUM_THREADS=1, a node-local numba cache: set before the process starts
-    with _malloc_environment():
+    with _cluster_settings():
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                                silence_logs=logging.ERROR, env=worker_environment())
     client = None
