@@ -148,6 +148,12 @@ def main(argv=None) -> int:
     if "1" in out["runs"] and "2" in out["runs"]:
         out["speedup_1_to_2"] = out["runs"]["1"]["wall_s"] / out["runs"]["2"]["wall_s"]
         print(f"speed-up from 1 to 2 workers: {out['speedup_1_to_2']:.2f}x")
+        one, two = out["runs"]["1"], out["runs"]["2"]
+        # the CPU bound (module docstring): one worker has a core to itself, two share both cores with the client
+        out["cpu_bound_speedup_1_to_2"] = 2 * one["workers_cpu_ms_per_run"] / (two["workers_cpu_ms_per_run"]
+                                                                               + two["client_cpu_ms_per_run"])
+        print(f"CPU bound of the speed-up on 2 cores, 2 w1 / (w2 + client2): {out['cpu_bound_speedup_1_to_2']:.2f}x "
+              f"(w: the workers' CPU per run; the wall-time speed-up reaches it only where the sweep has both cores)")
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     return 0
