@@ -60,7 +60,8 @@ def main(argv=None) -> int:
     ap.add_argument("--units", type=int, default=200)
     ap.add_argument("--duration", type=float, default=1.2, help="simulated seconds per run (> 1: navigation starts "
                                                                  "at 1 s in scenarios/stationary.yaml)")
-    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2],
+                    help="worker counts, in this order; repeat them (1 2 1 2) to alternate under the same load")
     ap.add_argument("--batch", type=int, default=None, help="runs per task [automatic]")
     ap.add_argument("--alone", type=int, default=15, help="runs timed alone in this process")
     ap.add_argument("--json", default=None)
@@ -114,10 +115,10 @@ def main(argv=None) -> int:
         return r
 
     job._run_tasks = counted
-    out["runs"] = {}
-    for w in args.workers:
+    out["runs"], out["rounds"] = {}, []
+    for k, w in enumerate(args.workers):
         out["machine_load"][f"before_{w}"] = _load()
-        folder = tmp / f"w{w}"
+        folder = tmp / f"w{w}-{k}"
         res = run_sweep(path, folder, workers=w, batch=args.batch, log=lambda s: None, plots=False)
         client_s = sum(c["s"] for c in cpu.values() if c["client"])
         workers_s = [c for c in cpu.values() if not c["client"] and c["s"] > 0.05]  # not the resource tracker
@@ -135,7 +136,8 @@ def main(argv=None) -> int:
              "workers_cpu_ms_per_run": 1e3 * sum(c["s"] for c in workers_s) / args.units,
              "workers_system_ms_per_run": 1e3 * sum(c["system_s"] for c in workers_s) / args.units,
              "workers_cpu_share_of_a_core": [c["s"] / wall for c in workers_s]}
-        out["runs"][str(w)] = r
+        out["runs"][str(w)] = r  # the last round of w workers
+        out["rounds"].append({"workers": w, **r})
         out["machine_load"][f"after_{w}"] = _load()
         print(f"{w} worker(s): {args.units} runs in {wall:.2f} s = {r['runs_per_s']:.2f} runs/s, {n_tasks} tasks of "
               f"about {r['batch']} run(s); mean run {1e3 * r['run_wall_s_mean']:.1f} ms in the workers; overhead "
@@ -145,15 +147,22 @@ def main(argv=None) -> int:
               f"of a core), workers {r['workers_cpu_ms_per_run']:.2f} ms (of which system "
               f"{r['workers_system_ms_per_run']:.2f} ms; each worker busy "
               f"{', '.join(f'{100 * x:.0f} %' for x in r['workers_cpu_share_of_a_core'])} of the wall time)")
-    if "1" in out["runs"] and "2" in out["runs"]:
-        out["speedup_1_to_2"] = out["runs"]["1"]["wall_s"] / out["runs"]["2"]["wall_s"]
-        print(f"speed-up from 1 to 2 workers: {out['speedup_1_to_2']:.2f}x")
-        one, two = out["runs"]["1"], out["runs"]["2"]
+    # each round of 1 worker followed by one of 2 (``--workers 1 2 1 2`` alternates them under the same load)
+    out["pairs"] = []
+    for one, two in zip(out["rounds"], out["rounds"][1:]):
+        if (one["workers"], two["workers"]) != (1, 2):
+            continue
         # the CPU bound (module docstring): one worker has a core to itself, two share both cores with the client
-        out["cpu_bound_speedup_1_to_2"] = 2 * one["workers_cpu_ms_per_run"] / (two["workers_cpu_ms_per_run"]
-                                                                               + two["client_cpu_ms_per_run"])
-        print(f"CPU bound of the speed-up on 2 cores, 2 w1 / (w2 + client2): {out['cpu_bound_speedup_1_to_2']:.2f}x "
-              f"(w: the workers' CPU per run; the wall-time speed-up reaches it only where the sweep has both cores)")
+        pair = {"speedup": one["wall_s"] / two["wall_s"],
+                "cpu_bound": 2 * one["workers_cpu_ms_per_run"] / (two["workers_cpu_ms_per_run"]
+                                                                  + two["client_cpu_ms_per_run"])}
+        out["pairs"].append(pair)
+        print(f"speed-up from 1 to 2 workers: {pair['speedup']:.2f}x; CPU bound on 2 cores, 2 w1 / (w2 + client2): "
+              f"{pair['cpu_bound']:.2f}x (w: the workers' CPU per run; the wall-time speed-up reaches the bound "
+              f"only where the sweep has both cores)")
+    if out["pairs"]:
+        out["speedup_1_to_2"] = out["pairs"][-1]["speedup"]
+        out["cpu_bound_speedup_1_to_2"] = out["pairs"][-1]["cpu_bound"]
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     return 0
