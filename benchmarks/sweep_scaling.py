@@ -17,7 +17,8 @@ What it measures
   scheduling, (de)serialising, the result's round trip and the part written by the client while the worker waits)
   and ``overhead_vs_alone_ms = W wall_s / units - alone_s`` (against the run alone, which also catches runs made
   slower by sharing the machine);
-* ``speedup = wall_s(1) / wall_s(2)``;
+* ``speedup = wall_s(1) / wall_s(2)``, for each round of one worker followed by one of two (``--workers 1 2 1 2``
+  alternates them, so that each pair ran under about the same load);
 * CPU per run of each process over the tasks' phase (``psutil`` ``cpu_times``, user + system): the client's
   (the sweep's own process: the ``LocalCluster``'s scheduler and nannies, the result writer) and each worker's
   (the runs, the batch's packing, the worker's event loop), and the workers' system CPU per run. On ``C`` cores
