@@ -50,7 +50,8 @@ row = run_task(spec(duration))
 wall, cpu = time.perf_counter() - t0, time.process_time() - c0
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 part = tmp / "part.parquet"
-pd.DataFrame([row]).to_parquet(part, index=False)
+from sins_sim.jobs.sweep.store import pack_rows
+part.write_bytes(pack_rows([row]))  # the one-row part as the sweep stores it
 many = tmp / "many.parquet"
 import numpy as np
 rng = np.random.default_rng(0)  # 1000 rows as different as a lot's: every number moved by a random 10 %

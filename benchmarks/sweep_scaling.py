@@ -17,7 +17,14 @@ What it measures
   scheduling, (de)serialising, the result's round trip and the part written by the client while the worker waits)
   and ``overhead_vs_alone_ms = W wall_s / units - alone_s`` (against the run alone, which also catches runs made
   slower by sharing the machine);
-* ``speedup = wall_s(1) / wall_s(2)``.
+* ``speedup = wall_s(1) / wall_s(2)``, for each round of one worker followed by one of two (``--workers 1 2 1 2``
+  alternates them, so that each pair ran under about the same load);
+* CPU per run of each process over the tasks' phase (``psutil`` ``cpu_times``, user + system): the client's
+  (the sweep's own process: the ``LocalCluster``'s scheduler and nannies, the result writer) and each worker's
+  (the runs, the batch's packing, the worker's event loop), and the workers' system CPU per run. On ``C`` cores
+  the runs' rate cannot pass ``C / (client + sum of workers' CPU per run)``; with one worker on two cores the client
+  has a core of its own, so ``speedup <= 2 (w1 + o1) / (w2 + o2 + client2)`` where ``w`` is a worker's CPU per run
+  and ``o`` the other costs; the script prints the measured shares.
 
 The load average of the machine before and after each phase is recorded with the numbers: on a shared machine
 the speed-up measures the cores the other jobs left free, not the sweep.
@@ -54,7 +61,8 @@ def main(argv=None) -> int:
     ap.add_argument("--units", type=int, default=200)
     ap.add_argument("--duration", type=float, default=1.2, help="simulated seconds per run (> 1: navigation starts "
                                                                  "at 1 s in scenarios/stationary.yaml)")
-    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2],
+                    help="worker counts, in this order; repeat them (1 2 1 2) to alternate under the same load")
     ap.add_argument("--batch", type=int, default=None, help="runs per task [automatic]")
     ap.add_argument("--alone", type=int, default=15, help="runs timed alone in this process")
     ap.add_argument("--json", default=None)
@@ -83,12 +91,38 @@ def main(argv=None) -> int:
           f"(estimate {1e3 * tasks[0].est_s:.1f} ms); load {out['machine_load']['after_alone']}")
 
     import pandas as pd
+    import psutil
 
-    out["runs"] = {}
-    for w in args.workers:
+    import sins_sim.jobs.sweep.job as job
+
+    run_tasks = job._run_tasks
+    cpu: dict = {}
+
+    def counted(client, *a, **k):
+        """The tasks' phase with the CPU times of this process and of the worker processes around it."""
+        me = psutil.Process()
+        procs = [me, *me.children(recursive=True)]
+        before = {p.pid: (p.cpu_times(),) for p in procs}
+        r = run_tasks(client, *a, **k)
+        cpu.clear()
+        for p in procs:
+            try:
+                t = p.cpu_times()
+            except psutil.NoSuchProcess:
+                continue
+            t0 = before[p.pid][0]
+            cpu[p.pid] = {"client": p.pid == me.pid, "s": (t.user - t0.user) + (t.system - t0.system),
+                          "system_s": t.system - t0.system}
+        return r
+
+    job._run_tasks = counted
+    out["runs"], out["rounds"] = {}, []
+    for k, w in enumerate(args.workers):
         out["machine_load"][f"before_{w}"] = _load()
-        folder = tmp / f"w{w}"
+        folder = tmp / f"w{w}-{k}"
         res = run_sweep(path, folder, workers=w, batch=args.batch, log=lambda s: None, plots=False)
+        client_s = sum(c["s"] for c in cpu.values() if c["client"])
+        workers_s = [c for c in cpu.values() if not c["client"] and c["s"] > 0.05]  # not the resource tracker
         rows = pd.read_parquet(folder / "runs.parquet")
         wall = float(res["wall_s"])
         in_runs = float(rows["wall_s"].sum())
@@ -97,16 +131,39 @@ def main(argv=None) -> int:
              "batch": -(-args.units // n_tasks), "run_wall_s_mean": in_runs / args.units,
              "overhead_in_tasks_ms": 1e3 * (w * wall - in_runs) / args.units,
              "overhead_vs_alone_ms": 1e3 * (w * wall / args.units - out["alone_s"]),
-             "failed": res["failed"]}
-        out["runs"][str(w)] = r
+             "failed": res["failed"],
+             "client_cpu_ms_per_run": 1e3 * client_s / args.units,
+             "client_cpu_share_of_a_core": client_s / wall,
+             "workers_cpu_ms_per_run": 1e3 * sum(c["s"] for c in workers_s) / args.units,
+             "workers_system_ms_per_run": 1e3 * sum(c["system_s"] for c in workers_s) / args.units,
+             "workers_cpu_share_of_a_core": [c["s"] / wall for c in workers_s]}
+        out["runs"][str(w)] = r  # the last round of w workers
+        out["rounds"].append({"workers": w, **r})
         out["machine_load"][f"after_{w}"] = _load()
         print(f"{w} worker(s): {args.units} runs in {wall:.2f} s = {r['runs_per_s']:.2f} runs/s, {n_tasks} tasks of "
               f"about {r['batch']} run(s); mean run {1e3 * r['run_wall_s_mean']:.1f} ms in the workers; overhead "
               f"per run {r['overhead_in_tasks_ms']:.2f} ms outside the runs, {r['overhead_vs_alone_ms']:.2f} ms "
               f"against the run alone; load {out['machine_load'][f'after_{w}']}")
-    if "1" in out["runs"] and "2" in out["runs"]:
-        out["speedup_1_to_2"] = out["runs"]["1"]["wall_s"] / out["runs"]["2"]["wall_s"]
-        print(f"speed-up from 1 to 2 workers: {out['speedup_1_to_2']:.2f}x")
+        print(f"    CPU per run: client {r['client_cpu_ms_per_run']:.2f} ms ({100 * r['client_cpu_share_of_a_core']:.0f} % "
+              f"of a core), workers {r['workers_cpu_ms_per_run']:.2f} ms (of which system "
+              f"{r['workers_system_ms_per_run']:.2f} ms; each worker busy "
+              f"{', '.join(f'{100 * x:.0f} %' for x in r['workers_cpu_share_of_a_core'])} of the wall time)")
+    # each round of 1 worker followed by one of 2 (``--workers 1 2 1 2`` alternates them under the same load)
+    out["pairs"] = []
+    for one, two in zip(out["rounds"], out["rounds"][1:]):
+        if (one["workers"], two["workers"]) != (1, 2):
+            continue
+        # the CPU bound (module docstring): one worker has a core to itself, two share both cores with the client
+        pair = {"speedup": one["wall_s"] / two["wall_s"],
+                "cpu_bound": 2 * one["workers_cpu_ms_per_run"] / (two["workers_cpu_ms_per_run"]
+                                                                  + two["client_cpu_ms_per_run"])}
+        out["pairs"].append(pair)
+        print(f"speed-up from 1 to 2 workers: {pair['speedup']:.2f}x; CPU bound on 2 cores, 2 w1 / (w2 + client2): "
+              f"{pair['cpu_bound']:.2f}x (w: the workers' CPU per run; the wall-time speed-up reaches the bound "
+              f"only where the sweep has both cores)")
+    if out["pairs"]:
+        out["speedup_1_to_2"] = out["pairs"][-1]["speedup"]
+        out["cpu_bound_speedup_1_to_2"] = out["pairs"][-1]["cpu_bound"]
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     return 0

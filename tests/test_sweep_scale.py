@@ -92,8 +92,19 @@ def test_a_batched_sweep_gives_the_rows_of_an_unbatched_one(small, unbatched, tm
     # each task of 3 runs (units 0-2 and 3-5 of a scenario) ran in one worker process: batching took place
     for (_, first), rows in table.groupby(["scenario_index", table["unit"] // 3]):
         assert rows["worker"].nunique() == 1 and len(rows) == 3
-    # a part per run, as without batching: the resume stays per run
-    assert len(list((out / "runs").glob("*.parquet"))) == 12
+    # a part per task (the worker packs its rows, the client writes the bytes): 4 parts of 3 rows, named by the
+    # first run's key and the count; the store finds every run in them, so a second invocation runs nothing and
+    # --rerun finds a row inside a part of several
+    parts = sorted((out / "runs").glob("*.parquet"))
+    assert [len(pd.read_parquet(p)) for p in parts] == [3] * 4
+    assert all(p.stem == f"{pd.read_parquet(p)['key'].iloc[0]}-3" for p in parts)
+    lines = []
+    again = run_sweep(small, out, workers=2, batch=3, log=lines.append, plots=False)
+    assert again["computed"] == 0 and "12 already done, 0 to run" in lines[0]
+    _same_rows(pd.read_parquet(out / "runs.parquet"), unbatched.table)
+    middle = table[(table["unit"] == 1) & (table["scenario_index"] == 1)].iloc[0]  # row 2 of its part
+    res = rerun(small, middle["key"], out)
+    assert res["differs"] == [] and res["stored"].endswith("-3.parquet")
 
 
 def test_workers_have_one_thread_and_a_warm_node_local_numba_cache(small):
@@ -121,6 +132,58 @@ def test_workers_have_one_thread_and_a_warm_node_local_numba_cache(small):
         assert w["cache"] == node_cache_dir() and w["warm_s"] is not None
     # the warm-up wrote the kernels' index files into the node-local folder (numba mirrors the source path there)
     assert list(Path(node_cache_dir()).rglob("*.nbi"))
+
+
+def test_local_workers_start_with_the_heap_settings_and_leave_this_process_as_it_was():
+    """dask's nanny would start the workers with MALLOC_TRIM_THRESHOLD_=65536 (a fixed 128 kB mmap threshold: the
+    runs' arrays page-faulted in anew each run); they get MALLOC_VARIABLES, read by glibc at the process's start,
+    and DASK_CONFIG (no profiler sampling the runs' stacks); this process's environment and dask configuration are
+    what they were before the cluster."""
+    import os
+
+    import dask
+
+    from sins_sim.jobs.sweep.job import _dask_client
+    from sins_sim.jobs.sweep.worker import DASK_CONFIG, MALLOC_VARIABLES
+
+    config_before = {k: dask.config.get(k) for k in DASK_CONFIG}
+    assert config_before != DASK_CONFIG  # dask's defaults differ: the check below can fail
+
+    def worker_config():
+        import dask
+
+        return {k: dask.config.get(k) for k in DASK_CONFIG}
+
+    before = {k: os.environ.get(k) for k in MALLOC_VARIABLES}
+
+    def start_environment():
+        with open("/proc/self/environ", "rb") as fh:  # the environment the process started with
+            env = dict(kv.split(b"=", 1) for kv in fh.read().split(b"\0") if b"=" in kv)
+        return {k: env.get(k.encode(), b"").decode() for k in MALLOC_VARIABLES}
+
+    for _ in range(2):  # the second cluster too: the first one's nannies wrote dask's value into os.environ
+        with _dask_client(None, 1, 1) as client:
+            seen = list(client.run(start_environment).values())
+            config = list(client.run(worker_config).values())
+        assert seen == [MALLOC_VARIABLES] and config == [DASK_CONFIG]
+        assert {k: os.environ.get(k) for k in MALLOC_VARIABLES} == before
+        assert {k: dask.config.get(k) for k in DASK_CONFIG} == config_before
+
+
+def test_packed_rows_read_back_as_pandas_builds_them():
+    """A part (pack_rows) read by pandas is pandas.DataFrame(rows): same columns in order, same values exactly,
+    a key missing from a row NaN there."""
+    import io
+
+    import numpy as np
+
+    from sins_sim.jobs.sweep.store import pack_rows
+
+    rows = [{"key": "a" * 20, "unit": 0, "seed": 2**32 - 1, "x.status": "ok", "x.m": 0.1 + 0.2, "warnings": ""},
+            {"key": "b" * 20, "unit": 1, "seed": 7, "x.status": "ok", "x.m": np.nan, "warnings": "one\ntwo",
+             "param.f0_ppm.x": -1e-300}]
+    got = pd.read_parquet(io.BytesIO(pack_rows(rows)))
+    pd.testing.assert_frame_equal(got, pd.DataFrame(rows), check_exact=True)
 
 
 # --- one run alone ---------------------------------------------------------------------------------------------

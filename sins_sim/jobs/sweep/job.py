@@ -8,7 +8,8 @@ records a failed task (its parameters, error and traceback) without stopping the
 it writes ``runs.parquet``, ``summary.json`` (:mod:`.summary`) and the plots.
 
 Runs are grouped into tasks (:func:`batch_size`: a task of about :data:`TARGET_TASK_S`, every worker thread
-given several tasks); each run of a task is still written as its own part, so the resume stays exact. The
+given several tasks); the worker packs a task's rows into one Parquet part and the client writes its bytes
+(:mod:`.store`), so the client's CPU per run stays small beside the workers'. The
 workers are set up before the first task (:mod:`.worker`: one thread, a node-local numba cache, a warm-up
 run). :func:`rerun` runs one run of the sweep alone, in this process (``sins-sim sweep --rerun``).
 """
@@ -138,6 +139,36 @@ def _close_quietly(client, cluster) -> None:
 
 
 @contextmanager
+def _cluster_settings():
+    """While a ``LocalCluster`` starts: :data:`~sins_sim.jobs.sweep.worker.DASK_CONFIG` (read by its scheduler,
+    nannies and workers when they start), and the nannies give the worker processes
+    :data:`~sins_sim.jobs.sweep.worker.MALLOC_VARIABLES` instead of dask's ``MALLOC_TRIM_THRESHOLD_=65536``.
+
+    glibc reads them when a process starts, so they must be in the nanny's ``pre-spawn-environ``, which the nanny
+    writes into this process's ``os.environ`` before it starts a worker and where a value already in ``os.environ``
+    wins over the configuration (an earlier cluster of this process left dask's there): both are set here, and this
+    process's environment is put back as it was once the cluster has started (a nanny that restarts a worker
+    keeps its own copy).
+    """
+    import dask
+
+    from sins_sim.jobs.sweep.worker import DASK_CONFIG, MALLOC_VARIABLES
+
+    saved = {k: os.environ.get(k) for k in MALLOC_VARIABLES}
+    os.environ.update(MALLOC_VARIABLES)
+    try:
+        with dask.config.set({**DASK_CONFIG, **{f"distributed.nanny.pre-spawn-environ.{k}": v
+                                                for k, v in MALLOC_VARIABLES.items()}}):
+            yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+@contextmanager
 def _dask_client(scheduler, workers, n_tasks):
     from dask.distributed import Client, LocalCluster
 
@@ -162,8 +193,9 @@ def _dask_client(scheduler, workers, n_tasks):
     from sins_sim.jobs.sweep.worker import worker_environment
 
     # one thread per worker process, NUMBA_NUM_THREADS=1, a node-local numba cache: set before the process starts
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR, env=worker_environment())
+    with _cluster_settings():
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR, env=worker_environment())
     client = None
     try:
         client = Client(cluster)
@@ -227,7 +259,7 @@ def _setup_workers(client, todo, version, phase=None) -> None:
 def _run_tasks(client, todo, store, progress, task_fn, version, phase=None, batch=None) -> tuple[int, int]:
     from dask.distributed import as_completed
 
-    from sins_sim.jobs.sweep.worker import run_batch
+    from sins_sim.jobs.sweep.worker import run_batch_part
 
     slots = sum(client.nthreads().values()) or 1
     futures = {}
@@ -235,7 +267,7 @@ def _run_tasks(client, todo, store, progress, task_fn, version, phase=None, batc
         # longest tasks first (dask runs higher priorities first): the short ones then fill the workers' tails
         # instead of one long task finishing alone at the end (longest-processing-time-first scheduling)
         prio = int(min(sum(t.est_s for t in runs) * 1e3, 1e12))
-        fut = client.submit(run_batch, [t.spec(version) for t in runs], None if task_fn is run_task else task_fn,
+        fut = client.submit(run_batch_part, [t.spec(version) for t in runs], None if task_fn is run_task else task_fn,
                             key=f"sins-sim-runs-{runs[0].key}-{len(runs)}", pure=False, priority=prio)
         futures[fut] = runs
     ok = failed = 0
@@ -247,13 +279,13 @@ def _run_tasks(client, todo, store, progress, task_fn, version, phase=None, batc
             runs = futures.pop(fut)
             if fut.status == "finished":
                 by_key = {t.key: t for t in runs}
-                for item in fut.result():
-                    if "row" in item:
-                        store.write_row(item["row"])
-                        ok += 1
-                    else:
-                        store.write_failure(_failure_record(by_key[item["key"]], item["error"], item["traceback"]))
-                        failed += 1
+                res = fut.result()
+                if res["part"] is not None:  # packed by the worker: the client writes the bytes (.store)
+                    store.write_part(res["part"], res["keys"])
+                    ok += len(res["keys"])
+                for item in res["failures"]:
+                    store.write_failure(_failure_record(by_key[item["key"]], item["error"], item["traceback"]))
+                    failed += 1
             else:  # the task itself failed (its worker died): every run of it is recorded
                 exc, tb = fut.exception(), fut.traceback()
                 for t in runs:
@@ -447,10 +479,10 @@ def rerun(path, run_id: str, out=None, task_fn=run_task) -> dict:
     path : path
         The sweep YAML.
     run_id : str
-        The run's key (column ``key`` of ``runs.parquet``, the name of ``runs/<key>.parquet`` and of
+        The run's key (column ``key`` of ``runs.parquet`` and of its part in ``runs/``, the name of
         ``failed/<key>.json``) or ``UNIT:SCENARIO`` (unit index and scenario label, e.g. ``3:stationary``).
     out : path, optional
-        A sweep folder: the row is compared with the stored part of the same key, column by column, exactly.
+        A sweep folder: the row is compared with the stored row of the same key, column by column, exactly.
     task_fn : callable(spec) -> row
 
     Returns
@@ -465,11 +497,9 @@ def rerun(path, run_id: str, out=None, task_fn=run_task) -> dict:
     wall = time.perf_counter() - t0
     stored = differs = None
     if out is not None:
-        part = SweepStore(out).runs / f"{task.key}.parquet"
-        if part.is_file():
-            import pandas as pd
-
-            old = pd.read_parquet(part).iloc[0].to_dict()
+        found = SweepStore(out).stored_row(task.key)
+        if found is not None:
+            part, old = found
             stored = str(part)
             differs = sorted(c for c in set(old) | set(row) if c not in VOLATILE_COLUMNS
                              and (c not in old or c not in row or not _same_value(old[c], row[c])))
