@@ -114,6 +114,17 @@ def test_sos_is_read_only_and_cached():
         d.sos[0, 0] = 0.0
 
 
+def test_equal_designs_share_one_design_with_scipys_bits():
+    # the per-process design cache: a second design of the same parameters (a second channel, a sweep's next run)
+    # reuses the sections, which are exactly scipy's design of those parameters (independent call, same bits)
+    a = EliminatorDesign.centred(386.0)
+    b = EliminatorDesign.centred(386.0)
+    assert a is not b and a.sos is b.sos
+    ref = signal.ellip(5, 0.1, 60.0, [366.0, 406.0], btype="bandstop", fs=7200.0, output="sos")
+    assert_array_equal(a.sos, ref)
+    assert EliminatorDesign.centred(352.0).sos is not a.sos  # other parameters: their own design
+
+
 def test_band_constructors():
     assert EliminatorDesign.centred(352.0).band_hz == (332.0, 372.0)
     p = EliminatorDesign.paper()

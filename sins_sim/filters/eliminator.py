@@ -19,7 +19,7 @@ where the gain first leaves the pass-band ripple (``-rp_db``); the stop band
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from numbers import Integral
 
 import numpy as np
@@ -44,6 +44,36 @@ from sins_sim.filters.ranges import MAX_RP_DB, MAX_RS_DB  # noqa: E402
 
 # scipy >= 1.15 names it freqz_sos; sosfreqz is the older name (same function).
 _freqz_sos = getattr(signal, "freqz_sos", None) or signal.sosfreqz
+
+
+@lru_cache(maxsize=256)
+def _ellip_sos(order: int, rp_db: float, rs_db: float, band_hz: tuple, fs_hz: float) -> np.ndarray:
+    """The sections of :attr:`EliminatorDesign.sos`, designed once per parameter set and process.
+
+    A run builds one eliminator per channel and a sweep thousands of identical ones: the elliptic design
+    (``scipy.signal.ellip``, about 2 ms) depends only on these validated, hashable parameters, and its result is
+    read-only, so every design of the same parameters shares one array (the same bits as designing it again). An
+    unstable design raises every time (``lru_cache`` does not keep exceptions).
+    """
+    sos = signal.ellip(
+        order,
+        rp_db,
+        rs_db,
+        list(band_hz),
+        btype="bandstop",
+        fs=fs_hz,
+        output="sos",
+    )
+    sos = np.ascontiguousarray(sos, dtype=np.float64)
+    # each section's poles are the roots of z^2 + a1 z + a2: inside the unit circle, or the filter grows
+    radius = max((float(np.max(np.abs(np.roots(row[3:])))) for row in sos), default=0.0)
+    if not (np.all(np.isfinite(sos)) and radius < 1.0):
+        raise ValueError(
+            f"{_OWNER}.band_hz: the elliptic design {band_hz} Hz at {fs_hz:g} Hz, order {order}, "
+            f"is not stable in float64 (largest pole radius {radius:.12g}); widen the band or lower the order"
+        )
+    sos.setflags(write=False)
+    return sos
 
 
 @dataclass(frozen=True)
@@ -156,26 +186,9 @@ class EliminatorDesign:
 
     @cached_property
     def sos(self) -> np.ndarray:
-        """Second-order sections, shape ``(order, 6)``, read-only."""
-        sos = signal.ellip(
-            self.order,
-            self.rp_db,
-            self.rs_db,
-            list(self.band_hz),
-            btype="bandstop",
-            fs=self.fs_hz,
-            output="sos",
-        )
-        sos = np.ascontiguousarray(sos, dtype=np.float64)
-        # each section's poles are the roots of z^2 + a1 z + a2: inside the unit circle, or the filter grows
-        radius = max((float(np.max(np.abs(np.roots(row[3:])))) for row in sos), default=0.0)
-        if not (np.all(np.isfinite(sos)) and radius < 1.0):
-            raise ValueError(
-                f"{_OWNER}.band_hz: the elliptic design {self.band_hz} Hz at {self.fs_hz:g} Hz, order {self.order}, "
-                f"is not stable in float64 (largest pole radius {radius:.12g}); widen the band or lower the order"
-            )
-        sos.setflags(write=False)
-        return sos
+        """Second-order sections, shape ``(order, 6)``, read-only (one design per parameter set and process:
+        :func:`_ellip_sos`)."""
+        return _ellip_sos(self.order, self.rp_db, self.rs_db, self.band_hz, self.fs_hz)
 
     @property
     def n_poles(self) -> int:
