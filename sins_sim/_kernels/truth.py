@@ -306,8 +306,8 @@ def surface_scales(lat, h, out):
     """Per truth row, what turns latitude and longitude errors into metres along the surface.
 
     ``out[n] = [cos(lat), R_E + h, R_N + h]`` with the radii of curvature of
-    :func:`sins_sim.earth.radii` (WGS-84; Titterton & Weston 2004, sec. 3.7). Computed once per
-    truth row and shared by every filter's :func:`nav_errors`.
+    :func:`sins_sim.earth.radii` (WGS-84; Titterton & Weston 2004, sec. 3.7). Computed for the truth
+    rows at the navigation updates, the only rows :func:`nav_errors` reads.
     """
     for n in range(lat.shape[0]):
         r_n, r_e = radii(lat[n])

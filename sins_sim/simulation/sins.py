@@ -724,7 +724,7 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     phi_buf = _Ring((3,), cap)  # true gyro angles (the ideal output)
     tr_buf = {k: _Ring(w, cap) for k, w in (("q", (4,)), ("lat", ()), ("lon", ()), ("h", ()), ("v", (3,)),
                                             ("dv", (3,)), ("dth", (3,)), ("gerr", (3,)), ("gcum", (3,)),
-                                            ("acum", (3,)), ("aerr", (3,)), ("scales", (3,)))}
+                                            ("acum", (3,)), ("aerr", (3,)))}
     navs = {}
     if nav is not None:
         k_start = int(round(nav.start_s * fs))
@@ -791,9 +791,6 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                 for key, arr in (("q", tc.q_nb), ("lat", tc.lat_rad), ("lon", tc.lon_rad), ("h", tc.h_m),
                                  ("v", tc.v_ned_m_s), ("dth", tc.dtheta_rad)):
                     tr_buf[key].push(arr)
-                scales = np.empty((tc.lat_rad.shape[0], 3))
-                ktruth.surface_scales(tc.lat_rad, tc.h_m, scales)  # once per truth row, for every filter
-                tr_buf["scales"].push(scales)
                 dv_meas = accel.process(tc.dv_m_s if accel_err is None else accel_err.apply(tc.dv_m_s))
                 tr_buf["dv"].push(dv_meas)
                 a_err = dv_meas - tc.dv_m_s  # the accelerometers' error (the interval means of the velocity error)
@@ -801,12 +798,16 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                 a_cum = a_cum + np.cumsum(a_err, axis=0)  # accumulated accelerometer error (Allan)
                 tr_buf["acum"].push(a_cum)
                 a_cum = a_cum[-1]
-                g_e = (np.zeros_like(tc.dtheta_rad) if gyro_err is None
-                       else gyro_err.apply(tc.dtheta_rad) - tc.dtheta_rad)
-                tr_buf["gerr"].push(g_e)
-                g_cum = g_cum + np.cumsum(g_e, axis=0)  # accumulated sensor error angle (for the free attitude error)
-                tr_buf["gcum"].push(g_cum)
-                g_cum = g_cum[-1]
+                if gyro_err is None:  # no sensor errors: the error angle stays zero (what the sum of zeros gives)
+                    g_e = np.zeros_like(tc.dtheta_rad)
+                    tr_buf["gerr"].push(g_e)
+                    tr_buf["gcum"].push(g_e)
+                else:
+                    g_e = gyro_err.apply(tc.dtheta_rad) - tc.dtheta_rad
+                    tr_buf["gerr"].push(g_e)
+                    g_cum = g_cum + np.cumsum(g_e, axis=0)  # accumulated sensor error angle (free attitude error)
+                    tr_buf["gcum"].push(g_cum)
+                    g_cum = g_cum[-1]
             for name in outs_buf:
                 cols = [o[name] for o in outs]
                 outs_buf[name].push_columns(cols)
@@ -975,7 +976,7 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
     bad = ktruth.nav_errors(out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H], out[:, OUT_V:OUT_V + 3],
                             out[:, OUT_Q:OUT_Q + 4], tr_buf["lat"].get(lo, hi, step),
                             tr_buf["lon"].get(lo, hi, step), tr_buf["h"].get(lo, hi, step),
-                            tr_buf["scales"].get(lo, hi, step), tr_buf["v"].get(lo, hi, step),
+                            _surface_scales(tr_buf, lo, hi, step), tr_buf["v"].get(lo, hi, step),
                             q_t, e_body, nf.free, DIVERGED_ATTITUDE_RAD,
                             DIVERGED_VELOCITY_M_S, DIVERGED_POSITION_M, rows)
     rows[:, 10] = out[:, OUT_LAT]
@@ -990,6 +991,15 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
     nf.series.add(rows, means)
     nf.epoch_j = hi - 1
     return record
+
+
+def _surface_scales(tr_buf, lo, hi, step):
+    """:func:`sins_sim._kernels.truth.surface_scales` of the truth rows at the updates ``lo, lo + step, .. < hi``
+    only: the error bookkeeping reads them nowhere else (per row the same values as for every truth row)."""
+    lat = np.ascontiguousarray(tr_buf["lat"].get(lo, hi, step))
+    out = np.empty((lat.shape[0], 3))
+    ktruth.surface_scales(lat, np.ascontiguousarray(tr_buf["h"].get(lo, hi, step)), out)
+    return out
 
 
 _NO_ROWS = np.zeros((0, 3))
