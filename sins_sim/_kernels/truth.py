@@ -55,8 +55,9 @@ def lagrange4(nodes, j0, h, t, q_col, out, full_every=1, c_lo=0, c_hi=0):
     Only rows ``n`` with ``n % full_every == full_every - 1`` get every column; the others get
     columns ``c_lo .. c_hi - 1`` only (each column is interpolated on its own, so its values do
     not depend on which others are formed) and NaN elsewhere. ``full_every=1``: every row full.
+    An ``out`` narrower than ``nodes`` receives the leading columns only (each as in a full row).
     """
-    n_cols = nodes.shape[1]
+    n_cols = min(nodes.shape[1], out.shape[1])
     phase = 0  # n % full_every, kept by a counter (no integer division per row)
     for n in range(t.shape[0]):
         i, w0, w1, w2, w3 = _lagrange_weights(t[n], h, j0)

@@ -126,22 +126,28 @@ class VehicleSampler:
         self._nodes = np.concatenate((self._nodes, new))
         self._next = j_last + 1
 
-    def sample(self, t, full_every: int = 1, fields=()) -> np.ndarray:
+    def sample(self, t, full_every: int = 1, fields=(), upto: str | None = None) -> np.ndarray:
         """Interpolated rows (columns as :data:`VEHICLE_FIELDS`) at increasing times ``t`` (s).
 
         With ``full_every > 1`` only every ``full_every``-th row (indices ``full_every - 1``,
         ``2 full_every - 1``, ...) has every field; the others have ``fields`` (adjacent in
         :data:`VEHICLE_FIELDS`) and NaN elsewhere. Each field's values are those of a full row.
+        With ``upto`` the rows end with that field (the fields before it and itself, the same values).
         """
         t = np.ascontiguousarray(t, dtype=np.float64)
         self._window(t)
-        out = np.empty((t.size, N_VEHICLE_COLS))
+        out = np.empty((t.size, N_VEHICLE_COLS if upto is None else _COLS[upto].stop))
         c_lo = min((_COLS[k].start for k in fields), default=0)
         c_hi = max((_COLS[k].stop for k in fields), default=0)
         if c_hi - c_lo != sum(_COLS[k].stop - _COLS[k].start for k in fields):
             raise ValueError(f"truth.fields: must be adjacent in VEHICLE_FIELDS, got {fields!r}")
-        ktruth.lagrange4(self._nodes, self._j0, self.h, t, _COLS["q_nv"].start, out, int(full_every), c_lo, c_hi)
-        _wrap_lon(out[:, _LON])
+        if c_hi > out.shape[1]:
+            raise ValueError(f"truth.fields: must end by upto={upto!r}, got {fields!r}")
+        # the quaternion renormalised where the rows hold it (the kernel does not check the width)
+        q_col = _COLS["q_nv"].start if out.shape[1] >= _COLS["q_nv"].stop else -1
+        ktruth.lagrange4(self._nodes, self._j0, self.h, t, q_col, out, int(full_every), c_lo, c_hi)
+        if out.shape[1] > _LON:
+            _wrap_lon(out[:, _LON])
         return out
 
     def sample_field(self, t, name: str, last: str | None = None, out=None) -> np.ndarray:
@@ -321,7 +327,8 @@ class MissionTruth:
             om_fv = self.vehicle.sample_field(grid, "omega_iv_v_rad_s", "f_v_m_s2", self._om_fv).reshape(n, 4, 6)
             om = om_fv[:, :, 0:3]  # strided views (the kernel reads them in place)
             fv = om_fv[:, :, 3:6]
-            end = self.vehicle.sample(t_end)  # the same times as the grid's 4th node: the same values there
+            # position, velocity and attitude at the sample's end (the rates there are the grid's 4th node)
+            end = self.vehicle.sample(t_end, upto="q_nv")
             q_nv = f(end, "q_nv")
         else:  # the rates alone
             om = self.vehicle.sample_field(grid, "omega_iv_v_rad_s").reshape(n, 4, 3)
