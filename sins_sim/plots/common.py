@@ -40,6 +40,9 @@ FILTER_COLORS = {
 _EXTRA_COLORS = ("#882255", "#44AA99", "#999933", "#AA4499", "#332288", "#117733")
 #: Transparency of a min/max envelope: light, so the mean lines in front stay readable.
 ENVELOPE_ALPHA = 0.13
+#: zlib level of the PNGs :func:`finish_figure` writes (lossless; 6, the default, packs about 8 % tighter for
+#: about 15 ms more a figure of ``sins-sim run``).
+PNG_COMPRESS_LEVEL = 3
 #: Backwards-compatible names (the figures of the channel and the paper use these).
 LABELS = FILTER_LABELS
 COLORS = FILTER_COLORS
@@ -108,12 +111,37 @@ def _pyplot(headless: bool = True):
 
 
 def finish_figure(fig, path, dpi: int = 110):
-    """Write ``fig`` to ``path`` and close it, or, with ``path`` None, leave it open for the caller; returns it."""
-    if path is not None:
-        import matplotlib.pyplot as plt
+    """Write ``fig`` to ``path`` and close it, or, with ``path`` None, leave it open for the caller; returns it.
 
+    A PNG of a headless figure (an Agg canvas: every command line run) is laid out once and drawn once:
+    ``savefig`` on a figure with a layout engine first draws it with rendering disabled, only to run the
+    layout, then draws it again. Here the layout engine runs by itself at the saving resolution and is
+    switched off for the one real draw, which gives the same pixels (checked by
+    ``tests/test_figures.py``) for about half the drawing work. PNGs are written with zlib level 3
+    instead of 6 (lossless either way; the files of ``sins-sim run`` about 8 % larger, about 15 ms
+    less each).
+    """
+    if path is None:
+        return fig
+    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    engine = fig.get_layout_engine()
+    if type(fig.canvas) is not FigureCanvasAgg or not str(path).lower().endswith(".png"):
         fig.savefig(path, dpi=dpi)
-        plt.close(fig)
+    else:
+        dpi0 = fig.dpi
+        try:
+            fig.set_dpi(dpi)
+            if engine is not None:
+                engine.execute(fig)
+                fig.set_layout_engine(None)
+            fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+        finally:
+            if fig.get_layout_engine() is not engine:
+                fig.set_layout_engine(engine)
+            fig.set_dpi(dpi0)
+    plt.close(fig)
     return fig
 
 
