@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from sins_sim.units import ARCMIN, ARCSEC
@@ -110,6 +112,14 @@ def _pyplot(headless: bool = True):
     return plt
 
 
+@functools.lru_cache(maxsize=1)
+def _shared_mathtext_parser():
+    """One ``MathTextParser("path")`` (what an Agg renderer makes for itself) for every figure of the process."""
+    from matplotlib.mathtext import MathTextParser
+
+    return MathTextParser("path")
+
+
 def finish_figure(fig, path, dpi: int = 110):
     """Write ``fig`` to ``path`` and close it, or, with ``path`` None, leave it open for the caller; returns it.
 
@@ -133,6 +143,10 @@ def finish_figure(fig, path, dpi: int = 110):
         dpi0 = fig.dpi
         try:
             fig.set_dpi(dpi)
+            # The renderer the layout and the draw use (the canvas keeps it for this size and dpi) parses its
+            # mathtext (the log axes' tick labels) with one parser shared by every figure: matplotlib caches
+            # parses per parser, and each renderer makes its own, so every figure parsed "10^{-4}" afresh.
+            fig.canvas.get_renderer().mathtext_parser = _shared_mathtext_parser()
             if engine is not None:
                 engine.execute(fig)
                 fig.set_layout_engine(None)
