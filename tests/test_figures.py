@@ -385,3 +385,68 @@ def test_figure_check_catches_an_empty_figure():
     ax.set_xlabel("time")
     ax.set_ylabel("error (m)")
     assert figure_problems(fig) == ["axes 0 (''): no data", "axes 0 (''): x label 'time' names no unit"]
+
+
+# --- finish_figure: one layout and one draw, the same pixels ---------------------------------------
+def _figure_like_a_run(kind: str):
+    """A headless figure with what the run figures use: constrained layout, shared x, log and symmetric-log
+    axes with mathtext tick labels, a legend outside below the panels (``navigation_error``), or a grid of
+    equal-aspect panels with a suptitle (``trajectory``)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = Figure(figsize=(8, 7), layout="constrained")
+    FigureCanvasAgg(fig)
+    t = np.linspace(0.0, 11.0, 200)
+    if kind == "panels":
+        axes = fig.subplots(3, 1, sharex=True)
+        axes[0].fill_between(t, 1e-5 * (1 + t), 1e-3 * (1 + t), alpha=0.13, lw=0)
+        axes[0].plot(t, 1e-4 * (1 + t), label="a filter with a long legend label")
+        axes[0].set_yscale("log")
+        axes[1].plot(t, 1e-3 * np.sin(t), label="another one")
+        axes[1].set_yscale("symlog", linthresh=1e-4)
+        axes[2].loglog(t[1:], 1e-2 / t[1:])
+        for i, ax in enumerate(axes):
+            ax.set_ylabel(f"error {i} (m)\n(log scale)")
+        axes[0].set_title("a title\nof two lines", fontsize=10)
+        fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=2, fontsize=8)
+    else:
+        gs = fig.add_gridspec(2, 3, width_ratios=[1.7, 1.0, 1.0])
+        a0 = fig.add_subplot(gs[:, 0])
+        a0.plot(np.cos(t), 3 * np.sin(t), label="path")
+        a0.set_aspect("equal", adjustable="datalim")
+        a0.legend(fontsize=8)
+        for k in range(4):
+            ax = fig.add_subplot(gs[k % 2, 1 + k // 2])
+            ax.plot(t * 10.0 ** k, np.sin(t))
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.set_title(f"panel {k}\nend: {k:.3g} m", fontsize=8)
+        fig.suptitle("a suptitle\nof two lines", fontsize=10)
+    return fig
+
+
+@pytest.mark.parametrize("kind", ["panels", "grid"])
+def test_finish_figure_writes_the_pixels_savefig_writes(tmp_path, kind):
+    """:func:`~sins_sim.plots.common.finish_figure` lays a headless figure out once and draws it once instead of
+    ``savefig``'s two draws: the PNG must be the one ``savefig`` writes, pixel for pixel (tolerance zero: the same
+    renderer on the same layout gives the same pixels; only the zlib level of the file differs)."""
+    from PIL import Image
+
+    from sins_sim.plots.common import finish_figure
+
+    ref = _figure_like_a_run(kind)
+    ref.savefig(tmp_path / "ref.png", dpi=110)
+    fig = _figure_like_a_run(kind)
+    engine, dpi = fig.get_layout_engine(), fig.dpi
+    assert finish_figure(fig, tmp_path / "fast.png") is fig
+    a, b = (np.asarray(Image.open(tmp_path / n)) for n in ("ref.png", "fast.png"))
+    assert a.shape == b.shape and a.shape[:2] == (770, 880)
+    assert np.count_nonzero(np.any(a != b, axis=-1)) == 0
+    assert fig.get_layout_engine() is engine and fig.dpi == dpi  # the figure is left as it was given
+
+
+def test_finish_figure_leaves_other_formats_to_savefig(tmp_path):
+    """A path that is not a PNG goes through ``savefig`` (its own layout pass for its own renderer)."""
+    from sins_sim.plots.common import finish_figure
+
+    finish_figure(_figure_like_a_run("panels"), tmp_path / "f.svg")
+    assert (tmp_path / "f.svg").read_text().lstrip().startswith("<?xml")

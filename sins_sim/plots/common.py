@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from sins_sim.units import ARCMIN, ARCSEC
@@ -40,6 +42,9 @@ FILTER_COLORS = {
 _EXTRA_COLORS = ("#882255", "#44AA99", "#999933", "#AA4499", "#332288", "#117733")
 #: Transparency of a min/max envelope: light, so the mean lines in front stay readable.
 ENVELOPE_ALPHA = 0.13
+#: zlib level of the PNGs :func:`finish_figure` writes (lossless; 6, the default, packs about 8 % tighter for
+#: about 15 ms more a figure of ``sins-sim run``).
+PNG_COMPRESS_LEVEL = 3
 #: Backwards-compatible names (the figures of the channel and the paper use these).
 LABELS = FILTER_LABELS
 COLORS = FILTER_COLORS
@@ -107,13 +112,51 @@ def _pyplot(headless: bool = True):
     return plt
 
 
-def finish_figure(fig, path, dpi: int = 110):
-    """Write ``fig`` to ``path`` and close it, or, with ``path`` None, leave it open for the caller; returns it."""
-    if path is not None:
-        import matplotlib.pyplot as plt
+@functools.lru_cache(maxsize=1)
+def _shared_mathtext_parser():
+    """One ``MathTextParser("path")`` (what an Agg renderer makes for itself) for every figure of the process."""
+    from matplotlib.mathtext import MathTextParser
 
+    return MathTextParser("path")
+
+
+def finish_figure(fig, path, dpi: int = 110):
+    """Write ``fig`` to ``path`` and close it, or, with ``path`` None, leave it open for the caller; returns it.
+
+    A PNG of a headless figure (an Agg canvas: every command line run) is laid out once and drawn once:
+    ``savefig`` on a figure with a layout engine first draws it with rendering disabled, only to run the
+    layout, then draws it again. Here the layout engine runs by itself at the saving resolution and is
+    switched off for the one real draw, which gives the same pixels (checked by
+    ``tests/test_figures.py``) without the extra pass. PNGs are written with zlib level 3 instead of 6
+    (lossless either way; the files of ``sins-sim run`` about 8 % larger, about 15 ms less each). With
+    the shared mathtext parser below, the five figures of an 11 s ``nav-stationary-1h`` run took
+    2.2-2.4 s of CPU instead of 2.7-2.95 s (measured 2026-11-27, one core, same session).
+    """
+    if path is None:
+        return fig
+    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    engine = fig.get_layout_engine()
+    if type(fig.canvas) is not FigureCanvasAgg or not str(path).lower().endswith(".png"):
         fig.savefig(path, dpi=dpi)
-        plt.close(fig)
+    else:
+        dpi0 = fig.dpi
+        try:
+            fig.set_dpi(dpi)
+            # The renderer the layout and the draw use (the canvas keeps it for this size and dpi) parses its
+            # mathtext (the log axes' tick labels) with one parser shared by every figure: matplotlib caches
+            # parses per parser, and each renderer makes its own, so every figure parsed "10^{-4}" afresh.
+            fig.canvas.get_renderer().mathtext_parser = _shared_mathtext_parser()
+            if engine is not None:
+                engine.execute(fig)
+                fig.set_layout_engine(None)
+            fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+        finally:
+            if fig.get_layout_engine() is not engine:
+                fig.set_layout_engine(engine)
+            fig.set_dpi(dpi0)
+    plt.close(fig)
     return fig
 
 
