@@ -14,7 +14,7 @@ from sins_sim.models.block import BlockParams
 from sins_sim.models.motion.rotations import Static
 from sins_sim.models.motion.sines import AxisSines
 from sins_sim.simulation.sins import ImuConfig, NavSettings, simulate_sins
-from tests.test_block_engine import ARCSEC, BLOCK, CHANNELS, stiff_block
+from test_block_engine import ARCSEC, BLOCK, CHANNELS, stiff_block  # noqa: E402  (rootdir-relative, as pytest imports tests)
 
 #: 100 arcsec at 30 Hz about x, 60 arcsec at 47 Hz about y: well below the rocking modes near 100 Hz and the
 #: dithers near 400 Hz.
