@@ -798,13 +798,12 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                 a_cum = a_cum + np.cumsum(a_err, axis=0)  # accumulated accelerometer error (Allan)
                 tr_buf["acum"].push(a_cum)
                 a_cum = a_cum[-1]
+                g_e = (np.zeros_like(tc.dtheta_rad) if gyro_err is None
+                       else gyro_err.apply(tc.dtheta_rad) - tc.dtheta_rad)
+                tr_buf["gerr"].push(g_e)
                 if gyro_err is None:  # no sensor errors: the error angle stays zero (what the sum of zeros gives)
-                    g_e = np.zeros_like(tc.dtheta_rad)
-                    tr_buf["gerr"].push(g_e)
                     tr_buf["gcum"].push(g_e)
                 else:
-                    g_e = gyro_err.apply(tc.dtheta_rad) - tc.dtheta_rad
-                    tr_buf["gerr"].push(g_e)
                     g_cum = g_cum + np.cumsum(g_e, axis=0)  # accumulated sensor error angle (free attitude error)
                     tr_buf["gcum"].push(g_cum)
                     g_cum = g_cum[-1]
