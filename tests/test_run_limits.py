@@ -4,7 +4,6 @@ line when it cannot finish, and the progress bar shows the estimate."""
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
 import pytest
@@ -73,9 +72,9 @@ def test_tones_enter_the_estimate(tmp_path):
 def test_huge_durations_give_one_clear_line_fast(tmp_path, capsys, duration, expected):
     p = tmp_path / "big.yaml"
     p.write_text(f"name: big\nduration_s: {duration}\nimu: {IMU}\n")
-    t0 = time.perf_counter()
+    # fast: the refusal comes from the estimate, before any engine runs (the next test replaces the engine
+    # with one that fails if called); no wall-clock bound here, timing lives in benchmarks/
     assert main(["run", str(p), "--out", str(tmp_path / "o")]) == 2
-    assert time.perf_counter() - t0 < 10.0
     line = _one_line(capsys)
     assert expected in line, line
     if "would take" in line:

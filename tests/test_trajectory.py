@@ -5,9 +5,9 @@ Checks, each against something the code under test does not compute itself:
 
 * closed forms: at rest, on an eastbound equator leg, in a coordinated turn;
 * the continuous navigation equations (Titterton & Weston 2004, sec. 3.5 and 3.7;
-  Groves 2013, sec. 5.4) integrated by scipy ``solve_ivp`` (DOP853) from the
-  truth's own ``omega_iv_v`` and ``f_v`` reproduce its position, velocity
-  and attitude;
+  Groves 2013, sec. 5.4) integrated by a fixed-step fourth-order Runge-Kutta
+  from the truth's own ``omega_iv_v`` and ``f_v`` reproduce its position,
+  velocity and attitude, within the method's Richardson error estimate;
 * continuity of ``f_v`` and ``omega_iv_v`` across segment boundaries and
   ramp ends (values and first derivatives);
 * chunked evaluation equals one call to the last bit;
@@ -27,7 +27,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
-from scipy.integrate import solve_ivp
 
 from chunking import uneven_chunks
 from sins_sim import earth
@@ -232,10 +231,9 @@ def test_build_trajectory_equals_constructor():
 # --- independent check: the navigation equations reproduce the truth ---------------------
 
 
-def _nav_rhs(t, y, imu):
+def _nav_deriv(y, w_iv, f_v):
     """Continuous strapdown equations in NED (T&W sec. 3.5, 3.7; Groves sec. 5.4), numpy Earth model."""
-    q, vel, lat, lon, h = y[:4], y[4:7], y[7], y[8], y[9]
-    w_iv, f_v = imu(t)
+    q, vel, lat, h = y[:4], y[4:7], y[7], y[9]
     c = c_nv(q[None])[0]
     w_ie = earth.earth_rate_ned(lat)
     w_en = earth.transport_rate_ned(lat, h, vel)
@@ -250,80 +248,96 @@ def _nav_rhs(t, y, imu):
     return np.concatenate((dq, dv, [vel[0] / (r_n + h), vel[1] / ((r_e + h) * math.cos(lat)), -vel[2]]))
 
 
-def _nav_errors(truth_at, t_end, t_check, rtol=1e-10):
-    """Integrate the navigation equations from the truth's own IMU signals; errors against the truth."""
-    first = truth_at(0.0)
-    y0 = np.concatenate((first.q_nv[0], first.v_ned_m_s[0], [first.lat_rad[0], first.lon_rad[0], first.h_m[0]]))
+def _rk4_nav(grid, stride, check_every):
+    """Classical fourth-order Runge-Kutta (fixed step) of the navigation equations, driven by the truth's
+    own ``omega_iv_v`` and ``f_v`` on ``grid`` (a :class:`TrajectoryTruth` at a uniform spacing d). The step
+    is ``stride`` d (even: the midpoint stage falls on the grid); the state is returned at every
+    ``check_every`` grid points. A fixed step, not an adaptive one, so that the error has a known order
+    whatever the machine's rounding does to a step-size controller."""
+    w, f = grid.omega_iv_v_rad_s, grid.f_v_m_s2
+    dt = float(grid.t_s[stride] - grid.t_s[0])
+    y = np.concatenate((grid.q_nv[0], grid.v_ned_m_s[0], [grid.lat_rad[0], grid.lon_rad[0], grid.h_m[0]]))
+    out = [y]
+    half = stride // 2
+    for i in range(0, grid.t_s.size - stride, stride):
+        k1 = _nav_deriv(y, w[i], f[i])
+        k2 = _nav_deriv(y + 0.5 * dt * k1, w[i + half], f[i + half])
+        k3 = _nav_deriv(y + 0.5 * dt * k2, w[i + half], f[i + half])
+        k4 = _nav_deriv(y + dt * k3, w[i + stride], f[i + stride])
+        y = y + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        if (i + stride) % check_every == 0:
+            out.append(y)
+    return np.array(out)
 
-    def imu(t):
-        tt = truth_at(min(max(t, 0.0), t_end))
-        return tt.omega_iv_v_rad_s[0], tt.f_v_m_s2[0]
 
-    # atol: 1e-13 (quaternion), 1e-10 m/s, 1e-15 rad (6e-9 m), 1e-8 m, scaled with rtol.
-    atol = np.r_[np.full(4, 1e-13), np.full(3, 1e-10), 1e-15, 1e-15, 1e-8] * (rtol / 1e-10)
-    sol = solve_ivp(_nav_rhs, (0.0, t_end), y0, method="DOP853", rtol=rtol, atol=atol, t_eval=t_check, args=(imu,))
-    assert sol.success
-    ref = TrajectoryTruth.concatenate([truth_at(t) for t in t_check])
-    y = sol.y.T
-    horiz = earth.horizontal_error_m(y[:, 7], y[:, 8], ref.lat_rad, ref.lon_rad, ref.h_m)[2]
-    return dict(horizontal_m=np.max(horiz), height_m=np.max(np.abs(y[:, 9] - ref.h_m)),
-                velocity_m_s=np.max(np.abs(y[:, 4:7] - ref.v_ned_m_s)),
-                attitude_rad=np.max(angle_between(y[:, :4], ref.q_nv)), nfev=sol.nfev)
+def _state_errors(y, ref):
+    """Horizontal, height, velocity and attitude differences of the states ``y`` from ``ref`` (both (n, 10):
+    quaternion, NED velocity, lat, lon, h)."""
+    horiz = earth.horizontal_error_m(y[:, 7], y[:, 8], ref[:, 7], ref[:, 8], ref[:, 9])[2]
+    return dict(horizontal_m=horiz, height_m=np.abs(y[:, 9] - ref[:, 9]),
+                velocity_m_s=np.max(np.abs(y[:, 4:7] - ref[:, 4:7]), axis=1),
+                attitude_rad=angle_between(y[:, :4], ref[:, :4]))
 
 
-#: Bounds of the navigation-equation check at rtol 1e-10: ~3x the larger of the two measurements below.
-#: A missing or wrong term would be far outside: the Coriolis force alone (1.7e-2 m/s^2) moves the position
-#: by ~800 m in 300 s; the transport rate (2e-5 rad/s) turns the attitude by 6e-3 rad.
-NAV_BOUNDS = dict(horizontal_m=2e-4, height_m=1e-5, velocity_m_s=5e-6, attitude_rad=3e-9)
+def _assert_nav_reproduces_truth(grid, stride, check_every):
+    """RK4 at step H = 2 ``stride`` d and at H/2 against the truth, with a bound from the method's own error.
+
+    Richardson (Hairer, Norsett & Wanner 1993, sec. II.4): for a method of order 4, the error of the H/2
+    solution is (y_H - y_H/2) / 15 to leading order. A truth consistent with its own IMU signals therefore
+    lies within that estimate of y_H/2; the bound takes it with a factor 3 (the leading-order term is not the
+    whole error where the truth's profiles have kinks in a higher derivative, at the ramp ends and spline
+    knots) plus the rounding floor: a few ulps of each state per step, summed over the steps (lat and lon
+    in rad times the Earth's radius; a quaternion component's ulp as an angle). A missing or wrong term does
+    not converge away: the Coriolis force alone moves the position by ~800 m in 300 s, the transport rate
+    turns the attitude by 6e-3 rad. The order is asserted too: halving the step shrinks the error against
+    the truth by at least 8x (16x expected) wherever it stands well above the rounding floor; a truth with a
+    missing term would leave it unchanged."""
+    coarse = _rk4_nav(grid, 2 * stride, check_every)
+    fine = _rk4_nav(grid, stride, check_every)
+    idx = np.arange(0, grid.t_s.size, check_every)
+    ref = np.column_stack((grid.q_nv[idx], grid.v_ned_m_s[idx], grid.lat_rad[idx], grid.lon_rad[idx], grid.h_m[idx]))
+    e_coarse, e_fine, richardson = _state_errors(coarse, ref), _state_errors(fine, ref), _state_errors(fine, coarse)
+    n_steps = idx / stride
+    eps = np.spacing(1.0)
+    floor = dict(horizontal_m=n_steps * 4 * eps * earth.WGS84_A_M, height_m=n_steps * 4 * np.spacing(np.abs(ref[:, 9])),
+                 velocity_m_s=n_steps * 4 * np.spacing(np.max(np.abs(ref[:, 4:7]), axis=1)),
+                 attitude_rad=n_steps * 8 * eps)
+    for key in e_fine:
+        bound = 3.0 * richardson[key] / 15.0 + floor[key]
+        assert np.all(e_fine[key] <= bound), (key, np.max(e_fine[key] / bound), np.max(e_fine[key]))
+        above = e_coarse[key] > 100.0 * floor[key]
+        assert np.all(e_fine[key][above] <= e_coarse[key][above] / 8.0), (key, e_coarse[key][above] / e_fine[key][above])
+    return {k: float(np.max(v)) for k, v in e_fine.items()}
 
 
 def test_navigation_equations_reproduce_trajectory():
-    """solve_ivp (DOP853, rtol 1e-10) of the nav equations driven by omega_iv_v and f_v returns the truth.
+    """Fixed-step RK4 of the nav equations driven by omega_iv_v and f_v returns the truth (the bound is the
+    method's own error: see ``_assert_nav_reproduces_truth``).
 
-    300 s, two turns (28 and 39 deg of bank), a 400 m climb and an acceleration. Random access for the
-    integrator's stages comes from stream checkpoints every second (the stream moves forward only).
-    Measured at rtol 1e-10: 2.5e-5 m horizontal, 1.6e-6 m height, 2.3e-7 m/s, 1.3e-10 rad. These are the
-    integrator's errors, not the truth's: at rtol 1e-12 they fall to 1.0e-6 m, 6.0e-8 m, 1.3e-8 m/s,
-    1.4e-11 rad (asserted: at least 10x smaller horizontally and in velocity).
+    300 s, two turns (28 and 39 deg of bank), a 400 m climb and an acceleration; the truth on a 12.5 ms grid,
+    RK4 at 50 and 25 ms. Measured here at 25 ms: see the closing assertion's message.
     """
     tr = short_flight()
-    stream = tr.stream()
-    checkpoints = []
-    for k in range(int(tr.duration_s) + 1):
-        stream.evaluate([float(k)])
-        checkpoints.append(stream.copy())
-
-    def truth_at(t):
-        return checkpoints[min(int(t), len(checkpoints) - 1)].copy().evaluate([t])
-
-    t_check = np.arange(0.0, tr.duration_s + 0.5, 5.0)
-    err = _nav_errors(truth_at, tr.duration_s, t_check)
-    for key, bound in NAV_BOUNDS.items():
-        assert err[key] < bound, (key, err)
-    fine = _nav_errors(truth_at, tr.duration_s, t_check, rtol=1e-12)
-    assert fine["horizontal_m"] < err["horizontal_m"] / 10 and fine["velocity_m_s"] < err["velocity_m_s"] / 10, fine
+    grid = tr.evaluate(np.arange(0.0, tr.duration_s + 1e-9, 0.0125))
+    err = _assert_nav_reproduces_truth(grid, 2, 400)
+    # the errors are the integrator's and small against any physical term
+    assert err["horizontal_m"] < 1e-2 and err["attitude_rad"] < 1e-7, err
 
 
 def test_navigation_equations_reproduce_sampled_trajectory():
     """The same independent check for a SampledTrajectory through 10 Hz samples (first 100 s of the flight:
-    a turn with its ramps). Measured at rtol 1e-10: 5.7e-5 m, 1.7e-6 m, 1.1e-6 m/s, 7.0e-10 rad (at rtol
-    1e-12: 9.0e-6 m, 1.1e-7 m, 1.3e-7 m/s, 1.2e-10 rad, so again the integrator's error; the spline
-    knots, where the jerk has kinks, make DOP853 converge more slowly than on the analytic flight).
-
-    With velocity columns the truth is the smoothing fit of positions and velocities (issue 25, item 8), a
-    quintic whose third derivative jumps at every sample (C2, not the interpolating spline's C4): DOP853's error
-    grows, measured at rtol 1e-10: 4.6e-5 m, 1.6e-7 m, 3.3e-6 m/s, 1.33e-8 rad; at rtol 1e-12 6.4e-6 m, 4.2e-8 m,
-    1.3e-7 m/s, 1.9e-10 rad, so again the integrator's, not a missing term (the transport rate alone would turn
-    the attitude by 6e-3 rad). Its attitude bound is 4e-8 rad (3x), the others NAV_BOUNDS."""
+    a turn with its ramps), with and without velocity columns. The RK4 steps (50 and 25 ms) end on every
+    sample, so within a step the spline (C4) or the smoothing quintic (C2, issue 25 item 8) is a polynomial
+    and the method keeps its order."""
     tr = short_flight()
     t = np.arange(0.0, 100.05, 0.1)
     truth = tr.evaluate(t)
-    for with_velocity, bounds in ((False, NAV_BOUNDS), (True, {**NAV_BOUNDS, "attitude_rad": 4e-8})):
+    for with_velocity in (False, True):
         sampled = SampledTrajectory.from_data(_data_from_truth(truth, with_velocity=with_velocity))
         assert (sampled.fit is not None) == with_velocity
-        err = _nav_errors(lambda x: sampled.evaluate([x]), sampled.duration_s, np.arange(0.0, 100.0, 5.0))
-        for key, bound in bounds.items():
-            assert err[key] < bound, (with_velocity, key, err)
+        grid = sampled.evaluate(np.arange(0.0, 100.0 + 1e-9, 0.0125))
+        err = _assert_nav_reproduces_truth(grid, 2, 400)
+        assert err["horizontal_m"] < 1e-2 and err["attitude_rad"] < 1e-7, (with_velocity, err)
 
 
 # --- continuity, streaming, integration accuracy ------------------------------------------
