@@ -114,7 +114,7 @@ class AlignmentResult:
         deg/h and ug for the biases); unobservable biases are reported as ``"not observable"``."""
         roll, pitch, yaw = self.euler_rad
         out = {"method": self.method, "duration_s": float(self.duration_s),
-               "roll_deg": roll / DEG, "pitch_deg": pitch / DEG, "heading_deg": (yaw / DEG) % 360.0,
+               "roll_deg": float(roll / DEG), "pitch_deg": float(pitch / DEG), "heading_deg": float((yaw / DEG) % 360.0),
                "sigma_tilt_north_arcsec": float(self.sigma_rad[0] / ARCSEC),
                "sigma_tilt_east_arcsec": float(self.sigma_rad[1] / ARCSEC),
                "sigma_heading_deg": float(self.sigma_rad[2] / DEG),
