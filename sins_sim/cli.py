@@ -382,6 +382,12 @@ def _cmd_run(args) -> int:
         print(f"{name:<18}{m['horizontal_position_error_m']['final']:>14.4g}{m['horizontal_position_error_m']['max']:>11.4g}"
               f"{m['vertical_position_error_m']['final']:>12.3g}{m['velocity_error_m_s']['final']:>14.3g}{rms:>30}  "
               f"{m['status']}")
+    aligned = [(n, m["alignment"]) for n, m in metrics["filters"].items() if "alignment" in m]
+    if aligned:
+        print(f"alignment ({aligned[0][1]['method']}, {aligned[0][1]['duration_s']:g} s) against the true attitude:")
+        for name, a in aligned:
+            print(f"{name:<18}heading error {a['error_heading_deg']:+.4g} deg (sigma {a['sigma_heading_deg']:.3g}), "
+                  f"tilt N, E {a['error_tilt_north_arcsec']:+.3g}, {a['error_tilt_east_arcsec']:+.3g} arcsec")
     for name, d in metrics.get("diverged", {}).items():
         print(f"diverged: {name}, axis {d['axis']}, t = {d['time_s']:.4g} s: {d['reason']}")
     args.job_warnings.extend(w for w in metrics.get("warnings", []) if w not in progress.printed)

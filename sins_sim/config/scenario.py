@@ -24,6 +24,7 @@ from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
 from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml
 from sins_sim.filters import registry as filter_registry
+from sins_sim.navigation.alignment_result import ALIGNMENT_METHODS
 
 # The scenario's own schema needs no model, engine or numba: a scenario file is checked before those are
 # imported (they are imported where the IMU, the motion and the navigation are built), so a configuration
@@ -65,6 +66,10 @@ MAX_SPEED_M_S = 3000.0
 #: Stored error series: at most this many blocks per filter (~360 B each), and spectra of at most 600 s
 #: (the full-rate gyro error of every filter is kept in memory: 7.2 kHz x 600 s x 24 B = 100 MB per filter).
 MAX_SPECTRUM_S = 600.0
+#: The speed (m/s) above which the vehicle is not at rest for an alignment window: a still or swaying base
+#: moves at millimetres per second (a 5 arcmin sway of a point 1 m off the axis at 3 Hz: 9 mm/s); a
+#: vehicle taxiing moves at metres per second.
+ALIGNMENT_REST_SPEED_M_S = 0.1
 _DUR = dict(min=0.0, min_exclusive=True, max=MAX_DURATION_S)
 _START = dict(min=0.0, max=MAX_DURATION_S)
 _FREQ_RULE = (f"every frequency must be < the filter Nyquist (readout.output_rate_hz / 2 of the IMU, 3600 Hz by "
@@ -339,6 +344,17 @@ SCENARIO_SCHEMA = Map({
                                    "(at most 7200 stored blocks, each with its min/max envelope)"),
         "spectrum": Num(unit="s", min=0.0, max=MAX_SPECTRUM_S, default=2.0,
                         doc="full-rate gyro-error record kept for the spectra"),
+        "alignment": Map({
+            "method": Str(choices=ALIGNMENT_METHODS, default="truth",
+                          doc="how each filter's navigation finds its starting attitude: truth (the true attitude); "
+                              "coarse (levelling and gyrocompassing, a still base only); inertial (inertial-frame, "
+                              "robust to sway); kalman (fine alignment by the error-state filter with zero-velocity "
+                              "and zero-position updates); each aligns from the filter's own increments over the "
+                              "window and starts with zero velocity"),
+            "duration": Num(unit="s", **_POS, max=86400.0, default=300.0,
+                            doc="the alignment window, ending at start_s (start_s >= duration_s; the vehicle must "
+                                "be at rest over it)"),
+        }, default={}),
     }, default={}, rules=("timeseries_rate_hz <= the navigation update rate (readout.output_rate_hz / n_sub)",
                           "tuned_band_hz: low < high < the filter Nyquist, given with filter_tuned",
                           "the stored series and spectra must fit in memory (checked with the run's estimate)")),
@@ -492,7 +508,8 @@ class Scenario:
                                    n_sub=nv["n_sub"], vertical=nv["vertical"],
                                    height_aid_tau_s=nv["height_aid_tau_s"], accel_delay=nv["accel_delay"], align_s=nv["align_s"],
                                    timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"],
-                                   tuned_band_hz=None if nv["tuned_band_hz"] is None else tuple(nv["tuned_band_hz"]))
+                                   tuned_band_hz=None if nv["tuned_band_hz"] is None else tuple(nv["tuned_band_hz"]),
+                                   alignment=_alignment_settings(nv["alignment"], self.imu))
             if self.nav.tuned:  # the design is part of loading the scenario (issue 28): errors here, not mid-run
                 from sins_sim.simulation.sins import tuned_designs
 
@@ -508,6 +525,7 @@ class Scenario:
                                       duration_key)
         if c["trajectory"]["file"]:  # the mission starts where the file does: the site is its first row
             self.site = _site_of(self.vehicle)
+        _check_at_rest_for_alignment(self.nav, self.vehicle, ctx)
         self.events = _events(c["motion"], self.vehicle)
         self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.vibration_enters = c["vibration_enters"]
@@ -517,6 +535,32 @@ class Scenario:
         self.advisories = advisories.vibration_advisories(self.imu, c["motion"], self.filters)
         for msg in self.advisories:
             warnings.warn(msg, UserWarning, stacklevel=2)
+
+
+def _alignment_settings(spec: dict, imu):
+    """``navigation.alignment`` with the unit's bias and noise numbers (the observability bounds, the filter)."""
+    from sins_sim.simulation.aligning import AlignmentSettings, bias_sigmas, imu_noise_numbers
+
+    gyro, acc = bias_sigmas(imu.sensors)
+    return AlignmentSettings(method=spec["method"], duration_s=spec["duration_s"],
+                             gyro_bias_sigma_rad_s=tuple(float(x) for x in gyro),
+                             accel_bias_sigma_m_s2=tuple(float(x) for x in acc), noise=imu_noise_numbers(imu.sensors))
+
+
+def _check_at_rest_for_alignment(nav, vehicle, ctx):
+    """An alignment window needs the vehicle at rest (it may sway): refuse a window over which it travels."""
+    al = nav.alignment
+    if not al.active:
+        return
+    t0 = nav.start_s - al.duration_s
+    t = np.linspace(t0, nav.start_s, max(2, int(math.ceil(al.duration_s * 10.0)) + 1))
+    speed = np.linalg.norm(vehicle.evaluate(t).v_ned_m_s, axis=1)
+    worst = int(np.argmax(speed))
+    if speed[worst] > ALIGNMENT_REST_SPEED_M_S:
+        raise ConfigError(f"{ctx}: navigation.alignment: the vehicle must be at rest over the alignment window "
+                          f"[{t0:g}, {nav.start_s:g}] s (start_s - duration_s to start_s), but it moves at "
+                          f"{speed[worst]:.3g} m/s at t = {t[worst]:.6g} s (at most {ALIGNMENT_REST_SPEED_M_S:g} m/s); "
+                          f"start the trajectory with a stationary segment or use method: truth")
 
 
 def _with_temperature(imu, model, duration_s, ctx):

@@ -130,8 +130,25 @@ def scenario_metrics(res, scenario) -> dict:
             m["allan"] = {ax: a.to_dict() for ax, a in res.allan[name].items()}
         if name in getattr(res, "filter_reports", {}):  # a plug-in's account of itself (lms_stripper: gains, convergence)
             m["filter_report"] = res.filter_reports[name]
+        if name in getattr(res, "alignments", {}):
+            m["alignment"] = alignment_metrics(res.alignments[name])
+            if "linear_model" in m:
+                m["linear_model"]["note"] += "; without the alignment's initial attitude error"
         out[name] = m
     return out
+
+
+def alignment_metrics(entry: dict) -> dict:
+    """One filter's alignment in ``metrics.json``: what the method found and stated
+    (:meth:`~sins_sim.navigation.alignment_result.AlignmentResult.to_dict`) and its error against the true
+    attitude at the navigation start, each component over its stated sigma (NED: north and east tilt in
+    arcsec, heading in deg)."""
+    res, err = entry["result"], np.asarray(entry["error_rad"], dtype=np.float64)
+    sig = res.sigma_rad
+    over = [float(e / s) if s > 0.0 else None for e, s in zip(err, sig)]
+    return {**res.to_dict(), "error_tilt_north_arcsec": float(err[0] / ARCSEC),
+            "error_tilt_east_arcsec": float(err[1] / ARCSEC), "error_heading_deg": float(np.degrees(err[2])),
+            "error_over_sigma_ned": over}
 
 
 def excess_over_ideal(last: dict, ideal_last: dict) -> dict:
@@ -265,6 +282,9 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
                        "start_s": scenario.nav.start_s, "n_sub": scenario.nav.n_sub,
                        "update_rate_hz": res.filter_rate_hz / scenario.nav.n_sub,
                        "vertical": scenario.nav.vertical, "accel_delay": scenario.nav.accel_delay,
+                       "alignment": {"method": scenario.nav.alignment.method,
+                                     **({"duration_s": scenario.nav.alignment.duration_s}
+                                        if scenario.nav.alignment.active else {})},
                        **_coning_design(res.nav)},
         "imu": scenario.imu.name,
         "definitions": DEFINITIONS,
@@ -632,12 +652,40 @@ def _pseudo_coning_report(pc) -> list:
     return lines + [""]
 
 
+def _start_words(nv: dict) -> str:
+    al = nv.get("alignment") or {"method": "truth"}
+    if al["method"] == "truth":
+        return "aligned to the truth"
+    return (f"from a `{al['method']}` alignment over the {al['duration_s']:g} s before it (each filter its own, from "
+            f"its own increments; zero velocity, surveyed position)")
+
+
+def _alignment_report(metrics: dict) -> list:
+    """The alignment table of ``report.md`` (empty with a truth start)."""
+    rows = [(n, m["alignment"]) for n, m in metrics["filters"].items() if "alignment" in m]
+    if not rows:
+        return []
+    lines = ["", "## Alignment of each filter", "",
+             "What each filter's alignment found, against the true attitude at the navigation start, and the sigma it "
+             "stated (from the observability bounds of the unit's sensor-error model and the data's own scatter, or "
+             "from the filter's covariance). A dither filter's residual bias and noise enter here.", "",
+             "| filter | method | heading error (deg) | sigma heading (deg) | tilt error N, E (arcsec) | "
+             "sigma tilt N, E (arcsec) | settling (deg) |", "|---|---|---|---|---|---|---|"]
+    for name, a in rows:
+        settle = a.get("settling_heading_deg")
+        lines.append(f"| {name} | {a['method']} | {a['error_heading_deg']:.4g} | {a['sigma_heading_deg']:.3g} | "
+                     f"{a['error_tilt_north_arcsec']:.3g}, {a['error_tilt_east_arcsec']:.3g} | "
+                     f"{a['sigma_tilt_north_arcsec']:.3g}, {a['sigma_tilt_east_arcsec']:.3g} | "
+                     f"{'' if settle is None else f'{settle:.2g}'} |")
+    return lines
+
+
 def _report(scenario, metrics, figures, filter_table: str = "") -> str:
     nv = metrics["navigation"]
     lines = [f"# {scenario.name}", "", scenario.description or "", "",
              f"- mission: {metrics['duration_s']:g} s, {metrics['mission']['trajectory']}",
              f"- unit: IMU `{scenario.imu.name}` ({scenario.imu_source}), seed {scenario.seed}",
-             f"- navigation: from t = {nv['start_s']:g} s aligned to the truth, updates at {nv['update_rate_hz']:g} Hz, "
+             f"- navigation: from t = {nv['start_s']:g} s {_start_words(nv)}, updates at {nv['update_rate_hz']:g} Hz, "
              f"`{nv['coning']}` coning, `{nv['sculling']}` sculling, vertical channel `{nv['vertical']}`, "
              f"accelerometers `{nv['accel_delay']}` to each filter's delay", "",
              "## Navigation error of the integrated solution against the truth", "",
@@ -656,6 +704,7 @@ def _report(scenario, metrics, figures, filter_table: str = "") -> str:
                      f"{m['vertical_position_error_m']['final']:.3g} | "
                      f"{m['velocity_error_m_s']['final']:.3g} | {rms['north']:.3g}, {rms['east']:.3g}, {rms['down']:.3g} | "
                      f"{_fmt(m['cep_rate_nmi_h'])} | {m['status']} |")
+    lines += _alignment_report(metrics)
     lines += ["", "`ideal` runs the true gyro increments through the same navigation: the algorithm's and the "
               "accelerometers' floor. Every other filter's excess over it (the norm of the difference of the two final "
               "horizontal error vectors) is that filter's cost. phi is the attitude error against the true NED frame "

@@ -63,7 +63,9 @@ from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
 from sins_sim.filters import registry as filter_registry
 from sins_sim.navigation.coning import CONING_ALGORITHMS
 from sins_sim.simulation.responses import tuned_design
+from sins_sim.navigation.attitude import attitude_error
 from sins_sim.navigation.strapdown import StrapdownNavigator
+from sins_sim.simulation.aligning import AlignmentAccumulator, AlignmentSettings
 from sins_sim.simulation.channel import ChannelConfig, DriveControl
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
 from sins_sim.simulation.truth import MissionTruth
@@ -267,6 +269,11 @@ class NavSettings:
     designs : dict or None
         Per filter name the filter-tuned design (:func:`~sins_sim.simulation.responses.tuned_design`);
         None: computed by :func:`simulate_sins` when ``filter_tuned`` is chosen.
+    alignment : AlignmentSettings
+        How each filter's navigation finds its starting attitude (:mod:`sins_sim.simulation.aligning`):
+        ``truth`` (the default) starts from the true attitude with the offset averaging of ``align_s``;
+        another method aligns from the filter's own increments over ``alignment.duration_s`` before
+        ``start_s`` and starts from what it finds, with zero velocity.
     """
 
     coning: str = "two_sample"
@@ -281,6 +288,7 @@ class NavSettings:
     spectrum_s: float = 2.0
     tuned_band_hz: tuple | None = None
     designs: dict | None = field(default=None, compare=False)  # derived from the settings and the unit
+    alignment: AlignmentSettings = field(default_factory=AlignmentSettings)
 
     def __post_init__(self):
         v.choice("navigation", "coning", self.coning, NAV_ALGORITHMS)
@@ -300,6 +308,12 @@ class NavSettings:
         v.non_negative("navigation", "spectrum_s", self.spectrum_s)
         if self.timeseries_rate_hz is not None:
             v.positive("navigation", "timeseries_rate_hz", self.timeseries_rate_hz)
+        if not isinstance(self.alignment, AlignmentSettings):
+            raise ValueError(f"navigation.alignment: must be an AlignmentSettings, got {type(self.alignment).__name__}")
+        if self.alignment.active and self.alignment.duration_s > self.start_s:
+            raise ValueError(f"navigation.alignment.duration_s: the alignment window ends at the navigation start, "
+                             f"so it must be <= start_s = {self.start_s:g} s, got {self.alignment.duration_s:g}; "
+                             f"set navigation.start_s >= {self.alignment.duration_s + 1.0:g}")
 
     @property
     def tuned(self) -> bool:
@@ -377,6 +391,10 @@ class SinsResult:
         With ``filter_parameters: {source: online}``: per axis the estimator's ``history`` (one row per update: the
         estimate, its standard deviations, the values fed to the filters and the plant's truth,
         :meth:`sins_sim.simulation.online.OnlineLoop`) and its ``events`` (``(t_s, kind, message)``).
+    alignments : dict name -> dict
+        With ``navigation.alignment`` other than ``truth``: per filter the
+        :class:`~sins_sim.navigation.alignment_result.AlignmentResult` (``result``) and its error against the
+        true attitude at the navigation start (``error_rad``, psi in NED: north and east tilt, heading).
     """
 
     stats: dict
@@ -398,6 +416,7 @@ class SinsResult:
     filter_reports: dict = field(default_factory=dict)
     block: dict | None = None
     online: dict = field(default_factory=dict)
+    alignments: dict = field(default_factory=dict)
 
 
 def axis_pool(threads: int, n_axes: int = 3):
@@ -560,6 +579,9 @@ class _FilterNav:
         self.epoch_j = None  # truth index of the last update (its interval's samples are kept from here on)
         self.prev_row = None  # the error row of the last update, and the between-epoch state (interval means)
         self.fast_state = np.zeros(9)
+        self.aligner = None  # AlignmentAccumulator while the alignment window fills (navigation.alignment)
+        self.align_next = None  # next truth index whose increment the aligner takes
+        self.alignment = None  # {"result": AlignmentResult, "q_true": ...} once aligned
 
 
 def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
@@ -732,6 +754,9 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
         for name in filters:
             d = delays[name]
             navs[name] = _FilterNav(name, d, d if nav.accel_delay == "none" else 0)
+            if nav.alignment.active:  # the window (k_start - n, k_start] feeds the alignment
+                navs[name].aligner = AlignmentAccumulator(nav.alignment, nav.n_sub, 1.0 / fs)
+                navs[name].align_next = k_start - int(round(nav.alignment.duration_s * fs)) + 1
         truth_every = every * nav.n_sub
         n_spec = int(round(nav.spectrum_s * fs))
         spec_next = k_start
@@ -825,7 +850,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                                          n_out, max_delay, filters)
                 # drop what no filter needs any more
                 # (from the last update on: the next update's interval mean reads every sample of its interval)
-                keep = [min(nf.next_j, nf.epoch_j) if nf.next_j is not None else k_start - n_align
+                keep = [min(nf.next_j, nf.epoch_j) if nf.next_j is not None
+                        else (nf.align_next - 1 if nf.align_next is not None else k_start - n_align)
                         for nf in navs.values() if nf.diverged is None]
                 if spec_next < min(k_start + n_spec, n_out):
                     keep.append(spec_next)
@@ -867,7 +893,10 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                       filter_reports={n: f.report() for n, f in flt3.items() if hasattr(f, "report")},
                       block=unit.record(block_win[0], fs),
                       online={AXES[i]: {"history": ch.online.history, "events": list(ch.online.estimator.events)}
-                              for i, ch in enumerate(chains) if ch.online is not None})
+                              for i, ch in enumerate(chains) if ch.online is not None},
+                      alignments={n: {"result": nf.alignment["result"],
+                                      "error_rad": attitude_error(nf.alignment["result"].q_nb, nf.alignment["q_true"])}
+                                  for n, nf in navs.items() if nf.alignment is not None})
 
 
 def _run_three_axis(flt3, pickoffs, outs) -> None:
@@ -904,19 +933,39 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
     j_end = min(out_end - nf.d, tr_buf["dv"].end - nf.dv_shift, tr_buf["q"].end)  # truth indices < j_end
     if nf.nav is None:
         j0 = k_start
+        if nf.aligner is not None:  # the alignment window (j0 - n, j0] fills first, from the unit's own increments
+            ja, jb = nf.align_next, min(j_end, j0 + 1)
+            if jb > ja:
+                dth, dv = _unit_increments(name, nf, tr_buf, outs_buf, ja, jb, False)
+                nf.aligner.add(dth, np.ascontiguousarray(dv))
+                nf.align_next = jb
+            if nf.align_next <= j0:
+                return None
         if j_end <= j0 + 1:
             return None
-        q0 = tr_buf["q"].get(j0, j0 + 1)[0]
+        lat0, lon0, h0 = (float(tr_buf[k].get(j0, j0 + 1)[0]) for k in ("lat", "lon", "h"))
+        q_true = tr_buf["q"].get(j0, j0 + 1)[0]
+        if nf.aligner is not None:
+            # the attitude found by the unit's own alignment; the surveyed position; at rest: zero velocity
+            result = nf.aligner.finish(lat0, lon0, h0)
+            nf.alignment = {"result": result, "q_true": q_true.copy()}
+            nf.aligner = None
+            q0, v0 = result.q_nb, np.zeros(3)
+        else:
+            q0, v0 = q_true, tr_buf["v"].get(j0, j0 + 1)[0]
         coning, sculling = nav.compensation(name)
-        nf.nav = StrapdownNavigator(float(tr_buf["lat"].get(j0, j0 + 1)[0]), float(tr_buf["lon"].get(j0, j0 + 1)[0]),
-                                    float(tr_buf["h"].get(j0, j0 + 1)[0]), tr_buf["v"].get(j0, j0 + 1)[0], q0,
+        nf.nav = StrapdownNavigator(lat0, lon0, h0, v0, q0,
                                     1.0 / fs, coning=coning, sculling=sculling, n_sub=nav.n_sub,
                                     vertical=nav.vertical, height_aid_tau_s=nav.height_aid_tau_s)
         nf.j0 = j0
         nf.next_j = j0 + 1
         nf.epoch_j = j0
         nf.free[3:6] = tr_buf["gcum"].get(j0, j0 + 1)[0]
-        if name != "ideal":
+        if name != "ideal" and nf.alignment is not None:
+            # no truth reference: the increments are the output's own differences from j0 on; the free attitude
+            # error accumulates the gyro-angle error from there (the alignment's own error is in psi, not in it)
+            nf.free[3:6] += outs_buf[name].get(j0 + nf.d, j0 + nf.d + 1)[0] - phi_buf.get(j0, j0 + 1)[0]
+        elif name != "ideal":
             # alignment: the filter's gyro-angle offset from the truth, averaged over the alignment window
             # (as a fine alignment averages its sensors), is the reference of the first increment; a single
             # sample would carry its own residual (quantisation, dither) into the run as a tilt
@@ -935,15 +984,8 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
     ja, jb = nf.next_j, j_end
     if jb <= ja:
         return None
-    gerr = tr_buf["gerr"].get(ja, jb)
-    if name == "ideal":
-        dth = tr_buf["dth"].get(ja, jb) + gerr
-    else:
-        y = outs_buf[name].get(ja + nf.d - 1, jb + nf.d)
-        dth = np.empty(gerr.shape)
-        # the first increment starts from the aligned reference
-        ktruth.filter_increments(y, nf.ref if nf.ref is not None else _NO_REF, ja == nf.j0 + 1, gerr, dth)
-    dv = tr_buf["dv"].get(ja + nf.dv_shift, jb + nf.dv_shift)
+    # the first increment starts from the aligned reference (a truth start; an alignment has none)
+    dth, dv = _unit_increments(name, nf, tr_buf, outs_buf, ja, jb, ja == nf.j0 + 1 and nf.ref is not None)
     h_aid = tr_buf["h"].get(ja, jb) if nav.vertical == "height_aid" else _NO_AID
     bad = ktruth.first_not_finite(dth, dv, h_aid)
     if bad in (-1, -3) and dv.shape[0] != dth.shape[0]:  # pragma: no cover - the ring windows share one rule
@@ -990,6 +1032,19 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
     nf.series.add(rows, means)
     nf.epoch_j = hi - 1
     return record
+
+
+def _unit_increments(name, nf, tr_buf, outs_buf, ja, jb, use_ref):
+    """The unit's increments of truth indices ``ja .. jb - 1``: the filter's output differenced plus the
+    sensor errors (``ideal``: the true increments plus the sensor errors), and the accelerometers'."""
+    gerr = tr_buf["gerr"].get(ja, jb)
+    if name == "ideal":
+        dth = tr_buf["dth"].get(ja, jb) + gerr
+    else:
+        y = outs_buf[name].get(ja + nf.d - 1, jb + nf.d)
+        dth = np.empty(gerr.shape)
+        ktruth.filter_increments(y, nf.ref if use_ref else _NO_REF, use_ref, gerr, dth)
+    return dth, tr_buf["dv"].get(ja + nf.dv_shift, jb + nf.dv_shift)
 
 
 def _surface_scales(tr_buf, lo, hi, step):

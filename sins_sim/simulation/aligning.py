@@ -1,0 +1,196 @@
+"""Alignment inside a mission: each filter's own increments over a window at rest find its starting attitude.
+
+With ``navigation.alignment.method`` other than ``truth``, a filter's navigation does not start from the true
+attitude: over the window ``[start_s - duration_s, start_s)`` its increments (the dither filter's output
+differenced, plus the sensor errors, and the accelerometers' increments) are summed to the navigation rate and
+handed to the chosen method; the attitude it finds starts the navigation at ``start_s``, with the true position
+(a surveyed site, as a real alignment takes it) and zero velocity (the base is at rest). A dither filter's
+residual noise and bias then show up as alignment error, and the mission's errors include it.
+
+Methods are plug-ins by name (:data:`ALIGNERS`): ``coarse`` (analytic levelling and gyrocompassing),
+``inertial`` (inertial-frame alignment, robust to sway), ``kalman`` (fine alignment by the error-state filter
+with zero-velocity and zero-position measurements). The observability bounds each method states come from the
+unit's own sensor-error model (:func:`bias_sigmas`).
+
+.. autosummary::
+
+   AlignmentSettings
+   AlignmentAccumulator
+   ALIGNERS
+   bias_sigmas
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sins_sim.navigation.alignment_result import ALIGNMENT_METHODS, AlignmentResult
+from sins_sim.units import DEG_PER_H, HOUR, MICRO_G
+
+__all__ = ["AlignmentSettings", "AlignmentAccumulator", "ALIGNERS", "bias_sigmas", "imu_noise_numbers"]
+
+
+@dataclass(frozen=True)
+class AlignmentSettings:
+    """How a mission's navigation finds its starting attitude.
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`~sins_sim.navigation.alignment_result.ALIGNMENT_METHODS`; ``truth`` starts from the
+        true attitude (the default of a simulated mission).
+    duration_s : float
+        The alignment window (s), ending at the navigation start.
+    gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2 : tuple of 3 floats
+        The unit's bias uncertainty per body axis (rad/s, m/s^2), the numbers behind the observability bounds
+        (:func:`bias_sigmas`).
+    noise : dict
+        The unit's white-noise and bias-wander numbers in SI (:func:`imu_noise_numbers`), for the filter of
+        ``kalman``.
+    """
+
+    method: str = "truth"
+    duration_s: float = 300.0
+    gyro_bias_sigma_rad_s: tuple = (0.0, 0.0, 0.0)
+    accel_bias_sigma_m_s2: tuple = (0.0, 0.0, 0.0)
+    noise: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        if self.method not in ALIGNMENT_METHODS:
+            raise ValueError(f"navigation.alignment.method: must be one of {', '.join(ALIGNMENT_METHODS)}, "
+                             f"got {self.method!r}")
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0.0):
+            raise ValueError(f"navigation.alignment.duration_s: must be > 0, got {self.duration_s!r}")
+
+    @property
+    def active(self) -> bool:
+        """Whether the navigation starts from an alignment (any method but ``truth``)."""
+        return self.method != "truth"
+
+
+def _axes3(x) -> np.ndarray:
+    return np.broadcast_to(np.asarray(x, dtype=np.float64), (3,)).astype(np.float64)
+
+
+def bias_sigmas(sensors) -> tuple:
+    """The unit's bias uncertainty per body axis, ``(gyro rad/s (3,), accel m/s^2 (3,))``.
+
+    The root sum square of what the unit's sensor-error model leaves unknown at the start of a run: the fixed
+    bias (its spec value; a real unit's is known only to that), the turn-on bias (1 sigma) and the bias
+    instability's flat Allan floor (IEEE Std 952-1997, annex C). ``sensors`` is a
+    :class:`~sins_sim.models.sensor_errors.SensorErrors`-like object with ``gyro`` and ``accelerometer``
+    parameters, or None (an ideal unit: zeros).
+    """
+    if sensors is None:
+        return np.zeros(3), np.zeros(3)
+    g, a = sensors.gyro, sensors.accelerometer
+    gyro = np.sqrt(_axes3(g.bias_deg_h) ** 2 + _axes3(g.turn_on_bias_deg_h) ** 2
+                   + _axes3(g.bias_instability_deg_h) ** 2) * DEG_PER_H
+    acc = np.sqrt(_axes3(a.bias_ug) ** 2 + _axes3(a.turn_on_bias_ug) ** 2
+                  + _axes3(a.bias_instability_ug) ** 2) * MICRO_G
+    return gyro, acc
+
+
+def imu_noise_numbers(sensors) -> dict:
+    """The unit's white noise and bias wander in SI, per body axis (the numbers the Kalman alignment's
+    process noise is built from; the same numbers that drive the simulation).
+
+    ``gyro_arw_rad_rt_s`` (deg/sqrt(h) -> rad/sqrt(s): x DEG / 60), ``accel_vrw_m_s_rt_s`` (ug/sqrt(Hz) ->
+    m/s/sqrt(s)), ``gyro_rrw_rad_s_rt_s`` and ``accel_rrw_m_s2_rt_s`` (rate random walk, per sqrt(h) -> per
+    sqrt(s)), ``gyro_bias_sigma_rad_s`` and ``accel_bias_sigma_m_s2`` (:func:`bias_sigmas`).
+    """
+    gyro_b, acc_b = bias_sigmas(sensors)
+    out = {"gyro_bias_sigma_rad_s": gyro_b, "accel_bias_sigma_m_s2": acc_b,
+           "gyro_arw_rad_rt_s": np.zeros(3), "accel_vrw_m_s_rt_s": np.zeros(3),
+           "gyro_rrw_rad_s_rt_s": np.zeros(3), "accel_rrw_m_s2_rt_s": np.zeros(3)}
+    if sensors is None:
+        return out
+    g, a = sensors.gyro, sensors.accelerometer
+    out["gyro_arw_rad_rt_s"] = _axes3(g.arw_deg_rt_h) * (math.pi / 180.0) / math.sqrt(HOUR)
+    out["accel_vrw_m_s_rt_s"] = _axes3(a.vrw_ug_rt_hz) * MICRO_G
+    out["gyro_rrw_rad_s_rt_s"] = _axes3(g.rrw_deg_h_rt_h) * DEG_PER_H / math.sqrt(HOUR)
+    out["accel_rrw_m_s2_rt_s"] = _axes3(a.rrw_ug_rt_h) * MICRO_G / math.sqrt(HOUR)
+    return out
+
+
+def _coarse(dth, dv, dt, site, settings):
+    from sins_sim.navigation.alignment import align_coarse
+
+    return align_coarse(dth, dv, dt, site["lat_rad"], gyro_bias_sigma_rad_s=settings.gyro_bias_sigma_rad_s,
+                        accel_bias_sigma_m_s2=settings.accel_bias_sigma_m_s2)
+
+
+def _inertial(dth, dv, dt, site, settings):
+    from sins_sim.navigation.alignment import align_inertial
+
+    return align_inertial(dth, dv, dt, site["lat_rad"], site["h_m"],
+                          gyro_bias_sigma_rad_s=settings.gyro_bias_sigma_rad_s,
+                          accel_bias_sigma_m_s2=settings.accel_bias_sigma_m_s2)
+
+
+def _kalman(dth, dv, dt, site, settings):
+    """Fine alignment from the inertial method's attitude (robust to sway) as its coarse start."""
+    from sins_sim.navigation.ekf import align_kalman, noise_from_numbers
+
+    start = _inertial(dth, dv, dt, site, settings)
+    return align_kalman(dth, dv, dt, site["lat_rad"], site["lon_rad"], site["h_m"], start.q_nb,
+                        noise_from_numbers(settings.noise), prior_tilt_sigma_rad=max(start.sigma_rad[0],
+                                                                                   start.sigma_rad[1], 1e-5),
+                        prior_heading_sigma_rad=max(start.sigma_rad[2], 1e-4))
+
+
+#: The alignment methods by name: ``(dtheta, dv, dt_s, site, settings) -> AlignmentResult``; ``site`` holds
+#: ``lat_rad``, ``lon_rad``, ``h_m``.
+ALIGNERS = {"coarse": _coarse, "inertial": _inertial, "kalman": _kalman}
+
+
+class AlignmentAccumulator:
+    """Collects a filter's increments over the alignment window, summed to the navigation rate.
+
+    ``add`` takes increments at the filter rate in any chunking (the sums carry across calls, so the result
+    does not depend on the chunk sizes); ``finish`` runs the method on the window.
+    """
+
+    def __init__(self, settings: AlignmentSettings, n_sub: int, dt_s: float):
+        self.settings = settings
+        self.n_sub = int(n_sub)
+        self.dt_s = float(dt_s)
+        self._dth, self._dv = [], []
+        self._carry_th = np.zeros(3)
+        self._carry_v = np.zeros(3)
+        self._carry_n = 0
+
+    def add(self, dth: np.ndarray, dv: np.ndarray) -> None:
+        """Add increments (n, 3) at the filter rate."""
+        n = dth.shape[0]
+        i = 0
+        if self._carry_n:  # complete the block the last call left open
+            take = min(self.n_sub - self._carry_n, n)
+            self._carry_th = self._carry_th + dth[:take].sum(axis=0)
+            self._carry_v = self._carry_v + dv[:take].sum(axis=0)
+            self._carry_n += take
+            i = take
+            if self._carry_n == self.n_sub:
+                self._dth.append(self._carry_th[None])
+                self._dv.append(self._carry_v[None])
+                self._carry_th, self._carry_v, self._carry_n = np.zeros(3), np.zeros(3), 0
+        m = (n - i) // self.n_sub
+        if m:
+            blk = slice(i, i + m * self.n_sub)
+            self._dth.append(dth[blk].reshape(m, self.n_sub, 3).sum(axis=1))
+            self._dv.append(dv[blk].reshape(m, self.n_sub, 3).sum(axis=1))
+            i += m * self.n_sub
+        if i < n:
+            self._carry_th = self._carry_th + dth[i:].sum(axis=0)
+            self._carry_v = self._carry_v + dv[i:].sum(axis=0)
+            self._carry_n += n - i
+
+    def finish(self, lat_rad: float, lon_rad: float, h_m: float) -> AlignmentResult:
+        """The alignment over the collected window (a partial last block is dropped)."""
+        dth = np.concatenate(self._dth) if self._dth else np.zeros((0, 3))
+        dv = np.concatenate(self._dv) if self._dv else np.zeros((0, 3))
+        site = {"lat_rad": float(lat_rad), "lon_rad": float(lon_rad), "h_m": float(h_m)}
+        return ALIGNERS[self.settings.method](dth, dv, self.n_sub * self.dt_s, site, self.settings)
