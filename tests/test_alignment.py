@@ -5,7 +5,7 @@ specific force ``-C_bn g^n``, exact increments) and a swaying base (a constant a
 rotations oscillating at 1.5-3 Hz, a lever arm and a translational sway; rates and specific forces analytic,
 integrated per interval by 4-point Gauss-Legendre). Each tolerance is derived next to its assertion.
 
-Closed forms (Groves 2013, sec. 14.2; Titterton and Weston 2004, sec. 10.2), ``b`` and ``eps`` the
+Closed forms (Groves 2013, attitude initialization; Titterton and Weston 2004, sec. 10.2), ``b`` and ``eps`` the
 accelerometer and gyro biases resolved in NED, ``psi`` with ``C_nb_est = (I + [psi x]) C_nb_true``:
 coarse ``psi_N = -b_E / g``, ``psi_E = b_N / g``, ``psi_D = -eps_E / (Omega cos lat) + tan(lat) b_E / g``;
 the inertial method's end attitude adds half the gyros' drift over the window, ``psi_N += eps_N T / 2`` and
@@ -23,8 +23,18 @@ from scipy.integrate import quad_vec
 from scipy.spatial.transform import Rotation
 
 from sins_sim.earth import EARTH_RATE_RAD_S, earth_rate_ned, gravity_down, gravity_ned
-from sins_sim.navigation import align_coarse, align_inertial, attitude_error, quat_from_rotvec, quat_multiply
-from sins_sim.navigation.alignment import _davenport, _gravity_integral_n0, _quat_from_dcm
+from sins_sim.navigation import (
+    align_coarse,
+    align_inertial,
+    attitude_error,
+    quat_from_rotvec,
+    quat_multiply,
+)
+from sins_sim.navigation.alignment import (
+    _davenport,
+    _gravity_integral_n0,
+    _quat_from_dcm,
+)
 from sins_sim.navigation.attitude import dcm_from_quat
 from sins_sim.units import ARCMIN, DEG, DEG_PER_H, MICRO_G
 
@@ -189,7 +199,7 @@ def _psi(res, q_true):
     return attitude_error(res.q_nb, q_true)
 
 
-KW = dict(gyro_bias_sigma_rad_s=GYRO_BIAS, accel_bias_sigma_m_s2=ACCEL_BIAS)
+KW = {"gyro_bias_sigma_rad_s": GYRO_BIAS, "accel_bias_sigma_m_s2": ACCEL_BIAS}
 
 
 # --- the pieces --------------------------------------------------------------------------------------------
@@ -370,9 +380,9 @@ def sway_runs():
     out = []
     for seed in SWAY_SEEDS:
         dth, dv, q_end, eps, ba, amp, freq = _sway_case(seed)
-        out.append(dict(q_end=q_end, eps=eps, ba=ba, amp=amp, freq=freq,
-                        coarse=align_coarse(dth, dv, SWAY_DT, SWAY_LAT, **KW),
-                        inertial=align_inertial(dth, dv, SWAY_DT, SWAY_LAT, **KW)))
+        out.append({"q_end": q_end, "eps": eps, "ba": ba, "amp": amp, "freq": freq,
+                        "coarse": align_coarse(dth, dv, SWAY_DT, SWAY_LAT, **KW),
+                        "inertial": align_inertial(dth, dv, SWAY_DT, SWAY_LAT, **KW)})
     return out
 
 
@@ -446,17 +456,17 @@ def test_history_ends_at_the_result(align):
 
 @pytest.mark.parametrize("align", [align_coarse, align_inertial])
 @pytest.mark.parametrize("change, field", [
-    (dict(dtheta=np.zeros((600, 2))), "dtheta"),
-    (dict(dv=np.zeros((599, 3))), "dv"),
-    (dict(dv="nan"), "dv"),
-    (dict(dtheta="inf"), "dtheta"),
-    (dict(lat_rad=89.9 * DEG), "lat_rad"),
-    (dict(lat_rad=float("nan")), "lat_rad"),
-    (dict(dt_s=0.005), "dtheta"),  # 600 x 5 ms = 3 s, shorter than the 5 s minimum
-    (dict(dt_s=0.0), "dt_s"),
-    (dict(gyro_bias_sigma_rad_s=-1.0), "gyro_bias_sigma_rad_s"),
-    (dict(accel_bias_sigma_m_s2=float("inf")), "accel_bias_sigma_m_s2"),
-    (dict(history_rate_hz=0.0), "history_rate_hz"),
+    ({"dtheta": np.zeros((600, 2))}, "dtheta"),
+    ({"dv": np.zeros((599, 3))}, "dv"),
+    ({"dv": "nan"}, "dv"),
+    ({"dtheta": "inf"}, "dtheta"),
+    ({"lat_rad": 89.9 * DEG}, "lat_rad"),
+    ({"lat_rad": float("nan")}, "lat_rad"),
+    ({"dt_s": 0.005}, "dtheta"),  # 600 x 5 ms = 3 s, shorter than the 5 s minimum
+    ({"dt_s": 0.0}, "dt_s"),
+    ({"gyro_bias_sigma_rad_s": -1.0}, "gyro_bias_sigma_rad_s"),
+    ({"accel_bias_sigma_m_s2": float("inf")}, "accel_bias_sigma_m_s2"),
+    ({"history_rate_hz": 0.0}, "history_rate_hz"),
 ])
 def test_refusals_name_the_argument(align, change, field):
     """Bad input: one ValueError line that starts with the argument's name."""
@@ -480,3 +490,21 @@ def test_inertial_refuses_an_unknown_coning():
         align_inertial(dth, dv, 0.1, 0.5, **KW, coning="five_sample")
     with pytest.raises(ValueError, match="^h_m:"):
         align_inertial(dth, dv, 0.1, 0.5, float("nan"), **KW)
+
+
+@pytest.mark.parametrize("align", [align_coarse, align_inertial])
+def test_notes_say_when_the_window_is_too_short_or_the_base_moved(align):
+    """20 s of a navigation-grade unit: the angle random walk's heading scatter (coarse:
+    ``N / (sqrt(T) Omega cos lat)`` = 0.12 deg at 45 deg, inertial 1.2 times that) is about twice the
+    east-gyro-bias bound (0.054 deg), so a note says the scatter dominates and names a window long enough. A
+    constant 0.2 m/s^2 along the vertical body axis of this level unit (2 % of g, against the 1 % rest tolerance)
+    adds a note that the base was not at rest.
+    """
+    lat, dt, n = 45.0 * DEG, 0.01, 2000
+    q0 = q_from_euler(0.0, 0.0, 0.3)
+    dth, dv = still(q0, lat, n, dt, arw=ARW, vrw=VRW, rng=np.random.default_rng(5))
+    res = align(dth, dv, dt, lat, **KW)
+    assert any("heading scatter" in note and "too short" in note and "would need about" in note
+               for note in res.notes)
+    dv_moving = dv + np.array([0.0, 0.0, 0.2]) * dt
+    assert any("not at rest" in note for note in align(dth, dv_moving, dt, lat, **KW).notes)

@@ -10,20 +10,22 @@ A logged strapdown run has no truth attitude: alignment finds it from the sensor
   at the start (held inertial), the specific force is integrated in that frame, and the result is compared with
   the apparent motion of gravity in the navigation frame at the start (held inertial), known in closed form
   from the latitude and ``Omega t``; the constant rotation between the two frames is Davenport's q-method over
-  every velocity-integral observation (Wu and Pan 2013). Sway is tracked by the gyros and drops out.
+  every velocity-integral observation (Wu, Wu, Hu and Hu 2011). Sway is tracked by the gyros and drops out.
 
 Frames, units and conventions: body axes forward-right-down, navigation frame north-east-down (NED), ``q_nb``
 Hamilton scalar first (body to NED). Increments are raw (rad and m/s per interval ``dt_s``, Earth rate and
 gravity included). The attitude uncertainty ``sigma_rad`` is the 1-sigma of ``psi`` (north, east, down) with
 ``C_nb_est = (I + [psi x]) C_nb_true``.
 
-Observability at rest (Groves 2013, sec. 14.2; Titterton and Weston 2004, sec. 10.2): a horizontal
+Observability at rest (Groves 2013; Titterton and Weston 2004, sec. 10.2): a horizontal
 accelerometer bias is inseparable from a tilt, and the east gyro bias from a heading error, so
 
 ``psi_N = -b_E / g``, ``psi_E = b_N / g``, ``psi_D = -eps_E / (Omega cos lat) - psi_N tan lat``
 
-(``b`` and ``eps`` the accelerometer and gyro biases resolved in NED). Both methods report these bounds,
-combined in quadrature with the data's own scatter.
+(``b`` and ``eps`` the accelerometer and gyro biases resolved in NED). The inertial method's end attitude is
+tracked by the gyros from an estimate centred on the window, and carries half their drift over it about north
+and down besides: ``psi_N += eps_N T / 2``, ``psi_D += eps_D T / 2`` (the east drift is the gyrocompass term).
+Both methods report these bounds, combined in quadrature with the data's own scatter.
 
 .. autosummary::
 
@@ -36,9 +38,12 @@ References
 .. [2] D. H. Titterton, J. L. Weston, *Strapdown Inertial Navigation Technology*, 2nd ed., IEE, 2004,
    sec. 10.2 (alignment on a stationary platform).
 .. [3] P. D. Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed.,
-   Artech House, 2013, sec. 14.2 (levelling, gyrocompassing and their error limits).
-.. [4] M. Wu, X. Pan, "Optimization-based alignment for inertial navigation systems: theory and algorithm",
-   Aerospace Science and Technology 28(1), 1-17, 2013.
+   Artech House, 2013, the sections on attitude initialization (levelling, gyrocompassing and their error
+   limits) and on quasi-stationary alignment.
+.. [4] M. Wu, Y. Wu, X. Hu, D. Hu, "Optimization-based alignment for inertial navigation systems: theory and
+   algorithm", Aerospace Science and Technology 15(1), 1-17, 2011; see also Y. Wu, X. Pan,
+   "Velocity/position integration formula, part I: application to in-flight coarse alignment", IEEE Trans.
+   Aerospace and Electronic Systems 49(2), 2013.
 .. [5] P. B. Davenport, "A vector approach to the algebra of rotations with applications", NASA TN D-4696,
    1968; M. D. Shuster, S. D. Oh, "Three-axis attitude determination from vector observations", J. Guidance
    and Control 4(1), 70-77, 1981 (TRIAD and the q-method).
@@ -47,10 +52,14 @@ References
    compensation of the velocity increments).
 .. [7] H. Flyvbjerg, H. G. Petersen, "Error estimates on averages of correlated data", J. Chem. Phys. 91(1),
    461-466, 1989 (block means).
+.. [8] K. S. Arun, T. S. Huang, S. D. Blostein, "Least-squares fitting of two 3-D point sets", IEEE Trans.
+   Pattern Analysis and Machine Intelligence 9(5), 698-700, 1987 (centring frees the offset).
+.. [9] S. W. Shepperd, "Quaternion from rotation matrix", J. Guidance and Control 1(3), 223-224, 1978.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -69,7 +78,7 @@ from sins_sim.navigation.attitude import (
 from sins_sim.navigation.coning import parse_algorithm
 from sins_sim.units import DEG
 
-__all__ = ["align_coarse", "align_inertial", "MIN_WINDOW_S", "N_BLOCKS", "N_SUBWINDOWS"]
+__all__ = ["MIN_WINDOW_S", "N_BLOCKS", "N_SUBWINDOWS", "align_coarse", "align_inertial"]
 
 #: The shortest window either method accepts (s): a few seconds, below which not even the tilt is averaged.
 MIN_WINDOW_S = 5.0
@@ -119,7 +128,7 @@ def _n_blocks(n: int, dt: float, most: int) -> int:
 
 def _history_index(n: int, dt: float, rate_hz: float) -> np.ndarray:
     """Increment counts at the history times ``j / rate_hz`` (at least one increment), the last one always ``n``."""
-    step = max(1, int(round(1.0 / (rate_hz * dt))))
+    step = max(1, round(1.0 / (rate_hz * dt)))
     idx = np.arange(step, n + 1, step)
     if idx.size == 0 or idx[-1] != n:
         idx = np.append(idx, n)
@@ -131,7 +140,7 @@ def _history_index(n: int, dt: float, rate_hz: float) -> np.ndarray:
 
 def _quat_from_dcm(c) -> np.ndarray:
     """Unit quaternion (scalar first, ``q0 >= 0``) of a rotation matrix, Shepperd's method: the largest of
-    ``4 q_i^2`` taken first (Savage 2007, sec. 3.2.4.3; the inverse of Titterton and Weston 2004, eq. 3.63)."""
+    ``4 q_i^2`` taken first (Shepperd 1978; the inverse of Titterton and Weston 2004, eq. 3.63)."""
     c = np.asarray(c, dtype=np.float64)
     tr = c[0, 0] + c[1, 1] + c[2, 2]
     cand = np.array([1.0 + tr, 1.0 + 2.0 * c[0, 0] - tr, 1.0 + 2.0 * c[1, 1] - tr, 1.0 + 2.0 * c[2, 2] - tr])
@@ -153,7 +162,7 @@ def _quat_from_dcm(c) -> np.ndarray:
 
 def _rotate(q, vec) -> np.ndarray:
     """``q (x) v (x) q*`` for unit quaternions ``q`` (..., 4) and vectors ``v`` (..., 3), broadcasting:
-    ``v + 2 q0 (u x v) + 2 u x (u x v)`` with ``u`` the vector part (Titterton and Weston 2004, sec. 3.6.4)."""
+    ``v + 2 q0 (u x v) + 2 u x (u x v)`` with ``u`` the vector part (the Hamilton product written out)."""
     q = np.asarray(q, dtype=np.float64)
     u = q[..., 1:]
     t = 2.0 * np.cross(u, vec)
@@ -163,7 +172,7 @@ def _rotate(q, vec) -> np.ndarray:
 def _triad(f_b, w_b) -> np.ndarray:
     """``C_nb`` from the specific force and the rate at rest, gravity first (TRIAD; Shuster and Oh 1981):
     down ``d = -f/|f|``, east ``e = d x w / |d x w|`` (the Earth rate has no east component), north ``e x d``;
-    the rows of ``C_nb`` are ``n, e, d`` (Titterton and Weston 2004, sec. 10.2.1; Groves 2013, sec. 14.2.1-2)."""
+    the rows of ``C_nb`` are ``n, e, d`` (Titterton and Weston 2004, sec. 10.2; Groves 2013, attitude initialization)."""
     d = -f_b / np.linalg.norm(f_b)
     e = np.cross(d, w_b)
     e /= np.linalg.norm(e)
@@ -174,7 +183,7 @@ def _triad(f_b, w_b) -> np.ndarray:
 
 
 def _bias_bounds(lat: float, g: float, sigma_g: float, sigma_a: float) -> np.ndarray:
-    """1-sigma ``psi`` (N, E, D) from the unobservable biases (module docstring; Groves 2013, sec. 14.2.1-2):
+    """1-sigma ``psi`` (N, E, D) from the unobservable biases (module docstring; Groves 2013, attitude initialization):
     tilts ``sigma_a / g``, heading ``sqrt((sigma_g / (Omega cos lat))^2 + (tan lat sigma_a / g)^2)``; an isotropic
     per-axis body sigma has the same sigma in every NED component."""
     tilt = sigma_a / g
@@ -200,8 +209,8 @@ def _scatter_notes(method: str, how: str, bound: np.ndarray, scatter: np.ndarray
 def _rest_note(method: str, f_mean_norm: float, g: float) -> list:
     rel = f_mean_norm / g - 1.0
     if abs(rel) > REST_FORCE_TOL:
-        return [f"{method}: the mean specific force is {f_mean_norm:.5g} m/s^2, {100 * rel:+.2g} % off normal gravity "
-                f"({g:.5g} m/s^2): the base was not at rest, and the alignment assumes it was"]
+        return [(f"{method}: the mean specific force is {f_mean_norm:.5g} m/s^2, {100 * rel:+.2g} % off normal gravity "
+                f"({g:.5g} m/s^2): the base was not at rest, and the alignment assumes it was")]
     return []
 
 
@@ -221,7 +230,7 @@ def align_coarse(dtheta, dv, dt_s, lat_rad, *, gyro_bias_sigma_rad_s, accel_bias
 
     The attitude is the TRIAD of the window's mean specific force (down) and mean rate (whose horizontal part
     points north): ``d = -f/|f|``, ``e = d x w / |d x w|``, ``n = e x d`` (Titterton and Weston 2004,
-    sec. 10.2.1; Savage 2007, ch. 6; Groves 2013, sec. 14.2.1-2). On a still base it reaches the observability
+    sec. 10.2; Savage 2007, ch. 6; Groves 2013, attitude initialization). On a still base it reaches the observability
     limit exactly: ``psi_N = -b_E / g``, ``psi_E = b_N / g``, ``psi_D = -eps_E / (Omega cos lat) - psi_N tan lat``.
     On a swaying base the mean rate holds the sway's net rotation over the window divided by its length, which at
     a few arcmin over minutes is a fraction of the Earth rate: the heading is off by degrees. The reported sigma
@@ -269,8 +278,8 @@ def align_coarse(dtheta, dv, dt_s, lat_rad, *, gyro_bias_sigma_rad_s, accel_bias
     # standard error of the means by K block means (Flyvbjerg and Petersen 1989), resolved in NED
     k = _n_blocks(n, dt, N_BLOCKS)
     edges = np.linspace(0, n, k + 1).round().astype(int)
-    f_blk = np.stack([dvel[a:b].sum(axis=0) / ((b - a) * dt) for a, b in zip(edges[:-1], edges[1:])]) @ c_nb.T
-    w_blk = np.stack([dth[a:b].sum(axis=0) / ((b - a) * dt) for a, b in zip(edges[:-1], edges[1:])]) @ c_nb.T
+    f_blk = np.stack([dvel[a:b].sum(axis=0) / ((b - a) * dt) for a, b in itertools.pairwise(edges)]) @ c_nb.T
+    w_blk = np.stack([dth[a:b].sum(axis=0) / ((b - a) * dt) for a, b in itertools.pairwise(edges)]) @ c_nb.T
     se_f = f_blk.std(axis=0, ddof=1) / math.sqrt(k)
     se_w = w_blk.std(axis=0, ddof=1) / math.sqrt(k)
     # psi_N = -df_E / g, psi_E = df_N / g, psi_D = -dw_E / (Omega cos lat) - psi_N tan lat (module docstring)
@@ -302,8 +311,7 @@ def _gravity_integral_n0(t, lat: float, g: float) -> np.ndarray:
     at ``Omega`` about ``u = (cos lat, 0, -sin lat)``. With ``f_par = (u.f) u`` and ``f_perp = f - f_par``,
     ``C_n0_n(s) f = f_par + cos(Omega s) f_perp + sin(Omega s) u x f`` (Rodrigues), so
     ``V(t) = f_par t + sin(Omega t) / Omega f_perp + (1 - cos(Omega t)) / Omega u x f``
-    (Wu and Pan 2013, the reference velocity integral of the Earth-fixed base; Titterton and Weston 2004, eq. 3.34
-    for the rotation)."""
+    (Wu et al. 2011, the reference velocity integral of the Earth-fixed base)."""
     u = np.array([math.cos(lat), 0.0, -math.sin(lat)])
     f = np.array([0.0, 0.0, -g])
     f_par = (u @ f) * u
@@ -317,7 +325,7 @@ def _davenport(b_mat) -> np.ndarray:
     """The unit quaternion ``q`` (Hamilton, scalar first) of the rotation ``C`` that maximises
     ``sum_k r_k . C b_k`` (Wahba's problem) given ``B = sum_k r_k b_k^T``: Davenport's q-method, the eigenvector of
     the largest eigenvalue of ``K = [[tr B, z^T], [z, B + B^T - tr(B) I]]``, ``z = sum_k b_k x r_k``
-    (Davenport 1968; Wu and Pan 2013, the quaternion eigenvalue problem). Written for the Hamilton rotation
+    (Davenport 1968; Wu et al. 2011, the quaternion eigenvalue problem). Written for the Hamilton rotation
     ``C(q) b = (q0^2 - u.u) b + 2 (u.b) u + 2 q0 u x b``, for which ``r . C(q) b = q^T K q`` term by term."""
     z = np.array([b_mat[2, 1] - b_mat[1, 2], b_mat[0, 2] - b_mat[2, 0], b_mat[1, 0] - b_mat[0, 1]])
     tr = float(np.trace(b_mat))
@@ -340,15 +348,15 @@ def _centred(b_mat, r_sum, b_sum, m: int) -> np.ndarray:
 
 def _outer_sums(r, b, edges) -> np.ndarray:
     """``sum_k r_k b_k^T`` over each segment ``[edges[j], edges[j+1])``, shape (len(edges) - 1, 3, 3)."""
-    return np.stack([r[a:e].T @ b[a:e] for a, e in zip(edges[:-1], edges[1:])])
+    return np.stack([r[a:e].T @ b[a:e] for a, e in itertools.pairwise(edges)])
 
 
 def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2,
                    history_rate_hz=1.0, coning="two_sample") -> AlignmentResult:
-    """Inertial-frame (i0) alignment by the optimisation-based method of Wu and Pan (2013): robust to base sway.
+    """Inertial-frame (i0) alignment by the optimisation-based method of Wu et al. (2011): robust to base sway.
 
     Equations, with ``n0`` the navigation frame at the start and ``b0`` the body frame at the start, both held
-    inertial (Wu and Pan 2013, the attitude decomposition and the velocity-integration formula):
+    inertial (Wu et al. 2011, the attitude decomposition and the velocity-integration formula):
 
     1. ``C_n(t)_b(t) = C_n(t)_n0 C_n0_b0 C_b0_b(t)``: only ``C_n0_b0`` (the attitude at the start) is unknown.
     2. ``C_b0_b(t)``: the gyros' coning-corrected attitude integration from the identity
@@ -358,8 +366,10 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
        (Savage 1998, Part 2).
     4. ``V^n0(t)``: the same integral of the specific force at rest, ``-g`` along the local down, in closed form
        from the latitude and ``Omega t`` (the local frame turns about the Earth's axis).
-    5. ``V^n0(t_k) = C_n0_b0 V^b0(t_k)`` for every ``k``: Wahba's problem over all the observations, solved by
-       Davenport's q-method (the largest eigenvector of ``K(B)``, ``B = sum_k V^n0_k (V^b0_k)^T``).
+    5. ``V^n0(t_k) + c = C_n0_b0 V^b0(t_k)`` for every ``k``: Wahba's problem over all the observations, solved by
+       Davenport's q-method (the largest eigenvector of ``K(B)``, ``B = sum_k V^n0_k (V^b0_k)^T``), on the
+       observations centred on their mean, which frees the constant ``c``: the sway's velocity at the start, which
+       the integrals otherwise carry as an error for the whole window (Arun, Huang and Blostein 1987).
     6. ``C_n(t)_n0``: the rotation by ``-Omega t`` about the Earth's axis ``(cos lat, 0, -sin lat)``.
 
     The body's sway is in ``C_b0_b(t)``, measured by the gyros, so it drops out; a translational sway adds only its
@@ -387,7 +397,10 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
     -------
     AlignmentResult
         ``method="inertial"``, ``q_nb`` the attitude at the end of the window. ``sigma_rad``: the bias bounds of
-        :func:`align_coarse` in quadrature with the fit's own scatter, the standard deviation of the same fit on
+        :func:`align_coarse`, with half the gyro drift over the window ``sigma_g T / 2`` about north and down (the
+        fit centres the start attitude on the window: the least-squares share of a drift ``eps t`` that a constant
+        rotation absorbs is ``eps T / 2``, and the tracking carries ``eps T`` to the end), in quadrature with the
+        fit's own scatter, the standard deviation of the same fit on
         ``K`` disjoint sub-windows divided by ``sqrt(K)``: exact for angle random walk (whose heading error falls
         as ``1 / sqrt(T)``), an upper bound for velocity noise and sway (which fall faster). The history holds, at
         each time, the attitude then from the data up to then; ``settling_rad`` is the peak-to-peak over the last
@@ -437,7 +450,7 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
     k = _n_blocks(n, dt, N_SUBWINDOWS)
     edges = np.linspace(0, n, k + 1).round().astype(int)
     psi_sub = []
-    for a, e in zip(edges[:-1], edges[1:]):
+    for a, e in itertools.pairwise(edges):
         q_j = _davenport(_centred(vn0[a:e].T @ vb0[a:e], vn0[a:e].sum(axis=0), vb0[a:e].sum(axis=0), e - a))
         # psi of the sub-window's end attitude against the full fit's, resolved in n(T)
         psi_sub.append(_rotate(q_nn0[-1], rotvec_from_quat(quat_multiply(q_j, quat_conjugate(q_n0b0[-1])))))
