@@ -446,7 +446,7 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
     eul = euler_from_quat(q_hist)
     q_end = q_hist[-1]
 
-    # the fit's scatter: the same fit on K disjoint sub-windows (observations re-referenced to each start)
+    # the fit's scatter: the same centred fit on K disjoint sub-windows (each frees its own offset)
     k = _n_blocks(n, dt, N_SUBWINDOWS)
     edges = np.linspace(0, n, k + 1).round().astype(int)
     psi_sub = []
@@ -460,7 +460,8 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
     bound = np.hypot(_bias_bounds(lat, g, sg, sa), np.array([0.5, 0.0, 0.5]) * sg * window)
     sigma = np.hypot(bound, scatter)
 
-    f_mean_norm = float(np.linalg.norm(vb0[-1])) / window
+    # at rest the specific force is constant in body axes (in b0 it turns with the Earth, and its mean shortens)
+    f_mean_norm = float(np.linalg.norm(dvel.sum(axis=0))) / window
     notes = _rest_note("inertial", f_mean_norm, g) + _scatter_notes(
         "inertial", f"fit on {k} sub-windows", bound, scatter, window)
     return AlignmentResult(
