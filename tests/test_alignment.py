@@ -355,6 +355,24 @@ def test_inertial_agrees_with_coarse_on_a_still_base():
         assert np.all(np.abs(_psi(ri, q0)) <= 3.0 * ri.sigma_rad)
 
 
+def test_inertial_north_tilt_carries_the_gyro_random_walk():
+    """With angle random walk only, the end attitude's north tilt is the tracked random walk less the fit's share,
+    ``int_0^1 dW(s) (3 s^2 - 2 s^3)`` (T = 1; the fit's tilt is the slope of ``g int W`` against ``g t`` with a free
+    offset): rms ``sqrt(13/35) N sqrt(T)``. Over 200 runs the rms has a sampling error ``1 / sqrt(2 n) = 5 %``:
+    asserted within 15 %. Given ``gyro_arw_rad_sqrt_s``, the reported north sigma includes that term."""
+    lat, dt, n = 50.0 * DEG, 0.1, 6000
+    q0 = q_from_euler(0.5 * DEG, -0.5 * DEG, 75.0 * DEG)
+    expected = math.sqrt(13.0 / 35.0) * ARW * math.sqrt(n * dt)
+    psi_n = []
+    for seed in range(200):
+        dth, dv = still(q0, lat, n, dt, arw=ARW, rng=np.random.default_rng(seed))
+        res = align_inertial(dth, dv, dt, lat, gyro_bias_sigma_rad_s=0.0, accel_bias_sigma_m_s2=0.0,
+                             gyro_arw_rad_sqrt_s=ARW)
+        psi_n.append(_psi(res, q0)[0])
+        assert res.sigma_rad[0] >= expected
+    assert math.sqrt(np.mean(np.square(psi_n))) == pytest.approx(expected, rel=0.15)
+
+
 SWAY_SEEDS = range(8)
 SWAY_LAT = 30.0 * DEG
 SWAY_DT, SWAY_N = 0.01, 30000  # 100 Hz, 300 s
@@ -490,6 +508,8 @@ def test_inertial_refuses_an_unknown_coning():
         align_inertial(dth, dv, 0.1, 0.5, **KW, coning="five_sample")
     with pytest.raises(ValueError, match="^h_m:"):
         align_inertial(dth, dv, 0.1, 0.5, float("nan"), **KW)
+    with pytest.raises(ValueError, match="^gyro_arw_rad_sqrt_s:"):
+        align_inertial(dth, dv, 0.1, 0.5, **KW, gyro_arw_rad_sqrt_s=-1e-7)
 
 
 @pytest.mark.parametrize("align", [align_coarse, align_inertial])

@@ -352,7 +352,7 @@ def _outer_sums(r, b, edges) -> np.ndarray:
 
 
 def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2,
-                   history_rate_hz=1.0, coning="two_sample") -> AlignmentResult:
+                   gyro_arw_rad_sqrt_s=0.0, history_rate_hz=1.0, coning="two_sample") -> AlignmentResult:
     """Inertial-frame (i0) alignment by the optimisation-based method of Wu et al. (2011): robust to base sway.
 
     Equations, with ``n0`` the navigation frame at the start and ``b0`` the body frame at the start, both held
@@ -388,6 +388,11 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
         Height above the ellipsoid (m), for the magnitude of gravity.
     gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2 : float
         1-sigma per-axis gyro (rad/s) and accelerometer (m/s^2) bias (the unobservable part).
+    gyro_arw_rad_sqrt_s : float
+        The gyros' angle random walk (rad/sqrt(s)), optional: the north tilt of the end attitude carries the part
+        of the tracked random walk the fit does not absorb, ``sqrt(13/35) N sqrt(T)``, which the sub-window scatter
+        does not see (their fits share it); 0 leaves it out (about east and down the scatter holds it, or it is
+        negligible: docs/theory/alignment.md).
     history_rate_hz : float
         Rate of the convergence history.
     coning : str
@@ -415,6 +420,7 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
     dth, dvel, dt, lat, sg, sa, hr = _inputs(dtheta, dv, dt_s, lat_rad, gyro_bias_sigma_rad_s,
                                              accel_bias_sigma_m_s2, history_rate_hz)
     h = v.finite("", "h_m", h_m)
+    arw = v.non_negative("", "gyro_arw_rad_sqrt_s", gyro_arw_rad_sqrt_s)
     algo = parse_algorithm(coning, "coning")
     n = dth.shape[0]
     window = n * dt
@@ -458,6 +464,9 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
     # the end attitude carries half the gyros' drift over the window about north and down (the fit centres the
     # initial attitude on the window; the east drift is the gyrocompass term): psi_N, psi_D += eps_(N, D) T / 2
     bound = np.hypot(_bias_bounds(lat, g, sg, sa), np.array([0.5, 0.0, 0.5]) * sg * window)
+    # and the gyro random walk W(T) less the fit's share: about north the fit's tilt is the slope of g int W
+    # against g t (with a free offset), whose share leaves int_0^1 dW(s) (3 s^2 - 2 s^3) (T = 1), variance 13/35
+    bound[0] = math.hypot(bound[0], math.sqrt(13.0 / 35.0) * arw * math.sqrt(window))
     sigma = np.hypot(bound, scatter)
 
     # at rest the specific force is constant in body axes (in b0 it turns with the Earth, and its mean shortens)
