@@ -391,8 +391,8 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
     gyro_arw_rad_sqrt_s : float
         The gyros' angle random walk (rad/sqrt(s)), optional: the north tilt of the end attitude carries the part
         of the tracked random walk the fit does not absorb, ``sqrt(13/35) N sqrt(T)``, which the sub-window scatter
-        does not see (their fits share it); 0 leaves it out (about east and down the scatter holds it, or it is
-        negligible: docs/theory/alignment.md).
+        does not see (their fits share it); 0 leaves it out (about east the scatter holds it; about down it is
+        about ``0.5 Omega T cos(lat)`` of the heading's random-walk scatter, under 1 % in quadrature for ``T <= 1 h``).
     history_rate_hz : float
         Rate of the convergence history.
     coning : str
