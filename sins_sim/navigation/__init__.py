@@ -8,6 +8,10 @@ navigation; gyro angle increments in rad (body frame); rates in rad/s; times
 in s; positions in m. The navigation frame of the error model is local-level
 north-east-down.
 
+- :mod:`~sins_sim.navigation.alignment`: :func:`align_coarse` (levelling and
+  gyrocompassing from the mean force and rate) and :func:`align_inertial`
+  (inertial-frame alignment by Davenport's q-method, robust to base sway),
+  both returning :class:`~sins_sim.navigation.alignment_result.AlignmentResult`.
 - :mod:`~sins_sim.navigation.attitude`: :func:`integrate_attitude`,
   :class:`AttitudeIntegrator`, :func:`attitude_error`, :func:`drift_rate`,
   numpy quaternion helpers.
@@ -22,6 +26,7 @@ north-east-down.
   :func:`height_aid_gains`.
 """
 
+from sins_sim.navigation.alignment import align_coarse, align_inertial
 from sins_sim.navigation.attitude import (
     AttitudeIntegrator,
     attitude_error,
@@ -62,6 +67,8 @@ from sins_sim.navigation.strapdown import (
 )
 
 __all__ = [
+    "align_coarse",
+    "align_inertial",
     "AttitudeIntegrator",
     "attitude_error",
     "drift_rate",
