@@ -86,3 +86,76 @@ def test_window_while_the_vehicle_moves_refused_in_one_line():
         load_scenario(doc, base_dir=_repo())
     msg = str(err.value)
     assert "\n" not in msg and "navigation.alignment" in msg and "at rest" in msg and "10 m/s" in msg, msg
+
+
+def _still_unit_scenario(method: str, gyro_bias_deg_h, accel_bias_ug, **extra):
+    """A unit at rest at 56.8 deg N, heading 85 deg, level; only ``ideal`` (the true increments plus the sensor
+    errors); sensor errors: the given biases alone (no noise, scale factor or misalignment), so the alignment's
+    error has a closed form."""
+    from sins_sim.config.yaml_io import load_yaml
+
+    imu = load_yaml(_repo() / "configs" / "nav-grade-rlg.yaml")
+    imu["sensors"] = {"gyro": {"bias_deg_h": list(gyro_bias_deg_h)}, "accelerometer": {"bias_ug": list(accel_bias_ug)}}
+    doc = _doc()
+    doc["imu"] = imu
+    doc["duration_s"] = 64.0
+    doc["navigation"] = {"start_s": 61.0, "alignment": {"method": method, "duration_s": 60.0}, **extra}
+    return doc
+
+
+def _closed_form_alignment_error(gyro_bias_deg_h, accel_bias_ug, lat_deg=56.8, heading_deg=85.0):
+    """psi (N, E, D) of gyrocompassing and levelling on a still level base, the project's convention
+    ``C_nb_est = (I + [psi x]) C_nb_true`` (Titterton & Weston 2004, sec. 10.2; the derivation in the
+    alignment theory page): ``psi_N = -acc_E / g``, ``psi_E = acc_N / g``,
+    ``psi_D = -eps_E / (Omega cos L) - psi_N tan L``, biases resolved in NED through the heading."""
+    from sins_sim import earth
+    from sins_sim.units import DEG, DEG_PER_H, MICRO_G
+
+    lat, yaw = lat_deg * DEG, heading_deg * DEG
+    c = np.array([[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    eps = c @ (np.asarray(gyro_bias_deg_h) * DEG_PER_H)
+    acc = c @ (np.asarray(accel_bias_ug) * MICRO_G)
+    g = float(earth.gravity_down(lat, 100.0))
+    psi_n, psi_e = -acc[1] / g, acc[0] / g
+    psi_d = -eps[1] / (earth.EARTH_RATE_RAD_S * math.cos(lat)) - psi_n * math.tan(lat)
+    return np.array([psi_n, psi_e, psi_d])
+
+
+def test_coarse_alignment_in_a_mission_reaches_the_closed_form():
+    """The engine's alignment of the true increments plus known biases: the error it reports against the true
+    attitude equals the closed form of gyrocompassing to second order. Tolerance: the neglected terms are of the
+    order of the errors squared (psi ~ 6e-4 rad here, so 4e-7 relative) and the levelling's use of the measured
+    |f| for g (acc_D / g ~ 4e-5 relative): 1e-3 of each component; plus the accelerometers' quantisation: the
+    counter carries its residual, so the window's mean force is off by at most one quantum (1e-4 m/s) over 60 s,
+    1.7e-7 rad of tilt, and tan(56.8 deg) = 1.53 times that on the heading: 3e-7 rad."""
+    from sins_sim.jobs.run import scenario_metrics
+    from sins_sim.simulation.sins import simulate_sins
+
+    gb, ab = (0.004, -0.003, 0.002), (40.0, -30.0, 20.0)
+    sc = load_scenario(_still_unit_scenario("coarse", gb, ab), base_dir=_repo())
+    res = simulate_sins(sc.imu, sc.motion, sc.duration_s, sc.seed, sc.nav, vehicle=sc.vehicle,
+                        filters=sc.filters)
+    err = res.alignments["ideal"]["error_rad"]
+    ref = _closed_form_alignment_error(gb, ab)
+    np.testing.assert_allclose(err, ref, rtol=1e-3, atol=3e-7)
+    m = scenario_metrics(res, sc)["ideal"]["alignment"]
+    assert m["method"] == "coarse" and m["duration_s"] == pytest.approx(60.0, abs=0.01)
+    assert m["error_heading_deg"] == pytest.approx(math.degrees(ref[2]), rel=1e-3)
+    # the stated sigma is the 1-sigma observability bound of the unit's own biases (the largest per axis): these
+    # biases, about 1 sigma each, give errors of about one sigma (1.03 on the heading: its tilt coupling adds)
+    assert all(abs(x) <= 1.5 for x in m["error_over_sigma_ned"]), m
+
+
+@pytest.mark.parametrize("method", ["inertial", "kalman"])
+def test_other_methods_in_a_mission_land_within_their_stated_sigma(method):
+    """The inertial and Kalman methods on the same still unit: their error against the truth is within 3 of their
+    own stated sigmas on each axis (the bias bounds make the sigma at least the closed-form error)."""
+    from sins_sim.simulation.sins import simulate_sins
+
+    gb, ab = (0.004, -0.003, 0.002), (40.0, -30.0, 20.0)
+    sc = load_scenario(_still_unit_scenario(method, gb, ab), base_dir=_repo())
+    res = simulate_sins(sc.imu, sc.motion, sc.duration_s, sc.seed, sc.nav, vehicle=sc.vehicle, filters=sc.filters)
+    got = res.alignments["ideal"]
+    assert got["result"].method == method
+    assert np.all(np.abs(got["error_rad"]) <= 3.0 * got["result"].sigma_rad + 1e-9), (got["error_rad"],
+                                                                                      got["result"].sigma_rad)

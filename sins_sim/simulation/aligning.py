@@ -116,19 +116,26 @@ def imu_noise_numbers(sensors) -> dict:
     return out
 
 
+def _bounds(settings):
+    """One gyro and one accelerometer bias sigma for the methods' bounds: the largest over the body axes (which
+    body axes point east is what the alignment finds, so the bound takes the worst; conservative)."""
+    return float(max(settings.gyro_bias_sigma_rad_s)), float(max(settings.accel_bias_sigma_m_s2))
+
+
 def _coarse(dth, dv, dt, site, settings):
     from sins_sim.navigation.alignment import align_coarse
 
-    return align_coarse(dth, dv, dt, site["lat_rad"], gyro_bias_sigma_rad_s=settings.gyro_bias_sigma_rad_s,
-                        accel_bias_sigma_m_s2=settings.accel_bias_sigma_m_s2)
+    sg, sa = _bounds(settings)
+    return align_coarse(dth, dv, dt, site["lat_rad"], gyro_bias_sigma_rad_s=sg, accel_bias_sigma_m_s2=sa)
 
 
 def _inertial(dth, dv, dt, site, settings):
     from sins_sim.navigation.alignment import align_inertial
 
-    return align_inertial(dth, dv, dt, site["lat_rad"], site["h_m"],
-                          gyro_bias_sigma_rad_s=settings.gyro_bias_sigma_rad_s,
-                          accel_bias_sigma_m_s2=settings.accel_bias_sigma_m_s2)
+    arw = settings.noise.get("gyro_arw_rad_rt_s")
+    sg, sa = _bounds(settings)
+    return align_inertial(dth, dv, dt, site["lat_rad"], site["h_m"], gyro_bias_sigma_rad_s=sg, accel_bias_sigma_m_s2=sa,
+                          gyro_arw_rad_sqrt_s=0.0 if arw is None else float(np.max(arw)))
 
 
 def _kalman(dth, dv, dt, site, settings):
