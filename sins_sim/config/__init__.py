@@ -23,7 +23,7 @@ of the scenarios it names is a scenario file as above. An experiment file
 
 Modules, each importing only the ones below it (import-linter contract in ``pyproject.toml``)::
 
-    reference -> {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
+    reference -> {scenario, sweep, experiment, log} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
         -> schema -> errors
 
 ``reference`` renders every format's reference and JSON Schema from these schemas (``sins-sim
