@@ -208,6 +208,8 @@ class _Axes:
            f"expressed in body FRD (x forward, y right, z down), orthonormal to {ROTATION_TOLERANCE:g}, det +1")
 
     def check(self, value, ctx, path):
+        if not isinstance(value, (str, list)):
+            _fail(ctx, path, f"must be a convention string (e.g. RFU) or a 3x3 matrix, got {value!r}")
         try:
             m = axes_matrix(value) if isinstance(value, str) else check_rotation(value)
         except ValueError as exc:

@@ -178,7 +178,7 @@ class UnitLog:
 # --- axes ----------------------------------------------------------------------------------------------------------
 def _letters(text: str) -> str:
     raw = text.strip()
-    if re.fullmatch(r"[A-Za-z]{3}", raw) and raw.lower() not in AXIS_WORDS:
+    if re.fullmatch(r"[A-Za-z]{1,6}", raw) and raw.lower() not in AXIS_WORDS:  # letters: "RFU", "rfu", "FR"
         return raw.upper()
     words = [w for w in re.split(r"[\s,;/_\-]+", raw.lower()) if w]
     if len(words) == 6 and [w for w in words[0::2]] == ["x", "y", "z"]:  # "x right, y forward, z up"
@@ -385,7 +385,7 @@ def _numbers(path, raw: _Raw, j: int, key: str, role: str, integer: bool) -> np.
         frac = np.flatnonzero(x != np.rint(x))
         if frac.size:
             r = int(frac[0])
-            _fail(path, f"{raw.where[r]}: {label} ({role}): {x[r]!r} is not a whole number of pulses (the "
+            _fail(path, f"{raw.where[r]}: {label} ({role}): {float(x[r])!r} is not a whole number of pulses (the "
                         "description says counts; increments or rates are not counts)")
     return x
 
@@ -492,9 +492,11 @@ def _time_base(path, raw: _Raw, layout: LogLayout, t: np.ndarray, data: np.ndarr
     resid = np.abs(t[keep] - grid)
     worst = int(np.argmax(resid))
     if resid[worst] > layout.jitter * dt:
-        _fail(path, f"{where[kept[worst]]}: the time column is {resid[worst]:.6g} s off the grid of "
-                    f"{1.0 / dt:.9g} Hz started at the first row (tolerance time.jitter = {layout.jitter:g} periods): "
-                    "the log's clock runs at another rate than time.rate_hz, or has jumped")
+        first = int(np.flatnonzero(resid > layout.jitter * dt)[0])
+        _fail(path, f"{where[kept[first]]}: the time column is {resid[first]:.6g} s off the grid of "
+                    f"{1.0 / dt:.9g} Hz started at the first row (tolerance time.jitter = {layout.jitter:g} periods; "
+                    f"{resid[worst]:.6g} s on {where[kept[worst]]}): the log's clock runs at another rate than "
+                    "time.rate_hz, or has jumped")
     report = {"duplicates_dropped": len(dup), "duplicate_rows": [where[i] for i in dup[:20]], "gaps": gaps,
               "timestamp_offset_max_s": float(resid[worst])}
     return keep, idx, dt, report

@@ -93,7 +93,7 @@ def import_log(log, describe, out, *, force: bool = False) -> dict:
     ConfigError, LogFileError
         One line naming the flag, the file, the line or the key.
     """
-    from sins_sim import __version__
+    from sins_sim._version import __version__
     from sins_sim.config.log import load_log_description
     from sins_sim.io.unitlog import read_unit_log
     from sins_sim.jobs.manifest import sha256_file
