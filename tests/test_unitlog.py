@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -35,6 +36,7 @@ LAT_DEG, LON_DEG, HEIGHT_M = 56.8, 37.6, 150.0
 #: rows: the log's axes (right, forward, up) in FRD, written out by hand
 RFU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 EPS = np.finfo(float).eps
+ROOT = Path(__file__).resolve().parents[1]
 
 DESCRIPTION = f"""\
 name: RLG unit 7
@@ -543,3 +545,47 @@ def test_cli_end_to_end(small, tmp_path, capsys):
     assert main(["import-log", str(tmp_path / "none.log"), "--describe", str(desc), "--out",
                  str(tmp_path / "y.parquet")]) == 2
     assert "none.log: cannot read: no such file" in capsys.readouterr().err
+
+
+# --- the bundled sample ---------------------------------------------------------------------------------------------------
+SAMPLE = ROOT / "scenarios" / "logs"
+
+
+def _sample_truth():
+    """The bundled sample's vehicle: 20 s at rest heading 30 deg at 56.8 N, 37.6 E, 150 m, then 5 m/s in 10 s, 10 s on."""
+    return Trajectory(math.radians(LAT_DEG), math.radians(LON_DEG), HEIGHT_M, 0.0, math.radians(30.0),
+                      [Stationary(20.0), Accelerate(10.0, 5.0), Cruise(10.0)])
+
+
+def _sample_text() -> str:
+    truth = _sample_truth()
+    t = np.arange(1, int(round(truth.duration_s * RATE_HZ)) + 1) / RATE_HZ
+    ng, na = _rfu_counts(*ideal_increments(truth, t))
+    lines = ["RLG-7 strapdown unit, serial 0412, pulse log (a sins-sim sample: tests/test_unitlog.py writes it)",
+             f"Latitude: {LAT_DEG}", f"Longitude = {LON_DEG}", f"Height: {HEIGHT_M}",
+             "# time_s  gR gF gU [0.1 arcsec]  aR aF aU [125 ug s]"]
+    for i in range(t.size):
+        if i == 2000:
+            lines.append("# drive off")
+        lines.append(" ".join([f"{t[i]:.2f}", *map(str, ng[i]), *map(str, na[i])]))
+    return "\n".join(lines) + "\n"
+
+
+def test_the_bundled_sample_is_what_it_says(tmp_path):
+    """scenarios/logs/rlg-unit7.log (written by _sample_text) is the pulse counter's log of _sample_truth: imported
+    with its description, every interval is within one pulse of the exact increments and the running sum never a
+    pulse off (the bounds of the round trip above; not a comparison of the text, which a last-digit difference in
+    another machine's increments could flip by a pulse); its truth file navigates it."""
+    text = (SAMPLE / "rlg-unit7.log").read_text()
+    assert text.splitlines()[:5] == _sample_text().splitlines()[:5]
+    out = tmp_path / "unit7.parquet"
+    meta = import_log(SAMPLE / "rlg-unit7.log", SAMPLE / "rlg-unit7.yaml", out)
+    assert meta["report"]["rows"] == 4000 and meta["report"]["rate_hz"] == RATE_HZ
+    t, dth, dv, _ = read_log_table(out)
+    exact = ideal_increments(_sample_truth(), t)
+    for got, ex, w in ((dth, exact[0], W_GYRO), (dv, exact[1], W_ACCEL)):
+        float_tol = t.size * EPS * np.max(np.abs(np.cumsum(ex, axis=0)))
+        assert np.max(np.abs(got - ex)) < w + float_tol
+        assert np.max(np.abs(np.cumsum(got - ex, axis=0))) < w + float_tol
+    assert main(["navigate", str(out), "--truth", str(SAMPLE / "rlg-unit7-truth.csv"), "--out",
+                 str(tmp_path / "nav")]) == 0
