@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -160,6 +161,11 @@ def test_the_metadata_records_where_the_table_came_from(imported):
     assert math.degrees(site["lon_rad"]) == pytest.approx(LON_DEG, abs=1e-12)
     assert site["height_m"] == HEIGHT_M and "Latitude" in site["from"]["lat_rad"]
     assert stored["initial_velocity_ned_m_s"] == [0.0, 0.0, 0.0]
+    # the rest check: over the first 60 s (+1 s of the gentlest start) the summed angle is within one pulse per axis
+    # of the exact one, sin(lat) within sqrt(3) 0.1 arcsec / (Omega 61 s) = 1.9e-4, the latitude within 0.02 deg
+    rest = stored["report"]["rest_check"]
+    assert rest["window_s"] >= 60.0 and rest["agrees_with_site"] is True
+    assert rest["latitude_deg"] == pytest.approx(LAT_DEG, abs=0.02)
     assert stored["description"]["axes_matrix_frd"] == RFU.tolist()
     assert stored["report"]["rows_read"] == stored["report"]["rows"]
     # the resolved description loads again to the same layout
@@ -262,8 +268,9 @@ def _doc(**over):
 
 @pytest.fixture()
 def small():
-    """30 s of a vehicle at rest then driving: times, counts, and the text log's reading as the reference."""
-    truth = Trajectory(0.9, 0.6, 10.0, 0.0, 0.3, [Stationary(10.0), Accelerate(20.0, 5.0)])
+    """30 s of a vehicle at rest at the header's site, then driving: times and the RFU counts."""
+    truth = Trajectory(math.radians(LAT_DEG), math.radians(LON_DEG), HEIGHT_M, 0.0, 0.3,
+                       [Stationary(10.0), Accelerate(20.0, 5.0)])
     t = np.arange(1, 3001) / RATE_HZ
     dth, dv = ideal_increments(truth, t)
     return t, *_rfu_counts(dth, dv)
@@ -423,6 +430,25 @@ def test_a_clock_running_at_another_rate_is_refused(small, tmp_path):
     assert _read(log, _doc(time={})).report["rate_hz"] == pytest.approx(RATE_HZ / (1 - 6e-3), rel=1e-8)
 
 
+def test_a_latitude_the_log_contradicts(small, tmp_path):
+    """The small log's vehicle rests 10 s at 56.8 deg = 0.99135 rad: a latitude given as 0.99135 to lat_deg is refused
+    as radians; the wrong hemisphere draws a warning; a log that does not start at rest is not checked."""
+    t, ng, na = small
+    log = _rows_log(tmp_path / "a.txt", t, ng, na)
+    with pytest.raises(LogFileError) as e:
+        _read(log, _doc(site={"lat_deg": 0.99135}))
+    _one_line(e, "site.lat_deg = 0.99135 deg (from description), but the Earth rate the gyros measure about the "
+                 "vertical over the log's first 11 s at rest implies 56.8 deg", "0.99135 rad is 56.8 deg: radians "
+                 "under a _deg key?")
+    with pytest.warns(UserWarning, match="site.lat_deg = -56.8 deg .* implies 56.8 deg"):
+        got = _read(log, _doc(site={"lat_deg": -56.8}))
+    assert got.report["rest_check"]["agrees_with_site"] is False
+    assert _read(log, _doc(site={"lat_deg": 56.8})).report["rest_check"]["agrees_with_site"] is True
+    moving = _rows_log(tmp_path / "b.txt", t[1200:], ng[1200:], na[1200:])
+    rest = _read(moving, _doc(site={"lat_deg": 0.99135})).report["rest_check"]
+    assert rest["window_s"] == 0.0 and rest["agrees_with_site"] is None
+
+
 # --- refusals: one line naming the key or the line --------------------------------------------------------------------
 def _one_line(exc, *words):
     msg = str(exc.value)
@@ -526,6 +552,11 @@ def test_cli_end_to_end(small, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "3000 rows -> 3000 intervals at 100 Hz (30 s" in text
     assert "duplicates dropped: 0; gaps: none" in text and "site: lat 56.8 deg, lon 37.6 deg, height 150 m" in text
+    # 11 s at rest: one pulse per axis of quantisation is sqrt(3) 0.1 arcsec / (Omega 11 s) = 1.0e-3 in sin(lat),
+    # 0.11 deg at 56.8 deg
+    rest = re.search(r"at rest for the first 11 s: the gyros' Earth rate about the vertical implies latitude (\S+) "
+                     r"deg\n", text)
+    assert rest and abs(float(rest.group(1)) - LAT_DEG) < 0.11
     assert read_log_table(out)[3]["report"]["rows"] == 3000
     # an existing output: refused without --force, replaced with it
     assert main(["import-log", str(log), "--describe", str(desc), "--out", str(out)]) == 2

@@ -47,13 +47,17 @@ from __future__ import annotations
 import csv
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from sins_sim.earth import EARTH_RATE_RAD_S
+
 __all__ = ["LogFileError", "HeaderValue", "LogLayout", "UnitLog", "read_unit_log", "axes_matrix", "check_rotation",
-           "AXIS_VECTORS", "AXIS_WORDS", "DELIMITERS", "ROTATION_TOLERANCE"]
+           "rest_latitude", "AXIS_VECTORS", "AXIS_WORDS", "DELIMITERS", "ROTATION_TOLERANCE", "REST_WINDOW_S",
+           "LATITUDE_SIN_TOLERANCE"]
 
 #: Each body-axis letter as a unit vector in FRD (x forward, y right, z down).
 AXIS_VECTORS = {"F": (1.0, 0.0, 0.0), "B": (-1.0, 0.0, 0.0), "R": (0.0, 1.0, 0.0), "L": (0.0, -1.0, 0.0),
@@ -68,6 +72,19 @@ DELIMITERS = {"whitespace": None, "comma": ",", "semicolon": ";", "tab": "\t"}
 #: Largest entry of ``|C C^T - I|`` for an axes matrix (entries written to 7 digits pass; 0.7071 for
 #: cos 45 deg does not: it is 20 arcsec off, more than a navigation-grade unit's mounting error).
 ROTATION_TOLERANCE = 1e-6
+#: The rest check looks at the log's first seconds at rest, at most this many (s), at least 10 one-second blocks.
+REST_WINDOW_S = 60.0
+_REST_MIN_BLOCKS = 10
+#: At rest, each one-second block's mean specific force stays within this of the first block's (m/s^2: 5 mg, far
+#: above a stationary vehicle's averaged vibration, below a vehicle starting off) ...
+_REST_FORCE_M_S2 = 0.05
+#: ... and its mean rate within this many Earth rates of the first block's (75 deg/h: above the 1-s noise of a
+#: tactical-grade gyro, ARW 0.1 deg/sqrt(h) -> 6 deg/h; below a vehicle rocking or turning).
+_REST_RATE_EARTH = 5.0
+#: The given latitude and the one the log implies at rest disagree when their sines differ by more than this: it
+#: takes a vertical-gyro bias of 0.25 Earth rate (3.8 deg/h) to move the implied sine that far, a bias a
+#: navigation-grade unit (0.003-0.01 deg/h) is far from.
+LATITUDE_SIN_TOLERANCE = 0.25
 #: Headers: ``key: value`` or ``key = value`` after the comment prefix.
 _HEADER = re.compile(r"^\s*([^:=]+?)\s*[:=]\s*(.*?)\s*$")
 #: A header value: a decimal number, optionally followed by a unit word that does not change its meaning.
@@ -514,6 +531,63 @@ def _fill(x: np.ndarray, idx: np.ndarray) -> tuple:
     return out, filled
 
 
+# --- the latitude the log implies at rest --------------------------------------------------------------------------
+def rest_latitude(dtheta, dv, dt: float) -> dict:
+    """The latitude a log implies if it starts at rest: what the gyros see of the Earth's rate about the vertical.
+
+    At rest the gyros measure the Earth's rate, whose component along the local up axis is
+    ``Omega sin(lat)`` (:func:`sins_sim.earth.earth_rate_ned`), and the accelerometers the specific force
+    ``-g``, which points up: the measurements of alignment on a stationary base (Titterton & Weston 2004,
+    ch. 10). Over the window at rest, with ``u`` the
+    direction of the summed velocity increments, ``sin(lat) = (sum dtheta . u) / (Omega T)``: independent
+    of the body axes (both sums turn with them) and of the heading. The window is the longest run of
+    one-second blocks from the start, up to :data:`REST_WINDOW_S`, whose mean specific force and rate stay
+    close to the first block's (thresholds in this module); fewer than 10 such blocks: no estimate.
+
+    Returns
+    -------
+    dict
+        ``window_s`` (0 when the log does not start at rest), ``latitude_deg`` (None without an estimate),
+        ``sin_latitude``.
+    """
+    per = max(1, int(round(1.0 / dt)))
+    nblocks = min(dtheta.shape[0] // per, int(REST_WINDOW_S * per) // per)
+    none = {"window_s": 0.0, "latitude_deg": None, "sin_latitude": None}
+    if nblocks < _REST_MIN_BLOCKS:
+        return none
+    w = dtheta[:nblocks * per].reshape(nblocks, per, 3).sum(axis=1) / (per * dt)
+    f = dv[:nblocks * per].reshape(nblocks, per, 3).sum(axis=1) / (per * dt)
+    still = (np.linalg.norm(f - f[0], axis=1) < _REST_FORCE_M_S2) & \
+        (np.linalg.norm(w - w[0], axis=1) < _REST_RATE_EARTH * EARTH_RATE_RAD_S)
+    n = int(np.argmin(still)) if not still.all() else nblocks
+    g = np.linalg.norm(f[:n].mean(axis=0)) if n else 0.0
+    if n < _REST_MIN_BLOCKS or not 9.7 < g < 9.9:  # not at rest on the Earth (normal gravity 9.78-9.83 m/s^2)
+        return none
+    up = f[:n].sum(axis=0) / np.linalg.norm(f[:n].sum(axis=0))
+    s = float(np.dot(w[:n].mean(axis=0), up) / EARTH_RATE_RAD_S)
+    lat = math.degrees(math.asin(s)) if abs(s) <= 1.0 else None
+    return {"window_s": float(n * per * dt), "latitude_deg": lat, "sin_latitude": s}
+
+
+def _check_latitude(path, rest: dict, lat_rad: float, source: str) -> bool | None:
+    """Compare the site's latitude with the log's at rest: refuse radians under a ``_deg`` key, warn otherwise."""
+    s = rest["sin_latitude"]
+    if s is None:
+        return None
+    if abs(math.sin(lat_rad) - s) <= LATITUDE_SIN_TOLERANCE:
+        return True
+    given = math.degrees(lat_rad)
+    implied = "beyond 90 deg" if rest["latitude_deg"] is None else f"{rest['latitude_deg']:.3g} deg"
+    what = (f"site.lat_deg = {given:.6g} deg (from {source}), but the Earth rate the gyros measure about the "
+            f"vertical over the log's first {rest['window_s']:g} s at rest implies {implied} (sin {s:.3f})")
+    if abs(math.sin(given) - s) <= LATITUDE_SIN_TOLERANCE and abs(given) <= math.pi / 2:
+        _fail(path, f"{what}; {given:.6g} rad is {math.degrees(given):.4g} deg: radians under a _deg key? give "
+                    "the latitude in degrees")
+    warnings.warn(f"{path}: {what}: a wrong site, a unit not at rest, or a gyro channel with the wrong sign or "
+                  "weight?", stacklevel=3)
+    return False
+
+
 # --- the whole conversion ------------------------------------------------------------------------------------------
 def read_unit_log(path, layout: LogLayout) -> UnitLog:
     """Read a unit's log laid out as ``layout`` and convert it to increments in FRD (see the module docstring).
@@ -587,8 +661,11 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
         value, src = _resolve(p, 0.0 if spec is None else spec, table)
         vel.append(value)
         vel_from[name] = src
+    rest = rest_latitude(x[:, :3], x[:, 3:], dt)
+    if "lat_rad" in site:
+        rest["agrees_with_site"] = _check_latitude(p, rest, site["lat_rad"], site_from["lat_rad"])
     report.update({
-        "rows": int(x.shape[0]), **treport,
+        "rows": int(x.shape[0]), **treport, "rest_check": rest,
         "gaps_filled": len(treport["gaps"]) if len(filled_rows) else 0,
         "filled_intervals": [{"interval": int(i), "end_s": float(t_s[i])} for i in filled_rows],
         "fill_rule": ("the mean of the increments of the intervals either side of the gap" if len(filled_rows)

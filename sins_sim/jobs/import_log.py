@@ -144,6 +144,11 @@ def summary_lines(meta: dict, out) -> list:
         lines.append("site: " + ", ".join(p for p in parts if p))
     else:
         lines.append("site: not given")
+    rest = rep.get("rest_check") or {}
+    if rest.get("latitude_deg") is not None:
+        verdict = " (contradicts the site's)" if rest.get("agrees_with_site") is False else ""
+        lines.append(f"at rest for the first {rest['window_s']:g} s: the gyros' Earth rate about the vertical "
+                     f"implies latitude {rest['latitude_deg']:.4g} deg{verdict}")
     v = rep["initial_velocity_ned_m_s"]
     if any(v):
         lines.append(f"initial velocity N, E, D: {v[0]:.6g}, {v[1]:.6g}, {v[2]:.6g} m/s")
