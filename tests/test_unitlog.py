@@ -292,6 +292,9 @@ def test_text_csv_and_parquet_read_alike(small, tmp_path):
     by_name = {"time": "t", "gyro": names[1:4], "accelerometer": names[4:]}
     site = {"lat_deg": {"header": "latitude"}}
     got_csv = _read(csv, _doc(format={"type": "csv"}, columns=by_name, site=site))
+    semi = tmp_path / "semi.csv"  # a European export: semicolons
+    semi.write_text(csv.read_text().replace(",", ";"))
+    got_semi = _read(semi, _doc(format={"type": "csv", "delimiter": "semicolon"}, columns=by_name, site=site))
     comma = _write_text_log(tmp_path / "b.txt", t, ng, na, sep=", ")
     got_comma = _read(comma, _doc(format={"type": "text", "header_rows": 4, "delimiter": "comma"}))
     pq_path = tmp_path / "a.parquet"
@@ -303,7 +306,7 @@ def test_text_csv_and_parquet_read_alike(small, tmp_path):
                    pq_path)
     got_pq = _read(pq_path, _doc(format={"type": "parquet"}, columns=by_name, site=site))
     by_index = _read(pq_path, _doc(format={"type": "parquet"}, site=site))
-    for got in (got_csv, got_comma, got_pq, by_index):
+    for got in (got_csv, got_semi, got_comma, got_pq, by_index):
         np.testing.assert_array_equal(got.t_s, ref.t_s)
         np.testing.assert_array_equal(got.dtheta, ref.dtheta)
         np.testing.assert_array_equal(got.dv, ref.dv)
@@ -524,7 +527,8 @@ def test_header_values_that_are_not_a_latitude(small, tmp_path, header, words):
     ({"gyro": {"kind": "rates", "weight_arcsec": 0.1}}, "gyro.weight_arcsec: a weight is for counts"),
     ({"gyro": {"kind": "rates", "unit": "m_s2"}}, "gyro.unit: rates need a unit, one of ['rad_s', 'deg_s'"),
     ({"accelerometer": {"kind": "counts", "weight_ug_s": 0}}, "accelerometer.weight_ug_s: must be finite and != 0"),
-    ({"format": {"type": "csv", "delimiter": "tab"}}, "format.delimiter: only for text logs"),
+    ({"format": {"type": "parquet", "delimiter": "tab"}}, "format.delimiter: only for text and csv logs"),
+    ({"format": {"type": "csv", "delimiter": "whitespace"}}, "format.delimiter: a csv log's fields are split by"),
     ({"axes": None}, "axes: must be a convention string (e.g. RFU) or a 3x3 matrix"),
 ])
 def test_description_refusals_name_the_key(over, words):

@@ -274,7 +274,9 @@ LOG_SCHEMA = Map({
         "type": Str(choices=("text", "csv", "parquet"), required=True,
                     doc="text: header rows, then one row per interval; csv: header rows, then a names row, then "
                         "the rows; parquet: one row per interval, header values in the key-value metadata"),
-        "delimiter": Str(choices=tuple(DELIMITERS), default="whitespace", doc="text: between the fields"),
+        "delimiter": Str(choices=tuple(DELIMITERS), default=None,
+                         doc="between the fields: text whitespace unless given, csv comma unless given (or "
+                             "semicolon, tab)"),
         "header_rows": Num(integer=True, min=0, max=100000, default=0,
                            doc="text and csv: lines at the top before the data (or the names row); searched for "
                                "header values"),
@@ -310,7 +312,8 @@ LOG_SCHEMA = Map({
 }, rules=("columns.time or time.rate_hz: at least one",
           "time.unit count needs time.rate_hz; time.unit, stamp, jitter and gaps need columns.time; time.start_s "
           "only without it",
-          "format.delimiter only for text; a text log names its columns by 0-based position (it has no names row)",
+          "format.delimiter for text and csv (csv: not whitespace); a text log names its columns by 0-based position "
+          "(it has no names row)",
           "columns: each column at most once",
           "gyro, accelerometer: counts take exactly one weight_<unit> key; increments and rates take unit and "
           "optionally scale",
@@ -357,8 +360,12 @@ def _description(doc: dict, ctx: str) -> LogDescription:
         _fail(ctx, "time.start_s", "only without a time column (the column gives the times)")
     if tm["unit"] == "count" and tm["rate_hz"] is None:
         _fail(ctx, "time.rate_hz", "needed with time.unit: count (time = count / rate)")
-    if fmt["type"] != "text" and "delimiter" in given_fmt:
-        _fail(ctx, "format.delimiter", f"only for text logs ({fmt['type']} has its own)")
+    delimiter = fmt["delimiter"] or {"text": "whitespace", "csv": "comma", "parquet": "whitespace"}[fmt["type"]]
+    if fmt["type"] == "parquet" and "delimiter" in given_fmt:
+        _fail(ctx, "format.delimiter", "only for text and csv logs (parquet has its own)")
+    if fmt["type"] == "csv" and delimiter == "whitespace":
+        _fail(ctx, "format.delimiter", "a csv log's fields are split by comma, semicolon or tab (whitespace: "
+                                       "format.type text)")
     if fmt["type"] == "parquet":
         for key in sorted(given_fmt & {"header_rows", "comment"}):
             _fail(ctx, f"format.{key}", "only for text and csv logs (a parquet log's header values are its "
@@ -391,7 +398,7 @@ def _description(doc: dict, ctx: str) -> LogDescription:
         gyro_kind=g["kind"], accel_kind=a["kind"], gyro_scale=tuple(g["scale_si"]), accel_scale=tuple(a["scale_si"]),
         axes=tuple(tuple(r) for r in c["axes"]["matrix"]), time_column=cols["time"], time_scale=time_scale,
         time_count=tm["unit"] == "count", time_stamp=tm["stamp"], rate_hz=tm["rate_hz"], start_s=tm["start_s"],
-        jitter=tm["jitter"], gaps=tm["gaps"], delimiter=fmt["delimiter"], header_rows=fmt["header_rows"],
+        jitter=tm["jitter"], gaps=tm["gaps"], delimiter=delimiter, header_rows=fmt["header_rows"],
         comment=fmt["comment"], site=site, velocity=velocity)
     return LogDescription(layout, _resolved(doc, layout, c["axes"]["matrix"]), ctx)
 
@@ -400,9 +407,11 @@ def _resolved(doc: dict, layout: LogLayout, matrix) -> dict:
     """The description with the defaults that apply written out (one that loads again to the same layout)."""
     out = fill_defaults(doc, LOG_SCHEMA)
     drop_time = ("unit", "stamp", "jitter", "gaps") if layout.time_column is None else ("start_s",)
-    drop_fmt = {"text": (), "csv": ("delimiter",), "parquet": ("delimiter", "header_rows", "comment")}[layout.fmt]
     out["time"] = {k: v for k, v in out["time"].items() if k not in drop_time}
-    out["format"] = {k: v for k, v in out["format"].items() if k not in drop_fmt}
+    if layout.fmt == "parquet":
+        out["format"] = {k: v for k, v in out["format"].items() if k not in ("header_rows", "comment")}
+    else:
+        out["format"] = {**out["format"], "delimiter": layout.delimiter}
     return {**out, "axes_matrix_frd": matrix}
 
 

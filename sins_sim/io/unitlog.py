@@ -147,7 +147,7 @@ class LogLayout:
         Tolerated distance of a logged time from its grid point, in periods.
     gaps : {"refuse", "fill_mean"}
     delimiter : {"whitespace", "comma", "semicolon", "tab"}
-        Text logs only.
+        Text logs (any) and CSV logs (not whitespace).
     header_rows : int
         Lines at the top of a text or CSV log before its data (or names row); searched for header values.
     comment : str
@@ -278,8 +278,9 @@ def check_rotation(matrix) -> np.ndarray:
 # --- reading the raw table -----------------------------------------------------------------------------------------
 @dataclass
 class _Raw:
-    """The log as text cells or numbers: ``cols[j]`` for each used column, ``where[r]`` the line or row of data row
-    r, ``headers`` ``[(label, text)]`` of header lines, ``names`` the column names (or None)."""
+    """The log: ``cells[r][j]`` (text: row r's fields as strings) or ``cells[j]`` (Parquet: column j's values),
+    ``where[r]`` the line or row of data row r, ``headers`` ``[(label, text)]`` of the header lines, ``names`` the
+    column names (None for text), ``row_word`` "line" (text, CSV) or "row" (Parquet)."""
 
     cells: list
     where: list
@@ -319,14 +320,14 @@ def _read_text(path: Path, layout: LogLayout) -> _Raw:
                 headers.append((f"line {i + 1}", s))
             continue
         if layout.fmt == "csv" and names is None:
-            names = [c.strip() for c in next(csv.reader([s]))]
+            names = [c.strip() for c in next(csv.reader([s], delimiter=DELIMITERS[layout.delimiter]))]
             continue
         data_lines.append(s)
         where.append(i + 1)
     if layout.fmt == "csv":
         if names is None:
             _fail(path, "has no names row (a CSV log's first line after the header rows and comments)")
-        cells = [[c.strip() for c in row] for row in csv.reader(data_lines)]
+        cells = [[c.strip() for c in row] for row in csv.reader(data_lines, delimiter=DELIMITERS[layout.delimiter])]
     else:
         sep = DELIMITERS[layout.delimiter]
         cells = [ln.split(sep) if sep is not None else ln.split() for ln in data_lines]
