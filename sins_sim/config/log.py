@@ -39,17 +39,22 @@ _FT = 0.3048  # international foot (m), exact by definition (1959)
 #: (9.80665 m/s^2, the conventional value of the 3rd CGPM, 1901), so 125 ug s = 1.2258 mm/s.
 CHANNEL_UNITS = {
     ("gyro", "counts"): {"arcsec": (ARCSEC, "arcsec"), "rad": (1.0, "rad")},
+    ("gyro", "totals"): {"arcsec": (ARCSEC, "arcsec"), "rad": (1.0, "rad")},
     ("gyro", "increments"): {"rad": (1.0, "rad"), "mrad": (1e-3, "mrad"), "urad": (1e-6, "urad"), "deg": (DEG, "deg"),
                              "arcsec": (ARCSEC, "arcsec")},
     ("gyro", "rates"): {"rad_s": (1.0, "rad/s"), "deg_s": (DEG, "deg/s"), "deg_h": (DEG / 3600.0, "deg/h"),
                         "arcsec_s": (ARCSEC, "arcsec/s")},
     ("accelerometer", "counts"): {"m_s": (1.0, "m/s"), "ug_s": (MICRO_G, "ug s")},
+    ("accelerometer", "totals"): {"m_s": (1.0, "m/s"), "ug_s": (MICRO_G, "ug s")},
     ("accelerometer", "increments"): {"m_s": (1.0, "m/s"), "mm_s": (1e-3, "mm/s"), "ft_s": (_FT, "ft/s"),
                                       "ug_s": (MICRO_G, "ug s"), "g_s": (STANDARD_GRAVITY, "g s")},
     ("accelerometer", "rates"): {"m_s2": (1.0, "m/s^2"), "ft_s2": (_FT, "ft/s^2"), "g": (STANDARD_GRAVITY, "g"),
                                  "mg": (1e-3 * STANDARD_GRAVITY, "mg"), "ug": (MICRO_G, "ug")},
 }
-_KINDS = ("counts", "increments", "rates")
+_KINDS = ("counts", "totals", "increments", "rates")
+_PULSES = ("counts", "totals")
+#: A running-total counter's width (bits) when it rolls over.
+_WRAP_BITS = (8, 64)
 _LAT_HINT = (" (decimal degrees; a value beyond 90 is in another unit: NMEA ddmm.mm, arc minutes, or a number "
              "meant for another key)")
 
@@ -122,11 +127,14 @@ class _Channel:
 
     def __init__(self, sensor: str):
         self.sensor = sensor
-        self.doc = (f"what the three {sensor} channels hold: kind counts (pulses; one weight_<unit> key: the "
-                    "value of one pulse), increments or rates (unit, and scale: the value of one logged unit)")
+        self.doc = (f"what the three {sensor} channels hold: kind counts or totals (pulses; one weight_<unit> key: "
+                    "the value of one pulse), increments or rates (unit, and scale: the value of one logged unit)")
 
     def _units(self, kind):
         return CHANNEL_UNITS[(self.sensor, kind)]
+
+    def _weight_keys(self):
+        return [f"weight_{u}" for u in self._units("counts")]
 
     def check(self, value, ctx, path):
         if not isinstance(value, dict):
@@ -134,37 +142,41 @@ class _Channel:
         kind = value.get("kind")
         if kind not in _KINDS:
             _fail(ctx, f"{path}.kind", f"must be one of {list(_KINDS)}, got {kind!r}")
-        weights = sorted(k for k in value if k.startswith("weight_"))
-        allowed = {"kind"} | ({f"weight_{u}" for u in self._units("counts")} if kind == "counts"
-                              else {"unit", "scale"})
+        pulses = kind in _PULSES
+        allowed = {"kind"} | (set(self._weight_keys()) if pulses else {"unit", "scale"})
+        if kind == "totals":
+            allowed.add("wrap_bits")
         for key in value:
             if key in allowed:
                 continue
-            if key.startswith("weight") and kind == "counts":
-                _fail(ctx, f"{path}.{key}", f"unknown unit: write one of "
-                                            f"{', '.join(f'weight_{u}' for u in self._units('counts'))}")
+            if key.startswith("weight") and pulses:
+                _fail(ctx, f"{path}.{key}", f"unknown unit: write one of {', '.join(self._weight_keys())}")
             if key.startswith("weight"):
-                _fail(ctx, f"{path}.{key}", f"a weight is for counts; {kind} take unit (one of "
+                _fail(ctx, f"{path}.{key}", f"a weight is for counts and totals; {kind} take unit (one of "
                                             f"{', '.join(self._units(kind))}) and optionally scale")
             if key in ("unit", "scale"):
-                _fail(ctx, f"{path}.{key}", "counts take a weight_<unit> key (the value of one pulse), not unit "
+                _fail(ctx, f"{path}.{key}", f"{kind} take a weight_<unit> key (the value of one pulse), not unit "
                                             "or scale")
+            if key == "wrap_bits":
+                _fail(ctx, f"{path}.{key}", "only for kind totals (a running counter that rolls over)")
             _fail(ctx, f"{path}.{key}", f"unknown key (allowed: {', '.join(sorted(allowed))})")
-        if kind == "counts":
+        wrap = None
+        if "wrap_bits" in value:
+            wrap = Num(integer=True, min=_WRAP_BITS[0], max=_WRAP_BITS[1]).check(value["wrap_bits"], ctx,
+                                                                                 f"{path}.wrap_bits")
+        if pulses:
+            weights = sorted(k for k in value if k.startswith("weight_"))
             if len(weights) != 1:
-                _fail(ctx, f"{path}.weight_{next(iter(self._units('counts')))}" if not weights
-                      else f"{path}.{weights[1]}", "counts need exactly one weight key (the value of one pulse), got "
-                                                  f"{len(weights)}")
+                _fail(ctx, f"{path}.{weights[1] if weights else self._weight_keys()[0]}",
+                      f"{kind} need exactly one weight key (the value of one pulse), got {len(weights)}")
             unit = weights[0][len("weight_"):]
-            si = self._units("counts")[unit][0]
-            return {"kind": kind, "unit": unit, "scale_si": [si * w for w in _per_axis(value[weights[0]], ctx,
-                                                                                         f"{path}.{weights[0]}")]}
-        unit = value.get("unit")
-        if unit not in self._units(kind):
-            _fail(ctx, f"{path}.unit", f"{kind} need a unit, one of {list(self._units(kind))}, got {unit!r}")
-        scale = _per_axis(value.get("scale", 1.0), ctx, f"{path}.scale")
-        si = self._units(kind)[unit][0]
-        return {"kind": kind, "unit": unit, "scale_si": [si * s for s in scale]}
+            factor, values = self._units(kind)[unit][0], _per_axis(value[weights[0]], ctx, f"{path}.{weights[0]}")
+        else:
+            unit = value.get("unit")
+            if unit not in self._units(kind):
+                _fail(ctx, f"{path}.unit", f"{kind} need a unit, one of {list(self._units(kind))}, got {unit!r}")
+            factor, values = self._units(kind)[unit][0], _per_axis(value.get("scale", 1.0), ctx, f"{path}.scale")
+        return {"kind": kind, "unit": unit, "scale_si": [factor * v for v in values], "wrap_bits": wrap}
 
     def describe_rows(self, path):
         def labels(kind):
@@ -172,12 +184,17 @@ class _Channel:
 
         rows = [_rows(path, "mapping", "", "mapping", "required", self.doc),
                 _rows(f"{path}.kind", "string", "", "one of " + ", ".join(_KINDS), "required",
-                      "counts: whole pulses per interval; increments: angle (velocity) per interval; rates: angular "
-                      "rate (specific force), integrated by the rectangle rule (increment = rate x period)")]
+                      "counts: whole pulses per interval; totals: a running pulse counter read out at each row (the "
+                      "increments are the differences of consecutive rows; the first row is the reference); "
+                      "increments: angle (velocity) per interval; rates: angular rate (specific force), integrated "
+                      "by the rectangle rule (increment = rate x period)")]
         for u, (_, lab) in self._units("counts").items():
             rows.append(_rows(f"{path}.weight_{u}", "number or list of 3 numbers", lab, "!= 0 each", "(none)",
-                              "counts: the value of one pulse, one for all channels or x, y, z; exactly one "
-                              "weight key; negative for a channel counting against its axis"))
+                              "counts and totals: the value of one pulse, one for all channels or x, y, z; exactly "
+                              "one weight key; negative for a channel counting against its axis"))
+        rows.append(_rows(f"{path}.wrap_bits", "integer", "", f"[{_WRAP_BITS[0]}, {_WRAP_BITS[1]}]", "(none)",
+                          "totals: the counter's width when it rolls over (16: 65535 is followed by 0); absent: it "
+                          "does not"))
         rows.append(_rows(f"{path}.unit", "string", "", f"increments: {labels('increments')}; rates: "
                                                         f"{labels('rates')}", "(none)",
                           "increments and rates: the unit of the logged values"))
@@ -191,8 +208,9 @@ class _Channel:
                           {"type": "array", "minItems": 3, "maxItems": 3,
                            "items": {"type": "number", "not": {"const": 0}}}]}
         props = {"kind": {"enum": list(_KINDS)}, "scale": num3,
-                 "unit": {"enum": sorted({u for k in ("increments", "rates") for u in self._units(k)})}}
-        props.update({f"weight_{u}": num3 for u in self._units("counts")})
+                 "unit": {"enum": sorted({u for k in ("increments", "rates") for u in self._units(k)})},
+                 "wrap_bits": {"type": "integer", "minimum": _WRAP_BITS[0], "maximum": _WRAP_BITS[1]}}
+        props.update({key: num3 for key in self._weight_keys()})
         return {"type": "object", "required": ["kind"], "properties": props, "additionalProperties": False,
                 "description": self.doc}
 
@@ -296,7 +314,8 @@ LOG_SCHEMA = Map({
                     doc="the time column's unit; count: a sample counter, time = count / rate_hz"),
         "stamp": Str(choices=("end", "start"), default="end", doc="which end of its interval a row's time marks"),
         "start": Num(unit="s", min=0.0, default=0.0,
-                     doc="without a time column: where the first interval starts"),
+                     doc="without a time column: where the first interval starts (totals: the time of the first "
+                         "row, the reference reading)"),
         "jitter": Num(min=0.0, max=0.45, default=0.1,
                       doc="largest distance of a logged time from its grid point, in periods"),
         "gaps": Str(choices=("refuse", "fill_mean"), default="refuse",
@@ -315,8 +334,9 @@ LOG_SCHEMA = Map({
           "format.delimiter for text and csv (csv: not whitespace); a text log names its columns by 0-based position "
           "(it has no names row)",
           "columns: each column at most once",
-          "gyro, accelerometer: counts take exactly one weight_<unit> key; increments and rates take unit and "
-          "optionally scale",
+          "gyro, accelerometer: counts and totals take exactly one weight_<unit> key (totals optionally wrap_bits); "
+          "increments and rates take unit and optionally scale",
+          "totals: time.stamp end",
           "a value from the header is checked against its key's range when the log is read"))
 
 
@@ -358,6 +378,10 @@ def _description(doc: dict, ctx: str) -> LogDescription:
                                              "time to check")
     elif "start_s" in given_time:
         _fail(ctx, "time.start_s", "only without a time column (the column gives the times)")
+    g, a = c["gyro"], c["accelerometer"]
+    if "totals" in (g["kind"], a["kind"]) and tm["stamp"] == "start":
+        _fail(ctx, "time.stamp", "a running total is read at an instant: its row's time ends the interval it closes "
+                                 "(stamp end)")
     if tm["unit"] == "count" and tm["rate_hz"] is None:
         _fail(ctx, "time.rate_hz", "needed with time.unit: count (time = count / rate)")
     delimiter = fmt["delimiter"] or {"text": "whitespace", "csv": "comma", "parquet": "whitespace"}[fmt["type"]]
@@ -391,12 +415,12 @@ def _description(doc: dict, ctx: str) -> LogDescription:
         value = c["initial_velocity"][f"{name}_m_s"]
         velocity[f"{name}_m_s"] = (spec.header_value(value, f"initial_velocity.{name}_m_s")
                                    if isinstance(value, dict) else value)
-    g, a = c["gyro"], c["accelerometer"]
     time_scale = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "count": 1.0}[tm["unit"]]
     layout = LogLayout(
         fmt=fmt["type"], gyro_columns=tuple(cols["gyro"]), accel_columns=tuple(cols["accelerometer"]),
         gyro_kind=g["kind"], accel_kind=a["kind"], gyro_scale=tuple(g["scale_si"]), accel_scale=tuple(a["scale_si"]),
-        axes=tuple(tuple(r) for r in c["axes"]["matrix"]), time_column=cols["time"], time_scale=time_scale,
+        axes=tuple(tuple(r) for r in c["axes"]["matrix"]), gyro_wrap_bits=g["wrap_bits"],
+        accel_wrap_bits=a["wrap_bits"], time_column=cols["time"], time_scale=time_scale,
         time_count=tm["unit"] == "count", time_stamp=tm["stamp"], rate_hz=tm["rate_hz"], start_s=tm["start_s"],
         jitter=tm["jitter"], gaps=tm["gaps"], delimiter=delimiter, header_rows=fmt["header_rows"],
         comment=fmt["comment"], site=site, velocity=velocity)

@@ -10,6 +10,8 @@ x forward, y right, z down (FRD), with the end time of each interval, and a repo
 Conversion, per interval ``k`` and log channel ``i`` (weights and scales in SI):
 
 - ``counts``: ``x_k = w_i N_k`` (``w_i``: the pulse weight, e.g. 0.1 arcsec or 125 ug s);
+- ``totals`` (a running pulse counter read out at each row): ``x_k = w_i (M_k - M_{k-1})``, the difference
+  wrapped for a ``b``-bit counter that rolls over; the first row is the reference (no interval of its own);
 - ``increments``: ``x_k = s_i u_k`` (``s_i``: the column's unit in SI times its scale);
 - ``rates``: ``x_k = s_i r_k dt``, the rectangle rule: the logged rate is taken as the interval's mean
   rate (exact for a unit that logs its increments divided by ``dt``; a rate sampled at the end of the
@@ -31,7 +33,8 @@ times over their interval numbers):
   first gap's lines and times and how many gaps; with ``gaps="fill_mean"`` each missing interval gets
   the mean of the increments of the interval before and the interval after the gap (the motion's
   curvature across the gap is lost: a filled interval is an estimate), every filled interval listed
-  in the report;
+  in the report; for running totals nothing is lost: the difference across the gap is shared evenly by
+  the intervals it spans (the sum exact, its distribution over the gap an estimate);
 - a step that is not within ``jitter`` periods of a whole number, a time going backwards, or a clock
   that wanders more than ``jitter`` periods from the fitted grid is refused naming the line.
 
@@ -127,10 +130,15 @@ class LogLayout:
         the column names; Parquet.
     gyro_columns, accel_columns : tuple of 3 (int or str)
         The log's x, y, z channels: 0-based positions or names (names need CSV or Parquet).
-    gyro_kind, accel_kind : {"counts", "increments", "rates"}
+    gyro_kind, accel_kind : {"counts", "totals", "increments", "rates"}
+        ``totals``: running pulse totals (a counter read out at each row); the increments are the differences
+        of consecutive rows, the first row is the reference.
     gyro_scale, accel_scale : tuple of 3 floats
-        SI per logged unit, per channel: rad (counts, increments) or rad/s (rates) per unit for the gyros,
-        m/s or m/s^2 per unit for the accelerometers; signed.
+        SI per logged unit, per channel: rad (counts, totals, increments) or rad/s (rates) per unit for the
+        gyros, m/s or m/s^2 per unit for the accelerometers; signed.
+    gyro_wrap_bits, accel_wrap_bits : int or None
+        Totals: the counter's width in bits when it rolls over (differences wrapped into
+        ``[-2^(b-1), 2^(b-1))``).
     axes : 3x3 tuple
         Rows: the log's x, y, z axes expressed in FRD; a rotation (:func:`check_rotation`).
     time_column : int, str or None
@@ -165,6 +173,8 @@ class LogLayout:
     gyro_scale: tuple
     accel_scale: tuple
     axes: tuple
+    gyro_wrap_bits: int | None = None
+    accel_wrap_bits: int | None = None
     time_column: int | str | None = None
     time_scale: float = 1.0
     time_count: bool = False
@@ -502,7 +512,9 @@ def _time_base(path, raw: _Raw, layout: LogLayout, t: np.ndarray, data: np.ndarr
             if len(gaps) > 1 else ""
         _fail(path, f"gap between {g['after']} ({g['from_s']:.9g} s) and {g['before']} ({g['to_s']:.9g} s): "
                     f"{g['missing_intervals']} missing interval(s) of {dt:.9g} s{more}; set time.gaps: fill_mean "
-                    "to fill them (each filled interval is listed in the output's metadata)")
+                    "to fill them (each filled interval is listed in the output's metadata"
+                    + ("; running totals lose nothing across a gap: their difference is shared by its intervals)"
+                       if "totals" in (layout.gyro_kind, layout.accel_kind) else ")"))
     if layout.rate_hz is None and idx[-1] > 0:  # least-squares slope of time over interval number
         x = idx - idx.mean()
         dt = float(np.dot(x, t[keep] - t[keep].mean()) / np.dot(x, x))
@@ -520,16 +532,36 @@ def _time_base(path, raw: _Raw, layout: LogLayout, t: np.ndarray, data: np.ndarr
     return keep, idx, dt, report
 
 
-def _fill(x: np.ndarray, idx: np.ndarray) -> tuple:
-    """Per interval number ``0..idx[-1]``: the increments, missing ones the mean of their gap's neighbours."""
-    out = np.empty((int(idx[-1]) + 1, x.shape[1]))
-    out[idx] = x
+def _fill(x: np.ndarray, pos: np.ndarray, steps: np.ndarray, share: tuple) -> tuple:
+    """The increments on every interval ``0..pos[-1]`` (row r's at ``pos[r]``, ``steps[r]`` intervals after the row
+    before it); a gap's missing intervals filled per sensor: the mean of the rows either side, or for running totals
+    (``share``) the row's difference shared evenly over the intervals it spans (nothing lost)."""
+    out = np.empty((int(pos[-1]) + 1, x.shape[1]))
+    out[pos] = x
     filled = np.zeros(out.shape[0], dtype=bool)
-    for g in np.flatnonzero(np.diff(idx) > 1):
-        lo, hi = idx[g], idx[g + 1]
-        out[lo + 1:hi] = 0.5 * (x[g] + x[g + 1])
-        filled[lo + 1:hi] = True
+    for r in np.flatnonzero(steps > 1):
+        s, p = int(steps[r]), int(pos[r])
+        for group, shared in zip((slice(0, 3), slice(3, 6)), share):
+            if shared:
+                out[p - s + 1:p + 1, group] = x[r, group] / s
+            else:
+                before = x[r - 1, group] if r > 0 else x[r, group]
+                out[p - s + 1:p, group] = 0.5 * (before + x[r, group])
+        filled[p - s + 1:p] = True
     return out, filled
+
+
+def _differences(chan: np.ndarray, totals: np.ndarray, wraps) -> np.ndarray:
+    """Rows 1.. of ``chan`` with the running-total channels replaced by their differences from the row before,
+    wrapped into ``[-2^(b-1), 2^(b-1))`` for a ``b``-bit counter (one that rolls over)."""
+    out = chan[1:].copy()
+    d = np.diff(chan, axis=0)
+    for c in np.flatnonzero(totals):
+        if wraps[c]:
+            full = float(2 ** int(wraps[c]))
+            d[:, c] = np.mod(d[:, c] + full / 2, full) - full / 2
+        out[:, c] = d[:, c]
+    return out
 
 
 # --- the latitude the log implies at rest --------------------------------------------------------------------------
@@ -622,7 +654,7 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
         twice = next(c for c in used if used.count(c) > 1)
         _fail(p, f"columns: column {twice} is named for two channels")
     kinds = (layout.gyro_kind,) * 3 + (layout.accel_kind,) * 3
-    chan = np.column_stack([_numbers(p, raw, j, key, role, kind == "counts")
+    chan = np.column_stack([_numbers(p, raw, j, key, role, kind in ("counts", "totals"))
                             for j, key, role, kind in zip(cols, _KEYS, _ROLES, kinds)]) \
         if raw.where else np.empty((0, 6))
     n_read = len(raw.where)
@@ -641,14 +673,25 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
         t_first = layout.start_s + dt
         treport = {"duplicates_dropped": 0, "duplicate_rows": [], "gaps": [], "timestamp_offset_max_s": 0.0,
                    "note": "no time column: duplicates and gaps cannot be seen"}
+    totals = np.array([kind == "totals" for kind in kinds])
+    if totals.any():  # the first row is the counters' reading before the first interval
+        if chan.shape[0] < 3:
+            _fail(p, f"needs at least 3 data rows with running totals (the first is the reference), got "
+                     f"{chan.shape[0]}")
+        chan = _differences(chan, totals, (layout.gyro_wrap_bits,) * 3 + (layout.accel_wrap_bits,) * 3)
+        steps, pos = np.diff(idx), idx[1:] - idx[0] - 1
+        if tcol is not None:  # the first row's time is the reference reading's; without a column, start_s is
+            t_first += dt
+    else:
+        steps, pos = np.r_[1, np.diff(idx)], idx - idx[0]
     scale = np.array(tuple(layout.gyro_scale) + tuple(layout.accel_scale), dtype=np.float64)
     per_dt = np.array([dt if kind == "rates" else 1.0 for kind in kinds])
     x = chan * (scale * per_dt)  # rates: the rectangle rule, x = r dt (module docstring)
     c = np.asarray(layout.axes, dtype=np.float64)
     x = np.concatenate([x[:, :3] @ c, x[:, 3:] @ c], axis=1)  # v_frd^T = v_log^T C (v_log = C v_frd)
     filled_rows = []
-    if idx.size and idx[-1] + 1 != idx.size:
-        x, filled = _fill(x, idx)
+    if pos[-1] + 1 != pos.size:
+        x, filled = _fill(x, pos, steps, (totals[0], totals[3]))
         filled_rows = np.flatnonzero(filled)
     t_s = t_first + dt * np.arange(x.shape[0])
     table = _header_table(raw, layout.comment)
@@ -669,8 +712,11 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
         "rows": int(x.shape[0]), **treport, "rest_check": rest,
         "gaps_filled": len(treport["gaps"]) if len(filled_rows) else 0,
         "filled_intervals": [{"interval": int(i), "end_s": float(t_s[i])} for i in filled_rows],
-        "fill_rule": ("the mean of the increments of the intervals either side of the gap" if len(filled_rows)
-                      else None),
+        "fill_rule": (("running totals: the difference across the gap shared evenly by its intervals; "
+                       if totals.any() else "") + ("other channels: " if totals.any() and not totals.all() else "")
+                      + ("the mean of the increments of the intervals either side of the gap"
+                         if not totals.all() else "") if len(filled_rows) else None),
+        "first_row_reference": bool(totals.any()),
         "rate_hz": 1.0 / dt, "period_s": dt, "start_s": float(t_s[0] - dt), "end_s": float(t_s[-1]),
         "duration_s": float(t_s[-1] - t_s[0] + dt),
         "gyro": layout.gyro_kind, "accelerometer": layout.accel_kind,
