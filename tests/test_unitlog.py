@@ -1,4 +1,4 @@
-"""A unit's own log gets in: ``sins-sim import-log`` (sins_sim.io.unitlog, sins_sim.config.log, sins_sim.jobs.import_log).
+"""A unit's own log gets in: ``sins-sim import-log`` (sins_sim.io.unitlog, .config.log, .jobs.import_log).
 
 The round trip that matters: a vehicle's exact increments (:func:`ideal_increments` of a known trajectory) are
 logged the way a real unit logs them (integer pulse counts from a counter that carries its residual, right-
@@ -90,7 +90,7 @@ def _write_text_log(path, t, ng, na, *, header=(f"Latitude: {LAT_DEG}", f"Longit
 
 @pytest.fixture(scope="module")
 def imported(vehicle, tmp_path_factory):
-    truth, t, dth, dv = vehicle
+    _, t, dth, dv = vehicle
     d = tmp_path_factory.mktemp("log")
     ng, na = _rfu_counts(dth, dv)
     log = _write_text_log(d / "unit7.log", t, ng, na)
@@ -110,7 +110,7 @@ def test_imported_increments_are_the_direct_ones_to_one_pulse(vehicle, imported)
     float64 rounding of the running sums, n eps max|sum| (2e4 rows, |sum| < 2 rad or 600 m/s: < 3e-10 of a
     pulse weight).
     """
-    truth, t, dth, dv = vehicle
+    _, t, dth, dv = vehicle
     _, _, _, _, (t_i, dth_i, dv_i, meta) = imported
     np.testing.assert_allclose(t_i, t, rtol=0, atol=1e-9)  # the grid t_0 + n dt (t_0 = 0.01 s)
     for got, exact, w in ((dth_i, dth, W_GYRO), (dv_i, dv, W_ACCEL)):
@@ -134,7 +134,9 @@ def test_navigating_the_import_equals_navigating_the_quantised_increments(vehicl
     """
     truth, t, dth, dv = vehicle
     _, ng, na, _, (t_i, dth_i, dv_i, _) = imported
-    by_hand = lambda c, w: np.column_stack([c[:, 1] * w, c[:, 0] * w, -c[:, 2] * w])  # noqa: E731
+    def by_hand(c, w):
+        return np.column_stack([c[:, 1] * w, c[:, 0] * w, -c[:, 2] * w])
+
     q_dth, q_dv = by_hand(ng, W_GYRO), by_hand(na, W_ACCEL)
     np.testing.assert_allclose(dth_i, q_dth, rtol=4 * EPS, atol=0)
     np.testing.assert_allclose(dv_i, q_dv, rtol=4 * EPS, atol=0)
@@ -172,7 +174,7 @@ def test_the_metadata_records_where_the_table_came_from(imported):
     again = {k: v for k, v in stored["description"].items() if k not in ("source", "axes_matrix_frd")}
     assert load_log_description(again).layout == load_log_description(d / "unit7.yaml").layout
     # navigate's reader takes the file as it is: exactly the increment columns
-    t, dth, dv = read_increments(d / "unit7.parquet")
+    t, _, _ = read_increments(d / "unit7.parquet")
     assert t.size == stored["report"]["rows"]
     import pyarrow.parquet as pq
 
@@ -186,7 +188,7 @@ def test_a_plain_increments_file_has_no_metadata(tmp_path):
         assert read_log_table(tmp_path / name)[3] == {}
 
 
-# --- axes --------------------------------------------------------------------------------------------------------
+# --- axes ------------------------------------------------------------------------------------------------------------
 _PAIRS = (("F", "B"), ("R", "L"), ("D", "U"))  # FRD's positive and negative letters
 
 
@@ -257,7 +259,7 @@ def test_axes_matrix_must_be_a_rotation():
         assert "axes: " in str(e.value) and "\n" not in str(e.value)
 
 
-# --- formats --------------------------------------------------------------------------------------------------------
+# --- formats ---------------------------------------------------------------------------------------------------------
 def _doc(**over):
     doc = {"format": {"type": "text"}, "columns": {"time": 0, "gyro": [1, 2, 3], "accelerometer": [4, 5, 6]},
            "time": {"rate_hz": RATE_HZ}, "gyro": {"kind": "counts", "weight_arcsec": 0.1},
@@ -467,7 +469,8 @@ def test_time_in_milliseconds_stamped_at_the_start_and_fitted_rate(small, tmp_pa
 
 def test_a_clock_running_at_another_rate_is_refused(small, tmp_path):
     t, ng, na = small
-    log = tmp_path / "fast.txt"  # a clock 0.6 % fast: each step within the jitter, row n off by 0.006 n periods: > 0.1 from row 17 (line 18)
+    # a clock 0.6 % fast: each step within the jitter, row n off by 0.006 n periods: > 0.1 from row 17 (line 18)
+    log = tmp_path / "fast.txt"
     log.write_text("\n".join(" ".join([f"{ti:.6f}", *map(str, g), *map(str, a)])
                              for ti, g, a in zip(t * (1 - 6e-3), ng, na)) + "\n")
     with pytest.raises(LogFileError) as e:
@@ -497,7 +500,7 @@ def test_a_latitude_the_log_contradicts(small, tmp_path):
     assert rest["window_s"] == 0.0 and rest["agrees_with_site"] is None
 
 
-# --- refusals: one line naming the key or the line --------------------------------------------------------------------
+# --- refusals: one line naming the key or the line -------------------------------------------------------------------
 def _one_line(exc, *words):
     msg = str(exc.value)
     assert "\n" not in msg, msg
@@ -590,7 +593,7 @@ def test_description_errors_in_a_file_name_the_line(tmp_path):
     _one_line(e, f"{path}:7:1: axes: 'forward-right-up' is left-handed")
 
 
-# --- the command line ---------------------------------------------------------------------------------------------------
+# --- the command line ------------------------------------------------------------------------------------------------
 def test_cli_end_to_end(small, tmp_path, capsys):
     t, ng, na = small
     log = _write_text_log(tmp_path / "unit7.log", t, ng, na)
@@ -627,12 +630,12 @@ def test_cli_end_to_end(small, tmp_path, capsys):
     assert "none.log: cannot read: no such file" in capsys.readouterr().err
 
 
-# --- the bundled sample ---------------------------------------------------------------------------------------------------
+# --- the bundled sample ----------------------------------------------------------------------------------------------
 SAMPLE = ROOT / "scenarios" / "logs"
 
 
 def _sample_truth():
-    """The bundled sample's vehicle: 20 s at rest heading 30 deg at 56.8 N, 37.6 E, 150 m, then 5 m/s in 10 s, 10 s on."""
+    """The bundled sample's vehicle: 20 s at rest heading 30 deg at 56.8 N, 37.6 E, 150 m; 5 m/s in 10 s; 10 s on."""
     return Trajectory(math.radians(LAT_DEG), math.radians(LON_DEG), HEIGHT_M, 0.0, math.radians(30.0),
                       [Stationary(20.0), Accelerate(10.0, 5.0), Cruise(10.0)])
 
