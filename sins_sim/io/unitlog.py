@@ -551,6 +551,17 @@ def _fill(x: np.ndarray, pos: np.ndarray, steps: np.ndarray, share: tuple) -> tu
     return out, filled
 
 
+def _fill_rule(totals: np.ndarray) -> str:
+    """How the gaps were filled, in words (for the report)."""
+    rules = []
+    if totals.any():
+        rules.append("running totals: the difference across the gap shared evenly by its intervals")
+    if not totals.all():
+        rules.append(("other channels: " if totals.any() else "") + "the mean of the increments of the intervals "
+                     "either side of the gap")
+    return "; ".join(rules)
+
+
 def _differences(chan: np.ndarray, totals: np.ndarray, wraps) -> np.ndarray:
     """Rows 1.. of ``chan`` with the running-total channels replaced by their differences from the row before,
     wrapped into ``[-2^(b-1), 2^(b-1))`` for a ``b``-bit counter (one that rolls over)."""
@@ -712,10 +723,7 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
         "rows": int(x.shape[0]), **treport, "rest_check": rest,
         "gaps_filled": len(treport["gaps"]) if len(filled_rows) else 0,
         "filled_intervals": [{"interval": int(i), "end_s": float(t_s[i])} for i in filled_rows],
-        "fill_rule": (("running totals: the difference across the gap shared evenly by its intervals; "
-                       if totals.any() else "") + ("other channels: " if totals.any() and not totals.all() else "")
-                      + ("the mean of the increments of the intervals either side of the gap"
-                         if not totals.all() else "") if len(filled_rows) else None),
+        "fill_rule": _fill_rule(totals) if len(filled_rows) else None,
         "first_row_reference": bool(totals.any()),
         "rate_hz": 1.0 / dt, "period_s": dt, "start_s": float(t_s[0] - dt), "end_s": float(t_s[-1]),
         "duration_s": float(t_s[-1] - t_s[0] + dt),
