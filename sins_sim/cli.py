@@ -851,7 +851,7 @@ def _cmd_schema(args) -> int:
         if args.markdown:
             raise ConfigError("--json-schema: give either --json-schema or --markdown")
         if not args.format:
-            raise ConfigError("--json-schema: name the format (scenario, imu, experiment or sweep)")
+            raise ConfigError("--json-schema: name the format (scenario, imu, experiment, sweep or log)")
         sys.stdout.write(render_json_schema(args.format))
         return EXIT_OK
     if args.markdown:
@@ -882,6 +882,15 @@ def _cmd_navigate(args) -> int:
                          for ax in d if ax != "rule"]
                 print(f"{label} [deg/h]: {', '.join(cells)}")
     print(f"wrote {args.out}: metrics.json, manifest.json")
+    return EXIT_OK
+
+
+def _cmd_import_log(args) -> int:
+    from sins_sim.jobs.import_log import import_log, summary_lines
+
+    meta = import_log(args.log, args.describe, args.out, force=args.force)
+    for line in summary_lines(meta, args.out):
+        print(line)
     return EXIT_OK
 
 
@@ -1082,10 +1091,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("schema", help="every key of an input format with its unit, range and default",
                        description="Print the reference of an input format (scenario, imu, experiment, trajectory, "
-                                   "sweep; "
+                                   "sweep, log; "
                                    "default all), generated from the schemas; --markdown gives "
                                    "docs/scenario-reference.md.")
-    p.add_argument("format", nargs="?", choices=("scenario", "imu", "experiment", "trajectory", "sweep"),
+    p.add_argument("format", nargs="?", choices=("scenario", "imu", "experiment", "trajectory", "sweep", "log"),
                    default=None,
                    help="the format [all]")
     p.add_argument("--markdown", action="store_true", help="Markdown tables (docs/scenario-reference.md)")
@@ -1175,6 +1184,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--height-aid-tau", type=_positive, default=100.0, help="height-aid time constant (s) [100]")
     _force_flag(p)
     p.set_defaults(func=_cmd_navigate)
+
+    p = sub.add_parser("import-log", help="convert a unit's own log (counts, its axes) into an increments file",
+                       description="Read a strapdown unit's log (text, CSV or Parquet: pulse counts, increments or "
+                                   "rates per interval, in the unit's own axes) as a YAML description says "
+                                   "(sins-sim schema log), check its time base (duplicate rows dropped, gaps "
+                                   "refused or filled), and write a Parquet increments file in body axes x forward, "
+                                   "y right, z down that sins-sim navigate reads, with the description, the site, "
+                                   "the source's SHA-256 and the report in its metadata.")
+    p.add_argument("log", help="the unit's log")
+    p.add_argument("--describe", required=True, help="the log's description (YAML; sins-sim schema log)")
+    p.add_argument("--out", required=True, help="increments file to write (.parquet; an existing one only with "
+                                                "--force)")
+    p.add_argument("--force", action="store_true", help="replace an existing --out (once the new file is complete)")
+    p.set_defaults(func=_cmd_import_log)
 
     p = sub.add_parser("completion", help="print a shell completion script (bash or zsh)",
                        description="Print a completion script for sins-sim's commands, flags and choices, "

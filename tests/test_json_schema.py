@@ -24,7 +24,8 @@ ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ([(p, "imu") for p in sorted((ROOT / "configs").glob("*.yaml"))]
            + [(p, "sweep") for p in sorted((ROOT / "scenarios").glob("sweep-*.yaml"))]
            + [(p, "scenario") for p in sorted((ROOT / "scenarios").glob("*.yaml")) if not p.name.startswith("sweep-")]
-           + [(p, "experiment") for p in sorted((ROOT / "scenarios" / "experiments").glob("*.yaml"))])
+           + [(p, "experiment") for p in sorted((ROOT / "scenarios" / "experiments").glob("*.yaml"))]
+           + [(p, "log") for p in sorted((ROOT / "scenarios" / "logs").glob("*.yaml"))])
 
 
 def _validator(fmt):

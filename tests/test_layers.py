@@ -1,7 +1,7 @@
 """The package's import direction (style.md): cli -> jobs -> results -> config -> identification -> simulation ->
 {models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
 each other; config/ and results/ never import jobs/, bench/ or cli, and inside config/ a file's path reads top to bottom
-(reference -> {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
+(reference -> {scenario, sweep, experiment, log} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
 -> schema -> errors).
 Checked on the source with ``ast`` (module-level and function-level imports alike)."""
 
@@ -39,7 +39,7 @@ ALLOWED = {
 }
 
 #: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank
-CONFIG_ORDER = {"reference": 0, "scenario": 1, "sweep": 1, "experiment": 1, "imu": 2, "filter_params": 3,
+CONFIG_ORDER = {"reference": 0, "scenario": 1, "sweep": 1, "experiment": 1, "log": 1, "imu": 2, "filter_params": 3,
                 "effects_schema": 3, "advisories": 3, "block_schema": 3, "yaml_io": 4, "schema": 5, "errors": 6}
 #: jobs/ modules kept as deprecated aliases of the config/ modules (for code outside the package)
 MOVED_TO_CONFIG = {m: m for m in ("schema", "yaml_io", "scenario", "imu", "filter_params", "effects_schema",

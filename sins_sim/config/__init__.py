@@ -19,11 +19,13 @@ A scenario file's path reads top to bottom::
 A sweep file (``sweep.load_sweep``) takes the same path, yaml_io then schema (``SWEEP_SCHEMA``); each
 of the scenarios it names is a scenario file as above. An experiment file
 (``experiment.experiment_from_dict``, for ``sins-sim simulate-recording``) is validated against
-``EXPERIMENT_SCHEMA`` and becomes the recording simulator's inputs (sins_sim.simulation.experiment).
+``EXPERIMENT_SCHEMA`` and becomes the recording simulator's inputs (sins_sim.simulation.experiment). A log
+description (``log.load_log_description``, for ``sins-sim import-log``) is validated against ``LOG_SCHEMA``
+and becomes the plain layout the log reader takes (sins_sim.io.unitlog.LogLayout).
 
 Modules, each importing only the ones below it (import-linter contract in ``pyproject.toml``)::
 
-    reference -> {scenario, sweep, experiment} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
+    reference -> {scenario, sweep, experiment, log} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
         -> schema -> errors
 
 ``reference`` renders every format's reference and JSON Schema from these schemas (``sins-sim

@@ -19,9 +19,10 @@ FORMATS = {
     "experiment": "an experiment for `sins-sim simulate-recording`",
     "trajectory": "a trajectory file (CSV or Parquet) named by a scenario's `trajectory.file`",
     "sweep": "a Monte Carlo sweep for `sins-sim sweep` (scenarios/sweep-*.yaml)",
+    "log": "a unit's log description for `sins-sim import-log LOG --describe LOG.yaml`",
 }
 #: The YAML formats a JSON Schema is exported for (a trajectory file is a CSV/Parquet table, not YAML).
-JSON_SCHEMA_FORMATS = ("scenario", "imu", "experiment", "sweep")
+JSON_SCHEMA_FORMATS = ("scenario", "imu", "experiment", "sweep", "log")
 #: How to regenerate the checked-in reference.
 REGENERATE = "sins-sim schema --markdown > docs/scenario-reference.md"
 
@@ -43,6 +44,10 @@ def _schema(fmt: str):
         from sins_sim.config.sweep import SWEEP_SCHEMA
 
         return SWEEP_SCHEMA
+    if fmt == "log":
+        from sins_sim.config.log import LOG_SCHEMA
+
+        return LOG_SCHEMA
     raise ValueError(f"FORMAT: must be one of {list(FORMATS)}, got {fmt!r}")
 
 
@@ -132,7 +137,7 @@ def render_markdown(formats=None) -> str:
            "entries `key[type=NAME]`. A value outside its range is refused with one line naming the key; "
            "an unusual but legal value draws a one-line warning.", "",
            "Editors: `sins-sim schema FORMAT --json-schema > sins-sim-FORMAT.schema.json` (scenario, imu, "
-           "experiment, sweep) writes a JSON Schema generated from the same schemas; with the first line "
+           "experiment, sweep, log) writes a JSON Schema generated from the same schemas; with the first line "
            "`# yaml-language-server: $schema=sins-sim-scenario.schema.json` (a path relative to the YAML file, or "
            "a URL) an editor with yaml-language-server (VS Code's YAML extension, Neovim, Helix, ...) completes "
            "the keys with their units and underlines a misspelt key or a value out of range as you type.", ""]
