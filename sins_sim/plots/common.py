@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 
 import numpy as np
 
@@ -112,12 +111,17 @@ def _pyplot(headless: bool = True):
     return plt
 
 
-@functools.lru_cache(maxsize=1)
-def _shared_mathtext_parser():
-    """One ``MathTextParser("path")`` (what an Agg renderer makes for itself) for every figure of the process."""
-    from matplotlib.mathtext import MathTextParser
+_MATHTEXT_PARSERS: dict = {}
 
-    return MathTextParser("path")
+
+def _shared_mathtext_parser(own):
+    """The first mathtext parser an Agg renderer made for itself, kept for every later figure of the process.
+
+    Keyed by the parser's class and output type, so each renderer gets one of the kind it made: matplotlib
+    3.7's Agg renderer makes ``MathTextParser("Agg")`` (raster output, six values from ``parse``), 3.8 and later
+    ``MathTextParser("path")`` (vector output, five); handing one the other's breaks the layout.
+    """
+    return _MATHTEXT_PARSERS.setdefault((type(own), getattr(own, "_output_type", None)), own)
 
 
 def finish_figure(fig, path, dpi: int = 110):
@@ -147,7 +151,8 @@ def finish_figure(fig, path, dpi: int = 110):
             # The renderer the layout and the draw use (the canvas keeps it for this size and dpi) parses its
             # mathtext (the log axes' tick labels) with one parser shared by every figure: matplotlib caches
             # parses per parser, and each renderer makes its own, so every figure parsed "10^{-4}" afresh.
-            fig.canvas.get_renderer().mathtext_parser = _shared_mathtext_parser()
+            renderer = fig.canvas.get_renderer()
+            renderer.mathtext_parser = _shared_mathtext_parser(renderer.mathtext_parser)
             if engine is not None:
                 engine.execute(fig)
                 fig.set_layout_engine(None)
