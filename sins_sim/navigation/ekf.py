@@ -71,18 +71,23 @@ and the innovation ``nu = dz - H x``, its covariance ``S`` and ``NIS = nu^T S^-1
 Feedback (closed loop): position, velocity and attitude by
 :meth:`StrapdownNavigator.apply_correction`, biases ``b_est -= db``, then ``x = 0``.
 
-Observability at rest (zero velocity and known position): with ``f^n = (0, 0, -g)``, the horizontal
-velocity errors obey ``dv_N' = -g psi_E - (C db_a)_N`` and ``dv_E' = g psi_N - (C db_a)_E``, so a zero
-velocity measures the tilt only in the combinations ``g psi_E + (C db_a)_N``, ``g psi_N - (C db_a)_E``: the
-horizontal accelerometer biases are not separable from the tilts. The tilt rates
-``psi_N' = -Omega sin(L) psi_E - (C db_g)_N`` and ``psi_E' = Omega sin(L) psi_N + Omega cos(L) psi_D - (C
-db_g)_E`` make the north gyro bias observable and the heading only in the combination
-``Omega cos(L) psi_D - (C db_g)_E``: the east gyro bias is not observable and sets the heading limit
-``sigma_psi_D -> sigma_east_bias / (Omega cos L)``. ``psi_D' = -Omega cos(L) psi_E - (C db_g)_D`` makes the
-down gyro bias observable through the second derivative of the east tilt (weakly: a quadratic of
-``Omega cos(L) db_gD t^2 / 2``, minutes to hours). ``dv_D' = -(C db_a)_D`` makes the vertical
-accelerometer bias observable at once. In body axes these map through ``C_nb``: for a level unit heading
-north, ``gyro_bias_y`` and ``accel_bias_x``, ``accel_bias_y`` are the unobservable ones.
+Observability at rest (zero velocity and known position; Britting 1971, Bar-Itzhack & Berman 1988). With
+``f^n = (0, 0, -g)``, ``a = C db_a`` and ``e = C db_g`` (NED)::
+
+    dv_N' = -g psi_E - a_N        psi_N' = -Omega sin(L) psi_E - e_N
+    dv_E' =  g psi_N - a_E        psi_E' =  Omega sin(L) psi_N + Omega cos(L) psi_D - e_E
+    dv_D' = -a_D                  psi_D' = -Omega cos(L) psi_E - e_D
+
+An error that keeps ``dv = 0`` and ``dr = 0`` for all time is invisible; there are three such constant
+directions: ``(psi_E, a_N, e_N, e_D) = d (1, -g, -Omega sin L, -Omega cos L)``,
+``(psi_N, a_E, e_E) = d (1, g, Omega sin L)`` and ``(psi_D, e_E) = d (1, Omega cos L)``. Hence the
+horizontal accelerometer biases are not separable from the tilts; the east gyro bias is not separable
+from the heading, which converges to ``sigma_psi_D -> sigma_e_E / (Omega cos L)`` (plus the share
+``Omega sin(L) sigma_a_E / g`` of the north tilt); the north and down gyro biases are observable up to
+``Omega sigma_a_N / g`` (the down one slowly: it bends the east tilt, ``Omega cos(L) e_D t^2 / 2``,
+minutes to hours); the vertical accelerometer bias is observable at once. In body axes these map
+through ``C_nb``: for a level unit heading north, ``gyro_bias_y``, ``accel_bias_x`` and ``accel_bias_y``
+are the unobservable ones.
 
 References
 ----------
@@ -97,6 +102,9 @@ References
    Interscience, 1968.
 .. [5] J. W. Benson, "A comparison of two approaches to pure-inertial and Doppler-inertial error
    analysis", IEEE Trans. Aerosp. Electron. Syst. AES-11(4), 447-455, 1975.
+.. [6] K. R. Britting, *Inertial Navigation Systems Analysis*, Wiley, 1971, ch. 9 (self-alignment).
+.. [7] I. Y. Bar-Itzhack, N. Berman, "Control theoretic approach to inertial navigation systems", J.
+   Guidance, Control, and Dynamics 11(3), 237-245, 1988.
 """
 
 from __future__ import annotations
