@@ -172,6 +172,8 @@ def test_make_measurement_by_name_and_bad_name():
     assert isinstance(m, ekf.ZeroVelocity) and m.r_matrix()[0, 0] == pytest.approx(1e-4)
     with pytest.raises(ValueError, match="measurement"):
         ekf.make_measurement("gnss")
+    with pytest.raises(ValueError, match="zero_velocity.sigma: unknown key; did you mean 'sigma_m_s'"):
+        ekf.make_measurement("zero_velocity", sigma=0.01)
     with pytest.raises(ValueError, match="sigma_m"):
         ekf.Position(LAT, LON, H, -1.0)
 
@@ -492,12 +494,12 @@ def _nees_fraction(noise_filter, seeds=N_MC, t_run=300.0, dt=0.1):
         nav = StrapdownNavigator(bad.lat_rad, bad.lon_rad, bad.h_m, bad.v_ned_m_s, bad.q_nb, dt)
         aided = ekf.AidedNavigator(nav, noise_filter, p0, gyro_bias_rad_s=bg + x0[9:12],
                                    accel_bias_m_s2=ba + x0[12:15])
+        z_v = rng.normal(0.0, sig_v, (k_ep, 3))
+        z_p = rng.normal(0.0, sig_p, (k_ep, 3))     # measured position: the truth plus NED noise (m)
+        z_lat, z_lon, z_h = LAT + z_p[:, 0] / (R_N + H), LON + z_p[:, 1] / ((R_E + H) * math.cos(LAT)), H - z_p[:, 2]
         for k in range(k_ep):
             aided.process(dth[k * m:(k + 1) * m], dv[k * m:(k + 1) * m])
-            z_v = rng.normal(0.0, sig_v, 3)
-            z_p = rng.normal(0.0, sig_p, 3)
-            meas_pos = inject(s0, np.concatenate([z_p, np.zeros(12)]))
-            aided.update(ekf.Velocity(z_v, sig_v), ekf.Position(meas_pos.lat_rad, meas_pos.lon_rad, meas_pos.h_m, sig_p))
+            aided.update(ekf.Velocity(z_v[k], sig_v), ekf.Position(z_lat[k], z_lon[k], z_h[k], sig_p))
             if (k + 1) % CHECK_EVERY == 0:
                 e = nav_error(aided.nav_state(), LAT, LON, H, np.zeros(3), q)
                 nees[(k + 1) // CHECK_EVERY - 1] += e @ np.linalg.solve(aided.p[:9, :9], e)

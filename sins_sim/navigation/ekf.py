@@ -120,7 +120,7 @@ from sins_sim._kernels import strapdown as ksd
 from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
 
 __all__ = [
-    "N_STATES", "STATE_NAMES", "POS", "VEL", "ATT", "GYRO_BIAS", "ACCEL_BIAS",
+    "N_STATES", "STATE_NAMES", "POS", "VEL", "ATT", "GYRO_BIAS", "ACCEL_BIAS", "BIASES", "HEADING", "BIAS_KEYS",
     "ImuNoise", "NavState", "Innovation", "AidedNavigator", "MEASUREMENTS", "make_measurement",
     "ZeroVelocity", "ZeroAngularRate", "Position", "Velocity", "Height",
     "error_dynamics", "process_noise_density", "discretize", "initial_covariance", "skew",
@@ -137,6 +137,10 @@ ATT = slice(6, 9)
 GYRO_BIAS = slice(9, 12)
 #: Error of the accelerometer bias estimate, body x, y, z (m/s^2).
 ACCEL_BIAS = slice(12, 15)
+#: The six bias states (gyro xyz, accelerometer xyz), contiguous.
+BIASES = slice(GYRO_BIAS.start, ACCEL_BIAS.stop)
+#: Index of the heading error ``psi_D``.
+HEADING = ATT.start + 2
 #: Names of the states in order (unit in each name).
 STATE_NAMES = (
     "dpos_n_m", "dpos_e_m", "dpos_d_m",
@@ -531,16 +535,28 @@ def make_measurement(name, **kwargs):
     ----------
     name : str
         One of :data:`MEASUREMENTS`.
-    **kwargs
+    kwargs : keyword arguments
         The plug-in's constructor arguments.
 
     Returns
     -------
     object
         The measurement.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name or an unknown keyword (the message names it and lists the allowed ones).
     """
+    import inspect
+
     v.choice("", "measurement", name, MEASUREMENTS)
-    return MEASUREMENTS[name](**kwargs)
+    cls = MEASUREMENTS[name]
+    allowed = [p for p in inspect.signature(cls).parameters]
+    for key in kwargs:
+        if key not in allowed:
+            raise ValueError(f"{name}.{key}: {v.unknown_key(key, allowed)}")
+    return cls(**kwargs)
 
 
 # --- error model ------------------------------------------------------------------------------------------------
@@ -720,8 +736,8 @@ def initial_covariance(pos_sigma_m, vel_sigma_m_s, tilt_sigma_rad, heading_sigma
         if not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
             raise ValueError(f"{name}: must be finite and >= 0, got {val!r}")
         d[sl] = arr ** 2
-    d[6] = d[7] = v.non_negative("", "tilt_sigma_rad", tilt_sigma_rad) ** 2
-    d[8] = v.non_negative("", "heading_sigma_rad", heading_sigma_rad) ** 2
+    d[ATT.start] = d[ATT.start + 1] = v.non_negative("", "tilt_sigma_rad", tilt_sigma_rad) ** 2
+    d[HEADING] = v.non_negative("", "heading_sigma_rad", heading_sigma_rad) ** 2
     d[GYRO_BIAS] = noise.gyro_bias_sigma_rad_s ** 2
     d[ACCEL_BIAS] = noise.accel_bias_sigma_m_s2 ** 2
     return np.diag(d)
@@ -812,7 +828,7 @@ class AidedNavigator:
                                              * (1.0 + 1e-12))))
         self._feedback = bool(feedback)
         self._qc = process_noise_density(noise)
-        self._prior_bias_var = np.diag(self._p)[9:15].copy()
+        self._prior_bias_var = np.diag(self._p)[BIASES].copy()
         self._records: list[Innovation] = []
         self._block_start = self._snapshot_row()
         self._block_n = 0          # navigation updates since the block start

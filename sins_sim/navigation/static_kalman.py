@@ -72,7 +72,7 @@ def observability(aided, fraction=OBSERVABLE_FRACTION) -> dict:
         ``gyro_bias_x`` ... ``accel_bias_z``.
     """
     frac = v.positive("", "fraction", fraction)
-    post = aided.sigma()[9:15]
+    post = aided.sigma()[ekf.BIASES]
     prior = aided.unaided_bias_sigma
     return {key: bool(post[i] < frac * prior[i]) for i, key in enumerate(ekf.BIAS_KEYS)}
 
@@ -218,7 +218,7 @@ def align_kalman(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise, *, durat
     return AlignmentResult(
         method="kalman", q_nb=aided.navigator.q_nb, sigma_rad=sig[ekf.ATT], duration_s=dth.shape[0] * dt,
         convergence={"t_s": hist["t_s"], "roll_rad": eul[:, 0], "pitch_rad": eul[:, 1],
-                     "heading_rad": np.mod(heading, 2.0 * math.pi), "sigma_heading_rad": hist["sigma"][:, 8]},
+                     "heading_rad": np.mod(heading, 2.0 * math.pi), "sigma_heading_rad": hist["sigma"][:, ekf.HEADING]},
         settling_rad=float(tail.max() - tail.min()),
         gyro_bias_rad_s=aided.gyro_bias_rad_s, gyro_bias_sigma_rad_s=sig[ekf.GYRO_BIAS],
         accel_bias_m_s2=aided.accel_bias_m_s2, accel_bias_sigma_m_s2=sig[ekf.ACCEL_BIAS],
