@@ -523,6 +523,18 @@ def test_nees_is_consistent_and_a_mistuned_filter_fails():
 # --- input checks -----------------------------------------------------------------------------------------------------
 
 
+def test_imu_noise_from_datasheet_units():
+    n = ekf.ImuNoise.from_datasheet(0.003, 20.0, 0.01, 100.0, gyro_bias_tau_s=3600.0)
+    assert n.gyro_arw_rad_sqrt_s == pytest.approx(math.radians(0.003) / 60.0, rel=1e-15)
+    assert n.accel_vrw_m_s_sqrt_s == pytest.approx(20e-6 * 9.80665, rel=1e-15)
+    assert n.gyro_bias_sigma_rad_s == pytest.approx(math.radians(0.01) / 3600.0, rel=1e-15)
+    assert n.accel_bias_sigma_m_s2 == pytest.approx(100e-6 * 9.80665, rel=1e-15)
+    # Gauss-Markov: the unaided variance relaxes to sigma^2 with time constant tau / 2
+    var = n.bias_variance_after(np.zeros(6), 1800.0)
+    assert var[0] == pytest.approx(n.gyro_bias_sigma_rad_s ** 2 * (1 - math.exp(-1.0)), rel=1e-12)
+    assert var[3] == 0.0
+
+
 def test_bad_inputs_name_the_field():
     with pytest.raises(ValueError, match="ImuNoise.gyro_arw_rad_sqrt_s"):
         ekf.ImuNoise(-1.0, 1e-4, 1e-8, 1e-4)

@@ -117,6 +117,7 @@ import numpy as np
 from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim._kernels import strapdown as ksd
+from sins_sim.units import DEG, DEG_PER_H, MICRO_G
 from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
 
 __all__ = [
@@ -249,6 +250,43 @@ class ImuNoise:
             if math.isfinite(tau) and getattr(self, rw) > 0.0:
                 raise ValueError(f"ImuNoise.{rw}: must be 0 with a finite {name} (a Gauss-Markov bias has "
                                  f"no separate random walk), got {getattr(self, rw)!r}")
+
+    @classmethod
+    def from_datasheet(cls, gyro_arw_deg_sqrt_h, accel_vrw_ug_sqrt_hz, gyro_bias_deg_h, accel_bias_ug, *,
+                       gyro_bias_tau_s=math.inf, accel_bias_tau_s=math.inf) -> ImuNoise:
+        """The model from datasheet units: ARW in deg/sqrt(h), VRW in ug/sqrt(Hz), biases in deg/h and ug.
+
+        ``1 deg/sqrt(h) = (pi/180) / 60 rad/sqrt(s)``; ``1 ug/sqrt(Hz) = 1e-6 g0 m/s/sqrt(s)`` (a white
+        acceleration density in ug/sqrt(Hz) is the VRW in those units; IEEE Std 1293-1998, annex).
+
+        Parameters
+        ----------
+        gyro_arw_deg_sqrt_h : float
+            Angle random walk (deg/sqrt(h)).
+        accel_vrw_ug_sqrt_hz : float
+            Accelerometer white noise (ug/sqrt(Hz)).
+        gyro_bias_deg_h : float
+            Gyro bias 1-sigma (deg/h).
+        accel_bias_ug : float
+            Accelerometer bias 1-sigma (ug).
+        gyro_bias_tau_s, accel_bias_tau_s : float
+            Gauss-Markov correlation times (s); ``inf`` for constant biases.
+
+        Returns
+        -------
+        ImuNoise
+
+        Examples
+        --------
+        >>> n = ImuNoise.from_datasheet(0.003, 20.0, 0.01, 100.0)
+        >>> round(n.gyro_arw_rad_sqrt_s * 1e7, 4), round(n.gyro_bias_sigma_rad_s * 1e8, 4)
+        (8.7266, 4.8481)
+        """
+        return cls(v.non_negative("ImuNoise", "gyro_arw_deg_sqrt_h", gyro_arw_deg_sqrt_h) * DEG / 60.0,
+                   v.non_negative("ImuNoise", "accel_vrw_ug_sqrt_hz", accel_vrw_ug_sqrt_hz) * MICRO_G,
+                   v.non_negative("ImuNoise", "gyro_bias_deg_h", gyro_bias_deg_h) * DEG_PER_H,
+                   v.non_negative("ImuNoise", "accel_bias_ug", accel_bias_ug) * MICRO_G,
+                   gyro_bias_tau_s=gyro_bias_tau_s, accel_bias_tau_s=accel_bias_tau_s)
 
     def scaled(self, factor: float) -> ImuNoise:
         """The same model with every white-noise density (ARW, VRW, bias random walks) times ``factor``."""
