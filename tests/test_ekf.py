@@ -555,3 +555,55 @@ def test_bad_inputs_name_the_field():
     with pytest.raises(ValueError, match="duration_s"):
         align_kalman(dth, dv, 0.1, LAT, LON, H, [1, 0, 0, 0], NOISE, duration_s=100.0, prior_tilt_sigma_rad=1e-3,
                      prior_heading_sigma_rad=0.01)
+
+
+def test_linear_error_model_in_cruise_is_second_order_accurate():
+    """F's motion terms (Coriolis, transport rate, the metric position's rates) against the navigator in a
+    200 m/s cruise (heading 40 deg, ideal increments of the project's trajectory truth at 100 Hz).
+
+    An error ``s dx0`` is injected into a second navigator fed the same increments; its difference from the
+    truth-started navigator (the algorithm's own errors cancel) minus ``Phi^k s dx0`` is the linear model's
+    residual. With F right it is second order: doubling ``s`` multiplies it by 4 (3.5-4.5 allows the
+    third-order terms, relative ``|psi| + |dr|/R`` = 1e-4); a wrong sign or a missing term leaves a
+    first-order residual, which doubles. ``dx0`` is chosen so each motion term moves the error by far
+    more than the second-order residual (e.g. the Coriolis term on 0.02 m/s, 1e-4 m/s after 60 s,
+    against ``g |psi|^2 t`` = 6e-8 m/s). F is taken at mid-interval (the stepping error is then second order
+    in the 1 s step, relative 1e-10). This test found the normal gravity's change with latitude on
+    ``dv_D`` (8e-9 m/s^2 per m) and the radii's change with latitude in the position and transport rates
+    (relative ``e^2``): without them the residual is first order (ratio 2).
+    """
+    from sins_sim.models.motion import Cruise, Trajectory
+    from sins_sim.simulation.external import ideal_increments
+
+    traj = Trajectory(LAT, LON, 1000.0, 200.0, math.radians(40.0), [Cruise(61.0)])
+    dt, t_run = 0.01, 60.0
+    t = dt * np.arange(1, int(round(t_run / dt)) + 1)
+    dth, dv = ideal_increments(traj, t)
+    tr0 = traj.evaluate(np.array([0.0]))
+    ep = traj.evaluate(np.concatenate([[0.0], np.arange(0.5, t_run, 1.0)]))   # index k: mid-interval k - 1/2
+    s0 = ekf.NavState(0.0, float(tr0.lat_rad[0]), float(tr0.lon_rad[0]), float(tr0.h_m[0]), tr0.v_ned_m_s[0],
+                      tr0.q_nv[0], np.zeros(3), np.zeros(3))
+    ref = StrapdownNavigator(s0.lat_rad, s0.lon_rad, s0.h_m, s0.v_ned_m_s, s0.q_nb, dt).process(dth, dv)
+    dx0 = np.array([100.0, -80.0, 5.0, 0.02, -0.015, 0.01, 1e-5, -1.5e-5, 2e-5, 0, 0, 0, 0, 0, 0])
+    noise = ekf.ImuNoise(0.0, 0.0, 0.0, 0.0)
+    steps = int(round(1.0 / dt))
+    residual = {}
+    for scale in (1.0, 2.0):
+        bad = inject(s0, scale * dx0)
+        sol = StrapdownNavigator(bad.lat_rad, bad.lon_rad, bad.h_m, bad.v_ned_m_s, bad.q_nb, dt).process(dth, dv)
+        x = scale * dx0
+        for k in range(1, int(t_run) + 1):
+            c = dcm_from_quat(ep.q_nv[k])
+            f_n = ep.a_ned_m_s2[k] - earth.gravity_ned(ep.lat_rad[k], ep.h_m[k]) + np.cross(
+                2.0 * earth.earth_rate_ned(ep.lat_rad[k]) + earth.transport_rate_ned(ep.lat_rad[k], ep.h_m[k],
+                                                                                    ep.v_ned_m_s[k]), ep.v_ned_m_s[k])
+            f = ekf.error_dynamics(ep.lat_rad[k], ep.h_m[k], ep.v_ned_m_s[k], c, f_n, noise)
+            x = ekf.discretize(f, np.zeros((15, 15)), 1.0)[0] @ x
+        i = int(t_run) * steps - 1
+        st = ekf.NavState(0, sol.lat_rad[i], sol.lon_rad[i], sol.h_m[i], sol.v_ned_m_s[i], sol.q_nb[i], 0, 0)
+        err = nav_error(st, ref.lat_rad[i], ref.lon_rad[i], ref.h_m[i], ref.v_ned_m_s[i], ref.q_nb[i])
+        residual[scale] = (err - x[:9], x[:9])
+    for blk in (slice(0, 3), slice(3, 6), slice(6, 9)):
+        r1, r2 = np.linalg.norm(residual[1.0][0][blk]), np.linalg.norm(residual[2.0][0][blk])
+        assert 3.5 <= r2 / r1 <= 4.5, (blk, r1, r2)
+        assert r1 <= 1e-3 * np.linalg.norm(residual[1.0][1][blk]), (blk, r1)

@@ -43,9 +43,11 @@ position, ``Z_r`` that of ``omega_ie^n``::
     db'   = -db / tau + w_b                                        (first-order Gauss-Markov; 0 for a random walk)
 
 with the corrected increments' errors ``-db + w``: a bias estimate that is too large makes the corrected
-rate too small, hence the minus signs. ``dg/dr``: only the vertical gravity gradient, ``-dgamma/dh`` on
-``dr_D`` (about ``2 g / R``); with this frame the Schuler loop closes through ``-W_v dv`` and no
-horizontal gravity term appears (Groves 2013, sec. 14.2.4).
+rate too small, hence the minus signs. ``dg/dr``: the normal gravity's change with height, ``-dgamma/dh``
+on ``dr_D`` (about ``2 g / R``), and with latitude, ``(dgamma/dL) / (R_N + h)`` on ``dr_N`` (8e-9
+m/s^2 per m at 45 deg), both on the down component; with this frame the Schuler loop closes through
+``-W_v dv`` and no horizontal gravity term appears (Groves 2013, sec. 14.2.4). ``F_rr`` and ``W_r``
+include the radii's change with latitude (terms of relative size ``e^2``, which Groves's model drops).
 
 Discretisation over a propagation interval ``T`` (the navigator's quantities averaged over it: ``f^n``
 from the velocity change, ``C`` from the mean quaternion): Taylor series of ``Phi = expm(F T)`` and of
@@ -608,19 +610,37 @@ def _rate_derivatives(lat, h, vel):
     vn, ve = vel[0], vel[1]
     w_v = np.array([[0.0, 1.0 / re, 0.0], [-1.0 / rn, 0.0, 0.0], [0.0, -tl / re, 0.0]])
     w_r = np.zeros((3, 3))
-    w_r[2, 0] = -ve / (re * cl * cl) / rn
+    # d/dL, with the radii's own change (dR_E/dL, dR_N/dL = 3 R_N e^2 sin L cos L / (1 - e^2 sin^2 L)), per m north
+    dre = _dre_dlat(lat)
+    drn = 3.0 * r_n * earth.WGS84_E2 * math.sin(lat) * cl / (1.0 - earth.WGS84_E2 * math.sin(lat) ** 2)
+    w_r[:, 0] = [-ve * dre / re ** 2, vn * drn / rn ** 2, -ve / (re * cl * cl) + ve * tl * dre / re ** 2]
+    w_r[:, 0] /= rn
     w_r[:, 2] = [ve / re ** 2, -vn / rn ** 2, -ve * tl / re ** 2]   # d/d dr_D = -d/dh
     z_r = np.zeros((3, 3))
     z_r[:, 0] = _d_earth_rate_d_rn(lat, h)
     return w_v, w_r, z_r
 
 
-def _dgamma_dh(lat, h):
-    """``d gamma / dh`` (s^-2) of :func:`sins_sim.earth.gravity_down` (NIMA TR8350.2 eq. 4-3, differentiated)."""
-    s2 = math.sin(lat) ** 2
-    g0 = earth.GAMMA_EQUATOR_M_S2 * (1.0 + earth.SOMIGLIANA_K * s2) / math.sqrt(1.0 - earth.WGS84_E2 * s2)
-    a = earth.WGS84_A_M
-    return g0 * (-2.0 / a * (1.0 + earth.WGS84_F + earth.WGS84_M - 2.0 * earth.WGS84_F * s2) + 6.0 * h / a ** 2)
+def _dgamma(lat, h):
+    """``(d gamma / dL, d gamma / dh)`` (m/s^2 per rad, s^-2) of :func:`sins_sim.earth.gravity_down`: NIMA
+    TR8350.2 eq. 4-1 (Somigliana) times the height factor of eq. 4-3, differentiated."""
+    s, c = math.sin(lat), math.cos(lat)
+    s2 = s * s
+    w = 1.0 - earth.WGS84_E2 * s2
+    ge, k, a, fl = earth.GAMMA_EQUATOR_M_S2, earth.SOMIGLIANA_K, earth.WGS84_A_M, earth.WGS84_F
+    g0 = ge * (1.0 + k * s2) / math.sqrt(w)
+    hf = 1.0 - 2.0 / a * (1.0 + fl + earth.WGS84_M - 2.0 * fl * s2) * h + 3.0 * h * h / (a * a)
+    dg0 = ge * s * c * (2.0 * k / math.sqrt(w) + (1.0 + k * s2) * earth.WGS84_E2 / w ** 1.5)
+    dhf_dl = 8.0 * fl * s * c * h / a
+    dhf_dh = -2.0 / a * (1.0 + fl + earth.WGS84_M - 2.0 * fl * s2) + 6.0 * h / (a * a)
+    return dg0 * hf + g0 * dhf_dl, g0 * dhf_dh
+
+
+def _dre_dlat(lat):
+    """``d R_E / dL = R_E e^2 sin L cos L / (1 - e^2 sin^2 L)`` (m/rad), from :func:`sins_sim.earth.radii`."""
+    s = math.sin(lat)
+    w = 1.0 - earth.WGS84_E2 * s * s
+    return earth.WGS84_A_M / math.sqrt(w) * earth.WGS84_E2 * s * math.cos(lat) / w
 
 
 def error_dynamics(lat_rad, h_m, v_ned_m_s, c_nb, f_ned_m_s2, noise: ImuNoise) -> np.ndarray:
@@ -658,10 +678,15 @@ def error_dynamics(lat_rad, h_m, v_ned_m_s, c_nb, f_ned_m_s2, noise: ImuNoise) -
     f[POS, VEL] = _I3
     f[0, 0], f[0, 2] = -vd / rn, vn / rn
     f[1, 0], f[1, 1], f[1, 2] = ve * tl / rn, -vd / re - vn * tl / rn, ve / re
+    dre = _dre_dlat(lat)     # R_E varies with latitude: terms of relative size e^2 in dr_E' (none in dr_N')
+    f[1, 0] -= ve * dre / (re * rn)
+    f[1, 1] += vn * dre / (rn * re)
     # velocity: Groves eq. 14.67-14.68
     vx = skew(vel)
     f[VEL, POS] = vx @ (2.0 * z_r + w_r)
-    f[5, 2] += -_dgamma_dh(lat, h_m)
+    dg_dl, dg_dh = _dgamma(lat, h_m)
+    f[5, 0] += dg_dl / rn      # normal gravity varies with latitude (5e-3 g over 90 deg) and height
+    f[5, 2] += -dg_dh
     f[VEL, VEL] = -skew(2.0 * wie + wen) + vx @ w_v
     f[VEL, ATT] = -skew(np.asarray(f_ned_m_s2, dtype=np.float64))
     f[VEL, ACCEL_BIAS] = -c
