@@ -554,6 +554,10 @@ def test_bad_inputs_name_the_field():
     aided.process(np.zeros((3, 3)), np.zeros((3, 3)))
     with pytest.raises(ValueError, match="pending"):
         aided.update(ekf.ZeroVelocity(0.01))
+    with pytest.raises(ValueError, match="dtheta"):
+        aided.process(np.zeros((3, 2)), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="dv"):
+        aided.process(np.zeros((3, 3)), np.full((3, 3), np.nan))
     dth, dv = still_increments(level_quat(0.0), 0.1, 100)
     with pytest.raises(ValueError, match="update_rate_hz"):
         align_kalman(dth, dv, 0.1, LAT, LON, H, [1, 0, 0, 0], NOISE, update_rate_hz=3.0, prior_tilt_sigma_rad=1e-3,
@@ -613,3 +617,40 @@ def test_linear_error_model_in_cruise_is_second_order_accurate():
         r1, r2 = np.linalg.norm(residual[1.0][0][blk]), np.linalg.norm(residual[2.0][0][blk])
         assert 3.5 <= r2 / r1 <= 4.5, (blk, r1, r2)
         assert r1 <= 1e-3 * np.linalg.norm(residual[1.0][1][blk]), (blk, r1)
+
+
+def test_aided_navigator_is_chunk_invariant_and_blocks_the_propagation():
+    """Chunks of any size give the same bits (the blocks end at the same navigation updates), and blocks of
+    3 navigation updates flushed at each 1 s epoch (3 + 3 + 3 + 1) give the covariance of the one-block
+    propagation: on error-free increments F is the same in every block, and the products of the block
+    transitions equal the one-block transition to the Taylor tails (below 1e-9 relative,
+    test_discretize_matches_van_loan). On noisy increments each block's mean specific force carries its
+    own noise: there the linearisation points differ legitimately and only chunking is compared."""
+    q = level_quat(0.2)
+    dt = 0.05
+    rng = np.random.default_rng(3)
+    noisy = still_increments(q, dt, 400, rng, bg=[1e-7, 0, 0], ba=[0, 1e-4, 0], arw=1e-6, vrw=2e-4)
+    clean = still_increments(q, dt, 400)
+    p0 = ekf.initial_covariance(0.1, 0.01, 1e-3, 1e-2, NOISE)
+
+    def run(chunks, max_prop, data=noisy):
+        dth, dv = data
+        nav = StrapdownNavigator(LAT, LON, H, np.zeros(3), q, dt, n_sub=2)
+        aided = ekf.AidedNavigator(nav, NOISE, p0, max_propagation_s=max_prop)
+        i = 0
+        for epoch in range(20):
+            end = (epoch + 1) * 20
+            while i < end:
+                j = min(end, i + chunks[i % len(chunks)])
+                aided.process(dth[i:j], dv[i:j])
+                i = j
+            aided.update(ekf.ZeroVelocity(1e-3), ekf.Position(LAT, LON, H, 0.01))
+        return aided
+
+    a = run([20], 0.3)
+    b = run([1, 7, 3, 13, 2], 0.3)
+    assert np.array_equal(a.p, b.p) and np.array_equal(a.navigator.state_array(), b.navigator.state_array())
+    assert np.array_equal(a.gyro_bias_rad_s, b.gyro_bias_rad_s)
+    c, d = run([20], 1.0, clean), run([20], 0.3, clean)
+    scale = np.sqrt(np.outer(np.diag(c.p), np.diag(c.p)))
+    assert np.all(np.abs(d.p - c.p) <= 1e-9 * scale)

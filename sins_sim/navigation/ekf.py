@@ -120,6 +120,7 @@ from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim._kernels import strapdown as ksd
 from sins_sim.units import DEG, DEG_PER_H, MICRO_G
+from sins_sim.navigation.attitude import _increments
 from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
 
 __all__ = [
@@ -841,7 +842,7 @@ class AidedNavigator:
     (``dtheta - b_g dt``, ``dv - b_a dt``) and propagates the covariance in blocks of whole navigation
     updates of at most ``max_propagation_s``: over a block, ``F`` is evaluated once with the specific force
     ``f^n = (v_end - v_start)/T - g^n + (2 omega_ie + omega_en) x v`` (the navigator's own mean, from
-    its velocity change, Groves 2013 sec. 14.2.4) and ``C_nb`` of the normalised mean quaternion, and
+    its velocity change: the navigation equation, Titterton & Weston 2004 ch. 3, solved for ``f``) and ``C_nb`` of the normalised mean quaternion, and
     ``Phi``, ``Q_d`` come from :func:`discretize`. :meth:`update` first propagates up to the current
     navigation update, then applies the measurements (stacked), and with ``feedback`` corrects the
     navigator and the biases and resets the error state to zero.
@@ -989,10 +990,10 @@ class AidedNavigator:
         NavSolution
             The navigator's rows of this chunk (one per navigation update).
         """
-        dth = np.asarray(dtheta, dtype=np.float64)
-        dvel = np.asarray(dv, dtype=np.float64)
+        dth = _increments("dtheta", dtheta)
+        dvel = _increments("dv", dv)
         dt = self._nav.dt_s
-        if dth.ndim == 2 and dth.shape[0]:
+        if dth.shape[0]:
             self._sum_dtheta += dth.sum(axis=0)
             self._sum_n += dth.shape[0]
         sol = self._nav.process(dth - self._bg * dt, dvel - self._ba * dt)
@@ -1022,7 +1023,8 @@ class AidedNavigator:
         r_n, r_e = earth.radii(lat)
         wie = _wie(lat)
         wen = np.array([vel[1] / (r_e + h), -vel[0] / (r_n + h), -vel[1] * math.tan(lat) / (r_e + h)])
-        # f^n = v' - g^n + (2 omega_ie + omega_en) x v   (Titterton & Weston 2004, eq. 3.70 solved for f)
+        # f^n = v' - g^n + (2 omega_ie + omega_en) x v   (the navigation equation, Titterton & Weston 2004
+        # ch. 3, solved for f; the mean over the block from the navigator's velocity change)
         f_n = (v1 - v0) / t + _cross(2.0 * wie + wen, vel)
         f_n[2] -= float(earth.gravity_down(lat, h))
         fm = error_dynamics(lat, h, vel, c, f_n, self._noise)
