@@ -654,3 +654,15 @@ def test_aided_navigator_is_chunk_invariant_and_blocks_the_propagation():
     c, d = run([20], 1.0, clean), run([20], 0.3, clean)
     scale = np.sqrt(np.outer(np.diag(c.p), np.diag(c.p)))
     assert np.all(np.abs(d.p - c.p) <= 1e-9 * scale)
+
+
+def test_align_kalman_uses_the_first_duration_and_reports_settling():
+    dth, dv = still_increments(level_quat(1.0), 0.5, 600)
+    q0 = quat_multiply(quat_from_rotvec([2e-4, -1e-4, 5e-3]), level_quat(1.0))
+    res = align_kalman(dth, dv, 0.5, LAT, LON, H, q0, NOISE, duration_s=100.0, prior_tilt_sigma_rad=1e-3,
+                       prior_heading_sigma_rad=0.01)
+    assert res.duration_s == 100.0 and res.convergence["t_s"][-1] == 100.0 and len(res.convergence["t_s"]) == 100
+    heading = np.unwrap(res.convergence["heading_rad"])
+    assert res.settling_rad == pytest.approx(np.ptp(heading[-20:]), abs=0.0)
+    frame = res.to_pandas()
+    assert list(frame.columns) == ["roll_rad", "pitch_rad", "heading_rad", "sigma_heading_rad"]

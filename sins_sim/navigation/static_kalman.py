@@ -101,7 +101,7 @@ def _check_inputs(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise, duratio
         raise ValueError(f"dtheta: must hold at least one update interval ({samples} samples), got {n}")
     q0 = _unit_quat("q0_nb", q0_nb)
     lat = v.finite("", "lat_rad", lat_rad)
-    return dth[:n], dvel[:n], dt, samples, q0, lat, v.finite("", "lon_rad", lon_rad), v.finite("", "h_m", h_m)
+    return dth[:n], dvel[:n], dt, samples, lat, v.finite("", "lon_rad", lon_rad), v.finite("", "h_m", h_m), q0
 
 
 def _run_still(dth, dvel, dt, samples, lat, lon, h, q0, noise, *, n_sub, prior_tilt, prior_heading,
@@ -200,12 +200,11 @@ def align_kalman(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise, *, durat
     ValueError
         For a bad argument (the message names it).
     """
-    dth, dvel, dt, samples, q0, lat, lon, h = _check_inputs(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise,
-                                                            duration_s, update_rate_hz, n_sub)
-    aided, _, hist = _run_still(dth, dvel, dt, samples, lat, lon, h, q0, noise, n_sub=n_sub,
-                                prior_tilt=prior_tilt_sigma_rad, prior_heading=prior_heading_sigma_rad,
-                                zupt_sigma=zupt_sigma_m_s, position_sigma=position_sigma_m, zero_rate=False,
-                                max_propagation_s=max_propagation_s)
+    args = _check_inputs(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise, duration_s, update_rate_hz, n_sub)
+    aided, _, hist = _run_still(*args, noise, n_sub=n_sub, prior_tilt=prior_tilt_sigma_rad,
+                                prior_heading=prior_heading_sigma_rad, zupt_sigma=zupt_sigma_m_s,
+                                position_sigma=position_sigma_m, zero_rate=False, max_propagation_s=max_propagation_s)
+    n_used = args[0].shape[0]
     eul = euler_from_quat(hist["q_nb"])
     heading = np.unwrap(eul[:, 2])
     k = hist["t_s"].shape[0]
@@ -219,7 +218,7 @@ def align_kalman(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise, *, durat
         notes.append(f"zero-velocity innovations exceed the noise model (mean NIS {nis.mean():.3g} for 3 "
                      f"expected): the base moved, or zupt_sigma_m_s / the IMU noise is too small")
     return AlignmentResult(
-        method="kalman", q_nb=aided.navigator.q_nb, sigma_rad=sig[ekf.ATT], duration_s=dth.shape[0] * dt,
+        method="kalman", q_nb=aided.navigator.q_nb, sigma_rad=sig[ekf.ATT], duration_s=n_used * args[2],
         convergence={"t_s": hist["t_s"], "roll_rad": eul[:, 0], "pitch_rad": eul[:, 1],
                      "heading_rad": np.mod(heading, 2.0 * math.pi), "sigma_heading_rad": hist["sigma"][:, ekf.HEADING]},
         settling_rad=float(tail.max() - tail.min()),
@@ -349,12 +348,11 @@ def navigate_zupt(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise, *, prio
     ValueError
         For a bad argument (the message names it).
     """
-    dth, dvel, dt, samples, q0, lat, lon, h = _check_inputs(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise,
-                                                            None, update_rate_hz, n_sub)
-    aided, sol, hist = _run_still(dth, dvel, dt, samples, lat, lon, h, q0, noise, n_sub=n_sub,
-                                  prior_tilt=prior_tilt_sigma_rad, prior_heading=prior_heading_sigma_rad,
-                                  zupt_sigma=zupt_sigma_m_s, position_sigma=position_sigma_m,
-                                  zero_rate=bool(zero_rate), max_propagation_s=max_propagation_s)
+    args = _check_inputs(dtheta, dv, dt_s, lat_rad, lon_rad, h_m, q0_nb, noise, None, update_rate_hz, n_sub)
+    aided, sol, hist = _run_still(*args, noise, n_sub=n_sub, prior_tilt=prior_tilt_sigma_rad,
+                                  prior_heading=prior_heading_sigma_rad, zupt_sigma=zupt_sigma_m_s,
+                                  position_sigma=position_sigma_m, zero_rate=bool(zero_rate),
+                                  max_propagation_s=max_propagation_s)
     recs = [r for r in aided.innovations if r.name == "zero_velocity"]
     sig = aided.sigma()
     return ZuptResult(
