@@ -24,6 +24,12 @@ north-east-down.
 - :mod:`~sins_sim.navigation.strapdown`: :class:`StrapdownNavigator` (the full
   INS loop, local-level NED on WGS-84), :class:`NavSolution`,
   :func:`height_aid_gains`.
+- :mod:`~sins_sim.navigation.ekf`: the error-state Kalman filter in closed loop,
+  :class:`AidedNavigator`, :class:`ImuNoise`, the measurement plug-ins
+  (:data:`MEASUREMENTS`), :func:`error_dynamics`, :func:`discretize`.
+- :mod:`~sins_sim.navigation.static_kalman`: :func:`align_kalman` (Kalman fine
+  alignment at rest), :func:`navigate_zupt` (a still log with zero-velocity
+  updates), :class:`ZuptResult`.
 """
 
 from sins_sim.navigation.alignment import align_coarse, align_inertial
@@ -58,6 +64,26 @@ from sins_sim.navigation.error import (
     schuler_ramp_position_error,
     strapdown_position_error,
 )
+from sins_sim.navigation.ekf import (
+    MEASUREMENTS,
+    N_STATES,
+    STATE_NAMES,
+    AidedNavigator,
+    Height,
+    ImuNoise,
+    Innovation,
+    NavState,
+    Position,
+    Velocity,
+    ZeroAngularRate,
+    ZeroVelocity,
+    discretize,
+    error_dynamics,
+    initial_covariance,
+    make_measurement,
+    process_noise_density,
+)
+from sins_sim.navigation.static_kalman import ZuptResult, align_kalman, navigate_zupt, observability
 from sins_sim.navigation.strapdown import (
     SCULLING_ALGORITHMS,
     VERTICAL_MODES,
@@ -99,4 +125,25 @@ __all__ = [
     "NavSolution",
     "StrapdownNavigator",
     "height_aid_gains",
+    "MEASUREMENTS",
+    "N_STATES",
+    "STATE_NAMES",
+    "AidedNavigator",
+    "Height",
+    "ImuNoise",
+    "Innovation",
+    "NavState",
+    "Position",
+    "Velocity",
+    "ZeroAngularRate",
+    "ZeroVelocity",
+    "discretize",
+    "error_dynamics",
+    "initial_covariance",
+    "make_measurement",
+    "process_noise_density",
+    "ZuptResult",
+    "align_kalman",
+    "navigate_zupt",
+    "observability",
 ]

@@ -113,6 +113,7 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim import earth
+from sins_sim._kernels import nav as knav
 from sins_sim._kernels import strapdown as ksd
 from sins_sim.navigation.attitude import _increments, _unit_quat
 from sins_sim.navigation.coning import CONING_ALGORITHMS, coefficient_matrix
@@ -473,6 +474,65 @@ class StrapdownNavigator:
     def state_array(self) -> np.ndarray:
         """A copy of the kernel state (layout ``sins_sim._kernels.strapdown.ST_*``)."""
         return self._state.copy()
+
+    def apply_correction(self, dpos_ned_m=None, dv_ned_m_s=None, psi_ned_rad=None) -> None:
+        """Subtract an estimated navigation error from the current state (the feedback of an aiding filter).
+
+        The errors are "computed minus true", as the error-state filter of
+        :mod:`sins_sim.navigation.ekf` defines them: position error in NED metres
+        ``dr = ((lat_c - lat) (R_N + h), (lon_c - lon) (R_E + h) cos lat, -(h_c - h))``,
+        velocity error ``dv = v_c - v``, attitude error ``psi`` with
+        ``C_nb_c = (I + [psi x]) C_nb`` (the project's convention). The correction is their exact inverse
+        at the current point::
+
+            lat -= dr_N / (R_N + h),   lon -= dr_E / ((R_E + h) cos lat),   h += dr_D
+            v   -= dv,                 q_nb <- q(-psi) (x) q_nb   (normalised)
+
+        (radii of :func:`sins_sim.earth.radii` at the current latitude). The mid-interval extrapolation
+        of the next update reads the state of the update before the last (``ST_PREV_*``): the same
+        correction is applied to it, so the extrapolated rates see no step; likewise the vertical loop's
+        height error. The increments before the correction and the partial coning/sculling sums of the
+        current update are body-frame quantities and stay as they are.
+
+        Parameters
+        ----------
+        dpos_ned_m : array_like, shape (3,), optional
+            Position error north, east, down (m); none when omitted.
+        dv_ned_m_s : array_like, shape (3,), optional
+            Velocity error NED (m/s); none when omitted.
+        psi_ned_rad : array_like, shape (3,), optional
+            Attitude error ``psi`` about north, east, down (rad); none when omitted.
+
+        Raises
+        ------
+        ValueError
+            For a wrong shape or a non-finite value (the message names the argument).
+        """
+        s = self._state
+        if dpos_ned_m is not None:
+            dr = _vector("dpos_ned_m", dpos_ned_m, 3)
+            lat, h = s[ksd.ST_LAT], s[ksd.ST_H]
+            r_n, r_e = earth.radii(lat)
+            dlat = dr[0] / (r_n + h)
+            dlon = dr[1] / ((r_e + h) * math.cos(lat))
+            s[ksd.ST_LAT] -= dlat
+            s[ksd.ST_PREV_LAT] -= dlat
+            s[ksd.ST_LON] = (s[ksd.ST_LON] - dlon + math.pi) % (2.0 * math.pi) - math.pi
+            s[ksd.ST_H] += dr[2]
+            s[ksd.ST_PREV_H] += dr[2]
+            if self._vertical == "height_aid":
+                s[ksd.ST_DH] += dr[2]
+        if dv_ned_m_s is not None:
+            dvel = _vector("dv_ned_m_s", dv_ned_m_s, 3)
+            s[ksd.ST_V:ksd.ST_V + 3] -= dvel
+            s[ksd.ST_PREV_V:ksd.ST_PREV_V + 3] -= dvel
+        if psi_ned_rad is not None:
+            psi = _vector("psi_ned_rad", psi_ned_rad, 3)
+            qc = np.empty(4)
+            q = np.empty(4)
+            knav.rotvec_to_quat(-psi, qc)
+            knav.quat_mul(qc, s[ksd.ST_Q:ksd.ST_Q + 4].copy(), q)
+            s[ksd.ST_Q:ksd.ST_Q + 4] = q / math.sqrt(float(q @ q))
 
     # --- processing ---------------------------------------------------------------
 
