@@ -866,7 +866,25 @@ def _cmd_navigate(args) -> int:
 
     metrics = navigate_file(args.increments, args.truth, args.out, name=args.name, coning=args.coning,
                             sculling=args.sculling, vertical=args.vertical, height_aid_tau_s=args.height_aid_tau,
+                            align=args.align or ("truth" if args.truth else "inertial"),
+                            align_duration_s=args.align_duration, imu=args.imu, site_lat_deg=args.site_lat_deg,
+                            site_lon_deg=args.site_lon_deg, site_height_m=args.site_height_m,
                             force=args.force, manifest=_manifest(args))
+    al = metrics.get("alignment") or metrics.get("filters", {}).get(args.name, {}).get("alignment")
+    if al:
+        err = (f"; against the truth {al['error_heading_deg']:+.4g} deg" if "error_heading_deg" in al else "")
+        print(f"alignment {al['method']} over {al['duration_s']:g} s: heading {al['heading_deg']:.4f} deg "
+              f"(sigma {al['sigma_heading_deg']:.3g} deg{err}), roll {al['roll_deg']:.4f}, pitch {al['pitch_deg']:.4f} deg")
+    for note in metrics.get("notes", []):
+        args.job_warnings.append(note)
+    if "solution" in metrics:
+        nav, sol = metrics["navigation"], metrics["solution"]
+        f = sol["final_displacement_m"]
+        print(f"navigated {nav['end_s'] - nav['start_s']:.6g} s at {nav['rate_hz']:.6g} Hz with no truth: displacement "
+              f"from the start north {f['north']:.4g} m, east {f['east']:.4g} m, up {f['up']:.4g} m (horizontal "
+              f"{f['horizontal']:.4g} m; the error if the unit stood still)")
+        print(f"wrote {args.out}: metrics.json, solution.parquet, alignment.png, displacement.png, report.md")
+        return EXIT_OK
     m, nav = metrics["filters"][args.name], metrics["navigation"]
     print(f"navigated {nav['end_s'] - nav['start_s']:.6g} s of increments at {nav['rate_hz']:.6g} Hz against "
           f"{args.truth} ({m['status']})")
@@ -1168,11 +1186,27 @@ def build_parser() -> argparse.ArgumentParser:
                                    "body axes x forward, y right, z down; raw, not coning- or sculling-compensated; "
                                    "time_s is the end of each interval on the trajectory file's time axis, uniformly "
                                    "spaced) with sins-sim's strapdown navigator, aligned to the truth one period "
-                                   "before the first row; write metrics.json with the error metrics of run "
-                                   "(position, velocity, attitude, psi and attitude drift, gyro drift per axis).")
+                                   "before the first row or by an alignment (--align) over the first "
+                                   "--align-duration seconds; write metrics.json with the error metrics of run "
+                                   "(position, velocity, attitude, psi and attitude drift, gyro drift per axis). "
+                                   "Without --truth (a unit's own log, from sins-sim import-log): align, navigate "
+                                   "and write the solution, its displacement from the start and the figures.")
     p.add_argument("increments", help="increments file (.csv, .parquet)")
-    p.add_argument("--truth", required=True, help="trajectory file (sins-sim schema trajectory) the increments "
-                                                  "were taken along")
+    p.add_argument("--truth", default=None, help="trajectory file (sins-sim schema trajectory) the increments "
+                                                 "were taken along; without it (a unit's own log) the result is the "
+                                                 "solution itself, from an alignment")
+    p.add_argument("--align", choices=("truth", "coarse", "inertial", "kalman"), default=None,
+                   help="how the starting attitude is found: from the truth, or by aligning over the first "
+                        "--align-duration seconds of the increments (the unit at rest there) [truth with --truth, "
+                        "else inertial]")
+    p.add_argument("--align-duration", type=_positive, default=300.0, help="alignment window (s) [300]")
+    p.add_argument("--imu", default=None, help="IMU file whose sensors: section gives the bias bounds and noise the "
+                                               "alignment states its sigma from (sins-sim schema imu)")
+    p.add_argument("--site-lat-deg", type=float, default=None, help="site latitude (deg) [the table's, from "
+                                                                   "import-log]")
+    p.add_argument("--site-lon-deg", type=float, default=None, help="site longitude (deg) [the table's]")
+    p.add_argument("--site-height-m", type=float, default=None, help="site height above the ellipsoid (m) "
+                                                                     "[the table's]")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     p.add_argument("--name", default="external", help="the name of the result in metrics.json [external]")
     p.add_argument("--coning", choices=("none", "two_sample", "three_sample", "four_sample"), default="two_sample",

@@ -539,12 +539,9 @@ class Scenario:
 
 def _alignment_settings(spec: dict, imu):
     """``navigation.alignment`` with the unit's bias and noise numbers (the observability bounds, the filter)."""
-    from sins_sim.simulation.aligning import AlignmentSettings, bias_sigmas, imu_noise_numbers
+    from sins_sim.simulation.aligning import alignment_settings
 
-    gyro, acc = bias_sigmas(imu.sensors)
-    return AlignmentSettings(method=spec["method"], duration_s=spec["duration_s"],
-                             gyro_bias_sigma_rad_s=tuple(float(x) for x in gyro),
-                             accel_bias_sigma_m_s2=tuple(float(x) for x in acc), noise=imu_noise_numbers(imu.sensors))
+    return alignment_settings(spec["method"], spec["duration_s"], imu.sensors)
 
 
 def _check_at_rest_for_alignment(nav, vehicle, ctx):

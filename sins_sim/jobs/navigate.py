@@ -98,14 +98,14 @@ class _Context:
 
 def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", coning: str = "two_sample",
                         sculling: str = "two_sample", vertical: str = "height_aid",
-                        height_aid_tau_s: float = 100.0) -> dict:
+                        height_aid_tau_s: float = 100.0, q0_nb=None, v0_ned_m_s=None) -> dict:
     """Navigate increments against a truth; return the metrics of ``sins-sim run`` for them.
 
     Parameters
     ----------
-    t_s, dtheta, dv, truth, coning, sculling, vertical, height_aid_tau_s
+    t_s, dtheta, dv, truth, coning, sculling, vertical, height_aid_tau_s, q0_nb, v0_ned_m_s
         As :func:`sins_sim.simulation.external.navigate_increments` (times on the truth's own axis:
-        seconds since its first sample).
+        seconds since its first sample; ``q0_nb``, ``v0_ned_m_s``: an alignment's start instead of the truth's).
     name : str
         The key of the result in ``filters``.
 
@@ -130,50 +130,267 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
     from sins_sim.simulation.external import navigate_increments as _navigate
 
     res = _navigate(t_s, dtheta, dv, truth, name=name, coning=coning, sculling=sculling, vertical=vertical,
-                    height_aid_tau_s=height_aid_tau_s)
+                    height_aid_tau_s=height_aid_tau_s, q0_nb=q0_nb, v0_ned_m_s=v0_ned_m_s)
     lat0 = float(res.truth_series["lat_rad"][0]) if res.truth_series["lat_rad"].size else 0.0
     return {"filters": scenario_metrics(res, _Context(lat0)),
             "navigation": {**res.settings, "start_s": res.nav_start_s, "end_s": res.duration_s}}
 
 
+def _site(meta: dict, lat_deg, lon_deg, height_m) -> tuple:
+    """``(site in rad and m, notes)``: the flags over the log table's metadata; a missing latitude is refused."""
+    import math
+
+    known = dict(meta.get("site") or {})
+    notes = []
+    site = {}
+    for key, flag, val, conv in (("lat_rad", "--site-lat-deg", lat_deg, math.radians),
+                                 ("lon_rad", "--site-lon-deg", lon_deg, math.radians),
+                                 ("height_m", "--site-height-m", height_m, float)):
+        if val is not None:
+            site[key] = conv(val)
+        elif known.get(key) is not None:
+            site[key] = float(known[key])
+        elif key == "lat_rad":
+            raise ConfigError("--site-lat-deg: the increments carry no site latitude (sins-sim import-log stores the "
+                              "one its description gives); give --site-lat-deg: alignment needs the latitude")
+        else:
+            site[key] = 0.0
+            notes.append(f"{flag.lstrip('-').replace('-', ' ')}: not given, 0 assumed")
+    if not abs(site["lat_rad"]) < math.radians(89.5):
+        raise ConfigError(f"--site-lat-deg: must be within +-89.5 deg (the NED mechanization and gyrocompassing are "
+                          f"singular at the poles), got {math.degrees(site['lat_rad']):g}")
+    return site, notes
+
+
+def _imu_sensors(imu):
+    if imu is None:
+        return None
+    from sins_sim.config.imu import load_imu
+
+    return load_imu(imu).sensors
+
+
 def navigate_file(increments, truth_file, out_dir, *, name: str = "external", coning: str = "two_sample",
                   sculling: str = "two_sample", vertical: str = "height_aid", height_aid_tau_s: float = 100.0,
-                  force: bool = False, manifest=None) -> dict:
-    """``sins-sim navigate``: read the increments and the trajectory file, navigate, write ``metrics.json``
-    and ``manifest.json`` (the command, versions, the two inputs' hashes; ``manifest`` from the CLI).
+                  align: str = "truth", align_duration_s: float = 300.0, imu=None, site_lat_deg=None,
+                  site_lon_deg=None, site_height_m=None, force: bool = False, manifest=None) -> dict:
+    """``sins-sim navigate``: read the increments (and the trajectory file, if any), align, navigate, write
+    ``metrics.json`` and ``manifest.json`` (the command, versions, the inputs' hashes; ``manifest`` from the CLI).
 
-    The increments' ``time_s`` is on the trajectory file's time axis (its own ``time_s`` column).
+    With ``truth_file``: the errors against it, as a run's (``align="truth"`` starts from the truth one period
+    before the first row; another method aligns over the first ``align_duration_s`` and starts from what it
+    found, with zero velocity, and the errors then include the alignment's). With no truth (a real unit's log):
+    ``align`` must be a method; the site comes from the table's metadata (``sins-sim import-log``) or the
+    ``site_*`` arguments; the result is the solution itself (``solution.parquet``, its displacement from the
+    start, the figures and ``report.md``). ``imu``: an IMU file whose ``sensors:`` section gives the bias bounds
+    the alignment states its sigma from (without it, only the data's own scatter).
     Returns the metrics written.
     """
     from sins_sim.io import read_trajectory
+    from sins_sim.jobs.import_log import read_log_table
     from sins_sim.jobs.manifest import Manifest, result_dir
     from sins_sim.jobs.output import atomic_write_text
     from sins_sim.jobs.run import _json_default
     from sins_sim.models.motion import SampledTrajectory
     from sins_sim.models.motion.trajectory import velocity_check_in_file_terms
+    from sins_sim.navigation.alignment_result import ALIGNMENT_METHODS
+    from sins_sim.simulation.external import uniform_period
 
-    t, dth, dv = read_increments(increments)
+    if align not in ALIGNMENT_METHODS:
+        raise ConfigError(f"--align: must be one of {', '.join(ALIGNMENT_METHODS)}, got {align!r}")
+    if truth_file is None and align == "truth":
+        raise ConfigError("--align: with no --truth the starting attitude must come from an alignment: give --align "
+                          "coarse, inertial or kalman (or a trajectory file with --truth)")
+    t, dth, dv, meta = read_log_table(increments)
     try:
-        data = read_trajectory(truth_file)
-        truth = SampledTrajectory.from_data(data)
+        dt = uniform_period(t, "time_s")
     except ValueError as exc:
-        msg = velocity_check_in_file_terms(" ".join(str(exc).split()), str(truth_file), "the tolerance (m/s)")
-        raise ConfigError(f"--truth: {msg}") from None
+        raise ConfigError(f"{increments}: {exc}") from None
+    sensors = _imu_sensors(imu)
+    truth = None
+    if truth_file is not None:
+        try:
+            data = read_trajectory(truth_file)
+            truth = SampledTrajectory.from_data(data)
+        except ValueError as exc:
+            msg = velocity_check_in_file_terms(" ".join(str(exc).split()), str(truth_file), "the tolerance (m/s)")
+            raise ConfigError(f"--truth: {msg}") from None
+    settings = {"name": name, "coning": coning, "sculling": sculling, "vertical": vertical,
+                "height_aid_tau_s": height_aid_tau_s, "align": align}
+    if manifest is None:
+        manifest = Manifest("navigate", settings={**settings, "align_duration_s": align_duration_s,
+                                                  "imu": None if imu is None else str(imu)})
+    manifest.add_input("increments", increments)
+    inputs = [increments]
+    if truth_file is not None:
+        manifest.add_input("truth", truth_file)
+        inputs.append(truth_file)
+    if imu is not None:
+        manifest.add_input("imu", imu)
+        inputs.append(imu)
+    if align == "truth":
+        metrics = _navigate_against_truth(t, dth, dv, truth, name, coning, sculling, vertical, height_aid_tau_s)
+        figures = {}
+    else:
+        n_w = int(round(align_duration_s / dt))
+        if not (align_duration_s > 0.0 and 2 <= n_w <= t.size - 2):
+            raise ConfigError(f"--align-duration: the window must hold at least 2 rows and leave 2 to navigate: the "
+                              f"increments span {t.size * dt:.6g} s at {1.0 / dt:.6g} Hz, got {align_duration_s:g} s")
+        if truth is not None:
+            t0 = float(t[0] - dt) - truth.time_offset_s
+            first = truth.evaluate([max(t0, 0.0)])
+            site = {"lat_rad": float(first.lat_rad[0]), "lon_rad": float(first.lon_rad[0]), "height_m": float(first.h_m[0])}
+            notes = []
+        else:
+            site, notes = _site(meta, site_lat_deg, site_lon_deg, site_height_m)
+        result = _align(align, align_duration_s, sensors, dth[:n_w], dv[:n_w], dt, site, increments)
+        if sensors is None:
+            notes.append("no --imu: the stated sigma holds the data's own scatter only, no bias bound")
+        if truth is not None:
+            metrics = _navigate_against_truth(t[n_w:], dth[n_w:], dv[n_w:], truth, name, coning, sculling, vertical,
+                                              height_aid_tau_s, q0=result.q_nb)
+            q_true = truth.evaluate([float(t[n_w - 1]) - truth.time_offset_s]).q_nv[0]
+            from sins_sim.jobs.run import alignment_metrics
+            from sins_sim.navigation.attitude import attitude_error
+
+            metrics["filters"][name]["alignment"] = alignment_metrics(
+                {"result": result, "error_rad": attitude_error(result.q_nb, q_true)})
+            figures = {"alignment.png": ("alignment", {name: result})}
+        else:
+            metrics, free = _navigate_without_truth(t[n_w:], dth[n_w:], dv[n_w:], site, result, coning, sculling,
+                                                    vertical, height_aid_tau_s)
+            figures = {"alignment.png": ("alignment", {name: result}), "displacement.png": ("displacement", free)}
+        if notes:
+            metrics["notes"] = notes
+    metrics = {"increments": str(increments), "truth": None if truth_file is None else str(truth_file),
+               **({"log": {k: meta[k] for k in ("source", "site") if k in meta}} if meta else {}), **metrics}
+    with result_dir(out_dir, manifest, inputs=tuple(inputs), force=force) as tmp:
+        atomic_write_text(Path(tmp) / "metrics.json", json.dumps(metrics, indent=2, default=_json_default) + "\n")
+        written = _write_extras(Path(tmp), metrics, figures)
+        atomic_write_text(Path(tmp) / "report.md", _report(metrics, written, name))
+    return metrics
+
+
+def _align(method, duration_s, sensors, dth, dv, dt, site, source):
+    from sins_sim.simulation.aligning import ALIGNERS, alignment_settings
+
+    settings = alignment_settings(method, duration_s, sensors)
+    try:
+        return ALIGNERS[method](dth, dv, dt, {"lat_rad": site["lat_rad"], "lon_rad": site["lon_rad"],
+                                              "h_m": site["height_m"]}, settings)
+    except ValueError as exc:
+        raise ConfigError(f"{source}: alignment ({method}): {' '.join(str(exc).split())}") from None
+
+
+def _navigate_against_truth(t, dth, dv, truth, name, coning, sculling, vertical, tau, q0=None):
     offset = truth.time_offset_s
     try:
         metrics = navigate_increments(t - offset, dth, dv, truth, name=name, coning=coning, sculling=sculling,
-                                      vertical=vertical, height_aid_tau_s=height_aid_tau_s)
+                                      vertical=vertical, height_aid_tau_s=tau, q0_nb=q0,
+                                      v0_ned_m_s=None if q0 is None else np.zeros(3))
     except ValueError as exc:
-        raise ConfigError(f"{increments}: {' '.join(str(exc).split())}") from None
+        raise ConfigError(f"increments: {' '.join(str(exc).split())}") from None
     nav = metrics["navigation"]
     nav["start_s"] += offset  # back on the files' time axis
     nav["end_s"] += offset
-    metrics = {"increments": str(increments), "truth": str(truth_file), **metrics}
-    if manifest is None:
-        manifest = Manifest("navigate", settings={"name": name, "coning": coning, "sculling": sculling,
-                                                  "vertical": vertical, "height_aid_tau_s": height_aid_tau_s})
-    manifest.add_input("increments", increments)
-    manifest.add_input("truth", truth_file)
-    with result_dir(out_dir, manifest, inputs=(increments, truth_file), force=force) as tmp:
-        atomic_write_text(Path(tmp) / "metrics.json", json.dumps(metrics, indent=2, default=_json_default) + "\n")
     return metrics
+
+
+def _navigate_without_truth(t, dth, dv, site, result, coning, sculling, vertical, tau):
+    from sins_sim.navigation.attitude import euler_from_quat
+    from sins_sim.simulation.external import navigate_free
+
+    try:
+        free = navigate_free(t, dth, dv, site["lat_rad"], site["lon_rad"], site["height_m"], result.q_nb, np.zeros(3),
+                             coning=coning, sculling=sculling, vertical=vertical, height_aid_tau_s=tau)
+    except ValueError as exc:
+        raise ConfigError(f"increments: {' '.join(str(exc).split())}") from None
+    d = free.displacement_m()
+    horiz = np.hypot(d[:, 0], d[:, 1])
+    roll, pitch, yaw = np.degrees(euler_from_quat(free.q_nb[-1]))
+    metrics = {
+        "navigation": {**free.settings, "start_s": free.start["t_s"], "end_s": float(t[-1]),
+                       "site": {"lat_deg": float(np.degrees(site["lat_rad"])),
+                                "lon_deg": float(np.degrees(site["lon_rad"])), "height_m": site["height_m"]}},
+        "alignment": result.to_dict(),
+        "solution": {
+            "final_displacement_m": {"north": float(d[-1, 0]), "east": float(d[-1, 1]), "up": float(d[-1, 2]),
+                                     "horizontal": float(horiz[-1])},
+            "max_horizontal_displacement_m": float(horiz.max()),
+            "final_velocity_ned_m_s": [float(x) for x in free.v_ned_m_s[-1]],
+            "final_attitude_deg": {"roll": float(roll), "pitch": float(pitch), "heading": float(yaw % 360.0)},
+            "note": "no truth: the solution's displacement from where navigation started; for a unit that stood "
+                    "still it is the navigation error (the alignment's and the sensors' together)",
+        },
+    }
+    return metrics, free
+
+
+def _write_extras(folder: Path, metrics: dict, figures: dict) -> list:
+    """The solution table and the figures; returns the file names written."""
+    written = []
+    for fname, (kind, data) in figures.items():
+        if kind == "alignment":
+            from sins_sim.plots.alignment import alignment_figure
+
+            alignment_figure(data, folder / fname)
+        else:
+            from sins_sim.plots.alignment import displacement_figure
+
+            displacement_figure(data.t_s, data.displacement_m(), folder / fname,
+                                note=("vertical: held at the site's height" if data.settings["vertical"] == "height_aid"
+                                      else "vertical: free inertial"))
+            _solution_table(data).to_parquet(folder / "solution.parquet", index=False)
+            written.append("solution.parquet")
+        written.append(fname)
+    return written
+
+
+def _solution_table(free):
+    import pandas as pd
+
+    from sins_sim.navigation.attitude import euler_from_quat
+
+    d = free.displacement_m()
+    e = np.degrees(euler_from_quat(free.q_nb))
+    return pd.DataFrame({"time_s": free.t_s, "lat_deg": np.degrees(free.lat_rad), "lon_deg": np.degrees(free.lon_rad),
+                         "height_m": free.h_m, "north_m": d[:, 0], "east_m": d[:, 1], "up_m": d[:, 2],
+                         "vn_m_s": free.v_ned_m_s[:, 0], "ve_m_s": free.v_ned_m_s[:, 1], "vd_m_s": free.v_ned_m_s[:, 2],
+                         "roll_deg": e[:, 0], "pitch_deg": e[:, 1], "heading_deg": e[:, 2] % 360.0})
+
+
+def _report(metrics: dict, written: list, name: str) -> str:
+    nav = metrics["navigation"]
+    lines = [f"# sins-sim navigate: {metrics['increments']}", "",
+             f"- navigated from {nav['start_s']:.6g} s to {nav['end_s']:.6g} s at {nav['rate_hz']:.6g} Hz; "
+             f"`{nav['coning']}` coning, `{nav['sculling']}` sculling, vertical `{nav['vertical']}`"
+             + (f" (held at {nav['height_held_m']:.6g} m)" if "height_held_m" in nav else ""),
+             f"- truth: {metrics['truth'] or 'none (a unit log: the solution itself is the result)'}"]
+    al = metrics.get("alignment") or metrics.get("filters", {}).get(name, {}).get("alignment")
+    if al:
+        lines += ["", "## Alignment", "",
+                  f"`{al['method']}` over {al['duration_s']:g} s: heading {al['heading_deg']:.4f} deg "
+                  f"(sigma {al['sigma_heading_deg']:.3g} deg), roll {al['roll_deg']:.4f} deg, pitch "
+                  f"{al['pitch_deg']:.4f} deg (tilt sigma N, E {al['sigma_tilt_north_arcsec']:.3g}, "
+                  f"{al['sigma_tilt_east_arcsec']:.3g} arcsec)."]
+        if "error_heading_deg" in al:
+            lines.append(f"Against the truth: heading error {al['error_heading_deg']:+.4g} deg, tilt N, E "
+                         f"{al['error_tilt_north_arcsec']:+.3g}, {al['error_tilt_east_arcsec']:+.3g} arcsec.")
+        for note in al.get("notes", []):
+            lines.append(f"- {note}")
+    sol = metrics.get("solution")
+    if sol:
+        f = sol["final_displacement_m"]
+        lines += ["", "## Solution", "", sol["note"] + ".", "",
+                  f"- final displacement: north {f['north']:.4g} m, east {f['east']:.4g} m, up {f['up']:.4g} m "
+                  f"(horizontal {f['horizontal']:.4g} m; largest {sol['max_horizontal_displacement_m']:.4g} m)"]
+    m = metrics.get("filters", {}).get(name)
+    if m and "horizontal_position_error_m" in m:
+        lines += ["", "## Errors against the truth", "",
+                  f"- horizontal {m['horizontal_position_error_m']['final']:.4g} m (largest "
+                  f"{m['horizontal_position_error_m']['max']:.4g} m), velocity {m['velocity_error_m_s']['final']:.3g} m/s"]
+    for note in metrics.get("notes", []):
+        lines.append(f"- {note}")
+    if written:
+        lines += ["", "## Files", ""] + [f"- `{w}`" for w in written]
+    return "\n".join(lines) + "\n"

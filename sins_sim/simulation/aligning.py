@@ -17,6 +17,7 @@ unit's own sensor-error model (:func:`bias_sigmas`).
    AlignmentSettings
    AlignmentAccumulator
    ALIGNERS
+   alignment_settings
    bias_sigmas
 """
 
@@ -28,9 +29,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim.navigation.alignment_result import ALIGNMENT_METHODS, AlignmentResult
-from sins_sim.units import DEG_PER_H, HOUR, MICRO_G
+from sins_sim.units import ARCSEC, DEG, DEG_PER_H, HOUR, MICRO_G
 
-__all__ = ["AlignmentSettings", "AlignmentAccumulator", "ALIGNERS", "bias_sigmas", "imu_noise_numbers"]
+__all__ = ["AlignmentSettings", "AlignmentAccumulator", "ALIGNERS", "alignment_settings", "bias_sigmas",
+           "imu_noise_numbers"]
 
 
 @dataclass(frozen=True)
@@ -116,6 +118,15 @@ def imu_noise_numbers(sensors) -> dict:
     return out
 
 
+def alignment_settings(method: str, duration_s: float, sensors) -> AlignmentSettings:
+    """:class:`AlignmentSettings` for ``method`` over ``duration_s`` with the bias bounds and noise numbers of
+    a unit's sensor-error model (``sensors``: an IMU's ``sensors``, or None for none known)."""
+    gyro, acc = bias_sigmas(sensors)
+    return AlignmentSettings(method=method, duration_s=float(duration_s),
+                             gyro_bias_sigma_rad_s=tuple(float(x) for x in gyro),
+                             accel_bias_sigma_m_s2=tuple(float(x) for x in acc), noise=imu_noise_numbers(sensors))
+
+
 def _bounds(settings):
     """One gyro and one accelerometer bias sigma for the methods' bounds: the largest over the body axes (which
     body axes point east is what the alignment finds, so the bound takes the worst; conservative)."""
@@ -138,15 +149,33 @@ def _inertial(dth, dv, dt, site, settings):
                           gyro_arw_rad_sqrt_s=0.0 if arw is None else float(np.max(arw)))
 
 
+def filter_noise(settings: AlignmentSettings):
+    """The Kalman filter's :class:`~sins_sim.navigation.ekf.ImuNoise` from the unit's numbers
+    (:func:`imu_noise_numbers`; the filter takes one value per sensor type: the largest over the axes)."""
+    from sins_sim.navigation.ekf import ImuNoise
+
+    n = settings.noise
+
+    def worst(key):
+        return float(np.max(n.get(key, np.zeros(3))))
+
+    return ImuNoise(gyro_arw_rad_sqrt_s=worst("gyro_arw_rad_rt_s"), accel_vrw_m_s_sqrt_s=worst("accel_vrw_m_s_rt_s"),
+                    gyro_bias_sigma_rad_s=float(max(settings.gyro_bias_sigma_rad_s)),
+                    accel_bias_sigma_m_s2=float(max(settings.accel_bias_sigma_m_s2)),
+                    gyro_bias_rw_rad_s_sqrt_s=worst("gyro_rrw_rad_s_rt_s"),
+                    accel_bias_rw_m_s2_sqrt_s=worst("accel_rrw_m_s2_rt_s"))
+
+
 def _kalman(dth, dv, dt, site, settings):
-    """Fine alignment from the inertial method's attitude (robust to sway) as its coarse start."""
-    from sins_sim.navigation.ekf import align_kalman, noise_from_numbers
+    """Fine alignment by the error-state filter from the inertial method's attitude (robust to sway) as its
+    coarse start; the prior sigmas are the inertial method's own (floored at 10 arcsec and 0.01 deg so that a
+    perfect start still leaves the filter room)."""
+    from sins_sim.navigation.static_kalman import align_kalman
 
     start = _inertial(dth, dv, dt, site, settings)
-    return align_kalman(dth, dv, dt, site["lat_rad"], site["lon_rad"], site["h_m"], start.q_nb,
-                        noise_from_numbers(settings.noise), prior_tilt_sigma_rad=max(start.sigma_rad[0],
-                                                                                   start.sigma_rad[1], 1e-5),
-                        prior_heading_sigma_rad=max(start.sigma_rad[2], 1e-4))
+    return align_kalman(dth, dv, dt, site["lat_rad"], site["lon_rad"], site["h_m"], start.q_nb, filter_noise(settings),
+                        prior_tilt_sigma_rad=max(float(start.sigma_rad[0]), float(start.sigma_rad[1]), 10.0 * ARCSEC),
+                        prior_heading_sigma_rad=max(float(start.sigma_rad[2]), 0.01 * DEG))
 
 
 #: The alignment methods by name: ``(dtheta, dv, dt_s, site, settings) -> AlignmentResult``; ``site`` holds

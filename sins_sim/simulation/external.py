@@ -29,7 +29,8 @@ from sins_sim import _validate as v
 from sins_sim._kernels import truth as ktruth
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
 
-__all__ = ["ideal_increments", "navigate_increments", "ExternalNavResult", "GAUSS_NODES", "uniform_period"]
+__all__ = ["ideal_increments", "navigate_increments", "navigate_free", "ExternalNavResult", "FreeNavResult", "GAUSS_NODES",
+           "uniform_period"]
 
 #: 3-point Gauss-Legendre nodes and weights on [0, 1] (Abramowitz & Stegun 25.4.29): exact for
 #: polynomials of degree 5, so the ideal increments of a smooth truth are exact to (rate h)^6.
@@ -152,7 +153,7 @@ class ExternalNavResult:
 
 def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", coning: str = "two_sample",
                         sculling: str = "two_sample", vertical: str = "height_aid",
-                        height_aid_tau_s: float = 100.0) -> ExternalNavResult:
+                        height_aid_tau_s: float = 100.0, q0_nb=None, v0_ned_m_s=None) -> ExternalNavResult:
     """Navigate given increments against a truth and keep the errors as a run keeps them.
 
     Parameters
@@ -173,6 +174,9 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
     vertical : {"height_aid", "free"}
         Vertical channel: aided by the truth's height (a run's default) or free.
     height_aid_tau_s : float
+    q0_nb, v0_ned_m_s : array_like, optional
+        The starting attitude (body to NED) and velocity instead of the truth's at ``t_0 - dt``: an
+        alignment's result (the errors against the truth then include the alignment's own).
 
     Returns
     -------
@@ -206,9 +210,10 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
 
     ev = _evaluator(truth)
     first = ev.evaluate(np.array([t_start]))
-    nav = StrapdownNavigator(first.lat_rad[0], first.lon_rad[0], first.h_m[0], first.v_ned_m_s[0], first.q_nv[0],
-                             dt, coning=coning, sculling=sculling, vertical=vertical,
-                             height_aid_tau_s=height_aid_tau_s)
+    nav = StrapdownNavigator(first.lat_rad[0], first.lon_rad[0], first.h_m[0],
+                             first.v_ned_m_s[0] if v0_ned_m_s is None else v0_ned_m_s,
+                             first.q_nv[0] if q0_nb is None else q0_nb, dt, coning=coning, sculling=sculling,
+                             vertical=vertical, height_aid_tau_s=height_aid_tau_s)
     series_rate = min(SERIES_RATE_HZ, MAX_SERIES_BLOCKS / (t[-1] - t_start), 1.0 / dt)
     every = max(1, int(round(1.0 / (dt * series_rate))))
     record_rate = min(RECORD_RATE_HZ, MAX_RECORD_SAMPLES / (t[-1] - t_start), 1.0 / dt)
@@ -263,3 +268,79 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
         allan=_allan_analyses(records, diverged), diverged=diverged, duration_s=float(t[-1]), nav_start_s=t_start,
         dt_s=dt, settings={"coning": coning, "sculling": sculling, "vertical": vertical,
                            "height_aid_tau_s": height_aid_tau_s, "rate_hz": 1.0 / dt})
+
+
+@dataclass
+class FreeNavResult:
+    """The navigation of increments with no truth beside them (a real unit's log): the solution itself.
+
+    Attributes
+    ----------
+    t_s : ndarray (M,)
+        Times of the stored rows (s, the log's time axis), at most :data:`SERIES_RATE_HZ`.
+    lat_rad, lon_rad, h_m : ndarray (M,)
+    v_ned_m_s : ndarray (M, 3)
+    q_nb : ndarray (M, 4)
+    start : dict
+        ``t_s``, ``lat_rad``, ``lon_rad``, ``h_m``: where the navigation started.
+    settings : dict
+        Coning, sculling, vertical channel (and the height it held), rate.
+    """
+
+    t_s: np.ndarray
+    lat_rad: np.ndarray
+    lon_rad: np.ndarray
+    h_m: np.ndarray
+    v_ned_m_s: np.ndarray
+    q_nb: np.ndarray
+    start: dict
+    settings: dict = field(default_factory=dict)
+
+    def displacement_m(self) -> np.ndarray:
+        """North, east, up displacement from the start (m, (M, 3)): along the surface at the start's radii
+        (:func:`sins_sim.earth.horizontal_error_m`). For a unit that stood still it is the navigation error."""
+        from sins_sim import earth
+
+        s = self.start
+        dn, de, _ = earth.horizontal_error_m(self.lat_rad, self.lon_rad, s["lat_rad"], s["lon_rad"], s["h_m"])
+        return np.column_stack((dn, de, self.h_m - s["h_m"]))
+
+
+def navigate_free(t_s, dtheta, dv, lat0_rad, lon0_rad, h0_m, q0_nb, v0_ned_m_s, *, coning: str = "two_sample",
+                  sculling: str = "two_sample", vertical: str = "height_aid", height_aid_tau_s: float = 100.0
+                  ) -> FreeNavResult:
+    """Navigate increments from a given start with no truth: the solution at up to :data:`SERIES_RATE_HZ`.
+
+    ``vertical="height_aid"`` holds the start height (a unit at rest or on level ground: say so where the
+    result is reported); ``"free"`` is pure inertial. Times, shapes and chunking as :func:`navigate_increments`
+    (navigation starts at ``t_0 - dt``).
+    """
+    from sins_sim.navigation.strapdown import StrapdownNavigator
+
+    t = v.finite_array("", "t_s", t_s, ndim=1)
+    dt = uniform_period(t, "t_s")
+    n = t.size
+    dth = v.finite_array("", "dtheta", dtheta, ndim=2)
+    dvel = v.finite_array("", "dv", dv, ndim=2)
+    for label, arr in (("dtheta", dth), ("dv", dvel)):
+        if arr.shape != (n, 3):
+            raise ValueError(f"{label}: must have shape ({n}, 3) (one row per time), got {arr.shape}")
+    nav = StrapdownNavigator(lat0_rad, lon0_rad, h0_m, v0_ned_m_s, q0_nb, dt, coning=coning, sculling=sculling,
+                             vertical=vertical, height_aid_tau_s=height_aid_tau_s)
+    every = max(1, int(round(1.0 / (dt * min(SERIES_RATE_HZ, 1.0 / dt)))))
+    keep = {"t_s": [], "lat_rad": [], "lon_rad": [], "h_m": [], "v_ned_m_s": [], "q_nb": []}
+    for lo in range(0, n, CHUNK_ROWS):
+        hi = min(n, lo + CHUNK_ROWS)
+        h_aid = np.full(hi - lo, float(h0_m)) if vertical == "height_aid" else None
+        sol = nav.process(dth[lo:hi], dvel[lo:hi], h_aid)
+        k = np.arange(lo, hi)
+        sel = ((k + 1) % every == 0) | (k == n - 1)
+        keep["t_s"].append(t[lo:hi][sel])
+        for key in ("lat_rad", "lon_rad", "h_m", "v_ned_m_s", "q_nb"):
+            keep[key].append(getattr(sol, key)[sel])
+    arrays = {k: np.concatenate(x) for k, x in keep.items()}
+    return FreeNavResult(**arrays, start={"t_s": float(t[0] - dt), "lat_rad": float(lat0_rad),
+                                          "lon_rad": float(lon0_rad), "h_m": float(h0_m)},
+                         settings={"coning": coning, "sculling": sculling, "vertical": vertical,
+                                   "height_aid_tau_s": height_aid_tau_s, "rate_hz": 1.0 / dt,
+                                   **({"height_held_m": float(h0_m)} if vertical == "height_aid" else {})})
