@@ -868,7 +868,7 @@ def _cmd_navigate(args) -> int:
                             sculling=args.sculling, vertical=args.vertical, height_aid_tau_s=args.height_aid_tau,
                             align=args.align or ("truth" if args.truth else "inertial"),
                             align_duration_s=args.align_duration, imu=args.imu, site_lat_deg=args.site_lat_deg,
-                            site_lon_deg=args.site_lon_deg, site_height_m=args.site_height_m,
+                            site_lon_deg=args.site_lon_deg, site_height_m=args.site_height_m, zupt=args.zupt,
                             force=args.force, manifest=_manifest(args))
     al = metrics.get("alignment") or metrics.get("filters", {}).get(args.name, {}).get("alignment")
     if al:
@@ -883,7 +883,13 @@ def _cmd_navigate(args) -> int:
         print(f"navigated {nav['end_s'] - nav['start_s']:.6g} s at {nav['rate_hz']:.6g} Hz with no truth: displacement "
               f"from the start north {f['north']:.4g} m, east {f['east']:.4g} m, up {f['up']:.4g} m (horizontal "
               f"{f['horizontal']:.4g} m; the error if the unit stood still)")
-        print(f"wrote {args.out}: metrics.json, solution.parquet, alignment.png, displacement.png, report.md")
+        z = metrics.get("zupt")
+        if z:
+            rms = ", ".join(f"{x:.3g}" for x in z["velocity_residual_rms_ned_m_s"])
+            print(f"zero-velocity updates: {z['updates']}, residual RMS N, E, D {rms} m/s, mean NIS {z['nis_mean']:.3g} "
+                  f"(3 expected); biases with their sigmas in metrics.json and report.md")
+        print(f"wrote {args.out}: metrics.json, solution.parquet, alignment.png, displacement.png, report.md"
+              + (", zupt.parquet" if z else ""))
         return EXIT_OK
     m, nav = metrics["filters"][args.name], metrics["navigation"]
     print(f"navigated {nav['end_s'] - nav['start_s']:.6g} s of increments at {nav['rate_hz']:.6g} Hz against "
@@ -1207,6 +1213,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--site-lon-deg", type=float, default=None, help="site longitude (deg) [the table's]")
     p.add_argument("--site-height-m", type=float, default=None, help="site height above the ellipsoid (m) "
                                                                      "[the table's]")
+    p.add_argument("--zupt", action="store_true", help="the log stood still: after the alignment, navigate with "
+                                                       "zero-velocity updates and report the velocity residuals and "
+                                                       "the biases each with its sigma (needs --imu; no --truth)")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     p.add_argument("--name", default="external", help="the name of the result in metrics.json [external]")
     p.add_argument("--coning", choices=("none", "two_sample", "three_sample", "four_sample"), default="two_sample",

@@ -173,7 +173,8 @@ def _imu_sensors(imu):
 def navigate_file(increments, truth_file, out_dir, *, name: str = "external", coning: str = "two_sample",
                   sculling: str = "two_sample", vertical: str = "height_aid", height_aid_tau_s: float = 100.0,
                   align: str = "truth", align_duration_s: float = 300.0, imu=None, site_lat_deg=None,
-                  site_lon_deg=None, site_height_m=None, force: bool = False, manifest=None) -> dict:
+                  site_lon_deg=None, site_height_m=None, zupt: bool = False, force: bool = False,
+                  manifest=None) -> dict:
     """``sins-sim navigate``: read the increments (and the trajectory file, if any), align, navigate, write
     ``metrics.json`` and ``manifest.json`` (the command, versions, the inputs' hashes; ``manifest`` from the CLI).
 
@@ -183,7 +184,11 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
     ``align`` must be a method; the site comes from the table's metadata (``sins-sim import-log``) or the
     ``site_*`` arguments; the result is the solution itself (``solution.parquet``, its displacement from the
     start, the figures and ``report.md``). ``imu``: an IMU file whose ``sensors:`` section gives the bias bounds
-    the alignment states its sigma from (without it, only the data's own scatter).
+    the alignment states its sigma from (without it, only the data's own scatter). ``zupt`` (no truth, an
+    ``imu`` required): the log stands still; after the alignment it is navigated with zero-velocity updates
+    (:func:`~sins_sim.navigation.static_kalman.navigate_zupt`), and the velocity residuals and the bias
+    estimates with their sigmas (an unobservable one reported as such) go to ``metrics.json`` and
+    ``zupt.parquet``.
     Returns the metrics written.
     """
     from sins_sim.io import read_trajectory
@@ -201,6 +206,12 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
     if truth_file is None and align == "truth":
         raise ConfigError("--align: with no --truth the starting attitude must come from an alignment: give --align "
                           "coarse, inertial or kalman (or a trajectory file with --truth)")
+    if zupt and truth_file is not None:
+        raise ConfigError("--zupt: navigates a log that stood still, with no truth beside it; drop --truth (a truth "
+                          "run gives the errors themselves)")
+    if zupt and imu is None:
+        raise ConfigError("--zupt: give --imu: the zero-velocity filter's process noise and bias priors come from the "
+                          "unit's sensor-error model (its sensors: section)")
     t, dth, dv, meta = read_log_table(increments)
     try:
         dt = uniform_period(t, "time_s")
@@ -260,6 +271,10 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
             metrics, free = _navigate_without_truth(t[n_w:], dth[n_w:], dv[n_w:], site, result, coning, sculling,
                                                     vertical, height_aid_tau_s)
             figures = {"alignment.png": ("alignment", {name: result}), "displacement.png": ("displacement", free)}
+            if zupt:
+                zres, metrics["zupt"] = _zupt(dth[n_w:], dv[n_w:], dt, site, result, align_duration_s, sensors,
+                                              increments)
+                figures["zupt.parquet"] = ("table", zres)
         if notes:
             metrics["notes"] = notes
     metrics = {"increments": str(increments), "truth": None if truth_file is None else str(truth_file),
@@ -280,6 +295,40 @@ def _align(method, duration_s, sensors, dth, dv, dt, site, source):
                                               "h_m": site["height_m"]}, settings)
     except ValueError as exc:
         raise ConfigError(f"{source}: alignment ({method}): {' '.join(str(exc).split())}") from None
+
+
+def _zupt(dth, dv, dt, site, start, duration_s, sensors, source):
+    """Zero-velocity navigation of a still log from the alignment's attitude; ``(result, metrics section)``."""
+    from sins_sim.navigation.static_kalman import navigate_zupt
+    from sins_sim.simulation.aligning import alignment_settings, filter_noise
+    from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
+
+    noise = filter_noise(alignment_settings("kalman", duration_s, sensors))
+    # The alignment's sigmas are built from the same bias bounds the filter's bias priors are (tilt = b_a / g,
+    # heading = eps_E / (Omega cos lat)): taking both as independent priors would count that knowledge twice and
+    # make the horizontal accelerometer and east gyro biases look observable at rest. The attitude priors are
+    # therefore loosened (3x, at least 1 arcmin and 0.1 deg): the updates pin the attitude, and a bias that rest
+    # cannot separate from it keeps its own prior.
+    try:
+        res = navigate_zupt(dth, dv, dt, site["lat_rad"], site["lon_rad"], site["height_m"], start.q_nb, noise,
+                            prior_tilt_sigma_rad=max(3.0 * float(max(start.sigma_rad[:2])), 60.0 * ARCSEC),
+                            prior_heading_sigma_rad=max(3.0 * float(start.sigma_rad[2]), 0.1 * DEG))
+    except ValueError as exc:
+        raise ConfigError(f"{source}: --zupt: {' '.join(str(exc).split())}") from None
+    st = res.innovation_stats()
+    out = {"updates": int(res.nis.size), "velocity_residual_rms_ned_m_s": [float(x) for x in st["rms_m_s"]],
+           "velocity_residual_mean_ned_m_s": [float(x) for x in st["mean_m_s"]], "nis_mean": st["nis_mean"],
+           "nis_expected": 3.0, "nis_above_95_fraction": st["nis_above_95_fraction"]}
+    for key, val, sig, unit, label in (("gyro_bias", res.gyro_bias_rad_s, res.gyro_bias_sigma_rad_s, DEG_PER_H, "deg_h"),
+                                       ("accel_bias", res.accel_bias_m_s2, res.accel_bias_sigma_m_s2, MICRO_G, "ug")):
+        for i, ax in enumerate("xyz"):
+            k = f"{key}_{ax}"
+            out[f"{k}_{label}"] = (float(val[i] / unit) if res.observable.get(k, True) else "not observable")
+            out[f"{k}_sigma_{label}"] = float(sig[i] / unit)
+    out["note"] = ("at rest the east gyro bias is not separable from the heading, nor the horizontal accelerometer "
+                   "biases from the tilts: a bias whose sigma stays near its prior is reported as not observable, "
+                   "never as a number (body axes: which of them is east depends on the heading)")
+    return res, out
 
 
 def _navigate_against_truth(t, dth, dv, truth, name, coning, sculling, vertical, tau, q0=None):
@@ -330,7 +379,9 @@ def _write_extras(folder: Path, metrics: dict, figures: dict) -> list:
     """The solution table and the figures; returns the file names written."""
     written = []
     for fname, (kind, data) in figures.items():
-        if kind == "alignment":
+        if kind == "table":
+            data.to_pandas().reset_index().to_parquet(folder / fname, index=False)
+        elif kind == "alignment":
             from sins_sim.plots.alignment import alignment_figure
 
             alignment_figure(data, folder / fname)
@@ -384,6 +435,20 @@ def _report(metrics: dict, written: list, name: str) -> str:
         lines += ["", "## Solution", "", sol["note"] + ".", "",
                   f"- final displacement: north {f['north']:.4g} m, east {f['east']:.4g} m, up {f['up']:.4g} m "
                   f"(horizontal {f['horizontal']:.4g} m; largest {sol['max_horizontal_displacement_m']:.4g} m)"]
+    z = metrics.get("zupt")
+    if z:
+        rms = ", ".join(f"{x:.3g}" for x in z["velocity_residual_rms_ned_m_s"])
+        lines += ["", "## Zero-velocity updates", "",
+                  f"{z['updates']} updates; velocity residual RMS N, E, D {rms} m/s; mean NIS {z['nis_mean']:.3g} "
+                  f"(3 for a consistent filter).", "", "| bias | x | y | z |", "|---|---|---|---|"]
+        for key, label in (("gyro_bias", "deg_h"), ("accel_bias", "ug")):
+            cells = []
+            for ax in "xyz":
+                val = z[f"{key}_{ax}_{label}"]
+                sig = z[f"{key}_{ax}_sigma_{label}"]
+                cells.append(val if isinstance(val, str) else f"{val:.3g} +- {sig:.2g}")
+            lines.append(f"| {key.replace('_', ' ')} ({label.replace('_', '/')}) | " + " | ".join(cells) + " |")
+        lines += ["", z["note"] + "."]
     m = metrics.get("filters", {}).get(name)
     if m and "horizontal_position_error_m" in m:
         lines += ["", "## Errors against the truth", "",
