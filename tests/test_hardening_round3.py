@@ -81,3 +81,95 @@ def test_format_diagnosis_prints_none_as_n_a():
           "candidates": [{"effect": "x", "gap_reduction": None, "score": None, "params": {}}]}
     text = format_diagnosis(js)
     assert "noise floor n/a arcsec" in text and "gap reduction n/a" in text and "a n/a" in text, text
+
+
+# --- item 2: --force never deletes a file sins-sim did not write -----------------------------------------------------
+def _earlier_result(folder: Path, outputs=("metrics.json", "plots/a.png")) -> dict:
+    from sins_sim.jobs.output import MARKER
+
+    for rel in outputs:
+        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+        (folder / rel).write_text(rel)
+    (folder / MARKER).write_text("written by sins-sim\n")
+    (folder / "manifest.json").write_text(json.dumps({"command": "run", "outputs": {r: "0" for r in outputs}}))
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def test_force_replaces_a_folder_holding_only_what_sins_sim_wrote(tmp_path):
+    from sins_sim.jobs.output import check_out_dir
+
+    out = tmp_path / "out"
+    out.mkdir()
+    _earlier_result(out)
+    assert check_out_dir(out, "--out", min_free_bytes=0, force=True) == out
+
+
+@pytest.mark.parametrize("foreign", ["notes.txt", "plots/mine.png"])
+def test_force_onto_a_result_with_a_users_file_is_refused_naming_it_and_changes_nothing(tmp_path, foreign):
+    from sins_sim.jobs.manifest import Manifest, result_dir
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "plots").mkdir()
+    (out / foreign).write_text("keep\n")
+    before = _earlier_result(out)
+    with pytest.raises(ConfigError) as exc:
+        with result_dir(out, Manifest("run", []), force=True) as tmp:
+            (Path(tmp) / "metrics.json").write_text("{}")
+    msg = str(exc.value)
+    assert msg.startswith(f"--out: {out} also holds files sins-sim did not write ({foreign})"), msg
+    assert "\n" not in msg
+    after = {p.relative_to(out).as_posix(): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left beside it
+
+
+def test_force_without_a_manifest_cannot_tell_and_refuses(tmp_path):
+    from sins_sim.jobs.output import MARKER, check_out_dir
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / MARKER).write_text("x")
+    (out / "metrics.json").write_text("{}")
+    with pytest.raises(ConfigError, match="no readable manifest.json"):
+        check_out_dir(out, "--out", min_free_bytes=0, force=True)
+
+
+# --- items 3 and 4: navigation settings accepted and ignored, or refused in internal words ---------------------------
+def _nav_scenario(filters=("ideal", "eliminator"), motion=None, **nav):
+    return {"name": "t", "duration_s": 2.0, "imu": str(ROOT / "configs" / "default-imu.yaml"),
+            "motion": motion or [{"type": "sines", "amplitude_arcmin": [1.0, 1.0, 0.0], "frequency_hz": [300, 300, 0]}],
+            "filters": list(filters), "navigation": {"start_s": 1.0, **nav}}
+
+
+@pytest.mark.parametrize("nav", [{"coning": "two_sample"}, {"coning": "three_sample", "sculling": "four_sample"}])
+def test_a_tuned_band_without_filter_tuned_is_refused(nav):
+    from sins_sim.config.scenario import load_scenario
+
+    with pytest.raises(ConfigError) as exc:
+        load_scenario(_nav_scenario(tuned_band_hz=[200.0, 300.0], **nav))
+    msg = str(exc.value)
+    assert "navigation.tuned_band_hz: applies only with coning or sculling: filter_tuned" in msg and "\n" not in msg
+
+
+def test_a_tuned_band_under_a_single_coning_motion_sets_the_coning_tables_band():
+    """There the run's coning table designs filter_tuned over it (sins_sim.jobs.coning_table.band_for): not ignored."""
+    from sins_sim.config.scenario import load_scenario
+    from sins_sim.jobs.coning_table import band_for
+
+    sc = load_scenario(_nav_scenario(motion=[{"type": "coning", "amplitude_arcmin": 1.0, "frequency_hz": 300.0}],
+                                     coning="two_sample", tuned_band_hz=[250.0, 350.0]))
+    assert band_for(sc, 300.0, 7200.0) == (250.0, 350.0)
+
+
+@pytest.mark.parametrize("which", ["coning", "sculling"])
+def test_filter_tuned_with_the_lms_stripper_is_refused_at_load_saying_why(which):
+    from sins_sim.config.scenario import load_scenario
+
+    with pytest.raises(ConfigError) as exc:
+        load_scenario(_nav_scenario(filters=("ideal", "lms_stripper"), tuned_band_hz=[200.0, 300.0],
+                                    **{which: "filter_tuned"}))
+    msg = str(exc.value)
+    assert f"navigation.{which}: filter_tuned cannot go with the filter lms_stripper" in msg, msg
+    assert "single-axis filter's fixed frequency response" in msg and "adapts its gains" in msg
+    assert "only the SINS engine runs it" not in msg

@@ -319,7 +319,8 @@ SCENARIO_SCHEMA = Map({
                       doc="filter_tuned: coefficients designed per filter over tuned_band_hz (Mark & Tazartes 2001)"),
         "sculling": Str(choices=NAV_ALGORITHMS, default="two_sample"),
         "tuned_band": Vec(2, unit="hz", min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ, default=None,
-                          doc="design band of filter_tuned coning/sculling; required with it"),
+                          doc="design band of filter_tuned coning/sculling; required with it, refused without it "
+                              "(except under a single coning motion, where the run's coning table uses it)"),
         "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
         "n_sub": Num(integer=True, min=1, max=1000, default=None,
                      doc="filter samples per navigation update; default: from rate_hz"),
@@ -340,7 +341,8 @@ SCENARIO_SCHEMA = Map({
         "spectrum": Num(unit="s", min=0.0, max=MAX_SPECTRUM_S, default=2.0,
                         doc="full-rate gyro-error record kept for the spectra"),
     }, default={}, rules=("timeseries_rate_hz <= the navigation update rate (readout.output_rate_hz / n_sub)",
-                          "tuned_band_hz: low < high < the filter Nyquist, given with filter_tuned",
+                          "tuned_band_hz: low < high < the filter Nyquist, given with filter_tuned and only with it (or under "
+                          "a single coning motion, for the coning table)",
                           "the stored series and spectra must fit in memory (checked with the run's estimate)")),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
     "temperature": TEMPERATURE_SCHEMA,
@@ -496,10 +498,17 @@ class Scenario:
             if self.nav.tuned:  # the design is part of loading the scenario (issue 28): errors here, not mid-run
                 from sins_sim.simulation.sins import tuned_designs
 
+                key = "navigation.coning" if nv["coning"] == "filter_tuned" else "navigation.sculling"
                 self.nav = dataclasses.replace(self.nav, designs=tuned_designs(self.imu, self.filters,
-                                                                                self.nav.tuned_band_hz))
+                                                                                self.nav.tuned_band_hz, key))
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {exc}") from None
+        single_cone = len(c["motion"]) == 1 and c["motion"][0].get("type") == "coning"
+        if nv["tuned_band_hz"] is not None and not self.nav.tuned and not single_cone:
+            # read by filter_tuned, and by the coning table of a run whose motion is one coning part (jobs.run)
+            raise ConfigError(f"{ctx}: navigation.tuned_band_hz: applies only with coning or sculling: filter_tuned "
+                              f"(the design band of its coefficients), got coning: {nv['coning']} and sculling: "
+                              f"{nv['sculling']}, where it would be ignored: remove it or choose filter_tuned")
         self.site = c["site"]
         self.trajectory_spec = c["trajectory"]
         written = isinstance(doc.get("trajectory"), dict) and "velocity_tolerance_m_s" in doc["trajectory"]

@@ -99,8 +99,9 @@ def check_out_dir(path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTE
     """Check that ``path`` can become a result folder; return it as a Path.
 
     Rules: not empty; not an existing file; if an existing folder, either
-    empty, or written by sins-sim (it holds :data:`MARKER`) and ``force``
-    given, and holding
+    empty, or written by sins-sim (it holds :data:`MARKER`), ``force``
+    given and every file in it listed in its ``manifest.json`` (a file the
+    user added is never replaced), and holding
     neither the current directory nor any of ``inputs`` (it is replaced as a
     whole); its parent exists or can be created, and can be written to; at
     least ``min_free_bytes`` free there. Nothing is created.
@@ -147,6 +148,19 @@ def check_out_dir(path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTE
 
             raise ConfigError(f"{flag}: {p} already holds {describe_folder(p)}; pass --force to replace it (once "
                               "the new result is complete) or choose another folder")
+        if entries:  # --force replaces what sins-sim wrote, never a file it did not write
+            from sins_sim.jobs.manifest import foreign_files
+
+            foreign = foreign_files(p)
+            if foreign is None:
+                raise ConfigError(f"{flag}: {p} holds no readable manifest.json listing the files sins-sim wrote "
+                                  "there, so --force cannot tell them from yours; remove the folder yourself or "
+                                  "choose another one")
+            if foreign:
+                shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+                raise ConfigError(f"{flag}: {p} also holds files sins-sim did not write ({shown}); --force replaces "
+                                  "only a sins-sim result: move them out or choose another folder (nothing was "
+                                  "changed)")
     parent = _existing_ancestor(p, flag)
     _check_space(parent, p, flag, min_free_bytes)
     return p

@@ -562,8 +562,11 @@ class _FilterNav:
         self.fast_state = np.zeros(9)
 
 
-def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
+def tuned_designs(imu: ImuConfig, filters, band_hz, key: str = "navigation.coning") -> dict:
     """The filter-tuned coning design of each filter (:func:`sins_sim.simulation.responses.tuned_design`).
+
+    ``key`` is the setting that chose ``filter_tuned`` (``navigation.coning`` or ``navigation.sculling``), named
+    when a filter cannot be designed for.
 
     Raises
     ------
@@ -577,10 +580,16 @@ def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
                          f"(readout.output_rate_hz / 2), got {list(band_hz)!r}")
     out = {}
     for name in filters:
+        if filter_registry.is_known(name) and filter_registry.is_three_axis(name):
+            raise ValueError(f"{key}: filter_tuned cannot go with the filter {name}: filter_tuned designs "
+                             f"its coefficients from a single-axis filter's fixed frequency response, and {name} reads "
+                             "the three axes together with no fixed response"
+                             + (" (the LMS stripper adapts its gains as it runs)" if name == "lms_stripper" else "")
+                             + ": choose another coning/sculling algorithm or leave it out of filters")
         try:
             out[name] = tuned_design(imu.channels, name, band_hz, fs)
         except ValueError as exc:
-            raise ValueError(f"navigation.coning: {exc}") from None
+            raise ValueError(f"{key}: {exc}") from None
     return out
 
 
