@@ -173,3 +173,80 @@ def test_filter_tuned_with_the_lms_stripper_is_refused_at_load_saying_why(which)
     assert f"navigation.{which}: filter_tuned cannot go with the filter lms_stripper" in msg, msg
     assert "single-axis filter's fixed frequency response" in msg and "adapts its gains" in msg
     assert "only the SINS engine runs it" not in msg
+
+
+# --- item 5: messages that name the user's input ---------------------------------------------------------------------
+@pytest.mark.parametrize("offset", [1e6, -60.0, math.nan])
+def test_separation_study_refuses_an_axis_offset_naming_the_flag_and_its_range(tmp_path, capsys, offset):
+    from sins_sim.cli import main
+
+    rc = main(["separation-study", str(ROOT / "configs" / "isolated-block.yaml"), "--out", str(tmp_path / "o"),
+               "--axis-offset-mrad", str(offset)])
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert rc == 2 and line.startswith("sins-sim: error: --axis-offset-mrad: must lie in [-50, 50] mrad"), line
+    assert "orthogonal" not in line and not (tmp_path / "o").exists()
+
+
+def test_separation_study_counts_the_files_own_offset_in_the_range(tmp_path):
+    """gyro_axes_mrad.y = [40, 0, 0] in the file plus a 20 mrad tilt of y towards x: 60 mrad in all."""
+    from sins_sim.config.imu import load_imu
+    from sins_sim.config.yaml_io import load_yaml
+    from sins_sim.jobs.separation_study import separation_study
+
+    doc = load_yaml(ROOT / "configs" / "isolated-block.yaml")
+    doc["block"]["gyro_axes_mrad"] = {"y": [40.0, 0.0, 0.0]}
+    (tmp_path / "imu.yaml").write_text(__import__("yaml").safe_dump(doc))
+    imu = load_imu(tmp_path / "imu.yaml")
+    with pytest.raises(ConfigError, match=r"--axis-offset-mrad: .* together with the IMU file's gyro_axes_mrad\.y\[0\]"):
+        separation_study(imu, tmp_path / "o", axis_offset_mrad=20.0)
+
+
+@pytest.mark.parametrize(("effect", "key", "hint"), [
+    ({"name": "axis_coupling", "coefficient": {"x": {"y": 0.01}}}, "effects.axis_coupling.coefficient",
+     "allowed: axes, coefficients); did you mean 'coefficients'?"),
+    ({"name": "piezo_lag", "tau": 1e-4}, "effects.piezo_lag.tau", "allowed: axes, tau_s); did you mean 'tau_s'?"),
+])
+def test_a_misspelt_effect_parameter_names_the_key_the_allowed_ones_and_the_closest(effect, key, hint):
+    from sins_sim.config.imu import load_imu
+
+    with pytest.raises(ConfigError) as exc:
+        load_imu({"channels": CHANNELS, "effects": [effect]})
+    msg = str(exc.value)
+    assert f"effects[0]: {key}: unknown parameter (" in msg and hint in msg, msg
+    assert "__init__" not in msg and "keyword argument" not in msg
+
+
+def _traj_file(folder: Path, rows: int) -> Path:
+    """A level flight north at 10 Hz lasting (rows - 1) / 10 s."""
+    lines = ["time_s,lat_deg,lon_deg,height_m,roll_deg,pitch_deg,yaw_deg"]
+    lines += [f"{i / 10:.1f},{45.0 + i * 1e-5:.6f},7.0,1000.0,0.0,0.0,0.0" for i in range(rows)]
+    path = folder / "t.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("source", ["file", "segments"])
+def test_a_trajectory_too_short_for_any_run_never_advises_a_negative_duration(tmp_path, source):
+    from sins_sim.config.scenario import load_scenario
+
+    doc = {"name": "t", "duration_s": 1.0, "imu": str(ROOT / "configs" / "default-imu.yaml"),
+           "navigation": {"start_s": 0.5}}
+    if source == "file":
+        doc["trajectory"] = {"file": str(_traj_file(tmp_path, 5))}  # 0.4 s
+    else:
+        doc["site"] = {"lat_deg": 48.0, "lon_deg": 11.5, "height_m": 500.0, "heading_deg": 30.0}
+        doc["trajectory"] = {"segments": [{"type": "cruise", "duration_s": 0.05}]}
+    with pytest.raises(ConfigError) as exc:
+        load_scenario(doc)
+    msg = str(exc.value)
+    assert "too short for any run that starts navigating at navigation.start_s = 0.5 s" in msg, msg
+    assert "must last more than 0.6 s" in msg and "<= -" not in msg and "set duration_s" not in msg
+
+
+def test_a_trajectory_long_enough_for_a_shorter_run_still_advises_it(tmp_path):
+    from sins_sim.config.scenario import load_scenario
+
+    doc = {"name": "t", "duration_s": 5.0, "imu": str(ROOT / "configs" / "default-imu.yaml"),
+           "navigation": {"start_s": 1.0}, "trajectory": {"file": str(_traj_file(tmp_path, 40))}}  # 3.9 s
+    with pytest.raises(ConfigError, match=r"set duration_s <= 3\.8"):
+        load_scenario(doc)

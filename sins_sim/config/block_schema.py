@@ -44,6 +44,8 @@ _C_T = dict(min=0.0, max=1e6)
 _C_R = dict(min=0.0, max=1e4)
 #: A mounting offset beyond 50 mrad (3 deg) is not a misalignment but a different design.
 _MISALIGN_MRAD = 50.0
+#: The same bound, public: what any input-axis offset (a file's ``gyro_axes_mrad``, a study's tilt) may reach.
+AXIS_OFFSET_MAX_MRAD = _MISALIGN_MRAD
 
 BLOCK_SCHEMA = Map({
     "mass": Num(unit="kg", required=True, **_MASS, doc="the block with everything it carries"),

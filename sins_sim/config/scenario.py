@@ -514,7 +514,7 @@ class Scenario:
         written = isinstance(doc.get("trajectory"), dict) and "velocity_tolerance_m_s" in doc["trajectory"]
         self.vehicle = _build_vehicle(c["site"], {**c["trajectory"], "velocity_tolerance_written": written},
                                       self.duration_s, ctx, base_dir,
-                                      duration_key)
+                                      duration_key, start_s=nv["start_s"])
         if c["trajectory"]["file"]:  # the mission starts where the file does: the site is its first row
             self.site = _site_of(self.vehicle)
         self.events = _events(c["motion"], self.vehicle)
@@ -724,7 +724,19 @@ def _site_of(vehicle) -> dict:
             "heading_rad": math.atan2(2.0 * (q0 * q3 + q1 * q2), 1.0 - 2.0 * (q2 * q2 + q3 * q3))}
 
 
-def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration_s"):
+def _shorter_run(duration_key: str, lasts_s: float, start_s: float) -> str:
+    """The advice of a run past its trajectory's end: a shorter run when one fits, else the length one needs.
+
+    A run must last longer than ``navigation.start_s`` and needs 0.1 s of trajectory past its end, so a trajectory
+    of ``start_s + 0.1`` s or less carries no run at all (a negative duration is never advised).
+    """
+    if lasts_s - 0.1 > start_s:
+        return f"set {duration_key} <= {lasts_s - 0.1:g}"
+    return (f"the trajectory is too short for any run that starts navigating at navigation.start_s = {start_s:g} s: "
+            f"it must last more than {start_s + 0.1:g} s (start_s + the 0.1 s past the run's end)")
+
+
+def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration_s", start_s: float = 0.0):
     """The vehicle: a trajectory file, segments after the start, or at rest at the site.
 
     A run longer than its trajectory (``duration_s`` + 0.1 s past the end of the file or of the segments) is
@@ -772,7 +784,7 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
             if segs and flown < need and spec["extend"] == "none":
                 raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of the trajectory's "
                                   f"segments, which last {flown:g} s (the run needs {duration_key} + 0.1 s of "
-                                  f"trajectory): set {duration_key} <= {flown - 0.1:g}, add a segment (e.g. "
+                                  f"trajectory): {_shorter_run(duration_key, flown, start_s)}; add a segment (e.g. "
                                   f"{{type: cruise, duration_s: {math.ceil(need - flown):g}}}), or set "
                                   f"trajectory.extend: hold to hold the last state")
             tail = duration_s + 1.0 - flown  # after the last segment the vehicle holds its state
@@ -796,8 +808,8 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
         raise ConfigError(f"{ctx}: trajectory: {exc}") from None
     if vehicle.duration_s < need:  # a file (segments are refused above or held to the end)
         raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of {where}, which lasts "
-                          f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): set "
-                          f"{duration_key} <= {vehicle.duration_s - 0.1:g} or give a longer file")
+                          f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): "
+                          f"{_shorter_run(duration_key, vehicle.duration_s, start_s)}; or give a longer file")
     return vehicle
 
 

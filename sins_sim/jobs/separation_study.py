@@ -77,6 +77,21 @@ def _tilted(imu, a: int, b: int, offset_rad: float):
     return dataclasses.replace(imu, block=dataclasses.replace(imu.block, input_axes=axes))
 
 
+def _check_offset(imu, a: int, b: int, offset_mrad: float) -> None:
+    """``--axis-offset-mrad`` and the tilt it makes with the file's own offset within the block's misalignment bound."""
+    from sins_sim.config.block_schema import AXIS_OFFSET_MAX_MRAD as lim
+    from sins_sim.config.errors import ConfigError
+
+    rule = (f"must lie in [-{lim:g}, {lim:g}] mrad (an input-axis offset beyond {lim:g} mrad, 3 deg, is not a "
+            "misalignment but another design)")
+    if not (math.isfinite(offset_mrad) and abs(offset_mrad) <= lim):
+        raise ConfigError(f"--axis-offset-mrad: {rule}, got {offset_mrad:g}")
+    total = 1e3 * float(imu.block.input_axes[b][a]) + offset_mrad
+    if abs(total) > lim:
+        raise ConfigError(f"--axis-offset-mrad: {rule} together with the IMU file's gyro_axes_mrad.{_AXES[b]}"
+                          f"[{a}], got {total:g} mrad in all")
+
+
 def _place(imu, a: int, b: int, delta_hz: float):
     """The unit with axis ``b``'s resonance moved so that its drive on the block runs ``delta_hz`` below axis
     ``a``'s (a few secant steps: the coupled frequency is nearly linear in f0)."""
@@ -212,6 +227,7 @@ def separation_study(imu, out, *, pair=("x", "y"), separations_hz=DEFAULT_SEPARA
         raise ConfigError(f"--duration-s: must exceed the navigation start {start_s:g} s by at least 1 s, "
                           f"got {duration_s:g}")
     a, b = (_AXES.index(p) for p in pair)
+    _check_offset(imu, a, b, axis_offset_mrad)
     base = _tilted(imu, a, b, axis_offset_mrad * 1e-3)
     points = []
     for k, d in enumerate(seps):

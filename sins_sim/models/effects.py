@@ -141,6 +141,16 @@ def rate_from_grid(x: np.ndarray, h: float) -> np.ndarray:
     return d
 
 
+def _unknown_parameter(effect: str, key, allowed) -> None:
+    """Refuse parameter ``key`` of ``effect``: the key path, the allowed keys and the closest one (difflib)."""
+    import difflib
+
+    names = sorted(set(allowed) | {"axes"})
+    close = difflib.get_close_matches(str(key), names, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise ValueError(f"effects.{effect}.{key}: unknown parameter (allowed: {', '.join(names)}){hint}")
+
+
 class Effect:
     """Base class: a named model extension with validated SI parameters.
 
@@ -174,8 +184,7 @@ class Effect:
         known = {p.name: p for p in self.PARAMS}
         for key in params:
             if key not in known:
-                raise ValueError(f"effects.{self.name}.{key}: unknown parameter (allowed: "
-                                 f"{', '.join(sorted(known)) or 'none'})")
+                _unknown_parameter(self.name, key, known)
         values = {}
         for p in self.PARAMS:
             if p.name in params:
@@ -659,4 +668,12 @@ def make_effect(name: str, **params) -> Effect:
     cls = EFFECTS.get(name) or DISTURBANCES.get(name)
     if cls is None:
         raise ValueError(f"effects: name: must be one of {sorted(EFFECTS) + sorted(DISTURBANCES)}, got {name!r}")
+    if cls.__init__ is not Effect.__init__:  # an effect with its own parameters (axis_coupling): its signature
+        import inspect
+
+        allowed = [n for n, p in inspect.signature(cls.__init__).parameters.items()
+                   if n != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+        for key in params:
+            if key not in allowed:
+                _unknown_parameter(name, key, allowed)
     return cls(**params)
