@@ -485,11 +485,18 @@ def _cmd_compare_filters(args) -> int:
     from sins_sim.jobs.compare_filters import run_compare_filters
     from sins_sim.jobs.output import check_out_file
 
-    check_out_file(args.json, "--json")  # before minutes of computation (it was found only at the end)
+    if args.json is not None:
+        check_out_file(args.json, "--json")  # before minutes of computation (it was found only at the end)
     out = Path(args.out)
     with _result_dir(args, out) as tmp, _progress("compare-filters", args.quiet) as progress:
-        res = run_compare_filters(tmp, args.json, quick=args.quick, progress=progress)
-    print(f"best: {res['best']}; report: {out / 'report.md'}; numbers: {args.json}")
+        res = run_compare_filters(tmp, Path(tmp) / "filters.json", quick=args.quick, progress=progress)
+    numbers = out / "filters.json"
+    if args.json is not None:  # a copy where the user asked for it too
+        from sins_sim.jobs.output import atomic_write_text
+
+        atomic_write_text(args.json, numbers.read_text())
+        numbers = args.json
+    print(f"best: {res['best']}; report: {out / 'report.md'}; numbers: {numbers}")
     return EXIT_OK
 
 
@@ -1010,10 +1017,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("compare-filters", help="every correcting filter against the wideband targets (issue 15)",
                        description="End-to-end gain on the nonlinear plant, noise, delay, cost, coning drift and "
                                    "position error of eq. 5, the eliminator, the wideband designs and the production LMS stripper; gain.png, "
-                                   "noise_tradeoff.png, details.json and report.md in --out, the numbers in --json.")
+                                   "noise_tradeoff.png, details.json, report.md and the numbers (filters.json) in --out.")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     _force_flag(p)
-    p.add_argument("--json", required=True, help="the numbers (issue 15 structure)")
+    p.add_argument("--json", default=None, help="also write the numbers (issue 15 structure) here [only DIR/filters.json]")
     p.add_argument("--quick", action="store_true", help="reduced resolution and a 30 s mission (a few minutes)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_compare_filters)

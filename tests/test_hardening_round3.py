@@ -250,3 +250,57 @@ def test_a_trajectory_long_enough_for_a_shorter_run_still_advises_it(tmp_path):
            "navigation": {"start_s": 1.0}, "trajectory": {"file": str(_traj_file(tmp_path, 40))}}  # 3.9 s
     with pytest.raises(ConfigError, match=r"set duration_s <= 3\.8"):
         load_scenario(doc)
+
+
+# --- item 6: the README's commands parse ------------------------------------------------------------------------------
+def _documented_commands(path: Path) -> list:
+    """Every ``sins-sim ...`` line of a file's code blocks as an argument list: the comment cut, each optional
+    ``[--flag VALUE]`` and ``[a|b]`` written out (its first choice)."""
+    import re
+    import shlex
+
+    out = []
+    blocks = re.findall(r"^```[^\n]*\n(.*?)^```", path.read_text(encoding="utf-8"), re.M | re.S)
+    for line in "\n".join(blocks).splitlines():
+        if not line.startswith("sins-sim ") or ">" in line.split("#")[0]:
+            continue
+        cmd = re.split(r"\s{2,}#|\s#\s", line)[0]
+        cmd = re.sub(r"\[([^\]|]*)\|[^\]]*\]", r"\1", cmd)  # [a|b|c] -> a
+        cmd = cmd.replace("[", "").replace("]", "")
+        values = {"N": "2", "S": "1.5"}  # the placeholders of numeric flags
+        out.append((line, [values.get(a, a) for a in shlex.split(cmd)[1:]]))
+    return out
+
+
+@pytest.mark.parametrize("doc", ["README.md", "docs/reference/cli.md"])
+def test_every_documented_command_line_parses(doc, capsys):
+    from sins_sim.cli import build_parser
+
+    parser = build_parser()
+    lines = _documented_commands(ROOT / doc)
+    assert any(args[0] == "compare-filters" for _, args in lines)
+    for line, args in lines:
+        try:
+            parser.parse_args(args)
+        except SystemExit as exc:
+            pytest.fail(f"{doc}: {line!r} exits {exc.code}: {capsys.readouterr().err.strip()[-200:]}")
+
+
+def test_compare_filters_out_alone_writes_the_numbers_into_the_folder(tmp_path, monkeypatch, capsys):
+    """As the README says: ``--out DIR`` without ``--json``; ``--json F`` still writes a copy there (the study is
+    replaced by one that writes its files, so that the command's own plumbing is what is tested)."""
+    import sins_sim.jobs.compare_filters as cf
+    from sins_sim.cli import main
+
+    def fake(out_dir, json_path, quick=False, progress=None, **kw):
+        Path(json_path).write_text('{"best": "eq5"}\n')
+        (Path(out_dir) / "report.md").write_text("r\n")
+        return {"best": "eq5"}
+
+    monkeypatch.setattr(cf, "run_compare_filters", fake)
+    assert main(["compare-filters", "--quick", "--out", str(tmp_path / "a"), "--quiet"]) == 0
+    assert json.loads((tmp_path / "a" / "filters.json").read_text()) == {"best": "eq5"}
+    assert main(["compare-filters", "--quick", "--out", str(tmp_path / "b"), "--json", str(tmp_path / "f.json"),
+                 "--quiet"]) == 0
+    assert (tmp_path / "f.json").read_text() == (tmp_path / "b" / "filters.json").read_text()
+    assert "numbers: " + str(tmp_path / "f.json") in capsys.readouterr().out
