@@ -304,3 +304,51 @@ def test_compare_filters_out_alone_writes_the_numbers_into_the_folder(tmp_path, 
                  "--quiet"]) == 0
     assert (tmp_path / "f.json").read_text() == (tmp_path / "b" / "filters.json").read_text()
     assert "numbers: " + str(tmp_path / "f.json") in capsys.readouterr().out
+
+
+# --- item 7: sins_sim.run(progress=...) takes a bool --------------------------------------------------------------
+class _Stop(Exception):
+    """Raised by the stand-in engine, once it has seen the progress it was given."""
+
+
+def _seen_progress(monkeypatch, progress):
+    """The ``progress`` that ``sins_sim.run`` hands the engine (the engine replaced by one that reports 0.5, 1)."""
+    import sins_sim
+    import sins_sim.jobs.run as jr
+
+    seen = []
+
+    def prepare(source, overrides=None, progress=None, base_dir=None):
+        return object(), ()
+
+    def compute(sc, warns, progress, threads):
+        seen.append(progress)
+        for f in (0.5, 1.0):
+            if progress is not None:
+                progress(f)
+        raise _Stop()
+
+    monkeypatch.setattr(jr, "prepare_run", prepare)
+    monkeypatch.setattr(jr, "compute_run", compute)
+    with pytest.raises(_Stop):
+        sins_sim.run({"name": "x"}, progress=progress)
+    return seen[0]
+
+
+def test_run_takes_progress_false_as_none_and_true_as_a_bar(monkeypatch, capsys):
+    assert _seen_progress(monkeypatch, False) is None
+    assert _seen_progress(monkeypatch, None) is None
+    bar = _seen_progress(monkeypatch, True)
+    assert callable(bar) and bar.bar.n == pytest.approx(100.0)  # the bar reached the end (and was closed)
+    fractions = []
+    assert _seen_progress(monkeypatch, fractions.append) == fractions.append and fractions == [0.5, 1.0]
+
+
+@pytest.mark.parametrize("bad", ["yes", 1, [0.5]])
+def test_run_refuses_a_progress_that_is_neither_bool_nor_callable_before_the_run(monkeypatch, bad):
+    import sins_sim
+    import sins_sim.jobs.run as jr
+
+    monkeypatch.setattr(jr, "prepare_run", lambda *a, **k: pytest.fail("the run started"))
+    with pytest.raises(ConfigError, match=r"^sins_sim\.run: progress: must be True \(a progress bar\), False"):
+        sins_sim.run({"name": "x"}, progress=bad)
