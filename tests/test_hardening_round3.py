@@ -352,3 +352,29 @@ def test_run_refuses_a_progress_that_is_neither_bool_nor_callable_before_the_run
     monkeypatch.setattr(jr, "prepare_run", lambda *a, **k: pytest.fail("the run started"))
     with pytest.raises(ConfigError, match=r"^sins_sim\.run: progress: must be True \(a progress bar\), False"):
         sins_sim.run({"name": "x"}, progress=bad)
+
+
+# --- item 8: a dict read by plain yaml.safe_load -------------------------------------------------------------------
+def test_a_number_pyyaml_read_as_text_is_refused_saying_why_and_pointing_to_load_yaml():
+    """Refused, not converted: a quoted number is text in YAML, in the JSON Schema editors use and in every other
+    reader, so converting would make sins-sim the one reader that disagrees (and would accept a value the user
+    quoted on purpose); the message says what happened and how to load the file."""
+    import yaml
+
+    import sins_sim
+
+    path = ROOT / "configs" / "isolated-block.yaml"
+    with pytest.raises(ConfigError) as exc:
+        sins_sim.load_imu(yaml.safe_load(path.read_text()))
+    msg = str(exc.value)
+    assert "stiffness_n_per_m[0]: must be a number, got str '7.58e5'" in msg, msg
+    assert "yaml.safe_load reads forms such as 7.58e5 as strings" in msg and "sins_sim.load_yaml" in msg
+    assert sins_sim.load_imu(sins_sim.load_yaml(path)).block is not None  # the pointer works
+
+
+def test_text_that_is_no_number_gets_no_yaml_hint():
+    from sins_sim.config.imu import load_imu
+
+    with pytest.raises(ConfigError) as exc:
+        load_imu({"channels": {**CHANNELS, "x": {"f0_hz": "abc"}}})
+    assert "got str 'abc'" in str(exc.value) and "load_yaml" not in str(exc.value)

@@ -91,7 +91,7 @@ class Num:
 
     def check(self, value, ctx, path):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            _fail(ctx, path, f"must be a number, got {type(value).__name__} {value!r}")
+            _fail(ctx, path, f"must be a number, got {type(value).__name__} {value!r}{_numeric_text_hint(value)}")
         if not math.isfinite(value):
             _fail(ctx, path, f"must be finite, got {value!r}")
         if self.integer and (not float(value).is_integer()):
@@ -159,6 +159,21 @@ class Vec:
             return [item.check(x, ctx, f"{path}[{i}]") for i, (item, x) in enumerate(zip(self.items, value))]
         item = Num(unit=self.unit, min=self.min, min_exclusive=self.min_exclusive, max=self.max)
         return [item.check(x, ctx, f"{path}[{i}]") for i, x in enumerate(value)]
+
+
+#: A number written as YAML 1.2 allows (``7.58e5``, ``1e-3``, ``.5``): PyYAML's ``yaml.safe_load`` (YAML 1.1) reads
+#: the exponent forms without a dot or an exponent sign as strings.
+_NUMBER_TEXT = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\s*$")
+
+
+def _numeric_text_hint(value) -> str:
+    """For a string that reads as a number: why it is one (refused, not converted: a quoted value stays text, as
+    the JSON Schema and every other reader of the file say) and what to do."""
+    if not (isinstance(value, str) and _NUMBER_TEXT.match(value)):
+        return ""
+    return (" (a number read as text: PyYAML's yaml.safe_load reads forms such as 7.58e5 as strings; load the file "
+            "with sins_sim.load_yaml, which reads them as numbers, or write the number unquoted with a dot and a "
+            "signed exponent, 7.58e+5)")
 
 
 @dataclass
