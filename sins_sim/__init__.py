@@ -5,7 +5,7 @@ Conventions (the full page, with every column name: ``docs/conventions.md``)
 * **Frames.** Body axes x, y, z are the three gyros' sensitive axes and the accelerometers' (for a
   vehicle x forward, y right, z down); the navigation frame is local-level north-east-down (NED) on
   WGS-84; gyros measure rotation with respect to inertial space. For each gyro channel
-  (reference-model.md) ``phi_sins`` is the block's angle about the gyro's sensitive axis, ``phi_rlg``
+  (docs/theory/suspension.md) ``phi_sins`` is the block's angle about the gyro's sensitive axis, ``phi_rlg``
   the RLG body's angle w.r.t. inertial space, and ``delta = phi_rlg - phi_sins`` the dither
   suspension's deflection.
 * **Quaternions** are Hamilton, scalar first ``[q0, q1, q2, q3]``, body to navigation

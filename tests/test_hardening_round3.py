@@ -378,3 +378,56 @@ def test_text_that_is_no_number_gets_no_yaml_hint():
     with pytest.raises(ConfigError) as exc:
         load_imu({"channels": {**CHANNELS, "x": {"f0_hz": "abc"}}})
     assert "got str 'abc'" in str(exc.value) and "load_yaml" not in str(exc.value)
+
+
+# --- item 9: the sweep table's sensor columns in the units their names say --------------------------------------------
+def test_sweep_sensor_columns_hold_the_drawn_value_in_their_unit(tmp_path):
+    """``param.accelerometer.bias_ug.x`` is the unit's accelerometer bias in ug (25 ug 1-sigma x its score), the
+    misalignment angles in arcsec (signed 1-sigma magnitudes x scores): the values the run's IMU holds, computed
+    here from the scores independently of the table."""
+    import yaml
+
+    from sins_sim.jobs.sweep.job import parameter_label, prepare_sweep
+    from sins_sim.jobs.sweep.population import draw_unit
+    from sins_sim.jobs.sweep.tasks import PARAM_PREFIX
+
+    nav_grade = ROOT / "configs" / "nav-grade-rlg.yaml"
+    doc = {"name": "cols", "seed": 3, "units": 3,
+           "scenarios": [{"path": str(ROOT / "scenarios" / "stationary.yaml"), "duration_s": 1.5}],
+           "population": {"sensors": {"draw": True, "preset": str(nav_grade)}}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    sweep, tasks, _ = prepare_sweep(tmp_path / "s.yaml")
+    acc = yaml.safe_load(nav_grade.read_text())["sensors"]["accelerometer"]
+    for t in tasks:
+        z = draw_unit(sweep, t.unit)
+        row = {PARAM_PREFIX + k: float(v) for k, v in t.spec("v")["params"].items()}  # as run_task fills the row
+        for ax in "xyz":
+            assert row[f"param.accelerometer.bias_ug.{ax}"] == pytest.approx(25.0 * z[f"accelerometer.bias_ug.{ax}"],
+                                                                            rel=1e-15)
+        for k, lab in enumerate(("xy", "xz", "yx", "yz", "zx", "zy")):
+            sigma = abs(acc["misalignment_arcsec"][k])
+            assert row[f"param.accelerometer.misalignment_arcsec.{lab}"] == pytest.approx(
+                sigma * z[f"accelerometer.misalignment_arcsec.{lab}"], rel=1e-15)
+    assert parameter_label("accelerometer.bias_ug.x") == "accelerometer bias, axis x (ug)"
+
+
+# --- item 10: no doc or docstring points at a file no user has ------------------------------------------------------
+#: The project's specification files (outside the repository): the docs stand alone.
+_PRIVATE = ("shared/", "reference-model.md", "recording-format.md", "correcting-filter-paper.txt")
+
+
+def _user_facing_files():
+    for top in ("docs", "sins_sim", "configs", "scenarios"):
+        for p in sorted((ROOT / top).rglob("*")):
+            if p.is_file() and p.suffix in (".py", ".md", ".bib", ".yaml", ".rst", ".txt", ".cff") \
+                    and "_build" not in p.parts and "__pycache__" not in p.parts:
+                yield p
+    yield from (ROOT / n for n in ("README.md", "CHANGELOG.md", "CITATION.cff"))
+
+
+def test_no_doc_or_docstring_mentions_the_projects_private_spec_files():
+    found = [f"{p.relative_to(ROOT)}:{i}: {line.strip()[:100]}" for p in _user_facing_files()
+             for i, line in enumerate(p.read_text(encoding="utf-8", errors="replace").splitlines(), 1)
+             if any(s in line for s in _PRIVATE)]
+    assert not found, "\n".join(found)
+

@@ -1,8 +1,8 @@
 """The ``block:`` section of IMU files: the sensor block as a body on its isolators (issue 27).
 
-Without the section the block is rigid and its motion prescribed (the nominal model, reference-model.md "Three
-axes"). With it, the block is a rigid body on linear isolators, loaded by the three gyros' suspension torques
-(:mod:`sins_sim.models.block`, reference-model.md "The block as a body")::
+Without the section the block is rigid and its motion prescribed (the nominal model). With it, the block is a rigid
+body on linear isolators, loaded by the three gyros' suspension torques (:mod:`sins_sim.models.block`,
+docs/user-guide/block.md)::
 
     block:
       mass_kg: 3.0

@@ -1,4 +1,4 @@
-"""Files: recordings in the shared format ``sins-sim-recording/1`` (``recording-format.md``) and
+"""Files: recordings in the format ``sins-sim-recording/1`` (:mod:`sins_sim.io.recording`) and
 trajectory files (CSV or Parquet, :mod:`sins_sim.io.trajectory`)."""
 
 from sins_sim.io.recording import (

@@ -1,6 +1,6 @@
 """Strict reader and writer of recordings, format ``sins-sim-recording/1``.
 
-The format is specified in ``recording-format.md`` (shared spec). A
+The format is specified here and in docs/conventions.md. A
 recording is an ``.npz`` archive holding
 
 - ``meta``: a 0-d unicode array with one JSON object (the header);
@@ -39,7 +39,7 @@ Rules the spec implies and this reader states explicitly:
 - ``meta.nominal`` has exactly one entry per axis of ``meta.axes``; each
   entry holds ``f0_hz, k1, k2, k3, k4, k5`` as finite numbers with
   ``f0_hz > 0``, ``k1 >= 0``, ``k2 > 0``, ``k3 >= 0``, ``k5 != 0``
-  (reference-model.md); other keys in an entry are preserved;
+  (docs/theory/suspension.md); other keys in an entry are preserved;
 - ``meta.description``, when present, is a string (it is optional);
 - ``|drive_v| <= 1000`` V (:data:`DRIVE_V_MAX`): what a piezo stack takes.
 
@@ -89,7 +89,7 @@ __all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "MIN_SAMPLE
 
 #: The format tag a recording's header must carry.
 FORMAT = "sins-sim-recording/1"
-#: Model parameters every ``meta.nominal`` entry must hold (reference-model.md).
+#: Model parameters every ``meta.nominal`` entry must hold (docs/theory/suspension.md).
 NOMINAL_KEYS = ("f0_hz", "k1", "k2", "k3", "k4", "k5")
 #: Range of the recording's sample rates (Hz): counter, drive and table.
 FS_MIN_HZ = 100.0

@@ -9,7 +9,7 @@ suspensions, drives, readouts, filters, navigation), and three things are measur
 - **dither coning**: the block's counter-rotation at each dither (about ``(J_g / J_b) a``, two-body closed form
   :func:`~sins_sim.models.block.counter_rotation`) rocks it about both axes; two rocking axes make a coning angle
   about the third that beats at ``Delta`` with amplitude ``a_x a_y (w_x + w_y) / (4 |w_x - w_y|)``
-  (:func:`~sins_sim.models.block.coning_beat_amplitude`; reference-model.md). The ideal navigation follows it;
+  (:func:`~sins_sim.models.block.coning_beat_amplitude`; docs/user-guide/block.md). The ideal navigation follows it;
   a filter that removes the rocking but keeps the slow coning rate (the eliminator notches each dither line)
   carries it into the heading. Measured: each filter's error about the third axis (psi; the heading when the pair
   is x, y), its RMS at the filter rate (which also holds the block's counter-rotation at the third gyro's own

@@ -1,6 +1,6 @@
 """Unmodelled effects: named, parameterised extensions of the nominal channel model.
 
-reference-model.md ("Three axes"): the nominal model is a rigid block with
+docs/theory/index.md ("What is modelled"): the nominal model is a rigid block with
 three independent suspensions, each obeying eq. 2 with eq. 9, 10 and 14,
 and an ideal fringe counter. Everything beyond it is an effect that a
 configuration switches on. Each effect here is a small frozen object with

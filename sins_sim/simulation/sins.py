@@ -7,8 +7,8 @@ One run is a pure function of (configuration, mission, duration, seed) and strea
    the chassis' motion profiles) gives each gyro's angle and rate at the plant rate, and the
    navigation truth, ideal gyro increments and accelerometer increments at the filter rate;
 2. the unit (:class:`~sins_sim.simulation.unit.SensorUnit`: the sensor block, rigid or on its
-   isolators, carrying three channels) takes the chunk: each axis (reference-model.md, "Three
-   axes": its own suspension, drive, readout, eq. 5 in both forms and eliminator) runs in fused
+   isolators, carrying three channels) takes the chunk: each axis (docs/user-guide/block.md: its own
+   suspension, drive, readout, eq. 5 in both forms and eliminator) runs in fused
    kernels (:class:`~sins_sim.simulation.channel.ChannelChain`), the three suspensions stepped
    side by side, with the block when it is a body (:class:`~sins_sim.simulation.unit.SideBySide`),
    or the axes on threads; the block's own motion then amends the truth;
@@ -16,7 +16,7 @@ One run is a pure function of (configuration, mission, duration, seed) and strea
    :class:`~sins_sim.navigation.strapdown.StrapdownNavigator`, all fed by the same
    accelerometers, and compared with the truth (:mod:`~sins_sim.simulation.metrics`).
 
-Filters compared (reference-model.md, "Navigation"): ``ideal`` (the true increments through
+Filters compared (docs/theory/navigation.md): ``ideal`` (the true increments through
 the same navigation: the algorithm's floor), ``raw`` (the decimated readout, dither
 included), ``eliminator``, ``correcting`` (eq. 5, unity DC), ``correcting_paper`` (eq. 5 as
 printed).
@@ -159,7 +159,7 @@ class ImuConfig:
         :func:`~sins_sim.simulation.channel.check_engine_effects`).
     block : BlockParams or None
         The sensor block as a body on its isolators (:mod:`sins_sim.models.block`,
-        reference-model.md "The block as a body"): the three suspensions load it and feel its
+        docs/user-guide/block.md): the three suspensions load it and feel its
         motion. None: the rigid block whose motion is prescribed (today's model).
     pickoff : PickoffTriadParams
         The three dither pickoffs and their cross-coupling, read by three-axis plug-ins
@@ -199,7 +199,7 @@ class ImuConfig:
         if len(set(f0)) < 3:
             raise ValueError(
                 f"imu.channels: the three resonances must differ so the dithers do not lock together "
-                f"(reference-model.md, 'Three axes'), got {f0}"
+                f"(docs/user-guide/block.md), got {f0}"
             )
 
     @property
