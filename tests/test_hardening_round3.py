@@ -431,3 +431,47 @@ def test_no_doc_or_docstring_mentions_the_projects_private_spec_files():
              if any(s in line for s in _PRIVATE)]
     assert not found, "\n".join(found)
 
+
+
+# --- item 11: the API page's one-line summaries are complete phrases -------------------------------------------------
+#: Abbreviations a first sentence must not end in: autosummary cuts the summary at the first ". ".
+_ABBREVIATIONS = ("eq.", "eqs.", "sec.", "fig.", "figs.", "ch.", "no.", "vs.", "cf.", "ref.", "approx.", "e.g.", "i.e.",
+                  "et al.", "p.", "pp.", "vol.")
+
+
+def _api_page_objects():
+    """Every object the API page's autosummary tables list, and every name of ``sins_sim.__all__``."""
+    import importlib
+    import re
+
+    import sins_sim
+
+    out = {f"sins_sim.{n}": getattr(sins_sim, n) for n in sins_sim.__all__ if n != "__version__"}
+    module = "sins_sim"
+    for line in (ROOT / "docs" / "reference" / "api.md").read_text().splitlines():
+        m = re.match(r"\.\. currentmodule:: (\S+)", line.strip())
+        if m:
+            module = m.group(1)
+        elif re.fullmatch(r"   [A-Za-z_]\w*", line):
+            out[f"{module}.{line.strip()}"] = getattr(importlib.import_module(module), line.strip())
+    return out
+
+
+def test_every_api_summary_is_a_complete_phrase():
+    """The summary Sphinx's autosummary extracts (its own function) ends in no abbreviation."""
+    import inspect
+
+    from docutils.frontend import get_default_settings
+    from docutils.parsers.rst import Parser
+    from sphinx.ext.autosummary import extract_summary
+
+    settings = get_default_settings(Parser)
+    objects = _api_page_objects()
+    assert {"sins_sim.CorrectingFilter", "sins_sim.plots.navigation.plot_run"} <= set(objects)
+    cut = {}
+    for name, obj in objects.items():
+        summary = extract_summary((inspect.getdoc(obj) or "").splitlines(), settings)
+        last = summary.lower().rsplit(" ", 2)  # the last word (two for "et al.")
+        if not summary or last[-1].lstrip("(") in _ABBREVIATIONS or " ".join(last[-2:]) in _ABBREVIATIONS:
+            cut[name] = summary
+    assert not cut, cut

@@ -48,7 +48,7 @@ def nonl_array(d, k1, k2):
 
 @dataclass(frozen=True)
 class SuspensionParams:
-    """Immutable parameters of one dithered RLG suspension (eq. 2, 9, 10, 14).
+    """Immutable parameters of one dithered RLG suspension (the paper's equations 2, 9, 10 and 14).
 
     Parameters
     ----------
