@@ -156,9 +156,9 @@ class _Progress:
     A job that estimates its run (:mod:`sins_sim.jobs.estimate`) calls :meth:`estimate` before the engine
     starts, with the estimate calibrated on this machine. When numba's cache is cold a first bar,
     "compiling (first run only)", counts the wall seconds against the compile estimate until the first
-    progress report; then the run's bar counts simulated seconds (rate in ``s/s``, so the time left is the
-    simulated time left over the measured speed) with the calibrated wall-time estimate. Without an
-    estimate the bar counts percent. When the run finishes, its timing calibrates the next estimate
+    progress report; then the run's bar counts simulated seconds (rate in ``s/s``) and shows the time left
+    measured on the run itself (:class:`sins_sim.jobs.estimate.RemainingTime`: "estimating" until a few chunks
+    have run, never a countdown from the model). Without an estimate the bar counts percent. When the run finishes, its timing calibrates the next estimate
     (:func:`sins_sim.jobs.estimate.record_timing`).
     """
 
@@ -170,6 +170,7 @@ class _Progress:
         self._compile = None  # (bar, stop event, thread) while the kernels compile
         self._times = {}
         self.printed = set()  # warnings already printed by advise(), not repeated at the end
+        self.left = None  # the time left, measured as the run goes (made with the estimate or the first report)
 
     def _open(self, total: float, unit: str, postfix: str = "", initial: float = 0.0):
         from tqdm import tqdm
@@ -177,15 +178,18 @@ class _Progress:
         self.bar = tqdm(total=total, desc=self.label, unit=unit, file=sys.stderr, disable=self.disable, leave=True,
                         dynamic_ncols=True, postfix=postfix or None, initial=initial,
                         bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.4g}/{total:.4g} {unit} "
-                                   "[{elapsed}<{remaining}, {rate_fmt}{postfix}]")
+                                   "[{elapsed}, {rate_fmt}{postfix}]")  # the time left: self.left, measured
 
     def _run_postfix(self) -> str:
-        from sins_sim.jobs.estimate import format_duration
+        return self._left().text()
 
-        est = self.est
-        cal = est.get("calibration", {})
-        return f"estimate {format_duration(est.get('wall_display_s', est['wall_s']))}" + (
-            "" if cal.get("runs") else " (not yet calibrated)")
+    def _left(self):
+        """The run's time left, from its own measured throughput (:class:`sins_sim.jobs.estimate.RemainingTime`)."""
+        if self.left is None:
+            from sins_sim.jobs.estimate import RemainingTime
+
+            self.left = RemainingTime(self.est)
+        return self.left
 
     def estimate(self, est: dict) -> None:
         """Show the compile phase (cold cache) or the run's bar (called by the job before the engine starts)."""
@@ -239,6 +243,7 @@ class _Progress:
         if "first" not in self._times:
             self._times["first"] = (now, fraction)
         self._times["last"] = (now, fraction)
+        self._left().update(fraction)
         if self.bar is None:
             if self._compile is not None:
                 self._end_compile()
@@ -246,6 +251,7 @@ class _Progress:
                 self._open(total, "s", self._run_postfix(), initial=total * fraction)  # rate from here on
             else:
                 self._open(100.0, "%")
+        self.bar.set_postfix_str(self._left().text(), refresh=False)
         done = self.bar.total * fraction
         if done > self.bar.n:
             self.bar.update(done - self.bar.n)

@@ -475,3 +475,62 @@ def test_every_api_summary_is_a_complete_phrase():
         if not summary or last[-1].lstrip("(") in _ABBREVIATIONS or " ".join(last[-2:]) in _ABBREVIATIONS:
             cut[name] = summary
     assert not cut, cut
+
+
+# --- item 12: the time left, measured on the run ----------------------------------------------------------------------
+class _FakeClock:
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        return self.t
+
+
+def _model_estimate(wall_s=52.0, fixed_s=3.0):
+    return {"kind": "run", "simulated_s": 1800.0, "wall_s": wall_s, "wall_display_s": wall_s,
+            "breakdown": {"fixed_s": fixed_s}, "calibration": {"runs": 0}}
+
+
+def test_the_time_left_is_measured_not_counted_down_from_the_model(tmp_path, monkeypatch):
+    """The issue's run: the model said 52 s; the run took 2 min 44 s: 20 s of compilation and start-up, then
+    180 chunks of 0.8 s (144 s), then the 3 s tail. After the first chunk and three more the estimator knows the
+    throughput exactly (constant here), so the time left is the closed form (180 - k) x 0.8 s + 3 s."""
+    from sins_sim.jobs.estimate import RemainingTime
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))  # no calibration: the tail is the model's fixed 3 s
+    clock = _FakeClock()
+    left = RemainingTime(_model_estimate(), clock=clock)
+    assert left.text() == "estimating the time left (model: 52 s, not yet calibrated)"
+    clock.t = 20.0 + 0.8  # compilation, start-up and the first chunk
+    for k in range(1, 181):
+        left.update(k / 180)
+        if k < 1 + RemainingTime.MIN_INTERVALS:
+            assert left.seconds_left() is None and left.text().startswith("estimating")
+        else:
+            assert left.seconds_left() == pytest.approx((180 - k) * 0.8 + 3.0, rel=1e-12)
+        clock.t += 0.8
+    assert left.seconds_left() == pytest.approx(3.0)
+    left2 = RemainingTime(_model_estimate(), clock=clock)
+    for k in range(1, 6):
+        left2.update(k / 180)
+        clock.t += 0.8
+    assert left2.text() == "about 2.4 min left (measured)"  # (180 - 5) x 0.8 + 3 = 143 s = 2.38 min
+
+
+def test_a_slow_first_interval_is_averaged_not_extrapolated(tmp_path, monkeypatch):
+    """Short chunks under MIN_MEASURED_S are not trusted; after that the rate is the mean since the first report:
+    a first interval of 3 s followed by 1 s ones gives (3 + 1 + 1) s per 3 chunks, not 3 s per chunk."""
+    from sins_sim.jobs.estimate import RemainingTime
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    clock = _FakeClock()
+    left = RemainingTime(_model_estimate(fixed_s=0.0), clock=clock)
+    for t, k in ((0.0, 1), (0.01, 2), (0.02, 3), (0.03, 4)):
+        clock.t = t
+        left.update(k / 100)
+    assert left.seconds_left() is None  # four reports but 0.03 s: too short to time
+    left = RemainingTime(_model_estimate(fixed_s=0.0), clock=clock)
+    for t, k in ((0.0, 1), (3.0, 2), (4.0, 3), (5.0, 4)):
+        clock.t = t
+        left.update(k / 100)
+    assert left.seconds_left() == pytest.approx(96 * 5.0 / 3)
