@@ -534,3 +534,20 @@ def test_a_slow_first_interval_is_averaged_not_extrapolated(tmp_path, monkeypatc
         clock.t = t
         left.update(k / 100)
     assert left.seconds_left() == pytest.approx(96 * 5.0 / 3)
+
+
+# --- item 13: the zero-spread rule in the sweep reference ------------------------------------------------------------
+def test_the_sweep_reference_states_the_zero_spread_rule_at_each_spread(capsys):
+    """``sins-sim schema sweep`` lists, for every spread key, that mean 0 and width 0 draw nothing and are refused
+    (the rule the loader enforces: sins_sim.config.sweep), and the checked-in reference holds it
+    (tests/test_schema_reference.py checks the whole file is current)."""
+    from sins_sim.cli import main
+    from sins_sim.config.sweep import SPREAD_PARAMETERS
+
+    assert main(["schema", "sweep"]) == 0
+    out = capsys.readouterr().out
+    reference = (ROOT / "docs" / "scenario-reference.md").read_text()
+    for key in SPREAD_PARAMETERS:
+        rule = f"population.{key}: normal and uniform need a non-zero mean or width: mean 0 and width 0"
+        assert any(line.strip().startswith(rule) for line in out.splitlines()), (key, out[-2000:])
+        assert f"`population.{key}`: normal and uniform need a non-zero mean or width" in reference
