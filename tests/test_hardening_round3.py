@@ -551,3 +551,83 @@ def test_the_sweep_reference_states_the_zero_spread_rule_at_each_spread(capsys):
         rule = f"population.{key}: normal and uniform need a non-zero mean or width: mean 0 and width 0"
         assert any(line.strip().startswith(rule) for line in out.splitlines()), (key, out[-2000:])
         assert f"`population.{key}`: normal and uniform need a non-zero mean or width" in reference
+
+
+# --- found by the new fuzz classes (tests/fuzz/families: navigate_inputs, effect_parameters) --------------------------
+def _navigate_files(tmp_path, n=300):
+    """A 3.9 s level flight north at 10 Hz and an ideal IMU's increments along it at 100 Hz."""
+    from sins_sim.io import read_trajectory
+    from sins_sim.models.motion import SampledTrajectory
+    from sins_sim.simulation.external import ideal_increments
+
+    lat = [45.0 + i * 100.0 / 10.0 / 6367000.0 * 180.0 / math.pi for i in range(40)]
+    rows = ["time_s,lat_deg,lon_deg,height_m,roll_deg,pitch_deg,yaw_deg"]
+    rows += [f"{i / 10:.1f},{lat[i]:.13f},7.0,1000.0,0.0,0.0,0.0" for i in range(40)]
+    truth = tmp_path / "truth.csv"
+    truth.write_text("\n".join(rows) + "\n")
+    t = 0.01 * np.arange(1, n + 1)
+    dth, dv = ideal_increments(SampledTrajectory.from_data(read_trajectory(truth)), t)
+    return truth, t, dth, dv
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (lambda t, a, v: (t, a * 1e300, v), r"dtheta_z_rad: row 300: .* deg/s, beyond the 1000 deg/s an RLG measures"),
+    (lambda t, a, v: (t, a + math.radians(2000.0) * 0.01, v), r"dtheta_x_rad: row 1: 0\.3491 in one 0\.01 s interval "
+                                                             r"is 2000 deg/s"),
+    (lambda t, a, v: (t, a, 1000.0 * v), r"dv_z_m_s: row \d+: .* m/s\^2, beyond 2000 m/s\^2"),
+])
+def test_navigate_refuses_increments_no_imu_measures_naming_column_and_row(tmp_path, edit, message):
+    """They were navigated and reported as 'diverged' (a run's result, not an input error)."""
+    from sins_sim.jobs.navigate import navigate_file, write_increments
+
+    truth, t, dth, dv = _navigate_files(tmp_path)
+    write_increments(tmp_path / "inc.csv", *edit(t, dth, dv))
+    with pytest.raises(ConfigError, match=r"inc\.csv: " + message):
+        navigate_file(tmp_path / "inc.csv", truth, tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+
+
+def test_navigate_takes_increments_from_the_truths_start_and_counts_rows_as_the_file(tmp_path):
+    """Ten increments from t = 0: ``t[0] - dt`` came out -1.7e-18 s and was refused as 'before the truth's start';
+    a repeated time is reported at the file's data row (counted from 1, as the cell errors are)."""
+    from sins_sim.jobs.navigate import navigate_file, write_increments
+
+    truth, t, dth, dv = _navigate_files(tmp_path, n=10)
+    write_increments(tmp_path / "inc.csv", t, dth, dv)
+    m = navigate_file(tmp_path / "inc.csv", truth, tmp_path / "out")
+    assert m["filters"]["external"]["status"] == "ok"
+    t2 = t.copy()
+    t2[5] = t2[4]
+    write_increments(tmp_path / "inc2.csv", t2, dth, dv)
+    with pytest.raises(ConfigError, match=r"inc2\.csv: time_s: must be strictly increasing \(row 6 is not after "
+                                          r"row 5\)"):
+        navigate_file(tmp_path / "inc2.csv", truth, tmp_path / "out2")
+
+
+@pytest.mark.parametrize(("effects", "message"), [
+    ([{"name": ["piezo_lag"]}], r"effects\[0\]\.name: must be the name of an effect"),  # was TypeError: unhashable
+    ([{"name": "piezo_lag", "tau_s": 1e-4}, {"name": "piezo_lag", "tau_s": 2e-4}],
+     r"effects\[1\]: piezo_lag is already given for axis x, y, z by imu\.effects\[0\]"),
+    ([{"name": "lock_in", "threshold_rad_s": 2e-3, "axes": ["x"]},
+      {"name": "lock_in", "threshold_rad_s": 3e-3, "axes": ["y", "x"]}], r"lock_in is already given for axis x "),
+])
+def test_effect_lists_the_engine_cannot_run_are_refused_in_one_line(effects, message):
+    from sins_sim.config.scenario import load_scenario
+
+    with pytest.raises(ConfigError, match=message):
+        load_scenario(_nav_scenario() | {"imu": {"channels": CHANNELS, "effects": effects}})
+
+
+def test_one_effect_per_axis_on_different_axes_is_accepted():
+    from sins_sim.config.imu import load_imu
+
+    imu = load_imu({"channels": CHANNELS, "effects": [{"name": "lock_in", "threshold_rad_s": 2e-3, "axes": ["x"]},
+                                                      {"name": "lock_in", "threshold_rad_s": 3e-3, "axes": ["y"]}]})
+    assert len(imu.effects) == 2
+
+
+def test_an_axis_coupling_into_an_unknown_axis_names_the_coefficient_key():
+    from sins_sim.models.effects import make_effect
+
+    with pytest.raises(ValueError, match=r"^effects\.axis_coupling\.coefficients\.q: 'q' is not one of the axes"):
+        make_effect("axis_coupling", coefficients={"q": {"x": 0.01}}).check_axes(("x", "y", "z"))

@@ -228,13 +228,12 @@ class Effect:
         return self.axes is None or axis in self.axes
 
     def check_axes(self, axes) -> None:
-        """Raise if the effect names an axis the experiment does not have."""
+        """Raise if the effect names an axis the unit or experiment does not have."""
         for a in self.axes or ():
             if a not in axes:
-                raise ValueError(f"effects.{self.name}.axes: {a!r} is not an axis of the experiment {list(axes)}")
+                raise ValueError(f"effects.{self.name}.axes: {a!r} is not one of the axes {list(axes)}")
         if len(axes) < self.min_axes:
-            raise ValueError(f"effects.{self.name}: needs at least {self.min_axes} axes, the experiment has "
-                             f"{len(axes)}")
+            raise ValueError(f"effects.{self.name}: needs at least {self.min_axes} axes, there are {len(axes)}")
 
     # --- fitting protocol -------------------------------------------------------------------
     @classmethod
@@ -350,12 +349,16 @@ class AxisCoupling(Effect):
         return {"name": self.name, "coefficients": {t: dict(r) for t, r in self.coefficients.items()}}
 
     def check_axes(self, axes):
-        super().check_axes(axes)
-        for row in self.coefficients.values():
+        if len(axes) < self.min_axes:
+            raise ValueError(f"effects.{self.name}: needs at least {self.min_axes} axes, there are {len(axes)}")
+        for target, row in self.coefficients.items():  # named by the key the user wrote
+            if target not in axes:
+                raise ValueError(f"effects.axis_coupling.coefficients.{target}: {target!r} is not one of the axes "
+                                 f"{list(axes)}")
             for src in row:
                 if src not in axes:
-                    raise ValueError(f"effects.axis_coupling.coefficients: source {src!r} is not an axis of the "
-                                     f"experiment {list(axes)}")
+                    raise ValueError(f"effects.axis_coupling.coefficients.{target}.{src}: {src!r} is not one of the "
+                                     f"axes {list(axes)}")
 
     @classmethod
     def fit_space(cls, axis, axes):
