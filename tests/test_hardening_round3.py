@@ -631,3 +631,14 @@ def test_an_axis_coupling_into_an_unknown_axis_names_the_coefficient_key():
 
     with pytest.raises(ValueError, match=r"^effects\.axis_coupling\.coefficients\.q: 'q' is not one of the axes"):
         make_effect("axis_coupling", coefficients={"q": {"x": 0.01}}).check_axes(("x", "y", "z"))
+
+
+def test_an_empty_yaml_value_is_called_null_not_nonetype(tmp_path):
+    """Found by the fuzz's new 'internal' verdict: a truncated file left ``axis: [1, 0.3,`` -> ``None``, shown as
+    Python's ``NoneType None``."""
+    from sins_sim.config.imu import load_imu
+
+    with pytest.raises(ConfigError) as exc:
+        load_imu({"channels": {**CHANNELS, "x": {"f0_hz": None}}})
+    assert "channels.x.f0_hz: must be a number, got null (an empty value)" in str(exc.value)
+    assert "NoneType" not in str(exc.value)
