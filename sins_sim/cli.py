@@ -158,8 +158,8 @@ class _Progress:
     "compiling (first run only)", counts the wall seconds against the compile estimate until the first
     progress report; then the run's bar counts simulated seconds (rate in ``s/s``) and shows the time left
     measured on the run itself (:class:`sins_sim.jobs.estimate.RemainingTime`: "estimating" until a few chunks
-    have run, never a countdown from the model). Without an estimate the bar counts percent. When the run finishes, its timing calibrates the next estimate
-    (:func:`sins_sim.jobs.estimate.record_timing`).
+    have run, never a countdown from the model). Without an estimate the bar counts percent. When the run
+    finishes, its timing calibrates the next estimate (:func:`sins_sim.jobs.estimate.record_timing`).
     """
 
     def __init__(self, label: str, disable: bool):
