@@ -124,15 +124,36 @@ def test_force_onto_a_result_with_a_users_file_is_refused_naming_it_and_changes_
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left beside it
 
 
-def test_force_without_a_manifest_cannot_tell_and_refuses(tmp_path):
+def test_force_without_a_list_of_what_sins_sim_wrote_cannot_tell_and_refuses(tmp_path):
+    """An older result: its marker lists no files and it has no manifest."""
     from sins_sim.jobs.output import MARKER, check_out_dir
 
     out = tmp_path / "out"
     out.mkdir()
-    (out / MARKER).write_text("x")
+    (out / MARKER).write_text("written by sins-sim; a later run with --force may replace this folder\n")
     (out / "metrics.json").write_text("{}")
-    with pytest.raises(ConfigError, match="no readable manifest.json"):
+    with pytest.raises(ConfigError, match=r"holds no list of the files sins-sim wrote there"):
         check_out_dir(out, "--out", min_free_bytes=0, force=True)
+
+
+def test_the_marker_lists_what_sins_sim_wrote_and_force_keeps_to_it(tmp_path):
+    """A folder written by atomic_output_dir alone (no manifest): replaced with --force while it holds only what was
+    written; with a user's file added, refused and kept."""
+    from sins_sim.jobs.output import atomic_output_dir, foreign_files
+
+    out = tmp_path / "out"
+    with atomic_output_dir(out, min_free_bytes=0) as tmp:
+        (tmp / "sub").mkdir()
+        (tmp / "sub" / "a.txt").write_text("1")
+    assert foreign_files(out) == []
+    with atomic_output_dir(out, min_free_bytes=0, force=True) as tmp:
+        (tmp / "b.txt").write_text("2")
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == ["b.txt"]
+    (out / "notes.txt").write_text("keep")
+    with pytest.raises(ConfigError, match=r"also holds files sins-sim did not write \(notes\.txt\)"):
+        with atomic_output_dir(out, min_free_bytes=0, force=True):
+            pass
+    assert (out / "notes.txt").read_text() == "keep" and (out / "b.txt").read_text() == "2"
 
 
 # --- items 3 and 4: navigation settings accepted and ignored, or refused in internal words ---------------------------

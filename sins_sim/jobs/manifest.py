@@ -49,7 +49,7 @@ from pathlib import Path
 from sins_sim.config.errors import ConfigError
 
 __all__ = ["MANIFEST", "MANIFEST_SCHEMA", "INPUTS", "Manifest", "result_dir", "sha256_file", "environment",
-           "read_manifest", "describe_folder", "foreign_files", "record_run", "record_scenario", "rerun_scenario", "resolve_run_inputs"]
+           "read_manifest", "describe_folder", "record_run", "record_scenario", "rerun_scenario", "resolve_run_inputs"]
 
 #: The manifest's file name in every result folder.
 MANIFEST = "manifest.json"
@@ -231,26 +231,6 @@ def read_manifest(folder, flag: str = "--rerun") -> dict:
         warnings.warn(f"{flag}: {folder} was written by sins-sim {doc.get('sins_sim_version')}, this is "
                       f"{__version__}: the rerun may differ", UserWarning, stacklevel=2)
     return doc
-
-
-def foreign_files(folder) -> list | None:
-    """Files in a sins-sim result folder that sins-sim did not write, as sorted relative paths.
-
-    What sins-sim wrote is what the folder's ``manifest.json`` lists under ``outputs``, the manifest itself and
-    the output marker; ``None`` when the manifest cannot be read (then nothing can be told apart).
-    """
-    from sins_sim.jobs.output import MARKER
-
-    folder = Path(folder)
-    try:
-        outputs = json.loads((folder / MANIFEST).read_text()).get("outputs")
-    except (OSError, UnicodeDecodeError, ValueError, AttributeError):
-        return None
-    if not isinstance(outputs, dict):
-        return None
-    ours = set(outputs) | {MANIFEST, MARKER}
-    return sorted(rel for p in folder.rglob("*") if not p.is_dir()
-                  and (rel := p.relative_to(folder).as_posix()) not in ours)
 
 
 def describe_folder(folder) -> str:

@@ -1,5 +1,5 @@
-"""``--force`` onto an existing result folder (issue 40): a folder holding only what sins-sim wrote (its
-``manifest.json`` lists every file) is replaced; one that also holds a file of the user's, has no readable manifest
+"""``--force`` onto an existing result folder (issue 40): a folder holding only what sins-sim wrote (its marker lists
+every file, or for an older folder its ``manifest.json``) is replaced; one that also holds a file of the user's, has no readable manifest
 or no output marker is refused in one line naming ``--out`` (and the files), and left as it was."""
 
 from __future__ import annotations
@@ -14,10 +14,11 @@ MARKER = ".sins-sim-output"
 OURS = {"metrics.json": b"{}\n", "channel.png": b"\x89PNG", "timeseries.npz": b"PK"}
 
 
-def _folder(extra: dict | None = None, manifest="listed", marker=True) -> dict:
+def _folder(extra: dict | None = None, manifest="listed", marker=True, listed=False) -> dict:
     files = {f"out/{k}": v for k, v in OURS.items()}
     if marker:
-        files[f"out/{MARKER}"] = b"written by sins-sim\n"
+        files[f"out/{MARKER}"] = b"written by sins-sim\n" + b"".join(
+            f"file: {k}\n".encode() for k in (OURS if listed else ()))
     if manifest == "listed":
         files["out/manifest.json"] = json.dumps({"command": "channel", "outputs": {k: "0" for k in OURS}}).encode()
     elif manifest == "corrupt":
@@ -31,6 +32,9 @@ def _folder(extra: dict | None = None, manifest="listed", marker=True) -> dict:
 #: (class, expect, what, files)
 _CASES = [
     ("force_ours", "valid", "a folder of sins-sim's files only", _folder()),
+    ("force_ours", "valid", "the files listed by the marker", _folder(manifest=None, listed=True)),
+    ("force_foreign", "invalid", "a file beside those the marker lists",
+     _folder({"notes.txt": b"keep\n"}, manifest=None, listed=True)),
     ("force_foreign", "invalid", "notes.txt beside the result", _folder({"notes.txt": b"keep\n"})),
     ("force_foreign", "invalid", "a user's figure in a sub-folder", _folder({"mine/fig.png": b"\x89PNG"})),
     ("force_foreign", "invalid", "a user's hidden file", _folder({".notes": b"keep\n"})),
