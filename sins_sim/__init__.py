@@ -5,7 +5,7 @@ Conventions (the full page, with every column name: ``docs/conventions.md``)
 * **Frames.** Body axes x, y, z are the three gyros' sensitive axes and the accelerometers' (for a
   vehicle x forward, y right, z down); the navigation frame is local-level north-east-down (NED) on
   WGS-84; gyros measure rotation with respect to inertial space. For each gyro channel
-  (reference-model.md) ``phi_sins`` is the block's angle about the gyro's sensitive axis, ``phi_rlg``
+  (docs/theory/suspension.md) ``phi_sins`` is the block's angle about the gyro's sensitive axis, ``phi_rlg``
   the RLG body's angle w.r.t. inertial space, and ``delta = phi_rlg - phi_sins`` the dither
   suspension's deflection.
 * **Quaternions** are Hamilton, scalar first ``[q0, q1, q2, q3]``, body to navigation
@@ -43,7 +43,8 @@ Public API (imported lazily, so ``import sins_sim`` stays light and never loads 
   :class:`Eliminator`, :class:`EliminatorDesign`;
 * the physics: :class:`SuspensionParams`, :data:`PAPER_SUSPENSION`;
 * navigation: :class:`StrapdownNavigator`;
-* configuration: :func:`load_imu`, :func:`load_scenario` (a file or a dict), :func:`run_scenario`;
+* configuration: :func:`load_imu`, :func:`load_scenario` (a file or a dict), :func:`load_yaml` (a YAML file as
+  the loaders read it: YAML 1.2 numbers such as ``7.58e5`` are numbers), :func:`run_scenario`;
 * notebooks: :func:`run` (a scenario file, dict or object -> :class:`MissionResult` with tables,
   figures and ``save``), :func:`load` (a result folder -> :class:`MissionResult`, :class:`BudgetResult`
   or :class:`SweepResult`), :func:`sweep_run` (one run of a sweep -> :class:`MissionResult`);
@@ -73,6 +74,7 @@ _API = {
     "StrapdownNavigator": "sins_sim.navigation.strapdown",
     "load_imu": "sins_sim.config.imu",
     "load_scenario": "sins_sim.config.scenario",
+    "load_yaml": "sins_sim.config.yaml_io",
     "run_scenario": "sins_sim.jobs.run",
     "run": "sins_sim.jobs.notebook",
     "load": "sins_sim.jobs.notebook",

@@ -156,10 +156,10 @@ class _Progress:
     A job that estimates its run (:mod:`sins_sim.jobs.estimate`) calls :meth:`estimate` before the engine
     starts, with the estimate calibrated on this machine. When numba's cache is cold a first bar,
     "compiling (first run only)", counts the wall seconds against the compile estimate until the first
-    progress report; then the run's bar counts simulated seconds (rate in ``s/s``, so the time left is the
-    simulated time left over the measured speed) with the calibrated wall-time estimate. Without an
-    estimate the bar counts percent. When the run finishes, its timing calibrates the next estimate
-    (:func:`sins_sim.jobs.estimate.record_timing`).
+    progress report; then the run's bar counts simulated seconds (rate in ``s/s``) and shows the time left
+    measured on the run itself (:class:`sins_sim.jobs.estimate.RemainingTime`: "estimating" until a few chunks
+    have run, never a countdown from the model). Without an estimate the bar counts percent. When the run
+    finishes, its timing calibrates the next estimate (:func:`sins_sim.jobs.estimate.record_timing`).
     """
 
     def __init__(self, label: str, disable: bool):
@@ -170,6 +170,7 @@ class _Progress:
         self._compile = None  # (bar, stop event, thread) while the kernels compile
         self._times = {}
         self.printed = set()  # warnings already printed by advise(), not repeated at the end
+        self.left = None  # the time left, measured as the run goes (made with the estimate or the first report)
 
     def _open(self, total: float, unit: str, postfix: str = "", initial: float = 0.0):
         from tqdm import tqdm
@@ -177,15 +178,18 @@ class _Progress:
         self.bar = tqdm(total=total, desc=self.label, unit=unit, file=sys.stderr, disable=self.disable, leave=True,
                         dynamic_ncols=True, postfix=postfix or None, initial=initial,
                         bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.4g}/{total:.4g} {unit} "
-                                   "[{elapsed}<{remaining}, {rate_fmt}{postfix}]")
+                                   "[{elapsed}, {rate_fmt}{postfix}]")  # the time left: self.left, measured
 
     def _run_postfix(self) -> str:
-        from sins_sim.jobs.estimate import format_duration
+        return self._left().text()
 
-        est = self.est
-        cal = est.get("calibration", {})
-        return f"estimate {format_duration(est.get('wall_display_s', est['wall_s']))}" + (
-            "" if cal.get("runs") else " (not yet calibrated)")
+    def _left(self):
+        """The run's time left, from its own measured throughput (:class:`sins_sim.jobs.estimate.RemainingTime`)."""
+        if self.left is None:
+            from sins_sim.jobs.estimate import RemainingTime
+
+            self.left = RemainingTime(self.est)
+        return self.left
 
     def estimate(self, est: dict) -> None:
         """Show the compile phase (cold cache) or the run's bar (called by the job before the engine starts)."""
@@ -239,6 +243,7 @@ class _Progress:
         if "first" not in self._times:
             self._times["first"] = (now, fraction)
         self._times["last"] = (now, fraction)
+        self._left().update(fraction)
         if self.bar is None:
             if self._compile is not None:
                 self._end_compile()
@@ -246,6 +251,7 @@ class _Progress:
                 self._open(total, "s", self._run_postfix(), initial=total * fraction)  # rate from here on
             else:
                 self._open(100.0, "%")
+        self.bar.set_postfix_str(self._left().text(), refresh=False)
         done = self.bar.total * fraction
         if done > self.bar.n:
             self.bar.update(done - self.bar.n)
@@ -491,11 +497,18 @@ def _cmd_compare_filters(args) -> int:
     from sins_sim.jobs.compare_filters import run_compare_filters
     from sins_sim.jobs.output import check_out_file
 
-    check_out_file(args.json, "--json")  # before minutes of computation (it was found only at the end)
+    if args.json is not None:
+        check_out_file(args.json, "--json")  # before minutes of computation (it was found only at the end)
     out = Path(args.out)
     with _result_dir(args, out) as tmp, _progress("compare-filters", args.quiet) as progress:
-        res = run_compare_filters(tmp, args.json, quick=args.quick, progress=progress)
-    print(f"best: {res['best']}; report: {out / 'report.md'}; numbers: {args.json}")
+        res = run_compare_filters(tmp, Path(tmp) / "filters.json", quick=args.quick, progress=progress)
+    numbers = out / "filters.json"
+    if args.json is not None:  # a copy where the user asked for it too
+        from sins_sim.jobs.output import atomic_write_text
+
+        atomic_write_text(args.json, numbers.read_text())
+        numbers = args.json
+    print(f"best: {res['best']}; report: {out / 'report.md'}; numbers: {numbers}")
     return EXIT_OK
 
 
@@ -1049,10 +1062,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("compare-filters", help="every correcting filter against the wideband targets (issue 15)",
                        description="End-to-end gain on the nonlinear plant, noise, delay, cost, coning drift and "
                                    "position error of eq. 5, the eliminator, the wideband designs and the production LMS stripper; gain.png, "
-                                   "noise_tradeoff.png, details.json and report.md in --out, the numbers in --json.")
+                                   "noise_tradeoff.png, details.json, report.md and the numbers (filters.json) in --out.")
     p.add_argument("--out", required=True, help="output directory (created; an existing one only with --force)")
     _force_flag(p)
-    p.add_argument("--json", required=True, help="the numbers (issue 15 structure)")
+    p.add_argument("--json", default=None, help="also write the numbers (issue 15 structure) here [only DIR/filters.json]")
     p.add_argument("--quick", action="store_true", help="reduced resolution and a 30 s mission (a few minutes)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_compare_filters)

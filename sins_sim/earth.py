@@ -6,7 +6,7 @@ and the kernels. Truth and navigation use this one model, so its
 simplifications never show up as navigation error; they only limit how well
 the simulated Earth resembles the real one.
 
-Conventions (reference-model.md, "Navigation"): geodetic latitude ``lat``
+Conventions (docs/theory/navigation.md): geodetic latitude ``lat``
 and longitude ``lon`` in rad, height ``h`` in m above the ellipsoid;
 navigation frame local-level north-east-down (NED).
 
@@ -53,7 +53,7 @@ WGS84_F = 1.0 / 298.257223563
 WGS84_B_M = WGS84_A_M * (1.0 - WGS84_F)
 #: First eccentricity squared, ``e^2 = f (2 - f)``.
 WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
-#: Earth rate (rad/s), [1] table 3.1 (reference-model.md).
+#: Earth rate (rad/s), [1] table 3.1 (docs/theory/frames.md).
 EARTH_RATE_RAD_S = 7.292115e-5
 #: Earth's gravitational constant (m^3/s^2), [1] table 3.1.
 WGS84_GM_M3_S2 = 3.986004418e14

@@ -10,8 +10,7 @@ class HysteresisRegimeWarning(RuntimeWarning):
 
     Raised when half-cycles of the deflection (plant) or of ``D`` (correcting
     filter) become much shorter than the dither's: superposed vibration, not
-    the dither, then makes the turning points (reference-model.md, "Where the
-    paper's hysteresis rule breaks"). Consider ``hysteresis="masing"``.
+    the dither, then makes the turning points (docs/theory/suspension.md). Consider ``hysteresis="masing"``.
     """
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 ARCSEC = math.pi / 648000.0
-"""One arcsecond in rad (reference-model.md, "Units everywhere")."""
+"""One arcsecond in rad (docs/conventions.md, "Units")."""
 ARCMIN = math.pi / 10800.0
 """One arcminute in rad."""
 DEG = math.pi / 180.0
@@ -20,7 +20,7 @@ HOUR = 3600.0
 DEG_PER_H = DEG / HOUR
 """One deg/h in rad/s."""
 
-#: Fringe quantum of a 28 cm triangular He-Ne cavity (reference-model.md, "Readout").
+#: Fringe quantum of a 28 cm triangular He-Ne cavity (docs/theory/suspension.md, "Readout").
 FRINGE_RAD = 2.42 * ARCSEC
 #: The paper's interpolating readout: comparator + 12-bit ADC, 1/16 fringe.
 INTERPOLATED_QUANTUM_RAD = FRINGE_RAD / 16.0

@@ -67,7 +67,7 @@ def test_axes_are_checked():
     with pytest.raises(ValueError, match="axes: must be a non-empty list"):
         PiezoLag(axes="x", tau_s=1e-4)
     inputs, sus = _inputs(0.05)
-    with pytest.raises(ValueError, match="'q' is not an axis"):
+    with pytest.raises(ValueError, match="'q' is not one of the axes"):
         simulate_axis(inputs, "x", sus["x"], [PiezoLag(axes=["q"], tau_s=1e-4)], SET)
     with pytest.raises(ValueError, match="needs at least 2 axes"):
         simulate_axis(inputs, "x", sus["x"], [AxisCoupling({"x": {"y": 0.01}})], SET)

@@ -126,7 +126,7 @@ def test_imu_effects_validation():
     imu = imu_from_dict(doc, "imu.yaml")
     assert [e.name for e in imu.effects] == ["lock_in", "piezo_lag"] and imu.effects[0].axes == ("x",)
     bad = [([{"name": "axis_coupling", "coefficients": {"x": {"y": 0.01}}}], "axis_coupling is not a mission effect"),
-           ([{"name": "lock_in", "axes": ["w"], "threshold_rad_s": 1e-3}], "'w' is not an axis"),
+           ([{"name": "lock_in", "axes": ["w"], "threshold_rad_s": 1e-3}], "'w' is not one of the axes"),
            ([{"name": "lock_in"}], "threshold_rad_s: is required"),
            ([{"name": "piezo_lag", "tau_s": 1.0}], r"tau_s: must be in \[0, 0.01\]"),
            ([{"name": "mains_pickup", "amplitude_rad": 1e-6}], "name: must be one of"),

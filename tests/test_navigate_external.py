@@ -125,8 +125,8 @@ def test_cli_navigate_writes_the_metrics_of_the_api(tmp_path, flight, capsys):
 
 
 @pytest.mark.parametrize("edit,message", [
-    (lambda df: df.drop(columns=["dv_z_m_s"]), r"inc\.csv: columns dv_z_m_s missing"),
-    (lambda df: df.assign(extra=1.0), r"inc\.csv: column 'extra' unknown"),
+    (lambda df: df.drop(columns=["dv_z_m_s"]), r"inc\.csv: column dv_z_m_s: missing; the file needs time_s"),
+    (lambda df: df.assign(extra=1.0), r"inc\.csv: column extra: unknown \(allowed: time_s"),
     (lambda df: df.assign(dtheta_x_rad=["x"] + [0.0] * (len(df) - 1)), r"dtheta_x_rad: row 1 is not a finite number"),
 ])
 def test_bad_increment_files_are_one_line(tmp_path, edit, message):

@@ -61,14 +61,19 @@ def test_sensor_draw_over_a_preset_without_a_sigma_value_is_refused(tmp_path, ca
 
 
 def test_sensor_draw_over_a_preset_with_sigmas_draws_every_unit(tmp_path):
-    """The accepted case draws: each unit's gyro bias is the preset's 1 sigma times its own score."""
+    """The accepted case draws: each unit's gyro bias is the preset's 1 sigma times its own score, and the table's
+    column ``param.gyro.bias_deg_h.<axis>`` holds that value in deg/h (issue 40, item 9: it held the score)."""
+    from sins_sim.jobs.sweep.population import draw_unit
+
     preset = yaml.safe_load(NAV_GRADE.read_text())["sensors"]
     assert any(preset["gyro"].get(k) for k in SENSOR_SIGMA_KEYS["gyro"])
-    _, tasks, _ = prepare_sweep(_sweep(tmp_path, {"sensors": {"draw": True, "preset": str(NAV_GRADE)}}))
+    sweep, tasks, _ = prepare_sweep(_sweep(tmp_path, {"sensors": {"draw": True, "preset": str(NAV_GRADE)}}))
     sigma = float(preset["gyro"]["bias_deg_h"])
     for t in tasks:
         drawn = t.doc["imu"]["sensors"]["gyro"]["bias_deg_h"]
-        assert drawn == [sigma * t.params[f"gyro.bias_deg_h.{ax}"] for ax in "xyz"] and all(drawn)
+        score = draw_unit(sweep, t.unit)
+        assert drawn == [sigma * score[f"gyro.bias_deg_h.{ax}"] for ax in "xyz"] and all(drawn)
+        assert [t.params[f"gyro.bias_deg_h.{ax}"] for ax in "xyz"] == drawn
 
 
 @pytest.mark.parametrize("population, key", [

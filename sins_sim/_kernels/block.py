@@ -1,4 +1,4 @@
-"""The three suspensions and the sensor block stepped together (reference-model.md, "The block as a body").
+"""The three suspensions and the sensor block stepped together (docs/user-guide/block.md).
 
 The block's relative motion (``sins_sim.models.block``: linear, base-excited, exact step for inputs linear in
 time) and the three suspensions (``plant_exact``: eq. 2, 9, 10, 14, the exact-oscillator integrator) are

@@ -9,15 +9,15 @@ is bit-identical to composing
 the public classes (``Plant``, ``Readout``, ``Decimator``, ``CorrectingFilter``,
 ``Eliminator``) by hand (``tests/test_engine.py`` checks it):
 
-1. per amplitude-control block (``block`` plant steps, reference-model.md
-   "One dithered gyro channel", drive): the DAC cosine held over ``r_dac``
+1. per amplitude-control block (``block`` plant steps, docs/theory/suspension.md
+   "Equation of motion (eq. 2)", drive): the DAC cosine held over ``r_dac``
    steps (``drive.dac_cosine``), the suspension (``plant_exact``: eq. 2, 9,
    10, 14), the Hann-windowed synchronous detector (``drive.demod_accumulate``)
    and, at the block's end, the PI amplitude loop whose zero cancels the eq. 15
    pole (see ``end_block``);
 2. the readout: ``floor((phi_rlg + noise) / q)`` at the plant rate, the
    anti-alias FIR and decimation (``fir.fir_decimate``), the drive through the
-   same FIR so volts stay aligned (reference-model.md "Readout");
+   same FIR so volts stay aligned (docs/theory/suspension.md "Readout");
 3. the filters at the filter rate: eq. 5 in the unity-DC and the paper form
    (``correcting.correcting_run``) and the elliptic eliminator
    (``sos.sos_filter``).

@@ -1,4 +1,4 @@
-"""The correcting digital filter, eq. 5 (reference-model.md, "The correcting filter (eq. 5)").
+"""The correcting digital filter, eq. 5 (docs/theory/suspension.md, "The correcting filter (eq. 5)").
 
 With ``X_n`` the RLG angle, ``D = X_{n-1} - Y_{n-1}``::
 

@@ -1,8 +1,8 @@
 """Scalar physics of the dither suspension, shared by the plant and the filter.
 
 Written once as plain Python on scalars; ``*_jit`` are the numba versions
-that the kernels call. Equation numbers refer to the paper
-(``correcting-filter-paper.txt``); conventions to ``reference-model.md``.
+that the kernels call. Equation numbers refer to the paper ("A Correcting
+Filter for a Mechanically Dithered Single-Axis Ring Laser Gyro"); conventions to docs/theory/suspension.md.
 
 Hysteresis state ("branch") used by both rules, stored in a small float64
 array ``hyst``:
@@ -16,8 +16,7 @@ array ``hyst``:
 
 Rules (``rule`` argument): ``RULE_PAPER`` = 0, the paper's eq. 10 with ``a`` the
 ``|delta|`` of the most recent turning point; ``RULE_MASING`` = 1, Masing rules
-on a stack of reversal points (reference-model.md, "Where the paper's
-hysteresis rule breaks"): a branch that starts at reversal ``r_top`` heads for
+on a stack of reversal points (docs/theory/suspension.md): a branch that starts at reversal ``r_top`` heads for
 the previous reversal ``r_prev`` and dissipates by its own half-range
 ``|r_top - r_prev|/2`` about its own centre; once the path passes ``r_prev`` the
 minor loop is closed, both points are dropped and the path rejoins the

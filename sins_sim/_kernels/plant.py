@@ -1,4 +1,4 @@
-"""RK4 integrator of the dither suspension, eq. 2 (reference-model.md, "One dithered gyro channel").
+"""RK4 integrator of the dither suspension, eq. 2 (docs/theory/suspension.md, "Equation of motion (eq. 2)").
 
 Equation of motion (eq. 2 divided by I, c/I = omega0^2)::
 
@@ -18,7 +18,7 @@ angles never enter the arithmetic and recorded motion needs no derivatives
 beyond the rate.
 
 The drive voltage is held constant over the step (zero-order hold of the DAC
-samples, reference-model.md "Readout").
+samples, docs/theory/suspension.md "Readout").
 
 Eq. 10's branch (direction ``s``, amplitude ``a``) changes at turning points
 of ``delta`` (and, for the Masing rule, where a minor loop closes). Such an

@@ -2,8 +2,8 @@
 
 Where each equation comes from
 ------------------------------
-- Eq. 2 of the paper divided by the moment of inertia (reference-model.md,
-  "One dithered gyro channel", with ``c/I = omega0^2``), written for the
+- Eq. 2 of the paper divided by the moment of inertia (docs/theory/suspension.md,
+  "Equation of motion (eq. 2)", with ``c/I = omega0^2``), written for the
   deflection ``delta = phi_rlg - phi_sins``::
 
       delta'' = -omega0^2 delta - p''(t) - omega0^2 (F(delta, delta') + k5 V)
@@ -18,7 +18,7 @@ Where each equation comes from
   (``_kernels.plant._hermite``); its second derivative is linear in ``tau``:
   ``p''(tau) = P0 + P1 tau`` with ``P0 = (6 dp/h - 4 r0 - 2 r1)/h`` and
   ``P1 = 6 (r0 + r1 - 2 dp/h)/h^2``.
-- The drive is held over the step (zero-order hold, reference-model.md
+- The drive is held over the step (zero-order hold, docs/theory/suspension.md
   "Readout"), so ``k5 V`` is a constant of the step.
 
 Scheme

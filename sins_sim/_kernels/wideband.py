@@ -4,7 +4,7 @@ inverted on the current sample.
 With ``X`` the RLG angle at the filter rate, ``d2_n = X_n - 2 X_{n-1} + X_{n-2}`` (the second
 difference of eq. 5), ``e`` a symmetric FIR of odd length ``2K - 1`` (the equaliser; ``e = [1]``,
 ``K = 1`` is eq. 5's own second difference) and ``c`` its scale, the block angle at ``t_{n-K}`` is
-(eq. 2 solved for ``phi_sins``, as eq. 5 does, reference-model.md)::
+(eq. 2 solved for ``phi_sins``, as eq. 5 does, docs/theory/suspension.md)::
 
     A_n = c * sum_j e_j d2_{n-j}                       (~ X''(t_{n-K}) / omega0^2)
     D   solves  D + Nonl(D) + Diss(D) = -A_n - k5 V_{n-K}     (eq. 2, 9, 10, 14 at t_{n-K})

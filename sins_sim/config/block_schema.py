@@ -1,8 +1,8 @@
 """The ``block:`` section of IMU files: the sensor block as a body on its isolators (issue 27).
 
-Without the section the block is rigid and its motion prescribed (the nominal model, reference-model.md "Three
-axes"). With it, the block is a rigid body on linear isolators, loaded by the three gyros' suspension torques
-(:mod:`sins_sim.models.block`, reference-model.md "The block as a body")::
+Without the section the block is rigid and its motion prescribed (the nominal model). With it, the block is a rigid
+body on linear isolators, loaded by the three gyros' suspension torques (:mod:`sins_sim.models.block`,
+docs/user-guide/block.md)::
 
     block:
       mass_kg: 3.0
@@ -44,6 +44,8 @@ _C_T = dict(min=0.0, max=1e6)
 _C_R = dict(min=0.0, max=1e4)
 #: A mounting offset beyond 50 mrad (3 deg) is not a misalignment but a different design.
 _MISALIGN_MRAD = 50.0
+#: The same bound, public: what any input-axis offset (a file's ``gyro_axes_mrad``, a study's tilt) may reach.
+AXIS_OFFSET_MAX_MRAD = _MISALIGN_MRAD
 
 BLOCK_SCHEMA = Map({
     "mass": Num(unit="kg", required=True, **_MASS, doc="the block with everything it carries"),

@@ -77,6 +77,9 @@ class EffectsList:
         for i, item in enumerate(value):
             if not isinstance(item, dict) or "name" not in item:
                 raise ConfigError(f"{ctx}: {path}[{i}]: must be a mapping with a 'name', got {item!r}")
+            if not isinstance(item["name"], str):
+                raise ConfigError(f"{ctx}: {path}[{i}].name: must be the name of an effect (one of {list(EFFECTS)}), "
+                                  f"got {type(item['name']).__name__} {item['name']!r}")
             if self.catalogue_only and item["name"] not in EFFECTS:
                 raise ConfigError(f"{ctx}: {path}[{i}].name: must be one of {list(EFFECTS)}, got {item['name']!r}")
             params = {k: v for k, v in item.items() if k != "name"}
@@ -86,5 +89,22 @@ class EffectsList:
                     eff.check_axes(self.axes)
             except (ValueError, TypeError) as exc:
                 raise ConfigError(f"{ctx}: {path}[{i}]: {exc}") from None
+            for j, other in enumerate(out):  # one effect of a kind per axis: two would stack without a model
+                if other.name == eff.name:
+                    shared = _axes_of(eff, self.axes) & _axes_of(other, self.axes)
+                    if shared:
+                        raise ConfigError(f"{ctx}: {path}[{i}]: {eff.name} is already given for axis "
+                                          f"{', '.join(sorted(shared))} by {path}[{j}]: give each axis one "
+                                          f"{eff.name} (list the axes under axes:)")
             out.append(eff)
         return tuple(out)
+
+
+def _axes_of(effect, axes) -> set:
+    """The axes an effect acts on (every axis when it names none; any name when the file's axes are open)."""
+    if effect.axes is not None:
+        return set(effect.axes)
+    coefficients = getattr(effect, "coefficients", None)
+    if coefficients is not None:  # axis_coupling: its targets
+        return set(coefficients)
+    return set(axes) if axes is not None else {"*"}

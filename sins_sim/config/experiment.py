@@ -57,7 +57,7 @@ from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings
 __all__ = ["EXPERIMENT_SCHEMA", "DEFAULT_F0_HZ", "MAX_EXPERIMENT_S", "MAX_EXPERIMENT_STEPS", "SUSPENSION_YAML_KEYS",
            "experiment_from_dict"]
 
-#: Default small-amplitude resonances per axis (reference-model.md "Three axes": 300-450 Hz, all different).
+#: Default small-amplitude resonances per axis (docs/user-guide/block.md: 300-450 Hz, all different).
 DEFAULT_F0_HZ = {"x": 386.0, "y": 352.0, "z": 421.0}
 _POS = dict(min=0.0, min_exclusive=True)
 

@@ -324,7 +324,8 @@ SCENARIO_SCHEMA = Map({
                       doc="filter_tuned: coefficients designed per filter over tuned_band_hz (Mark & Tazartes 2001)"),
         "sculling": Str(choices=NAV_ALGORITHMS, default="two_sample"),
         "tuned_band": Vec(2, unit="hz", min=0.0, min_exclusive=True, max=MAX_FREQUENCY_HZ, default=None,
-                          doc="design band of filter_tuned coning/sculling; required with it"),
+                          doc="design band of filter_tuned coning/sculling; required with it, refused without it "
+                              "(except under a single coning motion, where the run's coning table uses it)"),
         "start": Num(unit="s", default=1.0, **_START, doc="navigation starts aligned to the truth; < duration_s"),
         "n_sub": Num(integer=True, min=1, max=1000, default=None,
                      doc="filter samples per navigation update; default: from rate_hz"),
@@ -356,7 +357,8 @@ SCENARIO_SCHEMA = Map({
                                 "be at rest over it)"),
         }, default={}),
     }, default={}, rules=("timeseries_rate_hz <= the navigation update rate (readout.output_rate_hz / n_sub)",
-                          "tuned_band_hz: low < high < the filter Nyquist, given with filter_tuned",
+                          "tuned_band_hz: low < high < the filter Nyquist, given with filter_tuned and only with it (or under "
+                          "a single coning motion, for the coning table)",
                           "the stored series and spectra must fit in memory (checked with the run's estimate)")),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
     "temperature": TEMPERATURE_SCHEMA,
@@ -513,16 +515,23 @@ class Scenario:
             if self.nav.tuned:  # the design is part of loading the scenario (issue 28): errors here, not mid-run
                 from sins_sim.simulation.sins import tuned_designs
 
+                key = "navigation.coning" if nv["coning"] == "filter_tuned" else "navigation.sculling"
                 self.nav = dataclasses.replace(self.nav, designs=tuned_designs(self.imu, self.filters,
-                                                                                self.nav.tuned_band_hz))
+                                                                                self.nav.tuned_band_hz, key))
         except ValueError as exc:
             raise ConfigError(f"{ctx}: {exc}") from None
+        single_cone = len(c["motion"]) == 1 and c["motion"][0].get("type") == "coning"
+        if nv["tuned_band_hz"] is not None and not self.nav.tuned and not single_cone:
+            # read by filter_tuned, and by the coning table of a run whose motion is one coning part (jobs.run)
+            raise ConfigError(f"{ctx}: navigation.tuned_band_hz: applies only with coning or sculling: filter_tuned "
+                              f"(the design band of its coefficients), got coning: {nv['coning']} and sculling: "
+                              f"{nv['sculling']}, where it would be ignored: remove it or choose filter_tuned")
         self.site = c["site"]
         self.trajectory_spec = c["trajectory"]
         written = isinstance(doc.get("trajectory"), dict) and "velocity_tolerance_m_s" in doc["trajectory"]
         self.vehicle = _build_vehicle(c["site"], {**c["trajectory"], "velocity_tolerance_written": written},
                                       self.duration_s, ctx, base_dir,
-                                      duration_key)
+                                      duration_key, start_s=nv["start_s"])
         if c["trajectory"]["file"]:  # the mission starts where the file does: the site is its first row
             self.site = _site_of(self.vehicle)
         _check_at_rest_for_alignment(self.nav, self.vehicle, ctx)
@@ -756,7 +765,19 @@ def _site_of(vehicle) -> dict:
             "heading_rad": math.atan2(2.0 * (q0 * q3 + q1 * q2), 1.0 - 2.0 * (q2 * q2 + q3 * q3))}
 
 
-def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration_s"):
+def _shorter_run(duration_key: str, lasts_s: float, start_s: float) -> str:
+    """The advice of a run past its trajectory's end: a shorter run when one fits, else the length one needs.
+
+    A run must last longer than ``navigation.start_s`` and needs 0.1 s of trajectory past its end, so a trajectory
+    of ``start_s + 0.1`` s or less carries no run at all (a negative duration is never advised).
+    """
+    if lasts_s - 0.1 > start_s:
+        return f"set {duration_key} <= {lasts_s - 0.1:g}"
+    return (f"the trajectory is too short for any run that starts navigating at navigation.start_s = {start_s:g} s: "
+            f"it must last more than {start_s + 0.1:g} s (start_s + the 0.1 s past the run's end)")
+
+
+def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration_s", start_s: float = 0.0):
     """The vehicle: a trajectory file, segments after the start, or at rest at the site.
 
     A run longer than its trajectory (``duration_s`` + 0.1 s past the end of the file or of the segments) is
@@ -804,7 +825,7 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
             if segs and flown < need and spec["extend"] == "none":
                 raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of the trajectory's "
                                   f"segments, which last {flown:g} s (the run needs {duration_key} + 0.1 s of "
-                                  f"trajectory): set {duration_key} <= {flown - 0.1:g}, add a segment (e.g. "
+                                  f"trajectory): {_shorter_run(duration_key, flown, start_s)}; add a segment (e.g. "
                                   f"{{type: cruise, duration_s: {math.ceil(need - flown):g}}}), or set "
                                   f"trajectory.extend: hold to hold the last state")
             tail = duration_s + 1.0 - flown  # after the last segment the vehicle holds its state
@@ -828,8 +849,8 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
         raise ConfigError(f"{ctx}: trajectory: {exc}") from None
     if vehicle.duration_s < need:  # a file (segments are refused above or held to the end)
         raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of {where}, which lasts "
-                          f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): set "
-                          f"{duration_key} <= {vehicle.duration_s - 0.1:g} or give a longer file")
+                          f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): "
+                          f"{_shorter_run(duration_key, vehicle.duration_s, start_s)}; or give a longer file")
     return vehicle
 
 

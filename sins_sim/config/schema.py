@@ -91,7 +91,7 @@ class Num:
 
     def check(self, value, ctx, path):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            _fail(ctx, path, f"must be a number, got {type(value).__name__} {value!r}")
+            _fail(ctx, path, f"must be a number, got {_got(value)}{_numeric_text_hint(value)}")
         if not math.isfinite(value):
             _fail(ctx, path, f"must be finite, got {value!r}")
         if self.integer and (not float(value).is_integer()):
@@ -119,7 +119,7 @@ class Str:
 
     def check(self, value, ctx, path):
         if not isinstance(value, str):
-            _fail(ctx, path, f"must be a string, got {type(value).__name__} {value!r}")
+            _fail(ctx, path, f"must be a string, got {_got(value)}")
         if self.choices is not None and value not in self.choices:
             _fail(ctx, path, f"must be one of {list(self.choices)}, got {value!r}")
         return value
@@ -161,6 +161,31 @@ class Vec:
         return [item.check(x, ctx, f"{path}[{i}]") for i, x in enumerate(value)]
 
 
+def _got(value) -> str:
+    """A value as a refusal shows it, in YAML's words: ``str '7.58e5'``, ``list [1, 2]``, ``null`` (an empty value or
+    ``~``; Python would say ``NoneType None``)."""
+    if value is None:
+        return "null (an empty value)"
+    kind = {dict: "mapping", bool: "bool", int: "int", float: "float", str: "str", list: "list"}.get(type(value),
+                                                                                               type(value).__name__)
+    return f"{kind} {value!r}"
+
+
+#: A number written as YAML 1.2 allows (``7.58e5``, ``1e-3``, ``.5``): PyYAML's ``yaml.safe_load`` (YAML 1.1) reads
+#: the exponent forms without a dot or an exponent sign as strings.
+_NUMBER_TEXT = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\s*$")
+
+
+def _numeric_text_hint(value) -> str:
+    """For a string that reads as a number: why it is one (refused, not converted: a quoted value stays text, as
+    the JSON Schema and every other reader of the file say) and what to do."""
+    if not (isinstance(value, str) and _NUMBER_TEXT.match(value)):
+        return ""
+    return (" (a number read as text: PyYAML's yaml.safe_load reads forms such as 7.58e5 as strings; load the file "
+            "with sins_sim.load_yaml, which reads them as numbers, or write the number unquoted with a dot and a "
+            "signed exponent, 7.58e+5)")
+
+
 @dataclass
 class ListOf:
     item: Any = None
@@ -172,7 +197,7 @@ class ListOf:
 
     def check(self, value, ctx, path):
         if not isinstance(value, list):
-            _fail(ctx, path, f"must be a list, got {type(value).__name__} {value!r}")
+            _fail(ctx, path, f"must be a list, got {_got(value)}")
         if len(value) < self.min_len:
             _fail(ctx, path, f"must have at least {self.min_len} item(s), got {len(value)}")
         if self.max_len is not None and len(value) > self.max_len:
@@ -200,7 +225,7 @@ class Map:
         if value is None and self.allow_null:
             return None
         if not isinstance(value, dict):
-            _fail(ctx, path, f"must be a mapping, got {type(value).__name__} {value!r}")
+            _fail(ctx, path, f"must be a mapping, got {_got(value)}")
         out = {}
         known = {}
         for key, spec in self.fields.items():

@@ -51,12 +51,16 @@ def _spread(unit: str, width_max: float, mean_range: float, what: str) -> Map:
         "distribution": Str(choices=("normal", "uniform", "grid"), default="normal",
                             doc="normal: mean + width N(0, 1); uniform: mean + width U(-1, 1); grid: the values, "
                                 "unit i takes its row of the full factorial of every grid (i mod its size)"),
-        "mean": Num(min=-mean_range, max=mean_range, default=0.0, doc=f"centre ({unit})"),
+        "mean": Num(min=-mean_range, max=mean_range, default=0.0,
+                    doc=f"centre ({unit}); normal and uniform: mean and width not both 0 (that draws nothing)"),
         "width": Num(min=0.0, max=width_max, default=0.0,
-                     doc=f"normal: standard deviation; uniform: half-width ({unit})"),
+                     doc=f"normal: standard deviation; uniform: half-width ({unit}); mean and width not both 0 "
+                         "(that draws nothing)"),
         "values": ListOf(Num(min=-mean_range, max=mean_range), default=[], max_len=1000,
                          doc=f"grid: the values ({unit}); at least one"),
-    }, default=None, doc=what, rules=("grid needs values; normal and uniform take no values",))
+    }, default=None, doc=what, rules=("grid needs values; normal and uniform take no values",
+                                      "normal and uniform need a non-zero mean or width: mean 0 and width 0 (the "
+                                      "defaults) draw nothing and are refused"))
 
 
 SPREAD_PARAMETERS = {

@@ -47,7 +47,7 @@ def _within(field: str, value: float, lo: float, hi: float, unit: str = "") -> N
 
 @dataclass(frozen=True)
 class CorrectingFilterDesign:
-    """Parameters of eq. 5 for one channel.
+    """Parameters of the correcting filter (the paper's equation 5) for one channel.
 
     Parameters
     ----------
@@ -147,7 +147,9 @@ class CorrectingFilterDesign:
 
 
 class CorrectingFilter:
-    """Streaming eq. 5: chunked output equals one call on the whole array, bit for bit.
+    """Streaming correcting filter (the paper's equation 5), chunk by chunk.
+
+    Chunked output equals one call on the whole array, bit for bit.
 
     Parameters
     ----------

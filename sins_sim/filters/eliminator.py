@@ -1,6 +1,6 @@
 """The elliptic dither eliminator: the paper's baseline band-stop filter.
 
-reference-model.md, "The elliptic eliminator": a 10th-order elliptic IIR
+docs/theory/suspension.md, "The elliptic eliminator": a 10th-order elliptic IIR
 band-stop at 7.2 kHz with a 370 to 410 Hz band for a 386 Hz dither (the
 paper's refs [3, 9, 19]); for other channels the band is centred on the
 channel's dither frequency with the same width. The paper states neither
@@ -84,13 +84,13 @@ class EliminatorDesign:
     ----------
     fs_hz : float
         Sampling rate (Hz), > 0. The paper's filters run at 7.2 kHz
-        (reference-model.md, "Readout").
+        (docs/theory/suspension.md, "Readout").
     band_hz : tuple of float
         ``(lo, hi)`` pass-band edges (Hz) handed to ``scipy.signal.ellip``,
         with ``0 < lo < hi < fs_hz / 2``.
     order : int
         Prototype order, >= 1; the band-stop has ``2 * order`` poles
-        (reference-model.md: order 5, 10 poles).
+        (docs/theory/suspension.md: order 5, 10 poles).
     rp_db : float
         Maximum pass-band ripple (dB), > 0.
     rs_db : float
@@ -157,7 +157,7 @@ class EliminatorDesign:
     ) -> "EliminatorDesign":
         """Band ``(dither - width/2, dither + width/2)`` centred on a channel's dither.
 
-        reference-model.md, "The elliptic eliminator": other channels use the
+        docs/theory/suspension.md, "The elliptic eliminator": other channels use the
         paper's 40 Hz width centred on their own dither frequency.
 
         Parameters

@@ -1,6 +1,6 @@
-"""Files: recordings in the shared format ``sins-sim-recording/1`` (``recording-format.md``),
-trajectory files (CSV or Parquet, :mod:`sins_sim.io.trajectory`) and a strapdown unit's own log
-(counts in its own axes, :mod:`sins_sim.io.unitlog`)."""
+"""Files: recordings in the format ``sins-sim-recording/1`` (:mod:`sins_sim.io.recording`),
+trajectory files (CSV or Parquet, :mod:`sins_sim.io.trajectory`) and a strapdown unit's own log (counts in its
+own axes, :mod:`sins_sim.io.unitlog`)."""
 
 from sins_sim.io.recording import (
     CSV_COLUMNS,

@@ -1,6 +1,6 @@
 """Strict reader and writer of recordings, format ``sins-sim-recording/1``.
 
-The format is specified in ``recording-format.md`` (shared spec). A
+The format is specified here and in docs/conventions.md. A
 recording is an ``.npz`` archive holding
 
 - ``meta``: a 0-d unicode array with one JSON object (the header);
@@ -32,10 +32,14 @@ Rules the spec implies and this reader states explicitly:
 - ``sins_angle`` has at least 4 samples (it is interpolated by a cubic
   spline) and covers the time span of ``counts``:
   ``(K - 1) / sins_fs_hz >= (N - 1) / fs_hz``;
+- ``sins_angle`` is physical: it starts within one turn and sample ``k``
+  lies within 10 deg (the largest swing of a block on its isolators) plus
+  1000 deg/s (the largest rate an RLG measures) times ``t_k`` of the
+  first sample;
 - ``meta.nominal`` has exactly one entry per axis of ``meta.axes``; each
   entry holds ``f0_hz, k1, k2, k3, k4, k5`` as finite numbers with
   ``f0_hz > 0``, ``k1 >= 0``, ``k2 > 0``, ``k3 >= 0``, ``k5 != 0``
-  (reference-model.md); other keys in an entry are preserved;
+  (docs/theory/suspension.md); other keys in an entry are preserved;
 - ``meta.description``, when present, is a string (it is optional);
 - ``|drive_v| <= 1000`` V (:data:`DRIVE_V_MAX`): what a piezo stack takes.
 
@@ -77,7 +81,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.units import PIEZO_V_MAX
+from sins_sim.units import DEG, PIEZO_V_MAX
 
 __all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "MIN_SAMPLES", "MAX_META_DEPTH",
            "DRIVE_V_MAX", "RecordingError", "Recording", "check_recording", "read_recording", "write_recording",
@@ -85,7 +89,7 @@ __all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "MIN_SAMPLE
 
 #: The format tag a recording's header must carry.
 FORMAT = "sins-sim-recording/1"
-#: Model parameters every ``meta.nominal`` entry must hold (reference-model.md).
+#: Model parameters every ``meta.nominal`` entry must hold (docs/theory/suspension.md).
 NOMINAL_KEYS = ("f0_hz", "k1", "k2", "k3", "k4", "k5")
 #: Range of the recording's sample rates (Hz): counter, drive and table.
 FS_MIN_HZ = 100.0
@@ -97,6 +101,15 @@ QUANTUM_MAX_RAD = 1.0e-4
 #: stacks); the same bound as the drive model's (:data:`sins_sim.models.drive.V_MAX`; both from sins_sim.units). A
 #: larger value is not a voltage (DAC codes, a unit slip, a corrupted column) and would overflow the fits.
 DRIVE_V_MAX = PIEZO_V_MAX  # the drive model's limit too (sins_sim.units)
+#: Largest block rate (rad/s) a recording's ``sins_angle`` may show: the input range of navigation-grade RLGs is
+#: +-400 to +-1000 deg/s (the scenario's block-rate bound, sins_sim.config.scenario.MAX_RATE_DEG_S, is the same).
+SINS_RATE_MAX_RAD_S = 1000.0 * DEG
+#: Largest angle (rad) the block may sit away from its start beyond what that rate turns it by: a block on its
+#: isolators swings by arcminutes (the dither itself is arcminutes); 10 deg is the scenario's bound on an angular
+#: vibration amplitude (sins_sim.config.scenario.MAX_ANGLE_ARCMIN = 600 arcmin), where the isolators would tear.
+SINS_SWING_MAX_RAD = 10.0 * DEG
+#: Largest |angle| (rad) of the first ``sins_angle`` sample: an orientation about an axis lies within one turn.
+SINS_START_MAX_RAD = 2.0 * math.pi
 #: Header keys that must be present (``sins_fs_hz`` only with ``sins_angle``).
 REQUIRED_META = ("format", "axes", "fs_hz", "drive_fs_hz", "quantum_rad", "initial_state", "experiment", "nominal")
 INITIAL_STATES = ("rest", "unknown")
@@ -255,11 +268,36 @@ def check_recording(meta, counts, drive_v, sins_angle=None, where: str = "record
     if not np.all(np.isfinite(sins_angle)):
         bad = np.argwhere(~np.isfinite(sins_angle))[0]
         _fail(where, "sins_angle", f"must be finite everywhere, NaN/inf at {tuple(int(i) for i in bad)}")
+    _check_angle_physical(sins_angle, float(meta["sins_fs_hz"]), meta["axes"], where)
     span_counts = (n - 1) / float(meta["fs_hz"])
     span_angle = (k - 1) / float(meta["sins_fs_hz"])
     if span_angle < span_counts * (1.0 - 1e-12):
         _fail(where, "sins_angle", f"must cover the time span of counts, (N - 1) / fs_hz = {span_counts!r} s, "
                                    f"got (K - 1) / sins_fs_hz = {span_angle!r} s")
+
+
+def _check_angle_physical(sins_angle: np.ndarray, sins_fs_hz: float, axes: list, where: str) -> None:
+    """Refuse a block angle no block on its isolators can turn through.
+
+    Sample ``k`` (at ``t_k = k / sins_fs_hz``) must satisfy ``|theta_0| <= 2 pi`` (a start within one turn) and
+    ``|theta_k - theta_0| <= SINS_SWING_MAX_RAD + SINS_RATE_MAX_RAD_S * t_k``: the table's turn at the largest
+    rate an RLG measures plus the largest swing of the block on its isolators. A column scaled by a unit slip
+    (arcsec or microradians read as rad) or a corrupted one (1e300) breaks it, and would overflow the fits.
+    """
+    start = np.abs(sins_angle[0])
+    if float(np.max(start)) > SINS_START_MAX_RAD:
+        a = int(np.argmax(start))
+        _fail(where, "sins_angle", f"must start within one turn, |angle| <= 2 pi rad, got {float(sins_angle[0, a]):.4g} "
+                                   f"rad on axis {axes[a]} (the block's angle in rad; another unit or a corrupted column?)")
+    t = np.arange(sins_angle.shape[0])[:, None] / sins_fs_hz
+    with np.errstate(over="ignore", invalid="ignore"):  # +-1e308 apart overflows to inf: refused all the same
+        excess = np.abs(sins_angle - sins_angle[0]) - (SINS_SWING_MAX_RAD + SINS_RATE_MAX_RAD_S * t)
+    if float(np.max(excess)) > 0.0:
+        i, a = np.unravel_index(int(np.argmax(excess)), excess.shape)
+        _fail(where, "sins_angle", f"must stay within the physical range |angle - angle[0]| <= 10 deg + 1000 deg/s * t "
+                                   f"(an isolated block swings by arcminutes, an RLG measures at most 1000 deg/s), got "
+                                   f"{float(sins_angle[i, a] - sins_angle[0, a]):.4g} rad at sample {int(i)} "
+                                   f"(t = {float(t[i, 0]):.4g} s) on axis {axes[int(a)]}")
 
 
 @dataclass(frozen=True)

@@ -82,7 +82,7 @@ __all__ = ["estimate_run", "check_run", "estimate_channel", "check_channel", "an
            "TRUTH_SAMPLE_S",
            "TRUTH_ONLY_SAMPLE_S", "TONE_STEP_AXIS_S", "FILTERED_NOISE_STEP_AXIS_S", "CHANNEL_PLANT_STEP_S",
            "CHANNEL_OUTPUT_SAMPLE_S", "FIXED_S", "COMPILE_S", "CALIBRATION_KEEP", "cache_dir", "kernels_cold",
-           "calibrate", "record_timing", "load_calibration"]
+           "calibrate", "record_timing", "load_calibration", "RemainingTime"]
 
 #: Longest estimated wall time a run may take (s): 48 h.
 MAX_WALL_S = 48 * 3600.0
@@ -461,3 +461,72 @@ def record_timing(est: dict, t_start: float, t_first: float, f_first: float, t_l
         cal["kernels_stamp"] = {**stamps, kind: _kernel_stamp()}
         _save_calibration(cal)
     return cal
+
+
+# --- the time left while a run goes ----------------------------------------------------------------------
+class RemainingTime:
+    """The time left of a running job, from its own measured throughput.
+
+    The estimate made before the run (the cost model, calibrated on earlier runs) can be off several times on a
+    loaded machine or for a mission unlike the calibrating ones (a 30-minute flight shown as 52 s ran 2 min 44
+    s), so the display does not count down from it. From the first progress report on (the first chunk done:
+    start-up and compilation are behind it), each report gives the throughput, fraction per wall second between
+    the first report and the latest; once :attr:`MIN_INTERVALS` chunks have run after the first and
+    :attr:`MIN_MEASURED_S` wall seconds have passed, the time left is ``(1 - f) / throughput`` plus the job's
+    tail after its last report (analyses, figures: the median measured on this machine, else the model's
+    fixed part). Before that the text says it is still estimating, and names the model's figure as the model's.
+
+    Parameters
+    ----------
+    est : dict or None
+        The calibrated estimate (:func:`calibrate`), or None (no model: only the measurement).
+    clock : callable, optional
+        Wall clock in seconds (default ``time.perf_counter``; a test passes a fake one).
+    """
+
+    #: Chunks after the first before the throughput is trusted: the first interval can carry a second kernel's
+    #: compilation or a cold file cache; three intervals average it down.
+    MIN_INTERVALS = 3
+    #: Wall seconds after the first report before the throughput is trusted (short chunks time poorly).
+    MIN_MEASURED_S = 2.0
+
+    def __init__(self, est: dict | None = None, clock=None):
+        import time
+
+        self.clock = clock or time.perf_counter
+        self.est = est
+        self.first = None  # (t, fraction) of the first report
+        self.last = None
+        self.reports = 0
+        tails = [float(x) for x in ((load_calibration().get("tails") or {}).get((est or {}).get("kind", "run"), []))
+                 if isinstance(x, (int, float)) and x >= 0] if est is not None else []
+        fixed = float((est or {}).get("breakdown", {}).get("fixed_s", FIXED_S)) if est is not None else 0.0
+        self.tail_s = statistics.median(tails) if tails else fixed
+
+    def update(self, fraction: float) -> None:
+        """Record a progress report (the fraction of the run done, 0 to 1) at the clock's time."""
+        now = (float(self.clock()), min(max(float(fraction), 0.0), 1.0))
+        if self.first is None:
+            self.first = now
+        self.last = now
+        self.reports += 1
+
+    def seconds_left(self) -> float | None:
+        """The measured time left (s), or None while too little has run to measure it."""
+        if self.first is None or self.reports - 1 < self.MIN_INTERVALS:
+            return None
+        (t1, f1), (t2, f2) = self.first, self.last
+        if t2 - t1 < self.MIN_MEASURED_S or f2 <= f1:
+            return None
+        return (1.0 - f2) * (t2 - t1) / (f2 - f1) + self.tail_s
+
+    def text(self) -> str:
+        """What the display shows: ``about 2.7 min left`` or ``estimating the time left (model: 52 s)``."""
+        left = self.seconds_left()
+        if left is not None:
+            return f"about {format_duration(left)} left (measured)"
+        if self.est is None:
+            return "estimating the time left"
+        model = format_duration(self.est.get("wall_display_s", self.est["wall_s"]))
+        cal = "" if (self.est.get("calibration") or {}).get("runs") else ", not yet calibrated"
+        return f"estimating the time left (model: {model}{cal})"

@@ -54,15 +54,23 @@ def read_increments(path) -> tuple:
             df = pd.read_parquet(p)
         else:
             df = pd.read_csv(p, comment="#", skip_blank_lines=True)
+    except pd.errors.EmptyDataError:
+        raise ConfigError(f"{p}: line 1: no header row, the file is empty (needs the columns "
+                          f"{', '.join(INCREMENT_COLUMNS)})") from None
     except Exception as exc:  # noqa: BLE001 - any reader failure is the file's fault: one line
         raise ConfigError(f"{p}: cannot read: {' '.join(str(exc).split())}") from None
     cols = [str(c).strip() for c in df.columns]
     missing = [c for c in INCREMENT_COLUMNS if c not in cols]
     if missing:
-        raise ConfigError(f"{p}: columns {', '.join(missing)} missing (needs {', '.join(INCREMENT_COLUMNS)})")
+        raise ConfigError(f"{p}: column {missing[0]}: missing{' (with ' + ', '.join(missing[1:]) + ')' if missing[1:] else ''}"
+                          f"; the file needs {', '.join(INCREMENT_COLUMNS)}")
     extra = [c for c in cols if c not in INCREMENT_COLUMNS]
     if extra:
-        raise ConfigError(f"{p}: column {extra[0]!r} unknown (allowed: {', '.join(INCREMENT_COLUMNS)})")
+        import difflib
+
+        close = difflib.get_close_matches(extra[0], INCREMENT_COLUMNS, n=1)
+        raise ConfigError(f"{p}: column {extra[0]}: unknown{'; did you mean ' + repr(close[0]) + '?' if close else ''} "
+                          f"(allowed: {', '.join(INCREMENT_COLUMNS)})")
     df.columns = cols
     data = {}
     for c in INCREMENT_COLUMNS:
@@ -168,6 +176,21 @@ def _imu_sensors(imu):
     from sins_sim.config.imu import load_imu
 
     return load_imu(imu).sensors
+
+
+def _in_file_terms(message: str) -> str:
+    """A message of :func:`sins_sim.simulation.external.navigate_increments` in the file's words: ``t_s`` is the
+    column ``time_s``, ``dtheta[i, j]`` and ``dv[i, j]`` are row ``i + 1`` of ``dtheta_<axis>_rad`` and
+    ``dv_<axis>_m_s``."""
+    import re
+
+    m = re.match(r"(dtheta|dv)\[(\d+), (\d)\]: (.*)$", message)
+    if m:
+        col = INCREMENT_COLUMNS[(1 if m.group(1) == "dtheta" else 4) + int(m.group(3))]
+        return f"{col}: row {int(m.group(2)) + 1}: {m.group(4)}"
+    if message.startswith("t_s: "):  # its rows are indices from 0; the file's data rows count from 1
+        return "time_s: " + re.sub(r"\brow (\d+)", lambda r: f"row {int(r.group(1)) + 1}", message[5:])
+    return message
 
 
 def navigate_file(increments, truth_file, out_dir, *, name: str = "external", coning: str = "two_sample",
@@ -338,7 +361,7 @@ def _navigate_against_truth(t, dth, dv, truth, name, coning, sculling, vertical,
                                       vertical=vertical, height_aid_tau_s=tau, q0_nb=q0,
                                       v0_ned_m_s=None if q0 is None else np.zeros(3))
     except ValueError as exc:
-        raise ConfigError(f"increments: {' '.join(str(exc).split())}") from None
+        raise ConfigError(f"increments: {_in_file_terms(' '.join(str(exc).split()))}") from None
     nav = metrics["navigation"]
     nav["start_s"] += offset  # back on the files' time axis
     nav["end_s"] += offset

@@ -74,7 +74,9 @@ def run(scenario, *, seed: int | None = None, duration_s: float | None = None, i
         Replaces the scenario's IMU (like ``--imu``).
     threads : int, optional
         Threads for the three axes (default: the cores available, at most 3).
-    progress : callable(fraction), optional
+    progress : bool or callable(fraction), optional
+        ``True``: a progress bar; ``False`` or ``None`` (default): none; a callable: called with the fraction
+        done (0 to 1) as the run goes.
 
     Returns
     -------
@@ -105,15 +107,59 @@ def run(scenario, *, seed: int | None = None, duration_s: float | None = None, i
     return _run(source, base, overrides, threads, progress, "sins_sim.run")
 
 
+class _Bar:
+    """The default progress of :func:`run` (``progress=True``): a tqdm bar in percent (``tqdm.auto``: a widget in a
+    notebook, text on stderr elsewhere), opened at the first report."""
+
+    def __init__(self, label: str):
+        self.label = label
+        self.bar = None
+
+    def __call__(self, fraction: float) -> None:
+        if self.bar is None:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=100.0, desc=self.label, unit="%", bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                                                                               "[{elapsed}<{remaining}]")
+        done = 100.0 * min(max(float(fraction), 0.0), 1.0)
+        if done > self.bar.n:
+            self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _progress_for(progress, api: str):
+    """``progress`` as the jobs take it (a callable or None) and a function that closes what was opened.
+
+    ``None`` or ``False``: no progress; ``True``: the default bar (:class:`_Bar`); a callable: called with the
+    fraction done. Anything else is refused naming the argument before the run starts.
+    """
+    if progress is None or progress is False:
+        return None, lambda: None
+    if progress is True:
+        bar = _Bar(api)
+        return bar, bar.close
+    if callable(progress):
+        return progress, lambda: None
+    raise ConfigError(f"{api}: progress: must be True (a progress bar), False or None (none) or a callable taking "
+                      f"the fraction done, got {type(progress).__name__} {progress!r}")
+
+
 def _run(source, base, overrides: dict, threads, progress, api: str) -> MissionResult:
     """:func:`run` of a validated source (a path or a mapping whose relative paths are taken from ``base``)."""
     from sins_sim.jobs.manifest import Manifest
     from sins_sim.jobs.run import compute_run, prepare_run
 
-    manifest = Manifest("run", settings={"overrides": dict(overrides), "api": api})
-    sc, config_warnings = prepare_run(source, overrides or None, progress, base_dir=base)
-    res, metrics = compute_run(sc, config_warnings, progress, threads)
-    manifest.stop_clock()
+    progress, close = _progress_for(progress, api)  # checked before anything runs
+    try:
+        manifest = Manifest("run", settings={"overrides": dict(overrides), "api": api})
+        sc, config_warnings = prepare_run(source, overrides or None, progress, base_dir=base)
+        res, metrics = compute_run(sc, config_warnings, progress, threads)
+        manifest.stop_clock()
+    finally:
+        close()
     return MissionResult(sc, metrics, res, origin=RunOrigin(source, overrides, manifest))
 
 
@@ -133,7 +179,8 @@ def sweep_run(sweep, run_id: str, *, threads: int | None = None, progress=None) 
         The run's key (column ``key`` of ``runs.parquet``) or ``UNIT:SCENARIO`` (``3:stationary``).
     threads : int, optional
         Threads for the three axes (the result does not depend on it).
-    progress : callable(fraction), optional
+    progress : bool or callable(fraction), optional
+        As for :func:`run`.
 
     Returns
     -------

@@ -28,6 +28,7 @@ must not delete what is there.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
@@ -36,11 +37,15 @@ from pathlib import Path
 
 from sins_sim.config.errors import ConfigError
 
-__all__ = ["MARKER", "MIN_FREE_BYTES", "check_out_dir", "check_out_file", "atomic_output_dir",
+__all__ = ["MARKER", "MIN_FREE_BYTES", "foreign_files", "check_out_dir", "check_out_file", "atomic_output_dir",
            "atomic_output_file", "atomic_write_bytes", "atomic_write_text"]
 
 #: File that marks a folder as a sins-sim result (so that a later run with ``--force`` may replace it).
 MARKER = ".sins-sim-output"
+#: The marker's first line; then one ``file: <relative path>`` line per file sins-sim wrote into the folder (what a
+#: later ``--force`` may replace: :func:`foreign_files`).
+MARKER_TEXT = "written by sins-sim; a later run with --force may replace the files listed below (and only them)\n"
+_LISTED = "file: "
 #: Free space (bytes) required where an output goes: room for a few plots and arrays.
 MIN_FREE_BYTES = 16 * 2 ** 20
 
@@ -99,8 +104,9 @@ def check_out_dir(path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTE
     """Check that ``path`` can become a result folder; return it as a Path.
 
     Rules: not empty; not an existing file; if an existing folder, either
-    empty, or written by sins-sim (it holds :data:`MARKER`) and ``force``
-    given, and holding
+    empty, or written by sins-sim (it holds :data:`MARKER`), ``force``
+    given and every file in it listed as sins-sim's (:func:`foreign_files`:
+    a file the user added is never replaced), and holding
     neither the current directory nor any of ``inputs`` (it is replaced as a
     whole); its parent exists or can be created, and can be written to; at
     least ``min_free_bytes`` free there. Nothing is created.
@@ -147,6 +153,17 @@ def check_out_dir(path, flag: str = "--out", min_free_bytes: int = MIN_FREE_BYTE
 
             raise ConfigError(f"{flag}: {p} already holds {describe_folder(p)}; pass --force to replace it (once "
                               "the new result is complete) or choose another folder")
+        if entries:  # --force replaces what sins-sim wrote, never a file it did not write
+            foreign = foreign_files(p)
+            if foreign is None:
+                raise ConfigError(f"{flag}: {p} holds no list of the files sins-sim wrote there (its {MARKER} and "
+                                  "manifest.json list none: an older sins-sim's result), so --force cannot tell them "
+                                  "from yours; remove the folder yourself or choose another one")
+            if foreign:
+                shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+                raise ConfigError(f"{flag}: {p} also holds files sins-sim did not write ({shown}); --force replaces "
+                                  "only a sins-sim result: move them out or choose another folder (nothing was "
+                                  "changed)")
     parent = _existing_ancestor(p, flag)
     _check_space(parent, p, flag, min_free_bytes)
     return p
@@ -228,12 +245,39 @@ def atomic_output_dir(out_path, flag: str = "--out", min_free_bytes: int = MIN_F
         raise ConfigError(f"{flag}: cannot create {target}: {exc.strerror or exc}") from None
     try:
         yield tmp
-        (tmp / MARKER).write_text("written by sins-sim; a later run with --force may replace this folder\n")
+        written = sorted(q.relative_to(tmp).as_posix() for q in tmp.rglob("*") if not q.is_dir())
+        (tmp / MARKER).write_text(MARKER_TEXT + "".join(f"{_LISTED}{rel}\n" for rel in written))
         os.chmod(tmp, 0o777 & ~_umask())
         _commit_dir(tmp, target)
     except BaseException:
         _remove(tmp)
         raise
+
+
+def foreign_files(folder) -> list | None:
+    """Files in a sins-sim result folder that sins-sim did not write, as sorted relative paths.
+
+    What sins-sim wrote is what the folder's :data:`MARKER` lists (one ``file: <path>`` line per file it wrote),
+    else, for a folder written before the marker listed them, what its ``manifest.json`` lists under ``outputs``;
+    the marker and the manifest themselves are sins-sim's. ``None`` when neither lists anything (then nothing can
+    be told apart).
+    """
+    folder = Path(folder)
+    try:
+        ours = {ln[len(_LISTED):] for ln in (folder / MARKER).read_text().splitlines() if ln.startswith(_LISTED)}
+    except (OSError, UnicodeDecodeError):
+        ours = set()
+    if not ours:
+        try:
+            outputs = json.loads((folder / "manifest.json").read_text()).get("outputs")
+        except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+            outputs = None
+        if not isinstance(outputs, dict):
+            return None
+        ours = set(outputs) | {"manifest.json"}
+    ours.add(MARKER)
+    return sorted(rel for q in folder.rglob("*") if not q.is_dir()
+                  and (rel := q.relative_to(folder).as_posix()) not in ours)
 
 
 def _commit_dir(tmp: Path, target: Path) -> None:

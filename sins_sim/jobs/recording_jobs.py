@@ -302,35 +302,44 @@ def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, pro
 
 
 
+def _fmt(x, spec: str) -> str:
+    """``x`` formatted by ``spec``, or ``n/a`` where the diagnosis holds no number (None, a missing key)."""
+    return "n/a" if x is None else format(x, spec)
+
+
 def format_diagnosis(js: dict) -> str:
-    """A few lines summarising a diagnosis' JSON (for the CLI to print)."""
-    v = js["verdict"]
+    """A few lines summarising a diagnosis' JSON (for the CLI to print).
+
+    Any number may be ``None`` (a fit that gave no value, a verdict ``none``): it is printed as ``n/a``.
+    """
+    v = js.get("verdict") or {}
     if js.get("findings"):
         from sins_sim.identification.checks import format_findings
 
         return format_findings(js["findings"]) + "\nverdict: none given (the data failed the checks above)"
-    g = js["gap"]
-    lines = [f"noise floor {js['noise_floor_arcsec']:.4g} arcsec; baseline residual "
-             f"{js['baseline']['residual_rms_arcsec']:.4g} arcsec RMS"]
-    if g["significant"]:
-        lines.append(f"gap on axis {g['axis']}: band {g['band_hz']} Hz, time {g['time_s']} s")
-        for c in js["candidates"][:3]:
-            lines.append(f"  {c['effect']:<16} gap reduction {c['gap_reduction']:.3f}  score {c['score']:.4g}  "
-                         f"{c['params']}")
+    g = js.get("gap") or {}
+    lines = [f"noise floor {_fmt(js.get('noise_floor_arcsec'), '.4g')} arcsec; baseline residual "
+             f"{_fmt((js.get('baseline') or {}).get('residual_rms_arcsec'), '.4g')} arcsec RMS"]
+    if g.get("significant"):
+        lines.append(f"gap on axis {g.get('axis')}: band {g.get('band_hz')} Hz, time {g.get('time_s')} s")
+        for c in (js.get("candidates") or [])[:3]:
+            lines.append(f"  {c.get('effect')!s:<16} gap reduction {_fmt(c.get('gap_reduction'), '.3f')}  "
+                         f"score {_fmt(c.get('score'), '.4g')}  {c.get('params')}")
     else:
         lines.append("no significant gap: the refit nominal model sits at the noise floor")
     alts = f" (or: {', '.join(v['alternatives'])})" if v.get("alternatives") else ""
-    lines.append(f"verdict: {v['effect']}{alts} [{v.get('status')}], explained fraction "
-                 f"{v.get('explained_fraction') or 0.0:.3f}")
+    lines.append(f"verdict: {v.get('effect')}{alts} [{v.get('status')}], explained fraction "
+                 f"{_fmt(v.get('explained_fraction') or 0.0, '.3f')}")
     cc = v.get("close_call")
     if cc:
-        lines.append("close call: " + ", ".join(f"{e['effect']} {e['explained_fraction']:.5f}" for e in cc["effects"])
-                     + f"; separated by {cc['why']}")
-    if len(v.get("effects", [])) > 1:
-        lines.append("effects: " + ", ".join(f"{e['effect']} {e['explained_fraction']:.3f}" for e in v["effects"]))
+        lines.append("close call: " + ", ".join(f"{e.get('effect')} {_fmt(e.get('explained_fraction'), '.5f')}"
+                                                for e in cc.get("effects", [])) + f"; separated by {cc.get('why')}")
+    if len(v.get("effects") or []) > 1:
+        lines.append("effects: " + ", ".join(f"{e.get('effect')} {_fmt(e.get('explained_fraction'), '.3f')}"
+                                             for e in v["effects"]))
     r = v.get("remainder")
     if r:
-        lines.append(f"remainder on axis {r['axis']}: band {r['band_hz']} Hz, time {r['time_s']} s")
+        lines.append(f"remainder on axis {r.get('axis')}: band {r.get('band_hz')} Hz, time {r.get('time_s')} s")
     return "\n".join(lines)
 
 

@@ -9,7 +9,7 @@ suspensions, drives, readouts, filters, navigation), and three things are measur
 - **dither coning**: the block's counter-rotation at each dither (about ``(J_g / J_b) a``, two-body closed form
   :func:`~sins_sim.models.block.counter_rotation`) rocks it about both axes; two rocking axes make a coning angle
   about the third that beats at ``Delta`` with amplitude ``a_x a_y (w_x + w_y) / (4 |w_x - w_y|)``
-  (:func:`~sins_sim.models.block.coning_beat_amplitude`; reference-model.md). The ideal navigation follows it;
+  (:func:`~sins_sim.models.block.coning_beat_amplitude`; docs/user-guide/block.md). The ideal navigation follows it;
   a filter that removes the rocking but keeps the slow coning rate (the eliminator notches each dither line)
   carries it into the heading. Measured: each filter's error about the third axis (psi; the heading when the pair
   is x, y), its RMS at the filter rate (which also holds the block's counter-rotation at the third gyro's own
@@ -75,6 +75,21 @@ def _tilted(imu, a: int, b: int, offset_rad: float):
     axes = np.array(imu.block.input_axes, dtype=float)
     axes[b, a] += offset_rad
     return dataclasses.replace(imu, block=dataclasses.replace(imu.block, input_axes=axes))
+
+
+def _check_offset(imu, a: int, b: int, offset_mrad: float) -> None:
+    """``--axis-offset-mrad`` and the tilt it makes with the file's own offset within the block's misalignment bound."""
+    from sins_sim.config.block_schema import AXIS_OFFSET_MAX_MRAD as lim
+    from sins_sim.config.errors import ConfigError
+
+    rule = (f"must lie in [-{lim:g}, {lim:g}] mrad (an input-axis offset beyond {lim:g} mrad, 3 deg, is not a "
+            "misalignment but another design)")
+    if not (math.isfinite(offset_mrad) and abs(offset_mrad) <= lim):
+        raise ConfigError(f"--axis-offset-mrad: {rule}, got {offset_mrad:g}")
+    total = 1e3 * float(imu.block.input_axes[b][a]) + offset_mrad
+    if abs(total) > lim:
+        raise ConfigError(f"--axis-offset-mrad: {rule} together with the IMU file's gyro_axes_mrad.{_AXES[b]}"
+                          f"[{a}], got {total:g} mrad in all")
 
 
 def _place(imu, a: int, b: int, delta_hz: float):
@@ -212,6 +227,7 @@ def separation_study(imu, out, *, pair=("x", "y"), separations_hz=DEFAULT_SEPARA
         raise ConfigError(f"--duration-s: must exceed the navigation start {start_s:g} s by at least 1 s, "
                           f"got {duration_s:g}")
     a, b = (_AXES.index(p) for p in pair)
+    _check_offset(imu, a, b, axis_offset_mrad)
     base = _tilted(imu, a, b, axis_offset_mrad * 1e-3)
     points = []
     for k, d in enumerate(seps):

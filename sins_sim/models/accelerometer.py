@@ -1,7 +1,7 @@
 """The accelerometer triad: velocity increments of specific force, quantised as pulse counts.
 
-Body axes x, y, z are the gyros' sensitive axes and the accelerometers' (reference-model.md,
-"Navigation"). Each accelerometer integrates specific force and its converter emits a pulse
+Body axes x, y, z are the gyros' sensitive axes and the accelerometers'
+(docs/theory/navigation.md). Each accelerometer integrates specific force and its converter emits a pulse
 per ``quantum_m_s`` of velocity (a current-to-frequency converter). The output over a filter
 sample is the number of pulses in that sample times the quantum: the accumulated count
 ``floor(V(t_k) / q)`` is differenced, so the quantisation error of each output is carried

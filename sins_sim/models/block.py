@@ -1,10 +1,10 @@
-"""The sensor block as a body on its isolators (reference-model.md, "The block as a body").
+"""The sensor block as a body on its isolators (docs/user-guide/block.md).
 
 The nominal SINS block is rigid and moves as prescribed; the three suspensions never meet. Here the block is a
 rigid body of mass ``m_b`` and inertia ``J_b`` (about its centre of gravity, block axes) on a set of linear
 isolators, base-excited by the chassis and loaded by the three gyros' suspension torques.
 
-Equations (reference-model.md, "The block as a body"; Titterton and Weston 2004, ch. 12 for the isolated IMU;
+Equations (docs/user-guide/block.md; Titterton and Weston 2004, ch. 12 for the isolated IMU;
 the linear base-excitation form of any structural-dynamics text, e.g. Rao, *Mechanical Vibrations*, ch. 3 and 6)
 ----------------------------------------------------------------------------------------------------------------
 Coordinates ``q = (x, theta)``: the block's translation of its c.g. and its small rotation vector, both
@@ -24,7 +24,7 @@ block adds a small relative motion (arcsec, micrometres) on top of it, so the is
   chassis acceleration moves to the right-hand side in relative coordinates).
 
 ``J_b`` is the block's inertia *without* each gyro body's inertia about its own input axis (the gyro bodies'
-inertia about the other axes moves with the block; reference-model.md). Gyroscopic terms
+inertia about the other axes moves with the block; docs/user-guide/block.md). Gyroscopic terms
 ``w x J w`` are dropped: the relative rates are below 1e-3 rad/s and the products they form are below 1e-9 of the
 terms kept (stated again where the truth composes the block's attitude exactly).
 
@@ -363,7 +363,7 @@ def counter_rotation(j_g: float, j_b: float, k: float, c: float, f_hz) -> np.nda
     Block: ``J_b theta'' + c theta' + k theta = -T``; gyro: ``J_g (theta'' + delta'') = T``. Eliminating ``T``:
     ``(k + i c w - (J_b + J_g) w^2) Theta = J_g w^2 Delta``, whatever drives the suspension. Well above the
     isolator mode it tends to ``-J_g / (J_b + J_g)``, about ``-(J_g / J_b) a`` for a dither of amplitude ``a``
-    (reference-model.md).
+    (docs/user-guide/block.md).
     """
     w = 2 * np.pi * np.asarray(f_hz, dtype=float)
     return j_g * w ** 2 / (k + 1j * c * w - (j_b + j_g) * w ** 2)
@@ -377,7 +377,7 @@ def block_rotation_per_deflection(block: "BlockParams", axis: int, f_hz: float, 
     Gyro ``i``'s body turns by ``u_i . theta + delta_i`` about ``u_i``; its reaction on the block is
     ``J_g,i (u_i . theta'' + delta_i'') u_i``. With ``delta_axis`` prescribed at ``w``:
     ``(K + i w C - w^2 (M + sum_i J_i [0; u_i][0; u_i]^T)) q = w^2 J_g,axis [0; u_axis] Delta``
-    (reference-model.md, "The block as a body"). ``J_axis = J_g,axis``; each other gyro either moves with the
+    (docs/user-guide/block.md). ``J_axis = J_g,axis``; each other gyro either moves with the
     block (``J_i = J_g,i``; ``omega0_rad_s`` None) or follows on its undamped linear suspension,
     ``J_i = J_g,i w0_i^2 / (w0_i^2 - w^2)`` (``omega0_rad_s``: (3,)).
     """
@@ -399,8 +399,8 @@ def free_block_coupling(block: "BlockParams") -> np.ndarray:
     """What each gyro's SINS angle picks up from each gyro's deflection well above the isolator modes (3, 3).
 
     With the isolators far below the dithers the block rotates freely under the gyros' reactions:
-    ``(J_b + sum_k J_g,k u_k u_k^T) theta'' = -sum_j J_g,j u_j delta_j''`` (reference-model.md, "The block as a
-    body", with ``M_iso`` = 0), so from rest ``u_i . theta = sum_j C_ij delta_j`` with
+    ``(J_b + sum_k J_g,k u_k u_k^T) theta'' = -sum_j J_g,j u_j delta_j''``
+    (docs/user-guide/block.md, with ``M_iso`` = 0), so from rest ``u_i . theta = sum_j C_ij delta_j`` with
     ``C_ij = -J_g,j u_i . (J_b + sum_k J_g,k u_k u_k^T)^-1 u_j``.
 
     The off-diagonal terms are the recordings' ``axis_coupling`` (``models.effects.AxisCoupling``: gyro ``i``'s block
@@ -477,7 +477,7 @@ def coning_beat_amplitude(a_x: float, a_y: float, w_x: float, w_y: float) -> flo
 
     From the body rate of a small rotation vector, ``w_b = theta' - (1/2) theta x theta' + O(theta^3)``
     (Bortz 1971): its z component integrates to a slow term at ``|w_x - w_y|`` of this amplitude plus a fast one
-    at ``w_x + w_y`` (reference-model.md, "The block as a body").
+    at ``w_x + w_y`` (docs/user-guide/block.md).
     """
     return a_x * a_y * (w_x + w_y) / (4.0 * abs(w_x - w_y))
 

@@ -1,7 +1,7 @@
 """The piezo drive of one suspension: a DAC sine at the amplitude-dependent resonance.
 
 The drive is produced by a DAC and held constant between updates
-(zero-order hold, reference-model.md "Readout"). With ``V = V_m cos(omega t)``
+(zero-order hold, docs/theory/suspension.md "Readout"). With ``V = V_m cos(omega t)``
 at resonance the steady deflection is ``a_m sin(omega t)`` (eq. 15-17).
 """
 

@@ -1,6 +1,6 @@
 """Unmodelled effects: named, parameterised extensions of the nominal channel model.
 
-reference-model.md ("Three axes"): the nominal model is a rigid block with
+docs/theory/index.md ("What is modelled"): the nominal model is a rigid block with
 three independent suspensions, each obeying eq. 2 with eq. 9, 10 and 14,
 and an ideal fringe counter. Everything beyond it is an effect that a
 configuration switches on. Each effect here is a small frozen object with
@@ -141,6 +141,16 @@ def rate_from_grid(x: np.ndarray, h: float) -> np.ndarray:
     return d
 
 
+def _unknown_parameter(effect: str, key, allowed) -> None:
+    """Refuse parameter ``key`` of ``effect``: the key path, the allowed keys and the closest one (difflib)."""
+    import difflib
+
+    names = sorted(set(allowed) | {"axes"})
+    close = difflib.get_close_matches(str(key), names, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise ValueError(f"effects.{effect}.{key}: unknown parameter (allowed: {', '.join(names)}){hint}")
+
+
 class Effect:
     """Base class: a named model extension with validated SI parameters.
 
@@ -174,8 +184,7 @@ class Effect:
         known = {p.name: p for p in self.PARAMS}
         for key in params:
             if key not in known:
-                raise ValueError(f"effects.{self.name}.{key}: unknown parameter (allowed: "
-                                 f"{', '.join(sorted(known)) or 'none'})")
+                _unknown_parameter(self.name, key, known)
         values = {}
         for p in self.PARAMS:
             if p.name in params:
@@ -219,13 +228,12 @@ class Effect:
         return self.axes is None or axis in self.axes
 
     def check_axes(self, axes) -> None:
-        """Raise if the effect names an axis the experiment does not have."""
+        """Raise if the effect names an axis the unit or experiment does not have."""
         for a in self.axes or ():
             if a not in axes:
-                raise ValueError(f"effects.{self.name}.axes: {a!r} is not an axis of the experiment {list(axes)}")
+                raise ValueError(f"effects.{self.name}.axes: {a!r} is not one of the axes {list(axes)}")
         if len(axes) < self.min_axes:
-            raise ValueError(f"effects.{self.name}: needs at least {self.min_axes} axes, the experiment has "
-                             f"{len(axes)}")
+            raise ValueError(f"effects.{self.name}: needs at least {self.min_axes} axes, there are {len(axes)}")
 
     # --- fitting protocol -------------------------------------------------------------------
     @classmethod
@@ -341,12 +349,16 @@ class AxisCoupling(Effect):
         return {"name": self.name, "coefficients": {t: dict(r) for t, r in self.coefficients.items()}}
 
     def check_axes(self, axes):
-        super().check_axes(axes)
-        for row in self.coefficients.values():
+        if len(axes) < self.min_axes:
+            raise ValueError(f"effects.{self.name}: needs at least {self.min_axes} axes, there are {len(axes)}")
+        for target, row in self.coefficients.items():  # named by the key the user wrote
+            if target not in axes:
+                raise ValueError(f"effects.axis_coupling.coefficients.{target}: {target!r} is not one of the axes "
+                                 f"{list(axes)}")
             for src in row:
                 if src not in axes:
-                    raise ValueError(f"effects.axis_coupling.coefficients: source {src!r} is not an axis of the "
-                                     f"experiment {list(axes)}")
+                    raise ValueError(f"effects.axis_coupling.coefficients.{target}.{src}: {src!r} is not one of the "
+                                     f"axes {list(axes)}")
 
     @classmethod
     def fit_space(cls, axis, axes):
@@ -659,4 +671,12 @@ def make_effect(name: str, **params) -> Effect:
     cls = EFFECTS.get(name) or DISTURBANCES.get(name)
     if cls is None:
         raise ValueError(f"effects: name: must be one of {sorted(EFFECTS) + sorted(DISTURBANCES)}, got {name!r}")
+    if cls.__init__ is not Effect.__init__:  # an effect with its own parameters (axis_coupling): its signature
+        import inspect
+
+        allowed = [n for n, p in inspect.signature(cls.__init__).parameters.items()
+                   if n != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+        for key in params:
+            if key not in allowed:
+                _unknown_parameter(name, key, allowed)
     return cls(**params)

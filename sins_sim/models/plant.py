@@ -51,7 +51,7 @@ def check_resolution(suspension: SuspensionParams, rate_hz: float) -> None:
             f"dither period, f0 = {suspension.f0_hz:g} Hz), got {rate_hz!r}"
         )
 
-#: Hysteresis rules by name (reference-model.md): the paper's turning-point rule and Masing's.
+#: Hysteresis rules by name (docs/theory/suspension.md): the paper's turning-point rule and Masing's.
 HYSTERESIS_RULES = kphys.RULES
 #: Plant integrators by name: (kernel, state size). Both kernels keep the block's angle, rate
 #: and the time at the same indices (kplant.S_PHI, S_RATE, S_TIME == kexact.X_PHI, X_RATE, X_TIME).
@@ -104,7 +104,7 @@ class Plant:
         layout: delta, then the RLG rate (rk4) or d delta/dt (exact), the
         block's angle, rate and the time at the last grid point, then the
         exact integrator's history). :meth:`reset` starts from rest: delta = 0,
-        d delta/dt = 0 at t = 0 (recording-format.md ``initial_state: rest``).
+        d delta/dt = 0 at t = 0 (a recording's ``initial_state: rest``, sins_sim.io.recording).
     hyst, stack : ndarray
         Eq. 10's branch and reversal stack (``_kernels.physics``).
     """

@@ -1,6 +1,6 @@
 """The ring laser readout: fringe counting, anti-alias filter and decimation.
 
-reference-model.md, "Readout": the ring laser counts fringes, its output is
+docs/theory/suspension.md, "Readout": the ring laser counts fringes, its output is
 the accumulated count ``floor(phi_rlg / q)`` with quantum ``q`` (2.42 arcsec
 per fringe for a 28 cm triangular He-Ne cavity; the paper's comparator plus
 12-bit ADC interpolate to 1/16 fringe, so ``q`` is a setting). The paper's
@@ -45,7 +45,7 @@ from sins_sim.models.ranges import (MAX_NUMTAPS, NOISE_MAX_RAD, QUANTUM_RANGE_RA
 
 @dataclass(frozen=True)
 class AntiAliasParams:
-    """Anti-alias FIR applied before decimation (reference-model.md, "Readout").
+    """Anti-alias FIR applied before decimation (docs/theory/suspension.md, "Readout").
 
     Parameters
     ----------
@@ -109,7 +109,7 @@ class AntiAliasParams:
 
 @dataclass(frozen=True)
 class ReadoutParams:
-    """Immutable parameters of the readout chain (reference-model.md, "Readout").
+    """Immutable parameters of the readout chain (docs/theory/suspension.md, "Readout").
 
     Parameters
     ----------
@@ -195,7 +195,7 @@ class ReadoutParams:
 
 
 def quantise(phi_rad, quantum_rad: float, noise_rad: float = 0.0, rng=None) -> np.ndarray:
-    """Accumulated fringe count ``floor((phi + noise) / q)`` (reference-model.md, "Readout").
+    """Accumulated fringe count ``floor((phi + noise) / q)`` (docs/theory/suspension.md, "Readout").
 
     Parameters
     ----------

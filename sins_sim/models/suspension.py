@@ -1,7 +1,7 @@
 """Parameters of one dither suspension and the closed forms derived from them.
 
-Equation numbers refer to the paper; conventions to ``reference-model.md``
-("One dithered gyro channel"). Angles in rad, frequencies in Hz.
+Equation numbers refer to the paper; conventions to docs/theory/suspension.md
+("Equation of motion (eq. 2)"). Angles in rad, frequencies in Hz.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def nonl_array(d, k1, k2):
 
 @dataclass(frozen=True)
 class SuspensionParams:
-    """Immutable parameters of one dithered RLG suspension (eq. 2, 9, 10, 14).
+    """Immutable parameters of one dithered RLG suspension (the paper's equations 2, 9, 10 and 14).
 
     Parameters
     ----------
@@ -248,6 +248,6 @@ def _resonance_exact(a: float, f0: float, k1: float, k2: float) -> float:
     return 1.0 / (4.0 * quarter)
 
 
-#: The paper's 28 cm RLG (reference-model.md, "Paper values").
+#: The paper's 28 cm RLG (docs/user-guide/paper.md).
 PAPER_SUSPENSION = SuspensionParams()
 PAPER_DITHER_AMPLITUDE_RAD = 3.0 * ARCMIN

@@ -15,7 +15,7 @@ the navigation update every ``n_sub`` input samples.
    SCULLING_ALGORITHMS
    VERTICAL_MODES
 
-Frames and units (reference-model.md, "Navigation"): body axes are the
+Frames and units (docs/theory/navigation.md): body axes are the
 gyro/accelerometer sensitive axes; navigation frame north-east-down;
 ``q_nb`` Hamilton, scalar first, body to NED; ``lat``, ``lon`` geodetic in
 rad; ``h`` in m above the ellipsoid, positive up; ``v_ned`` in m/s (``v_D``

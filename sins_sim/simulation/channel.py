@@ -5,7 +5,7 @@ with the filters (correcting eq. 5 in both forms, elliptic eliminator). It
 streams in chunks, so memory does not grow with the duration; the result is
 a pure function of (configuration, motion, duration, seed).
 
-Time alignment (reference-model.md, "The correcting filter"): the decimated
+Time alignment (docs/theory/suspension.md, "The correcting filter (eq. 5)"): the decimated
 readout lags the RLG by the anti-alias FIR's delay; eq. 5's output lags by
 one more filter sample; the eliminator lags by its group delay at the
 alignment frequency. ``ChannelResult.truth(name)`` is the SINS angle at the
@@ -46,7 +46,7 @@ CORRECTING_FORMS = ("correcting", "correcting_paper")
 
 @dataclass(frozen=True)
 class EliminatorSettings:
-    """How a channel's eliminator is designed (reference-model.md, "The elliptic eliminator").
+    """How a channel's eliminator is designed (docs/theory/suspension.md, "The elliptic eliminator").
 
     ``band_hz=None`` centres a band of ``width_hz`` on the channel's drive frequency.
     """

@@ -395,7 +395,7 @@ def simulate_experiment(inputs: ExperimentInputs, suspensions: dict, effects=(),
 
 
 def quantise_angle(angle: np.ndarray, quantum_rad: float, noise_rad: float = 0.0, rng=None) -> np.ndarray:
-    """Accumulated counts ``floor((angle + noise) / q)`` as int64 (reference-model.md, "Readout")."""
+    """Accumulated counts ``floor((angle + noise) / q)`` as int64 (docs/theory/suspension.md, "Readout")."""
     q = v.positive("readout", "quantum_rad", quantum_rad)
     sigma = v.non_negative("readout", "noise_rad", noise_rad)
     x = np.asarray(angle, dtype=np.float64)

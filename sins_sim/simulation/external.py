@@ -45,6 +45,12 @@ SERIES_RATE_HZ = 10.0
 MAX_SERIES_BLOCKS = 7200
 #: the gyro-angle error record behind the drift and Allan terms: at most this rate (Hz), this many samples
 RECORD_RATE_HZ = 100.0
+#: Largest body rate (rad/s) an angle increment may show: the input range of navigation-grade RLGs is +-400 to
+#: +-1000 deg/s (the scenarios' block-rate bound, sins_sim.config.scenario.MAX_RATE_DEG_S, is the same).
+MAX_RATE_RAD_S = math.radians(1000.0)
+#: Largest specific force (m/s^2) a velocity increment may show: 2000 m/s^2, about 200 g, the scenarios' bound on
+#: any acceleration (sins_sim.config.scenario.MAX_ACCEL_M_S2); navigation accelerometers measure 30-100 g.
+MAX_SPECIFIC_FORCE_M_S2 = 2000.0
 MAX_RECORD_SAMPLES = 2 ** 17
 
 
@@ -151,6 +157,21 @@ class ExternalNavResult:
     settings: dict = field(default_factory=dict)
 
 
+def _check_physical(dth: np.ndarray, dvel: np.ndarray, dt: float) -> None:
+    """Refuse increments no IMU measures: a body rate beyond :data:`MAX_RATE_RAD_S` or a specific force beyond
+    :data:`MAX_SPECIFIC_FORCE_M_S2` over one interval (another unit, deg for rad, or a corrupted value); the
+    message names the element ``dtheta[i, j]`` or ``dv[i, j]``."""
+    for label, arr, limit, shown, what in (
+            ("dtheta", dth, MAX_RATE_RAD_S, lambda x: f"{math.degrees(x):.4g} deg/s", "the 1000 deg/s an RLG measures"),
+            ("dv", dvel, MAX_SPECIFIC_FORCE_M_S2, lambda x: f"{x:.4g} m/s^2",
+             "2000 m/s^2 (about 200 g; navigation accelerometers measure 30-100 g)")):
+        if arr.size and float(np.max(np.abs(arr))) > limit * dt:
+            i, j = np.unravel_index(int(np.argmax(np.abs(arr))), arr.shape)
+            raise ValueError(f"{label}[{i}, {j}]: {float(arr[i, j]):.4g} in one {dt:.4g} s interval is "
+                             f"{shown(abs(float(arr[i, j])) / dt)}, beyond {what} (another unit or a corrupted "
+                             "value?)")
+
+
 def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", coning: str = "two_sample",
                         sculling: str = "two_sample", vertical: str = "height_aid",
                         height_aid_tau_s: float = 100.0, q0_nb=None, v0_ned_m_s=None) -> ExternalNavResult:
@@ -186,7 +207,8 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
     ------
     ValueError
         Shapes, non-finite values, non-uniform or decreasing times, a start before the truth's or an end
-        after it; the message names the argument.
+        after it, a rate beyond 1000 deg/s or a specific force beyond 2000 m/s^2 in an increment; the message
+        names the argument.
     """
     from sins_sim.navigation.strapdown import StrapdownNavigator
     from sins_sim._kernels.strapdown import OUT_H, OUT_LAT, OUT_LON, OUT_Q, OUT_V
@@ -201,10 +223,12 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
     for label, arr in (("dtheta", dth), ("dv", dvel)):
         if arr.shape != (n, 3):
             raise ValueError(f"{label}: must have shape ({n}, 3) (one row per time), got {arr.shape}")
+    _check_physical(dth, dvel, dt)
     t_start = float(t[0] - dt)
     end = float(getattr(truth, "duration_s", math.inf))
-    if t_start < 0.0:
+    if t_start < -1e-9:  # a first increment from the truth's start computes t[0] - dt to within rounding of 0
         raise ValueError(f"t_s: the first increment starts at {t_start:.6g} s, before the truth's start (0 s)")
+    t_start = max(t_start, 0.0)
     if t[-1] > end + 1e-9:
         raise ValueError(f"t_s: the last increment ends at {t[-1]:.6g} s, after the truth's end ({end:.6g} s)")
 

@@ -1,7 +1,7 @@
 """Frequency responses of the increments each filter delivers, and the filter-tuned coning design.
 
 The navigation of filter ``F`` reads, per axis, the body angle through three linear stages
-(reference-model.md, "Readout" and "The correcting filter"; the channel chain of
+(docs/theory/suspension.md, "Readout" and "The correcting filter"; the channel chain of
 :mod:`sins_sim.simulation.channel`)::
 
     H_F(f) = H_mech(f) * H_fir(f) * F(f)                                                 (R1)

@@ -7,8 +7,8 @@ One run is a pure function of (configuration, mission, duration, seed) and strea
    the chassis' motion profiles) gives each gyro's angle and rate at the plant rate, and the
    navigation truth, ideal gyro increments and accelerometer increments at the filter rate;
 2. the unit (:class:`~sins_sim.simulation.unit.SensorUnit`: the sensor block, rigid or on its
-   isolators, carrying three channels) takes the chunk: each axis (reference-model.md, "Three
-   axes": its own suspension, drive, readout, eq. 5 in both forms and eliminator) runs in fused
+   isolators, carrying three channels) takes the chunk: each axis (docs/user-guide/block.md: its own
+   suspension, drive, readout, eq. 5 in both forms and eliminator) runs in fused
    kernels (:class:`~sins_sim.simulation.channel.ChannelChain`), the three suspensions stepped
    side by side, with the block when it is a body (:class:`~sins_sim.simulation.unit.SideBySide`),
    or the axes on threads; the block's own motion then amends the truth;
@@ -16,7 +16,7 @@ One run is a pure function of (configuration, mission, duration, seed) and strea
    :class:`~sins_sim.navigation.strapdown.StrapdownNavigator`, all fed by the same
    accelerometers, and compared with the truth (:mod:`~sins_sim.simulation.metrics`).
 
-Filters compared (reference-model.md, "Navigation"): ``ideal`` (the true increments through
+Filters compared (docs/theory/navigation.md): ``ideal`` (the true increments through
 the same navigation: the algorithm's floor), ``raw`` (the decimated readout, dither
 included), ``eliminator``, ``correcting`` (eq. 5, unity DC), ``correcting_paper`` (eq. 5 as
 printed).
@@ -161,7 +161,7 @@ class ImuConfig:
         :func:`~sins_sim.simulation.channel.check_engine_effects`).
     block : BlockParams or None
         The sensor block as a body on its isolators (:mod:`sins_sim.models.block`,
-        reference-model.md "The block as a body"): the three suspensions load it and feel its
+        docs/user-guide/block.md): the three suspensions load it and feel its
         motion. None: the rigid block whose motion is prescribed (today's model).
     pickoff : PickoffTriadParams
         The three dither pickoffs and their cross-coupling, read by three-axis plug-ins
@@ -201,7 +201,7 @@ class ImuConfig:
         if len(set(f0)) < 3:
             raise ValueError(
                 f"imu.channels: the three resonances must differ so the dithers do not lock together "
-                f"(reference-model.md, 'Three axes'), got {f0}"
+                f"(docs/user-guide/block.md), got {f0}"
             )
 
     @property
@@ -584,8 +584,11 @@ class _FilterNav:
         self.alignment = None  # {"result": AlignmentResult, "q_true": ...} once aligned
 
 
-def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
+def tuned_designs(imu: ImuConfig, filters, band_hz, key: str = "navigation.coning") -> dict:
     """The filter-tuned coning design of each filter (:func:`sins_sim.simulation.responses.tuned_design`).
+
+    ``key`` is the setting that chose ``filter_tuned`` (``navigation.coning`` or ``navigation.sculling``), named
+    when a filter cannot be designed for.
 
     Raises
     ------
@@ -599,10 +602,16 @@ def tuned_designs(imu: ImuConfig, filters, band_hz) -> dict:
                          f"(readout.output_rate_hz / 2), got {list(band_hz)!r}")
     out = {}
     for name in filters:
+        if filter_registry.is_known(name) and filter_registry.is_three_axis(name):
+            raise ValueError(f"{key}: filter_tuned cannot go with the filter {name}: filter_tuned designs "
+                             f"its coefficients from a single-axis filter's fixed frequency response, and {name} reads "
+                             "the three axes together with no fixed response"
+                             + (" (the LMS stripper adapts its gains as it runs)" if name == "lms_stripper" else "")
+                             + ": choose another coning/sculling algorithm or leave it out of filters")
         try:
             out[name] = tuned_design(imu.channels, name, band_hz, fs)
         except ValueError as exc:
-            raise ValueError(f"navigation.coning: {exc}") from None
+            raise ValueError(f"{key}: {exc}") from None
     return out
 
 

@@ -3,7 +3,7 @@
 The engine needs three things from the truth, at three rates:
 
 * at the plant rate (72 kHz), each gyro's angle ``phi_i(t) = int_0^t omega_ib,i^b`` and its
-  rate, to drive the suspension (reference-model.md, "Navigation": the gyro senses the body
+  rate, to drive the suspension (docs/theory/navigation.md: the gyro senses the body
   rate with respect to inertial space: vehicle rate plus Earth rate plus transport rate, plus
   the block's own vibration);
 * at the filter rate, the ideal gyro increments and the accelerometers' velocity increments

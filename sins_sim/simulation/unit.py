@@ -1,4 +1,4 @@
-"""The sensor unit: one sensor block carrying three dithered gyro channels (reference-model.md, "Three axes" and
+"""The sensor unit: one sensor block carrying three dithered gyro channels (docs/user-guide/block.md and
 "The block as a body").
 
 The rooms read as the machine is built:
@@ -150,7 +150,7 @@ class SideBySide:
     0.3 ms per simulated second each). Requires :func:`side_by_side`.
 
     With ``block`` (:class:`~sins_sim.models.block.BlockParams`) the three suspensions hang on one
-    block on its isolators (reference-model.md, "The block as a body"): the chunk's plant steps run
+    block on its isolators (docs/user-guide/block.md): the chunk's plant steps run
     through ``_kernels.block.drive_plant_three_block`` (the same drives, the block and the three
     suspensions stepped together), each readout sees the chassis angle plus the block's own rotation
     about its gyro's axis (``_kernels.block.block_truth``), and each output carries what the block

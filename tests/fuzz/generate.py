@@ -71,6 +71,7 @@ class Case:
     def write(self, folder: Path) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
         for name, data in self.files.items():
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)  # a family may write into sub-folders
             (folder / name).write_bytes(data)
         return folder / self.main if self.main else folder
 

@@ -6,7 +6,8 @@ but the message names no key, flag, row or column); ``traceback`` (any other exc
 a crash); ``hang`` (the per-case timeout ran out).
 
 Verdicts against the case's expectation: ``ok``; ``traceback``; ``hang``; ``silent_acceptance`` (an
-invalid input accepted); ``valid_rejected``; ``unnamed``; ``known_gap`` (an invalid input accepted where
+invalid input accepted); ``valid_rejected``; ``unnamed``; ``internal`` (a refusal in the code's words:
+``__init__``, "unexpected keyword argument", ...); ``known_gap`` (an invalid input accepted where
 the case names the module that cannot tell today, see ``generate.Case.gap``).
 """
 
@@ -27,7 +28,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 OUTCOMES = ("accepted", "refused", "refused_unnamed", "traceback", "hang")
-VERDICTS = ("ok", "traceback", "hang", "silent_acceptance", "valid_rejected", "unnamed", "known_gap")
+VERDICTS = ("ok", "traceback", "hang", "silent_acceptance", "valid_rejected", "unnamed", "internal", "known_gap")
 
 #: a key path, a flag, an argparse argument, a row, line or column, followed by ": "
 _FIELD = re.compile(r"(?:^|: )(?:[A-Za-z_][\w\-]*(?:\[[^\]]*\])*(?:\.[\w\-]+(?:\[[^\]]*\])*)*|--[\w-]+|argument [\w-]+"
@@ -82,7 +83,21 @@ def known_defect(message: str) -> str | None:
     return next((why for pattern, why in KNOWN_DEFECTS.items() if pattern in message), None)
 
 
+#: Words of Python or of the code's insides that a refusal must not show the user (issue 40: "AxisCoupling.__init__()
+#: got an unexpected keyword argument", "only the SINS engine runs it", "NoneType.__format__").
+_INTERNAL = re.compile(r"__\w+__|unexpected keyword argument|positional argument|object has no attribute|NoneType"
+                       r"|is not callable|unhashable type|Traceback|internal error|only the SINS engine")
+
+
+def internal_words(message: str) -> str | None:
+    """The first internal word of a refusal's message, or None."""
+    m = _INTERNAL.search(message)
+    return m.group(0) if m else None
+
+
 def judge(expect: str, outcome: str, gap: str | None, message: str = "") -> str:
+    if outcome in ("refused", "refused_unnamed") and internal_words(message):
+        return "internal"
     if outcome == "traceback" and known_defect(message):
         return "known_gap"
     if outcome in ("hang", "traceback") and gap:  # the gap names why (see generate.GAP_FS)
@@ -257,8 +272,9 @@ def format_summary(summary: dict) -> str:
     """The counts as a table: outcomes (accepted, refused) and verdicts (what failed, what is a known gap)."""
     cols = [("cases", None), ("accepted", "outcomes"), ("refused", "outcomes"), ("ok", "verdicts"),
             ("silent_acceptance", "verdicts"), ("valid_rejected", "verdicts"), ("unnamed", "verdicts"),
-            ("traceback", "verdicts"), ("hang", "verdicts"), ("known_gap", "verdicts")]
-    titles = ("cases", "accepted", "refused", "ok", "silent", "valid-rej", "unnamed", "traceback", "hang", "gap")
+            ("internal", "verdicts"), ("traceback", "verdicts"), ("hang", "verdicts"), ("known_gap", "verdicts")]
+    titles = ("cases", "accepted", "refused", "ok", "silent", "valid-rej", "unnamed", "internal", "traceback", "hang",
+              "gap")
 
     def cells(r):
         return "".join(f"{(r[c] if g is None else r[g][c]):>10}" for c, g in cols)

@@ -4,8 +4,8 @@ Coning: what each filter keeps
 
 The three coning scenarios (``scenarios/coning-*.yaml``) put the block through classic coning, 1 arcmin
 on x and y with a 90 degree phase, at 100, 600 and 1500 Hz, at rest at 45 deg N. The true attitude
-turns about z at the closed-form coning rate ``(1/2) a_x a_y omega sin(phase)`` (reference-model.md,
-"Navigation"). Each entry below is the effective heading drift ``attitude_drift_deg_h.down`` of a
+turns about z at the closed-form coning rate ``(1/2) a_x a_y omega sin(phase)``
+(:doc:`/theory/navigation`). Each entry below is the effective heading drift ``attitude_drift_deg_h.down`` of a
 filter's integrated solution (deg/h): the part of the coning rate that the filter's output loses.
 ``raw`` is the readout with the dither in it; "none found" means no ramp explains the data (its 95 % bound is in
 ``metrics.json``). The table is computed here, at every documentation build.

@@ -22,7 +22,7 @@
 Nothing is tuned to a printed number: the paper's parameters go in, what the
 equations give comes out, and the report explains each disagreement.
 
-Common set-up (reference-model.md): the paper's suspension (f0 = 386 Hz,
+Common set-up (docs/user-guide/paper.md): the paper's suspension (f0 = 386 Hz,
 k1..k4 as printed, Q = 187 at 3 arcmin), driven at the amplitude-dependent
 resonance F(3 arcmin) = 383.88 Hz by the eq. 17 voltage; plant at 72 kHz,
 fringe counter with the paper's 1/16-fringe quantum, 21-tap anti-alias FIR,

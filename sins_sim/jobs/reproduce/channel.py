@@ -52,7 +52,7 @@ class PaperChannelRun:
     offset_rad : float
         The block angle the kick leaves (``-a``): subtract it to compare with the requested motion.
     fast_half_cycles : dict
-        Regime counters of the plant and of the correcting filters (reference-model.md).
+        Regime counters of the plant and of the correcting filters (docs/theory/suspension.md).
     pickoff_gain : float
         LMS gain of the pickoff stripper at the end (rad per V s).
     """

@@ -1,7 +1,7 @@
 """The paper reproduction's common ground: the paper's printed numbers, the filter outputs, the resolution.
 
-:data:`PAPER` holds the printed numbers (reference-model.md, "Paper results
-to reproduce"); :class:`ReproduceSettings` the resolution of a full and of a
+:data:`PAPER` holds the printed numbers (the paper's; listed in docs/user-guide/paper.md);
+:class:`ReproduceSettings` the resolution of a full and of a
 quick run.
 """
 
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 __all__ = ["PAPER", "FILTERS", "BANDS", "ReproduceSettings"]
 
-#: Printed numbers of the paper (reference-model.md, "Paper results to reproduce").
+#: Printed numbers of the paper (docs/user-guide/paper.md).
 PAPER = {
     "q_at_3arcmin": 187.0,
     "afc_fit_rms_arcsec": 4.0,

@@ -170,13 +170,13 @@ def _report(n: dict, f4) -> str:
     return f"""# Paper reproduction with sins-sim ({n['mode']} run)
 
 Source: "A Correcting Filter for a Mechanically Dithered Single-Axis Ring Laser Gyro"; equation numbers
-are the paper's; conventions from `reference-model.md`. Everything below comes from the project's own
+are the paper's; conventions from the documentation's Theory pages. Everything below comes from the project's own
 models and filters with the paper's parameters (f0 = 386 Hz, k1 = 1.75e-4, k2 = 1.05e-3 rad, k3 = 4.4e-3,
 k4 = 250 1/rad, dither 3 arcmin driven at F(3 arcmin) = {n['drive_frequency_hz']:.3f} Hz by the eq. 17
 voltage, 72 kHz plant, 1/16-fringe readout, 21-tap anti-alias FIR, 7.2 kHz filters, 370-410 Hz 10th-order
 elliptic eliminator). No parameter was tuned to a printed number. Runtime {t['total_s']:.0f} s.
 
-## Headline numbers (reference-model.md, "Paper results to reproduce")
+## Headline numbers (docs/user-guide/paper.md)
 
 {table(rows)}
 
@@ -203,7 +203,7 @@ The simulated gains on the nonlinear plant follow the linear analytic curve; the
 20 log10(B) = {20 * math.log10(n['dc_gain_paper_form']):.3f} dB everywhere. The top point is
 {n['fig5_top_hz']:.0f} Hz rather than 3600 Hz: a sine at exactly fs/2 is sampled with a phase-dependent amplitude.
 Block motion of 1 arcmin above about 1.15 kHz moves faster than the dither, so the paper's turning-point rule
-for eq. 10 is outside its domain (reference-model.md): the plant counted {fast['plant']} such half-cycles over
+for eq. 10 is outside its domain (docs/theory/suspension.md): the plant counted {fast['plant']} such half-cycles over
 the Fig. 5 runs, the correcting filter {fast['correcting']}.{masing_txt}
 
 **Pickoff baseline.** Dither stripping from an electrodynamic pickoff (3 % scale error, 2 us lag, noise;

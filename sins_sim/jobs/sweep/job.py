@@ -60,6 +60,18 @@ _PARAM_LABELS = {
 }
 
 
+#: Unit suffixes of the sensor keys and how a label writes them.
+_UNITS = {"deg_h": "deg/h", "ppm": "ppm", "ug": "ug", "ug_g2": "ug/g^2", "arcsec": "arcsec"}
+
+
+def _split_unit(key: str) -> tuple:
+    """``bias_deg_h`` -> (``bias``, ``deg/h``): the longest unit suffix of :data:`_UNITS`."""
+    for suffix in sorted(_UNITS, key=len, reverse=True):
+        if key.endswith("_" + suffix):
+            return key[: -len(suffix) - 1], _UNITS[suffix]
+    return key, ""
+
+
 def parameter_label(name: str) -> str:
     """Axis label (with unit) of a drawn parameter (``f0_ppm.x``, ``temperature_k``, ``gyro.bias_deg_h.x``)."""
     if name == "temperature_k":
@@ -67,7 +79,14 @@ def parameter_label(name: str) -> str:
     key, _, ax = name.rpartition(".")
     if key in _PARAM_LABELS:
         return _PARAM_LABELS[key].format(ax=ax)
-    return f"{name} (score: draw / 1 sigma)"
+    section, _, sensor_key = key.partition(".")
+    if section in ("gyro", "accelerometer") and "_" in sensor_key:  # gyro.bias_deg_h: "gyro bias, axis x (deg/h)"
+        from sins_sim.jobs.sweep.population import SENSOR_SIGMA_KEYS
+
+        if sensor_key in SENSOR_SIGMA_KEYS.get(section, ()):
+            what, unit = _split_unit(sensor_key)
+            return f"{section} {what.replace('_', ' ')}, {'angle' if len(ax) == 2 else 'axis'} {ax} ({unit})"
+    return name
 
 
 def prepare_sweep(path, units=None):

@@ -13,6 +13,9 @@ IMU file the scenario names. :func:`apply_unit` turns them into the unit's true 
 * ``k = k_file (1 + k_percent / 100)`` for k1..k5, where ``k_file`` is the channel's own value, else the
   shared ``suspension:`` value, else the IMU schema's default;
 * a sensor error with 1-sigma value ``sigma`` (per axis) becomes ``sigma z`` with the unit's score ``z``.
+
+The sweep's table (``param.*`` columns) holds every draw in the unit its name carries: the sensor errors as the
+values the run used (:func:`sensor_values`, ``param.gyro.bias_deg_h.x`` in deg/h), not the scores.
 """
 
 from __future__ import annotations
@@ -24,7 +27,8 @@ import numpy as np
 
 from sins_sim.config.sweep import SUSPENSION_KEYS
 
-__all__ = ["AXES", "SENSOR_SIGMA_KEYS", "sigma_values", "draw_unit", "apply_unit", "parameter_columns", "grid_size"]
+__all__ = ["AXES", "SENSOR_SIGMA_KEYS", "sigma_values", "draw_unit", "apply_unit", "sensor_values", "parameter_columns",
+           "grid_size"]
 
 AXES = ("x", "y", "z")
 _MISALIGNMENT = ("xy", "xz", "yx", "yz", "zx", "zy")
@@ -146,6 +150,26 @@ def _draw_sensors(base: dict | None, unit: dict) -> dict | None:
             labels = _MISALIGNMENT if key == "misalignment_arcsec" else AXES
             sigma = _per_axis(sec[key], len(labels))
             sec[key] = [abs(s) * unit[f"{section}.{key}.{lab}"] for s, lab in zip(sigma, labels)]
+    return out
+
+
+def sensor_values(imu_doc: dict, unit: dict) -> dict:
+    """The drawn sensor errors of a unit's IMU mapping in the units their names carry (``gyro.bias_deg_h.x`` in
+    deg/h, ``accelerometer.bias_ug.y`` in ug, ...), for each sensor score in ``unit``.
+
+    ``imu_doc`` is :func:`apply_unit`'s result with ``draw_sensors``: each value is the 1-sigma value times the
+    unit's score; a key the mapping does not hold draws nothing, so its value is 0.
+    """
+    sensors = imu_doc.get("sensors") if isinstance(imu_doc.get("sensors"), dict) else {}
+    out = {}
+    for section, keys in SENSOR_SIGMA_KEYS.items():
+        sec = sensors.get(section) if isinstance(sensors.get(section), dict) else {}
+        for key in keys:
+            labels = _MISALIGNMENT if key == "misalignment_arcsec" else AXES
+            values = _per_axis(sec.get(key), len(labels))
+            for lab, v in zip(labels, values):
+                if f"{section}.{key}.{lab}" in unit:
+                    out[f"{section}.{key}.{lab}"] = float(v)
     return out
 
 

@@ -212,7 +212,7 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
         One line naming the file, the unit and the key when a scenario or a unit's drawn IMU breaks a rule.
     """
     from sins_sim.config.imu import IMU_SCHEMA, imu_from_dict, load_yaml
-    from sins_sim.jobs.sweep.population import apply_unit, draw_unit
+    from sins_sim.jobs.sweep.population import apply_unit, draw_unit, sensor_values
 
     if sweep.filter_parameters not in ("true", True) and "filter_parameters" not in IMU_SCHEMA.fields:
         raise ConfigError(f"{sweep.ctx}: filter_parameters: {sweep.filter_parameters!r} needs the IMU key "
@@ -256,8 +256,11 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
             if base["files"]:  # a trajectory file enters the key by its content, not by where it lies
                 keyed = {**doc, "trajectory": {**doc["trajectory"], "file": "(content)"}}
             key = run_key(keyed, base["files"], package_version(), {"unit": i, "scenario": base["label"]})
+            params = {k: v for k, v in unit.items() if k != "run_seed"}
+            if sweep.sensors["draw"]:  # the sensor errors in their units (the scores are the same unit's draws)
+                params.update(sensor_values(imu_doc, unit))
             tasks.append(Task(key=key, unit=i, scenario=base["label"],
-                              scenario_index=j, seed=seed, params={k: v for k, v in unit.items() if k != "run_seed"},
+                              scenario_index=j, seed=seed, params=params,
                               doc=doc, ctx=f"{base['path']} (unit {i})", base_dir=str(base["path"].parent),
                               est_s=base["est_s"]))
     return tasks, labels

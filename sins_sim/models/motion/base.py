@@ -1,6 +1,6 @@
 """The three-axis motion interface with exact truth: body rate, gyro angles, attitude; sums of motions.
 
-Frames and signals (reference-model.md, "Three axes"; "One dithered gyro
+Frames and signals (docs/user-guide/block.md; "One dithered gyro
 channel"): the body frame's x, y, z axes are the sensitive axes of the three
 gyros. For a motion,
 

@@ -79,7 +79,7 @@ class SampledMotion(_Motion):
 
     ``angles[k]`` is the angle at ``t0 + k / fs_hz``; outside the record the
     angle is held at the end values with zero rate. The record must be
-    band-limited well below ``fs_hz / 2`` (recording-format.md, ``sins_angle``).
+    band-limited well below ``fs_hz / 2`` (a recording's ``sins_angle``, sins_sim.io.recording).
     """
 
     def __init__(self, angles, fs_hz: float, t0: float = 0.0):

@@ -1,7 +1,7 @@
 """Vehicle trajectories on the WGS-84 Earth with exact navigation truth.
 
 A vehicle flies over the rotating Earth; this module gives, at any times,
-the truth the strapdown loop needs (reference-model.md, "Navigation"):
+the truth the strapdown loop needs (docs/theory/navigation.md):
 position, velocity, acceleration, attitude, and the two inputs of an ideal
 IMU, the angular rate with respect to inertial space and the specific
 force, both in vehicle axes.
