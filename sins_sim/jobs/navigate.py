@@ -236,10 +236,13 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
         raise ConfigError("--zupt: give --imu: the zero-velocity filter's process noise and bias priors come from the "
                           "unit's sensor-error model (its sensors: section)")
     t, dth, dv, meta = read_log_table(increments)
+    from sins_sim.simulation.external import _check_physical
+
     try:
-        dt = uniform_period(t, "time_s")
+        dt = uniform_period(t, "t_s")  # named t_s, as the engine names it: _in_file_terms maps it to the file's
+        _check_physical(dth, dv, dt)
     except ValueError as exc:
-        raise ConfigError(f"{increments}: {exc}") from None
+        raise ConfigError(f"{increments}: {_in_file_terms(' '.join(str(exc).split()))}") from None
     sensors = _imu_sensors(imu)
     truth = None
     if truth_file is not None:
@@ -263,7 +266,8 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
         manifest.add_input("imu", imu)
         inputs.append(imu)
     if align == "truth":
-        metrics = _navigate_against_truth(t, dth, dv, truth, name, coning, sculling, vertical, height_aid_tau_s)
+        metrics = _navigate_against_truth(t, dth, dv, truth, name, coning, sculling, vertical, height_aid_tau_s,
+                                          source=increments)
         figures = {}
     else:
         n_w = int(round(align_duration_s / dt))
@@ -282,7 +286,7 @@ def navigate_file(increments, truth_file, out_dir, *, name: str = "external", co
             notes.append("no --imu: the stated sigma holds the data's own scatter only, no bias bound")
         if truth is not None:
             metrics = _navigate_against_truth(t[n_w:], dth[n_w:], dv[n_w:], truth, name, coning, sculling, vertical,
-                                              height_aid_tau_s, q0=result.q_nb)
+                                              height_aid_tau_s, q0=result.q_nb, source=increments)
             q_true = truth.evaluate([float(t[n_w - 1]) - truth.time_offset_s]).q_nv[0]
             from sins_sim.jobs.run import alignment_metrics
             from sins_sim.navigation.attitude import attitude_error
@@ -354,14 +358,14 @@ def _zupt(dth, dv, dt, site, start, duration_s, sensors, source):
     return res, out
 
 
-def _navigate_against_truth(t, dth, dv, truth, name, coning, sculling, vertical, tau, q0=None):
+def _navigate_against_truth(t, dth, dv, truth, name, coning, sculling, vertical, tau, q0=None, source="increments"):
     offset = truth.time_offset_s
     try:
         metrics = navigate_increments(t - offset, dth, dv, truth, name=name, coning=coning, sculling=sculling,
                                       vertical=vertical, height_aid_tau_s=tau, q0_nb=q0,
                                       v0_ned_m_s=None if q0 is None else np.zeros(3))
     except ValueError as exc:
-        raise ConfigError(f"increments: {_in_file_terms(' '.join(str(exc).split()))}") from None
+        raise ConfigError(f"{source}: {_in_file_terms(' '.join(str(exc).split()))}") from None
     nav = metrics["navigation"]
     nav["start_s"] += offset  # back on the files' time axis
     nav["end_s"] += offset

@@ -349,6 +349,7 @@ def navigate_free(t_s, dtheta, dv, lat0_rad, lon0_rad, h0_m, q0_nb, v0_ned_m_s, 
     for label, arr in (("dtheta", dth), ("dv", dvel)):
         if arr.shape != (n, 3):
             raise ValueError(f"{label}: must have shape ({n}, 3) (one row per time), got {arr.shape}")
+    _check_physical(dth, dvel, dt)
     nav = StrapdownNavigator(lat0_rad, lon0_rad, h0_m, v0_ned_m_s, q0_nb, dt, coning=coning, sculling=sculling,
                              vertical=vertical, height_aid_tau_s=height_aid_tau_s)
     every = max(1, int(round(1.0 / (dt * min(SERIES_RATE_HZ, 1.0 / dt)))))
