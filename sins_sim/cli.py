@@ -895,7 +895,7 @@ def _cmd_navigate(args) -> int:
         f = sol["final_displacement_m"]
         print(f"navigated {nav['end_s'] - nav['start_s']:.6g} s at {nav['rate_hz']:.6g} Hz with no truth: displacement "
               f"from the start north {f['north']:.4g} m, east {f['east']:.4g} m, up {f['up']:.4g} m (horizontal "
-              f"{f['horizontal']:.4g} m; the error if the unit stood still)")
+              f"{f['horizontal']:.4g} m; for a unit that stood still, its navigation error)")
         z = metrics.get("zupt")
         if z:
             rms = ", ".join(f"{x:.3g}" for x in z["velocity_residual_rms_ned_m_s"])
@@ -918,7 +918,10 @@ def _cmd_navigate(args) -> int:
                 cells = [f"{d[ax]['value']:.4g}" if d[ax]["value"] is not None else d[ax]["status"]
                          for ax in d if ax != "rule"]
                 print(f"{label} [deg/h]: {', '.join(cells)}")
-    print(f"wrote {args.out}: metrics.json, manifest.json")
+    from pathlib import Path
+
+    written = sorted(p.name for p in Path(args.out).iterdir() if not p.name.startswith(".") and p.is_file())
+    print(f"wrote {args.out}: {', '.join(written)}")
     return EXIT_OK
 
 

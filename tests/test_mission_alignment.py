@@ -56,6 +56,14 @@ def test_bias_sigmas_root_sum_square_of_the_model():
     np.testing.assert_allclose(g, 0.005 * math.pi / 180 / 3600, rtol=1e-12)
     np.testing.assert_allclose(a, np.array([50.0, 0.0, 40.0]) * 9.80665e-6, rtol=1e-12)
     assert np.all(bias_sigmas(None)[0] == 0.0)
+    # a misalignment reads gravity (accelerometers) and the Earth rate (gyros) as a bias at rest: x's two angles
+    # 3 and 4 arcsec are 5 arcsec, g x 5 arcsec (24 ug); the gyro y's 6 and 8 arcsec are 10 arcsec of the Earth rate
+    A.bias_ug, A.bias_instability_ug, A.misalignment_arcsec = 0.0, 0.0, (3.0, 4.0, 0.0, 0.0, 0.0, 0.0)
+    G.misalignment_arcsec = (0.0, 0.0, 6.0, 8.0, 0.0, 0.0)
+    g, a = bias_sigmas(S)
+    arcsec = math.pi / 648000
+    np.testing.assert_allclose(a, [9.80665 * 5 * arcsec, 0.0, 0.0], rtol=1e-12, atol=0)
+    np.testing.assert_allclose(g[1], math.hypot(0.005 * math.pi / 180 / 3600, 7.292115e-5 * 10 * arcsec), rtol=1e-12)
 
 
 def _doc(**nav):

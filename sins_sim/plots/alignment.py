@@ -13,48 +13,59 @@ import numpy as np
 from sins_sim.plots.common import _pyplot, filter_color, finish_figure
 from sins_sim.units import ARCSEC
 
-__all__ = ["alignment_figure", "displacement_figure"]
+__all__ = ["alignment_figure", "displacement_figure", "METHOD_COLORS"]
+
+
+#: Colours of the methods where the results are named by method (Okabe & Ito, as the filters').
+METHOD_COLORS = {"truth": "#000000", "coarse": "#E69F00", "inertial": "#0072B2", "kalman": "#009E73"}
+
+
+def _color(name: str) -> str:
+    return METHOD_COLORS.get(name) or filter_color(name)
 
 
 def alignment_figure(results: dict, path=None, title: str = ""):
-    """Heading and tilt histories of each :class:`~sins_sim.navigation.alignment_result.AlignmentResult`.
+    """How each :class:`~sins_sim.navigation.alignment_result.AlignmentResult` settled, against its stated sigma.
 
-    ``results``: name -> result (one per filter of a mission, or one for a log). The heading is drawn relative
-    to its final value (deg), so that several alignments of one unit share an axis; the band is the stated
-    1-sigma where the method keeps its history, else an error bar at the end.
+    ``results``: name -> result (one per filter of a mission, or one per method for a log). Top: how far the
+    heading estimated from the data up to t is from the final one (deg, log scale), with the final stated
+    1-sigma dashed and, for a filter, its sigma over time dotted: the window was long enough where the curve
+    has settled below the dashed line. Bottom: the same for the tilt (the norm of the roll and pitch changes,
+    arcsec) against the larger tilt sigma.
     """
     plt = _pyplot(path is not None)
-    fig, (ax_h, ax_t) = plt.subplots(2, 1, figsize=(8.0, 6.2), sharex=True, layout="constrained")
+    fig, (ax_h, ax_t) = plt.subplots(2, 1, figsize=(8.0, 6.4), sharex=True, layout="constrained")
+    floor_h, floor_t = 1e-6, 1e-3  # deg, arcsec: plotted floor of an exact match (log axes)
     for name, res in results.items():
         hist = res.convergence
-        color = filter_color(name)
+        color = _color(name)
         t = np.asarray(hist.get("t_s", np.empty(0)), dtype=float)
+        label = name if name == res.method else f"{name} ({res.method})"
+        sig_h, sig_t = np.degrees(res.sigma_rad[2]), float(max(res.sigma_rad[0], res.sigma_rad[1])) / ARCSEC
         if t.size:
             head = np.unwrap(np.asarray(hist["heading_rad"], dtype=float))
-            ax_h.plot(t, np.degrees(head - head[-1]), color=color, lw=1.3, label=f"{name} ({res.method})")
+            ax_h.semilogy(t, np.maximum(np.degrees(np.abs(head - head[-1])), floor_h), color=color, lw=1.4,
+                          label=label)
             sig = hist.get("sigma_heading_rad")
             if sig is not None and np.size(sig) == t.size:
-                s = np.degrees(np.asarray(sig, dtype=float))
-                ax_h.fill_between(t, -s, s, color=color, alpha=0.12, lw=0)
-            for key, style in (("roll_rad", "-"), ("pitch_rad", "--")):
-                x = np.asarray(hist[key], dtype=float)
-                ax_t.plot(t, (x - x[-1]) / ARCSEC, color=color, lw=1.1, ls=style,
-                          label=f"{name}: {key.split('_')[0]}")
-        end = float(res.duration_s)
-        ax_h.errorbar([end], [0.0], yerr=[np.degrees(res.sigma_rad[2])], color=color, capsize=4, lw=1.5, fmt="o",
-                      ms=3)
-        ax_t.errorbar([end, end], [0.0, 0.0], yerr=[res.sigma_rad[0] / ARCSEC, res.sigma_rad[1] / ARCSEC],
-                      color=color, capsize=4, lw=1.0, fmt="none")
-    ax_h.axhline(0.0, color="0.6", lw=0.8)
-    ax_h.set_ylabel("heading minus its final value (deg)")
-    ax_h.set_title(title or "Alignment: the estimate from the data up to t; bars: the stated 1-sigma at the end")
-    ax_t.axhline(0.0, color="0.6", lw=0.8)
-    ax_t.set_ylabel("roll, pitch minus final (arcsec)")
+                ax_h.semilogy(t, np.degrees(np.asarray(sig, dtype=float)), color=color, lw=1.0, ls=":")
+            roll, pitch = (np.asarray(hist[k], dtype=float) for k in ("roll_rad", "pitch_rad"))
+            tilt = np.hypot(roll - roll[-1], pitch - pitch[-1]) / ARCSEC
+            ax_t.semilogy(t, np.maximum(tilt, floor_t), color=color, lw=1.2, label=label)
+        ax_h.axhline(sig_h, color=color, lw=1.0, ls="--")
+        ax_t.axhline(sig_t, color=color, lw=1.0, ls="--")
+    ax_h.set_ylabel("|heading - final heading| (deg)")
+    ax_h.set_title(title or "Alignment: the estimate from the data up to t against the final one; "
+                            "dashed: the stated 1-sigma", fontsize=10)
+    ax_t.set_ylabel("tilt change to the final (arcsec)")
     ax_t.set_xlabel("time into the alignment window (s)")
     for ax in (ax_h, ax_t):
-        ax.grid(True, alpha=0.3)
+        ax.grid(True, which="both", alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8, loc="best", ncol=2)
+            ax.legend(fontsize=8, loc="upper right", ncol=3)
+    if any(np.size(r.convergence.get("sigma_heading_rad", ())) for r in results.values()):
+        ax_h.text(0.01, 0.03, "dotted: the filter's heading sigma over time", transform=ax_h.transAxes, fontsize=8,
+                  color="0.3")
     return finish_figure(fig, path)
 
 

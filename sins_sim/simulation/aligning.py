@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sins_sim.navigation.alignment_result import ALIGNMENT_METHODS, AlignmentResult
-from sins_sim.units import ARCSEC, DEG, DEG_PER_H, HOUR, MICRO_G
+from sins_sim.units import ARCSEC, DEG, DEG_PER_H, HOUR, MICRO_G, STANDARD_GRAVITY
 
 __all__ = ["AlignmentSettings", "AlignmentAccumulator", "ALIGNERS", "alignment_settings", "bias_sigmas",
            "imu_noise_numbers"]
@@ -77,22 +77,39 @@ def _axes3(x) -> np.ndarray:
     return np.broadcast_to(np.asarray(x, dtype=np.float64), (3,)).astype(np.float64)
 
 
+def _misalignment_rss(params) -> np.ndarray:
+    """Per body axis, the root sum square of that axis's two misalignment angles (rad; order xy, xz, yx, yz, zx,
+    zy), or zeros where the model has none."""
+    m = np.asarray(getattr(params, "misalignment_arcsec", (0.0,) * 6), dtype=np.float64).reshape(-1)
+    if m.size != 6:
+        return np.zeros(3)
+    return np.sqrt(m[0::2] ** 2 + m[1::2] ** 2) * ARCSEC
+
+
 def bias_sigmas(sensors) -> tuple:
-    """The unit's bias uncertainty per body axis, ``(gyro rad/s (3,), accel m/s^2 (3,))``.
+    """The unit's bias uncertainty per body axis as a still alignment sees it, ``(gyro rad/s (3,), accel m/s^2 (3,))``.
 
     The root sum square of what the unit's sensor-error model leaves unknown at the start of a run: the fixed
-    bias (its spec value; a real unit's is known only to that), the turn-on bias (1 sigma) and the bias
-    instability's flat Allan floor (IEEE Std 952-1997, annex C). ``sensors`` is a
+    bias (its spec value; a real unit's is known only to that), the turn-on bias (1 sigma), the bias
+    instability's flat Allan floor (IEEE Std 952-1997, annex C), and the misalignment of each axis times what it
+    sees at rest: gravity for an accelerometer (8 arcsec of misalignment toward the vertical reads as 39 ug of
+    horizontal bias, which levelling cannot tell from a tilt), the Earth's rate for a gyro (Titterton & Weston
+    2004, sec. 10.2.2: the alignment errors are those of the equivalent biases). Scale-factor errors at rest act
+    on g along the vertical axis only and do not tilt the solution. ``sensors`` is a
     :class:`~sins_sim.models.sensor_errors.SensorErrors`-like object with ``gyro`` and ``accelerometer``
     parameters, or None (an ideal unit: zeros).
     """
     if sensors is None:
         return np.zeros(3), np.zeros(3)
+    from sins_sim.earth import EARTH_RATE_RAD_S
+
     g, a = sensors.gyro, sensors.accelerometer
-    gyro = np.sqrt(_axes3(g.bias_deg_h) ** 2 + _axes3(g.turn_on_bias_deg_h) ** 2
-                   + _axes3(g.bias_instability_deg_h) ** 2) * DEG_PER_H
-    acc = np.sqrt(_axes3(a.bias_ug) ** 2 + _axes3(a.turn_on_bias_ug) ** 2
-                  + _axes3(a.bias_instability_ug) ** 2) * MICRO_G
+    gyro = np.sqrt((_axes3(g.bias_deg_h) ** 2 + _axes3(g.turn_on_bias_deg_h) ** 2
+                    + _axes3(g.bias_instability_deg_h) ** 2) * DEG_PER_H ** 2
+                   + (_misalignment_rss(g) * EARTH_RATE_RAD_S) ** 2)
+    acc = np.sqrt((_axes3(a.bias_ug) ** 2 + _axes3(a.turn_on_bias_ug) ** 2
+                   + _axes3(a.bias_instability_ug) ** 2) * MICRO_G ** 2
+                  + (_misalignment_rss(a) * STANDARD_GRAVITY) ** 2)
     return gyro, acc
 
 
