@@ -34,6 +34,10 @@ CORRECTING = ["tests/test_correcting.py", "tests/test_correcting_closed_form.py"
 ELIMINATOR = ["tests/test_eliminator.py"]
 PLANT = ["tests/test_plant.py"]
 BLOCK = ["tests/test_block.py"]
+#: Left out of the runs: a property test (hypothesis, not derandomised) that fails without any mutation on a draw
+#: where a gyro's inertia exceeds the block's about its axis under a stiff rotational isolator (non-finite output:
+#: a limit of the coupled step, reported in the issue), so its failure says nothing about a mutation.
+DESELECT = ["tests/test_block.py::test_no_nan_or_inf_over_the_valid_parameter_space_and_chunks_agree"]
 NAV = ["tests/test_strapdown.py", "tests/test_strapdown_closed_form.py"]
 EARTH = ["tests/test_strapdown.py", "tests/test_strapdown_closed_form.py", "tests/test_earth.py"]
 
@@ -137,6 +141,8 @@ MUTATIONS = [
 def _run_tests(tests, fast_fail: bool):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-rf", *tests]
+    for d in DESELECT:
+        cmd += ["--deselect", d]
     if fast_fail:
         cmd.append("-x")
     proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
