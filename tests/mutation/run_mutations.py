@@ -20,8 +20,10 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -139,13 +141,20 @@ MUTATIONS = [
 
 
 def _run_tests(tests, fast_fail: bool):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    # a fresh numba cache for every mutated run: numba keys a kernel's cache on its own file only, so a kernel
+    # that imports a mutated module (physics.py, earth.py, nav.py, ...) would otherwise run stale code, and a
+    # kernel compiled against the mutation would stay in the checkout's cache after the revert
+    cache = tempfile.mkdtemp(prefix="sins-sim-mutation-numba-")
+    env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=cache)
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-rf", *tests]
     for d in DESELECT:
         cmd += ["--deselect", d]
     if fast_fail:
         cmd.append("-x")
-    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    try:
+        proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
     failed = re.findall(r"^FAILED (\S+)", proc.stdout, flags=re.M)
     summary = proc.stdout.strip().splitlines()[-1] if proc.stdout.strip() else proc.stderr.strip()[-200:]
     return proc.returncode, failed, summary
