@@ -193,11 +193,19 @@ def run(mutations, fast_fail: bool = True) -> list:
     return rows
 
 
+def _short(test_id: str) -> str:
+    """``tests/test_x.py::test_y[param]`` -> ``test_x::test_y``."""
+    path, _, name = test_id.partition("::")
+    return f"{Path(path).stem}::{name.split('[')[0]}"
+
+
 def table(rows) -> str:
-    out = ["| mutation | change | tests run | caught | first failing test |", "|---|---|---|---|---|"]
-    for mut, caught, by, _, _ in rows:
-        tests = ", ".join(Path(t).name for t in mut.tests)
-        out.append(f"| `{mut.name}` | {mut.what} | {tests} | {'yes' if caught else '**no**'} | `{by}` |")
+    out = ["| mutation | change | caught | failing tests (first; how many) |", "|---|---|---|---|"]
+    for mut, caught, by, summary, _ in rows:
+        n_failed = re.search(r"(\d+) failed", summary)
+        count = f"; {n_failed.group(1)} failed" if n_failed else ""
+        first = _short(by) if "::" in by else by
+        out.append(f"| `{mut.name}` | {mut.what} | {'yes' if caught else '**no**'} | `{first}`{count} |")
     return "\n".join(out)
 
 
