@@ -188,8 +188,9 @@ def run(mutations, fast_fail: bool = True) -> list:
         caught = code != 0
         by = failed[0] if failed else ("(no test failed)" if not caught else summary)
         rows.append((mut, caught, by, summary, time.monotonic() - t0))
-        print(f"{mut.name}: {'caught' if caught else 'MISSED'} by {by} [{summary}] ({time.monotonic() - t0:.0f} s)",
-              flush=True)
+        names = sorted({_short(f) for f in failed})
+        print(f"{mut.name}: {'caught' if caught else 'MISSED'} [{summary}] ({time.monotonic() - t0:.0f} s): "
+              f"{', '.join(names) if names else by}", flush=True)
     return rows
 
 
