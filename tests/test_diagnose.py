@@ -85,11 +85,21 @@ def test_noise_floor_from_the_data():
 
 
 # --- verdicts -----------------------------------------------------------------------------------------
-def test_none_on_a_clean_rate_table_recording():
-    """Another integrator (RK4 at 72 kHz), a sampled table angle and noise are no effect."""
-    js = diagnose_recording(_recording("rate_table", noise_arcsec=0.05)).to_json()
-    assert js["verdict"]["effect"] == "none"
-    assert js["candidates"] == []
+@pytest.mark.parametrize("effect", [None, ("scale_factor", {"error": 3e-4})])
+def test_none_on_a_clean_rate_table_recording_and_not_on_one_with_an_effect(effect):
+    """Another integrator (RK4 at 72 kHz), a sampled table angle and noise are no effect; the same recording with a
+    scale-factor error of 300 ppm (the size ``test_each_effect_is_identified`` identifies) is not ``none``: an
+    always-``none`` detector fails one of the two."""
+    effects = [] if effect is None else [make_effect(effect[0], **effect[1])]
+    js = diagnose_recording(_recording("rate_table", effects, noise_arcsec=0.05)).to_json()
+    if effect is None:
+        assert js["verdict"]["effect"] == "none"
+        assert not js["gap"]["significant"]
+        assert js["candidates"] == []
+    else:
+        assert js["gap"]["significant"]
+        assert js["verdict"]["effect"] != "none"
+        assert js["verdict"]["status"] != "none"
 
 
 def test_none_when_the_recording_starts_mid_operation():
