@@ -352,6 +352,13 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
             channels.append(cfg)
         channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
         block = _block.block_from_section(c["block"], ctx, f"{pre}block")  # its own ConfigError
+        if block is not None:
+            from sins_sim.models.block import check_block_resolution
+
+            try:
+                check_block_resolution(block, channels[0].plant.rate_hz)
+            except ValueError as exc:
+                raise ConfigError(f"{ctx}: {pre}block.{exc}") from None
         pickoff, lms = _pickoff_and_lms(c, ro["output_rate_hz"], ctx, pre,
                                         tuple(ch.drive_signal().frequency_hz for ch in channels))
         try:

@@ -583,6 +583,41 @@ def _axis_coefficients(phi, fm, lag):
     return ax
 
 
+#: A block is refused when its fastest isolator mode has ``2 pi f h > MAX_MODE_STEP`` at the plant step ``h`` *and*
+#: a gyro body is heavier than :data:`MAX_UNRESOLVED_INERTIA_RATIO` of the block about its axis. The gyros' torques
+#: enter the block's exact step as a polynomial over one plant step; that partitioned coupling is exact for a
+#: light gyro on a stiff mount (the rigid limit, inertia ratio 1e-12, agrees with the uncoupled plant to 1e-12
+#: rad at modes of MHz) but not for a heavy one on a mode the step does not resolve. Measured at 72 kHz with a
+#: 1e-4 kg m^2 block axis, the paper suspensions at 3 arcmin: the deflection is right (3.42e-4 rad after 0.1 s)
+#: for inertia ratios <= 0.3 at 17.4, 30 and 100 kHz, and for ratios 1 to 8.7 up to 14 kHz (2 pi f h = 1.22); at
+#: 17.4 kHz (1.52) ratio 1 gives 1.9e-3 rad and ratio 8.7 overflows. The limits keep a margin on both sides:
+#: 1.0 (11.5 kHz at 72 kHz) and 0.1. A real block carries gyros of about 1 % of its inertia on isolator modes of
+#: 10-500 Hz, far inside.
+MAX_MODE_STEP = 1.0
+MAX_UNRESOLVED_INERTIA_RATIO = 0.1
+
+
+def check_block_resolution(block: BlockParams, rate_hz: float) -> None:
+    """Refuse a block whose coupling to its gyros the plant step cannot resolve (:data:`MAX_MODE_STEP`,
+    :data:`MAX_UNRESOLVED_INERTIA_RATIO`).
+
+    Raises
+    ------
+    ValueError
+        Naming ``isolators``, the mode, the inertia ratio and the plant rate it would need.
+    """
+    f_max = max((f for f, _ in block.isolator_modes()), default=0.0)
+    limit = MAX_MODE_STEP * rate_hz / (2.0 * math.pi)
+    about = np.einsum("ij,jk,ik->i", block.input_axes, block.inertia_kg_m2, block.input_axes)
+    ratio = float(np.max(block.gyro_inertia_kg_m2 / about))
+    if f_max > limit and ratio > MAX_UNRESOLVED_INERTIA_RATIO:
+        raise ValueError(f"isolators: the block's fastest isolator mode is {f_max:.4g} Hz, above plant.rate_hz / "
+                         f"(2 pi) = {limit:.4g} Hz, with a gyro of {ratio:.3g} of the block's inertia about its axis "
+                         f"(above {MAX_UNRESOLVED_INERTIA_RATIO:g}): the coupled plant step cannot resolve it "
+                         f"(isolator modes lie at 10-500 Hz in practice); lower the isolator stiffness or raise "
+                         f"plant.rate_hz to at least {2.0 * math.pi * f_max / MAX_MODE_STEP:.4g} Hz")
+
+
 class CoupledPlant:
     """Three suspensions on one block, stepped together (``sins_sim._kernels.block``); chunked == whole, bit for bit.
 
@@ -617,6 +652,7 @@ class CoupledPlant:
             raise ValueError(f"suspensions: need three (x, y, z), got {len(suspensions)}")
         for s in suspensions:
             check_resolution(s, settings.rate_hz)
+        check_block_resolution(block, settings.rate_hz)
         self._k, self._kx, self._kp = kblock, kexact, kphys
         self.suspensions, self.block, self.settings = suspensions, block, settings
         self.h = 1.0 / settings.rate_hz
