@@ -103,3 +103,10 @@ def test_the_checks_can_fail():
 def test_readme_tells_how_to_reproduce_ci():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert 'pip install -c constraints/ci.txt -e ".[test,docs]"' in readme
+
+
+def test_ci_runs_the_readme_command_in_either_environment():
+    """``.ci/run`` pins the minimum through PIP_CONSTRAINT, so the README's one test command serves both."""
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    assert ci.count('pip install -e ".[test]" && pytest') == 1
+    assert 'PIP_CONSTRAINT="$PWD/constraints/minimum.txt"' in ci and "unset PIP_CONSTRAINT" in ci
