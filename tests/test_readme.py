@@ -226,3 +226,22 @@ def test_every_readme_command_runs(tmp_path, monkeypatch, capsys):
             failures.append(f"{line!r} -> sins-sim {' '.join(run)}: exit {status}: {captured.err.strip()[-300:]}")
     assert not failures, "\n".join(failures)
     assert json.loads(Path("scenario.schema.json").read_text())["$schema"]  # the redirected one is the JSON schema
+
+
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    """The "From Python" block as written (its 60 s run is already a short one), then what it says it wrote."""
+    blocks = re.findall(r"^```python\n(.*?)^```", README.read_text(encoding="utf-8"), re.M | re.S)
+    assert len(blocks) == 1
+    for d in ("configs", "scenarios"):
+        (tmp_path / d).symlink_to(ROOT / d, target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import sins_sim
+
+    names = {}
+    exec(compile(blocks[0], "README.md (From Python)", "exec"), names)
+    assert set(names["frames"]) >= {"summary", "correcting"} and "filter" in names["ds"].dims
+    assert sins_sim.load("out/first").to_pandas()["summary"].equals(names["frames"]["summary"])
