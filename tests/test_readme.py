@@ -184,15 +184,20 @@ def test_readme_command_parser_sees_chains_redirects_and_options():
     assert _quick(["navigate", "i.csv", "--out", "D"]) == ["navigate", "i.csv", "--out", "D"]  # no --align: none
 
 
+def _scratch_checkout(tmp_path, monkeypatch):
+    """Work in ``tmp_path`` with the repository's configs/ and scenarios/ reachable as the README writes them."""
+    for d in ("configs", "scenarios"):
+        (tmp_path / d).symlink_to(ROOT / d, target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+
+
 def test_every_readme_command_runs(tmp_path, monkeypatch, capsys):
     """Each ``sins-sim`` command of the README in order, in one folder where configs/ and scenarios/ are
     reachable as written, through :func:`sins_sim.cli.main`; exit status 0 for each."""
     from sins_sim.cli import main
 
-    for d in ("configs", "scenarios"):
-        (tmp_path / d).symlink_to(ROOT / d, target_is_directory=True)
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("MPLBACKEND", "Agg")
+    _scratch_checkout(tmp_path, monkeypatch)
     # compare-filters --quick takes half a minute; tests/test_wideband.py runs that resolution in full, so here the
     # command's plumbing runs at the coarser one tests/test_figures.py uses for the figures
     import dataclasses
@@ -232,10 +237,7 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     """The "From Python" block as written (its 60 s run is already a short one), then what it says it wrote."""
     blocks = re.findall(r"^```python\n(.*?)^```", README.read_text(encoding="utf-8"), re.M | re.S)
     assert len(blocks) == 1
-    for d in ("configs", "scenarios"):
-        (tmp_path / d).symlink_to(ROOT / d, target_is_directory=True)
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("MPLBACKEND", "Agg")
+    _scratch_checkout(tmp_path, monkeypatch)
     import matplotlib
 
     matplotlib.use("Agg")
