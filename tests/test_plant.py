@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
+from scipy.integrate import trapezoid
 
 from sins_sim.errors import HysteresisRegimeWarning
 from sins_sim.models.drive import DriveParams
@@ -154,7 +155,7 @@ def test_paper_suspension_driven_at_resonance_holds_3_arcmin(integrator):
     n_fit = int(round(10 * FS / f))
     _, z3, _ = _fit(t, d, [w, 3.0 * w, 5.0 * w], n_fit)
     th = np.linspace(0.0, math.pi, 20001)
-    n3 = (2.0 / math.pi) * np.trapezoid(P.nonl(A_M * np.cos(th)) * np.cos(3.0 * th), th)
+    n3 = (2.0 / math.pi) * trapezoid(P.nonl(A_M * np.cos(th)) * np.cos(3.0 * th), th)
     pred3 = abs(n3) / (9.0 * (f / P.f0_hz) ** 2 - 1.0)
     assert abs(z3) == pytest.approx(pred3, rel=0.05)
 

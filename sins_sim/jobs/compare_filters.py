@@ -39,6 +39,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.integrate import trapezoid  # numpy's own trapezoid is numpy >= 2.0 only
 
 from sins_sim.filters import registry
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
@@ -432,7 +433,7 @@ def _tradeoff(imu, sigma_x_rad):
         d = _wideband_design(n, ch)
         points[n] = (flat_band(np.abs(d.frequency_response(fa))), d.noise_gain_white * sigma_x_rad / ARCSEC)
     fc = np.linspace(100.0, 0.5 * fs, 300)
-    bound = [float(np.sqrt(2.0 / fs * np.trapezoid((1.0 - (np.linspace(0, c, 400) / s.f0_hz) ** 2) ** 2,
+    bound = [float(np.sqrt(2.0 / fs * trapezoid((1.0 - (np.linspace(0, c, 400) / s.f0_hz) ** 2) ** 2,
                                                    np.linspace(0, c, 400))) * sigma_x_rad / ARCSEC) for c in fc]
     return {"curves": curves, "points": points, "bound_f_hz": fc.tolist(), "bound_arcsec": bound}
 

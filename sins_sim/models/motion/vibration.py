@@ -249,6 +249,16 @@ _MAX_LOG2_TAPS = 16
 _DESIGN_OVERSAMPLING = 16  # design grid spacing = fs / (16 2^k): 16 points per 1/L
 _MIN_FFT = 2**17  # overlap-save FFT length at least 2^17 (the L - 1 overlap is at most 1/4 of it)
 _CACHE_BLOCKS = 2  # noise, node and segment blocks kept per vibration (sequential use needs 2)
+_FFT_OUT = int(np.__version__.split(".")[0]) >= 2  # numpy.fft takes out= from numpy 2.0 on
+
+
+def _np_fft_into(fn, x, n, out):
+    """``out[...] = fn(x, n, axis=-1)`` for a ``numpy.fft`` function: into ``out`` on numpy >= 2.0, through one
+    temporary before (same values: numpy 1.x computes in double precision, as 2.x does for double input)."""
+    if _FFT_OUT:
+        fn(x, n, axis=-1, out=out)
+    else:
+        out[...] = fn(x, n, axis=-1)
 _MAX_BLOCK = 2**32  # block indices must fit one SeedSequence word
 _SEED_LIMIT = 2**32
 _NEGATIVE_BLOCKS = 6  # channel offset of the noise of blocks b < 0
@@ -570,7 +580,7 @@ class _Shaper:
         if self.single:
             out[:] = scipy.fft.rfft(x, axis=-1)
         else:
-            np.fft.rfft(x, axis=-1, out=out)
+            _np_fft_into(np.fft.rfft, x, None, out)
 
     def _stuffed_spectrum(self, x, spec, short):
         """``spec`` = rfft of ``x`` zero-stuffed by ``D`` to the FFT length (``x[j]`` at sample ``j D``).
@@ -651,7 +661,7 @@ class _Shaper:
         for q in range(3):
             np.multiply(spec, self._spectra[q], out=prod)
             if all_live:
-                np.fft.irfft(prod, d.fft_size, axis=-1, out=blk[q])
+                _np_fft_into(np.fft.irfft, prod, d.fft_size, blk[q])
             else:
                 blk[q, live] = np.fft.irfft(prod, d.fft_size, axis=-1)
         self._keep(self._nodes, b, blk, recycle=True)
