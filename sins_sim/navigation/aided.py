@@ -123,6 +123,11 @@ class _Series:
             Position error NED (m), velocity error (m/s), attitude error psi (rad); computed minus true.
         """
         h = np.asarray(h_m, dtype=np.float64)
+        k = len(self)
+        for name, arr, shape in (("lat_rad", lat_rad, (k,)), ("lon_rad", lon_rad, (k,)), ("h_m", h, (k,)),
+                                 ("v_ned_m_s", v_ned_m_s, (k, 3)), ("q_nb", q_nb, (k, 4))):
+            if np.shape(arr) != shape:
+                raise ValueError(f"{name}: must have shape {shape} (the truth at t_s), got {np.shape(arr)}")
         dn, de, _ = earth.horizontal_error_m(self.lat_rad, self.lon_rad, np.asarray(lat_rad), np.asarray(lon_rad), h)
         return np.column_stack([dn, de, -(self.h_m - h), self.v_ned_m_s - np.asarray(v_ned_m_s),
                                 attitude_error(self.q_nb, np.asarray(q_nb, dtype=np.float64))])
