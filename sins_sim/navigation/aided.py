@@ -66,7 +66,7 @@ from sins_sim import earth
 from sins_sim.navigation import ekf
 from sins_sim.navigation.attitude import _increments, attitude_error, quat_from_rotvec, quat_multiply
 from sins_sim.navigation.gnss import GnssFixes
-from sins_sim.navigation.strapdown import StrapdownNavigator
+from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
 
 __all__ = ["navigate_aided", "AidedResult", "smooth", "SmoothedResult", "outage_growth", "OutageGrowth",
            "LATENCY_MODES", "GNSS_MEASUREMENTS"]
@@ -89,21 +89,13 @@ def _correct_rows(lat, lon, h, vel, q, dx):
 
 
 @dataclass(frozen=True)
-class _Series:
-    """A navigation solution at epochs with the 1-sigma of its 15 error states."""
+class _Series(NavSolution):
+    """A navigation solution at epochs (:class:`NavSolution`'s fields) with the bias estimates and the 1-sigma of
+    its 15 error states."""
 
-    t_s: np.ndarray
-    lat_rad: np.ndarray
-    lon_rad: np.ndarray
-    h_m: np.ndarray
-    v_ned_m_s: np.ndarray
-    q_nb: np.ndarray
     gyro_bias_rad_s: np.ndarray
     accel_bias_m_s2: np.ndarray
     sigma: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.t_s.shape[0])
 
     def errors(self, lat_rad, lon_rad, h_m, v_ned_m_s, q_nb) -> np.ndarray:
         """Errors of the solution against a truth given at :attr:`t_s`, in the filter's definition.
@@ -348,7 +340,8 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
     Returns
     -------
     AidedResult
-        Epochs: the start, every navigation update where fixes were applied, every output time.
+        Epochs: the start, every navigation update where fixes were applied, every output time (without
+        ``output_t_s``, the record's last navigation update instead).
 
     Raises
     ------
