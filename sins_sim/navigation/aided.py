@@ -31,9 +31,11 @@ references, with ``s_k`` the smoothed estimate of the error of ``N_k^+``::
     P_k^s = P_k^+ + C_k (P_(k+1)^s - P_(k+1)^-) C_k^T
 
 and the smoothed solution is ``N_k^+`` corrected by ``s_k``. This is the open-loop (textbook) smoother
-written in the closed loop's references: the open-loop filter's estimate ``x_k^+`` of the free
-navigator's error maps to ``N_k^+`` and the two agree to first order in the error (the closed loop
-linearises about a better trajectory; Groves 2013, sec. 14.1.1).
+written in the closed loop's references: with the free navigator's error estimated by ``x``, the textbook
+``S_k = x_k^+ + C_k (S_(k+1) - Phi_k x_k^+)`` becomes the recursion above for ``s_k = S_k - x_k^+`` with
+``dx_(k+1) = x_(k+1)^+ - x_(k+1)^-``, so :func:`smooth` serves both (``feedback=False`` records that
+``dx``). Closed and open loop agree to first order in the error (the closed loop linearises about a
+better trajectory; Groves 2013, sec. 14.1.1); tested.
 
 .. autosummary::
 
@@ -168,7 +170,8 @@ class AidedResult(_Series):
     p_pred, p_upd : ndarray, shape (K, 15, 15)
         Covariance before and after the epoch's update (equal without one).
     correction : ndarray, shape (K, 15)
-        Error state fed back at the epoch (zeros without an update).
+        Error state fed back at the epoch (zeros without an update); in open loop the update's change of the
+        estimate, ``x^+ - x^-``.
     innovation_t_s, innovation_t_valid_s : ndarray, shape (M,)
         Time each measurement was applied and the time of validity of its fix.
     innovation_name : ndarray of str, shape (M,)
@@ -308,7 +311,7 @@ def _uniform_times(t_s, n):
 
 def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0, fixes: GnssFixes, *,
                    output_t_s=None, use=GNSS_MEASUREMENTS, latency="compensate", n_sub=1,
-                   max_propagation_s=1.0) -> AidedResult:
+                   max_propagation_s=1.0, feedback=True) -> AidedResult:
     """GNSS-aided navigation of a record of increments (module docstring).
 
     Parameters
@@ -336,6 +339,9 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
         Input samples per navigation update.
     max_propagation_s : float
         Longest covariance propagation step (s).
+    feedback : bool
+        Closed loop (default); ``False`` leaves the navigator free and the error state accumulating (the
+        open-loop filter, whose solution is the free one minus the estimate; for comparison).
 
     Returns
     -------
@@ -368,7 +374,8 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
         raise ValueError(f"n_sub: must be an integer >= 1, got {n_sub!r}")
     nav = StrapdownNavigator(start.lat_rad, start.lon_rad, start.h_m, start.v_ned_m_s, start.q_nb, dt, n_sub=n_sub)
     aided = ekf.AidedNavigator(nav, noise, p0, gyro_bias_rad_s=start.gyro_bias_rad_s,
-                               accel_bias_m_s2=start.accel_bias_m_s2, max_propagation_s=max_propagation_s)
+                               accel_bias_m_s2=start.accel_bias_m_s2, max_propagation_s=max_propagation_s,
+                               feedback=bool(feedback))
     big_t = nav.update_period_s
     n_upd = dth.shape[0] // n_sub
     # the navigation update each fix is applied at: the first at or after its delivery
@@ -421,9 +428,13 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
                 if "velocity" in use:
                     meas.append(_AtState(ekf.Velocity(fixes.v_ned_m_s[i], sig_v, lever, rate), state))
                 t_valid += [float(fixes.t_valid_s[i])] * len(use)
+            x_before = aided.x
             recs = aided.update(*meas)
-            corr = aided.last_correction
-            hist.correct(corr)
+            if feedback:
+                corr = aided.last_correction
+                hist.correct(corr)
+            else:       # open loop: the history stays the free solution, the estimate the change of x
+                corr = aided.x - x_before
             for r, tv in zip(recs, t_valid):
                 inn["t"].append(t_now)
                 inn["t_valid"].append(tv)
@@ -431,7 +442,7 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
                 inn["nu"].append(r.innovation)
                 inn["sigma"].append(np.sqrt(np.diag(r.s_matrix)))
                 inn["nis"].append(r.nis)
-        st = aided.nav_state()
+        st = aided.nav_state() if feedback else aided.corrected_state()
         for key, val in (("t", t_now), ("lat", st.lat_rad), ("lon", st.lon_rad), ("h", st.h_m),
                          ("v", st.v_ned_m_s), ("q", st.q_nb), ("bg", st.gyro_bias_rad_s), ("ba", st.accel_bias_m_s2),
                          ("sigma", aided.sigma()), ("updated", bool(fix_list)),
