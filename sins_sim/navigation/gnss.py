@@ -55,7 +55,10 @@ _TIME_RTOL = 1e-9
 
 
 def _sigma3(owner, name, value, positive):
-    arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (3,)) if np.ndim(value) <= 1 else None
+    try:
+        arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (3,))
+    except (TypeError, ValueError):
+        arr = None
     rule = "> 0" if positive else ">= 0"
     if arr is None or not np.all(np.isfinite(arr)) or np.any(arr <= 0.0 if positive else arr < 0.0):
         raise ValueError(f"{owner}.{name}: must be one value or 3 (north, east, down), each finite and {rule}, "
