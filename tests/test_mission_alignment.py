@@ -24,6 +24,14 @@ from sins_sim.config.scenario import load_scenario
 from sins_sim.simulation.aligning import AlignmentAccumulator, AlignmentSettings, bias_sigmas
 
 
+def test_the_schema_offers_the_methods_the_navigation_has():
+    from sins_sim.config.scenario import ALIGNMENT_METHODS as in_schema
+    from sins_sim.navigation.alignment_result import ALIGNMENT_METHODS
+    from sins_sim.simulation.aligning import ALIGNERS
+
+    assert in_schema == ALIGNMENT_METHODS and set(ALIGNERS) == set(ALIGNMENT_METHODS) - {"truth"}
+
+
 def test_accumulator_sums_blocks_whatever_the_chunking():
     rng = np.random.default_rng(3)
     n_sub, n = 7, 7 * 40 + 3  # a partial last block is dropped

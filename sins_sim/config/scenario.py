@@ -24,7 +24,6 @@ from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
 from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml
 from sins_sim.filters import registry as filter_registry
-from sins_sim.navigation.alignment_result import ALIGNMENT_METHODS
 
 # The scenario's own schema needs no model, engine or numba: a scenario file is checked before those are
 # imported (they are imported where the IMU, the motion and the navigation are built), so a configuration
@@ -66,6 +65,10 @@ MAX_SPEED_M_S = 3000.0
 #: Stored error series: at most this many blocks per filter (~360 B each), and spectra of at most 600 s
 #: (the full-rate gyro error of every filter is kept in memory: 7.2 kHz x 600 s x 24 B = 100 MB per filter).
 MAX_SPECTRUM_S = 600.0
+#: The alignment methods (the names of ``sins_sim.navigation.alignment_result.ALIGNMENT_METHODS``, written here so
+#: that loading a scenario imports neither the navigation package nor numba; tests/test_mission_alignment.py checks
+#: that the two agree).
+ALIGNMENT_METHODS = ("truth", "coarse", "inertial", "kalman")
 #: The speed (m/s) above which the vehicle is not at rest for an alignment window: a still or swaying base
 #: moves at millimetres per second (a 5 arcmin sway of a point 1 m off the axis at 3 Hz: 9 mm/s); a
 #: vehicle taxiing moves at metres per second.

@@ -30,8 +30,22 @@ north-east-down.
 - :mod:`~sins_sim.navigation.static_kalman`: :func:`align_kalman` (Kalman fine
   alignment at rest), :func:`navigate_zupt` (a still log with zero-velocity
   updates), :class:`ZuptResult`.
+- :mod:`~sins_sim.navigation.gnss`: :func:`simulate_gnss` (GNSS position and
+  velocity fixes of a truth: white and Gauss-Markov noise, latency, lever arm,
+  outages), :class:`GnssSettings`, :class:`GnssFixes`.
+- :mod:`~sins_sim.navigation.aided`: :func:`navigate_aided` (a record of
+  increments aided by GNSS fixes, latency handled at the time of validity),
+  :func:`smooth` (Rauch-Tung-Striebel), :func:`outage_growth`.
 """
 
+from sins_sim.navigation.aided import (
+    AidedResult,
+    OutageGrowth,
+    SmoothedResult,
+    navigate_aided,
+    outage_growth,
+    smooth,
+)
 from sins_sim.navigation.alignment import align_coarse, align_inertial
 from sins_sim.navigation.attitude import (
     AttitudeIntegrator,
@@ -83,6 +97,7 @@ from sins_sim.navigation.ekf import (
     make_measurement,
     process_noise_density,
 )
+from sins_sim.navigation.gnss import GnssFixes, GnssSettings, simulate_gnss
 from sins_sim.navigation.static_kalman import ZuptResult, align_kalman, navigate_zupt, observability
 from sins_sim.navigation.strapdown import (
     SCULLING_ALGORITHMS,
@@ -146,4 +161,13 @@ __all__ = [
     "align_kalman",
     "navigate_zupt",
     "observability",
+    "GnssFixes",
+    "GnssSettings",
+    "simulate_gnss",
+    "AidedResult",
+    "OutageGrowth",
+    "SmoothedResult",
+    "navigate_aided",
+    "outage_growth",
+    "smooth",
 ]

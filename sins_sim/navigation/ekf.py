@@ -900,6 +900,8 @@ class AidedNavigator:
         self._sum_n = 0
         self._epoch_rate = np.full(3, np.nan)
         self._epoch_update = -1
+        self._phi_acc = np.eye(N_STATES)     # product of the block transitions since the last propagate()
+        self._last_correction = np.zeros(N_STATES)
 
     # --- state ----------------------------------------------------------------------------------------------
 
@@ -1031,6 +1033,7 @@ class AidedNavigator:
         phi, q_d = discretize(fm, self._qc, t)
         p = phi @ self._p @ phi.T + q_d
         self._p = 0.5 * (p + p.T)
+        self._phi_acc = phi @ self._phi_acc
         if not self._feedback:
             self._x = phi @ self._x
         self._prior_bias_var = self._noise.bias_variance_after(self._prior_bias_var, t)
@@ -1041,6 +1044,25 @@ class AidedNavigator:
         if self._block_n:
             self._propagate_block(self._snapshot_row(), self._block_n)
             self._block_n = 0
+
+    def propagate(self) -> np.ndarray:
+        """Propagate the covariance up to the current navigation update with no measurement.
+
+        Returns
+        -------
+        ndarray, shape (15, 15)
+            The transition matrix ``Phi`` from the previous call (or the start) to now, the product of the
+            block transitions in between (a smoother's input; Rauch, Tung & Striebel 1965).
+        """
+        self._flush()
+        phi = self._phi_acc
+        self._phi_acc = np.eye(N_STATES)
+        return phi
+
+    @property
+    def last_correction(self) -> np.ndarray:
+        """The error state fed back by the last update (copy; zeros before any, and without feedback)."""
+        return self._last_correction.copy()
 
     def _roll_epoch(self):
         n_upd = self._nav.n_updates
@@ -1117,6 +1139,7 @@ class AidedNavigator:
 
     def _apply_feedback(self):
         x = self._x
+        self._last_correction = x.copy()
         self._nav.apply_correction(x[POS], x[VEL], x[ATT])
         self._bg = self._bg - x[GYRO_BIAS]
         self._ba = self._ba - x[ACCEL_BIAS]

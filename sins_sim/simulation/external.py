@@ -172,6 +172,21 @@ def _check_physical(dth: np.ndarray, dvel: np.ndarray, dt: float) -> None:
                              "value?)")
 
 
+def _checked_increments(t_s, dtheta, dv) -> tuple:
+    """``(t, dt, dtheta, dv)``: finite, uniformly spaced times, one (3,) row of each per time, physical values;
+    a ValueError naming ``t_s``, ``dtheta`` or ``dv`` otherwise."""
+    t = v.finite_array("", "t_s", t_s, ndim=1)
+    dt = uniform_period(t, "t_s")
+    n = t.size
+    dth = v.finite_array("", "dtheta", dtheta, ndim=2)
+    dvel = v.finite_array("", "dv", dv, ndim=2)
+    for label, arr in (("dtheta", dth), ("dv", dvel)):
+        if arr.shape != (n, 3):
+            raise ValueError(f"{label}: must have shape ({n}, 3) (one row per time), got {arr.shape}")
+    _check_physical(dth, dvel, dt)
+    return t, dt, dth, dvel
+
+
 def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", coning: str = "two_sample",
                         sculling: str = "two_sample", vertical: str = "height_aid",
                         height_aid_tau_s: float = 100.0, q0_nb=None, v0_ned_m_s=None) -> ExternalNavResult:
@@ -215,15 +230,8 @@ def navigate_increments(t_s, dtheta, dv, truth, *, name: str = "external", conin
     from sins_sim.simulation.sins import (DIVERGED_ATTITUDE_RAD, DIVERGED_POSITION_M, DIVERGED_VELOCITY_M_S,
                                           _allan_analyses, _error_records, divergence_reason)
 
-    t = v.finite_array("", "t_s", t_s, ndim=1)
-    dt = uniform_period(t, "t_s")
+    t, dt, dth, dvel = _checked_increments(t_s, dtheta, dv)
     n = t.size
-    dth = v.finite_array("", "dtheta", dtheta, ndim=2)
-    dvel = v.finite_array("", "dv", dv, ndim=2)
-    for label, arr in (("dtheta", dth), ("dv", dvel)):
-        if arr.shape != (n, 3):
-            raise ValueError(f"{label}: must have shape ({n}, 3) (one row per time), got {arr.shape}")
-    _check_physical(dth, dvel, dt)
     t_start = float(t[0] - dt)
     end = float(getattr(truth, "duration_s", math.inf))
     if t_start < -1e-9:  # a first increment from the truth's start computes t[0] - dt to within rounding of 0
@@ -341,15 +349,8 @@ def navigate_free(t_s, dtheta, dv, lat0_rad, lon0_rad, h0_m, q0_nb, v0_ned_m_s, 
     """
     from sins_sim.navigation.strapdown import StrapdownNavigator
 
-    t = v.finite_array("", "t_s", t_s, ndim=1)
-    dt = uniform_period(t, "t_s")
+    t, dt, dth, dvel = _checked_increments(t_s, dtheta, dv)
     n = t.size
-    dth = v.finite_array("", "dtheta", dtheta, ndim=2)
-    dvel = v.finite_array("", "dv", dv, ndim=2)
-    for label, arr in (("dtheta", dth), ("dv", dvel)):
-        if arr.shape != (n, 3):
-            raise ValueError(f"{label}: must have shape ({n}, 3) (one row per time), got {arr.shape}")
-    _check_physical(dth, dvel, dt)
     nav = StrapdownNavigator(lat0_rad, lon0_rad, h0_m, v0_ned_m_s, q0_nb, dt, coning=coning, sculling=sculling,
                              vertical=vertical, height_aid_tau_s=height_aid_tau_s)
     every = max(1, int(round(1.0 / (dt * min(SERIES_RATE_HZ, 1.0 / dt)))))

@@ -1,0 +1,588 @@
+"""GNSS-aided navigation over a whole record, the fixed-interval smoother and the outage error growth (issue 37).
+
+:func:`navigate_aided` feeds a record of increments through the closed-loop error-state filter
+(:class:`~sins_sim.navigation.ekf.AidedNavigator`) and applies GNSS fixes
+(:class:`~sins_sim.navigation.gnss.GnssFixes`, loosely coupled: position and velocity of the antenna)
+when they are delivered. :func:`smooth` runs the Rauch-Tung-Striebel smoother backwards over the
+recorded filter; :func:`outage_growth` reads the error growth in each GNSS outage against the filter's
+own prediction. ``docs/theory/kalman.md`` writes the equations out.
+
+Latency. A fix valid at ``t_v`` and delivered at ``t_d = t_v + L`` is applied at the first navigation
+update at or after ``t_d``, against the navigator's solution at ``t_v``: the run keeps the solution rows
+of the last ``L + 2 T`` seconds, interpolated linearly to ``t_v`` (quaternions normalised; the
+interpolation error is second order in the update period ``T``, ``a T^2 / 8`` in position), and every
+feedback correction is applied to these stored rows as well, so they stay the corrected trajectory
+carried back in time. The innovation is then ``h(x(t_v)) - z`` and the update corrects the current
+error state with it. Approximation: the error state is taken as constant over the latency
+(``Phi(t_d, t_v) = I``); what that neglects is the error's change over ``L``, ``dv L`` in position
+(0.05 m/s x 0.2 s = 1 cm) and ``g psi L`` in velocity, both far below a GNSS fix's noise
+(Groves 2013, sec. 3.3.4 "measurement time-of-validity"). ``latency="ignore"`` applies each fix as if it
+were valid at its delivery (the naive way, for comparison).
+
+Smoother (closed loop). The filter's reference is its own solution: after the update at epoch ``k`` the
+error of the corrected solution ``N_k^+`` has estimate 0 and covariance ``P_k^+``; the navigator carries
+``N_k^+`` to ``N_(k+1)^-`` whose error is ``Phi_k e_k^+ + w`` (estimate 0, covariance ``P_(k+1)^-``);
+the update finds ``dx_(k+1) = K nu`` and feeds it back, ``N_(k+1)^+ = N_(k+1)^- - dx_(k+1)``. The
+Rauch-Tung-Striebel recursion (Rauch, Tung & Striebel 1965; Groves 2013, sec. 3.4.2) in these
+references, with ``s_k`` the smoothed estimate of the error of ``N_k^+``::
+
+    C_k   = P_k^+ Phi_k^T (P_(k+1)^-)^-1
+    s_k   = C_k (s_(k+1) + dx_(k+1)),                 s_K = 0 (the last epoch is the filter's)
+    P_k^s = P_k^+ + C_k (P_(k+1)^s - P_(k+1)^-) C_k^T
+
+and the smoothed solution is ``N_k^+`` corrected by ``s_k``. This is the open-loop (textbook) smoother
+written in the closed loop's references: with the free navigator's error estimated by ``x``, the textbook
+``S_k = x_k^+ + C_k (S_(k+1) - Phi_k x_k^+)`` becomes the recursion above for ``s_k = S_k - x_k^+`` with
+``dx_(k+1) = x_(k+1)^+ - x_(k+1)^-``, so :func:`smooth` serves both (``feedback=False`` records that
+``dx``). Closed and open loop agree to first order in the error (the closed loop linearises about a
+better trajectory; Groves 2013, sec. 14.1.1); tested.
+
+.. autosummary::
+
+   navigate_aided
+   AidedResult
+   smooth
+   SmoothedResult
+   outage_growth
+   OutageGrowth
+
+References
+----------
+.. [1] P. D. Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*, 2nd
+   ed., Artech House, 2013, sec. 3.3.4 (time of validity), 3.4.2 (smoothing), 14.1 (closed loop),
+   14.3 (loosely coupled integration).
+.. [2] H. E. Rauch, F. Tung, C. T. Striebel, "Maximum likelihood estimates of linear dynamic systems",
+   AIAA Journal 3(8), 1445-1450, 1965.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from numbers import Integral
+
+import numpy as np
+
+from sins_sim import _validate as v
+from sins_sim import earth
+from sins_sim.navigation import ekf
+from sins_sim.navigation.attitude import _increments, attitude_error, quat_from_rotvec, quat_multiply
+from sins_sim.navigation.gnss import GnssFixes
+from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
+
+__all__ = ["navigate_aided", "AidedResult", "smooth", "SmoothedResult", "outage_growth", "OutageGrowth",
+           "LATENCY_MODES", "GNSS_MEASUREMENTS"]
+
+#: How a fix's latency is handled: against the solution at its time of validity, or ignored.
+LATENCY_MODES = ("compensate", "ignore")
+#: The GNSS measurements :func:`navigate_aided` can apply.
+GNSS_MEASUREMENTS = ("position", "velocity")
+
+
+def _correct_rows(lat, lon, h, vel, q, dx):
+    """Remove error states ``dx`` (one row or one per row) from solution rows: the inverse of the state's
+    definition, the vectorised form of :meth:`StrapdownNavigator.apply_correction`."""
+    dx = np.broadcast_to(dx, (lat.shape[0], ekf.N_STATES))
+    r_n, r_e = earth.radii(lat)
+    lat_c = lat - dx[:, 0] / (r_n + h)
+    lon_c = (lon - dx[:, 1] / ((r_e + h) * np.cos(lat)) + math.pi) % (2.0 * math.pi) - math.pi
+    qc = quat_multiply(quat_from_rotvec(-dx[:, ekf.ATT]), q)
+    return lat_c, lon_c, h + dx[:, 2], vel - dx[:, ekf.VEL], qc / np.linalg.norm(qc, axis=1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class _Series(NavSolution):
+    """A navigation solution at epochs (:class:`NavSolution`'s fields) with the bias estimates and the 1-sigma of
+    its 15 error states."""
+
+    gyro_bias_rad_s: np.ndarray
+    accel_bias_m_s2: np.ndarray
+    sigma: np.ndarray
+
+    def errors(self, lat_rad, lon_rad, h_m, v_ned_m_s, q_nb) -> np.ndarray:
+        """Errors of the solution against a truth given at :attr:`t_s`, in the filter's definition.
+
+        Parameters
+        ----------
+        lat_rad, lon_rad, h_m : array_like, shape (K,)
+            True IMU position.
+        v_ned_m_s : array_like, shape (K, 3)
+            True velocity (m/s).
+        q_nb : array_like, shape (K, 4)
+            True attitude body to NED.
+
+        Returns
+        -------
+        ndarray, shape (K, 9)
+            Position error NED (m), velocity error (m/s), attitude error psi (rad); computed minus true.
+        """
+        h = np.asarray(h_m, dtype=np.float64)
+        k = len(self)
+        for name, arr, shape in (("lat_rad", lat_rad, (k,)), ("lon_rad", lon_rad, (k,)), ("h_m", h, (k,)),
+                                 ("v_ned_m_s", v_ned_m_s, (k, 3)), ("q_nb", q_nb, (k, 4))):
+            if np.shape(arr) != shape:
+                raise ValueError(f"{name}: must have shape {shape} (the truth at t_s), got {np.shape(arr)}")
+        dn, de, _ = earth.horizontal_error_m(self.lat_rad, self.lon_rad, np.asarray(lat_rad), np.asarray(lon_rad), h)
+        return np.column_stack([dn, de, -(self.h_m - h), self.v_ned_m_s - np.asarray(v_ned_m_s),
+                                attitude_error(self.q_nb, np.asarray(q_nb, dtype=np.float64))])
+
+    def to_pandas(self):
+        """The epochs as a DataFrame indexed by ``t_s``: position, velocity, attitude quaternion, bias estimates
+        and the 1-sigma of each error state (``sigma_`` + :data:`~sins_sim.navigation.ekf.STATE_NAMES`)."""
+        import pandas as pd
+
+        cols = {"lat_rad": self.lat_rad, "lon_rad": self.lon_rad, "h_m": self.h_m}
+        for i, ax in enumerate("ned"):
+            cols[f"v_{ax}_m_s"] = self.v_ned_m_s[:, i]
+        for i in range(4):
+            cols[f"q{i}"] = self.q_nb[:, i]
+        for i, ax in enumerate("xyz"):
+            cols[f"gyro_bias_{ax}_rad_s"] = self.gyro_bias_rad_s[:, i]
+            cols[f"accel_bias_{ax}_m_s2"] = self.accel_bias_m_s2[:, i]
+        for i, name in enumerate(ekf.STATE_NAMES):
+            cols[f"sigma_{name}"] = self.sigma[:, i]
+        cols.update(self._extra_columns())
+        return pd.DataFrame(cols, index=pd.Index(self.t_s, name="t_s"))
+
+    def _extra_columns(self) -> dict:
+        return {}
+
+
+@dataclass(frozen=True)
+class AidedResult(_Series):
+    """A GNSS-aided run (:func:`navigate_aided`): the solution at every epoch (fix applications and output
+    times) after any update, and what the smoother and the outage analysis need.
+
+    Attributes
+    ----------
+    t_s, lat_rad, lon_rad, h_m, v_ned_m_s, q_nb : ndarray
+        The solution at the epochs (s, rad, m, m/s, body-to-NED quaternion), ``(K,)`` or ``(K, n)``.
+    gyro_bias_rad_s, accel_bias_m_s2 : ndarray, shape (K, 3)
+        The bias estimates (body axes).
+    sigma : ndarray, shape (K, 15)
+        1-sigma of the error states after the epoch's update.
+    updated : ndarray of bool, shape (K,)
+        Whether fixes were applied at the epoch.
+    t_valid_s : ndarray, shape (K,)
+        Latest time of validity of the fixes applied at the epoch (NaN without).
+    phi : ndarray, shape (K, 15, 15)
+        Transition matrix from the previous epoch (identity at the first).
+    p_pred, p_upd : ndarray, shape (K, 15, 15)
+        Covariance before and after the epoch's update (equal without one).
+    correction : ndarray, shape (K, 15)
+        Error state fed back at the epoch (zeros without an update); in open loop the update's change of the
+        estimate, ``x^+ - x^-``.
+    innovation_t_s, innovation_t_valid_s : ndarray, shape (M,)
+        Time each measurement was applied and the time of validity of its fix.
+    innovation_name : ndarray of str, shape (M,)
+        ``position`` or ``velocity``.
+    innovation : ndarray, shape (M, 3)
+        ``nu = dz - H x`` (m or m/s, NED).
+    innovation_sigma : ndarray, shape (M, 3)
+        ``sqrt(diag S)``.
+    nis : ndarray, shape (M,)
+        ``nu^T S^-1 nu`` (chi-square with 3 degrees of freedom for a consistent filter).
+    latency : str
+        The latency handling (:data:`LATENCY_MODES`).
+    update_period_s : float
+        The navigation update period (s).
+    """
+
+    updated: np.ndarray
+    t_valid_s: np.ndarray
+    phi: np.ndarray
+    p_pred: np.ndarray
+    p_upd: np.ndarray
+    correction: np.ndarray
+    innovation_t_s: np.ndarray
+    innovation_t_valid_s: np.ndarray
+    innovation_name: np.ndarray
+    innovation: np.ndarray
+    innovation_sigma: np.ndarray
+    nis: np.ndarray
+    latency: str
+    update_period_s: float
+
+    def _extra_columns(self) -> dict:
+        return {"updated": self.updated, "t_valid_s": self.t_valid_s}
+
+    def innovations_to_pandas(self):
+        """The innovation records as a DataFrame (one row per measurement, units in the column names)."""
+        import pandas as pd
+
+        cols = {"t_s": self.innovation_t_s, "t_valid_s": self.innovation_t_valid_s, "name": self.innovation_name}
+        for i, ax in enumerate("ned"):
+            cols[f"innovation_{ax}"] = self.innovation[:, i]
+            cols[f"innovation_sigma_{ax}"] = self.innovation_sigma[:, i]
+        cols["nis"] = self.nis
+        return pd.DataFrame(cols)
+
+    def normalised_innovations(self, name: str) -> np.ndarray:
+        """The innovations of one measurement divided by their predicted sigma, shape (M_name, 3)."""
+        v.choice("", "name", name, GNSS_MEASUREMENTS)
+        sel = self.innovation_name == name
+        return self.innovation[sel] / self.innovation_sigma[sel]
+
+
+@dataclass(frozen=True)
+class SmoothedResult(_Series):
+    """The Rauch-Tung-Striebel smoothed solution at the filter's epochs (:func:`smooth`).
+
+    Attributes
+    ----------
+    t_s, lat_rad, lon_rad, h_m, v_ned_m_s, q_nb, gyro_bias_rad_s, accel_bias_m_s2 : ndarray
+        As in :class:`AidedResult`, smoothed.
+    sigma : ndarray, shape (K, 15)
+        1-sigma of the smoothed error states.
+    p : ndarray, shape (K, 15, 15)
+        Smoothed covariance.
+    estimate : ndarray, shape (K, 15)
+        Smoothed estimate ``s_k`` of the error of the filter's solution (the filter's solution minus it is
+        the smoothed solution).
+    """
+
+    p: np.ndarray
+    estimate: np.ndarray
+
+
+class _AtState:
+    """A measurement plug-in evaluated at a given (earlier) navigation state instead of the current one."""
+
+    def __init__(self, meas, state: ekf.NavState):
+        self._meas, self._state = meas, state
+        self.name, self.dim = meas.name, meas.dim
+
+    def h_matrix(self, state):
+        return self._meas.h_matrix(self._state)
+
+    def innovation(self, state):
+        return self._meas.innovation(self._state)
+
+    def r_matrix(self):
+        return self._meas.r_matrix()
+
+
+class _History:
+    """The solution rows of the last seconds (for fixes with latency), kept corrected by every feedback."""
+
+    def __init__(self, t0, start: ekf.NavState):
+        self.t = np.array([t0])
+        self.lat, self.lon, self.h = (np.array([x]) for x in (start.lat_rad, start.lon_rad, start.h_m))
+        self.v = np.asarray(start.v_ned_m_s, dtype=np.float64).reshape(1, 3)
+        self.q = np.asarray(start.q_nb, dtype=np.float64).reshape(1, 4)
+
+    def append(self, t, sol, keep_s):
+        keep = np.concatenate([self.t, t]) >= t[-1] - keep_s if t.size else np.ones(self.t.size, bool)
+        self.t = np.concatenate([self.t, t])[keep]
+        self.lat = np.concatenate([self.lat, sol.lat_rad])[keep]
+        self.lon = np.concatenate([self.lon, sol.lon_rad])[keep]
+        self.h = np.concatenate([self.h, sol.h_m])[keep]
+        self.v = np.concatenate([self.v, sol.v_ned_m_s])[keep]
+        self.q = np.concatenate([self.q, sol.q_nb])[keep]
+
+    def correct(self, dx):
+        self.lat, self.lon, self.h, self.v, self.q = _correct_rows(self.lat, self.lon, self.h, self.v, self.q, dx)
+
+    def state_at(self, t_v, bg, ba) -> ekf.NavState:
+        """Linear interpolation between the stored rows (quaternions sign-aligned and normalised)."""
+        i = int(np.clip(np.searchsorted(self.t, t_v) - 1, 0, max(self.t.size - 2, 0)))
+        if self.t.size == 1:
+            w, j = 0.0, 0
+        else:
+            j = i + 1
+            w = float(np.clip((t_v - self.t[i]) / (self.t[j] - self.t[i]), 0.0, 1.0))
+        dlon = (self.lon[j] - self.lon[i] + math.pi) % (2.0 * math.pi) - math.pi
+        qj = self.q[j] if float(self.q[i] @ self.q[j]) >= 0.0 else -self.q[j]
+        q = (1.0 - w) * self.q[i] + w * qj
+        return ekf.NavState(t_v, (1.0 - w) * self.lat[i] + w * self.lat[j], self.lon[i] + w * dlon,
+                            (1.0 - w) * self.h[i] + w * self.h[j], (1.0 - w) * self.v[i] + w * self.v[j],
+                            q / math.sqrt(float(q @ q)), bg, ba)
+
+
+def _uniform_times(t_s, n):
+    t = v.finite_array("", "t_s", t_s, ndim=1)
+    if t.shape[0] != n or n < 2:
+        raise ValueError(f"t_s: must have one end time per increment ({n}, at least 2), got shape {t.shape}")
+    dt = (t[-1] - t[0]) / (n - 1)
+    if not dt > 0.0 or np.max(np.abs(np.diff(t) - dt)) > 1e-6 * dt:
+        raise ValueError("t_s: must be uniformly spaced and increasing (the increments' end times)")
+    return t, dt
+
+
+def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0, fixes: GnssFixes, *,
+                   output_t_s=None, use=GNSS_MEASUREMENTS, latency="compensate", n_sub=1,
+                   max_propagation_s=1.0, feedback=True) -> AidedResult:
+    """GNSS-aided navigation of a record of increments (module docstring).
+
+    Parameters
+    ----------
+    t_s : array_like, shape (n,)
+        End time of each increment (s), uniformly spaced by ``dt``; the run starts at ``t_s[0] - dt``.
+    dtheta, dv : array_like, shape (n, 3)
+        Raw gyro angle and velocity increments (rad, m/s; body axes).
+    start : NavState
+        The computed state at the start (``start.t_s = t_s[0] - dt``) with the initial bias estimates.
+    noise : ImuNoise
+        The filter's sensor-error model.
+    p0 : array_like, shape (15, 15)
+        Initial covariance (:func:`~sins_sim.navigation.ekf.initial_covariance`).
+    fixes : GnssFixes
+        The fixes (:func:`~sins_sim.navigation.gnss.simulate_gnss`); those valid before the start or
+        delivered after the record are not used.
+    output_t_s : array_like, optional
+        Further times to record the solution at (s), rounded to the nearest navigation update.
+    use : sequence of str
+        Which fix components to apply (:data:`GNSS_MEASUREMENTS`).
+    latency : {"compensate", "ignore"}
+        Apply each fix against the solution at its time of validity (default), or as if it were current.
+    n_sub : int
+        Input samples per navigation update.
+    max_propagation_s : float
+        Longest covariance propagation step (s).
+    feedback : bool
+        Closed loop (default); ``False`` leaves the navigator free and the error state accumulating (the
+        open-loop filter, whose solution is the free one minus the estimate; for comparison).
+
+    Returns
+    -------
+    AidedResult
+        Epochs: the start, every navigation update where fixes were applied, every output time (without
+        ``output_t_s``, the record's last navigation update instead).
+
+    Raises
+    ------
+    ValueError
+        For a bad argument (the message names it).
+    """
+    dth = _increments("dtheta", dtheta)
+    dvel = _increments("dv", dv)
+    if dvel.shape != dth.shape:
+        raise ValueError(f"dv: must have the shape of dtheta {dth.shape}, got {dvel.shape}")
+    t, dt = _uniform_times(t_s, dth.shape[0])
+    t0 = t[0] - dt
+    if not isinstance(start, ekf.NavState):
+        raise ValueError(f"start: must be a NavState, got {type(start).__name__}")
+    if abs(start.t_s - t0) > 1e-6 * dt:
+        raise ValueError(f"start.t_s: must be the record's start t_s[0] - dt = {t0!r}, got {start.t_s!r}")
+    if not isinstance(fixes, GnssFixes):
+        raise ValueError(f"fixes: must be GnssFixes, got {type(fixes).__name__}")
+    v.choice("", "latency", latency, LATENCY_MODES)
+    use = tuple(use)
+    if not use or any(u not in GNSS_MEASUREMENTS for u in use):
+        raise ValueError(f"use: must be a non-empty subset of {GNSS_MEASUREMENTS}, got {use!r}")
+    if isinstance(n_sub, bool) or not isinstance(n_sub, Integral) or n_sub < 1:
+        raise ValueError(f"n_sub: must be an integer >= 1, got {n_sub!r}")
+    nav = StrapdownNavigator(start.lat_rad, start.lon_rad, start.h_m, start.v_ned_m_s, start.q_nb, dt, n_sub=n_sub)
+    aided = ekf.AidedNavigator(nav, noise, p0, gyro_bias_rad_s=start.gyro_bias_rad_s,
+                               accel_bias_m_s2=start.accel_bias_m_s2, max_propagation_s=max_propagation_s,
+                               feedback=bool(feedback))
+    big_t = nav.update_period_s
+    n_upd = dth.shape[0] // n_sub
+    # the navigation update each fix is applied at: the first at or after its delivery
+    f_upd = np.ceil((fixes.t_deliver_s - t0) / big_t - 1e-9).astype(np.int64)
+    ok = (fixes.t_valid_s >= t0 - 1e-9 * big_t) & (f_upd <= n_upd) & (f_upd >= 0)
+    fix_idx = np.flatnonzero(ok)
+    events = {0, n_upd} if output_t_s is None else {0}
+    if output_t_s is not None:
+        out = v.finite_array("", "output_t_s", output_t_s, ndim=1)
+        j_out = np.rint((out - t0) / big_t).astype(np.int64)
+        events.update(int(j) for j in j_out[(j_out >= 0) & (j_out <= n_upd)])
+    events.update(int(j) for j in f_upd[fix_idx])
+    by_update = {}
+    for i in fix_idx:
+        by_update.setdefault(int(f_upd[i]), []).append(int(i))
+    keep_s = float(np.max(fixes.t_deliver_s[fix_idx] - fixes.t_valid_s[fix_idx], initial=0.0)) + 2.0 * big_t
+    hist = _History(t0, start)
+    sig_p, sig_v, lever = fixes.position_sigma_m, fixes.velocity_sigma_m_s, fixes.lever_arm_b_m
+    has_lever = bool(np.any(lever != 0.0))
+
+    def rate_at(j):
+        """Mean raw gyro rate over the navigation update ending at update ``j`` (rad/s, body)."""
+        j = max(1, min(j, n_upd))
+        return dth[(j - 1) * n_sub:j * n_sub].sum(axis=0) / big_t
+
+    rec = {k: [] for k in ("t", "lat", "lon", "h", "v", "q", "bg", "ba", "sigma", "updated", "t_valid", "phi",
+                           "p_pred", "p_upd", "corr")}
+    inn = {k: [] for k in ("t", "t_valid", "name", "nu", "sigma", "nis")}
+    done = 0
+    for j in sorted(events):
+        if j > done:
+            sol = aided.process(dth[done * n_sub:j * n_sub], dvel[done * n_sub:j * n_sub])
+            hist.append(t0 + sol.t_s, sol, keep_s)
+            done = j
+        phi = aided.propagate()
+        p_pred = aided.p
+        t_now = float(t[j * n_sub - 1]) if j else t0      # the increments' own end times
+        fix_list = by_update.get(j, [])
+        corr = np.zeros(ekf.N_STATES)
+        if fix_list:
+            bg, ba = aided.gyro_bias_rad_s, aided.accel_bias_m_s2
+            meas, t_valid = [], []
+            for i in fix_list:
+                tv = float(fixes.t_valid_s[i]) if latency == "compensate" else t_now
+                state = hist.state_at(tv, bg, ba)
+                rate = rate_at(int(round((tv - t0) / big_t))) if has_lever else np.zeros(3)
+                if "position" in use:
+                    meas.append(_AtState(ekf.Position(fixes.lat_rad[i], fixes.lon_rad[i], fixes.h_m[i], sig_p,
+                                                      lever), state))
+                if "velocity" in use:
+                    meas.append(_AtState(ekf.Velocity(fixes.v_ned_m_s[i], sig_v, lever, rate), state))
+                t_valid += [float(fixes.t_valid_s[i])] * len(use)
+            x_before = aided.x
+            recs = aided.update(*meas)
+            if feedback:
+                corr = aided.last_correction
+                hist.correct(corr)
+            else:       # open loop: the history stays the free solution, the estimate the change of x
+                corr = aided.x - x_before
+            for r, tv in zip(recs, t_valid):
+                inn["t"].append(t_now)
+                inn["t_valid"].append(tv)
+                inn["name"].append(r.name)
+                inn["nu"].append(r.innovation)
+                inn["sigma"].append(np.sqrt(np.diag(r.s_matrix)))
+                inn["nis"].append(r.nis)
+        st = aided.nav_state() if feedback else aided.corrected_state()
+        for key, val in (("t", t_now), ("lat", st.lat_rad), ("lon", st.lon_rad), ("h", st.h_m),
+                         ("v", st.v_ned_m_s), ("q", st.q_nb), ("bg", st.gyro_bias_rad_s), ("ba", st.accel_bias_m_s2),
+                         ("sigma", aided.sigma()), ("updated", bool(fix_list)),
+                         ("t_valid", max((float(fixes.t_valid_s[i]) for i in fix_list), default=math.nan)),
+                         ("phi", phi), ("p_pred", p_pred), ("p_upd", aided.p), ("corr", corr)):
+            rec[key].append(val)
+    a = {k: np.array(val) for k, val in rec.items()}
+    m = len(inn["t"])
+    return AidedResult(
+        t_s=a["t"], lat_rad=a["lat"], lon_rad=a["lon"], h_m=a["h"], v_ned_m_s=a["v"], q_nb=a["q"],
+        gyro_bias_rad_s=a["bg"], accel_bias_m_s2=a["ba"], sigma=a["sigma"], updated=a["updated"],
+        t_valid_s=a["t_valid"], phi=a["phi"], p_pred=a["p_pred"], p_upd=a["p_upd"], correction=a["corr"],
+        innovation_t_s=np.array(inn["t"]), innovation_t_valid_s=np.array(inn["t_valid"]),
+        innovation_name=np.array(inn["name"], dtype=str),
+        innovation=np.array(inn["nu"]).reshape(m, 3), innovation_sigma=np.array(inn["sigma"]).reshape(m, 3),
+        nis=np.array(inn["nis"]), latency=latency, update_period_s=big_t)
+
+
+def smooth(result: AidedResult) -> SmoothedResult:
+    """Rauch-Tung-Striebel fixed-interval smoother over a closed-loop filter run (module docstring).
+
+    The gain ``C_k = P_k^+ Phi_k^T (P_(k+1)^-)^-1`` is computed with ``P_(k+1)^-`` scaled to its
+    correlation matrix (the states span sixteen decades of variance, rad^2/s^2 to m^2).
+
+    Parameters
+    ----------
+    result : AidedResult
+        The filter run (:func:`navigate_aided`).
+
+    Returns
+    -------
+    SmoothedResult
+        Equal to the filter at the last epoch.
+    """
+    if not isinstance(result, AidedResult):
+        raise ValueError(f"result: must be an AidedResult, got {type(result).__name__}")
+    k_ep = len(result)
+    est = np.zeros((k_ep, ekf.N_STATES))
+    p_s = result.p_upd.copy()
+    for k in range(k_ep - 2, -1, -1):
+        pp = result.p_pred[k + 1]
+        d = np.sqrt(np.diag(pp))
+        b = (result.phi[k + 1] @ result.p_upd[k]) / d[:, None]
+        gain = (np.linalg.solve(pp / np.outer(d, d), b) / d[:, None]).T       # C = P+ Phi^T (P-)^-1
+        est[k] = gain @ (est[k + 1] + result.correction[k + 1])
+        p = result.p_upd[k] + gain @ (p_s[k + 1] - pp) @ gain.T
+        p_s[k] = 0.5 * (p + p.T)
+    lat, lon, h, vel, q = _correct_rows(result.lat_rad, result.lon_rad, result.h_m, result.v_ned_m_s,
+                                        result.q_nb, est)
+    return SmoothedResult(
+        t_s=result.t_s.copy(), lat_rad=lat, lon_rad=lon, h_m=h, v_ned_m_s=vel, q_nb=q,
+        gyro_bias_rad_s=result.gyro_bias_rad_s - est[:, ekf.GYRO_BIAS],
+        accel_bias_m_s2=result.accel_bias_m_s2 - est[:, ekf.ACCEL_BIAS],
+        sigma=np.sqrt(np.maximum(np.diagonal(p_s, axis1=1, axis2=2), 0.0)), p=p_s, estimate=est)
+
+
+@dataclass(frozen=True)
+class OutageGrowth:
+    """The horizontal position error growth in one GNSS outage (:func:`outage_growth`).
+
+    Attributes
+    ----------
+    window_s : tuple of float
+        The outage ``(start, end)`` on the fixes' time of validity (s).
+    t_last_update_s : float
+        The epoch of the last update before the outage (s): the growth is counted from it.
+    after_s : ndarray, shape (n,)
+        Times into the outage asked for (s).
+    t_s : ndarray, shape (n,)
+        The epochs read (s; NaN where no epoch lies there or the outage has ended).
+    predicted_sigma_m : ndarray, shape (n,)
+        ``sqrt(P_NN + P_EE)``, the filter's covariance at ``t_last_update_s`` propagated with its own ``F``
+        and ``Q_d`` with no update in between (m).
+    error_m : ndarray, shape (n,)
+        Horizontal error of the solution against the truth (m; NaN without a truth).
+    """
+
+    window_s: tuple
+    t_last_update_s: float
+    after_s: np.ndarray
+    t_s: np.ndarray
+    predicted_sigma_m: np.ndarray
+    error_m: np.ndarray
+
+
+def outage_growth(result: AidedResult, outages_s, after_s=(10.0, 30.0, 60.0, 120.0), errors=None) -> list:
+    """Position error growth in each outage against the filter's closed-form prediction.
+
+    For each window the growth is counted from the last update whose fixes were valid before the window's
+    start. The prediction is the covariance the filter propagates from that update with no measurement,
+    ``P(t) = Phi(t, t_a) P^+(t_a) Phi^T + Q_d(t, t_a)`` (its recorded ``p_pred``), read as the horizontal
+    1-sigma ``sqrt(P_NN + P_EE)``; an epoch must lie within half a navigation update of ``t_a + after``
+    (give ``output_t_s`` to :func:`navigate_aided`), and the outage must not have ended (no update in
+    ``(t_a, t]``), otherwise NaN.
+
+    Parameters
+    ----------
+    result : AidedResult
+        The filter run.
+    outages_s : sequence of (start, end)
+        The outage windows (s), e.g. ``GnssSettings.outages_s``.
+    after_s : sequence of float
+        Times into each outage (s), > 0.
+    errors : array_like, shape (K, >= 2), optional
+        The solution's errors at the epochs (:meth:`AidedResult.errors`); the north and east columns are read.
+
+    Returns
+    -------
+    list of OutageGrowth
+    """
+    after = np.asarray(after_s, dtype=np.float64)
+    if after.ndim != 1 or not np.all(np.isfinite(after)) or np.any(after <= 0.0):
+        raise ValueError(f"after_s: must be a sequence of finite times > 0 (s), got {after_s!r}")
+    err = None
+    if errors is not None:
+        err = np.asarray(errors, dtype=np.float64)
+        if err.ndim != 2 or err.shape[0] != len(result) or err.shape[1] < 2:
+            raise ValueError(f"errors: must have shape ({len(result)}, >= 2) (one row per epoch), got {err.shape}")
+    t = result.t_s
+    tol = 0.5 * result.update_period_s
+    out = []
+    for w in outages_s:
+        start, end = (float(x) for x in w)
+        before = np.flatnonzero(result.updated & (result.t_valid_s < start))
+        if before.size == 0:
+            raise ValueError(f"outages_s: no update before the outage starting at {start!r} s")
+        ka = int(before[-1])
+        ta = float(t[ka])
+        later = np.flatnonzero(result.updated & (t > ta))
+        t_next = float(t[later[0]]) if later.size else math.inf
+        rows = np.full(after.shape, -1)
+        for n, tau in enumerate(after):
+            k = int(np.argmin(np.abs(t - (ta + tau))))
+            if abs(t[k] - (ta + tau)) <= tol * (1.0 + 1e-9) and t[k] < t_next:
+                rows[n] = k
+        have = rows >= 0
+        pp = result.p_pred[rows]
+        pred = np.where(have, np.sqrt(pp[:, 0, 0] + pp[:, 1, 1]), np.nan)
+        e = np.full(after.shape, np.nan)
+        if err is not None:
+            e = np.where(have, np.hypot(err[rows, 0], err[rows, 1]), np.nan)
+        out.append(OutageGrowth((start, end), ta, after.copy(), np.where(have, t[rows], np.nan), pred, e))
+    return out
