@@ -61,6 +61,7 @@ is ``1 / sqrt(n - 1)``), so that tests over different ``n`` weigh alike.
 
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
@@ -151,8 +152,10 @@ def _bootstrap(x: np.ndarray, qs: list) -> np.ndarray:
     def stat(sample, axis):  # one output per quantile, along the first axis (scipy's convention)
         return np.percentile(sample, [100.0 * q for q in qs], axis=axis)
 
+    # scipy names the generator rng from 1.15 on, random_state before (the oldest allowed scipy is 1.11)
+    seed_kw = "rng" if "rng" in inspect.signature(bootstrap).parameters else "random_state"
     res = bootstrap((x,), stat, n_resamples=BOOTSTRAP_RESAMPLES, vectorized=True, method="percentile",
-                    confidence_level=CONFIDENCE, rng=np.random.default_rng(_BOOTSTRAP_SEED))
+                    confidence_level=CONFIDENCE, **{seed_kw: np.random.default_rng(_BOOTSTRAP_SEED)})
     ci = res.confidence_interval
     return np.stack([np.atleast_1d(ci.low), np.atleast_1d(ci.high)], axis=1)
 
