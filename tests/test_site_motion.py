@@ -50,7 +50,6 @@ def test_table_turning_at_constant_rate_matches_the_integral():
             "table_axis_ned": [0.6, 0.0, 0.8]}
     geo = SiteGeometry(site)
     w = 0.2  # rad/s, the table's rate about its axis
-    theta = ConstantRateMotion(w)
     table = {a: ConstantRateMotion(w * geo.table_body[i]) for i, a in enumerate(AXES)}
     mot = earth_motions(site, AXES, 20.0, table)
     t = np.linspace(0.0, 20.0, 2001)
@@ -66,7 +65,33 @@ def test_table_turning_at_constant_rate_matches_the_integral():
         vec = [sum(c * f for c, f in zip(geo.rate_terms(a), (1.0, math.cos(th), math.sin(th)))) for a in AXES]
         assert math.isclose(float(np.linalg.norm(vec)), EARTH_RATE_RAD_S, rel_tol=1e-13)
     np.testing.assert_allclose([sum(geo.rate_terms(a)[:2]) for a in AXES], geo.earth_body, atol=1e-19)
-    del theta
+
+
+def test_a_moving_table_needs_its_axis():
+    site = {"latitude_deg": 40.0, "orientation_ned": {"heading_deg": 0.0, "pitch_deg": 0.0, "roll_deg": 0.0}}
+    n = 100
+    meta = {"format": "sins-sim-recording/1", "axes": ["z"], "fs_hz": 7200.0, "drive_fs_hz": 7200.0,
+            "sins_fs_hz": 7200.0, "quantum_rad": 7.3e-7, "initial_state": "rest", "experiment": "rate_table",
+            "nominal": {"z": {"f0_hz": 386.0, "k1": 1.75e-4, "k2": 1.05e-3, "k3": 4.4e-3, "k4": 250.0, "k5": -1.2e-5}},
+            "site": site}
+    from sins_sim.io.recording import Recording
+
+    rec = Recording(meta, np.zeros((n, 1), np.int64), np.zeros((n, 1)), np.linspace(0.0, 0.1, n)[:, None])
+    with pytest.raises(ValueError, match=r"meta.site.table_axis_ned: is required with a moving table"):
+        ExperimentInputs.from_recording(rec)
+    # a table axis perpendicular to every recorded gyro: its angle is not in the recording
+    east = Recording({**meta, "site": {**site, "table_axis_ned": [0.0, 1.0, 0.0]}}, rec.counts, rec.drive_v,
+                     rec.sins_angle)
+    with pytest.raises(ValueError, match=r"meta.site.table_axis_ned: the table turns about an axis perpendicular"):
+        ExperimentInputs.from_recording(east)
+    # the table about the gyro's own axis (down, the unit level): z keeps -Omega sin lat at every table angle
+    down = Recording({**meta, "site": {**site, "table_axis_ned": [0.0, 0.0, 1.0]}}, rec.counts, rec.drive_v,
+                     rec.sins_angle)
+    t = np.linspace(0.0, down.duration_s, 7)
+    ang, rate = ExperimentInputs.from_recording(down).inertial["z"].angle_rate(t)
+    w = -EARTH_RATE_RAD_S * math.sin(40.0 * DEG)
+    np.testing.assert_allclose(rate, w, rtol=1e-12)
+    np.testing.assert_allclose(ang, w * t, rtol=0, atol=1e-16)
 
 
 def test_undriven_unit_at_rest_reads_the_earth_angle():
@@ -109,3 +134,17 @@ def test_experiment_site_errors(doc, rule):
     base = {"experiment": "stationary", "duration_s": 0.01, "site": {"latitude_deg": 10.0}}
     with pytest.raises(ConfigError, match=rule):
         experiment_from_dict({**base, **doc})
+
+
+def test_dcm_agrees_with_the_quaternion_sequence_of_the_navigation_layer():
+    """C_nb of the 3-2-1 sequence equals the quaternion product q_z(psi) q_y(theta) q_x(phi) (Hamilton, body to
+    NED, the project's convention) turned into a matrix, and its Euler angles come back (rounding only)."""
+    from sins_sim.navigation.attitude import dcm_from_quat, euler_from_quat, quat_from_rotvec, quat_multiply
+
+    psi, theta, phi = 304.0 * DEG, -0.7 * DEG, 1.1 * DEG
+    q = quat_multiply(quat_multiply(quat_from_rotvec([0.0, 0.0, psi]), quat_from_rotvec([0.0, theta, 0.0])),
+                      quat_from_rotvec([phi, 0.0, 0.0]))
+    np.testing.assert_allclose(dcm_nb(psi, theta, phi), dcm_from_quat(q), atol=1e-15)
+    roll, pitch, yaw = euler_from_quat(q)
+    assert math.isclose(roll, phi, abs_tol=1e-14) and math.isclose(pitch, theta, abs_tol=1e-14)
+    assert math.isclose(yaw % (2 * math.pi), psi, abs_tol=1e-14)
