@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from sins_sim.earth import EARTH_RATE_RAD_S
-from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording
+from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording, write_report
 from sins_sim.identification.steady_rate import MAX_PLAUSIBLE_BIAS_DEG_H
 from sins_sim.io.recording import Recording
 from sins_sim.models.effects import make_effect
@@ -72,8 +72,10 @@ def test_still_bench_with_site_is_none(level):
         assert abs(d["bias_deg_h"]) < 0.01 * EARTH_RATE_RAD_S / DEG_PER_H, a
 
 
-def test_still_bench_without_site_names_the_earth_rate(level):
-    js = diagnose_recording(_without_site(level), SETTINGS).to_json()
+def test_still_bench_without_site_names_the_earth_rate(level, tmp_path):
+    diag = diagnose_recording(_without_site(level), SETTINGS)
+    js = write_report(diag, tmp_path)
+    assert "steady rate (earth_rate): the Earth's rate: give the site" in (tmp_path / "report.md").read_text()
     assert js["verdict"]["status"] == "none"  # the bias nuisance absorbs the rates; the finding names them
     sr = js["verdict"]["steady_rate"]
     assert sr["finding"] == "earth_rate" and "give the site and orientation" in sr["message"]
