@@ -21,6 +21,7 @@ from sins_sim.earth import EARTH_RATE_RAD_S
 from sins_sim.identification.diagnose import DiagnoseSettings, diagnose_recording, write_report
 from sins_sim.identification.steady_rate import MAX_PLAUSIBLE_BIAS_DEG_H
 from sins_sim.io.recording import Recording
+from sins_sim.jobs.recording_jobs import format_diagnosis
 from sins_sim.models.effects import make_effect
 from sins_sim.models.suspension import SuspensionParams
 from sins_sim.simulation.experiment import ExperimentInputs, record, stationary_drive, table_motion
@@ -76,6 +77,7 @@ def test_still_bench_without_site_names_the_earth_rate(level, tmp_path):
     diag = diagnose_recording(_without_site(level), SETTINGS)
     js = write_report(diag, tmp_path)
     assert "steady rate (earth_rate): the Earth's rate: give the site" in (tmp_path / "report.md").read_text()
+    assert "steady rate (earth_rate): the Earth's rate: give the site" in format_diagnosis(js)  # what the CLI prints
     assert js["verdict"]["status"] == "none"  # the bias nuisance absorbs the rates; the finding names them
     sr = js["verdict"]["steady_rate"]
     assert sr["finding"] == "earth_rate" and "give the site and orientation" in sr["message"]

@@ -340,6 +340,9 @@ def format_diagnosis(js: dict) -> str:
     r = v.get("remainder")
     if r:
         lines.append(f"remainder on axis {r.get('axis')}: band {r.get('band_hz')} Hz, time {r.get('time_s')} s")
+    sr = v.get("steady_rate")
+    if sr:
+        lines.append(f"steady rate ({sr.get('finding')}): {sr.get('message')}")
     return "\n".join(lines)
 
 
