@@ -12,9 +12,7 @@ probability 6e-5 by a Gaussian error, so a failure means a wrong value or a sigm
 from __future__ import annotations
 
 import copy
-import math
 
-import numpy as np
 import pytest
 
 from sins_sim.earth import EARTH_RATE_RAD_S

@@ -302,8 +302,10 @@ def _site(raw: dict | None, checked: dict | None, axes, experiment: str, preroll
             raise ValueError("site: a rate_table with a site needs initial_state: rest (the recording's table angle "
                              "starts at 0 where the site orients the unit)")
     elif experiment == "rate_table":
-        raise ValueError("site.table_axis_ned: is required for a rate_table with a site (the axis the table turns about)")
+        raise ValueError("site.table_axis_ned: is required for a rate_table with a site (the axis the table turns "
+                         "about)")
     for a in axes:
         if a not in SITE_AXES:
-            raise ValueError(f"axes: must be named from {list(SITE_AXES)} with a site (the triad it orients), got {a!r}")
+            raise ValueError(f"axes: must be named from {list(SITE_AXES)} with a site (the triad it orients), "
+                             f"got {a!r}")
     return site

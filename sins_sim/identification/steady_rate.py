@@ -13,7 +13,8 @@ the vector is:
   depend on the latitude or the orientation): the finding asks for the site and gives the Earth's axis
   ``u = b / |b|`` in the unit's axes, and, for a unit standing level (pitch = roll = 0), the latitude
   ``asin(-u_z)`` and heading ``atan2(-u_y, u_x)`` (from ``u = (cos lat cos psi, -cos lat sin psi, -sin lat)``,
-  Titterton & Weston, "Strapdown Inertial Navigation Technology", 2nd ed., sec. 10.2, gyrocompassing);
+  the gyrocompassing relation, Titterton & Weston, "Strapdown Inertial Navigation Technology", 2nd ed., 2004,
+  ch. 10);
 - ``gyro_bias`` when every ``|b_i| <= MAX_PLAUSIBLE_BIAS_DEG_H``;
 - ``unknown`` otherwise.
 

@@ -2,13 +2,13 @@
 
 A gyro measures its body's angle with respect to inertial space, so a unit on a still bench reads the
 Earth's rate, ``omega_ie^n = Omega (cos lat, 0, -sin lat)`` in north-east-down (Titterton & Weston,
-"Strapdown Inertial Navigation Technology", 2nd ed., sec. 3.4.1, eq. 3.39; :func:`sins_sim.earth.earth_rate_ned`),
+"Strapdown Inertial Navigation Technology", 2nd ed., 2004, sec. 3.7; :func:`sins_sim.earth.earth_rate_ned`),
 resolved in the unit's axes: ``omega_ie^b = C_nb^T omega_ie^n``. ``C_nb`` (body to NED) is the 3-2-1 sequence of
-the site's heading, pitch and roll (Titterton & Weston sec. 3.6.3.1, eq. 3.47).
+the site's heading, pitch and roll (Titterton & Weston sec. 3.6.3, Euler angles).
 
 On a rate table turning by ``theta`` about the unit vector ``u`` (NED, fixed to the bench), the unit's
-orientation is ``R(u, theta) C_nb0``, so (Rodrigues' formula, Titterton & Weston sec. 3.6.4.3) the Earth's rate
-about gyro axis ``e_i`` is
+orientation is ``R(u, theta) C_nb0``, so (Rodrigues' formula of a rotation by ``theta`` about ``u``, Titterton &
+Weston sec. 3.6.4) the Earth's rate about gyro axis ``e_i`` is
 
 ``w_i(theta) = e_i . C_nb0^T [p + q cos theta - (u x q) sin theta]``, ``p = (u . omega) u``, ``q = omega - p``,
 
@@ -42,7 +42,8 @@ EARTH_GRID_S = 1.0e-4
 def dcm_nb(heading_rad: float, pitch_rad: float, roll_rad: float) -> np.ndarray:
     """Body-to-NED direction cosine matrix of the 3-2-1 (heading, pitch, roll) sequence.
 
-    Titterton & Weston, 2nd ed., sec. 3.6.3.1, eq. 3.47: ``C_nb = R_z(psi) R_y(theta) R_x(phi)``.
+    Titterton & Weston, 2nd ed., sec. 3.6.3: ``C_nb = R_z(psi) R_y(theta) R_x(phi)``, each ``R`` a right-handed
+    turn about one axis (the project's 3-2-1 convention, ``sins_sim.navigation.attitude``).
     """
     cp, sp = math.cos(heading_rad), math.sin(heading_rad)
     ct, st = math.cos(pitch_rad), math.sin(pitch_rad)
