@@ -308,6 +308,6 @@ def _write(folder: Path, metrics: dict, analyses: dict) -> None:
     (folder / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
     panels = {f"{'gyro' if s == 'gyro' else 'accel'} {ax}": a for s, by_ax in analyses.items()
               for ax, a in by_ax.items()}
-    plot_allan(panels, folder / "allan.png", title=f"Allan deviation of {Path(metrics['log']).name}")
+    plot_allan(panels, folder / "allan.png", title=f"Allan deviation of {Path(metrics['log']).name}", ncols=3)
     (folder / "imu-sensors.yaml").write_text(sensors_yaml(metrics))
     (folder / "report.md").write_text(_report(metrics))
