@@ -154,3 +154,17 @@ def test_bad_site_is_one_line(tmp_path):
     still_log(p, 1, hours=0.01)
     with pytest.raises(ConfigError, match=r"^--site-lat-deg: must lie within"):
         identify(p, lat_deg=95.0)
+
+
+def test_cli_identify_writes_the_folder_and_refuses_a_bad_site(tmp_path, capsys):
+    from sins_sim.cli import EXIT_OK, EXIT_USAGE, main
+
+    p = tmp_path / "log.parquet"
+    still_log(p, 2, hours=0.05)
+    out = tmp_path / "fit"
+    assert main(["identify", str(p), "--out", str(out)]) == EXIT_OK
+    assert sorted(x.name for x in out.iterdir() if not x.name.startswith(".")) == ["allan.png", "imu-sensors.yaml", "metrics.json", "report.md"]
+    assert "gyro arw_deg_rt_h" in capsys.readouterr().out
+    assert main(["identify", str(p), "--out", str(tmp_path / "bad"), "--site-lat-deg", "91"]) == EXIT_USAGE
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--site-lat-deg" in err[0]

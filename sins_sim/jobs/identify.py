@@ -103,7 +103,7 @@ def _bias_entries(values, sigmas, labels, scale, unit) -> dict:
 
 
 def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, alignment: str = "coarse",
-             gyro_bias_prior_deg_h: float = 0.01, accel_bias_prior_ug: float = 100.0) -> dict:
+             gyro_bias_prior_deg_h: float = 0.01, accel_bias_prior_ug: float = 100.0, force: bool = False) -> dict:
     """Fit a unit's noise terms and biases from its log at rest (module docstring).
 
     Parameters
@@ -119,6 +119,8 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     gyro_bias_prior_deg_h, accel_bias_prior_ug : float
         1-sigma of the biases before the log: the unobservable part that couples into the observed ones
         (the tilt from a horizontal accelerometer bias, an axis near but not in the observable span).
+    force : bool
+        Replace an earlier result at ``out_dir`` (default: refuse it); the folder appears only once complete.
 
     Returns
     -------
@@ -145,11 +147,11 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     site = _site(meta, lat_deg, lon_deg, height_m)
     dt = _interval(t)
     fs = 1.0 / dt
-    rate, force = dth / dt, dv / dt
+    rate, spec_force = dth / dt, dv / dt
     analyses = {
         "gyro": {ax: screen_noise(a) for ax, a in allan_axes(rate - rate.mean(axis=0), fs, "gyro").items()},
         "accelerometer": {ax: screen_noise(a) for ax, a in
-                          allan_axes(force - force.mean(axis=0), fs, "accel").items()},
+                          allan_axes(spec_force - spec_force.mean(axis=0), fs, "accel").items()},
     }
     noise = {s: {ax: {key: _noise_entry(a, name, key, scale) for name, key, scale, _ in _NOISE_KEYS[s]}
                  for ax, a in by_ax.items()} for s, by_ax in analyses.items()}
@@ -200,7 +202,10 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     }
     metrics = _json_ready(metrics)
     if out_dir is not None:
-        _write(Path(out_dir), metrics, analyses)
+        from sins_sim.jobs.output import atomic_output_dir
+
+        with atomic_output_dir(out_dir, "--out", inputs=(log,), force=force) as tmp:
+            _write(Path(tmp), metrics, analyses)
     return metrics
 
 
@@ -304,7 +309,6 @@ def _report(metrics: dict) -> str:
 def _write(folder: Path, metrics: dict, analyses: dict) -> None:
     from sins_sim.plots.allan import plot_allan
 
-    folder.mkdir(parents=True, exist_ok=True)
     (folder / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
     panels = {f"{'gyro' if s == 'gyro' else 'accel'} {ax}": a for s, by_ax in analyses.items()
               for ax, a in by_ax.items()}
