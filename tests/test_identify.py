@@ -168,3 +168,45 @@ def test_cli_identify_writes_the_folder_and_refuses_a_bad_site(tmp_path, capsys)
     assert main(["identify", str(p), "--out", str(tmp_path / "bad"), "--site-lat-deg", "91"]) == EXIT_USAGE
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--site-lat-deg" in err[0]
+
+
+@pytest.mark.parametrize("heading_deg, gyro_axes", [(0.0, "xz"), (90.0, "yz"), (180.0, "xz"), (30.0, "z")])
+def test_a_body_axis_bias_is_observable_only_in_the_observable_span(heading_deg, gyro_axes):
+    # noise-free means: the readings are the closed form exactly, eps_i = n_i eps_N + d_i eps_D for an axis with no
+    # east component (level unit: z always; x facing north/south, y facing east/west); the accelerometer z alone
+    from sins_sim.navigation.attitude import quat_from_rotvec
+    from sins_sim.navigation.rest_bias import rest_biases
+
+    psi = math.radians(heading_deg)
+    q = quat_from_rotvec(np.array([0.0, 0.0, psi]))
+    c, s = math.cos(psi), math.sin(psi)
+    c_nb = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    eps = np.array([1.0, -2.0, 3.0]) * 1e-8
+    b = np.array([0.0, 0.0, 5e-4])                       # a horizontal accelerometer bias would tilt the frame
+    w = c_nb.T @ earth_rate_ned(LAT) + eps
+    f = c_nb.T @ np.array([0.0, 0.0, -gravity_down(LAT, H_M)]) + b
+    n = 1000
+    r = rest_biases(np.tile(w * 0.01, (n, 1)), np.tile(f * 0.01, (n, 1)), 0.01, LAT, H_M, q,
+                    gyro_mean_sigma_rad_s=1e-9, accel_mean_sigma_m_s2=1e-6, gyro_bias_prior_rad_s=1e-7,
+                    accel_bias_prior_m_s2=1e-4)
+    for i, ax in enumerate("xyz"):
+        if ax in gyro_axes:
+            # float64 sums of 1000 rates of ~1e-4 rad/s round at ~1e-19 rad/s, the DCM at 1e-16 * 7e-5: 1e-14 is slack
+            assert r.gyro_body_rad_s[i] == pytest.approx(eps[i], abs=1e-14)
+        else:
+            assert math.isnan(r.gyro_body_rad_s[i]) and math.isnan(r.gyro_body_sigma_rad_s[i])
+    assert r.accel_body_m_s2[2] == pytest.approx(b[2], abs=1e-12)
+    assert np.isnan(r.accel_body_m_s2[:2]).all() and np.isnan(r.accel_ned_m_s2[:2]).all()
+    assert math.isnan(r.gyro_ned_rad_s[1])
+    assert r.gyro_ned_rad_s[0] == pytest.approx(c_nb[0] @ eps, abs=1e-14)
+
+
+def test_a_log_without_a_site_needs_the_latitude(tmp_path):
+    from sins_sim.config.errors import ConfigError
+    from sins_sim.jobs.navigate import write_increments
+
+    p = tmp_path / "plain.csv"
+    n = 1000
+    write_increments(p, np.arange(1, n + 1) * 0.01, np.zeros((n, 3)), np.tile([0.0, 0.0, -0.098], (n, 1)))
+    with pytest.raises(ConfigError, match=r"^--site-lat-deg: the log records no site"):
+        identify(p)
