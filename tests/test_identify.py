@@ -210,3 +210,15 @@ def test_a_log_without_a_site_needs_the_latitude(tmp_path):
     write_increments(p, np.arange(1, n + 1) * 0.01, np.zeros((n, 3)), np.tile([0.0, 0.0, -0.098], (n, 1)))
     with pytest.raises(ConfigError, match=r"^--site-lat-deg: the log records no site"):
         identify(p)
+
+
+def test_inertial_alignment_gives_the_same_observable_biases(bias_run):
+    # the inertial alignment contributes only its heading (the tilt is levelled from the log's mean force), and the
+    # heading enters the north and down gyro readings to second order, Omega (1 - cos psi_D) < 1e-9 deg/h for
+    # psi_D ~ 0.05 deg: the two readings agree far inside their sigma (a tenth of it)
+    m, _, _, _, folder = bias_run
+    mi = identify(folder / "log.parquet", alignment="inertial")
+    for sensor, key in (("gyro", "north_deg_h"), ("gyro", "down_deg_h"), ("accelerometer", "down_ug")):
+        a, b = m["bias"][sensor][key], mi["bias"][sensor][key]
+        assert abs(a["value"] - b["value"]) < 0.1 * a["sigma"], (key, a, b)
+    assert mi["bias"]["gyro"]["east_deg_h"] == {"status": NOT_OBSERVABLE}

@@ -63,7 +63,7 @@ class RestBiases:
     gyro_body_rad_s, gyro_body_sigma_rad_s, accel_body_m_s2, accel_body_sigma_m_s2 : ndarray (3,)
         Per body axis x, y, z (NaN where the axis is not in the observable span).
     c_nb : ndarray (3, 3)
-        The aligned attitude used (body to NED).
+        The attitude used (body to NED): the aligned heading, levelled from the record's mean force.
     """
 
     gyro_ned_rad_s: np.ndarray
@@ -75,6 +75,18 @@ class RestBiases:
     accel_body_m_s2: np.ndarray
     accel_body_sigma_m_s2: np.ndarray
     c_nb: np.ndarray
+
+
+def _relevelled(c_nb, f_b) -> np.ndarray:
+    """``C_nb`` with its down axis from the mean specific force, ``d = -f / |f|`` (levelling over the whole
+    record, Titterton and Weston 2004, sec. 10.2), and its north axis the given one's made horizontal: the
+    given attitude contributes the heading alone. An inertial alignment's end attitude carries the gyros'
+    drift over its window in the tilt; at rest the record's mean force is the better level."""
+    d_b = -f_b / np.linalg.norm(f_b)
+    n_b = c_nb[0] - (c_nb[0] @ d_b) * d_b
+    n_b = n_b / np.linalg.norm(n_b)
+    e_b = np.cross(d_b, n_b)                      # N x E = D, so E = D x N
+    return np.vstack([n_b, e_b, d_b])
 
 
 def rest_biases(dtheta, dv, dt_s, lat_rad, h_m, q_nb, *, gyro_mean_sigma_rad_s, accel_mean_sigma_m_s2,
@@ -90,7 +102,8 @@ def rest_biases(dtheta, dv, dt_s, lat_rad, h_m, q_nb, *, gyro_mean_sigma_rad_s, 
     lat_rad, h_m : float
         Site latitude (rad) and height (m).
     q_nb : array_like (4,)
-        Attitude aligned from the same record (body to NED, Hamilton, scalar first).
+        Attitude aligned from the same record (body to NED, Hamilton, scalar first); its heading is used, the
+        tilt is levelled again from the record's mean specific force (:func:`_relevelled`).
     gyro_mean_sigma_rad_s, accel_mean_sigma_m_s2 : array_like (3,)
         1-sigma of each body axis's record mean (the sensor noise over the record, e.g. the Allan deviation at
         the record's length).
@@ -112,10 +125,10 @@ def rest_biases(dtheta, dv, dt_s, lat_rad, h_m, q_nb, *, gyro_mean_sigma_rad_s, 
     sa = np.broadcast_to(np.asarray(accel_mean_sigma_m_s2, dtype=np.float64), (3,))
     pg = v.non_negative("", "gyro_bias_prior_rad_s", gyro_bias_prior_rad_s)
     pa = v.non_negative("", "accel_bias_prior_m_s2", accel_bias_prior_m_s2)
-    c_nb = dcm_from_quat(np.asarray(q_nb, dtype=np.float64))
     t_total = dth.shape[0] * dt
     w_b = dth.sum(axis=0) / t_total
     f_b = dvel.sum(axis=0) / t_total
+    c_nb = _relevelled(dcm_from_quat(np.asarray(q_nb, dtype=np.float64)), f_b)
     g = gravity_down(lat, h)
     w_ie = np.asarray(earth_rate_ned(lat), dtype=np.float64)
     r = c_nb @ w_b - w_ie
