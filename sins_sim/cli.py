@@ -939,7 +939,7 @@ def _cmd_identify(args) -> int:
 
     m = identify(args.log, args.out, lat_deg=args.site_lat_deg, lon_deg=args.site_lon_deg,
                  height_m=args.site_height_m, alignment=args.align, gyro_bias_prior_deg_h=args.gyro_bias_prior_deg_h,
-                 accel_bias_prior_ug=args.accel_bias_prior_ug, force=args.force)
+                 accel_bias_prior_ug=args.accel_bias_prior_ug, force=args.force, manifest=_manifest(args))
     for sensor, key in (("gyro", "arw_deg_rt_h"), ("gyro", "rrw_deg_h_rt_h"), ("accelerometer", "vrw_ug_rt_hz")):
         cells = [f"{e['value']:.4g}" if "value" in e else e["status"] for e in
                  (m["noise"][sensor][ax][key] for ax in "xyz")]
@@ -947,7 +947,7 @@ def _cmd_identify(args) -> int:
     for sensor, key in (("gyro", "north_deg_h"), ("gyro", "down_deg_h"), ("accelerometer", "down_ug")):
         e = m["bias"][sensor][key]
         print(f"{sensor} bias {key}: {e['value']:.4g} +- {e['sigma']:.2g} (1 sigma)")
-    print(f"wrote {args.out}: metrics.json, allan.png, imu-sensors.yaml, report.md")
+    print(f"wrote {args.out}: metrics.json, allan.png, imu-sensors.yaml, report.md, manifest.json")
     return EXIT_OK
 
 

@@ -163,7 +163,8 @@ def test_cli_identify_writes_the_folder_and_refuses_a_bad_site(tmp_path, capsys)
     still_log(p, 2, hours=0.05)
     out = tmp_path / "fit"
     assert main(["identify", str(p), "--out", str(out)]) == EXIT_OK
-    assert sorted(x.name for x in out.iterdir() if not x.name.startswith(".")) == ["allan.png", "imu-sensors.yaml", "metrics.json", "report.md"]
+    assert sorted(x.name for x in out.iterdir() if not x.name.startswith(".")) == ["allan.png", "imu-sensors.yaml", "manifest.json",
+                                                                           "metrics.json", "report.md"]
     assert "gyro arw_deg_rt_h" in capsys.readouterr().out
     assert main(["identify", str(p), "--out", str(tmp_path / "bad"), "--site-lat-deg", "91"]) == EXIT_USAGE
     err = capsys.readouterr().err.strip().splitlines()

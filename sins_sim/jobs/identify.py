@@ -103,7 +103,8 @@ def _bias_entries(values, sigmas, labels, scale, unit) -> dict:
 
 
 def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, alignment: str = "coarse",
-             gyro_bias_prior_deg_h: float = 0.01, accel_bias_prior_ug: float = 100.0, force: bool = False) -> dict:
+             gyro_bias_prior_deg_h: float = 0.01, accel_bias_prior_ug: float = 100.0, force: bool = False,
+             manifest=None) -> dict:
     """Fit a unit's noise terms and biases from its log at rest (module docstring).
 
     Parameters
@@ -121,6 +122,9 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         (the tilt from a horizontal accelerometer bias, an axis near but not in the observable span).
     force : bool
         Replace an earlier result at ``out_dir`` (default: refuse it); the folder appears only once complete.
+    manifest : Manifest, optional
+        The command's manifest (from the CLI); by default one naming this call's settings. ``manifest.json``
+        records it with the log's SHA-256.
 
     Returns
     -------
@@ -202,9 +206,14 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     }
     metrics = _json_ready(metrics)
     if out_dir is not None:
-        from sins_sim.jobs.output import atomic_output_dir
+        from sins_sim.jobs.manifest import Manifest, result_dir
 
-        with atomic_output_dir(out_dir, "--out", inputs=(log,), force=force) as tmp:
+        if manifest is None:
+            manifest = Manifest("identify", settings={
+                "lat_deg": lat_deg, "lon_deg": lon_deg, "height_m": height_m, "alignment": alignment,
+                "gyro_bias_prior_deg_h": gyro_bias_prior_deg_h, "accel_bias_prior_ug": accel_bias_prior_ug})
+        manifest.add_input("log", log)
+        with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
             _write(Path(tmp), metrics, analyses)
     return metrics
 
