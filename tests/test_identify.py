@@ -30,9 +30,10 @@ FS = 100.0
 N_SI = 0.003 * DEG / 60.0
 K_SI = math.sqrt(3.0) * N_SI / 10.0
 VRW_SI = 20.0 * MICRO_G
+HEADING = math.radians(30.0)
 
 
-def still_log(path, seed, *, heading_rad=math.radians(30.0), hours=1.0, arw=N_SI, rrw=K_SI, vrw=VRW_SI,
+def still_log(path, seed, *, heading_rad=HEADING, hours=1.0, arw=N_SI, rrw=K_SI, vrw=VRW_SI,
               gyro_bias=(0.0, 0.0, 0.0), accel_bias=(0.0, 0.0, 0.0)):
     """Write a still log (level, at ``heading_rad``) and return its ``C_nb``."""
     rng = np.random.default_rng(seed)
@@ -163,8 +164,8 @@ def test_cli_identify_writes_the_folder_and_refuses_a_bad_site(tmp_path, capsys)
     still_log(p, 2, hours=0.05)
     out = tmp_path / "fit"
     assert main(["identify", str(p), "--out", str(out)]) == EXIT_OK
-    assert sorted(x.name for x in out.iterdir() if not x.name.startswith(".")) == ["allan.png", "imu-sensors.yaml", "manifest.json",
-                                                                           "metrics.json", "report.md"]
+    written = sorted(x.name for x in out.iterdir() if not x.name.startswith("."))
+    assert written == ["allan.png", "imu-sensors.yaml", "manifest.json", "metrics.json", "report.md"]
     assert "gyro arw_deg_rt_h" in capsys.readouterr().out
     assert main(["identify", str(p), "--out", str(tmp_path / "bad"), "--site-lat-deg", "91"]) == EXIT_USAGE
     err = capsys.readouterr().err.strip().splitlines()

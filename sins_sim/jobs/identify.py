@@ -31,7 +31,7 @@ import numpy as np
 from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
-__all__ = ["identify", "NOT_DETERMINABLE", "NOT_OBSERVABLE", "sensors_yaml"]
+__all__ = ["NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "sensors_yaml"]
 
 NOT_DETERMINABLE = "not determinable"
 NOT_OBSERVABLE = "not observable"
@@ -287,9 +287,9 @@ def sensors_yaml(metrics: dict) -> str:
 
 def _report(metrics: dict) -> str:
     out = ["# Unit identified from its log at rest", "",
-           f"Log `{metrics['log']}`: {metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz; site "
-           f"{metrics['site']['lat_deg']:.6f} deg N, {metrics['site']['height_m']:.1f} m; alignment "
-           f"{metrics['alignment']['method']}.", "", "## Noise (Allan)", "",
+           (f"Log `{metrics['log']}`: {metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz; site "
+            f"{metrics['site']['lat_deg']:.6f} deg N, {metrics['site']['height_m']:.1f} m; alignment "
+            f"{metrics['alignment']['method']} (its heading; the tilt levelled from the log's mean force)."), "", "## Noise (Allan)", "",
            "| sensor | axis | term | value | 95 % CI | tau range (s) |", "|---|---|---|---|---|---|"]
     for s, by_ax in metrics["noise"].items():
         for ax, terms in by_ax.items():
@@ -303,15 +303,15 @@ def _report(metrics: dict) -> str:
                                f"{e['tau_range_s'][0]:.3g} to {e['tau_range_s'][1]:.3g} |")
                 else:
                     out.append(f"| {s} | {ax} | {key} | {e['status']} | | |")
-    out += ["", "## Biases (against the Earth's rate and normal gravity)", "", "| sensor | component | value | "
-            "1-sigma |", "|---|---|---|---|"]
+    out += ["", "## Biases (against the Earth's rate and normal gravity)", "",
+            "| sensor | component | value | 1-sigma |", "|---|---|---|---|"]
     for s, comps in metrics["bias"].items():
         for key, e in comps.items():
             out.append(f"| {s} | {key} | {e['value']:.4g} | {e['sigma']:.2g} |" if "value" in e else
                        f"| {s} | {key} | {e['status']} | |")
-    out += ["", "Not observable at rest: the east gyro bias (inseparable from the heading) and the horizontal "
-            "accelerometer biases (inseparable from the tilts); a body axis's bias only where the axis lies in "
-            "the observable directions.", ""]
+    out += ["", ("Not observable at rest: the east gyro bias (inseparable from the heading) and the horizontal "
+                 "accelerometer biases (inseparable from the tilts); a body axis's bias only where the axis lies in "
+                 "the observable directions. A bias's sigma covers the noise terms the log determines."), ""]
     return "\n".join(out)
 
 
