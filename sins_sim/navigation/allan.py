@@ -47,7 +47,11 @@ powers of tau; here:
    (within three ``rel``); it is returned as ``tau_range_s``;
 4. the term is read from the points of its region alone: the fixed-slope line through them after
    the other fitted terms are subtracted (weighted least squares), and the slope measured there by
-   a free log-log fit is reported beside it.
+   a free log-log fit is reported beside it;
+5. each term's 95 % confidence interval (:attr:`AllanTerm.ci`, :func:`term_interval`): the chi-square
+   interval of the overlapping estimator with the simple equivalent degrees of freedom of the term's
+   noise type (Riley 2008, Table 7), bounded over the region's correlated points (conservative). The fit's
+   weights in step 2 use the simpler non-overlapping count ``clusters - 1`` instead.
 
 A term absent from the record (zero coefficient, or no point where it dominates) reads NaN.
 
