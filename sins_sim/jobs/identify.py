@@ -194,6 +194,12 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         "priors": {"gyro_bias_deg_h": gyro_bias_prior_deg_h, "accel_bias_ug": accel_bias_prior_ug},
         "noise": noise,
         "bias": bias,
+        "notes": [
+            ("the down accelerometer bias is read against normal gravity (WGS-84 at the site's latitude and "
+             "height): the site's gravity anomaly (typically tens of ug) is in the reading and not in its sigma"),
+            ("a bias's sigma covers the noise terms the log determines; a term too weak to show on the curve can "
+             "still move the mean over the whole log"),
+        ],
         "methods": {
             "allan": "overlapping Allan deviation (allantools.oadev); IEEE Std 952-1997 Annex C power-law terms by "
                      "weighted non-negative least squares on the Allan variance, weights from the non-overlapping "
@@ -311,7 +317,8 @@ def _report(metrics: dict) -> str:
                        f"| {s} | {key} | {e['status']} | |")
     out += ["", ("Not observable at rest: the east gyro bias (inseparable from the heading) and the horizontal "
                  "accelerometer biases (inseparable from the tilts); a body axis's bias only where the axis lies in "
-                 "the observable directions. A bias's sigma covers the noise terms the log determines."), ""]
+                 "the observable directions."), ""]
+    out += [f"- {note}" for note in metrics["notes"]] + [""]
     return "\n".join(out)
 
 
