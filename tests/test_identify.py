@@ -224,3 +224,16 @@ def test_inertial_alignment_gives_the_same_observable_biases(bias_run):
         a, b = m["bias"][sensor][key], mi["bias"][sensor][key]
         assert abs(a["value"] - b["value"]) < 0.1 * a["sigma"], (key, a, b)
     assert mi["bias"]["gyro"]["east_deg_h"] == {"status": NOT_OBSERVABLE}
+
+
+def test_unevenly_spaced_increments_are_refused(tmp_path):
+    from sins_sim.config.errors import ConfigError
+    from sins_sim.jobs.navigate import write_increments
+
+    p = tmp_path / "gappy.csv"
+    n = 1000
+    t = np.arange(1, n + 1) * 0.01
+    t[500:] += 0.05                                       # a 50 ms gap: five intervals missing
+    write_increments(p, t, np.zeros((n, 3)), np.tile([0.0, 0.0, -0.098], (n, 1)))
+    with pytest.raises(ConfigError, match=r"^LOG: the increments must be evenly spaced"):
+        identify(p, lat_deg=45.0)
