@@ -45,6 +45,7 @@ Public API (imported lazily, so ``import sins_sim`` stays light and never loads 
 * navigation: :class:`StrapdownNavigator`;
 * configuration: :func:`load_imu`, :func:`load_scenario` (a file or a dict), :func:`load_yaml` (a YAML file as
   the loaders read it: YAML 1.2 numbers such as ``7.58e5`` are numbers), :func:`run_scenario`;
+* a unit's log at rest: :func:`identify` (noise terms, rest biases, the twin's ``sensors:`` section);
 * notebooks: :func:`run` (a scenario file, dict or object -> :class:`MissionResult` with tables,
   figures and ``save``), :func:`load` (a result folder -> :class:`MissionResult`, :class:`BudgetResult`
   or :class:`SweepResult`), :func:`sweep_run` (one run of a sweep -> :class:`MissionResult`);
@@ -76,6 +77,7 @@ _API = {
     "load_scenario": "sins_sim.config.scenario",
     "load_yaml": "sins_sim.config.yaml_io",
     "run_scenario": "sins_sim.jobs.run",
+    "identify": "sins_sim.jobs.identify",
     "run": "sins_sim.jobs.notebook",
     "load": "sins_sim.jobs.notebook",
     "sweep_run": "sins_sim.jobs.notebook",

@@ -934,6 +934,23 @@ def _cmd_import_log(args) -> int:
     return EXIT_OK
 
 
+def _cmd_identify(args) -> int:
+    from sins_sim.jobs.identify import identify
+
+    m = identify(args.log, args.out, lat_deg=args.site_lat_deg, lon_deg=args.site_lon_deg,
+                 height_m=args.site_height_m, alignment=args.align, gyro_bias_prior_deg_h=args.gyro_bias_prior_deg_h,
+                 accel_bias_prior_ug=args.accel_bias_prior_ug, force=args.force, manifest=_manifest(args))
+    for sensor, key in (("gyro", "arw_deg_rt_h"), ("gyro", "rrw_deg_h_rt_h"), ("accelerometer", "vrw_ug_rt_hz")):
+        cells = [f"{e['value']:.4g}" if "value" in e else e["status"] for e in
+                 (m["noise"][sensor][ax][key] for ax in "xyz")]
+        print(f"{sensor} {key} x, y, z: {', '.join(cells)}")
+    for sensor, key in (("gyro", "north_deg_h"), ("gyro", "down_deg_h"), ("accelerometer", "down_ug")):
+        e = m["bias"][sensor][key]
+        print(f"{sensor} bias {key}: {e['value']:.4g} +- {e['sigma']:.2g} (1 sigma)")
+    print(f"wrote {args.out}: metrics.json, allan.png, imu-sensors.yaml, report.md, manifest.json")
+    return EXIT_OK
+
+
 def _cmd_completion(args) -> int:
     from sins_sim.jobs.completion import completion_script
 
@@ -1257,6 +1274,25 @@ def build_parser() -> argparse.ArgumentParser:
                                                 "--force)")
     p.add_argument("--force", action="store_true", help="replace an existing --out (once the new file is complete)")
     p.set_defaults(func=_cmd_import_log)
+
+    p = sub.add_parser("identify", help="fit a unit's noise terms and rest biases from its log at rest",
+                       description="From an increments file of a unit at rest (sins-sim import-log): the overlapping "
+                                   "Allan deviation of each gyro and accelerometer axis with the IEEE Std 952 terms "
+                                   "(95 %% intervals, 'not determinable' where a term has no slope region), the "
+                                   "biases observable at rest against the Earth's rate and normal gravity ('not "
+                                   "observable' for the others), and a sensors: section for the unit's twin.")
+    p.add_argument("log", help="increments file (from sins-sim import-log)")
+    p.add_argument("--out", required=True, help="result folder to write")
+    p.add_argument("--site-lat-deg", type=float, default=None, help="site latitude (deg) [from the log]")
+    p.add_argument("--site-lon-deg", type=float, default=None, help="site longitude (deg) [from the log]")
+    p.add_argument("--site-height-m", type=float, default=None, help="site height (m) [from the log]")
+    p.add_argument("--align", choices=("coarse", "inertial"), default="coarse", help="alignment method [coarse]")
+    p.add_argument("--gyro-bias-prior-deg-h", type=float, default=0.01,
+                   help="1-sigma gyro bias before the log, for the unobservable part's coupling (deg/h) [0.01]")
+    p.add_argument("--accel-bias-prior-ug", type=float, default=100.0,
+                   help="1-sigma accelerometer bias before the log, for the tilt's coupling (ug) [100]")
+    _force_flag(p)
+    p.set_defaults(func=_cmd_identify)
 
     p = sub.add_parser("completion", help="print a shell completion script (bash or zsh)",
                        description="Print a completion script for sins-sim's commands, flags and choices, "

@@ -32,9 +32,18 @@ documented example ships as ``scenarios/experiments/experiment-example.yaml``)::
       rate_deg_s: 10
       sines: [{amplitude_arcmin: 30, frequency_hz: 7}, {amplitude_arcmin: 3, frequency_hz: 80, phase_deg: 60}]
       axes: [x]
+    site:                           # where the bench stands: the gyros read the Earth's rate (default: none)
+      latitude_deg: 56.8
+      orientation_ned: {heading_deg: 304, pitch_deg: -0.7, roll_deg: 1.1}   # x, y, z against NED, 3-2-1
+      table_axis_ned: [0.6, 0, 0.8]   # rate_table: the axis it turns about (unit vector, NED)
     effects:                        # catalogue effects (sins_sim.models.effects), SI parameters
       - {name: piezo_lag, tau_s: 1.0e-4, axes: [x]}
       - {name: axis_coupling, coefficients: {x: {y: 0.01}}}
+
+With ``site`` the axes are named from ``x, y, z`` (the triad the orientation places), every gyro reads the
+Earth's rate ``C_nb^T Omega (cos lat, 0, -sin lat)`` (:mod:`sins_sim.simulation.site`), and the recording's
+header carries ``site``; a ``rate_table`` then turns about ``table_axis_ned`` and each gyro sees the table's
+angle projected on its axis (``rate_table.axes`` is not used).
 
 The drive runs at the amplitude-dependent resonance of the *nominal* suspension with eq. 17's voltage
 (stationary, rate_table) or steps through the AFC plan (afc_sweep), as an engineer would set it up.
@@ -51,8 +60,10 @@ from sins_sim.config.errors import ConfigError
 from sins_sim.config.schema import ListOf, Map, Num, Str, validate
 from sins_sim.models.plant import check_resolution
 from sins_sim.models.suspension import SuspensionParams
+from sins_sim.io.recording import SITE_AXES
 from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings, afc_drive, stationary_drive,
                                             table_motion)
+from sins_sim.simulation.site import earth_motions, table_on_axes
 
 __all__ = ["EXPERIMENT_SCHEMA", "DEFAULT_F0_HZ", "MAX_EXPERIMENT_S", "MAX_EXPERIMENT_STEPS", "SUSPENSION_YAML_KEYS",
            "experiment_from_dict"]
@@ -154,6 +165,13 @@ EXPERIMENT_SCHEMA = Map({
                                  {"amplitude_arcmin": 1.0, "frequency_hz": 230.0, "phase_deg": 120.0}]),
         "axes": ListOf(Str(), min_len=1),
     }, default={}),
+    "site": Map({
+        "latitude": Num(unit="deg", required=True, min=-90.0, max=90.0),
+        "orientation_ned": Map({"heading": Num(unit="deg", default=0.0, min=-360.0, max=360.0),
+                                "pitch": Num(unit="deg", default=0.0, min=-90.0, max=90.0),
+                                "roll": Num(unit="deg", default=0.0, min=-180.0, max=180.0)}, default={}),
+        "table_axis_ned": ListOf(Num(min=-1.0, max=1.0), min_len=3, max_len=3, doc="unit vector, NED"),
+    }, doc="the bench's latitude and the unit's orientation (the gyros read the Earth's rate)"),
     "effects": EffectsList(axes=None, catalogue_only=False,
                            doc="the off-catalogue disturbances mains_pickup, drive_harmonic, mount_mode and bias_drift too"),
 }, rules=(f"(duration_s + preroll_s) x plant_rate_hz x axes <= {MAX_EXPERIMENT_STEPS:.3g} plant steps (memory)",
@@ -241,7 +259,13 @@ def experiment_from_dict(doc: dict, ctx: str = "experiment") -> dict:
                 if a not in axes:
                     raise ValueError(f"rate_table.axes: {a!r} is not one of axes {axes}")
             table = {a: mot for a in on}
-        inputs = ExperimentInputs(axes, fs, n, dfs, drive, table)
+        site = _site(doc.get("site"), c.get("site"), axes, c["experiment"], pre)
+        inertial = None
+        if site is not None:
+            if table is not None:
+                table = table_on_axes(site, axes, mot)
+            inertial = earth_motions(site, axes, (n - 1) / fs, table)
+        inputs = ExperimentInputs(axes, fs, n, dfs, drive, table, inertial)
         effects = c["effects"] or []
         for e in effects:
             e.check_axes(axes)
@@ -258,4 +282,30 @@ def experiment_from_dict(doc: dict, ctx: str = "experiment") -> dict:
     return {"inputs": inputs, "truth": truth, "nominal": nominal, "effects": effects, "settings": settings,
             "quantum_rad": c["quantum_rad"], "noise_rad": c["noise_rad"], "seed": int(c["seed"]),
             "preroll_samples": pre, "experiment": c["experiment"], "description": c["description"],
-            "points": points, "name": c["name"]}
+            "points": points, "name": c["name"], "site": site}
+
+
+def _site(raw: dict | None, checked: dict | None, axes, experiment: str, preroll: int) -> dict | None:
+    """The recording header's ``site`` from the experiment's (degrees as the YAML gives them), checked against
+    the format's rules (``sins_sim.io.recording``)."""
+    if not raw or not checked:
+        return None
+    ori = raw.get("orientation_ned") or {}
+    site = {"latitude_deg": float(raw["latitude_deg"]),
+            "orientation_ned": {k: float(ori.get(k, 0.0)) for k in ("heading_deg", "pitch_deg", "roll_deg")}}
+    if checked.get("table_axis_ned") is not None:
+        u = np.asarray(checked["table_axis_ned"], dtype=np.float64)
+        if not np.linalg.norm(u) > 0.0:
+            raise ValueError(f"site.table_axis_ned: must be a unit vector [n, e, d], got {list(u)}")
+        site["table_axis_ned"] = [float(x) for x in u / np.linalg.norm(u)]
+        if experiment == "rate_table" and preroll:
+            raise ValueError("site: a rate_table with a site needs initial_state: rest (the recording's table angle "
+                             "starts at 0 where the site orients the unit)")
+    elif experiment == "rate_table":
+        raise ValueError("site.table_axis_ned: is required for a rate_table with a site (the axis the table turns "
+                         "about)")
+    for a in axes:
+        if a not in SITE_AXES:
+            raise ValueError(f"axes: must be named from {list(SITE_AXES)} with a site (the triad it orients), "
+                             f"got {a!r}")
+    return site

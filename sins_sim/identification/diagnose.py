@@ -43,7 +43,12 @@ Given a recording (``sins_sim.io.recording``), :func:`diagnose_recording`
    floor it removes; the ``score`` is the RMS residual on held-out data
    (the recording is cut in blocks; even blocks fit, odd blocks score), so
    an extra parameter that only fits noise gains nothing;
-5. gives a **verdict** (:mod:`~sins_sim.identification.verdict`, where the criteria and their
+5. with the bias-drift nuisance on (a still bench) and no ``meta.site``, reads the **steady rate** vector the
+   nuisance took across the axes (:mod:`~sins_sim.identification.steady_rate`): the Earth's rate (then the
+   finding asks for the site and gives the Earth's axis in the unit's axes), a plausible gyro bias, or
+   unknown (``verdict.steady_rate``). With ``meta.site`` the model itself carries the Earth's rate
+   (``sins_sim.simulation.site``, through the table's angle where a table moves); then it
+   gives a **verdict** (:mod:`~sins_sim.identification.verdict`, where the criteria and their
    sources are): ``none`` when the refit nominal model sits at the floor (the excess RMS is
    within what noise gives at the false-alarm level ``gap_alpha`` over the axes, for the number of
    effectively independent samples: :mod:`~sins_sim.identification.detection`, floored by
@@ -120,6 +125,7 @@ from sins_sim.identification.refit import (CANCEL, AxisFit, DiagnoseSettings, _P
                                           worker_pool)
 from sins_sim.identification.plausibility import assess_plausibility, plausible_first
 from sins_sim.identification.report import Diagnosis, plausibility_flags, write_report
+from sins_sim.identification.steady_rate import steady_rate
 from sins_sim.identification.verdict import (ALTERNATIVE_MARGIN, MAX_EFFECTS, MIN_STEP, _step,  # noqa: F401
                                              assess, closes, excess_power, first_step, give_verdict,
                                              keep_dominant, resolved_first)
@@ -349,6 +355,8 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
                          "excess_rms_arcsec": {a: math.sqrt(excess[a]) / ARCSEC for a in sig_axes}}
     # 6. the verdict
     verdict = give_verdict(fits, sig_axes, candidates, settings, steps, remainder)
+    # a still recording without meta.site: the steady rate the bias nuisance took, the Earth's or a bias
+    verdict["steady_rate"] = steady_rate(rec, fits, used, settings.gap_alpha) if drift else None
     # 7. a close call is said, with the experiment that separates it (discriminate.close_call)
     verdict = close_call(rec, verdict, candidates, floors, settings)
     timing["total"] = time.perf_counter() - t_start

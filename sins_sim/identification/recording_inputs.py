@@ -77,11 +77,13 @@ def _model_inputs(rec: Recording, n_pre: int) -> ExperimentInputs:
     r = rec.drive_ratio
     drive = np.asarray(rec.drive_v, dtype=np.float64)
     ext = np.column_stack([_sine_extension(drive[:, i], rec.drive_fs_hz, n_pre * r) for i in range(rec.n_axes)])
-    table = None
+    table = inertial = None
     if rec.sins_angle is not None:
         table = {a: _ShiftedMotion(inputs.table[a], n_pre / rec.fs_hz) for a in rec.axes}
+    if rec.site is not None:  # the Earth's rate (meta.site), before t = 0 continued at its start rate
+        inertial = {a: _ShiftedMotion(inputs.inertial[a], n_pre / rec.fs_hz) for a in rec.axes}
     return ExperimentInputs(rec.axes, rec.fs_hz, rec.n_samples + n_pre, rec.drive_fs_hz,
-                            np.concatenate([ext, drive]), table)
+                            np.concatenate([ext, drive]), table, inertial)
 
 
 def _truncate(rec: Recording, n: int) -> Recording:
@@ -94,11 +96,12 @@ def _truncate(rec: Recording, n: int) -> Recording:
 
 
 def _table_angles(rec: Recording) -> dict:
-    """The table angle at the readout instants, per axis (0 without ``sins_angle``)."""
-    if rec.sins_angle is None:
+    """The block's angle w.r.t. inertial space at the readout instants, per axis: the table angle (0 without
+    ``sins_angle``) plus, with ``meta.site``, the Earth's (what the readout holds beside the deflection)."""
+    if rec.sins_angle is None and rec.site is None:
         return {a: np.zeros(rec.n_samples) for a in rec.axes}
     inputs = ExperimentInputs.from_recording(rec)
-    return {a: inputs.table[a].angle_rate(rec.time())[0] for a in rec.axes}
+    return {a: inputs.block_angle_rate(a, rec.time())[0] for a in rec.axes}
 
 
 def _tau(nominal: dict) -> float:
@@ -133,8 +136,8 @@ def _coupling_sources(rec: Recording, inputs: ExperimentInputs, settings: Experi
     tt = np.arange(rec.n_samples + n_pre) / rec.fs_hz
     for a in rec.axes:
         y = rec.angle(a) + 0.5 * rec.quantum_rad
-        if rec.sins_angle is not None:
-            y = y - inputs.table[a].angle_rate(tt[n_pre:])[0]
+        if rec.sins_angle is not None or rec.site is not None:
+            y = y - inputs.block_angle_rate(a, tt[n_pre:])[0]
         if n_pre:
             y = np.concatenate([_sine_extension(y, rec.fs_hz, n_pre), y])
         spl = CubicSpline(tt, y)

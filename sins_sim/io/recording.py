@@ -41,7 +41,16 @@ Rules the spec implies and this reader states explicitly:
   ``f0_hz > 0``, ``k1 >= 0``, ``k2 > 0``, ``k3 >= 0``, ``k5 != 0``
   (docs/theory/suspension.md); other keys in an entry are preserved;
 - ``meta.description``, when present, is a string (it is optional);
-- ``|drive_v| <= 1000`` V (:data:`DRIVE_V_MAX`): what a piezo stack takes.
+- ``|drive_v| <= 1000`` V (:data:`DRIVE_V_MAX`): what a piezo stack takes;
+- ``meta.site`` (optional): where the bench stands and how the unit sits on it,
+  ``{"latitude_deg": 56.8, "orientation_ned": {"heading_deg": 304.0, "pitch_deg": -0.7, "roll_deg": 1.1}}``
+  with ``latitude_deg`` in [-90, 90], ``heading_deg`` in [-360, 360], ``pitch_deg`` in [-90, 90] and
+  ``roll_deg`` in [-180, 180]: the gyro triad's x, y, z axes against local north-east-down (sequence 3-2-1)
+  with the table at its zero angle; for a rate table, ``"table_axis_ned": [n, e, d]`` (a unit vector, norm
+  within 1e-6 of 1) may stand beside them. With ``site`` every name of ``meta.axes`` is one of ``x, y, z``
+  (the triad's axis it reads). Without ``site`` the Earth's rate is unknown to the reader but still in the
+  data: on a still bench the readout carries the Earth's rate, 15.04 deg/h in magnitude, projected on each
+  gyro axis by the latitude and the unit's orientation (on a table, through the table's angle).
 
 CSV import (:func:`read_csv_recording`)
 ---------------------------------------
@@ -83,7 +92,7 @@ import numpy as np
 
 from sins_sim.units import DEG, PIEZO_V_MAX
 
-__all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "CSV_COLUMNS", "MIN_SAMPLES", "MAX_META_DEPTH",
+__all__ = ["FORMAT", "NOMINAL_KEYS", "REQUIRED_META", "SITE_AXES", "CSV_COLUMNS", "MIN_SAMPLES", "MAX_META_DEPTH",
            "DRIVE_V_MAX", "RecordingError", "Recording", "check_recording", "read_recording", "write_recording",
            "read_csv_recording"]
 
@@ -119,6 +128,10 @@ ARRAYS = ("meta", "counts", "drive_v", "sins_angle")
 CSV_COLUMNS = ("time_s", "counts_<axis>", "drive_v_<axis>", "sins_angle_rad_<axis>")
 #: Fewest samples ``counts`` may hold (cubic interpolation, as for ``sins_angle``).
 MIN_SAMPLES = 4
+#: The gyro triad's axes a ``site`` orients (the names ``meta.axes`` may use with ``site``).
+SITE_AXES = ("x", "y", "z")
+#: Tolerance on the norm of ``site.table_axis_ned`` (a unit vector written with finite decimals).
+SITE_UNIT_TOL = 1.0e-6
 #: Deepest nesting of objects and lists allowed in ``meta`` (a header is a few levels deep).
 MAX_META_DEPTH = 32
 #: Most a deflate stream can expand (about 1032:1), plus slack: a member claiming more is corrupt.
@@ -210,6 +223,40 @@ def _check_meta(meta, where: str) -> None:
                 _fail(where, f"meta.nominal.{a}.{k}", "is required but missing")
             rule, check = _NOMINAL_RULES[k]
             _number(where, f"meta.nominal.{a}.{k}", entry[k], rule, check)
+    if "site" in meta:
+        _check_site(meta["site"], axes, where)
+
+
+_SITE_ANGLES = {"heading_deg": 360.0, "pitch_deg": 90.0, "roll_deg": 180.0}
+
+
+def _check_site(site, axes, where: str) -> None:
+    """``meta.site``: latitude, orientation against NED (3-2-1) and, optionally, a rate table's axis."""
+    if not isinstance(site, dict):
+        _fail(where, "meta.site", f"must be an object with latitude_deg and orientation_ned, got {site!r}")
+    for key in ("latitude_deg", "orientation_ned"):
+        if key not in site:
+            _fail(where, f"meta.site.{key}", "is required but missing")
+    _number(where, "meta.site.latitude_deg", site["latitude_deg"], "must be a number in [-90, 90] deg",
+            lambda x: -90.0 <= x <= 90.0)
+    ori = site["orientation_ned"]
+    if not isinstance(ori, dict):
+        _fail(where, "meta.site.orientation_ned", f"must be an object with {list(_SITE_ANGLES)}, got {ori!r}")
+    for key, lim in _SITE_ANGLES.items():
+        if key not in ori:
+            _fail(where, f"meta.site.orientation_ned.{key}", "is required but missing")
+        _number(where, f"meta.site.orientation_ned.{key}", ori[key], f"must be a number in [-{lim:g}, {lim:g}] deg",
+                lambda x, lim=lim: -lim <= x <= lim)
+    if "table_axis_ned" in site:
+        ax = site["table_axis_ned"]
+        if (not isinstance(ax, list) or len(ax) != 3 or not all(_is_number(c) and math.isfinite(float(c)) for c in ax)
+                or abs(math.sqrt(sum(float(c) ** 2 for c in ax)) - 1.0) > SITE_UNIT_TOL):
+            _fail(where, "meta.site.table_axis_ned", f"must be a unit vector [n, e, d] of 3 finite numbers (norm 1 "
+                                                     f"within {SITE_UNIT_TOL:g}), got {ax!r}")
+    for a in axes:
+        if a not in SITE_AXES:
+            _fail(where, "meta.axes", f"must name axes of the triad {list(SITE_AXES)} when meta.site orients it, "
+                                      f"got {a!r}")
 
 
 def check_recording(meta, counts, drive_v, sins_angle=None, where: str = "recording") -> None:
@@ -388,6 +435,11 @@ class Recording:
     @property
     def experiment(self) -> str:
         return self.meta["experiment"]
+
+    @property
+    def site(self) -> dict | None:
+        """A copy of ``meta.site`` (latitude, orientation, table axis), or None when the header has none."""
+        return copy.deepcopy(self.meta["site"]) if "site" in self.meta else None
 
     @property
     def nominal(self) -> dict:

@@ -52,7 +52,7 @@ def simulate_recording(yaml_path, out_npz) -> dict:
     spec = experiment_from_dict(load_yaml(path), str(path))
     rec = record(spec["inputs"], spec["truth"], spec["nominal"], spec["quantum_rad"], spec["effects"],
                  spec["settings"], spec["noise_rad"], spec["seed"], spec["experiment"], spec["description"],
-                 spec["preroll_samples"])
+                 spec["preroll_samples"], extra_meta={"site": spec["site"]} if spec["site"] else None)
     out = write_recording(out_npz, rec)
     return {"path": str(out), "experiment": rec.experiment, "axes": list(rec.axes), "n_samples": rec.n_samples,
             "fs_hz": rec.fs_hz, "duration_s": rec.duration_s, "quantum_arcsec": rec.quantum_rad / ARCSEC,
@@ -340,6 +340,9 @@ def format_diagnosis(js: dict) -> str:
     r = v.get("remainder")
     if r:
         lines.append(f"remainder on axis {r.get('axis')}: band {r.get('band_hz')} Hz, time {r.get('time_s')} s")
+    sr = v.get("steady_rate")
+    if sr:
+        lines.append(f"steady rate ({sr.get('finding')}): {sr.get('message')}")
     return "\n".join(lines)
 
 

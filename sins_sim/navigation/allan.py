@@ -10,6 +10,7 @@ Arrays in, numbers out. The overlapping Allan deviation is computed by ``allanto
    fit_allan
    screen_noise
    not_determinable
+   term_interval
    gyro_allan
    accel_allan
    allan_axes
@@ -46,7 +47,11 @@ powers of tau; here:
    (within three ``rel``); it is returned as ``tau_range_s``;
 4. the term is read from the points of its region alone: the fixed-slope line through them after
    the other fitted terms are subtracted (weighted least squares), and the slope measured there by
-   a free log-log fit is reported beside it.
+   a free log-log fit is reported beside it;
+5. each term's 95 % confidence interval (:attr:`AllanTerm.ci`, :func:`term_interval`): the chi-square
+   interval of the overlapping estimator with the simple equivalent degrees of freedom of the term's
+   noise type (Riley 2008, Table 7), bounded over the region's correlated points (conservative). The fit's
+   weights in step 2 use the simpler non-overlapping count ``clusters - 1`` instead.
 
 A term absent from the record (zero coefficient, or no point where it dominates) reads NaN.
 
@@ -75,7 +80,8 @@ from scipy.optimize import nnls
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
 __all__ = ["AllanCurve", "AllanTerm", "AllanAnalysis", "allan_deviation", "fit_allan", "screen_noise", "gyro_allan",
-           "accel_allan", "allan_axes", "not_determinable", "TERMS", "FLICKER_FLOOR_FACTOR"]
+           "accel_allan", "allan_axes", "not_determinable", "term_interval", "TERMS", "ALPHA", "CI_LEVEL",
+           "FLICKER_FLOOR_FACTOR"]
 
 #: Allan-deviation floor of bias instability per unit of B, sqrt(2 ln 2 / pi) (IEEE Std 952-1997, Annex C).
 FLICKER_FLOOR_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
@@ -161,6 +167,9 @@ class AllanTerm:
         Points in the region.
     slope_measured : float
         Free log-log slope over the region (NaN with fewer than 3 points).
+    ci : tuple of float or None
+        95 % confidence interval ``(low, high)`` of ``coefficient`` (same unit), from the chi-square
+        distribution of the region's most informative point (:func:`term_interval`); None when not found.
     """
 
     name: str
@@ -169,6 +178,7 @@ class AllanTerm:
     tau_range_s: tuple | None
     n_points: int
     slope_measured: float
+    ci: tuple | None = None
 
     @property
     def found(self) -> bool:
@@ -462,10 +472,70 @@ def fit_allan(curve: AllanCurve, sensor: str = "gyro", min_clusters: float = 10.
         slope = math.nan
         if b - a >= 3:
             slope = float(np.polyfit(np.log(tau[sel]), 0.5 * np.log(s2[sel]), 1)[0])
+        ci = term_interval(name, c_k, tau[sel], s2[sel], part[sel] / coef[k] * c_k, w[sel] * bk * bk, curve)
         terms[name] = AllanTerm(name, TERMS[name][1], _coefficient_from_c(name, c_k),
-                                (float(tau[a]), float(tau[b - 1])), b - a, slope)
+                                (float(tau[a]), float(tau[b - 1])), b - a, slope, ci)
     return AllanAnalysis(curve, sensor, {n: float(c) for n, c in zip(names, coef)}, terms, float(min_clusters),
                          goodness_of_fit=gof)
+
+
+#: Power-law exponent ``alpha`` of the rate's spectral density ``S(f) ~ f^alpha`` for each term (the frequency-
+#: stability convention of NIST SP 1065, Riley 2008, sec. 5.2: white rate = white FM 0, bias instability = flicker
+#: FM -1, rate random walk = random-walk FM -2, quantisation = white PM +2; the ramp is deterministic: no alpha).
+ALPHA = {"quantization": 2, "white": 0, "flicker": -1, "random_walk": -2}
+#: Confidence level of :attr:`AllanTerm.ci`.
+CI_LEVEL = 0.95
+
+
+def term_interval(name: str, c_k: float, tau, s2, part, weight, curve: AllanCurve, level: float = CI_LEVEL):
+    """Confidence interval of a term's coefficient read off its region.
+
+    Each Allan-variance point is chi-square distributed with ``edf`` equivalent degrees of freedom,
+    ``edf * s2_hat / s2 ~ chi2(edf)`` (NIST SP 1065, Riley 2008, sec. 5.3), a relative standard deviation
+    ``sqrt(2 / edf)``; ``edf`` is the simple approximation for the overlapping Allan variance of the term's
+    noise type (Riley 2008, Table 7, after Howe, Allan and Barnes 1981; ``allantools.edf_simple``). The
+    term's variance at a point is the point's minus the other fitted terms', so the point's relative error
+    enters the term ``gain = s2 / part`` times. The reading is a weighted mean of the region's points
+    (weights ``w``, :func:`fit_allan`); the points of an overlapping curve are correlated in an unknown way,
+    so its relative standard deviation is bounded by the weighted mean of theirs (Minkowski's inequality:
+    equality for fully correlated points), ``rel = sum(a_i gain_i sqrt(2 / edf_i))`` with ``a`` the
+    normalised weights, and the interval is the chi-square one for ``edf_eff = 2 / rel^2``. The bound makes
+    the interval conservative (coverage at least ``level`` under the noise model).
+
+    Parameters
+    ----------
+    name : str
+        The term.
+    c_k : float
+        Its Allan-variance coefficient read off the region (unit^2 s^-k).
+    tau, s2, part, weight : ndarray
+        The region's taus (s), Allan variances, the term's part of them and each point's weight in the
+        reading (the weight of ``c_i = (s2_i - others_i) / tau_i^k``).
+    curve : AllanCurve
+        The curve (for the record length and sample rate).
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    tuple of float or None
+        ``(low, high)`` of the coefficient (Q, N, B, K or R in SI), None for the ramp or a
+        non-positive ``c_k``.
+    """
+    import allantools
+    from scipy.stats import chi2 as chi2_dist
+
+    if name not in ALPHA or not (np.isfinite(c_k) and c_k > 0.0):
+        return None
+    m = np.round(np.asarray(tau) * curve.rate_hz)
+    edf = np.array([allantools.edf_simple(curve.n_samples, float(mi), ALPHA[name]) for mi in m])
+    edf = np.maximum(edf, 1.0)
+    gain = s2 / np.maximum(part, np.finfo(np.float64).tiny)
+    a = np.asarray(weight, dtype=np.float64) / np.sum(weight)
+    rel = float(np.sum(a * gain * np.sqrt(2.0 / edf)))
+    edf_eff = 2.0 / rel ** 2
+    lo_q, hi_q = chi2_dist.ppf([(1.0 - level) / 2.0, (1.0 + level) / 2.0], edf_eff)
+    return (_coefficient_from_c(name, c_k * edf_eff / hi_q), _coefficient_from_c(name, c_k * edf_eff / lo_q))
 
 
 def _goodness_of_fit(s2, model, rel, coef, use) -> dict:

@@ -79,7 +79,7 @@ def _reading_text(analysis, name) -> str:
     return f"{sym} = {r[k]:.3g} {unit}" if _finite(r.get(k)) else ""
 
 
-def plot_allan(analyses, path, title: str = "") -> None:
+def plot_allan(analyses, path, title: str = "", ncols: int | None = None) -> None:
     """Log-log Allan deviation of each axis with the fitted slope lines, their regions and readings.
 
     Parameters
@@ -91,6 +91,8 @@ def plot_allan(analyses, path, title: str = "") -> None:
         The image file to write (format from the suffix).
     title : str
         Figure title.
+    ncols : int, optional
+        Panels per row (default: all in one row); e.g. 3 for a gyro row over an accelerometer row.
 
     Notes
     -----
@@ -105,8 +107,12 @@ def plot_allan(analyses, path, title: str = "") -> None:
     items = list(analyses.items()) if isinstance(analyses, dict) else [("", analyses)]
     if not items:
         raise ValueError("plot_allan.analyses: nothing to plot")
-    fig, axes = plt.subplots(1, len(items), figsize=(5.2 * len(items), 4.6), squeeze=False, constrained_layout=True)
-    for ax, (label, a) in zip(axes[0], items):
+    cols = len(items) if ncols is None else max(1, min(int(ncols), len(items)))
+    rows = -(-len(items) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.6 * rows), squeeze=False, constrained_layout=True)
+    for ax in axes.flat[len(items):]:
+        ax.set_visible(False)
+    for ax, (label, a) in zip(axes.flat, items):
         c = a.curve
         scale = a.display_scale
         used = c.clusters >= a.min_clusters

@@ -52,6 +52,7 @@ from sins_sim.models.effects import Effect, rate_from_grid
 from sins_sim.models.motion import ConstantRateMotion, SampledMotion, SineMotion, StaticMotion, SumMotion, as_motion
 from sins_sim.models.plant import Plant, PlantSettings
 from sins_sim.models.suspension import SuspensionParams
+from sins_sim.simulation.site import earth_motions
 
 __all__ = ["ExperimentSettings", "ExperimentInputs", "simulate_axis", "simulate_experiment", "quantise_angle",
            "record", "stationary_drive", "afc_drive", "table_motion", "suspension_from_nominal",
@@ -146,9 +147,14 @@ class ExperimentInputs:
     table : dict axis -> motion, or None
         The table (block) angle per axis (``sins_sim.models.motion``
         objects); ``None`` or a missing axis: at rest.
+    inertial : dict axis -> motion, or None
+        The block's angle with respect to inertial space that no table
+        encoder sees: the Earth's rate on a bench (``sins_sim.simulation.site``);
+        added to the table's angle for the plant and the readout, never
+        written as ``sins_angle``.
     """
 
-    def __init__(self, axes, fs_hz, n_samples, drive_fs_hz, drive_v, table=None):
+    def __init__(self, axes, fs_hz, n_samples, drive_fs_hz, drive_v, table=None, inertial=None):
         self.axes = tuple(axes)
         if not 1 <= len(self.axes) <= 3 or len(set(self.axes)) != len(self.axes):
             raise ValueError(f"experiment.axes: must be 1 to 3 distinct names, got {axes!r}")
@@ -170,16 +176,36 @@ class ExperimentInputs:
                 raise ValueError(f"experiment.table: {a!r} is not an axis of {list(self.axes)}")
         self.table = {a: as_motion(table.get(a)) for a in self.axes}
         self.moving = {a: a in table and not isinstance(self.table[a], StaticMotion) for a in self.axes}
+        inertial = dict(inertial or {})
+        for a in inertial:
+            if a not in self.axes:
+                raise ValueError(f"experiment.inertial: {a!r} is not an axis of {list(self.axes)}")
+        self.inertial = {a: as_motion(inertial.get(a)) for a in self.axes}
         self._grids = {}
+
+    def block_angle_rate(self, axis: str, t):
+        """The block's angle and rate w.r.t. inertial space about ``axis``: table plus ``inertial`` (Earth)."""
+        ang, rt = self.table[axis].angle_rate(t)
+        if isinstance(self.inertial[axis], StaticMotion):
+            return ang, rt
+        ia, ir = self.inertial[axis].angle_rate(t)
+        return ang + ia, rt + ir
 
     @classmethod
     def from_recording(cls, rec: Recording) -> "ExperimentInputs":
-        """The experiment a recording describes (table angle by cubic spline of ``sins_angle``)."""
+        """The experiment a recording describes (table angle by cubic spline of ``sins_angle``; with
+        ``meta.site`` the Earth's rate about each gyro axis, :func:`sins_sim.simulation.site.earth_motions`)."""
         table = None
         if rec.sins_angle is not None:
             table = {a: SampledMotion(rec.sins_angle[:, i], rec.sins_fs_hz) for i, a in enumerate(rec.axes)}
+        inertial = None
+        if rec.site is not None:
+            try:
+                inertial = earth_motions(rec.site, rec.axes, rec.duration_s, table)
+            except ValueError as exc:
+                raise ValueError(f"{rec.source}: meta.{exc}") from None
         return cls(rec.axes, rec.fs_hz, rec.n_samples, rec.drive_fs_hz, np.asarray(rec.drive_v, dtype=np.float64),
-                   table)
+                   table, inertial)
 
     @property
     def duration_s(self) -> float:
@@ -210,7 +236,7 @@ class ExperimentInputs:
         volts, angle, arate = {}, {}, {}
         for i, a in enumerate(self.axes):
             volts[a] = np.ascontiguousarray(self.drive_v[k, i])
-            ang, rt = self.table[a].angle_rate(t)
+            ang, rt = self.block_angle_rate(a, t)
             angle[a] = np.ascontiguousarray(ang, dtype=np.float64)
             arate[a] = np.ascontiguousarray(rt, dtype=np.float64)
         g = _Grid(rate, r, n_steps, h, volts, angle, arate)

@@ -1,0 +1,333 @@
+"""``sins-sim identify LOG --out DIR``: the noise terms and the biases of a unit from its log at rest.
+
+The log is an increments table (``sins-sim import-log``; :func:`~sins_sim.jobs.import_log.read_log_table`):
+angle and velocity increments in body FRD axes. On it, for a unit at rest over the whole log:
+
+1. **noise**: the overlapping Allan deviation of each gyro (the increments' mean rate) and accelerometer
+   (specific force, each axis's mean removed) axis, the IEEE Std 952-1997 / Std 1293-1998 power-law terms
+   fitted to it and screened (:mod:`sins_sim.navigation.allan`: weighted non-negative least squares on the
+   Allan variance with weights from the simple, non-overlapping equivalent degrees of freedom
+   ``clusters - 1``; each term read off its own slope region, with a 95 % interval from the overlapping
+   estimator's simple EDF, Riley 2008, Table 7). A term with no region where it dominates is "not
+   determinable", never a number;
+2. **biases**: the attitude from a self-alignment over the log (coarse or inertial,
+   :mod:`sins_sim.navigation.alignment`), then the residual of the means against the Earth's rate and normal
+   gravity at the site (:func:`sins_sim.navigation.rest_bias.rest_biases`): the north and down gyro
+   components and the down accelerometer component with their sigma; the others "not observable";
+3. **output**: ``metrics.json``, ``allan.png``, ``imu-sensors.yaml`` (a ``sensors:`` section for the unit's
+   twin, each value's source and sigma in a comment) and ``report.md``.
+
+API: :func:`identify` (returns the metrics; writes the folder when ``out_dir`` is given).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from sins_sim.config.errors import ConfigError
+from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
+
+__all__ = ["NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "sensors_yaml"]
+
+NOT_DETERMINABLE = "not determinable"
+NOT_OBSERVABLE = "not observable"
+#: How far the sample intervals may scatter (relative to their median) for one sample rate.
+DT_TOL = 1e-3
+#: The noise readings, per sensor: (term, metrics key, factor from SI, IMU-file key or None).
+_NOISE_KEYS = {
+    "gyro": (("quantization", "quantization_arcsec", 1.0 / ARCSEC, None),
+             ("white", "arw_deg_rt_h", 60.0 / DEG, "arw_deg_rt_h"),
+             ("flicker", "bias_instability_deg_h", 1.0 / DEG_PER_H, "bias_instability_deg_h"),
+             ("random_walk", "rrw_deg_h_rt_h", 60.0 / DEG_PER_H, "rrw_deg_h_rt_h"),
+             ("ramp", "rate_ramp_deg_h_per_h", 3600.0 / DEG_PER_H, None)),
+    "accelerometer": (("quantization", "quantization_m_s", 1.0, None),
+                      ("white", "vrw_ug_rt_hz", 1.0 / MICRO_G, "vrw_ug_rt_hz"),
+                      ("flicker", "bias_instability_ug", 1.0 / MICRO_G, "bias_instability_ug"),
+                      ("random_walk", "rrw_ug_rt_h", 60.0 / MICRO_G, "rrw_ug_rt_h"),
+                      ("ramp", "ramp_ug_per_h", 3600.0 / MICRO_G, None)),
+}
+_BIAS_UNIT = {"gyro": ("deg_h", 1.0 / DEG_PER_H), "accelerometer": ("ug", 1.0 / MICRO_G)}
+
+
+def _site(meta: dict, lat_deg, lon_deg, height_m) -> dict:
+    site = dict(meta.get("site") or {})
+    if lat_deg is not None:
+        site["lat_rad"] = math.radians(float(lat_deg))
+    if lon_deg is not None:
+        site["lon_rad"] = math.radians(float(lon_deg))
+    if height_m is not None:
+        site["height_m"] = float(height_m)
+    if "lat_rad" not in site or site["lat_rad"] is None:
+        raise ConfigError("--site-lat-deg: the log records no site; give its latitude (deg)")
+    lat = float(site["lat_rad"])
+    if not (math.isfinite(lat) and abs(lat) <= math.radians(89.5)):
+        raise ConfigError(f"--site-lat-deg: must lie within +-89.5 deg (gyrocompassing), got {math.degrees(lat):.6g}")
+    return {"lat_rad": lat, "lon_rad": float(site.get("lon_rad") or 0.0),
+            "height_m": float(site.get("height_m") or 0.0)}
+
+
+def _interval(t) -> float:
+    d = np.diff(np.asarray(t, dtype=np.float64))
+    if d.size < 1:
+        raise ConfigError("LOG: needs at least two increments")
+    dt = float(np.median(d))
+    if not (dt > 0.0 and np.all(np.abs(d - dt) <= DT_TOL * dt)):
+        raise ConfigError(f"LOG: the increments must be evenly spaced (intervals within {DT_TOL:g} of their "
+                          f"median {dt:g} s); got {d.min():g} to {d.max():g} s")
+    return dt
+
+
+def _noise_entry(analysis, name, key, scale) -> dict:
+    term = analysis.terms[name]
+    if not term.found:
+        why = analysis.rejected.get(name) or analysis.reason or "no tau range where this term dominates the fit"
+        return {"status": NOT_DETERMINABLE, "reason": why}
+    out = {"value": term.coefficient * scale, "tau_range_s": list(term.tau_range_s),
+           "slope_measured": term.slope_measured}
+    if term.ci is not None:
+        out["ci95"] = [term.ci[0] * scale, term.ci[1] * scale]
+    return out
+
+
+def _bias_entries(values, sigmas, labels, scale, unit) -> dict:
+    out = {}
+    for lab, val, sig in zip(labels, values, sigmas):
+        key = f"{lab}_{unit}"
+        out[key] = ({"status": NOT_OBSERVABLE} if not math.isfinite(val) else
+                    {"value": float(val * scale), "sigma": float(sig * scale)})
+    return out
+
+
+def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, alignment: str = "coarse",
+             gyro_bias_prior_deg_h: float = 0.01, accel_bias_prior_ug: float = 100.0, force: bool = False,
+             manifest=None) -> dict:
+    """Fit a unit's noise terms and biases from its log at rest (module docstring).
+
+    Parameters
+    ----------
+    log : path
+        The increments table (``sins-sim import-log``'s Parquet, or a plain increments CSV/Parquet).
+    out_dir : path, optional
+        Folder for ``metrics.json``, ``allan.png``, ``imu-sensors.yaml``, ``report.md``; None: write nothing.
+    lat_deg, lon_deg, height_m : float, optional
+        The site, where the log's metadata has none (or to override it).
+    alignment : str
+        ``coarse`` or ``inertial``.
+    gyro_bias_prior_deg_h, accel_bias_prior_ug : float
+        1-sigma of the biases before the log: the unobservable part that couples into the observed ones
+        (the tilt from a horizontal accelerometer bias, an axis near but not in the observable span).
+    force : bool
+        Replace an earlier result at ``out_dir`` (default: refuse it); the folder appears only once complete.
+    manifest : Manifest, optional
+        The command's manifest (from the CLI); by default one naming this call's settings. ``manifest.json``
+        records it with the log's SHA-256.
+
+    Returns
+    -------
+    dict
+        The metrics (as ``metrics.json``).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the flag or the file.
+    """
+    from sins_sim.jobs.import_log import read_log_table
+    from sins_sim.navigation.alignment import align_coarse, align_inertial
+    from sins_sim.navigation.allan import allan_axes, screen_noise
+    from sins_sim.navigation.rest_bias import rest_biases
+
+    if alignment not in ("coarse", "inertial"):
+        raise ConfigError(f"--alignment: must be one of ['coarse', 'inertial'], got {alignment!r}")
+    for flag, val in (("--gyro-bias-prior-deg-h", gyro_bias_prior_deg_h),
+                      ("--accel-bias-prior-ug", accel_bias_prior_ug)):
+        if not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0.0):
+            raise ConfigError(f"{flag}: must be a finite number >= 0, got {val!r}")
+    t, dth, dv, meta = read_log_table(log)
+    site = _site(meta, lat_deg, lon_deg, height_m)
+    dt = _interval(t)
+    fs = 1.0 / dt
+    rate, spec_force = dth / dt, dv / dt
+    analyses = {
+        "gyro": {ax: screen_noise(a) for ax, a in allan_axes(rate - rate.mean(axis=0), fs, "gyro").items()},
+        "accelerometer": {ax: screen_noise(a) for ax, a in
+                          allan_axes(spec_force - spec_force.mean(axis=0), fs, "accel").items()},
+    }
+    noise = {s: {ax: {key: _noise_entry(a, name, key, scale) for name, key, scale, _ in _NOISE_KEYS[s]}
+                 for ax, a in by_ax.items()} for s, by_ax in analyses.items()}
+    for s, by_ax in analyses.items():
+        for ax, a in by_ax.items():
+            if a.goodness_of_fit is not None:
+                noise[s][ax]["goodness_of_fit"] = dict(a.goodness_of_fit)
+    t_total = dth.shape[0] * dt
+    sig_g = np.array([_mean_sigma(analyses["gyro"][ax], t_total) for ax in "xyz"])
+    sig_a = np.array([_mean_sigma(analyses["accelerometer"][ax], t_total) for ax in "xyz"])
+    prior_g, prior_a = gyro_bias_prior_deg_h * DEG_PER_H, accel_bias_prior_ug * MICRO_G
+    align = align_coarse if alignment == "coarse" else align_inertial
+    kwargs = {} if alignment == "coarse" else {"h_m": site["height_m"]}
+    try:
+        al = align(dth, dv, dt, site["lat_rad"], gyro_bias_sigma_rad_s=prior_g, accel_bias_sigma_m_s2=prior_a,
+                   **kwargs)
+    except ValueError as exc:
+        raise ConfigError(f"LOG: alignment failed: {exc}") from None
+    rb = rest_biases(dth, dv, dt, site["lat_rad"], site["height_m"], al.q_nb, gyro_mean_sigma_rad_s=sig_g,
+                     accel_mean_sigma_m_s2=sig_a, gyro_bias_prior_rad_s=prior_g, accel_bias_prior_m_s2=prior_a)
+    bias = {}
+    for s, ned, ned_sig, body, body_sig in (
+            ("gyro", rb.gyro_ned_rad_s, rb.gyro_ned_sigma_rad_s, rb.gyro_body_rad_s, rb.gyro_body_sigma_rad_s),
+            ("accelerometer", rb.accel_ned_m_s2, rb.accel_ned_sigma_m_s2, rb.accel_body_m_s2,
+             rb.accel_body_sigma_m_s2)):
+        unit, scale = _BIAS_UNIT[s]
+        bias[s] = {**_bias_entries(ned, ned_sig, ("north", "east", "down"), scale, unit),
+                   **_bias_entries(body, body_sig, ("x", "y", "z"), scale, unit)}
+    metrics = {
+        "log": str(log), "duration_s": float(t_total), "rate_hz": float(fs),
+        "site": {"lat_deg": math.degrees(site["lat_rad"]), "lon_deg": math.degrees(site["lon_rad"]),
+                 "height_m": site["height_m"]},
+        "alignment": {"method": alignment, **{k: val for k, val in al.to_dict().items()
+                                               if k in ("roll_deg", "pitch_deg", "heading_deg", "sigma_tilt_north_arcsec",
+                                                        "sigma_tilt_east_arcsec", "sigma_heading_deg")}},
+        "priors": {"gyro_bias_deg_h": gyro_bias_prior_deg_h, "accel_bias_ug": accel_bias_prior_ug},
+        "noise": noise,
+        "bias": bias,
+        "notes": [
+            ("the down accelerometer bias is read against normal gravity (WGS-84 at the site's latitude and "
+             "height): the site's gravity anomaly (typically tens of ug) is in the reading and not in its sigma"),
+            ("a bias's sigma covers the noise terms the log determines; a term too weak to show on the curve can "
+             "still move the mean over the whole log"),
+        ],
+        "methods": {
+            "allan": "overlapping Allan deviation (allantools.oadev); IEEE Std 952-1997 Annex C power-law terms by "
+                     "weighted non-negative least squares on the Allan variance, weights from the non-overlapping "
+                     "EDF clusters - 1 (floored at 5 %); each term read off its own slope region",
+            "ci95": "chi-square interval with the overlapping ADEV's simple EDF (Riley 2008, Table 7) of the term's "
+                    "noise type, bounded over the region's correlated points (conservative)",
+            "bias": "residual of the log's means against the Earth's rate and normal gravity in the aligned "
+                    "frame; sigma: the fitted Allan deviation at the log's length and the priors' coupling",
+        },
+    }
+    metrics = _json_ready(metrics)
+    if out_dir is not None:
+        from sins_sim.jobs.manifest import Manifest, result_dir
+
+        if manifest is None:
+            manifest = Manifest("identify", settings={
+                "lat_deg": lat_deg, "lon_deg": lon_deg, "height_m": height_m, "alignment": alignment,
+                "gyro_bias_prior_deg_h": gyro_bias_prior_deg_h, "accel_bias_prior_ug": accel_bias_prior_ug})
+        manifest.add_input("log", log)
+        with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
+            _write(Path(tmp), metrics, analyses)
+    return metrics
+
+
+def _mean_sigma(analysis, t_total: float) -> float:
+    """1-sigma of an axis's mean over the log: the Allan deviation at the log's length ``T`` of the terms
+    determined (for white noise exactly ``N / sqrt(T)``; a random walk's ``K^2 T / 3`` covers the mean's wander).
+    Terms not determined are left out: extrapolating the fit's small coefficients of absent terms a decade
+    beyond the reliable taus would invent noise. With no term determined, the measured deviation at the
+    longest tau, an upper bound for noise that falls with tau."""
+    found = [n for n, term in analysis.terms.items() if term.found]
+    if found:
+        return float(math.sqrt(sum(float(analysis.line(n, t_total)) ** 2 for n in found)))
+    adev = analysis.curve.adev
+    return float(adev[-1]) if adev.size else math.nan
+
+
+def _json_ready(x):
+    if isinstance(x, dict):
+        return {k: _json_ready(val) for k, val in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_ready(val) for val in x]
+    if isinstance(x, (np.floating, float)):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.ndarray):
+        return _json_ready(x.tolist())
+    return x
+
+
+def _vector_line(key, entries, what) -> str:
+    """One ``key: [x, y, z]`` line with its source in a comment, or a comment saying why it is left out."""
+    vals = [e.get("value") for e in entries]
+    if any(val is None for val in vals):
+        missing = [ax for ax, e in zip("xyz", entries) if e.get("value") is None]
+        status = entries[[e.get("value") is None for e in entries].index(True)].get("status", "")
+        return f"    # {key}: left out ({status} on axis {', '.join(missing)}); the twin's default 0 applies"
+    sig = [e.get("sigma") for e in entries]
+    ci = [e.get("ci95") for e in entries]
+    if all(s is not None for s in sig):
+        note = f"{what}; 1-sigma [{', '.join(f'{s:.3g}' for s in sig)}]"
+    else:
+        halfw = [(c[1] - c[0]) / 2.0 / 1.96 if c else math.nan for c in ci]
+        note = f"{what}; 1-sigma ~ [{', '.join(f'{s:.3g}' for s in halfw)}] (95 % CI half-width / 1.96)"
+    return f"    {key}: [{', '.join(f'{val:.6g}' for val in vals)}]   # {note}"
+
+
+def sensors_yaml(metrics: dict) -> str:
+    """The ``sensors:`` section for the unit's twin (the keys of ``sins-sim schema imu``), from :func:`identify`'s
+    metrics; each value with its source and sigma as a comment, a value not found left out with the reason."""
+    lines = ["# identified by sins-sim identify from " + str(metrics["log"]), "sensors:"]
+    for s in ("gyro", "accelerometer"):
+        lines.append(f"  {s}:")
+        unit, _ = _BIAS_UNIT[s]
+        bias_key = "bias_deg_h" if s == "gyro" else "bias_ug"
+        lines.append(_vector_line(bias_key, [metrics["bias"][s][f"{ax}_{unit}"] for ax in "xyz"],
+                                  "rest bias against Earth rate and gravity"))
+        for name, key, _, imu_key in _NOISE_KEYS[s]:
+            if imu_key is None:
+                continue
+            entries = [metrics["noise"][s][ax][key] for ax in "xyz"]
+            lines.append(_vector_line(imu_key, entries, "Allan fit over tau " + ", ".join(
+                f"{e['tau_range_s'][0]:.3g}-{e['tau_range_s'][1]:.3g} s" for e in entries if "tau_range_s" in e)))
+            if name == "flicker" and all("tau_range_s" in e for e in entries):
+                lo = min(e["tau_range_s"][0] for e in entries)
+                hi = max(e["tau_range_s"][1] for e in entries)
+                lines.append(f"    bias_instability_tau_s: [{lo:.6g}, {hi:.6g}]   # the flat region read")
+    return "\n".join(lines) + "\n"
+
+
+def _report(metrics: dict) -> str:
+    out = ["# Unit identified from its log at rest", "",
+           (f"Log `{metrics['log']}`: {metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz; site "
+            f"{metrics['site']['lat_deg']:.6f} deg N, {metrics['site']['height_m']:.1f} m; alignment "
+            f"{metrics['alignment']['method']} (its heading; the tilt levelled from the log's mean force)."), "", "## Noise (Allan)", "",
+           "| sensor | axis | term | value | 95 % CI | tau range (s) |", "|---|---|---|---|---|---|"]
+    for s, by_ax in metrics["noise"].items():
+        for ax, terms in by_ax.items():
+            for key, e in terms.items():
+                if key == "goodness_of_fit":
+                    continue
+                if "value" in e:
+                    ci = e.get("ci95")
+                    out.append(f"| {s} | {ax} | {key} | {e['value']:.4g} | "
+                               f"{'-' if ci is None else f'{ci[0]:.4g} to {ci[1]:.4g}'} | "
+                               f"{e['tau_range_s'][0]:.3g} to {e['tau_range_s'][1]:.3g} |")
+                else:
+                    out.append(f"| {s} | {ax} | {key} | {e['status']} | | |")
+    out += ["", "## Biases (against the Earth's rate and normal gravity)", "",
+            "| sensor | component | value | 1-sigma |", "|---|---|---|---|"]
+    for s, comps in metrics["bias"].items():
+        for key, e in comps.items():
+            out.append(f"| {s} | {key} | {e['value']:.4g} | {e['sigma']:.2g} |" if "value" in e else
+                       f"| {s} | {key} | {e['status']} | |")
+    out += ["", ("Not observable at rest: the east gyro bias (inseparable from the heading) and the horizontal "
+                 "accelerometer biases (inseparable from the tilts); a body axis's bias only where the axis lies in "
+                 "the observable directions."), ""]
+    out += [f"- {note}" for note in metrics["notes"]] + [""]
+    return "\n".join(out)
+
+
+def _write(folder: Path, metrics: dict, analyses: dict) -> None:
+    from sins_sim.plots.allan import plot_allan
+
+    (folder / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+    panels = {f"{'gyro' if s == 'gyro' else 'accel'} {ax}": a for s, by_ax in analyses.items()
+              for ax, a in by_ax.items()}
+    plot_allan(panels, folder / "allan.png", title=f"Allan deviation of {Path(metrics['log']).name}", ncols=3)
+    (folder / "imu-sensors.yaml").write_text(sensors_yaml(metrics))
+    (folder / "report.md").write_text(_report(metrics))
