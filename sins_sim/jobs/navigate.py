@@ -53,7 +53,9 @@ def read_increments(path) -> tuple:
         if p.suffix.lower() in (".parquet", ".pq"):
             df = pd.read_parquet(p)
         else:
-            df = pd.read_csv(p, comment="#", skip_blank_lines=True)
+            # round_trip: the exact float64 of every written digit (pandas before 2.2 parses with a faster, inexact
+            # converter by default)
+            df = pd.read_csv(p, comment="#", skip_blank_lines=True, float_precision="round_trip")
     except pd.errors.EmptyDataError:
         raise ConfigError(f"{p}: line 1: no header row, the file is empty (needs the columns "
                           f"{', '.join(INCREMENT_COLUMNS)})") from None
