@@ -110,6 +110,7 @@ References
 """
 
 from __future__ import annotations
+import abc
 
 import math
 from dataclasses import dataclass, field
@@ -365,17 +366,20 @@ def _sigma_matrix(field_name, sigma, dim) -> np.ndarray:
     return np.diag(np.broadcast_to(arr, (dim,)) ** 2)
 
 
-class _Measurement:
-    """Base of the measurement plug-ins: ``dz = h(x_c) - z = H x + v``, ``v ~ N(0, R)``."""
+class _Measurement(abc.ABC):
+    """Base of the measurement plug-ins: ``dz = h(x_c) - z = H x + v``, ``v ~ N(0, R)``; a plug-in defines
+    both abstract methods (a class that misses one cannot be instantiated)."""
 
     name = ""
     dim = 0
 
-    def h_matrix(self, state: NavState) -> np.ndarray:  # pragma: no cover - every plug-in overrides
-        raise NotImplementedError
+    @abc.abstractmethod
+    def h_matrix(self, state: NavState) -> np.ndarray:
+        """``H`` (dim x 15) at the navigator's state."""
 
-    def innovation(self, state: NavState) -> np.ndarray:  # pragma: no cover - every plug-in overrides
-        raise NotImplementedError
+    @abc.abstractmethod
+    def innovation(self, state: NavState) -> np.ndarray:
+        """``h(x_c) - z`` at the navigator's state."""
 
     def r_matrix(self) -> np.ndarray:
         """Measurement noise covariance ``R``."""
