@@ -110,8 +110,8 @@ References
 """
 
 from __future__ import annotations
-import abc
 
+import abc
 import math
 from dataclasses import dataclass, field
 
