@@ -385,7 +385,7 @@ def _navigate_without_truth(t, dth, dv, site, result, coning, sculling, vertical
         raise ConfigError(f"increments: {' '.join(str(exc).split())}") from None
     d = free.displacement_m()
     horiz = np.hypot(d[:, 0], d[:, 1])
-    roll, pitch, yaw = np.degrees(euler_from_quat(free.q_nb[-1]))
+    roll, pitch, yaw = np.degrees(euler_from_quat(free.solution.q_nb[-1]))
     metrics = {
         "navigation": {**free.settings, "start_s": free.start["t_s"], "end_s": float(t[-1]),
                        "site": {"lat_deg": float(np.degrees(site["lat_rad"])),
@@ -395,7 +395,7 @@ def _navigate_without_truth(t, dth, dv, site, result, coning, sculling, vertical
             "final_displacement_m": {"north": float(d[-1, 0]), "east": float(d[-1, 1]), "up": float(d[-1, 2]),
                                      "horizontal": float(horiz[-1])},
             "max_horizontal_displacement_m": float(horiz.max()),
-            "final_velocity_ned_m_s": [float(x) for x in free.v_ned_m_s[-1]],
+            "final_velocity_ned_m_s": [float(x) for x in free.solution.v_ned_m_s[-1]],
             "final_attitude_deg": {"roll": float(roll), "pitch": float(pitch), "heading": float(yaw % 360.0)},
             "note": "no truth: the solution's displacement from where navigation started; for a unit that stood "
                     "still it is the navigation error (the alignment's and the sensors' together)",
@@ -417,7 +417,7 @@ def _write_extras(folder: Path, metrics: dict, figures: dict) -> list:
         else:
             from sins_sim.plots.alignment import displacement_figure
 
-            displacement_figure(data.t_s, data.displacement_m(), folder / fname,
+            displacement_figure(data.solution.t_s, data.displacement_m(), folder / fname,
                                 note=("vertical: held at the site's height" if data.settings["vertical"] == "height_aid"
                                       else "vertical: free inertial"))
             _solution_table(data).to_parquet(folder / "solution.parquet", index=False)
@@ -431,11 +431,11 @@ def _solution_table(free):
 
     from sins_sim.navigation.attitude import euler_from_quat
 
-    d = free.displacement_m()
-    e = np.degrees(euler_from_quat(free.q_nb))
-    return pd.DataFrame({"time_s": free.t_s, "lat_deg": np.degrees(free.lat_rad), "lon_deg": np.degrees(free.lon_rad),
-                         "height_m": free.h_m, "north_m": d[:, 0], "east_m": d[:, 1], "up_m": d[:, 2],
-                         "vn_m_s": free.v_ned_m_s[:, 0], "ve_m_s": free.v_ned_m_s[:, 1], "vd_m_s": free.v_ned_m_s[:, 2],
+    d, sol = free.displacement_m(), free.solution
+    e = np.degrees(euler_from_quat(sol.q_nb))
+    return pd.DataFrame({"time_s": sol.t_s, "lat_deg": np.degrees(sol.lat_rad), "lon_deg": np.degrees(sol.lon_rad),
+                         "height_m": sol.h_m, "north_m": d[:, 0], "east_m": d[:, 1], "up_m": d[:, 2],
+                         "vn_m_s": sol.v_ned_m_s[:, 0], "ve_m_s": sol.v_ned_m_s[:, 1], "vd_m_s": sol.v_ned_m_s[:, 2],
                          "roll_deg": e[:, 0], "pitch_deg": e[:, 1], "heading_deg": e[:, 2] % 360.0})
 
 

@@ -308,23 +308,16 @@ class FreeNavResult:
 
     Attributes
     ----------
-    t_s : ndarray (M,)
-        Times of the stored rows (s, the log's time axis), at most :data:`SERIES_RATE_HZ`.
-    lat_rad, lon_rad, h_m : ndarray (M,)
-    v_ned_m_s : ndarray (M, 3)
-    q_nb : ndarray (M, 4)
+    solution : NavSolution
+        The solution's rows at up to :data:`SERIES_RATE_HZ` (:class:`~sins_sim.navigation.strapdown.NavSolution`;
+        its ``t_s`` here on the log's time axis).
     start : dict
         ``t_s``, ``lat_rad``, ``lon_rad``, ``h_m``: where the navigation started.
     settings : dict
         Coning, sculling, vertical channel (and the height it held), rate.
     """
 
-    t_s: np.ndarray
-    lat_rad: np.ndarray
-    lon_rad: np.ndarray
-    h_m: np.ndarray
-    v_ned_m_s: np.ndarray
-    q_nb: np.ndarray
+    solution: object
     start: dict
     settings: dict = field(default_factory=dict)
 
@@ -333,9 +326,9 @@ class FreeNavResult:
         (:func:`sins_sim.earth.horizontal_error_m`). For a unit that stood still it is the navigation error."""
         from sins_sim import earth
 
-        s = self.start
-        dn, de, _ = earth.horizontal_error_m(self.lat_rad, self.lon_rad, s["lat_rad"], s["lon_rad"], s["h_m"])
-        return np.column_stack((dn, de, self.h_m - s["h_m"]))
+        s, sol = self.start, self.solution
+        dn, de, _ = earth.horizontal_error_m(sol.lat_rad, sol.lon_rad, s["lat_rad"], s["lon_rad"], s["h_m"])
+        return np.column_stack((dn, de, sol.h_m - s["h_m"]))
 
 
 def navigate_free(t_s, dtheta, dv, lat0_rad, lon0_rad, h0_m, q0_nb, v0_ned_m_s, *, coning: str = "two_sample",
@@ -347,7 +340,7 @@ def navigate_free(t_s, dtheta, dv, lat0_rad, lon0_rad, h0_m, q0_nb, v0_ned_m_s, 
     result is reported); ``"free"`` is pure inertial. Times, shapes and chunking as :func:`navigate_increments`
     (navigation starts at ``t_0 - dt``).
     """
-    from sins_sim.navigation.strapdown import StrapdownNavigator
+    from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
 
     t, dt, dth, dvel = _checked_increments(t_s, dtheta, dv)
     n = t.size
@@ -365,7 +358,7 @@ def navigate_free(t_s, dtheta, dv, lat0_rad, lon0_rad, h0_m, q0_nb, v0_ned_m_s, 
         for key in ("lat_rad", "lon_rad", "h_m", "v_ned_m_s", "q_nb"):
             keep[key].append(getattr(sol, key)[sel])
     arrays = {k: np.concatenate(x) for k, x in keep.items()}
-    return FreeNavResult(**arrays, start={"t_s": float(t[0] - dt), "lat_rad": float(lat0_rad),
+    return FreeNavResult(NavSolution(**arrays), start={"t_s": float(t[0] - dt), "lat_rad": float(lat0_rad),
                                           "lon_rad": float(lon0_rad), "h_m": float(h0_m)},
                          settings={"coning": coning, "sculling": sculling, "vertical": vertical,
                                    "height_aid_tau_s": height_aid_tau_s, "rate_hz": 1.0 / dt,
