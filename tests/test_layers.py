@@ -27,7 +27,8 @@ ALLOWED = {
     "filters": BASE,
     "navigation": BASE,
     "io": BASE,
-    "plots": {"units", "earth", "models"},  # the paper figures draw eq. 9 itself
+    # the paper figures draw eq. 9 itself; the aided-run figures read the filter's state layout (navigation.ekf)
+    "plots": {"units", "earth", "models", "navigation"},
     "simulation": BASE | {"models", "filters", "navigation", "io"},
     "identification": BASE | {"simulation", "models", "filters", "navigation", "io", "plots"},
     "config": BASE | {"simulation", "models", "filters", "navigation", "io"},
