@@ -414,7 +414,8 @@ def outage_growth_figure(growths, *, result=None, path=None):
             later = np.flatnonzero(result.updated & (result.t_s > ta))
             t_next = float(result.t_s[later[0]]) if later.size else math.inf
             sel = (result.t_s >= ta) & (result.t_s < t_next)
-            pp = result.p_pred[sel]
+            pp = result.p_pred[sel].copy()
+            pp[0] = result.p_upd[np.flatnonzero(sel)[0]]         # at t_a itself: after its update
             x_line = result.t_s[sel] - ta
             sig_line = np.sqrt(pp[:, 0, 0] + pp[:, 1, 1])
         else:
