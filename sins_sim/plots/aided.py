@@ -183,6 +183,26 @@ def _band(ax, t, center, half, color, gid, label=None):
     ax.plot(tt, c - hi, color=color, lw=0.7, ls=(0, (3, 2)), alpha=0.8, zorder=2, gid=f"{gid}_lower")
 
 
+def _grid(res, nrows: int, height: float, path):
+    """A ``nrows`` x 3 grid of panels sharing the time axis of ``res`` (labelled on the bottom row):
+    ``(fig, axes, time scale in s)``."""
+    plt = _pyplot(path is not None)
+    scale_t, t_label = _time_axis(res.t_s)
+    fig, axes = plt.subplots(nrows, 3, figsize=(13.0, height), sharex=True, layout="constrained")
+    for ax in axes[-1]:
+        ax.set_xlabel(t_label)
+    return fig, axes, scale_t
+
+
+def _finish_grid(fig, handles, outages, head: str, path):
+    """One legend under the grid (with the outages' entry), the title, and :func:`finish_figure`."""
+    if outages:
+        handles.append(_outage_handle(outages))
+    fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=9, frameon=False)
+    fig.suptitle(head, fontsize=11)
+    return finish_figure(fig, path)
+
+
 # --- error against the filter's 3-sigma ------------------------------------------------------------------------
 
 
@@ -222,10 +242,8 @@ def aided_error_figure(result, truth_errors=None, outages_s=(), title: str = "",
     k = len(res)
     err = None if truth_errors is None else _check_table("truth_errors", truth_errors, k, 9)
     outages = _check_outages(outages_s)
-    plt = _pyplot(path is not None)
-    scale_t, t_label = _time_axis(res.t_s)
+    fig, axes, scale_t = _grid(res, 3, 8.6, path)
     t = res.t_s / scale_t
-    fig, axes = plt.subplots(3, 3, figsize=(13.0, 8.6), sharex=True, layout="constrained")
     rows = (("position", ekf.POS, "m"), ("velocity", ekf.VEL, "m/s"), ("attitude ψ", ekf.ATT, None))
     for r, (quantity, block, unit) in enumerate(rows):
         for c in range(3):
@@ -248,22 +266,16 @@ def aided_error_figure(result, truth_errors=None, outages_s=(), title: str = "",
             ax.axhline(0.0, color="k", lw=0.4, zorder=3)
             ax.set_ylabel(f"{quantity} {_NED[c]} ({u})", fontsize=9)
             ax.grid(True, alpha=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel(t_label)
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     handles = [Patch(facecolor="0.5", alpha=0.3, edgecolor="0.3", ls="--", label="filter's ±3-sigma")]
     if err is not None:
         handles.insert(0, Line2D([], [], color="0.2", lw=1.0, label="error (computed - true)"))
-    if outages:
-        handles.append(_outage_handle(outages))
-    fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=9, frameon=False)
     head = title or f"{type(res).__name__.replace('Result', '')} solution: error north, east, down and the filter's ±3-sigma"
     if err is None:
         head += "\n(no truth given: the filter's ±3-sigma envelope only)"
-    fig.suptitle(head, fontsize=11)
-    return finish_figure(fig, path)
+    return _finish_grid(fig, handles, outages, head, path)
 
 
 # --- bias estimates -------------------------------------------------------------------------------------------
@@ -304,10 +316,8 @@ def bias_figure(result, true_gyro_bias_rad_s=None, true_accel_bias_m_s2=None, *,
               for name, val in (("true_gyro_bias_rad_s", true_gyro_bias_rad_s),
                                 ("true_accel_bias_m_s2", true_accel_bias_m_s2))]
     outages = _check_outages(outages_s)
-    plt = _pyplot(path is not None)
-    scale_t, t_label = _time_axis(res.t_s)
+    fig, axes, scale_t = _grid(res, 2, 6.4, path)
     t = res.t_s / scale_t
-    fig, axes = plt.subplots(2, 3, figsize=(13.0, 6.4), sharex=True, layout="constrained")
     rows = (("gyro bias", res.gyro_bias_rad_s, ekf.GYRO_BIAS, DEG_PER_H, "deg/h"),
             ("accel bias", res.accel_bias_m_s2, ekf.ACCEL_BIAS, MICRO_G, "ug"))
     for r, (quantity, est, block, scale, unit) in enumerate(rows):
@@ -335,8 +345,6 @@ def bias_figure(result, true_gyro_bias_rad_s=None, true_accel_bias_m_s2=None, *,
                          fontsize=8, color="0.25")
             ax.set_ylabel(f"{quantity} body {_XYZ[c]} ({unit})", fontsize=9)
             ax.grid(True, alpha=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel(t_label)
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -344,14 +352,10 @@ def bias_figure(result, true_gyro_bias_rad_s=None, true_accel_bias_m_s2=None, *,
                Patch(facecolor="0.5", alpha=0.3, edgecolor="0.3", ls="--", label="estimate ±3-sigma")]
     if any(x is not None for x in truths):
         handles.append(Line2D([], [], color="k", lw=1.1, ls="--", label="true bias"))
-    if outages:
-        handles.append(_outage_handle(outages))
-    fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=9, frameon=False)
     head = "Sensor bias estimates converging, with the filter's ±3-sigma"
     if all(x is None for x in truths):
         head += "\n(no true biases given)"
-    fig.suptitle(head, fontsize=11)
-    return finish_figure(fig, path)
+    return _finish_grid(fig, handles, outages, head, path)
 
 
 # --- outage growth --------------------------------------------------------------------------------------------
