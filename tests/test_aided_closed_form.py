@@ -42,7 +42,7 @@ def outage():
     """One run (biases and noise from a fixed seed; the covariance hardly depends on them), its last update before
     the outage and the predicted growth."""
     traj = Trajectory(math.radians(45.0), math.radians(10.0), 1000.0, SPEED, math.radians(30.0), [Cruise(300.0)])
-    n = int(round(300.0 / DT))
+    n = round(300.0 / DT)
     t = DT * np.arange(1, n + 1)
     dth, dv = ideal_increments(traj, t)
     tt = np.concatenate([[0.0], t])

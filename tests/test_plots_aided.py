@@ -44,7 +44,7 @@ P0 = ekf.initial_covariance(2.0, 0.1, 2e-4, 5e-3, NOISE)
 def run():
     """The run, its errors against the truth at its epochs, the true biases and the outage growth."""
     traj = Trajectory(math.radians(45.0), math.radians(10.0), 1000.0, 100.0, math.radians(30.0), [Cruise(DURATION)])
-    n = int(round(DURATION / DT))
+    n = round(DURATION / DT)
     t = DT * np.arange(1, n + 1)
     dth, dv = ideal_increments(traj, t)
     tt = np.concatenate([[0.0], t])
@@ -216,8 +216,10 @@ def test_innovation_figure_normalised_innovations_and_nis_bounds(run):
         nis, t = res.nis[sel], res.innovation_t_s[sel]
         before, after = t < OUTAGE[0], t >= OUTAGE[1]
         assert before.sum() + after.sum() == sel.sum()
-        want = np.concatenate([nis[before][:(before.sum() // window) * window].reshape(-1, window).mean(axis=1), [np.nan],
-                               nis[after][:(after.sum() // window) * window].reshape(-1, window).mean(axis=1)])
+        def whole(x):
+            return x[:(x.size // window) * window].reshape(-1, window).mean(axis=1)
+
+        want = np.concatenate([whole(nis[before]), [np.nan], whole(nis[after])])
         got = _by_gid(fig, f"nis_{name}").get_ydata()
         assert np.allclose(got, want, equal_nan=True, rtol=1e-12, atol=0.0)
     band = [p for p in fig.axes[-1].patches if not (p.get_gid() or "").startswith("outage_")]

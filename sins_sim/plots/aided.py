@@ -4,7 +4,8 @@ innovations.
 Every function takes the records of :mod:`sins_sim.navigation.aided` (SI units, rad) and converts at the edge:
 position in m, velocity in m/s, attitude in arcsec or arcmin (whichever reads better, per panel), gyro biases in
 deg/h, accelerometer biases in ug. The error-state layout (which column of ``sigma`` is which) is read from
-:mod:`sins_sim.navigation.ekf`, the one place it is written. GNSS outages are shaded grey, the legend naming their windows.
+:mod:`sins_sim.navigation.ekf`, the one place it is written. GNSS outages are shaded grey, the legend naming
+their windows.
 
 A long record is drawn through a min/max decimation (:func:`minmax_decimate`): each of at most
 :data:`MAX_BINS` time bins contributes its smallest and its largest value in time order, so a peak
@@ -24,6 +25,7 @@ Each figure is returned; given ``path`` it is written there and closed (:func:`~
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -272,7 +274,8 @@ def aided_error_figure(result, truth_errors=None, outages_s=(), title: str = "",
     handles = [Patch(facecolor="0.5", alpha=0.3, edgecolor="0.3", ls="--", label="filter's ±3-sigma")]
     if err is not None:
         handles.insert(0, Line2D([], [], color="0.2", lw=1.0, label="error (computed - true)"))
-    head = title or f"{type(res).__name__.replace('Result', '')} solution: error north, east, down and the filter's ±3-sigma"
+    kind = type(res).__name__.replace("Result", "")
+    head = title or f"{kind} solution: error north, east, down and the filter's ±3-sigma"
     if err is None:
         head += "\n(no truth given: the filter's ±3-sigma envelope only)"
     return _finish_grid(fig, handles, outages, head, path)
@@ -326,7 +329,8 @@ def bias_figure(result, true_gyro_bias_rad_s=None, true_accel_bias_m_s2=None, *,
             col = block.start + c
             color = AXIS_COLORS[c]
             _shade_outages(ax, outages, scale_t)
-            _band(ax, t, est[:, c] / scale, 3.0 * res.sigma[:, col] / scale, color, gid=f"sigma3_{ekf.STATE_NAMES[col]}")
+            _band(ax, t, est[:, c] / scale, 3.0 * res.sigma[:, col] / scale, color,
+                  gid=f"sigma3_{ekf.STATE_NAMES[col]}")
             td, ed = minmax_decimate(t, est[:, c] / scale)
             ax.plot(td, ed, color=color, lw=1.2, zorder=4, gid=f"estimate_{quantity.split()[0]}_{_XYZ[c]}")
             truth = truths[r]
@@ -406,7 +410,8 @@ def outage_growth_figure(growths, *, result=None, path=None):
     measured = [np.isfinite(g.t_s) & np.isfinite(g.error_m) for g in gs]
     with_ratio = any(np.any(m) for m in measured)
     per = 2 if with_ratio else 1
-    fig, axes = plt.subplots(per * nrow, ncol, figsize=(max(6.4, 4.8 * ncol), (5.0 if with_ratio else 4.0) * nrow + 0.7),
+    height = (5.0 if with_ratio else 4.0) * nrow + 0.7
+    fig, axes = plt.subplots(per * nrow, ncol, figsize=(max(6.4, 4.8 * ncol), height),
                              squeeze=False, layout="constrained",
                              gridspec_kw={"height_ratios": ([3, 1] if with_ratio else [1]) * nrow})
     for i, g in enumerate(gs):
@@ -481,7 +486,7 @@ def _window_means(t, x, window):
     step = float(np.median(dt))
     cuts = np.r_[0, np.flatnonzero(dt > 3.0 * step) + 1, t.size]
     tm, m = [], []
-    for lo, hi in zip(cuts[:-1], cuts[1:]):
+    for lo, hi in itertools.pairwise(cuts):
         n = (hi - lo) // window
         if n == 0:
             continue

@@ -19,16 +19,30 @@ import numpy as np
 
 from sins_sim import earth
 from sins_sim.models.motion import CoordinatedTurn, Cruise, Trajectory
-from sins_sim.navigation import (GnssSettings, ImuNoise, NavState, initial_covariance, navigate_aided,
-                                 outage_growth, quat_from_rotvec, quat_multiply, simulate_gnss)
-from sins_sim.plots.aided import aided_error_figure, bias_figure, innovation_figure, outage_growth_figure
+from sins_sim.navigation import (
+    GnssSettings,
+    ImuNoise,
+    NavState,
+    initial_covariance,
+    navigate_aided,
+    outage_growth,
+    quat_from_rotvec,
+    quat_multiply,
+    simulate_gnss,
+)
+from sins_sim.plots.aided import (
+    aided_error_figure,
+    bias_figure,
+    innovation_figure,
+    outage_growth_figure,
+)
 from sins_sim.simulation.external import ideal_increments
 
 DT = 0.05                                                     # 20 Hz increments
 DURATION = 300.0
 traj = Trajectory(math.radians(45.0), math.radians(10.0), 1000.0, 100.0, math.radians(30.0),
                   [Cruise(60.0), CoordinatedTurn(60.0, math.pi), Cruise(180.0)])
-t = DT * np.arange(1, int(round(DURATION / DT)) + 1)
+t = DT * np.arange(1, round(DURATION / DT) + 1)
 dtheta, dv = ideal_increments(traj, t)
 t_truth = np.concatenate([[0.0], t])
 truth = traj.evaluate(t_truth)
