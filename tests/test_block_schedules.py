@@ -209,3 +209,15 @@ def test_the_isolator_coefficients_keep_the_linear_model_in_range():
                             "f0_ppm_per_k": -30.0, "isolators": {"stiffness_ppm_per_k": -8000.0}})
     with pytest.raises(ConfigError, match=r"temperature\.isolators\.stiffness_ppm_per_k"):
         load_scenario(doc)
+
+
+def test_online_estimation_on_a_block_warns_at_load_naming_both_keys():
+    """The estimator learns the coupled system (docs/user-guide/combinations.md): loading says so, naming both keys,
+    with each axis's counter-rotation at its drive; a rigid unit gets no such line."""
+    doc = _doc(filter_parameters={"source": "online"})
+    doc["imu"]["drive"]["modulation_depth"] = 0.05
+    sc = load_scenario(doc)
+    lines = [m for m in sc.advisories if "filter_parameters.source: online with imu.block" in m]
+    assert len(lines) == 1 and "arcsec" in lines[0]
+    doc["imu"].pop("block")
+    assert not any("imu.block" in m for m in load_scenario(doc).advisories)

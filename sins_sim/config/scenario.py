@@ -555,7 +555,8 @@ class Scenario:
         self.motion_enters = c["motion_enters"]
         self.outputs = c["outputs"]
         #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
-        self.advisories = advisories.vibration_advisories(self.imu, c["motion"], self.filters)
+        self.advisories = (advisories.vibration_advisories(self.imu, c["motion"], self.filters)
+                           + advisories.online_on_block_advisories(self.imu))
         for msg in self.advisories:
             warnings.warn(msg, UserWarning, stacklevel=2)
 
