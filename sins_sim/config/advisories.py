@@ -33,7 +33,7 @@ from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["N_BANDWIDTHS", "AMPLITUDE_TOLERANCE", "VOLTAGE_TOLERANCE", "vibration_advisories", "drive_advisories",
-           "trajectory_advisories", "motion_content"]
+           "trajectory_advisories", "motion_content", "online_on_block_advisories"]
 
 AXES = ("x", "y", "z")
 
@@ -255,6 +255,32 @@ def _block_voltage_factor(imu) -> list:
         return list(dither_voltage_factor(block, om, q))
     except ValueError:
         return [1.0, 1.0, 1.0]
+
+
+def online_on_block_advisories(imu) -> list[str]:
+    """An online estimator on a block on isolators learns the drive-to-readout response of each gyro as the block
+    presents it: the readout's dither line holds the block's counter-rotation ``u_i . theta``
+    (:func:`~sins_sim.models.block.block_rotation_per_deflection`: about ``-J_g / J_b`` of the deflection, in
+    phase) and the drive sits on the coupled mode, ``sqrt(1 + J_g / J_b)`` above the suspension's own. The
+    estimate then describes the coupled system, and the eq. 5 filters it feeds take the counter-rotation, a real
+    rotation of the block, out with the dither, as the eliminator does (docs/user-guide/combinations.md). One line
+    with each axis's counter-rotation at its drive; none without a block or an online estimator."""
+    block = getattr(imu, "block", None)
+    if block is None or not any(getattr(c, "online", None) is not None for c in imu.channels):
+        return []
+    from sins_sim.models.block import block_rotation_per_deflection, coupled_dither_frequencies
+
+    om = [2.0 * math.pi * c.drive_signal().frequency_hz for c in imu.channels]
+    f = coupled_dither_frequencies(block, om)
+    rot = [abs(block.input_axes[i] @ block_rotation_per_deflection(block, i, f[i])) * c.drive.amplitude_rad
+           for i, c in enumerate(imu.channels)]
+    shift = [100.0 * (fi / (w / (2.0 * math.pi)) - 1.0) for fi, w in zip(f, om)]
+    return [("filter_parameters.source: online with imu.block: each estimator learns the gyro as the block presents "
+             "it, its readout carrying the block's counter-rotation ("
+             + ", ".join(f"{a} {r / ARCSEC:.3g} arcsec" for a, r in zip(AXES, rot))
+             + ") and its drive on the coupled mode (+" + ", +".join(f"{s:.2g}" for s in shift)
+             + " %); the filters it feeds then remove that real rotation with the dither, as the eliminator does "
+               "(docs/user-guide/combinations.md)")]
 
 
 def drive_advisories(drives, imu, duration_s: float) -> list[str]:

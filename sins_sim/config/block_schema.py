@@ -29,7 +29,7 @@ import numpy as np
 from sins_sim.config.errors import ConfigError
 from sins_sim.config.schema import Map, Num, Vec
 
-__all__ = ["BLOCK_SCHEMA", "block_from_section"]
+__all__ = ["BLOCK_SCHEMA", "block_from_section", "check_block_effects"]
 
 #: Physical ranges. Mass: a MEMS board (0.1 kg) to a large marine RLG unit's sensor assembly (50 kg). Inertia
 #: about any axis: 1e-5 kg m^2 (a 0.1 kg, 3 cm block) to 5 kg m^2. A dithered gyro body: 1e-6 kg m^2 (a 10 cm
@@ -69,8 +69,9 @@ BLOCK_SCHEMA = Map({
 }, default=None, allow_null=True, rules=(
     "inertia_kg_m2: positive definite, principal moments J1 + J2 >= J3",
     "gyro_axes_mrad.<axis>: the axis's own component is 0",
-    "the block's motion comes out of the suspensions: the engine then runs the three channels side by side "
-    "(no temperature ramp or tracking PLL yet)",
+    "the block's motion comes out of the suspensions: the engine then runs the three channels side by side, "
+    "with their temperature, PLL and online schedules; effects other than viscous_damping are refused with a "
+    "block (docs/user-guide/combinations.md)",
 ), doc="the sensor block as a body on its isolators (omit: the rigid block of the nominal model)")
 
 
@@ -103,3 +104,18 @@ def block_from_section(c: dict | None, ctx: str, path: str) -> BlockParams | Non
         for name, user in key.items():
             msg = msg.replace(f"{name}:", f"{user}:", 1) if msg.startswith(name) else msg
         raise ConfigError(f"{ctx}: {path}.{msg}") from None
+
+
+def check_block_effects(effects, ctx: str, pre: str = "") -> None:
+    """A block on isolators with an effect that acts beyond the suspension: refused, naming both keys.
+
+    The block's kernel steps the three suspensions and the block together on the fused path; the effect stages
+    (``sins_sim.simulation.channel._EffectStages``: piezo lag, the block-mode filter, resonance drift, readout
+    delay and scale, lock-in) run on each channel's own reference path, which has no block. ``block_mode`` would
+    also count the mount twice. ``viscous_damping`` changes the suspension itself and composes.
+    """
+    for i, e in enumerate(effects):
+        if getattr(e, "stage", "") != "suspension":
+            raise ConfigError(f"{ctx}: {pre}effects[{i}] ({e.name}) with {pre}block: not modelled together (the "
+                              f"effect stages run on a channel's own path, which has no block on isolators; "
+                              f"docs/user-guide/combinations.md): remove one")

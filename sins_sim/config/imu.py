@@ -353,6 +353,7 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
         channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
         block = _block.block_from_section(c["block"], ctx, f"{pre}block")  # its own ConfigError
         if block is not None:
+            _block.check_block_effects(c["effects"] or (), ctx, pre)
             from sins_sim.models.block import check_block_resolution
 
             try:

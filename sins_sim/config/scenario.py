@@ -240,6 +240,14 @@ _COEFF = {
     "update": Num(unit="s", min=1e-4, max=10.0, default=0.02,
                   doc="interval of the plant's parameter updates, counted from t = 0 (rounded to whole filter "
                       "samples)"),
+    "isolators": Map({
+        "stiffness": Num(unit="ppm_per_k", min=-1.0e4, max=1.0e4, default=0.0,
+                         doc="relative change of the block's isolator stiffness (translational and rotational) per "
+                             "kelvin; an entropy spring +1/T (+3400 at 293 K), filled damped elastomers fall on "
+                             "warming: the mount's own curve (sins_sim.simulation.temperature); 0: held"),
+        "damping": Num(unit="ppm_per_k", min=-1.0e4, max=1.0e4, default=0.0,
+                       doc="relative change of the block's isolator damping per kelvin; 0: held"),
+    }, default={}, doc="with an IMU block: the isolators' temperature coefficients (refused without a block)"),
 }
 _INITIAL = Num(unit="k", required=True, **_TEMP, doc="the temperature at t = 0")
 
@@ -281,7 +289,9 @@ def _thermal_model(c: dict, ctx: str):
             prof = TemperatureProfile("constant", start_k=c["initial_k"], end_k=c["initial_k"])
         return ThermalModel(prof, f0_per_k=1e-6 * c["f0_ppm_per_k"],
                             k_per_k=tuple(1e-6 * c["k_ppm_per_k"][n] for n in K_NAMES),
-                            reference_k=c["reference_k"], update_s=c["update_s"])
+                            reference_k=c["reference_k"], update_s=c["update_s"],
+                            isolator_stiffness_per_k=1e-6 * c["isolators"]["stiffness_ppm_per_k"],
+                            isolator_damping_per_k=1e-6 * c["isolators"]["damping_ppm_per_k"])
     except ValueError as exc:
         raise ConfigError(f"{ctx}: {exc}") from None
 
@@ -489,6 +499,7 @@ class Scenario:
         if c["temperature"] is not None:
             self.temperature = _thermal_model(c["temperature"], ctx)
             self.imu = _with_temperature(self.imu, self.temperature, self.duration_s, ctx)
+            _check_block_temperature(self.imu, self.temperature, self.duration_s, ctx)
         fs = self.imu.filter_rate_hz
         _check_motion(c["motion"], c["linear_vibration"], fs, ctx, self.imu.plant_rate_hz)
         nv = c["navigation"]
@@ -544,7 +555,8 @@ class Scenario:
         self.motion_enters = c["motion_enters"]
         self.outputs = c["outputs"]
         #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
-        self.advisories = advisories.vibration_advisories(self.imu, c["motion"], self.filters)
+        self.advisories = (advisories.vibration_advisories(self.imu, c["motion"], self.filters)
+                           + advisories.online_on_block_advisories(self.imu))
         for msg in self.advisories:
             warnings.warn(msg, UserWarning, stacklevel=2)
 
@@ -587,6 +599,20 @@ def _with_temperature(imu, model, duration_s, ctx):
             raise ConfigError(f"{ctx}: {exc} (channel {axis})") from None
         channels.append(ch)
     return dataclasses.replace(imu, channels=tuple(channels))
+
+
+def _check_block_temperature(imu, model, duration_s, ctx):
+    """The isolators' temperature coefficients need a block (refused without one, naming both keys), and keep the
+    block's linear model in range at the profile's extremes."""
+    if not model.moves_isolators:
+        return
+    if imu.block is None:
+        raise ConfigError(f"{ctx}: temperature.isolators: needs an IMU block: section (the isolators it moves), but "
+                          f"imu has none (a rigid block): remove temperature.isolators or add imu.block")
+    try:
+        model.check_block(imu.block, duration_s)
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: {exc}") from None
 
 
 def _motion_frequencies(seg):

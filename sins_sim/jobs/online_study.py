@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -71,7 +72,8 @@ def online_study(scenario_path, out_dir, duration_s: float | None = None, thread
     out.mkdir(parents=True, exist_ok=True)
     base = load_scenario(scenario_path)
     if base.filter_spec["source"] != "online":
-        raise ValueError(f"{scenario_path}: filter_parameters.source must be online, got {base.filter_spec['source']!r}")
+        raise ValueError(f"{scenario_path}: filter_parameters.source: must be online (the study compares the online "
+                         f"estimator with the other sources), got {base.filter_spec['source']!r}")
     online_fp = {"source": "online", "track": bool(base.filter_spec["track"]),
                  "online": {f"{k}": v for k, v in base.filter_spec["online"].items()}}
     overrides = {} if duration_s is None else {"duration_s": float(duration_s)}
@@ -211,7 +213,13 @@ def main(argv=None) -> int:
         return 0
     if not a.scenario or not a.out:
         ap.error("a scenario and --out are required (or --crosscheck RECORDING DIAGNOSIS_JSON)")
-    res = online_study(a.scenario, a.out, a.duration, a.threads)
+    from sins_sim.config.errors import ConfigError
+
+    try:
+        res = online_study(a.scenario, a.out, a.duration, a.threads)
+    except (ConfigError, ValueError) as exc:  # a scenario the study cannot run: one line, no traceback
+        print(f"online_study: {exc}", file=sys.stderr)
+        return 2
     print(markdown(res))
     return 0
 

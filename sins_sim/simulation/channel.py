@@ -920,19 +920,32 @@ class _ThermalSchedule:
         if self.history is not None:
             self.history = []
 
-    def enter(self, chain, b: int) -> None:
-        """Load block ``b``'s parameters (a no-op when they are loaded)."""
-        if b == self.loaded:
-            return
+    def plan(self, b: int) -> tuple:
+        """Block ``b``'s ``(t_mid_s, temp_k, suspension, f_lock_hz)``: the time and temperature of its middle, the
+        plant's suspension there and, with tracking, the resonance ``F(a_m)`` the PLL locks to on a rigid fixture
+        (resonance drift included; None without tracking). Nothing is loaded."""
         t_mid = (b + 0.5) * self.block * self.h
-        s = self.base
-        if self.model is not None:
-            self.temp_k = self.model.profile.at(t_mid)
-            s = self.model.suspension_at(self.base, self.temp_k)
-        self._set_plant(chain, s)
+        temp = self.model.profile.at(t_mid) if self.model is not None else math.nan
+        s = self.model.suspension_at(self.base, temp) if self.model is not None else self.base
+        f = None
         if self.track:
             now = s if self.drift == 0.0 else s.replace(f0_hz=s.f0_hz + self.drift * t_mid)
             f = now.resonance_hz(self.a_m)
+        return t_mid, temp, s, f
+
+    def enter(self, chain, b: int, drive_hz: float | None = None) -> None:
+        """Load block ``b``'s parameters (a no-op when they are loaded).
+
+        ``drive_hz``: with tracking, where the PLL locks instead of the rigid-fixture ``F(a_m)`` of :meth:`plan`
+        (on a block on isolators: the coupled dither mode, :class:`~sins_sim.simulation.unit.SideBySide`)."""
+        if b == self.loaded:
+            return
+        t_mid, temp, s, f = self.plan(b)
+        if self.model is not None:
+            self.temp_k = temp
+        self._set_plant(chain, s)
+        if self.track:
+            f = f if drive_hz is None else float(drive_hz)
             if f != self.f_drive:
                 self._set_drive(chain, b * self.block, f)
         self.loaded = b

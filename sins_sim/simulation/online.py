@@ -104,20 +104,29 @@ class OnlineLoop:
         j = 0
         while j < n:
             g = i0 + j
-            nxt = (g // self.update + 1) * self.update
+            nxt = self.next_update(g)
             if th is not None:
                 nxt = min(nxt, (g // th.block + 1) * th.block)
             j1 = min(n, nxt - i0)
             out = inner(g, angle[j:j1], rate[j:j1])
             out["delta"] = np.array(out["delta"])  # the fused path reuses its work buffer
-            self.estimator.process(out["raw"], out["volts"], chain.drive_hz)
-            if (i0 + j1) % self.update == 0:
-                self._update(chain, (i0 + j1) * self.h)
+            self.after_piece(chain, out, i0 + j1)
             pieces.append(out)
             j = j1
         if len(pieces) == 1:
             return pieces[0]
         return {k: np.concatenate([p[k] for p in pieces]) for k in pieces[0]}
+
+    def next_update(self, g: int) -> int:
+        """The first update at or after plant step ``g + 1`` (updates fall on multiples of ``update`` steps)."""
+        return (g // self.update + 1) * self.update
+
+    def after_piece(self, chain, out: dict, g_end: int) -> None:
+        """Feed the estimator a piece's filter-rate ``raw`` and ``volts`` that ends at plant step ``g_end``, and
+        update (solve, feed the filters from the next sample on) when an update falls there."""
+        self.estimator.process(out["raw"], out["volts"], chain.drive_hz)
+        if g_end % self.update == 0:
+            self._update(chain, g_end * self.h)
 
     def _update(self, chain, t_s: float):
         est = self.estimator.solve()

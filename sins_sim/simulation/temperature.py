@@ -26,11 +26,27 @@ length up, the inertia's radius up). The temperature coefficient of the modulus 
 The bundled scenario takes -30 ppm/K: a compensated spring between the two. The other coefficients
 (k1, k2 of eq. 9; k3, k4 of eq. 10's internal friction; k5 of the piezo, whose d31 rises by
 roughly 0.1-0.3 %/K in PZT) default to 0: the project has no measurement of them.
+
+A sensor block on elastomeric isolators (an IMU ``block:`` section) has two more, on the same linear model:
+``c_k`` for the isolators' stiffness (translational and rotational) and ``c_c`` for their damping
+(:meth:`ThermalModel.block_at`). Their sign and size depend on the compound and the frequency, and both
+default to 0 (isolators held at their file values):
+
+* an unfilled rubber far above its glass transition is an entropy spring, ``G = n k T`` (Treloar, *The
+  Physics of Rubber Elasticity*, 3rd ed., 1975, ch. 4), so ``d ln k / dT = 1 / T``: +3400 ppm/K at 293 K;
+* the filled, damped compounds of isolators are viscoelastic: by time-temperature superposition (Williams,
+  Landel and Ferry, J. Am. Chem. Soc. 77, 3701, 1955) warming shifts their relaxation to higher frequencies,
+  so the storage modulus at a fixed frequency falls with temperature, and their makers publish stiffness
+  against temperature curves that fall on warming; take the mount's own curve, linearised about
+  ``reference_k``.
+
+The gyros' dither resonances on the block move with their suspensions (``c_f0``); the coupled modes the
+drives lock to follow from both (:func:`sins_sim.models.block.coupled_dither_frequencies`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -130,6 +146,9 @@ class ThermalModel:
         The temperature at which the IMU file's f0 and k's hold (None: the profile's at t = 0).
     update_s : float
         Interval of the parameter updates (s), rounded to whole filter samples by the engine.
+    isolator_stiffness_per_k, isolator_damping_per_k : float
+        Relative change per kelvin (1/K) of a block's isolator stiffness (translational and rotational) and
+        damping (module docstring); 0: held. Only a unit with a block on isolators has them.
     """
 
     profile: TemperatureProfile = TemperatureProfile()
@@ -137,6 +156,8 @@ class ThermalModel:
     k_per_k: tuple = (0.0, 0.0, 0.0, 0.0, 0.0)
     reference_k: float | None = None
     update_s: float = DEFAULT_UPDATE_S
+    isolator_stiffness_per_k: float = 0.0
+    isolator_damping_per_k: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.profile, TemperatureProfile):
@@ -150,6 +171,40 @@ class ThermalModel:
             object.__setattr__(self, "reference_k", float(self.profile.at(0.0)))
         v.positive("temperature", "reference_k", self.reference_k)
         v.positive("temperature", "update_s", self.update_s)
+        v.finite("temperature", "isolators.stiffness_ppm_per_k", self.isolator_stiffness_per_k)
+        v.finite("temperature", "isolators.damping_ppm_per_k", self.isolator_damping_per_k)
+
+    @property
+    def moves_isolators(self) -> bool:
+        """True when the isolators' stiffness or damping changes with temperature."""
+        return self.isolator_stiffness_per_k != 0.0 or self.isolator_damping_per_k != 0.0
+
+    def block_at(self, block, temp_k: float):
+        """``block`` (a :class:`~sins_sim.models.block.BlockParams` valid at ``reference_k``) at ``temp_k``: its
+        isolators' stiffness times ``1 + c_k (T - T_ref)`` and damping times ``1 + c_c (T - T_ref)``; the same
+        block when neither coefficient is set."""
+        if not self.moves_isolators:
+            return block
+        dt = float(temp_k) - self.reference_k
+        fk, fc = 1.0 + self.isolator_stiffness_per_k * dt, 1.0 + self.isolator_damping_per_k * dt
+        return replace(block, k_trans_n_per_m=block.k_trans_n_per_m * fk,
+                       k_rot_n_m_per_rad=block.k_rot_n_m_per_rad * fk,
+                       c_trans_n_s_per_m=block.c_trans_n_s_per_m * fc,
+                       c_rot_n_m_s_per_rad=block.c_rot_n_m_s_per_rad * fc)
+
+    def check_block(self, block, duration_s: float, where: str = "temperature") -> tuple:
+        """The block at the profile's extremes over the mission (its linear model kept within
+        ``1 + c (T - T_ref) > 0.5``, as for the suspension); one line naming the key otherwise."""
+        out = []
+        for temp in self.profile.extremes(duration_s):
+            dt = temp - self.reference_k
+            for name, c in (("isolators.stiffness_ppm_per_k", self.isolator_stiffness_per_k),
+                            ("isolators.damping_ppm_per_k", self.isolator_damping_per_k)):
+                if not 1.0 + c * dt > 0.5:
+                    raise ValueError(f"{where}.{name}: the linear model leaves its range at {temp:.6g} K "
+                                     f"(1 + c (T - T_ref) = {1.0 + c * dt:.4g}, must stay > 0.5)")
+            out.append(self.block_at(block, temp))
+        return tuple(out)
 
     @property
     def is_null(self) -> bool:

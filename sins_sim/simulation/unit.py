@@ -32,7 +32,7 @@ from sins_sim._kernels import correcting as kcor
 from sins_sim._kernels import plant_exact as kexact
 from sins_sim._kernels import sos as ksos
 from sins_sim.earth import radii
-from sins_sim.models.block import coupled_dither_frequencies
+from sins_sim.models.block import BlockStep, coupled_dither_frequencies
 from sins_sim.navigation.attitude import dcm_from_quat, quat_from_rotvec, quat_multiply
 from sins_sim.simulation.channel import CORRECTING_FORMS, ChannelChain
 
@@ -76,20 +76,10 @@ class SensorUnit:
 
     def mechanics(self, side_by_side_wanted: bool):
         """The chunk stepper: with a block, :class:`SideBySide` with the block (always: the block couples the three
-        channels); without, :class:`SideBySide` when ``side_by_side_wanted`` and the chains allow it, else None (each
-        channel steps alone).
-
-        Raises
-        ------
-        ValueError
-            A block with a channel that cannot run side by side (a temperature ramp, a tracking PLL or an online
-            estimator: a parameter schedule per channel).
-        """
+        channels; their temperature, PLL and online-estimator schedules run piece by piece inside it); without,
+        :class:`SideBySide` when ``side_by_side_wanted`` and the chains allow it, else None (each channel steps
+        alone)."""
         if self.block is not None:
-            if not side_by_side(self.chains):
-                raise ValueError("imu.block: the block on its isolators runs the three channels side by side, which a "
-                                 "temperature ramp, a tracking PLL or an online estimator (a parameter schedule per "
-                                 "channel) does not allow yet")
             return SideBySide(self.chains, block=self.block)
         return SideBySide(self.chains) if side_by_side_wanted and side_by_side(self.chains) else None
 
@@ -130,11 +120,12 @@ def drives_on_block(imu) -> list:
 
 
 
-def side_by_side(chains) -> bool:
-    """Whether :class:`SideBySide` can run these chains: three, each on the fused path, without a
-    temperature or PLL schedule (which splits a chunk into parameter blocks per channel)."""
-    return len(chains) == 3 and all(ch.path == "fused" and ch._fx is None and ch._thermal is None
-                                    and ch._online is None for ch in chains)
+def side_by_side(chains, schedules: bool = False) -> bool:
+    """Whether :class:`SideBySide` can run these chains: three, each on the fused path (no effect stages), and
+    without a temperature, PLL or online-estimator schedule unless ``schedules`` (the block's stepper runs them
+    piece by piece; the rigid unit runs a scheduled channel on its own)."""
+    return len(chains) == 3 and all(ch.path == "fused" and ch._fx is None
+                                    and (schedules or (ch._thermal is None and ch._online is None)) for ch in chains)
 
 
 class SideBySide:
@@ -158,15 +149,17 @@ class SideBySide:
     """
 
     def __init__(self, chains, block=None):
-        if not side_by_side(chains):
-            raise ValueError("channel.side_by_side: needs three chains on the fused path without a temperature "
-                             "or PLL schedule")
+        if not side_by_side(chains, schedules=block is not None):
+            raise ValueError("channel.side_by_side: needs three chains on the fused path (no effect stages), "
+                             "without a temperature, PLL or online schedule unless on a block")
         self.chains = list(chains)
         self._n = -1
         self.block = block
         if block is not None:
-            from sins_sim.models.block import BlockStep
-
+            self._thermal = [ch.thermal for ch in chains]
+            self._online = [ch.online for ch in chains]
+            self._model = next((th.model for th in self._thermal if th is not None and th.model is not None), None)
+            self._step_temp = None  # the temperature the block's step was built at (None: the file's block)
             self._step = BlockStep(block, chains[0].plant.h)
             self._gain = np.array([-self._step.jg[a] * ch.fpar[kchain.P_W0SQ] for a, ch in enumerate(chains)])
             self.bstate = np.zeros(kblock.B_SIZE)
@@ -205,7 +198,68 @@ class SideBySide:
 
         Each output's ``delta`` is a view of a work buffer, valid until the next call (as on the
         per-channel fused path).
+
+        With a block and a channel's temperature, PLL or online-estimator schedule the chunk runs in pieces that
+        end at the schedules' blocks and updates (counted from step 0, so results do not depend on chunking), as
+        a channel alone runs them (``ChannelChain._in_blocks``, ``OnlineLoop.run``): before each piece every
+        schedule loads its block (:meth:`_enter`), after it every estimator takes the piece's readout and drive.
         """
+        if self.block is None or not any(self._thermal + self._online):
+            return self._run_piece(i0, angle, rate, lin, base)
+        r_dec = self.chains[0].r_dec
+        if i0 % r_dec:
+            raise ValueError(f"channel.chunk: with a temperature profile, PLL tracking or an online estimator a "
+                             f"chunk must start at a multiple of the decimation {r_dec}, got step {i0}")
+        n = angle.shape[0]
+        pieces = []
+        j = 0
+        while j < n:
+            g = i0 + j
+            ends = [(g // th.block + 1) * th.block for th in self._thermal if th is not None]
+            ends += [on.next_update(g) for on in self._online if on is not None]
+            j1 = min(n, min(ends) - i0)
+            self._enter(g)
+            piece_lin = None if lin is None else tuple(np.ascontiguousarray(x[:, j:j1]) for x in lin)
+            piece_base = None if base is None else tuple(x[j:j1] for x in base)
+            outs = self._run_piece(g, angle[j:j1], rate[j:j1], piece_lin, piece_base)
+            for ch, on, out in zip(self.chains, self._online, outs):
+                out["delta"] = np.array(out["delta"])  # a view of the work buffer the next piece reuses
+                if on is not None:
+                    on.after_piece(ch, out, i0 + j1)
+            pieces.append(outs)
+            j = j1
+        if len(pieces) == 1:
+            return pieces[0]
+        return [{k: np.concatenate([p[a][k] for p in pieces]) for k in pieces[0][a]} for a in range(3)]
+
+    def _enter(self, g: int) -> None:
+        """Load, for the piece that starts at plant step ``g``, each channel's temperature block: its suspension
+        (and the dither reaction's gain ``-J_g omega0^2`` on the block), its drive, which a tracking PLL locks to
+        the coupled dither mode of the three suspensions on the block at that temperature
+        (:func:`~sins_sim.models.block.coupled_dither_frequencies`), and the block's isolators at that
+        temperature (:meth:`~sins_sim.simulation.temperature.ThermalModel.block_at`)."""
+        if all(th is None or th.loaded == g // th.block for th in self._thermal):
+            return
+        plans = [None if th is None else th.plan(g // th.block) for th in self._thermal]
+        block = self.block
+        if self._model is not None and self._model.moves_isolators:
+            temp = next(p[1] for p in plans if p is not None)
+            if temp != self._step_temp:
+                self._block_now = self._model.block_at(self.block, temp)
+                self._step = BlockStep(self._block_now, self.chains[0].plant.h)
+                self._step_temp = temp
+            block = self._block_now
+        drives = [None] * 3
+        if any(p is not None and p[3] is not None for p in plans):  # a tracking PLL: the coupled modes
+            f_lock = [p[3] if p is not None and p[3] is not None else ch.drive_hz for p, ch in zip(plans, self.chains)]
+            drives = coupled_dither_frequencies(block, 2.0 * math.pi * np.asarray(f_lock))
+        for a, (ch, th) in enumerate(zip(self.chains, self._thermal)):
+            if th is not None:
+                th.enter(ch, g // th.block, drive_hz=drives[a] if th.track else None)
+                self._gain[a] = -self._step.jg[a] * ch.fpar[kchain.P_W0SQ]
+
+    def _run_piece(self, i0: int, angle: np.ndarray, rate: np.ndarray, lin=None, base=None) -> list:
+        """:meth:`run` over a piece within one parameter block of every schedule."""
         chains = self.chains
         n = angle.shape[0]
         draws = [ch._kernel_draws(i0, n) for ch in chains]
