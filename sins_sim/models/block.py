@@ -269,7 +269,7 @@ class BlockParams:
             if v.imag == 0 and wn > 0:  # overdamped or a free direction's pair (0, -c/m): one per real root pair
                 modes.append((share, 0.0, 1.0))
                 continue
-            modes.append((share, wn / (2 * math.pi), (-v.real / wn) if wn > 0 else 0.0))
+            modes.append((share, wn / (2 * math.pi), max(0.0, -v.real / wn) if wn > 0 else 0.0))
         if n == 9:
             modes = sorted(modes)[:-3]  # the three dither modes hold their strain energy in the suspensions
         modes = sorted((f, z) for _, f, z in modes)
