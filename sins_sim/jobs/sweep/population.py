@@ -45,6 +45,8 @@ SENSOR_SIGMA_KEYS = {
 }
 #: Spreads drawn once per unit (the others once per channel).
 _PER_UNIT = ("temperature_k", "block.mass_percent")
+#: The block spreads drawn once per unit (their key in :data:`~sins_sim.config.sweep.BLOCK_SPREADS`).
+_PER_UNIT_BLOCK = ("mass_percent",)
 #: The inertia tensor's entries a per-axis draw of ``block.inertia_percent`` scales.
 _MOMENTS = ("xx", "yy", "zz")
 
@@ -188,19 +190,24 @@ def _block_entry(block: dict, path: str):
     return (node, key) if isinstance(node, dict) else (None, key)
 
 
-def _draw_block(block: dict, unit: dict) -> None:
-    """Apply the unit's block draws to the IMU file's ``block:`` mapping in place (module docstring). A key the
-    mapping does not hold, or holds as something other than numbers, is left for the IMU schema to name."""
+def _block_draws(block: dict, unit: dict):
+    """``(spread key, IMU path, draw name, container, leaf key)`` of every block spread that ``unit`` draws and the
+    ``block:`` mapping holds (:data:`~sins_sim.config.sweep.BLOCK_SPREADS`)."""
     for key, (path, _) in BLOCK_SPREADS.items():
         name = f"block.{key}"
         node, leaf = _block_entry(block, path)
-        if node is None:
-            continue
+        drawn = name in unit if key in _PER_UNIT_BLOCK else any(f"{name}.{ax}" in unit for ax in AXES)
+        if node is not None and drawn:
+            yield key, path, name, node, leaf
+
+
+def _draw_block(block: dict, unit: dict) -> None:
+    """Apply the unit's block draws to the IMU file's ``block:`` mapping in place (module docstring). A key the
+    mapping does not hold, or holds as something other than numbers, is left for the IMU schema to name."""
+    for key, path, name, node, leaf in _block_draws(block, unit):
         if key == "mass_percent":
-            if name in unit and isinstance(node.get(leaf), (int, float)):
+            if isinstance(node.get(leaf), (int, float)):
                 node[leaf] = float(node[leaf]) * (1.0 + 0.01 * unit[name])
-            continue
-        if not any(f"{name}.{ax}" in unit for ax in AXES):
             continue
         if key == "inertia_percent":
             j = node.get(leaf)
@@ -227,14 +234,9 @@ def block_values(imu_doc: dict, unit: dict) -> dict:
     ``unit``."""
     block = imu_doc.get("block") if isinstance(imu_doc.get("block"), dict) else {}
     out = {}
-    for key, (path, _) in BLOCK_SPREADS.items():
-        name = f"block.{key}"
-        node, leaf = _block_entry(block, path)
-        if node is None:
-            continue
+    for key, path, name, node, leaf in _block_draws(block, unit):
         if key == "mass_percent":
-            if name in unit:
-                out[f"block.{path}"] = float(node[leaf])
+            out[f"block.{path}"] = float(node[leaf])
             continue
         if key == "inertia_percent":
             out.update({f"block.{path}.{m}": float(node[leaf][m]) for ax, m in zip(AXES, _MOMENTS)
