@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from sins_sim.cli import main
-from sins_sim.config.imu import load_imu
+from sins_sim.config.imu import load_imu, load_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The helicopter unit of issue 38: three RLGs at 338, 379 and 417 Hz (the bundled paper suspension otherwise).
@@ -20,7 +20,7 @@ HELI_F0 = {"x": 338.0, "y": 379.0, "z": 417.0}
 
 
 def _heli_imu(folder: Path, block: bool = False) -> Path:
-    doc = yaml.safe_load((ROOT / "configs" / ("isolated-block.yaml" if block else "default-imu.yaml")).read_text())
+    doc = dict(load_yaml(ROOT / "configs" / ("isolated-block.yaml" if block else "default-imu.yaml")))
     doc["name"] = "heli-unit"
     doc["channels"] = {ax: {"f0_hz": f} for ax, f in HELI_F0.items()}
     p = folder / ("heli-block.yaml" if block else "heli-imu.yaml")
@@ -189,7 +189,7 @@ def test_apply_unit_draws_every_block_quantity():
     """Each spread key lands on its IMU key: percent on positive quantities, mm added to the elastic centre."""
     from sins_sim.jobs.sweep.population import apply_unit, block_values
 
-    doc = yaml.safe_load((ROOT / "configs" / "offset-mount-block.yaml").read_text())
+    doc = dict(load_yaml(ROOT / "configs" / "offset-mount-block.yaml"))
     unit = {"block.mass_percent": 10.0, **{f"block.{k}.{ax}": v for ax, v in zip("xyz", (10.0, -20.0, 50.0))
                                            for k in ("inertia_percent", "gyro_inertia_percent", "stiffness_percent",
                                                      "damping_percent", "rotational_stiffness_percent",
