@@ -497,11 +497,16 @@ def _cmd_compare_filters(args) -> int:
     from sins_sim.jobs.compare_filters import run_compare_filters
     from sins_sim.jobs.output import check_out_file
 
+    from sins_sim.jobs.compare_filters import resolve_unit
+
     if args.json is not None:
         check_out_file(args.json, "--json")  # before minutes of computation (it was found only at the end)
+    resolve_unit(args.imu, args.scenario)  # a bad --imu or --scenario: one line, before the result folder
     out = Path(args.out)
-    with _result_dir(args, out) as tmp, _progress("compare-filters", args.quiet) as progress:
-        res = run_compare_filters(tmp, Path(tmp) / "filters.json", quick=args.quick, progress=progress)
+    inputs = tuple(x for x in (args.imu, args.scenario) if x is not None)
+    with _result_dir(args, out, inputs=inputs) as tmp, _progress("compare-filters", args.quiet) as progress:
+        res = run_compare_filters(tmp, Path(tmp) / "filters.json", quick=args.quick, progress=progress,
+                                  imu=args.imu, scenario=args.scenario)
     numbers = out / "filters.json"
     if args.json is not None:  # a copy where the user asked for it too
         from sins_sim.jobs.output import atomic_write_text
@@ -854,6 +859,27 @@ def _cmd_separation_study(args) -> int:
     return EXIT_OK
 
 
+def _cmd_online_study(args) -> int:
+    from pathlib import Path
+
+    from sins_sim.jobs.online_study import crosscheck, online_study, print_crosscheck, study_filters
+
+    if args.crosscheck:
+        if args.scenario or args.out:
+            raise ConfigError("--crosscheck: takes a recording and a diagnosis only, not a scenario or --out")
+        print_crosscheck(crosscheck(*args.crosscheck))
+        return EXIT_OK
+    if not args.scenario or not args.out:
+        raise ConfigError("scenario: give a scenario and --out (or --crosscheck RECORDING DIAGNOSIS_JSON)")
+    study_filters(args.filters)  # a wrong --filters before minutes of computation
+    out = Path(args.out)
+    with _result_dir(args, out, inputs=(args.scenario,)) as tmp, _progress("online-study", args.quiet) as progress:
+        res = online_study(args.scenario, tmp, args.duration, args.threads, filters=args.filters, progress=progress)
+    print(f"filters: {', '.join(res['filters'])}; wrote {out}: online-study.json, online-study.md, "
+          "online-estimates.png")
+    return EXIT_OK
+
+
 def _cmd_schema(args) -> int:
     from sins_sim.config.reference import FORMATS, render_markdown, render_text
 
@@ -1087,6 +1113,12 @@ def build_parser() -> argparse.ArgumentParser:
     _force_flag(p)
     p.add_argument("--json", default=None, help="also write the numbers (issue 15 structure) here [only DIR/filters.json]")
     p.add_argument("--quick", action="store_true", help="reduced resolution and a 30 s mission (a few minutes)")
+    p.add_argument("--imu", default=None, metavar="FILE",
+                   help="your unit's IMU file (channels, resonances, readout, block) [configs/default-imu.yaml, or "
+                        "the --scenario's own IMU]")
+    p.add_argument("--scenario", default=None, metavar="FILE",
+                   help="your mission for the position-error column (vibration, trajectory, duration; --imu replaces "
+                        "its IMU) [scenarios/nav-stationary-1h.yaml]")
     p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
     p.set_defaults(func=_cmd_compare_filters)
 
@@ -1193,6 +1225,21 @@ def build_parser() -> argparse.ArgumentParser:
                         "[0.05]")
     p.add_argument("--seed", type=_seed, default=1, help="seed of the runs [1]")
     p.set_defaults(func=_cmd_separation_study)
+
+    p = sub.add_parser("online-study", help="what learning the filters' parameters in operation buys",
+                       description="Run a scenario whose filter_parameters source is online four times (online, "
+                                   "true, nominal, nominal + PLL tracking) over every filter that takes parameters "
+                                   "(eq. 5 in both forms and the wideband designs; --filters chooses), and report the "
+                                   "estimator's convergence per axis and parameter and each filter's residual and "
+                                   "navigation error per source: online-study.json, online-study.md and "
+                                   "online-estimates.png in --out. --crosscheck sets the online estimate of a "
+                                   "recording beside its diagnosis' refit.")
+    from sins_sim.jobs.online_study import add_arguments as _online_arguments
+
+    _online_arguments(p)
+    _force_flag(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar (warnings are still printed)")
+    p.set_defaults(func=_cmd_online_study)
 
     p = sub.add_parser("sweep", help="Monte Carlo over a population of units on dask.distributed",
                        description="Run every (unit, scenario) of a sweep file (sins-sim schema sweep) as a "

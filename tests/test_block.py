@@ -310,12 +310,14 @@ def test_bad_block_parameters_name_the_field(kw, match):
 
 
 def test_isolator_modes_are_the_undamped_closed_forms_when_decoupled():
-    """Elastic centre at the c.g., diagonal inertia: six uncoupled modes sqrt(k/m), sqrt(k_r/J) and the damping
-    ratios c / (2 sqrt(k m))."""
+    """Elastic centre at the c.g., diagonal inertia, the gyros locked to the block: six uncoupled modes sqrt(k/m),
+    sqrt(k_r/(J + J_g)) (the gyro bodies ride on the block: J excludes their inertia about their input axes) and the
+    damping ratios c / (2 sqrt(k m))."""
     block = _block()
     modes = block.isolator_modes()
+    jg = 2.5e-4
     ref = sorted([(math.sqrt(7.6e5 / 3.0) / (2 * math.pi), 150.0 / (2 * math.sqrt(7.6e5 * 3.0)))] * 3
-                 + [(math.sqrt(k / j) / (2 * math.pi), c / (2 * math.sqrt(k * j)))
+                 + [(math.sqrt(k / (j + jg)) / (2 * math.pi), c / (2 * math.sqrt(k * (j + jg))))
                     for k, j, c in ((4740.0, 0.012, 0.75), (5100.0, 0.013, 0.8), (5900.0, 0.015, 0.95))])
     for (f, z), (fr, zr) in zip(modes, ref):
         assert f == pytest.approx(fr, rel=1e-9)  # |lambda| of an underdamped pair is the undamped frequency
@@ -338,14 +340,15 @@ def test_coupled_dither_frequency_is_where_the_coupled_response_peaks():
 
 
 def test_isolated_block_preset_loads_and_its_modes_are_those_its_comments_state():
-    """configs/isolated-block.yaml: translation modes at 80 Hz, rocking at 100 Hz, 5 % damping (its comments)."""
+    """configs/isolated-block.yaml: translation modes at 80 Hz, rocking at 100 Hz for the bare block and 99.2-99.3 Hz
+    with the gyros' inertia (1 + J_g / J_b = 1.013-1.017), 5 % damping (its comments)."""
     from pathlib import Path
 
     from sins_sim.config.imu import load_imu
 
     imu = load_imu(Path(__file__).resolve().parents[1] / "configs" / "isolated-block.yaml")
     modes = imu.block.isolator_modes()
-    assert [round(f) for f, _ in modes] == [80, 80, 80, 100, 100, 100]
+    assert [round(f, 1) for f, _ in modes] == [80.0, 80.0, 80.0, 99.2, 99.2, 99.3]
     assert all(abs(z - 0.05) < 2e-3 for _, z in modes)
 
 

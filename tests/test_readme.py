@@ -76,6 +76,7 @@ QUICK = {
     "diagnose-eval": {"--n": "1", "--duration": "0.3"},
     "sweep": {"--workers": "1"},  # tests/test_sweep.py runs the command on a 2-worker LocalCluster
     "navigate --align": {"--align-duration": "20"},  # the bundled log lasts 40 s; the default window is 300 s
+    "online-study": {"--duration": "1.5", "--threads": "1"},  # four variants of 1.5 s (start 1 s, 0.1 s updates)
 }
 
 

@@ -101,6 +101,16 @@ def motion_content(motion_spec):
     return {"lines": lines, "bands": bands}
 
 
+def _run_channels(imu):
+    """The channels with the drives the engine builds its filters on (a block moves them to its coupled resonances:
+    :func:`sins_sim.simulation.unit.run_channels`)."""
+    if getattr(imu, "block", None) is None:
+        return list(imu.channels)
+    from sins_sim.simulation.unit import run_channels
+
+    return run_channels(imu)
+
+
 def _stop_bands(imu, filters):
     """Per axis, ``(filter, lo_hz, hi_hz, what, gain_db(f))`` of every filter in ``filters`` that removes a band.
 
@@ -113,7 +123,7 @@ def _stop_bands(imu, filters):
 
     out = {ax: [] for ax in AXES}
     fs = imu.filter_rate_hz
-    for ax, ch in zip(AXES, imu.channels):
+    for ax, ch in zip(AXES, _run_channels(imu)):
         if "eliminator" in filters:
             d = ch.eliminator_design()
 
@@ -153,7 +163,7 @@ def vibration_advisories(imu, motion_spec, filters) -> list[str]:
     """
     content = motion_content(motion_spec)
     stops = _stop_bands(imu, tuple(filters))
-    chan = dict(zip(AXES, imu.channels))
+    chan = dict(zip(AXES, _run_channels(imu)))
     out = []
     for ax, f, amp, label in content["lines"]:
         ch = chan[ax]

@@ -15,6 +15,10 @@ scenario names, the number of units, the filters' knowledge of the unit and a se
       temperature_k: {distribution: grid, values: [-20, 0, 20]}
       temperature_coefficient_ppm_per_k: {mean: -30, width: 5}
       sensors: {draw: true}          # bias, scale factor, misalignment drawn around the preset (1 sigma)
+      block:                         # the sensor block and its isolators (an IMU file with a block: section)
+        mass_percent: {width: 2}                # the block's mass, percent of the file's, one per unit
+        stiffness_percent: {width: 10}          # each isolator stiffness, percent of the file's, per axis
+        elastic_centre_mm: {width: 1}           # the elastic centre's offset added per axis (mm)
 
 Everything is checked before any task starts: the sweep file against :data:`SWEEP_SCHEMA`, each
 scenario file, and every unit's IMU with its drawn parameters (:mod:`sins_sim.jobs.sweep.population`), so a bad
@@ -27,7 +31,8 @@ from pathlib import Path
 
 from sins_sim.config.schema import Bool, ConfigError, ListOf, Map, Num, Str, validate
 
-__all__ = ["SWEEP_SCHEMA", "SPREAD_PARAMETERS", "SUSPENSION_KEYS", "Sweep", "load_sweep", "MAX_UNITS"]
+__all__ = ["SWEEP_SCHEMA", "SPREAD_PARAMETERS", "SUSPENSION_KEYS", "BLOCK_SPREADS", "Sweep", "load_sweep",
+           "MAX_UNITS"]
 
 #: At most this many units per sweep (times the scenarios: the tasks). 100 000 units of a 5 min flight are
 #: ~ 300 core-days: beyond that a sweep is a mistake in the file, not a plan.
@@ -78,6 +83,38 @@ SPREAD_PARAMETERS = {
                                                 "(K), one per unit and constant over the run: f0 moves by "
                                                 "coefficient x offset"),
 }
+
+#: The block's spreads (``population.block.<key>``, an IMU file with a ``block:`` section): spread key -> (the IMU
+#: file's key under ``block:``, what is drawn). Percent spreads scale the file's value, ``(1 + p / 100)``, of a
+#: quantity that must stay positive: a spread that lets it reach zero or below is refused, naming the key.
+#: ``elastic_centre_mm`` adds an offset in mm (a position, any sign). Per axis unless said (the mass: one per unit).
+BLOCK_SPREADS = {
+    "mass_percent": ("mass_kg", "the block's mass, percent of the IMU file's, one per unit"),
+    "inertia_percent": ("inertia_kg_m2", "the block's moments of inertia xx, yy, zz, percent of the file's, per axis "
+                                         "(the products of inertia kept)"),
+    "gyro_inertia_percent": ("gyro_inertia_kg_m2", "each gyro body's inertia about its input axis, percent of the "
+                                                   "file's, per axis"),
+    "stiffness_percent": ("isolators.stiffness_n_per_m", "the isolators' translational stiffness, percent of the "
+                                                         "file's, per axis"),
+    "damping_percent": ("isolators.damping_n_s_per_m", "the isolators' translational damping, percent of the file's, "
+                                                       "per axis"),
+    "rotational_stiffness_percent": ("isolators.rotational_stiffness_n_m_per_rad",
+                                     "the isolators' rotational stiffness, percent of the file's, per axis"),
+    "rotational_damping_percent": ("isolators.rotational_damping_n_m_s_per_rad",
+                                   "the isolators' rotational damping, percent of the file's, per axis"),
+    "elastic_centre_mm": ("isolators.elastic_centre_mm", "the isolators' elastic centre, an offset added to the "
+                                                         "file's position (mm, block axes), per axis"),
+}
+#: Largest spread of the elastic centre (mm): the IMU schema's range of the position itself.
+MAX_CENTRE_MM = 500.0
+
+_BLOCK = Map({key: (_spread("mm", MAX_CENTRE_MM, MAX_CENTRE_MM, what) if key.endswith("_mm") else
+                    _spread("percent", MAX_K_PERCENT, MAX_K_PERCENT, what))
+              for key, (_, what) in BLOCK_SPREADS.items()},
+             default={}, doc="the sensor block and its isolators (an IMU file with a block: section; sins-sim schema imu)",
+             rules=("a percent spread must keep its quantity positive: uniform mean - width > -100, every grid value "
+                    "> -100, and every unit's normal draw (checked per unit)",
+                    "needs each scenario's IMU file to have a block: section"))
 
 _SENSORS = Map({
     "draw": Bool(default=False, doc="true: the preset's 1-sigma values (gyro and accelerometer bias, scale factor, "
@@ -132,7 +169,7 @@ SWEEP_SCHEMA = Map({
                         doc="replaces the scenario's duration_s"),
         "label": Str(default="", doc="the name in the results (default: the scenario's name); unique"),
     }), required=True, min_len=1, max_len=100, doc="every unit runs every scenario"),
-    "population": Map({**SPREAD_PARAMETERS, "sensors": _SENSORS}, default={},
+    "population": Map({**SPREAD_PARAMETERS, "sensors": _SENSORS, "block": _BLOCK}, default={},
                       doc="distributions of the units' true parameters around the IMU files' values"),
 }, rules=("population: f0_ppm and f0_hz not both",
           "population: a normal or uniform spread needs a non-zero mean or width (else it draws nothing)",
@@ -141,6 +178,22 @@ SWEEP_SCHEMA = Map({
           "non-zero 1-sigma value",
           "scenarios: labels unique",
           "every unit's drawn parameters must pass the IMU schema (checked for every unit before any task starts)"))
+
+
+def _check_positive(spec: dict, ctx: str, where: str) -> None:
+    """A percent spread of a positive block quantity may not reach -100 % (zero) or below where its range is known:
+    a uniform spread's low end and a grid's values (a normal draw is checked per unit)."""
+    if spec["distribution"] == "grid":
+        low = min(spec["values"])
+        if low <= -100.0:
+            raise ConfigError(f"{ctx}: {where}.values: {low:g} % makes the quantity zero or negative, which no block "
+                              f"has (every value must be > -100)")
+    elif spec["distribution"] == "uniform" and spec["mean"] - spec["width"] <= -100.0:
+        raise ConfigError(f"{ctx}: {where}: mean - width = {spec['mean'] - spec['width']:g} % lets a unit's value "
+                          f"reach zero or below, which no block has (mean - width must be > -100)")
+    elif spec["distribution"] == "normal" and spec["mean"] <= -100.0:
+        raise ConfigError(f"{ctx}: {where}.mean: {spec['mean']:g} % centres the draws at zero or below, which no "
+                          f"block has (must be > -100)")
 
 
 class Sweep:
@@ -158,8 +211,10 @@ class Sweep:
         self.filter_parameters = c["filter_parameters"]
         pop = c["population"]
         self.spreads = {}
-        for key in SPREAD_PARAMETERS:
-            spec = pop[key]
+        block = pop.get("block") or {}
+        items = [(key, pop[key]) for key in SPREAD_PARAMETERS] + [(f"block.{key}", block.get(key))
+                                                                  for key in BLOCK_SPREADS]
+        for key, spec in items:
             if spec is None:
                 continue
             where = f"population.{key}"
@@ -174,6 +229,8 @@ class Sweep:
             elif not spec["width"] and not spec["mean"]:
                 raise ConfigError(f"{ctx}: {where}: mean 0 and width 0 draw nothing (every unit keeps the IMU file's "
                                   f"value): give a width or a mean, or remove the key")
+            if key.startswith("block.") and key.endswith("_percent"):
+                _check_positive(spec, ctx, where)
             self.spreads[key] = spec
         if "f0_ppm" in self.spreads and "f0_hz" in self.spreads:
             raise ConfigError(f"{ctx}: population.f0_hz: give f0_ppm or f0_hz, not both")

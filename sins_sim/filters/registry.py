@@ -42,7 +42,7 @@ import importlib
 from dataclasses import dataclass
 
 __all__ = ["BUILTIN_FILTERS", "FilterContext", "register", "plugin_names", "shipped_plugin_names", "build", "describe",
-           "is_known", "is_three_axis", "THREE_AXIS", "ThreeAxisContext"]
+           "is_known", "is_three_axis", "THREE_AXIS", "ThreeAxisContext", "takes_parameters", "parameter_filters"]
 
 #: Filters computed by the engine's fused kernel (plus ``ideal``, the true increments).
 BUILTIN_FILTERS = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
@@ -126,11 +126,19 @@ _LAZY: dict = {
 }
 #: Shipped plug-ins that read the three axes together (built once per unit, not per axis).
 THREE_AXIS = {"lms_stripper"}
+#: Filters that use nothing of the suspension the run's ``filter_parameters`` describe: the truth, the readout, the
+#: eliminator (a band-stop on the drive frequency alone) and the LMS stripper (it learns its gains from the pickoffs).
+#: Every other filter is built from the believed f0 and k1..k5 (:class:`FilterContext`): eq. 5 in both forms and
+#: the shipped wideband designs; a registered plug-in is assumed to use them unless ``register(...,
+#: takes_parameters=False)``.
+PARAMETER_FREE = {"ideal", "raw", "eliminator", "lms_stripper"}
 
 
-def register(name: str, builder, description: str = "", three_axis: bool = False) -> None:
+def register(name: str, builder, description: str = "", three_axis: bool = False,
+             takes_parameters: bool = True) -> None:
     """Make ``builder(ctx: FilterContext)`` selectable as filter ``name`` (``three_axis``: ``builder(ctx:
-    ThreeAxisContext)``, see the module docstring)."""
+    ThreeAxisContext)``, see the module docstring). ``takes_parameters``: whether the filter uses the suspension
+    parameters its context carries (:func:`takes_parameters`)."""
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"filters.name: must be an identifier, got {name!r}")
     if name in BUILTIN_FILTERS:
@@ -142,6 +150,24 @@ def register(name: str, builder, description: str = "", three_axis: bool = False
         THREE_AXIS.add(name)
     else:
         THREE_AXIS.discard(name)
+    if takes_parameters:
+        PARAMETER_FREE.discard(name)
+    else:
+        PARAMETER_FREE.add(name)
+
+
+def takes_parameters(name: str) -> bool:
+    """Whether filter ``name`` is built from the suspension parameters the run believes (``filter_parameters``:
+    f0 and k1..k5), so that their source (true, nominal, online, a diagnosis) changes its output."""
+    if not is_known(name):
+        raise ValueError(f"filters: unknown filter {name!r}; known: {', '.join(BUILTIN_FILTERS + plugin_names())}")
+    return name not in PARAMETER_FREE
+
+
+def parameter_filters() -> tuple:
+    """Every known filter that takes parameters (:func:`takes_parameters`): the built-in ones first, then the
+    plug-ins sorted."""
+    return tuple(n for n in BUILTIN_FILTERS + plugin_names() if takes_parameters(n))
 
 
 def is_three_axis(name: str) -> bool:

@@ -1,4 +1,12 @@
-"""``sins-sim compare-filters``: every correcting filter against the issue 15 targets, on the default unit.
+"""``sins-sim compare-filters``: every correcting filter against the issue 15 targets, on the default unit or yours.
+
+The unit is ``configs/default-imu.yaml`` unless ``--imu FILE`` names another (its channels, resonances, readout,
+filters' settings and block), or ``--scenario FILE`` names a mission whose own IMU is then the unit; the mission of
+the position-error column is ``nav-stationary-1h`` unless ``--scenario`` gives one (its vibration, trajectory and
+duration; ``--imu`` replaces its IMU). The single-channel measurements (gain, stationary residual, quantisation
+noise, cost, delay) run each channel of the unit on a rigid fixture, its drive at its own resonance; the SINS runs
+(coning, the mission, the three-axis plug-ins) run the whole unit, its block included, the drives at their coupled
+resonances. ``details.json`` (``unit``) and the report list each channel's f0, drive and eliminator centre in both.
 
 For each filter (the built-in ``correcting``, ``correcting_paper``, ``eliminator`` and every registered
 plug-in, by default the wideband designs of :mod:`sins_sim.filters.wideband`) it measures
@@ -45,7 +53,8 @@ from sins_sim.filters import registry
 from sins_sim.filters.correcting import CorrectingFilter, CorrectingFilterDesign
 from sins_sim.filters.eliminator import Eliminator
 from sins_sim.filters.wideband import WidebandDesign, design_equaliser
-from sins_sim.config.imu import load_imu, load_yaml
+from sins_sim.config.errors import ConfigError
+from sins_sim.config.imu import load_imu
 from sins_sim.jobs.coning_table import algorithm_drifts, band_for, coning_algorithm_table
 from sins_sim.jobs.reproduce.responses import fir_response, mechanical_response
 from sins_sim.models.motion import SineMotion, StaticMotion
@@ -55,7 +64,7 @@ from sins_sim.simulation.metrics import drift_angle_of_series, ramp_fit
 from sins_sim.simulation.sins import NavSettings, simulate_sins
 from sins_sim.units import ARCMIN, ARCSEC
 
-__all__ = ["CompareSettings", "run_compare_filters", "BANDS_HZ", "CONING_HZ", "WIDEBAND_FILTERS", "TARGETS"]
+__all__ = ["CompareSettings", "run_compare_filters", "resolve_unit", "unit_table", "UnitAndMission", "BANDS_HZ", "CONING_HZ", "WIDEBAND_FILTERS", "TARGETS"]
 
 DEG = math.pi / 180.0
 #: Bands of the flatness metric (issue 15).
@@ -110,6 +119,106 @@ def _imu_path() -> Path:
     if not p.exists():
         raise FileNotFoundError(f"compare-filters: the default unit {p} is not found (run from a source checkout)")
     return p
+
+
+@dataclass(frozen=True)
+class UnitAndMission:
+    """What the comparison runs on (:func:`resolve_unit`).
+
+    Attributes
+    ----------
+    imu : ImuConfig
+        The unit.
+    imu_ref : str or dict
+        How a scenario names it: an absolute path, or the inline mapping of the user's scenario.
+    imu_base : Path
+        Where an inline mapping's relative paths are taken from.
+    source : str
+        What the report names (the file, or ``inline in <scenario>``).
+    mission : dict
+        The mission's scenario document (not yet validated with the compared filters).
+    mission_base : Path
+        Where the mission's relative paths are taken from.
+    mission_name : str
+    """
+
+    imu: object
+    imu_ref: object
+    imu_base: Path
+    source: str
+    mission: dict
+    mission_base: Path
+    mission_name: str
+
+
+def _file(path, flag: str) -> Path:
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(f"{flag}: file not found: {p}")
+    return p.resolve()
+
+
+def resolve_unit(imu=None, scenario=None) -> UnitAndMission:
+    """The unit and mission of the comparison (module docstring): ``imu`` and ``scenario`` paths or None.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the flag (``--imu``, ``--scenario``) and the file's own error.
+    """
+    from sins_sim.config.scenario import load_scenario, scenario_document
+
+    mission_path = _ROOT / "scenarios" / "nav-stationary-1h.yaml" if scenario is None else _file(scenario, "--scenario")
+    flag = "--scenario" if scenario is not None else "compare-filters"
+    try:
+        doc = scenario_document(mission_path)
+    except ConfigError as exc:
+        raise ConfigError(f"{flag}: {exc}") from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"--scenario: {mission_path}: must be a mapping of scenario keys (sins-sim schema scenario)")
+    if imu is not None:
+        p = _file(imu, "--imu")
+        try:
+            unit = load_imu(p)
+        except ConfigError as exc:
+            raise ConfigError(f"--imu: {exc}") from None
+        ref, base, source = str(p), p.parent, str(p)
+    elif scenario is None:
+        p = _imu_path()
+        unit, ref, base, source = load_imu(p), str(p), p.parent, "configs/default-imu.yaml"
+    else:
+        ref = doc.get("imu")
+        if isinstance(ref, str):
+            p = (mission_path.parent / ref).resolve()
+            ref, base, source = str(p), p.parent, str(p)
+        else:
+            base, source = mission_path.parent, f"inline in {mission_path}"
+        unit = None
+    doc = dict(doc, imu=ref)
+    try:  # the mission as the comparison will run it (its IMU, its checks), before any computation
+        sc = load_scenario(doc, base_dir=mission_path.parent)
+    except ConfigError as exc:
+        raise ConfigError(f"{flag}: {exc}") from None
+    return UnitAndMission(imu=sc.imu if unit is None else unit, imu_ref=ref, imu_base=base, source=source,
+                          mission=doc, mission_base=mission_path.parent, mission_name=str(sc.name))
+
+
+def unit_table(imu) -> dict:
+    """Per channel the resonance, the drive and the eliminator's centre the comparison builds on: on a rigid fixture
+    (the single-channel measurements) and, with a block, on the block (the SINS runs; the coupled drives)."""
+    from sins_sim.simulation.unit import run_channels
+
+    out = {}
+    for axis, ch, on in zip("xyz", imu.channels, run_channels(imu)):
+        lo, hi = ch.eliminator_design().band_hz
+        row = {"f0_hz": float(ch.suspension.f0_hz), "drive_hz": float(ch.drive_signal().frequency_hz),
+               "eliminator_centre_hz": float(0.5 * (lo + hi))}
+        if imu.block is not None:
+            lo, hi = on.eliminator_design().band_hz
+            row.update(drive_on_block_hz=float(on.drive_signal().frequency_hz),
+                       eliminator_centre_on_block_hz=float(0.5 * (lo + hi)))
+        out[axis] = row
+    return out
 
 
 def _sine_amplitude(y, t, f_hz, extra_hz=()):
@@ -340,13 +449,13 @@ def _three_axis(imu, three, st, gain, resid, qnoise, cost, delay) -> dict:
     return out
 
 
-def _scenario(doc, ctx):
+def _scenario(doc, ctx, base_dir):
     from sins_sim.config.scenario import Scenario
 
-    return Scenario(doc, ctx, _ROOT / "scenarios")
+    return Scenario(doc, ctx, Path(base_dir))
 
 
-def _coning(names, st, progress, p0, p1):
+def _coning(names, st, progress, p0, p1, um):
     """Heading drift (deg/h) of each filter and of ``ideal`` under 1 arcmin coning at each frequency.
 
     Returns the full navigation's drift with the two-sample algorithm and, per algorithm of
@@ -357,14 +466,14 @@ def _coning(names, st, progress, p0, p1):
     by_alg = {n: {} for n in out}
     for i, f in enumerate(CONING_HZ):
         doc = {"name": f"compare-coning-{f:g}hz", "seed": 1, "duration_s": st.coning_s,
-               "imu": "../configs/default-imu.yaml",
+               "imu": um.imu_ref,
                "motion": [{"type": "coning", "amplitude_arcmin": 1.0, "frequency_hz": f, "phase_deg": 90}],
                "filters": ["ideal", *names],
                # every filter sample (n_sub 1), as the attitude replay of each algorithm: the coning column is the
                # filters' response at the filter rate, not the 400 Hz mission default's major-interval residual
                "navigation": {"coning": "two_sample", "start_s": st.coning_start_s, "n_sub": 1},
                "outputs": {"plots": False, "timeseries": False}}
-        sc = _scenario(doc, f"compare-filters: coning {f:g} Hz")
+        sc = _scenario(doc, f"compare-filters: coning {f:g} Hz", um.imu_base)
         res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
                             vehicle=sc.vehicle, translation=sc.translation,
                             vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
@@ -379,16 +488,17 @@ def _coning(names, st, progress, p0, p1):
     return out, by_alg
 
 
-def _mission(names, st):
-    """Horizontal position error (m) at the end of ``nav-stationary-1h`` (or its first ``mission_s``)."""
+def _mission(names, st, um):
+    """Horizontal position error (m) at the end of the mission (``nav-stationary-1h`` or the user's scenario), or
+    of its first ``mission_s``."""
     from sins_sim.jobs.run import scenario_metrics
 
-    doc = dict(load_yaml(_ROOT / "scenarios" / "nav-stationary-1h.yaml"))
+    doc = dict(um.mission)
     doc["filters"] = ["ideal", *names]
     doc["outputs"] = {"plots": False, "timeseries": False}
     if st.mission_s is not None:
-        doc["duration_s"] = st.mission_s
-    sc = _scenario(doc, "compare-filters: nav-stationary-1h")
+        doc["duration_s"] = min(float(doc.get("duration_s", st.mission_s)), st.mission_s)
+    sc = _scenario(doc, f"compare-filters: {um.mission_name}", um.mission_base)
     res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
                         vehicle=sc.vehicle, translation=sc.translation,
                         vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
@@ -459,9 +569,14 @@ def _targets(res, names, ideal_coning):
     return out
 
 
-def run_compare_filters(out_dir, json_path, quick: bool = False, filters=None, progress=None) -> dict:
-    """Run the comparison; write ``json_path`` and the folder ``out_dir``; return the ``OUT`` dictionary."""
-    st = CompareSettings.quick_() if quick else CompareSettings.full()
+def run_compare_filters(out_dir, json_path, quick: bool = False, filters=None, progress=None, imu=None,
+                        scenario=None, settings: CompareSettings | None = None) -> dict:
+    """Run the comparison; write ``json_path`` and the folder ``out_dir``; return the ``OUT`` dictionary.
+
+    ``imu``, ``scenario``: the user's IMU file and mission (paths; module docstring), None for the built-in ones.
+    ``settings``: the resolution (default: :meth:`CompareSettings.quick_` or :meth:`CompareSettings.full`).
+    """
+    st = settings if settings is not None else (CompareSettings.quick_() if quick else CompareSettings.full())
     progress = progress or (lambda frac: None)
     names = BUILTIN_COMPARED + tuple(filters if filters is not None else WIDEBAND_FILTERS + BASELINE_FILTERS)
     for n in names:
@@ -469,7 +584,8 @@ def run_compare_filters(out_dir, json_path, quick: bool = False, filters=None, p
             raise ValueError(f"compare-filters.filters: unknown or not a dither filter: {n!r}")
     three = tuple(n for n in names if registry.is_three_axis(n))
     single = tuple(n for n in names if n not in three)
-    imu = load_imu(_imu_path())
+    um = resolve_unit(imu, scenario)
+    imu = um.imu
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings(record=True) as caught:
@@ -480,8 +596,8 @@ def run_compare_filters(out_dir, json_path, quick: bool = False, filters=None, p
         cost = _cost_ns(imu, single, sample[0], sample[1], st.cost_samples)
         delay = _group_delay_s(imu, single)
         three_axis = _three_axis(imu, three, st, gain, resid, qnoise, cost, delay)
-        coning, coning_alg = _coning(names, st, progress, 0.5, 0.8)
-        mission, mission_s = _mission(names, st)
+        coning, coning_alg = _coning(names, st, progress, 0.5, 0.8, um)
+        mission, mission_s = _mission(names, st, um)
         progress(0.95)
     n_regime = sum(1 for w in caught if "hysteresis" in str(w.message))
     coarse_key = f"{QUANTA_ARCSEC[0]:.4g}"
@@ -508,7 +624,8 @@ def run_compare_filters(out_dir, json_path, quick: bool = False, filters=None, p
         "settings": dataclasses.asdict(st),
         "quantization_noise_arcsec": qnoise,
         "readout_quantization_noise_arcsec": raw_noise,
-        "position_error_m": {"mission": "nav-stationary-1h", "duration_s": mission_s, "horizontal_final": mission},
+        "unit": {"source": um.source, "name": imu.name, "block": imu.block is not None, "channels": unit_table(imu)},
+        "position_error_m": {"mission": um.mission_name, "duration_s": mission_s, "horizontal_final": mission},
         "targets_met": targets,
         "three_axis": three_axis,
         "gain": {"freqs_hz": gain["freqs"].tolist(), "dither_hz": gain["dithers"],
@@ -540,12 +657,24 @@ def _report(result, details, figures, st) -> str:
     ideal = result["ideal"]["coning_drift_error_deg_per_h"]
     q = details["quantization_noise_arcsec"]
     qk = list(q)
+    u = details["unit"]
     lines = [
         "# Correcting filters beyond eq. 5: design review",
         "",
-        f"Default three-axis unit (`configs/default-imu.yaml`), {'quick' if st.quick else 'full'} resolution. "
-        "Derivations: `docs/wideband-filters.md`. Numbers: the `--json` file (issue 15 structure) and "
-        "`details.json` (curves, both quanta, position errors, targets).",
+        f"Unit `{u['source']}` ({u['name']}), {'quick' if st.quick else 'full'} resolution; mission "
+        f"`{details['position_error_m']['mission']}`. Derivations: `docs/wideband-filters.md`. Numbers: the `--json` "
+        "file (issue 15 structure) and `details.json` (curves, both quanta, position errors, targets, the unit).",
+        "",
+        "| axis | f0 (Hz) | drive (Hz) | eliminator centre (Hz) |"
+        + (" drive on the block (Hz) | eliminator centre on the block (Hz) |" if u["block"] else ""),
+        "|---|---|---|---|" + ("---|---|" if u["block"] else ""),
+        *(f"| {ax} | {r['f0_hz']:.6g} | {r['drive_hz']:.6g} | {r['eliminator_centre_hz']:.6g} |"
+          + (f" {r['drive_on_block_hz']:.6g} | {r['eliminator_centre_on_block_hz']:.6g} |" if u["block"] else "")
+          for ax, r in u["channels"].items()),
+        "",
+        "The single-channel measurements (gain, residual, noise, cost, delay) run each channel on a rigid fixture"
+        + ("; the SINS runs (coning, mission, three-axis plug-ins) run the whole unit on its block, the drives at "
+           "their coupled resonances." if u["block"] else "."),
         "",
         "## Flatness: largest deviation of the end-to-end gain (%, nonlinear plant, dither running)",
         "",

@@ -382,6 +382,7 @@ def record_run(manifest: Manifest, scenario, path, overrides: dict | None, folde
     paths taken from ``scenario.base_dir``).
     """
     from sins_sim.config.filter_params import filters_used
+    from sins_sim.simulation.unit import run_channels  # the drives the run builds its filters on (a block's own)
 
     res = resolve_run_inputs(path, overrides, getattr(scenario, "base_dir", None))
     inputs = Path(folder) / INPUTS
@@ -409,7 +410,7 @@ def record_run(manifest: Manifest, scenario, path, overrides: dict | None, folde
                      "from this seed",
         "filter_parameters": {"source": spec["source"], "f0_source": spec["f0"],
                               "f0_mismatch_ppm": float(spec["f0_mismatch_ppm"]), "track": bool(spec["track"]),
-                              "filters": filters_used(scenario.imu.channels, spec, scenario.filters)},
+                              "filters": filters_used(run_channels(scenario.imu), spec, scenario.filters)},
     }
 
 

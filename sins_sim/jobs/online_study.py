@@ -9,12 +9,14 @@ the PLL), and reports:
   the unit's truth at each update: the steady error is the RMS relative error over the last quarter of the
   run; the convergence time is the first update after which the relative error stays within
   ``max(3 x steady error, 1e-4)``;
-- per variant the correcting filter's residual (``gyro_error_rms_arcsec`` of ``metrics.json``: the gyro angle
-  error about its mean, per axis) and the navigation errors (final horizontal position, attitude RMS).
+- per variant and per filter that takes parameters (:func:`sins_sim.filters.registry.parameter_filters`: both
+  forms of eq. 5 and the wideband designs, by default every one; ``ideal`` beside them as the floor) the residual
+  (``gyro_error_rms_arcsec`` of ``metrics.json``: the gyro angle error about its mean, per axis) and the navigation
+  errors (final horizontal position, attitude RMS).
 
 Usage::
 
-    python -m sins_sim.jobs.online_study scenarios/online-estimation-ramp.yaml --out online-study
+    sins-sim online-study scenarios/online-estimation-ramp.yaml --out online-study [--filters correcting ...]
 
 writes ``online-study.json``, ``online-study.md`` and ``online-estimates.png`` (estimates against truth over
 time, per axis).
@@ -24,7 +26,9 @@ The cross-check (issue 29, item 4): :func:`estimate_recording` runs the same est
 voltage at one frequency), and :func:`crosscheck` sets its estimate beside the ``sins-sim diagnose`` refit of the
 same recording::
 
-    python -m sins_sim.jobs.online_study --crosscheck REC.npz DIAGNOSIS.json
+    sins-sim online-study --crosscheck REC.npz DIAGNOSIS.json
+
+(``python -m sins_sim.jobs.online_study`` takes the same arguments.)
 """
 
 from __future__ import annotations
@@ -37,7 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["VARIANTS", "convergence", "online_study", "estimate_recording", "crosscheck", "main"]
+__all__ = ["VARIANTS", "convergence", "online_study", "study_filters", "estimate_recording", "crosscheck", "markdown",
+           "add_arguments", "main"]
 
 PARAMS = ("f0_hz", "k1", "k2", "k3", "k5", "q")
 
@@ -61,26 +66,51 @@ def convergence(t_s, estimate, truth, floor: float = 1e-4) -> dict:
             "convergence_s": conv, "bound_rel": bound, "final_rel_error": float(err[-1])}
 
 
-def online_study(scenario_path, out_dir, duration_s: float | None = None, threads: int | None = None) -> dict:
-    """Run the four variants (module docstring); write the JSON, the markdown table and the figure."""
-    from sins_sim.config.scenario import load_scenario
+def study_filters(filters=None) -> tuple:
+    """The filters the study compares: ``filters`` (each known and taking parameters, else a one-line error
+    naming ``--filters``), default every filter that takes parameters; ``ideal`` first, as the floor."""
+    from sins_sim.filters import registry
+
+    names = registry.parameter_filters() if filters is None else tuple(dict.fromkeys(filters))
+    for n in names:
+        if not registry.is_known(n):
+            raise ValueError(f"--filters: unknown filter {n!r}; the filters that take parameters: "
+                             f"{', '.join(registry.parameter_filters())}")
+        if not registry.takes_parameters(n):
+            raise ValueError(f"--filters: {n} takes no suspension parameters (its output does not depend on "
+                             f"filter_parameters); the filters that do: {', '.join(registry.parameter_filters())}")
+    if not names:
+        raise ValueError("--filters: give at least one filter that takes parameters")
+    return ("ideal",) + tuple(n for n in names if n != "ideal")
+
+
+def online_study(scenario_path, out_dir, duration_s: float | None = None, threads: int | None = None,
+                 filters=None, progress=None) -> dict:
+    """Run the four variants (module docstring) over ``filters`` (:func:`study_filters`); write the JSON, the
+    markdown table and the figure. ``progress``: callable(fraction) or None."""
+    from sins_sim.config.errors import ConfigError
+    from sins_sim.config.scenario import load_scenario, scenario_document
     from sins_sim.jobs.run import compute_run, prepare_run
     from sins_sim.simulation.online import history_arrays
 
     scenario_path = Path(scenario_path)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    names = study_filters(filters)
     base = load_scenario(scenario_path)
     if base.filter_spec["source"] != "online":
-        raise ValueError(f"{scenario_path}: filter_parameters.source: must be online (the study compares the online "
-                         f"estimator with the other sources), got {base.filter_spec['source']!r}")
+        raise ConfigError(f"{scenario_path}: filter_parameters.source: the online study needs online (it compares "
+                          f"it with true, nominal and nominal + track), got {base.filter_spec['source']!r}")
+    out.mkdir(parents=True, exist_ok=True)
     online_fp = {"source": "online", "track": bool(base.filter_spec["track"]),
                  "online": {f"{k}": v for k, v in base.filter_spec["online"].items()}}
     overrides = {} if duration_s is None else {"duration_s": float(duration_s)}
-    result = {"scenario": base.name, "variants": {}, "estimator": {}}
+    doc = dict(scenario_document(scenario_path), filters=list(names))
+    result = {"scenario": base.name, "filters": list(names), "variants": {}, "estimator": {}}
     histories = {}
-    for name, fp in VARIANTS(online_fp).items():
-        scenario, warn = prepare_run(scenario_path, overrides=dict(overrides, filter_parameters=fp))
+    variants = VARIANTS(online_fp)
+    for k, (name, fp) in enumerate(variants.items()):
+        scenario, warn = prepare_run(doc, overrides=dict(overrides, filter_parameters=fp),
+                                     base_dir=scenario_path.parent)
         res, metrics = compute_run(scenario, warn, threads=threads)
         row = {"filter_parameters": fp, "gyro_error_rms_arcsec": metrics["gyro_error_rms_arcsec"]}
         for flt, m in metrics["filters"].items():
@@ -101,6 +131,8 @@ def online_study(scenario_path, out_dir, duration_s: float | None = None, thread
                 for _, kind, _ in d["events"]:
                     kinds[kind] = kinds.get(kind, 0) + 1
                 result["estimator"][axis]["events"] = kinds
+        if progress is not None:
+            progress((k + 1) / len(variants))
     (out / "online-study.json").write_text(json.dumps(result, indent=2, default=float))
     (out / "online-study.md").write_text(markdown(result))
     if histories:
@@ -182,41 +214,60 @@ def markdown(result: dict) -> str:
     for axis, row in result["estimator"].items():
         cells = [f"{row[p]['convergence_s']:.1f} s / {100 * row[p]['steady_rel_error_rms']:.3g} %" for p in PARAMS]
         lines.append(f"| {axis} | " + " | ".join(cells) + " |")
-    lines += ["", "## Residual and navigation error per parameter source (filter `correcting`, unity-DC eq. 5)", "",
-              "| source | gyro error RMS x, y, z (arcsec) | horizontal position, final (m) | attitude RMS N, E, D "
-              "(arcsec) |", "|---|---|---|---|"]
+    lines += ["", "## Residual and navigation error per parameter source and filter", "",
+              "Every filter that takes parameters (`ideal`: the floor, no parameters). Gyro error RMS: the gyro "
+              "angle error about its mean, per axis.", "",
+              "| source | filter | gyro error RMS x, y, z (arcsec) | horizontal position, final (m) | attitude RMS "
+              "N, E, D (arcsec) |", "|---|---|---|---|---|"]
+    names = result.get("filters") or ["correcting"]
     for name, row in result["variants"].items():
-        g = row["gyro_error_rms_arcsec"].get("correcting", [math.nan] * 3)
-        c = row.get("correcting", {})
-        att = c.get("attitude_error_rms_arcsec", {})
-        lines.append(f"| {name} | {', '.join(f'{x:.3f}' for x in g)} | "
-                     f"{c.get('horizontal_position_error_final_m', math.nan):.4g} | "
-                     f"{', '.join(f'{att.get(k, math.nan):.3g}' for k in ('north', 'east', 'down'))} |")
+        for flt in names:
+            g = row["gyro_error_rms_arcsec"].get(flt, [math.nan] * 3)
+            c = row.get(flt, {})
+            if "status" in c:
+                lines.append(f"| {name} | {flt} | {c['status']} | | |")
+                continue
+            att = c.get("attitude_error_rms_arcsec", {})
+            lines.append(f"| {name} | {flt} | {', '.join(f'{x:.3f}' for x in g)} | "
+                         f"{c.get('horizontal_position_error_final_m', math.nan):.4g} | "
+                         f"{', '.join(f'{att.get(k, math.nan):.3g}' for k in ('north', 'east', 'down'))} |")
     return "\n".join(lines) + "\n"
+
+
+def add_arguments(ap) -> None:
+    """The study's arguments (``sins-sim online-study`` and ``python -m sins_sim.jobs.online_study``)."""
+    ap.add_argument("scenario", nargs="?", help="a scenario with filter_parameters: {source: online, ...}")
+    ap.add_argument("--out", help="result folder")
+    ap.add_argument("--crosscheck", nargs=2, metavar=("RECORDING", "DIAGNOSIS_JSON"),
+                    help="the online estimate of a recording beside its diagnosis' refit (issue 29, item 4)")
+    ap.add_argument("--duration", type=float, default=None, help="replaces the scenario's duration_s (s)")
+    ap.add_argument("--filters", nargs="+", default=None, metavar="NAME",
+                    help="the filters compared, each one that takes parameters [every one: correcting, "
+                         "correcting_paper and the wideband designs]")
+    ap.add_argument("--threads", type=int, default=None, help="threads per run [the engine's default]")
+
+
+def print_crosscheck(rows_by_axis: dict) -> None:
+    for axis, rows in rows_by_axis.items():
+        print(f"axis {axis}: parameter, diagnose (offline refit), online, online sigma, online / diagnose - 1")
+        for p, r in rows.items():
+            print(f"  {p:6} {r['diagnose']:12.6g} {r['online']:12.6g} {r['online_sigma'] or float('nan'):10.3g} "
+                  f"{100 * r['relative_difference']:+8.2f} %")
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m sins_sim.jobs.online_study", description=__doc__.split("\n\n")[0])
-    ap.add_argument("scenario", nargs="?")
-    ap.add_argument("--out")
-    ap.add_argument("--crosscheck", nargs=2, metavar=("RECORDING", "DIAGNOSIS_JSON"),
-                    help="the online estimate of a recording beside its diagnosis' refit (issue 29, item 4)")
-    ap.add_argument("--duration", type=float, default=None)
-    ap.add_argument("--threads", type=int, default=None)
+    add_arguments(ap)
     a = ap.parse_args(argv)
     if a.crosscheck:
-        for axis, rows in crosscheck(*a.crosscheck).items():
-            print(f"axis {axis}: parameter, diagnose (offline refit), online, online sigma, online / diagnose - 1")
-            for p, r in rows.items():
-                print(f"  {p:6} {r['diagnose']:12.6g} {r['online']:12.6g} {r['online_sigma'] or float('nan'):10.3g} "
-                      f"{100 * r['relative_difference']:+8.2f} %")
+        print_crosscheck(crosscheck(*a.crosscheck))
         return 0
     if not a.scenario or not a.out:
         ap.error("a scenario and --out are required (or --crosscheck RECORDING DIAGNOSIS_JSON)")
     from sins_sim.config.errors import ConfigError
 
     try:
-        res = online_study(a.scenario, a.out, a.duration, a.threads)
+        res = online_study(a.scenario, a.out, a.duration, a.threads, filters=a.filters)
     except (ConfigError, ValueError) as exc:  # a scenario the study cannot run: one line, no traceback
         print(f"online_study: {exc}", file=sys.stderr)
         return 2

@@ -459,6 +459,7 @@ def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
     from sins_sim.earth import EARTH_RATE_RAD_S
     from sins_sim.navigation.coning import pseudo_coning_drift
     from sins_sim.simulation.responses import increment_responses, measured_response
+    from sins_sim.simulation.unit import run_channels
 
     amp, f, ph, pairs = found
     fs = res.filter_rate_hz
@@ -477,11 +478,11 @@ def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
         if err is None or not len(err) or "attitude_drift_deg_h" not in m or not m["attitude_drift_deg_h"]:
             continue
         h_meas = measured_response(t, err, amp, f, ph)
-        h_model = increment_responses(scenario.imu.channels, name, [f])[:, 0] if name != "ideal" else np.ones(3)
+        h_model = increment_responses(run_channels(scenario.imu), name, [f])[:, 0] if name != "ideal" else np.ones(3)
         coef = res.nav.compensation(name)[0]
         # a filter whose DC gain is not one scales the Earth rate the gyro sees at rest (body = NED): that is a drift
         # of (H(0) - 1) Omega_ie about the axis, beside the pseudo-coning (the paper form of eq. 5: about 1 %)
-        dc = (increment_responses(scenario.imu.channels, name, [DC_PROBE_HZ])[:, 0].real if name != "ideal"
+        dc = (increment_responses(run_channels(scenario.imu), name, [DC_PROBE_HZ])[:, 0].real if name != "ideal"
               else np.ones(3))
         lat = scenario.site["lat_rad"]
         earth_ned = EARTH_RATE_RAD_S * np.array([math.cos(lat), 0.0, -math.sin(lat)])
@@ -619,12 +620,19 @@ def _coning_design(nav) -> dict:
                                            for label, r in d["residual"].items()},
             "uncompensated_fraction_max": {label: {ax: float(x) for ax, x in zip("xyz", r["max"])}
                                            for label, r in d["residual"].items()},
+            "tuned_coefficients": {ax: [float(c) for c in row] for ax, row in zip("xyz", d["tuned_coefficients"])},
+            "whole_band_hz": [float(x) for x in d["whole_band_hz"]],
+            "whole_band_uncompensated_fraction_rms": {label: {ax: float(x) for ax, x in zip("xyz", r["rms"])}
+                                                      for label, r in d["whole_band_residual"].items()},
+            "fallback": d["fallback"], **({"fallback_reason": d["reason"]} if d["fallback"] else {}),
         }
     return {"tuned_band_hz": list(nav.tuned_band_hz), "coning_design": out,
             "coning_design_note": "lag coefficients [c1, c2, c3] of dtheta_{k-j} x dtheta_k per body axis "
                                   "(Mark & Tazartes 2001; docs/theory/navigation.md); uncompensated_fraction: the "
                                   "drift under classical coning over the band as a fraction of the classical "
-                                  "coning rate, for the filter's model response, tuned and two-sample"}
+                                  "coning rate, for the filter's model response, tuned and two-sample; fallback two_sample: the tuned "
+                                  "design was ill-conditioned for the filter (it left more over the whole band than "
+                                  "it removed in its own) and coefficients are the two-sample ones"}
 
 
 def _pseudo_coning_report(pc) -> list:

@@ -228,23 +228,52 @@ class BlockParams:
         return (e[:n, :n].copy(),) + tuple(math.factorial(k) * e[:n, n + k * m:n + (k + 1) * m]
                                           for k in range(order + 1))
 
-    def isolator_modes(self) -> list:
-        """The block's modes on its isolators (gyros locked): ``(frequency_hz, damping_ratio)``, sorted.
+    def isolator_modes(self, omega_rad_s=None) -> list:
+        """The block's six modes on its isolators: ``(frequency_hz, damping_ratio)``, sorted.
 
-        From the eigenvalues of ``A``; a free direction (zero stiffness) gives frequency 0.
+        The gyro bodies ride on the block: their inertia about their input axes, which :attr:`inertia_kg_m2`
+        leaves out, enters the modes (``J_b + sum_i J_g,i u_i u_i^T``). ``omega_rad_s`` None: each gyro locked to
+        the block (its suspension infinitely stiff). ``omega_rad_s`` (3,): each gyro on its linear suspension of
+        that resonance, the linearised model the coupled plant integrates (:func:`_matrices9`, the block's damping,
+        the suspensions undamped: their loss at the block's small relative motion is below the isolators'); its
+        nine modes less the three dither modes (the three whose strain energy lies most in the suspensions).
+        From the eigenvalues of the first-order system; a free direction (zero stiffness) gives frequency 0.
         """
-        a, _ = self.state_space()
-        lam = np.linalg.eigvals(a)
+        if omega_rad_s is None:
+            m = self.mass_matrix()
+            for i in range(3):
+                e = np.concatenate((np.zeros(3), self.input_axes[i]))
+                m = m + self.gyro_inertia_kg_m2[i] * np.outer(e, e)
+            k, c, n = self.stiffness_matrix(), self.damping_matrix(), 6
+        else:
+            m, k = _matrices9(self, np.asarray(omega_rad_s, dtype=float))
+            c = np.zeros((9, 9))
+            c[:6, :6] = self.damping_matrix()
+            n = 9
+        a = np.zeros((2 * n, 2 * n))
+        a[:n, n:] = np.eye(n)
+        minv = np.linalg.inv(m)
+        a[n:, :n] = -minv @ k
+        a[n:, n:] = -minv @ c
+        lam, vec = np.linalg.eig(a)
         modes = []
-        for v in lam:
+        for v, x in zip(lam, vec.T):
             if v.imag < 0:
                 continue
             wn = abs(v)
+            share = 0.0
+            if n == 9:  # strain energy in the suspensions, as a fraction of the mode's
+                q = x[:n]
+                total = abs(np.vdot(q, k @ q))
+                share = abs(np.vdot(q[6:], k[6:, 6:] @ q[6:])) / total if total > 0 else 0.0
             if v.imag == 0 and wn > 0:  # overdamped or a free direction's pair (0, -c/m): one per real root pair
-                modes.append((0.0, 1.0))
+                modes.append((share, 0.0, 1.0))
                 continue
-            modes.append((wn / (2 * math.pi), (-v.real / wn) if wn > 0 else 0.0))
-        return sorted(modes)[-6:] if len(modes) > 6 else sorted(modes)
+            modes.append((share, wn / (2 * math.pi), max(0.0, -v.real / wn) if wn > 0 else 0.0))
+        if n == 9:
+            modes = sorted(modes)[:-3]  # the three dither modes hold their strain energy in the suspensions
+        modes = sorted((f, z) for _, f, z in modes)
+        return modes[-6:] if len(modes) > 6 else modes
 
     def angular_momentum(self, theta_dot, delta_dot) -> np.ndarray:
         """Angular momentum of block and gyros about the c.g. relative to a non-rotating chassis (kg m^2/s).

@@ -40,13 +40,16 @@ import math
 import numpy as np
 
 from sins_sim.filters import registry as filter_registry
-from sins_sim.navigation.coning import flat_coefficients, tuned_coefficients, tuned_residual
+from sins_sim.navigation.coning import coefficient_matrix, flat_coefficients, tuned_coefficients, tuned_residual
 
 __all__ = ["mechanical_response", "fir_response", "increment_responses", "tuned_design", "measured_response",
-           "line_amplitudes", "N_BAND_POINTS"]
+           "line_amplitudes", "N_BAND_POINTS", "N_WHOLE_POINTS", "whole_band"]
 
 #: Band frequencies of the least-squares design (uniform in Hz).
 N_BAND_POINTS = 201
+#: Frequencies of the whole-band check of a tuned design (:func:`tuned_design`): a step of 5 Hz at 7.2 kHz, finer
+#: than any filter's response varies outside its notches.
+N_WHOLE_POINTS = 719
 #: The filters whose response is known without a plug-in's ``frequency_response``.
 _BUILTIN = ("ideal", "raw", "eliminator", "correcting", "correcting_paper")
 
@@ -141,7 +144,22 @@ def increment_responses(channels, name: str, f_hz) -> np.ndarray:
 
 
 def tuned_design(channels, name: str, band_hz, rate_hz: float) -> dict:
-    """Filter-tuned coning coefficients for filter ``name`` over ``band_hz`` and what they achieve.
+    """Filter-tuned coning coefficients for filter ``name`` over ``band_hz``, what they achieve, and whether they are
+    kept or the two-sample algorithm replaces them.
+
+    The least-squares design fits the band only. Where the filter's response is far from a polynomial in the band
+    (a notch, a large phase lag, an equaliser), the basis ``sin(l x)`` is nearly collinear at small ``x`` and the
+    fit buys a small in-band gain with coefficients in the hundreds, which act on every frequency the increments
+    carry: outside the band they leave hundreds of times the coning rate. The design is therefore checked over the
+    whole band of the increments (0 to the filter Nyquist, uniform in Hz, :data:`N_WHOLE_POINTS`, every
+    frequency weighed the same: a flat vibration spectrum) against the two-sample algorithm, per axis:
+
+    - ``gain`` = two-sample RMS residual minus tuned RMS residual over the design band (what tuning removes);
+    - ``loss`` = tuned RMS residual minus two-sample RMS residual over the whole band (what it adds elsewhere).
+
+    The tuned design is kept when ``gain >= loss`` on every axis; otherwise it is *ill-conditioned for this
+    filter* and the two-sample coefficients replace it (``fallback`` set, the rejected ``tuned_coefficients``
+    kept for the record; docs/theory/navigation.md, "Filter-tuned coning").
 
     Parameters
     ----------
@@ -155,21 +173,49 @@ def tuned_design(channels, name: str, band_hz, rate_hz: float) -> dict:
     Returns
     -------
     dict
-        ``coefficients`` (ndarray (3, 3), ``[component, lag - 1]``), ``flat_coefficients`` (the
-        same design for a flat response), and over the band the RMS and maximum of the
-        uncompensated fraction of the coning rate (:func:`sins_sim.navigation.coning.tuned_residual`)
-        per component for the tuned and the two-sample algorithm on these responses.
+        ``coefficients`` (ndarray (3, 3), ``[component, lag - 1]``: the ones the navigation uses),
+        ``tuned_coefficients`` (the least-squares design), ``flat_coefficients`` (the same design for a flat
+        response), ``residual`` (over the band, RMS and maximum of the uncompensated fraction of the coning rate
+        per component, :func:`sins_sim.navigation.coning.tuned_residual`, for the tuned and the two-sample
+        algorithm), ``whole_band_residual`` (the same over the whole band), ``check`` (per axis ``gain`` and
+        ``loss``) and ``fallback`` (None, or ``"two_sample"`` with ``reason``).
     """
     f = np.linspace(band_hz[0], band_hz[1], N_BAND_POINTS)
     h = increment_responses(channels, name, f)
     dc = np.real(increment_responses(channels, name, [0.0])[:, 0])
     coef = tuned_coefficients(h, band_hz, rate_hz, dc_gains=dc, n_points=N_BAND_POINTS)
-    res = {}
+    whole = whole_band(rate_hz)
+    h_whole = increment_responses(channels, name, np.linspace(whole[0], whole[1], N_WHOLE_POINTS))
+    res, res_whole = {}, {}
     for label, c in (("filter_tuned", coef), ("two_sample", "two_sample")):
         e = tuned_residual(c, h, band_hz, rate_hz, dc_gains=dc, n_points=N_BAND_POINTS)
         res[label] = {"rms": np.sqrt(np.mean(e * e, axis=1)), "max": np.max(np.abs(e), axis=1)}
-    return {"coefficients": coef, "flat_coefficients": flat_coefficients(band_hz, rate_hz, N_BAND_POINTS),
-            "band_hz": (float(band_hz[0]), float(band_hz[1])), "residual": res}
+        e = tuned_residual(c, h_whole, whole, rate_hz, dc_gains=dc, n_points=N_WHOLE_POINTS)
+        res_whole[label] = {"rms": np.sqrt(np.mean(e * e, axis=1)), "max": np.max(np.abs(e), axis=1)}
+    gain = res["two_sample"]["rms"] - res["filter_tuned"]["rms"]
+    loss = res_whole["filter_tuned"]["rms"] - res_whole["two_sample"]["rms"]
+    out = {"coefficients": coef, "tuned_coefficients": coef,
+           "flat_coefficients": flat_coefficients(band_hz, rate_hz, N_BAND_POINTS),
+           "band_hz": (float(band_hz[0]), float(band_hz[1])), "residual": res, "whole_band_hz": whole,
+           "whole_band_residual": res_whole, "check": {"gain": gain, "loss": loss}, "fallback": None}
+    bad = np.nonzero(~(gain >= loss))[0]
+    if bad.size:
+        a = int(bad[np.argmax((loss - gain)[bad])])
+        out["coefficients"] = coefficient_matrix("two_sample")
+        out["fallback"] = "two_sample"
+        out["reason"] = (f"filter_tuned over {band_hz[0]:g}-{band_hz[1]:g} Hz is ill-conditioned for the filter "
+                         f"{name} (coefficients up to {np.max(np.abs(coef)):.3g}): about axis {'xyz'[a]} it removes "
+                         f"{gain[a]:.3g} of the coning rate in its band but leaves "
+                         f"{res_whole['filter_tuned']['rms'][a]:.3g} (two-sample {res_whole['two_sample']['rms'][a]:.3g}) "
+                         f"over 0-{0.5 * rate_hz:g} Hz; {name} navigates with two_sample")
+    return out
+
+
+def whole_band(rate_hz: float) -> tuple:
+    """The whole band of increments at ``rate_hz`` on which :func:`tuned_design` checks a design (Hz): from one
+    grid step above 0 to one grid step below the Nyquist (``tuned_residual`` needs ``0 < low < high < rate/2``)."""
+    step = 0.5 * float(rate_hz) / (N_WHOLE_POINTS + 1)
+    return (step, 0.5 * float(rate_hz) - step)
 
 
 def line_amplitudes(t_s, y, freqs_hz, trend: bool = False) -> list:

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import math
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -69,7 +70,7 @@ from sins_sim.simulation.aligning import AlignmentAccumulator, AlignmentSettings
 from sins_sim.simulation.channel import ChannelConfig, DriveControl
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
 from sins_sim.simulation.truth import MissionTruth
-from sins_sim.simulation.unit import AXES, SensorUnit
+from sins_sim.simulation.unit import AXES, SensorUnit, run_channels
 
 #: The coning/sculling choice whose coefficients are designed per filter (issue 28).
 TUNED = "filter_tuned"
@@ -590,6 +591,10 @@ def tuned_designs(imu: ImuConfig, filters, band_hz, key: str = "navigation.conin
     ``key`` is the setting that chose ``filter_tuned`` (``navigation.coning`` or ``navigation.sculling``), named
     when a filter cannot be designed for.
 
+    A design that is ill-conditioned for its filter (it adds more residual over the whole band than it removes in
+    its own: :func:`~sins_sim.simulation.responses.tuned_design`) is replaced by the two-sample coefficients, with
+    one :class:`UserWarning` line naming ``key``, the filter and the numbers.
+
     Raises
     ------
     ValueError
@@ -609,9 +614,11 @@ def tuned_designs(imu: ImuConfig, filters, band_hz, key: str = "navigation.conin
                              + (" (the LMS stripper adapts its gains as it runs)" if name == "lms_stripper" else "")
                              + ": choose another coning/sculling algorithm or leave it out of filters")
         try:
-            out[name] = tuned_design(imu.channels, name, band_hz, fs)
+            out[name] = tuned_design(run_channels(imu), name, band_hz, fs)
         except ValueError as exc:
             raise ValueError(f"{key}: {exc}") from None
+        if out[name]["fallback"]:  # ill-conditioned for this filter: it navigates with two_sample (one line)
+            warnings.warn(f"{key}: {out[name]['reason']}", UserWarning, stacklevel=2)
     return out
 
 

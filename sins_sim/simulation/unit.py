@@ -36,7 +36,7 @@ from sins_sim.models.block import BlockStep, coupled_dither_frequencies
 from sins_sim.navigation.attitude import dcm_from_quat, quat_from_rotvec, quat_multiply
 from sins_sim.simulation.channel import CORRECTING_FORMS, ChannelChain
 
-__all__ = ["SensorUnit", "SideBySide", "side_by_side", "drives_on_block", "apply_block_to_truth", "block_record",
+__all__ = ["SensorUnit", "SideBySide", "side_by_side", "drives_on_block", "run_channels", "apply_block_to_truth", "block_record",
            "block_base_excitation", "gyro_load_matrix", "BLOCK_KEYS", "AXES"]
 
 AXES = ("x", "y", "z")
@@ -66,7 +66,10 @@ class SensorUnit:
 
     def __init__(self, imu, seed: int, plugins=(), deflection: bool = False):
         self.block = imu.block
-        channels = imu.channels if imu.block is None else drives_on_block(imu)
+        channels = run_channels(imu)
+        #: each suspension's resonance at its dither amplitude on a rigid fixture (rad/s): the linearised coupled
+        #: model of the reported isolator modes (:func:`block_record`) and of the drives (:func:`drives_on_block`)
+        self._omega = [2.0 * math.pi * c.drive_signal().frequency_hz for c in imu.channels]
         self.chains = [ChannelChain(c, imu.drive_control, np.random.default_rng([seed, i]),
                                     np.random.default_rng([seed, i, 1]), plugins=plugins, axis=AXES[i],
                                     effects=imu.effects, deflection=deflection)
@@ -99,7 +102,14 @@ class SensorUnit:
 
     def record(self, k0: int, fs: float) -> dict | None:
         """``SinsResult.block``: what :meth:`keep` kept, from filter node ``k0`` (:func:`block_record`)."""
-        return block_record(self.block, self._rows, k0, fs)
+        return block_record(self.block, self._rows, k0, fs, self._omega)
+
+
+def run_channels(imu) -> list:
+    """The channels as the engine builds them: the IMU's own, or with a block each drive at its suspension's
+    resonance on the block (:func:`drives_on_block`). Every filter built on a drive (the eliminator's band, a
+    plug-in's ``dither_hz``) and every report of one takes its drive from here."""
+    return list(imu.channels) if getattr(imu, "block", None) is None else drives_on_block(imu)
 
 
 def drives_on_block(imu) -> list:
@@ -426,11 +436,15 @@ def block_base_excitation(angle, rate, angle_c, rate_c, gload):
 _LANE_ROWS = np.array([0, 0, 1, 1, 2, 2], dtype=np.int64)
 
 
-def block_record(block, rows, k0: int, fs: float) -> dict | None:
-    """:attr:`SinsResult.block` from the kept rows of the block's rotation (filter nodes ``k0 ..``)."""
+def block_record(block, rows, k0: int, fs: float, omega_rad_s=None) -> dict | None:
+    """:attr:`SinsResult.block` from the kept rows of the block's rotation (filter nodes ``k0 ..``).
+
+    ``isolator_modes_hz``: the modes of the linearised block with its gyros on their suspensions of resonance
+    ``omega_rad_s`` (3,; None: the gyros locked to the block), :meth:`~sins_sim.models.block.BlockParams.isolator_modes`:
+    the gyros' inertia included, as the coupled plant integrates it."""
     if block is None:
         return None
     theta = np.concatenate(rows) if rows else np.zeros((0, 3))
-    modes = [m for m in block.isolator_modes() if m[0] > 0.0]
+    modes = [m for m in block.isolator_modes(omega_rad_s) if m[0] > 0.0]
     return {"t_s": (k0 + np.arange(theta.shape[0])) / fs, "theta_rad": theta, "rate_hz": fs,
             "isolator_modes_hz": [float(f) for f, _ in modes], "isolator_damping": [float(z) for _, z in modes]}

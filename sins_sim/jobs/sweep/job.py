@@ -72,10 +72,38 @@ def _split_unit(key: str) -> tuple:
     return key, ""
 
 
+#: Unit suffixes of the block's keys (``sins_sim.config.block_schema``) and how a label writes them.
+_BLOCK_UNITS = {"kg": "kg", "kg_m2": "kg m^2", "n_per_m": "N/m", "n_s_per_m": "N s/m", "n_m_per_rad": "N m/rad",
+                "n_m_s_per_rad": "N m s/rad", "mm": "mm"}
+
+
+def _block_label(name: str) -> str:
+    """``block.isolators.stiffness_n_per_m.x`` -> ``block isolators stiffness, axis x (N/m)``; ``block.mass_kg`` ->
+    ``block mass (kg)``; ``block.inertia_kg_m2.xx`` -> ``block inertia, xx (kg m^2)``."""
+    parts = name.split(".")
+    last = parts[-1]
+    ax = None
+    if last in ("x", "y", "z", "xx", "yy", "zz"):
+        ax, parts = last, parts[:-1]
+    what = parts[-1]
+    for suffix in sorted(_BLOCK_UNITS, key=len, reverse=True):
+        if what.endswith("_" + suffix):
+            what, unit = what[: -len(suffix) - 1], _BLOCK_UNITS[suffix]
+            break
+    else:
+        unit = ""
+    head = " ".join(parts[:-1] + [what.replace("_", " ")])
+    where = "" if ax is None else (f", axis {ax}" if len(ax) == 1 else f", {ax}")
+    return f"{head}{where} ({unit})" if unit else f"{head}{where}"
+
+
 def parameter_label(name: str) -> str:
-    """Axis label (with unit) of a drawn parameter (``f0_ppm.x``, ``temperature_k``, ``gyro.bias_deg_h.x``)."""
+    """Axis label (with unit) of a drawn parameter (``f0_ppm.x``, ``temperature_k``, ``gyro.bias_deg_h.x``,
+    ``block.isolators.stiffness_n_per_m.x``)."""
     if name == "temperature_k":
         return "temperature offset from calibration (K)"
+    if name.startswith("block."):
+        return _block_label(name)
     key, _, ax = name.rpartition(".")
     if key in _PARAM_LABELS:
         return _PARAM_LABELS[key].format(ax=ax)

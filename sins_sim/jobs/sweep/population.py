@@ -12,10 +12,14 @@ IMU file the scenario names. :func:`apply_unit` turns them into the unit's true 
 * ``f0 = f0_file (1 + f0_ppm 1e-6)`` (or ``f0_file + f0_hz``), then ``f0 (1 + tc 1e-6 temperature_k)``;
 * ``k = k_file (1 + k_percent / 100)`` for k1..k5, where ``k_file`` is the channel's own value, else the
   shared ``suspension:`` value, else the IMU schema's default;
-* a sensor error with 1-sigma value ``sigma`` (per axis) becomes ``sigma z`` with the unit's score ``z``.
+* a sensor error with 1-sigma value ``sigma`` (per axis) becomes ``sigma z`` with the unit's score ``z``;
+* a block quantity (``population.block``, :data:`~sins_sim.config.sweep.BLOCK_SPREADS`) becomes
+  ``v_file (1 + p / 100)``, the elastic centre ``c_file + offset_mm``.
 
 The sweep's table (``param.*`` columns) holds every draw in the unit its name carries: the sensor errors as the
-values the run used (:func:`sensor_values`, ``param.gyro.bias_deg_h.x`` in deg/h), not the scores.
+values the run used (:func:`sensor_values`, ``param.gyro.bias_deg_h.x`` in deg/h), not the scores, and the block's
+as the values the run used under the IMU file's own key (:func:`block_values`,
+``param.block.isolators.stiffness_n_per_m.x`` in N/m, ``param.block.mass_kg`` in kg), not the percent drawn.
 """
 
 from __future__ import annotations
@@ -25,10 +29,10 @@ import zlib
 
 import numpy as np
 
-from sins_sim.config.sweep import SUSPENSION_KEYS
+from sins_sim.config.sweep import BLOCK_SPREADS, SUSPENSION_KEYS
 
-__all__ = ["AXES", "SENSOR_SIGMA_KEYS", "sigma_values", "draw_unit", "apply_unit", "sensor_values", "parameter_columns",
-           "grid_size"]
+__all__ = ["AXES", "SENSOR_SIGMA_KEYS", "sigma_values", "draw_unit", "apply_unit", "sensor_values", "block_values",
+           "table_parameters", "parameter_columns", "grid_size"]
 
 AXES = ("x", "y", "z")
 _MISALIGNMENT = ("xy", "xz", "yx", "yz", "zx", "zy")
@@ -40,7 +44,11 @@ SENSOR_SIGMA_KEYS = {
                       "misalignment_arcsec"),
 }
 #: Spreads drawn once per unit (the others once per channel).
-_PER_UNIT = ("temperature_k",)
+_PER_UNIT = ("temperature_k", "block.mass_percent")
+#: The block spreads drawn once per unit (their key in :data:`~sins_sim.config.sweep.BLOCK_SPREADS`).
+_PER_UNIT_BLOCK = ("mass_percent",)
+#: The inertia tensor's entries a per-axis draw of ``block.inertia_percent`` scales.
+_MOMENTS = ("xx", "yy", "zz")
 
 
 def _rng(seed: int, i: int, name: str) -> np.random.Generator:
@@ -173,6 +181,83 @@ def sensor_values(imu_doc: dict, unit: dict) -> dict:
     return out
 
 
+def _block_entry(block: dict, path: str):
+    """``(container, key)`` of the IMU block key ``path`` (``mass_kg``, ``isolators.stiffness_n_per_m``)."""
+    *parents, key = path.split(".")
+    node = block
+    for part in parents:
+        node = node.get(part) if isinstance(node, dict) else None
+    return (node, key) if isinstance(node, dict) else (None, key)
+
+
+def _block_draws(block: dict, unit: dict):
+    """``(spread key, IMU path, draw name, container, leaf key)`` of every block spread that ``unit`` draws and the
+    ``block:`` mapping holds (:data:`~sins_sim.config.sweep.BLOCK_SPREADS`)."""
+    for key, (path, _) in BLOCK_SPREADS.items():
+        name = f"block.{key}"
+        node, leaf = _block_entry(block, path)
+        drawn = name in unit if key in _PER_UNIT_BLOCK else any(f"{name}.{ax}" in unit for ax in AXES)
+        if node is not None and drawn:
+            yield key, path, name, node, leaf
+
+
+def _draw_block(block: dict, unit: dict) -> None:
+    """Apply the unit's block draws to the IMU file's ``block:`` mapping in place (module docstring). A key the
+    mapping does not hold, or holds as something other than numbers, is left for the IMU schema to name."""
+    for key, path, name, node, leaf in _block_draws(block, unit):
+        if key == "mass_percent":
+            if isinstance(node.get(leaf), (int, float)):
+                node[leaf] = float(node[leaf]) * (1.0 + 0.01 * unit[name])
+            continue
+        if key == "inertia_percent":
+            j = node.get(leaf)
+            if isinstance(j, dict):
+                for ax, m in zip(AXES, _MOMENTS):
+                    if isinstance(j.get(m), (int, float)):
+                        j[m] = float(j[m]) * (1.0 + 0.01 * unit[f"{name}.{ax}"])
+            continue
+        value = node.get(leaf, [0.0, 0.0, 0.0] if key == "elastic_centre_mm" else None)
+        try:
+            base = _per_axis(value, 3)
+        except (TypeError, ValueError):
+            continue
+        if key == "elastic_centre_mm":
+            node[leaf] = [b + unit[f"{name}.{ax}"] for b, ax in zip(base, AXES)]
+        else:
+            node[leaf] = [b * (1.0 + 0.01 * unit[f"{name}.{ax}"]) for b, ax in zip(base, AXES)]
+
+
+def block_values(imu_doc: dict, unit: dict) -> dict:
+    """The drawn block quantities of a unit's IMU mapping (:func:`apply_unit`'s result) in SI under the IMU file's
+    keys with their units: ``block.mass_kg``, ``block.inertia_kg_m2.xx``, ``block.gyro_inertia_kg_m2.x``,
+    ``block.isolators.stiffness_n_per_m.x``, ..., ``block.isolators.elastic_centre_mm.x``, for every block draw in
+    ``unit``."""
+    block = imu_doc.get("block") if isinstance(imu_doc.get("block"), dict) else {}
+    out = {}
+    for key, path, name, node, leaf in _block_draws(block, unit):
+        if key == "mass_percent":
+            out[f"block.{path}"] = float(node[leaf])
+            continue
+        if key == "inertia_percent":
+            out.update({f"block.{path}.{m}": float(node[leaf][m]) for ax, m in zip(AXES, _MOMENTS)
+                        if f"{name}.{ax}" in unit})
+            continue
+        values = _per_axis(node.get(leaf), 3)
+        out.update({f"block.{path}.{ax}": float(v) for ax, v in zip(AXES, values) if f"{name}.{ax}" in unit})
+    return out
+
+
+def table_parameters(imu_doc: dict, unit: dict) -> dict:
+    """The ``param.*`` values of a unit's run (without the prefix), each in the unit its name carries: the draws
+    stored as offsets in their own units (``f0_ppm.x``, ``k3_percent.y``, ``temperature_k``), the sensor errors
+    (:func:`sensor_values`) and the block's quantities (:func:`block_values`) as the values the run used."""
+    params = {k: v for k, v in unit.items() if k != "run_seed" and not k.startswith("block.")}
+    if any(k.startswith(("gyro.", "accelerometer.")) for k in unit):
+        params.update(sensor_values(imu_doc, unit))
+    params.update(block_values(imu_doc, unit))
+    return params
+
+
 def apply_unit(imu_doc: dict, unit: dict, filter_parameters="true", sensors: dict | None = None,
                draw_sensors: bool = False) -> dict:
     """The IMU mapping of one unit: ``imu_doc`` (as read from the IMU file) with the unit's draws applied.
@@ -218,6 +303,8 @@ def apply_unit(imu_doc: dict, unit: dict, filter_parameters="true", sensors: dic
                 sus[yaml_key] = float(base) * (1.0 + 0.01 * unit[f"{key}.{ax}"])
             if sus:
                 ch["suspension"] = sus
+    if isinstance(doc.get("block"), dict) and any(k.startswith("block.") for k in unit):
+        _draw_block(doc["block"], unit)
     if sensors is not None:
         doc["sensors"] = copy.deepcopy(sensors)
     if draw_sensors:

@@ -27,12 +27,15 @@ from sins_sim.config.errors import ConfigError
 from sins_sim.results.sweep import HEADLINE_METRICS, METRICS  # the table's columns, defined with its object
 
 __all__ = ["package_version", "Task", "build_tasks", "estimated_run_s", "TASK_FIXED_S", "run_task", "run_key", "flatten_metrics", "METRICS",
-           "HEADLINE_METRICS", "ID_COLUMNS", "PARAM_PREFIX"]
+           "HEADLINE_METRICS", "ID_COLUMNS", "PARAM_PREFIX", "BLOCK_MODE_PREFIX"]
 
 #: Columns that name a run (before the drawn parameters and the metrics).
 ID_COLUMNS = ("key", "scenario", "scenario_index", "unit", "seed")
 #: Prefix of the drawn-parameter columns (``param.f0_ppm.x``).
 PARAM_PREFIX = "param."
+#: Columns of a unit with a block: its isolator modes, ascending (``block.isolator_mode_hz.1`` .. ``.6``, Hz; the
+#: gyros' inertia included, :meth:`sins_sim.models.block.BlockParams.isolator_modes`).
+BLOCK_MODE_PREFIX = "block.isolator_mode_hz."
 _NED = ("north", "east", "down")
 
 
@@ -180,7 +183,7 @@ def _population_error(sweep, base: dict, unit: dict, i: int, preset, rule: str) 
         group = (key,)
         if key in _TOGETHER:  # they act only together: f0 (1 + tc 1e-6 dT)
             group = _TOGETHER
-        cols = {c: v for c, v in unit.items() if c.split(".")[0] in group}
+        cols = {c: v for c, v in unit.items() if any(c == g or c.startswith(g + ".") for g in group)}
         if not refused(cols):
             continue
         if spec["distribution"] == "grid":
@@ -212,7 +215,7 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
         One line naming the file, the unit and the key when a scenario or a unit's drawn IMU breaks a rule.
     """
     from sins_sim.config.imu import IMU_SCHEMA, imu_from_dict, load_yaml
-    from sins_sim.jobs.sweep.population import apply_unit, draw_unit, sensor_values
+    from sins_sim.jobs.sweep.population import apply_unit, draw_unit, table_parameters
 
     if sweep.filter_parameters not in ("true", True) and "filter_parameters" not in IMU_SCHEMA.fields:
         raise ConfigError(f"{sweep.ctx}: filter_parameters: {sweep.filter_parameters!r} needs the IMU key "
@@ -231,6 +234,12 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
     if sweep.sensors["draw"]:
         for j, base in enumerate(bases):
             _check_sensor_draw(sweep, j, base, preset)
+    block_keys = [k for k in sweep.spreads if k.startswith("block.")]
+    for j, base in enumerate(bases):  # a block spread on an IMU without a block would draw nothing
+        if block_keys and not isinstance((base["imu_doc"] or {}).get("block"), dict):
+            raise ConfigError(f"{sweep.ctx}: population.{block_keys[0]}: scenarios[{j}] ({base['label']}) runs "
+                              f"{base['imu_ctx']}, which has no block: section, so the block spreads draw nothing "
+                              f"there: give that scenario an IMU with a block or remove population.block")
     tasks = []
     checked: dict = {}
     for i in (range(sweep.units) if units is None else units):
@@ -256,9 +265,9 @@ def build_tasks(sweep, units=None) -> tuple[list, list]:
             if base["files"]:  # a trajectory file enters the key by its content, not by where it lies
                 keyed = {**doc, "trajectory": {**doc["trajectory"], "file": "(content)"}}
             key = run_key(keyed, base["files"], package_version(), {"unit": i, "scenario": base["label"]})
-            params = {k: v for k, v in unit.items() if k != "run_seed"}
-            if sweep.sensors["draw"]:  # the sensor errors in their units (the scores are the same unit's draws)
-                params.update(sensor_values(imu_doc, unit))
+            # every column in the unit its name carries: the sensor errors and the block's quantities as the values
+            # the run used (not their scores or percent draws)
+            params = table_parameters(imu_doc, unit)
             tasks.append(Task(key=key, unit=i, scenario=base["label"],
                               scenario_index=j, seed=seed, params=params,
                               doc=doc, ctx=f"{base['path']} (unit {i})", base_dir=str(base["path"].parent),
@@ -308,7 +317,8 @@ def run_task(spec: dict) -> dict:
     """Run one task on a worker: the scenario through the INS loop, one thread; one flat row.
 
     The row holds :data:`ID_COLUMNS`, the drawn parameters (``param.*``), ``<filter>.<metric>`` for every
-    filter and :data:`METRICS` entry, ``<filter>.status``, and ``wall_s``, ``worker`` and ``warnings``
+    filter and :data:`METRICS` entry, ``<filter>.status``, with a block its isolator modes
+    (:data:`BLOCK_MODE_PREFIX`), and ``wall_s``, ``worker`` and ``warnings``
     (the run's warnings, one per line). Raises what the run raises (the client records it).
     """
     import os
@@ -340,6 +350,8 @@ def run_task(spec: dict) -> dict:
            "unit": spec["unit"], "seed": spec["seed"]}
     row.update({PARAM_PREFIX + k: float(v) for k, v in spec["params"].items()})
     row.update(flatten_metrics(filters, gyro_rms))
+    if res.block is not None:  # the unit's own mount: its modes move with the drawn masses and stiffnesses
+        row.update({f"{BLOCK_MODE_PREFIX}{k + 1}": float(f) for k, f in enumerate(res.block["isolator_modes_hz"])})
     lines = format_warning_lines([*res.warnings, *caught], prefix="")
     row.update({"wall_s": time.perf_counter() - t0, "worker": f"{socket.gethostname()}:{os.getpid()}",
                 "warnings": "\n".join(lines)})
