@@ -466,6 +466,11 @@ class AidedRun:
         return self._big_t
 
     @property
+    def unaided_bias_sigma(self) -> np.ndarray:
+        """1-sigma the six bias states (gyro xyz, accel xyz) would have with no measurement (the prior, carried)."""
+        return self._aided.unaided_bias_sigma
+
+    @property
     def n_epochs(self) -> int:
         """Epochs recorded so far."""
         return len(self._rec["t"])
