@@ -15,8 +15,8 @@ stated sigma). The initial covariance: position the fixes' own 1-sigma (white an
 fixes' velocity sigma, attitude the alignment's sigma (a truth start: the floors of a fine alignment, 10 arcsec of
 tilt and 0.01 deg of heading), biases the unit's bias sigmas.
 
-What is kept: per filter the epochs of the run (every applied update, one per second, and the times into each
-outage that the outage growth reads), the truth at those epochs, and until the end of the run the filter's
+What is kept: per filter the epochs of the run (every applied update, one per second where no fix comes for longer
+than that, the times into each outage that the outage growth reads, the start and the end), the truth at those epochs, and until the end of the run the filter's
 ``(K, 15, 15)`` transition and covariance matrices (three of them per epoch, 5.4 kB; 27 kB per simulated second
 at 5 Hz); once the metrics, the outage growth and the smoother are computed they are dropped, and the kept
 :class:`~sins_sim.navigation.aided.AidedResult` carries ``(0, 15, 15)`` in their place.
@@ -195,8 +195,14 @@ class AidedMission:
     # --- one filter ---------------------------------------------------------------------------------------------
 
     def output_times(self, t0_s, t_end_s):
-        """The run's epochs besides the updates: every :data:`OUTPUT_PERIOD_S` and the outage growth's times."""
-        out = list(np.arange(t0_s, t_end_s + 1e-9, OUTPUT_PERIOD_S))
+        """The run's epochs besides the updates: the start and the end, every :data:`OUTPUT_PERIOD_S` where no fix
+        is applied for longer than that (the outages; the updates are epochs of their own), and the outage
+        growth's times."""
+        grid = np.arange(t0_s, t_end_s + 1e-9, OUTPUT_PERIOD_S)
+        td = np.concatenate([[t0_s], np.sort(self.t_deliver_s), [np.inf]])
+        k = np.searchsorted(td, grid, side="right")          # the last delivery at or before each grid time ...
+        gap = td[np.minimum(k, td.size - 1)] - td[k - 1]     # ... and the gap it opens
+        out = [t0_s, t_end_s] + list(grid[gap > OUTPUT_PERIOD_S * (1.0 + 1e-9)])
         big_t = self.n_sub / self.fs
         for start, _ in self.outages_s:
             before = np.flatnonzero(self.t_valid_s < start)
