@@ -199,3 +199,21 @@ def test_aided_figures_are_written_when_the_plotting_module_is_there(mission, tm
     res, _ = mission
     names = aided_figures(res, tmp_path, "aided")
     assert "aided_outage_growth.png" in names and all((tmp_path / n).is_file() for n in names)
+
+
+def test_a_run_with_a_gnss_file_copies_it_into_its_inputs(tmp_path):
+    """``inputs/`` holds the GNSS file and ``inputs/scenario.yaml`` names the copy (and builds the same aiding)."""
+    from sins_sim.io.gnss_file import write_gnss_file
+    from sins_sim.jobs.manifest import Manifest, record_run
+
+    t = np.arange(0.0, 15.0, 0.2)
+    write_gnss_file(tmp_path / "fix.csv", t, np.full(t.shape, math.radians(47.0)), np.full(t.shape, 0.14),
+                    np.full(t.shape, 400.0))
+    doc = _doc(duration_s=14.0, outages_s=[], file=str(tmp_path / "fix.csv"), measurements=["position"])
+    sc = load_scenario(doc, base_dir=ROOT)
+    out = tmp_path / "run"
+    record_run(Manifest("run"), sc, doc, None, out)
+    assert (out / "inputs" / "gnss.csv").read_bytes() == (tmp_path / "fix.csv").read_bytes()
+    again = load_scenario(out / "inputs" / "scenario.yaml")
+    assert again.nav.aiding == sc.nav.aiding
+    np.testing.assert_array_equal(again.nav.aiding.file.t_s, sc.nav.aiding.file.t_s)
