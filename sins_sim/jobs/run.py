@@ -825,8 +825,9 @@ def _aided_report(metrics: dict) -> list:
              f"{', '.join(a.get('measurements', []))}; outages {a.get('outages_s', [])} s). Errors over the "
              "filter's epochs against the truth; the outage growth is the horizontal error at the times into the "
              "outage against the filter's own predicted 1-sigma; the bias estimates are the last epoch's, against the "
-             "bias the filter's increments carry (the unit's fixed and turn-on bias plus what the dither filter adds "
-             "at DC, the slope of its gyro-angle error over ideal's).", "",
+             "bias the filter's increments carry (gyros: the unit's fixed and turn-on bias plus what the dither filter "
+             "adds at DC, the slope of its gyro-angle error over ideal's; accelerometers: the slope of their "
+             "accumulated error, bias plus scale factor and misalignment times the specific force).", "",
              "| filter | horizontal RMS (m) | velocity RMS (m/s) | attitude RMS N, E, D (arcsec) | outage error at "
              "60 s (m) | predicted sigma 60 s (m) | gyro bias est. x, y, z (deg/h) | true (deg/h) | sigma (deg/h) | "
              "NEES pos/vel/att within 95 % |", "|---|---|---|---|---|---|---|---|---|---|"]
@@ -903,6 +904,11 @@ def _aided_findings(metrics: dict, aided: dict) -> list:
             f"epochs, one run); mean NIS position {_fmt(ref.get('nis_position_mean'))} in "
             f"[{_fmt(ref.get('nis_position_bound_low'))}, {_fmt(ref.get('nis_position_bound_high'))}] "
             f"(n = {ref.get('nis_position_n', 0)})."]
+    az, az_t, az_s = (ref.get(f"accel_bias_{k}_z_ug") for k in ("estimate", "true", "sigma"))
+    if az_t is not None and az_s:
+        cons.append(f" The vertical accelerometer bias (observable through the fixes' height): `ideal`'s estimate "
+                    f"{az:.3g} ug against the {az_t:.3g} ug its increments carry, sigma {az_s:.2g} ug "
+                    f"({abs(az - az_t) / az_s:.1f} sigma).")
     gm = max(metrics.get("aiding", {}).get("markov_sigma_m") or [0.0])
     if gm > 0.0:
         cons.append(f" The fixes carry a Gauss-Markov error of up to {gm:g} m (1 sigma) that the 15-state filter "
