@@ -217,3 +217,31 @@ def test_a_run_with_a_gnss_file_copies_it_into_its_inputs(tmp_path):
     again = load_scenario(out / "inputs" / "scenario.yaml")
     assert again.nav.aiding == sc.nav.aiding
     np.testing.assert_array_equal(again.nav.aiding.file.t_s, sc.nav.aiding.file.t_s)
+
+
+def test_mission_result_tables_carry_the_aided_runs(mission, tmp_path):
+    """``to_pandas()`` ``aided_<filter>`` and ``to_xarray()`` ``aided_error`` hold the engine's errors and sigmas
+    (converted to the columns' units), in memory and from a saved folder."""
+    from sins_sim.jobs.notebook import run
+    from sins_sim.results.mission import MissionResult
+    from sins_sim.units import ARCSEC
+
+    res, metrics = mission
+    mr = MissionResult(load_scenario(_doc(filters=("ideal", "eliminator")), base_dir=ROOT), metrics, res)
+    frames = mr.to_pandas()
+    a = res.aided["eliminator"]
+    df = frames["aided_eliminator"]
+    np.testing.assert_array_equal(df.index.to_numpy(), a["result"].t_s)
+    np.testing.assert_array_equal(df["north_m"].to_numpy(), a["errors"][:, 0])
+    np.testing.assert_array_equal(df["psi_down_arcsec"].to_numpy(), a["errors"][:, 8] / ARCSEC)
+    np.testing.assert_array_equal(df["sigma_ve_m_s"].to_numpy(), a["result"].sigma[:, 4])
+    # from a folder: the same tables out of timeseries.npz
+    doc = _doc(duration_s=8.0, outages_s=[])
+    saved = run(doc).save(tmp_path / "run")
+    from sins_sim import load
+
+    back = load(saved)
+    ds = back.to_xarray()
+    t = back.to_pandas()["aided_ideal"]
+    np.testing.assert_array_equal(ds["aided_error"].sel(filter="ideal", aided_state="east_m").dropna("time_aided")
+                                  .to_numpy(), t["east_m"].to_numpy())

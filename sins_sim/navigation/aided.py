@@ -513,9 +513,13 @@ class AidedRun:
         return self._upd_sum[k] / self._big_t
 
     def feed(self, dtheta, dv) -> None:
-        """Navigate a chunk of increments (raw; ``(n, 3)`` each), handling every epoch they reach."""
-        dth = _increments("dtheta", dtheta)
-        dvel = _increments("dv", dv)
+        """Navigate a chunk of increments (raw; ``(n, 3)`` each), handling every epoch they reach.
+
+        (Their values are checked where they are navigated, :meth:`AidedNavigator.process`; here their shapes.)"""
+        dth = np.asarray(dtheta, dtype=np.float64)
+        dvel = np.asarray(dv, dtype=np.float64)
+        if dth.ndim != 2 or dth.shape[1] != 3:
+            raise ValueError(f"dtheta: must have shape (n, 3), got {dth.shape}")
         if dvel.shape != dth.shape:
             raise ValueError(f"dv: must have the shape of dtheta {dth.shape}, got {dvel.shape}")
         self._pend_th = np.concatenate([self._pend_th, dth])
