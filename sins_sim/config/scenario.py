@@ -375,6 +375,7 @@ SCENARIO_SCHEMA = Map({
                           "the stored series and spectra must fit in memory (checked with the run's estimate)")),
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
     "temperature": TEMPERATURE_SCHEMA,
+    "aiding": None,  # AIDING_SCHEMA, set below
 }, rules=("the run's estimated wall time must be <= 48 h (sins_sim.jobs.estimate; shown before the run starts)",))
 
 
@@ -427,6 +428,52 @@ class _FilterParameters:
         _fparams.parse_filter_parameters(value, ctx, path)
         return value
 
+
+#: The fix components the aided filter can apply (``sins_sim.navigation.aided.GNSS_MEASUREMENTS``, written here so
+#: that loading a scenario does not import the navigation package; tests/test_mission_aided.py checks they agree).
+AIDING_MEASUREMENTS = ("position", "velocity")
+_SIG3 = dict(min=0.0, min_exclusive=True, max=1.0e4)
+AIDING_SCHEMA = Map({
+    "rate": Num(unit="hz", min=0.0, min_exclusive=True, max=100.0, default=1.0,
+                doc="GNSS fix rate; must divide readout.output_rate_hz into whole samples (the fixes are the "
+                    "truth at filter samples); with file: the rate the file's rows are taken at (its own times)"),
+    "latency": Num(unit="s", min=0.0, max=10.0, default=0.0,
+                   doc="delay from a fix's time of validity to its delivery; the filter applies it against its "
+                       "solution at the time of validity"),
+    "lever_arm": Vec(3, unit="m", min=-100.0, max=100.0, default=[0.0, 0.0, 0.0],
+                     doc="antenna position from the IMU, body axes x, y, z"),
+    "position_sigma": Vec(3, unit="m", **_SIG3, default=[1.0, 1.0, 2.0],
+                          doc="white position noise 1-sigma north, east, down (with file: the file's accuracy, "
+                              "the filter's R)"),
+    "velocity_sigma": Vec(3, unit="m_s", **_SIG3, default=[0.05, 0.05, 0.1],
+                          doc="white velocity noise 1-sigma north, east, down (with file: its accuracy)"),
+    "markov_sigma": Vec(3, unit="m", min=0.0, max=1.0e4, default=[0.0, 0.0, 0.0],
+                        doc="stationary 1-sigma of the first-order Gauss-Markov position error NED (atmosphere, "
+                            "multipath; 0: none); simulated fixes only"),
+    "markov_tau": Num(unit="s", min=0.0, min_exclusive=True, max=1.0e6, default=300.0,
+                      doc="correlation time of the Gauss-Markov error; simulated fixes only"),
+    "outages_s": ListOf(Vec(2, unit=None, min=0.0, max=MAX_DURATION_S), default=[], max_len=10000,
+                        doc="[[start_s, end_s], ...]: no fix valid in [start, end) (s); start < end, within "
+                            "(navigation.start_s, duration_s)"),
+    "measurements": ListOf(Str(choices=AIDING_MEASUREMENTS), default=list(AIDING_MEASUREMENTS), min_len=1,
+                           max_len=2, doc="the fix components the filter applies (plug-in names)"),
+    "update_rate": Num(unit="hz", min=0.0, min_exclusive=True, max=100.0, default=None,
+                       doc="the filter's measurement update rate: every rate_hz / update_rate_hz-th fix is applied "
+                           "(a whole number) and the covariance is propagated once per update interval; default: "
+                           "rate_hz"),
+    "feedback": Bool(default=True, doc="closed loop (corrections fed back to the navigator) or open loop"),
+    "smoother": Bool(default=False, doc="also run the Rauch-Tung-Striebel fixed-interval smoother"),
+    "file": Str(default="", doc="a recorded GNSS solution instead of simulated fixes (CSV or Parquet: time_s, "
+                                "lat_deg, lon_deg, height_m, optional vn_m_s, ve_m_s, vd_m_s), relative to the "
+                                "scenario; it must cover navigation.start_s to duration_s"),
+}, default=None, allow_null=True,
+    doc="GNSS aiding: each filter's increments also navigated by a 15-state error-state Kalman filter with the "
+        "same fixes (absent: free navigation only)",
+    rules=("rate_hz divides readout.output_rate_hz (simulated fixes); update_rate_hz divides rate_hz",
+           "markov_sigma_m and markov_tau_s describe simulated fixes: refused with file",
+           "velocity in measurements needs the file's velocity columns",
+           "outages lie within (navigation.start_s, duration_s); a file covers navigation.start_s to duration_s"))
+SCENARIO_SCHEMA.fields["aiding"] = AIDING_SCHEMA
 
 SCENARIO_SCHEMA.fields["imu"] = _Any()
 SCENARIO_SCHEMA.fields["filter_parameters"] = _FilterParameters()
@@ -549,6 +596,9 @@ class Scenario:
         if c["trajectory"]["file"]:  # the mission starts where the file does: the site is its first row
             self.site = _site_of(self.vehicle)
         _check_at_rest_for_alignment(self.nav, self.vehicle, ctx)
+        if c["aiding"] is not None:
+            self.nav = dataclasses.replace(self.nav, aiding=_aiding_settings(doc.get("aiding") or {}, c["aiding"],
+                                                                             self, base_dir, ctx, duration_key))
         self.events = _events(c["motion"], self.vehicle)
         self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.vibration_enters = c["vibration_enters"]
@@ -559,6 +609,60 @@ class Scenario:
                            + advisories.online_on_block_advisories(self.imu))
         for msg in self.advisories:
             warnings.warn(msg, UserWarning, stacklevel=2)
+
+
+def _aiding_settings(written: dict, a: dict, sc, base_dir, ctx, duration_key) -> object:
+    """``aiding`` -> AidingSettings; what cannot compose is refused naming both keys."""
+    from sins_sim.navigation.gnss import GnssSettings
+    from sins_sim.simulation.aiding import AidingSettings
+
+    fs = sc.imu.filter_rate_hz
+    start, dur = sc.nav.start_s, sc.duration_s
+    rate = a["rate_hz"]
+    upd = rate if a["update_rate_hz"] is None else a["update_rate_hz"]
+    if upd > rate * (1.0 + 1e-12) or abs(rate / upd - round(rate / upd)) > 1e-9 * rate / upd:
+        raise ConfigError(f"{ctx}: aiding.update_rate_hz: must divide aiding.rate_hz = {rate:g} Hz into a whole "
+                          f"number of fixes per update, got {upd:g}")
+    for i, w in enumerate(a["outages_s"]):
+        if not w[0] < w[1]:
+            raise ConfigError(f"{ctx}: aiding.outages_s[{i}]: must be [start_s, end_s] with start < end, got {w}")
+        if not (start < w[0] and w[1] <= dur):
+            raise ConfigError(f"{ctx}: aiding.outages_s[{i}]: {w} must lie within navigation.start_s = {start:g} s "
+                              f"(an update must come before it) and {duration_key} = {dur:g} s")
+    data = None
+    if a["file"]:
+        for key in ("markov_sigma_m", "markov_tau_s"):
+            if key in written:
+                raise ConfigError(f"{ctx}: aiding.{key}: describes simulated fixes and would be ignored beside "
+                                  f"aiding.file (a recorded solution carries its own errors): remove one of them")
+        from sins_sim.io.gnss_file import read_gnss_file
+
+        path = (Path(base_dir) / a["file"]).resolve()
+        try:
+            data = read_gnss_file(path)
+        except ValueError as exc:
+            raise ConfigError(f"{ctx}: aiding.file: {exc}") from None
+        if "velocity" in a["measurements"] and data.v_ned_m_s is None:
+            raise ConfigError(f"{ctx}: aiding.measurements: velocity needs the velocity columns (vn_m_s, ve_m_s, "
+                              f"vd_m_s) of aiding.file ({a['file']}), which has none: use measurements: [position]")
+        if not (data.t_s[0] <= start and data.t_s[-1] >= dur - 1.0 / rate):
+            raise ConfigError(f"{ctx}: aiding.file: its fixes span {data.t_s[0]:g} to {data.t_s[-1]:g} s and must "
+                              f"cover navigation.start_s = {start:g} s to {duration_key} = {dur:g} s")
+    else:
+        ratio = fs / rate
+        if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
+            raise ConfigError(f"{ctx}: aiding.rate_hz: must divide the filter rate readout.output_rate_hz = {fs:g} Hz "
+                              f"into whole samples (a fix is the truth at a filter sample), got {rate:g}")
+    try:
+        gnss = GnssSettings(rate_hz=rate, position_sigma_m=tuple(a["position_sigma_m"]),
+                            velocity_sigma_m_s=tuple(a["velocity_sigma_m_s"]),
+                            markov_sigma_m=tuple(a["markov_sigma_m"]), markov_tau_s=a["markov_tau_s"],
+                            latency_s=a["latency_s"], lever_arm_b_m=tuple(a["lever_arm_m"]),
+                            outages_s=tuple(tuple(w) for w in a["outages_s"]))
+    except ValueError as exc:
+        raise ConfigError(f"{ctx}: aiding: {exc}") from None
+    return AidingSettings(gnss=gnss, measurements=tuple(dict.fromkeys(a["measurements"])), update_rate_hz=upd,
+                          feedback=a["feedback"], smoother=a["smoother"], file=data)
 
 
 def _alignment_settings(spec: dict, imu):

@@ -298,7 +298,7 @@ def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> di
     dict
         ``scenario`` and ``imu`` (documents that load to the same run: ``scenario.imu`` is ``imu.yaml``,
         ``trajectory.file`` and ``filter_parameters.file`` name the copies), ``files`` (role -> the original
-        path: scenario, imu, trajectory, diagnosis) and ``copies`` (role -> the copy's name in ``inputs/``).
+        path: scenario, imu, trajectory, diagnosis, gnss) and ``copies`` (role -> the copy's name in ``inputs/``).
     """
     from sins_sim.config.imu import IMU_SCHEMA, load_yaml
     from sins_sim.config.scenario import SCENARIO_SCHEMA, scenario_document
@@ -353,6 +353,13 @@ def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> di
         doc["trajectory"] = {k: v for k, v in dict(traj, file=copies["trajectory"]).items()
                              if k not in ("segments", "speed_m_s", "transition_s")}
         doc.pop("site", None)
+    aid = doc.get("aiding") or {}
+    if aid.get("file"):  # a recorded GNSS solution: copied; the simulated fixes' error keys are refused beside it
+        gpath = (base / aid["file"]).resolve()
+        files["gnss"] = gpath
+        copies["gnss"] = "gnss" + gpath.suffix
+        doc["aiding"] = {k: v for k, v in dict(aid, file=copies["gnss"]).items()
+                         if k not in ("markov_sigma_m", "markov_tau_s")}
     return {"scenario": doc, "imu": imu_doc, "files": files, "copies": copies}
 
 
@@ -390,7 +397,7 @@ def record_run(manifest: Manifest, scenario, path, overrides: dict | None, folde
     note = "written by sins-sim run: the {} as run, every default filled in (sins-sim run --rerun reads it)"
     (inputs / res["copies"]["scenario"]).write_text(_dump_yaml(res["scenario"], note.format("scenario")))
     (inputs / res["copies"]["imu"]).write_text(_dump_yaml(res["imu"], note.format("IMU")))
-    for role in ("trajectory", "diagnosis"):
+    for role in ("trajectory", "diagnosis", "gnss"):
         if role in res["copies"]:
             shutil.copyfile(res["files"][role], inputs / res["copies"][role])
     for role, original in res["files"].items():

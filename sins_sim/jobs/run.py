@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sins_sim.units import ARCMIN, ARCSEC
+from sins_sim.units import ARCMIN, ARCSEC, DEG_PER_H, MICRO_G
 
 __all__ = ["run_scenario", "prepare_run", "compute_run", "write_run", "timeseries_arrays", "scenario_metrics", "excess_over_ideal", "NMI_M", "CEP_RATE_MIN_S", "DEFINITIONS"]
 
@@ -130,6 +130,8 @@ def scenario_metrics(res, scenario) -> dict:
             m["allan"] = {ax: a.to_dict() for ax, a in res.allan[name].items()}
         if name in getattr(res, "filter_reports", {}):  # a plug-in's account of itself (lms_stripper: gains, convergence)
             m["filter_report"] = res.filter_reports[name]
+        if name in getattr(res, "aided", {}):
+            m["aided"] = aided_metrics(res.aided[name])
         if name in getattr(res, "alignments", {}):
             m["alignment"] = alignment_metrics(res.alignments[name])
             if "linear_model" in m:
@@ -149,6 +151,92 @@ def alignment_metrics(entry: dict) -> dict:
     return {**res.to_dict(), "error_tilt_north_arcsec": float(err[0] / ARCSEC),
             "error_tilt_east_arcsec": float(err[1] / ARCSEC), "error_heading_deg": float(np.degrees(err[2])),
             "error_over_sigma_ned": over}
+
+
+_XYZ = ("x", "y", "z")
+
+
+def aided_metrics(entry: dict) -> dict:
+    """One filter's aided navigation in ``metrics.json`` (flat keys, units in the names; a sweep aggregates them).
+
+    Errors over the filter's epochs (every update, every second, the outage growth's times) against the truth;
+    the outage growth per outage ``i`` at 10, 30, 60 and 120 s into it with the filter's closed-form predicted
+    sigma; the final bias estimates against the biases the filter's increments carry (:func:`~sins_sim.simulation.
+    aiding.true_biases`) with their sigmas; the mean NIS per measurement with its chi-square 95 % bounds for the
+    mean of ``n`` values (independent innovations assumed); NEES per 3-state block: the fraction of epochs inside
+    the per-epoch chi-square(3) 95 % interval, and its mean, with ``n``.
+    """
+    from scipy.stats import chi2
+
+    res, err = entry["result"], entry["errors"]
+    out = {"epochs_n": int(len(res))}
+    hor = np.hypot(err[:, 0], err[:, 1])
+    vel = np.linalg.norm(err[:, 3:6], axis=1)
+    out["horizontal_position_error_rms_m"] = float(np.sqrt(np.mean(hor ** 2)))
+    upd = res.updated if np.any(res.updated) else np.ones(len(res), dtype=bool)
+    out["horizontal_position_sigma_median_m"] = float(np.median(np.hypot(res.sigma[upd, 0], res.sigma[upd, 1])))
+    out["horizontal_position_error_max_m"] = float(np.max(hor))
+    out["vertical_position_error_rms_m"] = float(np.sqrt(np.mean(err[:, 2] ** 2)))
+    out["velocity_error_rms_m_s"] = float(np.sqrt(np.mean(vel ** 2)))
+    out["velocity_error_max_m_s"] = float(np.max(vel))
+    for i, ax in enumerate(_NED):
+        a = err[:, 6 + i] / ARCSEC
+        out[f"attitude_error_rms_{ax}_arcsec"] = float(np.sqrt(np.mean(a ** 2)))
+        out[f"attitude_error_max_{ax}_arcsec"] = float(np.max(np.abs(a)))
+    for i, g in enumerate(entry["growth"]):
+        out[f"outage{i + 1}_start_s"], out[f"outage{i + 1}_end_s"] = (float(x) for x in g.window_s)
+        for a, e, sgm in zip(g.after_s, g.error_m, g.predicted_sigma_m):
+            out[f"outage{i + 1}_horizontal_error_{a:g}s_m"] = None if not np.isfinite(e) else float(e)
+            out[f"outage{i + 1}_predicted_sigma_{a:g}s_m"] = None if not np.isfinite(sgm) else float(sgm)
+    tb = entry["true_bias"]
+    sig = res.sigma[-1]
+    for i, ax in enumerate(_XYZ):
+        out[f"gyro_bias_estimate_{ax}_deg_h"] = float(res.gyro_bias_rad_s[-1, i] / DEG_PER_H)
+        out[f"gyro_bias_sigma_{ax}_deg_h"] = float(sig[9 + i] / DEG_PER_H)
+        out[f"gyro_bias_prior_sigma_{ax}_deg_h"] = float(entry["unaided_bias_sigma"][i] / DEG_PER_H)
+        out[f"accel_bias_estimate_{ax}_ug"] = float(res.accel_bias_m_s2[-1, i] / MICRO_G)
+        out[f"accel_bias_sigma_{ax}_ug"] = float(sig[12 + i] / MICRO_G)
+        if tb is not None:
+            out[f"gyro_bias_true_{ax}_deg_h"] = float(tb["gyro_rad_s"][i] / DEG_PER_H)
+            out[f"accel_bias_true_{ax}_ug"] = float(tb["accel_m_s2"][i] / MICRO_G)
+    for name in ("position", "velocity"):
+        nis = res.nis[res.innovation_name == name]
+        n = int(nis.size)
+        out[f"nis_{name}_n"] = n
+        if n:
+            out[f"nis_{name}_mean"] = float(np.mean(nis))
+            out[f"nis_{name}_bound_low"] = float(chi2.ppf(0.025, 3 * n) / n)
+            out[f"nis_{name}_bound_high"] = float(chi2.ppf(0.975, 3 * n) / n)
+    lo, hi = chi2.ppf(0.025, 3), chi2.ppf(0.975, 3)
+    for name, val in entry["nees"].items():
+        ok = np.isfinite(val)
+        n = int(np.count_nonzero(ok))
+        out[f"nees_{name}_n"] = n
+        if n:
+            out[f"nees_{name}_mean"] = float(np.mean(val[ok]))
+            out[f"nees_{name}_within_95_fraction"] = float(np.mean((val[ok] >= lo) & (val[ok] <= hi)))
+    sm = entry.get("smoothed")
+    if sm is not None:
+        e = sm["errors"]
+        out["smoothed_horizontal_position_error_rms_m"] = float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2)))
+        out["smoothed_velocity_error_rms_m_s"] = float(np.sqrt(np.mean(np.sum(e[:, 3:6] ** 2, axis=1))))
+        for i, ax in enumerate(_NED):
+            out[f"smoothed_attitude_error_rms_{ax}_arcsec"] = float(np.sqrt(np.mean(e[:, 6 + i] ** 2)) / ARCSEC)
+    return out
+
+
+def aiding_section(scenario) -> dict | None:
+    """``metrics.json`` ``aiding``: the receiver and the filter as run (SI, units in the names)."""
+    a = getattr(scenario.nav, "aiding", None)
+    if a is None:
+        return None
+    g = a.gnss
+    return {"source": "file" if a.file is not None else "simulated", "rate_hz": g.rate_hz,
+            "update_rate_hz": a.update_rate_hz, "latency_s": g.latency_s, "lever_arm_m": list(g.lever_arm_b_m),
+            "position_sigma_m": list(g.position_sigma_m), "velocity_sigma_m_s": list(g.velocity_sigma_m_s),
+            "markov_sigma_m": list(g.markov_sigma_m), "markov_tau_s": g.markov_tau_s,
+            "outages_s": [list(w) for w in g.outages_s], "measurements": list(a.measurements),
+            "feedback": a.feedback, "smoother": a.smoother}
 
 
 def excess_over_ideal(last: dict, ideal_last: dict) -> dict:
@@ -309,6 +397,9 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
     ct = _coning_table_section(scenario, res, metrics["filters"])
     if ct:
         metrics["coning_algorithms"] = ct
+    aid = aiding_section(scenario)
+    if aid:
+        metrics["aiding"] = aid
     blk = _block_section(scenario, res)
     if blk:
         metrics["block"] = blk
@@ -510,12 +601,17 @@ def _pseudo_coning_section(scenario, res, filt_metrics) -> dict | None:
 
 
 def timeseries_arrays(res) -> dict:
-    """The arrays of ``timeseries.npz``: ``truth_<key>``, ``<filter>__<key>``, ``gyro_error_<filter>`` / ``_t`` and,
+    """The arrays of ``timeseries.npz``: ``truth_<key>``, ``<filter>__<key>``, ``gyro_error_<filter>`` / ``_t``, with
+    aiding ``aided.<filter>.t_s`` / ``.errors`` (K, 9) / ``.sigma`` (K, 15) and,
     with a block on isolators, ``block_t_s`` and ``block_theta_rad``."""
     arrays = {f"truth_{k}": val for k, val in res.truth_series.items()}
     for name, ser in res.series.items():
         arrays.update({f"{name}__{k}": val for k, val in ser.items()})
     arrays.update({f"gyro_error_{k}": val for k, val in res.spectra.items()})
+    for name, a in getattr(res, "aided", {}).items():  # the aided runs' epochs: errors and the filter's 1-sigma
+        if name != "fixes":
+            arrays.update({f"aided.{name}.t_s": a["result"].t_s, f"aided.{name}.errors": a["errors"],
+                           f"aided.{name}.sigma": a["result"].sigma})
     blk = getattr(res, "block", None)
     if blk is not None:  # the block's own rotation over the spectrum window (SinsResult.block)
         arrays.update({"block_t_s": blk["t_s"], "block_theta_rad": blk["theta_rad"]})
@@ -535,10 +631,45 @@ def write_run(out, scenario, res, metrics: dict, manifest) -> list:
         from sins_sim.plots import navigation as pn
 
         figures = pn.plot_run(res, out, scenario.name, metrics)
+        figures += aided_figures(res, out, scenario.name)
     (out / "report.md").write_text(_report(scenario, metrics, figures,
                                            _filter_parameters_report(manifest.doc["run"]["filter_parameters"])))
     manifest.write(out)
     return figures
+
+
+def aided_figures(res, out, title: str) -> list:
+    """With aiding: per filter the error with its 3-sigma envelope (outages shaded) and the bias estimates
+    converging, and its growth in each outage against its own covariance (``sins_sim.plots.aided``). Returns the
+    file names."""
+    aided = {n: a for n, a in getattr(res, "aided", {}).items() if n != "fixes"}
+    if not aided:
+        return []
+    import matplotlib.pyplot as plt
+
+    from sins_sim.plots import aided as pa
+
+    names = []
+    outages = aided[next(iter(aided))]["growth"]
+    windows = [g.window_s for g in outages]
+    for name, a in aided.items():
+        tb = a["true_bias"] or {}
+        for stem, fig in ((f"aided_error_{name}.png",
+                           pa.aided_error_figure(a["result"], truth_errors=a["errors"], outages_s=windows,
+                                                 title=f"{title}: {name}, aided")),
+                          (f"aided_bias_{name}.png",
+                           pa.bias_figure(a["result"], true_gyro_bias_rad_s=tb.get("gyro_rad_s"),
+                                          true_accel_bias_m_s2=tb.get("accel_m_s2")))):
+            fig.savefig(Path(out) / stem, dpi=110)
+            plt.close(fig)
+            names.append(stem)
+        if a["growth"]:  # one figure per filter: the growth is read against that filter's own covariance
+            fig = pa.outage_growth_figure(a["growth"], result=a["result"])
+            stem = f"aided_outage_growth_{name}.png"
+            fig.savefig(Path(out) / stem, dpi=110)
+            plt.close(fig)
+            names.append(stem)
+    return names
 
 
 def _filter_parameters_report(fp: dict) -> str:
@@ -688,6 +819,111 @@ def _alignment_report(metrics: dict) -> list:
     return lines
 
 
+def _aided_report(metrics: dict) -> list:
+    """The "Aided navigation" section of ``report.md``: the table, and where the filter's choice shows, read from
+    the numbers (empty without aiding)."""
+    rows = [(n, m["aided"]) for n, m in metrics["filters"].items() if "aided" in m]
+    if not rows:
+        return []
+    a = metrics.get("aiding", {})
+    lines = ["", "## Aided navigation", "",
+             f"Every filter's increments navigated again by the 15-state error-state filter with the same GNSS fixes "
+             f"({a.get('source', '')}, {a.get('rate_hz', 0):g} Hz, applied at {a.get('update_rate_hz', 0):g} Hz: "
+             f"{', '.join(a.get('measurements', []))}; outages {a.get('outages_s', [])} s). Errors over the "
+             "filter's epochs against the truth; the outage growth is the horizontal error at the times into the "
+             "outage against the filter's own predicted 1-sigma; the bias estimates are the last epoch's, against the "
+             "bias the filter's increments carry (gyros: the unit's fixed and turn-on bias plus what the dither filter "
+             "adds at DC, the slope of its gyro-angle error over ideal's; accelerometers: the slope of their "
+             "accumulated error, bias plus scale factor and misalignment times the specific force).", "",
+             "| filter | horizontal RMS (m) | velocity RMS (m/s) | attitude RMS N, E, D (arcsec) | outage error at "
+             "60 s (m) | predicted sigma 60 s (m) | gyro bias est. x, y, z (deg/h) | true (deg/h) | sigma (deg/h) | "
+             "NEES pos/vel/att within 95 % |", "|---|---|---|---|---|---|---|---|---|---|"]
+
+    def trip(m, stem, fmt=".3g"):
+        vals = [m.get(stem.format(ax)) for ax in ("x", "y", "z")]
+        return ", ".join("" if x is None else format(x, fmt) for x in vals)
+
+    for name, m in rows:
+        lines.append(
+            f"| {name} | {m['horizontal_position_error_rms_m']:.3g} | {m['velocity_error_rms_m_s']:.3g} | "
+            f"{m['attitude_error_rms_north_arcsec']:.3g}, {m['attitude_error_rms_east_arcsec']:.3g}, "
+            f"{m['attitude_error_rms_down_arcsec']:.3g} | {_fmt(m.get('outage1_horizontal_error_60s_m'))} | "
+            f"{_fmt(m.get('outage1_predicted_sigma_60s_m'))} | {trip(m, 'gyro_bias_estimate_{}_deg_h')} | "
+            f"{trip(m, 'gyro_bias_true_{}_deg_h')} | {trip(m, 'gyro_bias_sigma_{}_deg_h')} | "
+            + "/".join(_fmt(m.get(f'nees_{b}_within_95_fraction'), '.2f') for b in ('position', 'velocity', 'attitude'))
+            + f" (n = {m.get('nees_position_n', 0)}) |")
+    lines += [""] + _aided_findings(metrics, dict(rows))
+    return lines
+
+
+def _aided_findings(metrics: dict, aided: dict) -> list:
+    """Sentences from the numbers. The yardstick is the aided solution's own resolution, ``ideal``'s median
+    horizontal 1-sigma at its updates: a filter's difference from ``ideal`` shows where it exceeds it (free: the
+    final excess over ideal; aided: the difference of the horizontal RMS; in the outage: the difference at 60 s,
+    against the predicted sigma there). The aiding hides the filter's choice where the free solution shows it and
+    the aided one does not. A bias estimate is judged against the bias the increments carry, in units of its
+    final sigma."""
+    ref = aided.get("ideal")
+    if ref is None:
+        return ["(No `ideal` in the filters: the filters' differences are not separated from the common floor.)"]
+    res_m = ref["horizontal_position_sigma_median_m"]
+    out = [f"The aided solution resolves {res_m:.3g} m horizontally (`ideal`'s median 1-sigma at its updates): a "
+           "difference below that is not the filter's choice showing."]
+    for name, m in aided.items():
+        if name == "ideal":
+            continue
+        free = metrics["filters"][name].get("excess_over_ideal", {}).get("horizontal_position_error_final_m")
+        d_aided = m["horizontal_position_error_rms_m"] - ref["horizontal_position_error_rms_m"]
+        shows_aided = abs(d_aided) > res_m
+        words = [f"- `{name}`: aided horizontal RMS {m['horizontal_position_error_rms_m']:.3g} m against ideal's "
+                 f"{ref['horizontal_position_error_rms_m']:.3g} m ({d_aided:+.2g} m)"]
+        if free is not None:
+            shows_free = free > res_m
+            verdict = ("the aiding hides the filter's choice" if shows_free and not shows_aided else
+                       "the filter's choice shows free and aided" if shows_free else
+                       "the filter's choice shows aided only" if shows_aided else
+                       "the filter's choice shows neither free nor aided")
+            words.append(f"; free, its final horizontal error is {free:.3g} m from ideal's: {verdict}")
+        e60, e60_ref = m.get("outage1_horizontal_error_60s_m"), ref.get("outage1_horizontal_error_60s_m")
+        s60 = m.get("outage1_predicted_sigma_60s_m")
+        if e60 is not None and e60_ref is not None and s60:
+            words.append(f". 60 s into the outage: {e60:.3g} m against ideal's {e60_ref:.3g} m (predicted sigma "
+                         f"{s60:.3g} m): the filter's choice "
+                         + ("shows" if abs(e60 - e60_ref) > s60 else "stays within the predicted sigma"))
+        off = []
+        for ax in "xyz":
+            est, true = m[f"gyro_bias_estimate_{ax}_deg_h"], m.get(f"gyro_bias_true_{ax}_deg_h")
+            sg = m[f"gyro_bias_sigma_{ax}_deg_h"]
+            if true is not None and sg > 0.0 and abs(est - true) > 3.0 * sg:
+                off.append(f"{ax} ({est:.3g} against {true:.3g} deg/h, {abs(est - true) / sg:.0f} sigma)")
+        added = [m.get(f"gyro_bias_true_{ax}_deg_h", 0.0) - ref.get(f"gyro_bias_true_{ax}_deg_h", 0.0)
+                 for ax in "xyz"]
+        words.append(f". The gyro bias the filter adds over ideal's is {', '.join(f'{d:+.2g}' for d in added)} "
+                     "deg/h (x, y, z)")
+        words.append(f"; the estimate misses it beyond 3 sigma on {', '.join(off)}: the unit's bias model (the "
+                     "filter's prior and its wander) does not cover what the dither filter adds" if off else
+                     "; every gyro bias estimate is within 3 sigma of the bias the increments carry")
+        out.append("".join(words) + ".")
+    cons = [f"NEES within the chi-square(3) 95 % interval (a consistent filter: 0.95 of the epochs), `ideal`: "
+            f"position {_fmt(ref.get('nees_position_within_95_fraction'), '.2f')}, velocity "
+            f"{_fmt(ref.get('nees_velocity_within_95_fraction'), '.2f')}, attitude "
+            f"{_fmt(ref.get('nees_attitude_within_95_fraction'), '.2f')} (n = {ref.get('nees_position_n', 0)} "
+            f"epochs, one run); mean NIS position {_fmt(ref.get('nis_position_mean'))} in "
+            f"[{_fmt(ref.get('nis_position_bound_low'))}, {_fmt(ref.get('nis_position_bound_high'))}] "
+            f"(n = {ref.get('nis_position_n', 0)})."]
+    az, az_t, az_s = (ref.get(f"accel_bias_{k}_z_ug") for k in ("estimate", "true", "sigma"))
+    if az_t is not None and az_s:
+        cons.append(f" The vertical accelerometer bias (observable through the fixes' height): `ideal`'s estimate "
+                    f"{az:.3g} ug against the {az_t:.3g} ug its increments carry, sigma {az_s:.2g} ug "
+                    f"({abs(az - az_t) / az_s:.1f} sigma).")
+    gm = max(metrics.get("aiding", {}).get("markov_sigma_m") or [0.0])
+    if gm > 0.0:
+        cons.append(f" The fixes carry a Gauss-Markov error of up to {gm:g} m (1 sigma) that the 15-state filter "
+                    "does not model (its R is the white noise): its position covariance shrinks below the error "
+                    "the fixes leave, and the NEES shows it.")
+    return out + ["", "".join(cons)]
+
+
 def _report(scenario, metrics, figures, filter_table: str = "") -> str:
     nv = metrics["navigation"]
     lines = [f"# {scenario.name}", "", scenario.description or "", "",
@@ -713,6 +949,7 @@ def _report(scenario, metrics, figures, filter_table: str = "") -> str:
                      f"{m['velocity_error_m_s']['final']:.3g} | {rms['north']:.3g}, {rms['east']:.3g}, {rms['down']:.3g} | "
                      f"{_fmt(m['cep_rate_nmi_h'])} | {m['status']} |")
     lines += _alignment_report(metrics)
+    lines += _aided_report(metrics)
     lines += ["", "`ideal` runs the true gyro increments through the same navigation: the algorithm's and the "
               "accelerometers' floor. Every other filter's excess over it (the norm of the difference of the two final "
               "horizontal error vectors) is that filter's cost. phi is the attitude error against the true NED frame "

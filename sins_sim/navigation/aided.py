@@ -40,6 +40,7 @@ better trajectory; Groves 2013, sec. 14.1.1); tested.
 .. autosummary::
 
    navigate_aided
+   AidedRun
    AidedResult
    smooth
    SmoothedResult
@@ -70,7 +71,7 @@ from sins_sim.navigation.attitude import _increments, attitude_error, quat_from_
 from sins_sim.navigation.gnss import GnssFixes
 from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
 
-__all__ = ["navigate_aided", "AidedResult", "smooth", "SmoothedResult", "outage_growth", "OutageGrowth",
+__all__ = ["navigate_aided", "AidedRun", "AidedResult", "smooth", "SmoothedResult", "outage_growth", "OutageGrowth",
            "LATENCY_MODES", "GNSS_MEASUREMENTS"]
 
 #: How a fix's latency is handled: against the solution at its time of validity, or ignored.
@@ -359,80 +360,227 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
     if dvel.shape != dth.shape:
         raise ValueError(f"dv: must have the shape of dtheta {dth.shape}, got {dvel.shape}")
     t, dt = _uniform_times(t_s, dth.shape[0])
-    t0 = t[0] - dt
-    if not isinstance(start, ekf.NavState):
-        raise ValueError(f"start: must be a NavState, got {type(start).__name__}")
-    if abs(start.t_s - t0) > 1e-6 * dt:
-        raise ValueError(f"start.t_s: must be the record's start t_s[0] - dt = {t0!r}, got {start.t_s!r}")
     if not isinstance(fixes, GnssFixes):
         raise ValueError(f"fixes: must be GnssFixes, got {type(fixes).__name__}")
-    v.choice("", "latency", latency, LATENCY_MODES)
-    use = tuple(use)
-    if not use or any(u not in GNSS_MEASUREMENTS for u in use):
-        raise ValueError(f"use: must be a non-empty subset of {GNSS_MEASUREMENTS}, got {use!r}")
-    if isinstance(n_sub, bool) or not isinstance(n_sub, Integral) or n_sub < 1:
-        raise ValueError(f"n_sub: must be an integer >= 1, got {n_sub!r}")
-    nav = StrapdownNavigator(start.lat_rad, start.lon_rad, start.h_m, start.v_ned_m_s, start.q_nb, dt, n_sub=n_sub)
-    aided = ekf.AidedNavigator(nav, noise, p0, gyro_bias_rad_s=start.gyro_bias_rad_s,
-                               accel_bias_m_s2=start.accel_bias_m_s2, max_propagation_s=max_propagation_s,
-                               feedback=bool(feedback))
-    big_t = nav.update_period_s
-    n_upd = dth.shape[0] // n_sub
-    # the navigation update each fix is applied at: the first at or after its delivery
-    f_upd = np.ceil((fixes.t_deliver_s - t0) / big_t - 1e-9).astype(np.int64)
-    ok = (fixes.t_valid_s >= t0 - 1e-9 * big_t) & (f_upd <= n_upd) & (f_upd >= 0)
-    fix_idx = np.flatnonzero(ok)
-    events = {0, n_upd} if output_t_s is None else {0}
-    if output_t_s is not None:
-        out = v.finite_array("", "output_t_s", output_t_s, ndim=1)
-        j_out = np.rint((out - t0) / big_t).astype(np.int64)
-        events.update(int(j) for j in j_out[(j_out >= 0) & (j_out <= n_upd)])
-    events.update(int(j) for j in f_upd[fix_idx])
-    by_update = {}
-    for i in fix_idx:
-        by_update.setdefault(int(f_upd[i]), []).append(int(i))
-    keep_s = float(np.max(fixes.t_deliver_s[fix_idx] - fixes.t_valid_s[fix_idx], initial=0.0)) + 2.0 * big_t
-    hist = _History(t0, start)
-    sig_p, sig_v, lever = fixes.position_sigma_m, fixes.velocity_sigma_m_s, fixes.lever_arm_b_m
-    has_lever = bool(np.any(lever != 0.0))
+    run = AidedRun(t[0] - dt, dt, dth.shape[0], start, noise, p0, fixes.t_valid_s, fixes.t_deliver_s,
+                   fixes.position_sigma_m, fixes.velocity_sigma_m_s, fixes.lever_arm_b_m, output_t_s=output_t_s,
+                   use=use, latency=latency, n_sub=n_sub, max_propagation_s=max_propagation_s, feedback=feedback)
+    run.add_fixes(fixes)
+    run.feed(dth, dvel)
+    return run.result()
 
-    def rate_at(j):
+
+class AidedRun:
+    """:func:`navigate_aided` streaming: increments fed in chunks of any size, fixes added as they become known.
+
+    The run's length, its fix schedule (times of validity and delivery) and its output times are given at the
+    start, so its epochs are fixed before any increment arrives and the result does not depend on the chunking.
+    A fix's values (:meth:`add_fixes`, in schedule order) must be added before the increments that reach the
+    navigation update it is applied at.
+
+    Parameters
+    ----------
+    t0_s : float
+        Start of the record (s): ``start.t_s``; increment ``i`` ends at ``t0_s + (i + 1) dt_s``.
+    dt_s : float
+        Increment period (s).
+    n_increments : int
+        Increments in the whole record.
+    start, noise, p0, output_t_s, use, latency, n_sub, max_propagation_s, feedback
+        As in :func:`navigate_aided`.
+    t_valid_s, t_deliver_s : array_like, shape (M,)
+        The fix schedule: time of validity and of delivery of each fix (s).
+    position_sigma_m, velocity_sigma_m_s, lever_arm_b_m : array_like, shape (3,)
+        The fixes' white-noise sigmas (the filter's ``R``) and the antenna's lever arm.
+    coning, sculling : str or sequence
+        The navigator's coning and sculling compensation
+        (:class:`~sins_sim.navigation.strapdown.StrapdownNavigator`).
+    """
+
+    def __init__(self, t0_s, dt_s, n_increments, start: ekf.NavState, noise: ekf.ImuNoise, p0, t_valid_s,
+                 t_deliver_s, position_sigma_m, velocity_sigma_m_s, lever_arm_b_m, *, output_t_s=None,
+                 use=GNSS_MEASUREMENTS, latency="compensate", n_sub=1, max_propagation_s=1.0, feedback=True,
+                 coning="two_sample", sculling="two_sample"):
+        dt = v.positive("", "dt_s", dt_s)
+        t0 = float(t0_s)
+        if not isinstance(start, ekf.NavState):
+            raise ValueError(f"start: must be a NavState, got {type(start).__name__}")
+        if abs(start.t_s - t0) > 1e-6 * dt:
+            raise ValueError(f"start.t_s: must be the record's start t_s[0] - dt = {t0!r}, got {start.t_s!r}")
+        v.choice("", "latency", latency, LATENCY_MODES)
+        use = tuple(use)
+        if not use or any(u not in GNSS_MEASUREMENTS for u in use):
+            raise ValueError(f"use: must be a non-empty subset of {GNSS_MEASUREMENTS}, got {use!r}")
+        if isinstance(n_sub, bool) or not isinstance(n_sub, Integral) or n_sub < 1:
+            raise ValueError(f"n_sub: must be an integer >= 1, got {n_sub!r}")
+        tv = np.asarray(t_valid_s, dtype=np.float64).reshape(-1)
+        td = np.asarray(t_deliver_s, dtype=np.float64).reshape(-1)
+        if tv.shape != td.shape:
+            raise ValueError(f"t_deliver_s: must have the shape of t_valid_s {tv.shape}, got {td.shape}")
+        nav = StrapdownNavigator(start.lat_rad, start.lon_rad, start.h_m, start.v_ned_m_s, start.q_nb, dt,
+                                 n_sub=n_sub, coning=coning, sculling=sculling)
+        self._aided = ekf.AidedNavigator(nav, noise, p0, gyro_bias_rad_s=start.gyro_bias_rad_s,
+                                         accel_bias_m_s2=start.accel_bias_m_s2, max_propagation_s=max_propagation_s,
+                                         feedback=bool(feedback))
+        self._t0, self._dt, self._n_sub = t0, dt, int(n_sub)
+        self._big_t = big_t = nav.update_period_s
+        self._n_upd = n_upd = int(n_increments) // self._n_sub
+        self._use, self._latency, self._feedback = use, latency, bool(feedback)
+        # the navigation update each fix is applied at: the first at or after its delivery
+        f_upd = np.ceil((td - t0) / big_t - 1e-9).astype(np.int64)
+        ok = (tv >= t0 - 1e-9 * big_t) & (f_upd <= n_upd) & (f_upd >= 0)
+        fix_idx = np.flatnonzero(ok)
+        events = {0, n_upd} if output_t_s is None else {0}
+        if output_t_s is not None:
+            out = v.finite_array("", "output_t_s", output_t_s, ndim=1)
+            j_out = np.rint((out - t0) / big_t).astype(np.int64)
+            events.update(int(j) for j in j_out[(j_out >= 0) & (j_out <= n_upd)])
+        events.update(int(j) for j in f_upd[fix_idx])
+        self._events = sorted(events)
+        self._next_event = 0
+        self._by_update = {}
+        for i in fix_idx:
+            self._by_update.setdefault(int(f_upd[i]), []).append(int(i))
+        self._keep_s = float(np.max(td[fix_idx] - tv[fix_idx], initial=0.0)) + 2.0 * big_t
+        self._hist = _History(t0, start)
+        self._sig_p = np.broadcast_to(np.asarray(position_sigma_m, dtype=np.float64), (3,)).copy()
+        self._sig_v = np.broadcast_to(np.asarray(velocity_sigma_m_s, dtype=np.float64), (3,)).copy()
+        self._lever = np.asarray(lever_arm_b_m, dtype=np.float64).reshape(3).copy()
+        self._has_lever = bool(np.any(self._lever != 0.0))
+        self._tv = tv
+        self._n_fix_sched = tv.shape[0]
+        self._fix_parts, self._n_fixes = [], 0
+        self._fix = None
+        # pending increments (not yet navigated) and the gyro sums of the recent navigation updates
+        self._pend_th, self._pend_v = np.zeros((0, 3)), np.zeros((0, 3))
+        self._done = 0                       # navigation updates processed
+        self._upd_sum = np.zeros((0, 3))     # raw gyro sum of updates [_upd_base, _done)
+        self._upd_base = 0
+        self._rec = {k: [] for k in ("t", "lat", "lon", "h", "v", "q", "bg", "ba", "sigma", "updated", "t_valid",
+                                     "phi", "p_pred", "p_upd", "corr")}
+        self._inn = {k: [] for k in ("t", "t_valid", "name", "nu", "sigma", "nis")}
+
+    @property
+    def update_period_s(self) -> float:
+        """The navigation update period (s)."""
+        return self._big_t
+
+    @property
+    def unaided_bias_sigma(self) -> np.ndarray:
+        """1-sigma the six bias states (gyro xyz, accel xyz) would have with no measurement (the prior, carried)."""
+        return self._aided.unaided_bias_sigma
+
+    @property
+    def n_epochs(self) -> int:
+        """Epochs recorded so far."""
+        return len(self._rec["t"])
+
+    def epoch_times(self, start: int = 0) -> np.ndarray:
+        """Times of the epochs recorded from index ``start`` on (s)."""
+        return np.asarray(self._rec["t"][start:], dtype=np.float64)
+
+    def add_fixes(self, fixes: GnssFixes) -> None:
+        """The values of the next fixes of the schedule (their times of validity must be the schedule's)."""
+        if not isinstance(fixes, GnssFixes):
+            raise ValueError(f"fixes: must be GnssFixes, got {type(fixes).__name__}")
+        m = len(fixes)
+        if m == 0:
+            return
+        want = self._tv[self._n_fixes:self._n_fixes + m]
+        if want.shape[0] != m or np.max(np.abs(want - fixes.t_valid_s)) > 1e-9 * max(1.0, float(np.max(np.abs(want)))):
+            raise ValueError("fixes: their times of validity must continue the schedule (t_valid_s) in order")
+        self._fix_parts.append(fixes)
+        self._n_fixes += m
+        self._fix = None
+
+    def _fixes(self):
+        if self._fix is None and self._fix_parts:
+            from sins_sim.navigation.gnss import concat_fixes
+
+            self._fix = concat_fixes(self._fix_parts)
+            self._fix_parts = [self._fix]
+        return self._fix
+
+    def _rate_at(self, j):
         """Mean raw gyro rate over the navigation update ending at update ``j`` (rad/s, body)."""
-        j = max(1, min(j, n_upd))
-        return dth[(j - 1) * n_sub:j * n_sub].sum(axis=0) / big_t
+        j = max(1, j)
+        if j > self._done:      # an update not navigated yet (a fix at the record's start): its pending increments
+            i = (j - 1 - self._done) * self._n_sub
+            return self._pend_th[i:i + self._n_sub].sum(axis=0) / self._big_t
+        k = j - 1 - self._upd_base
+        if not 0 <= k < self._upd_sum.shape[0]:
+            raise RuntimeError(f"the gyro rate of navigation update {j} is no longer kept")
+        return self._upd_sum[k] / self._big_t
 
-    rec = {k: [] for k in ("t", "lat", "lon", "h", "v", "q", "bg", "ba", "sigma", "updated", "t_valid", "phi",
-                           "p_pred", "p_upd", "corr")}
-    inn = {k: [] for k in ("t", "t_valid", "name", "nu", "sigma", "nis")}
-    done = 0
-    for j in sorted(events):
-        if j > done:
-            sol = aided.process(dth[done * n_sub:j * n_sub], dvel[done * n_sub:j * n_sub])
-            hist.append(t0 + sol.t_s, sol, keep_s)
-            done = j
+    def feed(self, dtheta, dv) -> None:
+        """Navigate a chunk of increments (raw; ``(n, 3)`` each), handling every epoch they reach.
+
+        (Their values are checked where they are navigated, :meth:`AidedNavigator.process`; here their shapes.)"""
+        dth = np.asarray(dtheta, dtype=np.float64)
+        dvel = np.asarray(dv, dtype=np.float64)
+        if dth.ndim != 2 or dth.shape[1] != 3:
+            raise ValueError(f"dtheta: must have shape (n, 3), got {dth.shape}")
+        if dvel.shape != dth.shape:
+            raise ValueError(f"dv: must have the shape of dtheta {dth.shape}, got {dvel.shape}")
+        self._pend_th = np.concatenate([self._pend_th, dth])
+        self._pend_v = np.concatenate([self._pend_v, dvel])
+        avail = self._done + self._pend_th.shape[0] // self._n_sub
+        while self._next_event < len(self._events) and self._events[self._next_event] <= avail:
+            self._epoch(self._events[self._next_event])
+            self._next_event += 1
+        # navigate what remains up to the last whole update (the epochs after it come with later chunks)
+        self._advance(avail)
+
+    def _advance(self, j):
+        """Navigate up to navigation update ``j`` with no epoch in between."""
+        if j <= self._done:
+            return
+        n = (j - self._done) * self._n_sub
+        dth, dvel = self._pend_th[:n], self._pend_v[:n]
+        sol = self._aided.process(dth, dvel)
+        self._hist.append(self._t0 + sol.t_s, sol, self._keep_s)
+        sums = dth.reshape(-1, self._n_sub, 3).sum(axis=1)
+        keep_upd = int(math.ceil(self._keep_s / self._big_t)) + 2
+        self._upd_sum = np.concatenate([self._upd_sum, sums])
+        drop = max(0, self._upd_sum.shape[0] - keep_upd)
+        self._upd_sum = self._upd_sum[drop:]
+        self._upd_base += drop
+        self._pend_th, self._pend_v = self._pend_th[n:], self._pend_v[n:]
+        self._done = j
+
+    def _epoch(self, j):
+        aided = self._aided
+        self._advance(j)
         phi = aided.propagate()
         p_pred = aided.p
-        t_now = float(t[j * n_sub - 1]) if j else t0      # the increments' own end times
-        fix_list = by_update.get(j, [])
+        t_now = self._t0 + j * self._big_t
+        fix_list = self._by_update.get(j, [])
         corr = np.zeros(ekf.N_STATES)
+        inn = self._inn
+        fixes = None
         if fix_list:
+            if max(fix_list) >= self._n_fixes:
+                raise RuntimeError(f"the fix valid at {self._tv[max(fix_list)]!r} s is due at {t_now!r} s and has not "
+                                   "been added (add_fixes)")
+            fixes = self._fixes()
             bg, ba = aided.gyro_bias_rad_s, aided.accel_bias_m_s2
             meas, t_valid = [], []
             for i in fix_list:
-                tv = float(fixes.t_valid_s[i]) if latency == "compensate" else t_now
-                state = hist.state_at(tv, bg, ba)
-                rate = rate_at(int(round((tv - t0) / big_t))) if has_lever else np.zeros(3)
-                if "position" in use:
-                    meas.append(_AtState(ekf.Position(fixes.lat_rad[i], fixes.lon_rad[i], fixes.h_m[i], sig_p,
-                                                      lever), state))
-                if "velocity" in use:
-                    meas.append(_AtState(ekf.Velocity(fixes.v_ned_m_s[i], sig_v, lever, rate), state))
-                t_valid += [float(fixes.t_valid_s[i])] * len(use)
+                tv = float(fixes.t_valid_s[i]) if self._latency == "compensate" else t_now
+                state = self._hist.state_at(tv, bg, ba)
+                rate = (self._rate_at(int(round((tv - self._t0) / self._big_t))) if self._has_lever
+                        else np.zeros(3))
+                if "position" in self._use:
+                    meas.append(_AtState(ekf.Position(fixes.lat_rad[i], fixes.lon_rad[i], fixes.h_m[i], self._sig_p,
+                                                      self._lever), state))
+                if "velocity" in self._use:
+                    meas.append(_AtState(ekf.Velocity(fixes.v_ned_m_s[i], self._sig_v, self._lever, rate), state))
+                t_valid += [float(fixes.t_valid_s[i])] * len(self._use)
             x_before = aided.x
             recs = aided.update(*meas)
-            if feedback:
+            if self._feedback:
                 corr = aided.last_correction
-                hist.correct(corr)
+                self._hist.correct(corr)
             else:       # open loop: the history stays the free solution, the estimate the change of x
                 corr = aided.x - x_before
             for r, tv in zip(recs, t_valid):
@@ -442,23 +590,27 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
                 inn["nu"].append(r.innovation)
                 inn["sigma"].append(np.sqrt(np.diag(r.s_matrix)))
                 inn["nis"].append(r.nis)
-        st = aided.nav_state() if feedback else aided.corrected_state()
+        st = aided.nav_state() if self._feedback else aided.corrected_state()
         for key, val in (("t", t_now), ("lat", st.lat_rad), ("lon", st.lon_rad), ("h", st.h_m),
                          ("v", st.v_ned_m_s), ("q", st.q_nb), ("bg", st.gyro_bias_rad_s), ("ba", st.accel_bias_m_s2),
                          ("sigma", aided.sigma()), ("updated", bool(fix_list)),
                          ("t_valid", max((float(fixes.t_valid_s[i]) for i in fix_list), default=math.nan)),
                          ("phi", phi), ("p_pred", p_pred), ("p_upd", aided.p), ("corr", corr)):
-            rec[key].append(val)
-    a = {k: np.array(val) for k, val in rec.items()}
-    m = len(inn["t"])
-    return AidedResult(
-        t_s=a["t"], lat_rad=a["lat"], lon_rad=a["lon"], h_m=a["h"], v_ned_m_s=a["v"], q_nb=a["q"],
-        gyro_bias_rad_s=a["bg"], accel_bias_m_s2=a["ba"], sigma=a["sigma"], updated=a["updated"],
-        t_valid_s=a["t_valid"], phi=a["phi"], p_pred=a["p_pred"], p_upd=a["p_upd"], correction=a["corr"],
-        innovation_t_s=np.array(inn["t"]), innovation_t_valid_s=np.array(inn["t_valid"]),
-        innovation_name=np.array(inn["name"], dtype=str),
-        innovation=np.array(inn["nu"]).reshape(m, 3), innovation_sigma=np.array(inn["sigma"]).reshape(m, 3),
-        nis=np.array(inn["nis"]), latency=latency, update_period_s=big_t)
+            self._rec[key].append(val)
+
+    def result(self) -> AidedResult:
+        """The run so far as an :class:`AidedResult` (all epochs recorded)."""
+        a = {k: np.array(val) for k, val in self._rec.items()}
+        inn = self._inn
+        m = len(inn["t"])
+        return AidedResult(
+            t_s=a["t"], lat_rad=a["lat"], lon_rad=a["lon"], h_m=a["h"], v_ned_m_s=a["v"], q_nb=a["q"],
+            gyro_bias_rad_s=a["bg"], accel_bias_m_s2=a["ba"], sigma=a["sigma"], updated=a["updated"],
+            t_valid_s=a["t_valid"], phi=a["phi"], p_pred=a["p_pred"], p_upd=a["p_upd"], correction=a["corr"],
+            innovation_t_s=np.array(inn["t"]), innovation_t_valid_s=np.array(inn["t_valid"]),
+            innovation_name=np.array(inn["name"], dtype=str),
+            innovation=np.array(inn["nu"]).reshape(m, 3), innovation_sigma=np.array(inn["sigma"]).reshape(m, 3),
+            nis=np.array(inn["nis"]), latency=self._latency, update_period_s=self._big_t)
 
 
 def smooth(result: AidedResult) -> SmoothedResult:

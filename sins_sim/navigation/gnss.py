@@ -26,6 +26,9 @@ with respect to the Earth ``v + C_nb (omega_ib^b x l) - omega_ie^n x (C_nb l)``.
    GnssSettings
    GnssFixes
    simulate_gnss
+   gnss_errors
+   fixes_from_truth
+   concat_fixes
 
 References
 ----------
@@ -48,7 +51,7 @@ from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim.navigation.attitude import dcm_from_quat
 
-__all__ = ["GnssSettings", "GnssFixes", "simulate_gnss"]
+__all__ = ["GnssSettings", "GnssFixes", "simulate_gnss", "gnss_errors", "fixes_from_truth", "concat_fixes"]
 
 #: Relative tolerance of a fix's time of validity on the truth's time grid.
 _TIME_RTOL = 1e-9
@@ -259,7 +262,33 @@ def simulate_gnss(t_s, lat_rad, lon_rad, h_m, v_ned_m_s, settings: GnssSettings,
         bad = grid[off & keep][0]
         raise ValueError(f"t_s: must contain every time of validity k / rate_hz of the fixes; {bad!r} s is missing")
     # errors on the whole grid (the Gauss-Markov process runs through the outages), exact recursion
-    m = grid.shape[0]
+    dr, dv = gnss_errors(settings, grid.shape[0], rng)
+    i = idx[keep]
+    return fixes_from_truth(grid[keep], lat[i], lon[i], h[i], vel[i], dr[keep], dv[keep], settings,
+                            q_nb=None if not has_lever else np.asarray(q_nb, dtype=np.float64)[i],
+                            omega_ib_b_rad_s=None if not has_lever else np.asarray(omega_ib_b_rad_s, np.float64)[i])
+
+
+def gnss_errors(settings: GnssSettings, m: int, rng) -> tuple:
+    """The errors of ``m`` consecutive fixes on the fix grid (outages included; module docstring).
+
+    Parameters
+    ----------
+    settings : GnssSettings
+        The receiver.
+    m : int
+        Grid points, >= 0.
+    rng : int or numpy.random.Generator
+        Seed or generator; the draws are, in this order, the Gauss-Markov driving noise, the white position
+        noise and the white velocity noise, each ``(m, 3)``.
+
+    Returns
+    -------
+    (ndarray, ndarray), shapes (m, 3)
+        Position error NED (m; white plus Gauss-Markov) and velocity error NED (m/s).
+    """
+    rng = _rng(rng)
+    dt = settings.interval_s
     sig_gm = np.asarray(settings.markov_sigma_m)
     a = math.exp(-dt / settings.markov_tau_s)
     b = math.sqrt(-math.expm1(-2.0 * dt / settings.markov_tau_s))
@@ -271,13 +300,26 @@ def simulate_gnss(t_s, lat_rad, lon_rad, h_m, v_ned_m_s, settings: GnssSettings,
         gm[k] = a * gm[k - 1] + b * sig_gm * u[k]
     dr = gm + rng.standard_normal((m, 3)) * np.asarray(settings.position_sigma_m)
     dv = rng.standard_normal((m, 3)) * np.asarray(settings.velocity_sigma_m_s)
-    i, dr, dv, tv = idx[keep], dr[keep], dv[keep], grid[keep]
-    la, lo, hh, vv = lat[i], lon[i], h[i], vel[i].copy()
-    pos_ned = dr.copy()
-    if has_lever:
-        c = dcm_from_quat(np.asarray(q_nb, dtype=np.float64)[i])
+    return dr, dv
+
+
+def fixes_from_truth(t_valid_s, lat, lon, h, vel, dr, dv, settings: GnssSettings, *, q_nb=None,
+                     omega_ib_b_rad_s=None) -> GnssFixes:
+    """Fixes from the true IMU state at their times of validity plus the errors of :func:`gnss_errors`: the
+    antenna's position and velocity (lever arm, Groves 2013, eq. 14.110 and 14.114) with the errors added.
+
+    ``q_nb`` (K, 4) and ``omega_ib_b_rad_s`` (K, 3) are required with a lever arm; every other argument has one
+    row per fix (K).
+    """
+    lever = np.asarray(settings.lever_arm_b_m)
+    la, lo, hh = (np.asarray(x, dtype=np.float64) for x in (lat, lon, h))
+    vv = np.array(vel, dtype=np.float64).reshape(-1, 3)
+    tv = np.asarray(t_valid_s, dtype=np.float64)
+    pos_ned = np.array(dr, dtype=np.float64).reshape(-1, 3)
+    if np.any(lever != 0.0):
+        c = dcm_from_quat(np.asarray(q_nb, dtype=np.float64).reshape(-1, 4))
         cl = c @ lever
-        w = np.asarray(omega_ib_b_rad_s, dtype=np.float64)[i]
+        w = np.asarray(omega_ib_b_rad_s, dtype=np.float64).reshape(-1, 3)
         # Groves 2013, eq. 14.114: v_a = v + C (omega_ib x l) - omega_ie x (C l)
         vv += np.einsum("kij,kj->ki", c, np.cross(w, lever)) - np.cross(earth.earth_rate_ned(la), cl)
         pos_ned += cl
@@ -286,6 +328,21 @@ def simulate_gnss(t_s, lat_rad, lon_rad, h_m, v_ned_m_s, settings: GnssSettings,
         t_valid_s=tv, t_deliver_s=tv + settings.latency_s,
         lat_rad=la + pos_ned[:, 0] / (r_n + hh),
         lon_rad=(lo + pos_ned[:, 1] / ((r_e + hh) * np.cos(la)) + math.pi) % (2.0 * math.pi) - math.pi,
-        h_m=hh - pos_ned[:, 2], v_ned_m_s=vv + dv, position_error_ned_m=dr, velocity_error_ned_m_s=dv,
-        position_sigma_m=np.asarray(settings.position_sigma_m), velocity_sigma_m_s=np.asarray(settings.velocity_sigma_m_s),
-        lever_arm_b_m=lever.copy())
+        h_m=hh - pos_ned[:, 2], v_ned_m_s=vv + dv, position_error_ned_m=np.asarray(dr, dtype=np.float64).reshape(-1, 3),
+        velocity_error_ned_m_s=np.asarray(dv, dtype=np.float64).reshape(-1, 3),
+        position_sigma_m=np.asarray(settings.position_sigma_m),
+        velocity_sigma_m_s=np.asarray(settings.velocity_sigma_m_s), lever_arm_b_m=lever.copy())
+
+
+def concat_fixes(parts) -> GnssFixes:
+    """Fixes of several :class:`GnssFixes` (same receiver) one after the other."""
+    parts = list(parts)
+    if not parts:
+        raise ValueError("parts: must hold at least one GnssFixes")
+    first = parts[0]
+    cat = {f: np.concatenate([getattr(p, f) for p in parts]) for f in
+           ("t_valid_s", "t_deliver_s", "lat_rad", "lon_rad", "h_m")}
+    cat.update({f: np.concatenate([getattr(p, f) for p in parts]).reshape(-1, 3) for f in
+                ("v_ned_m_s", "position_error_ned_m", "velocity_error_ned_m_s")})
+    return GnssFixes(**cat, position_sigma_m=first.position_sigma_m, velocity_sigma_m_s=first.velocity_sigma_m_s,
+                     lever_arm_b_m=first.lever_arm_b_m)

@@ -59,6 +59,10 @@ SERIES_COLUMNS = {
 }
 #: The truth path's stored series -> (column, conversion).
 TRUTH_COLUMNS = {"lat_rad": ("lat_deg", "deg"), "lon_rad": ("lon_deg", "deg"), "h_m": ("h_m", None)}
+#: The aided run's error columns (:meth:`MissionResult.to_pandas` ``aided_<filter>``; ``sigma_`` + each: the filter's
+#: 1-sigma), in the order of the filter's states.
+_AIDED_COLUMNS = ("north_m", "east_m", "down_m", "vn_m_s", "ve_m_s", "vd_m_s", "psi_north_arcsec", "psi_east_arcsec",
+                  "psi_down_arcsec")
 #: Keys of :meth:`MissionResult.to_pandas` besides the filters'.
 RESERVED_FRAMES = ("summary", "truth", "gyro_error")
 
@@ -102,6 +106,11 @@ class StoredRun:
                 self.truth_series[key[len("truth_"):]] = val
             elif key.startswith("gyro_error_"):
                 self.spectra[key[len("gyro_error_"):]] = val
+        self.aided = {}
+        for key, val in arrays.items():  # the aided runs' epochs (timeseries.npz aided.<filter>.<field>)
+            if key.startswith("aided."):
+                _, name, fld = key.split(".", 2)
+                self.aided.setdefault(name, {})[fld] = val
         blk = metrics.get("block")
         self.block = None
         if blk is not None and "block_theta_rad" in arrays:  # SinsResult.block, from the npz and metrics.json
@@ -257,6 +266,18 @@ class MissionResult:
                              "was saved, or the run has no navigation)")
         return self.result
 
+    def _aided(self) -> dict:
+        """Per filter ``(t_s, errors (K, 9), sigma (K, 15))`` of the aided run (empty without aiding)."""
+        out = {}
+        for name, a in (getattr(self.result, "aided", None) or {}).items():
+            if name == "fixes":
+                continue
+            if "result" in a:   # in memory: SinsResult.aided
+                out[name] = (a["result"].t_s, a["errors"], a["result"].sigma)
+            else:               # from a folder: StoredRun.aided
+                out[name] = (a["t_s"], a["errors"], a["sigma"])
+        return out
+
     def to_pandas(self) -> dict:
         """The run as pandas tables: a dict of DataFrames.
 
@@ -280,6 +301,11 @@ class MissionResult:
                 Index ``t_s`` at the full filter rate over ``navigation.spectrum_s``; columns
                 ``<filter>_<x|y|z>_arcsec``: each filter's gyro-angle error (output minus truth) per
                 body axis. Absent when the run stored none.
+            ``aided_<filter>`` (with ``aiding:``)
+                Index ``t_s``: the aided filter's epochs (every update, every second, the outage growth's times);
+                columns ``north_m``, ``east_m``, ``down_m``, ``vn_m_s``, ``ve_m_s``, ``vd_m_s``,
+                ``psi_north_arcsec``, ``psi_east_arcsec``, ``psi_down_arcsec``: the aided solution's error against
+                the truth, and ``sigma_`` + each: the filter's own 1-sigma of that state.
 
         Notes
         -----
@@ -314,6 +340,13 @@ class MissionResult:
                 for i, ax in enumerate(_BODY):
                     cols[f"{name}_{ax}_arcsec"] = e[:, i]
             out["gyro_error"] = pd.DataFrame(cols, index=pd.Index(np.asarray(sp["t"], dtype=float), name="t_s"))
+        for name, (t, err, sig) in self._aided().items():
+            cols = {}
+            for i, col in enumerate(_AIDED_COLUMNS):
+                conv = "arcsec" if col.endswith("arcsec") else None
+                cols[col] = _convert(err[:, i], conv)
+                cols["sigma_" + col] = _convert(sig[:, i], conv)
+            out[f"aided_{name}"] = pd.DataFrame(cols, index=pd.Index(np.asarray(t, dtype=float), name="t_s"))
         return out
 
     def configuration(self) -> dict:
@@ -342,6 +375,10 @@ class MissionResult:
         ``metrics.json`` on ``filter`` (``horizontal_final``, ``horizontal_peak`` (its ``max``: over every
         navigation update, not only the stored means), ``vertical_final``,
         ``velocity_final``, ``cep_rate``, ``status``) and ``(filter, axis)`` (``phi_final``, ``phi_rms``).
+
+        With ``aiding:``, ``aided_error`` and ``aided_sigma`` on ``(filter, time_aided, aided_state)``: the aided
+        solution's error and the filter's 1-sigma, the states named with their units as in :meth:`to_pandas`'s
+        ``aided_<filter>`` columns.
 
         Attributes: ``scenario``, ``seed``, ``duration_s``, ``sins_sim_version`` and ``configuration``
         (JSON text of :meth:`configuration`).
@@ -398,6 +435,19 @@ class MissionResult:
             if all(c in summ for c in cols):
                 ds[var] = xr.DataArray(summ[cols].to_numpy(dtype=float), dims=("filter", "axis"),
                                        attrs={"units": "arcsec", "long_name": f"metrics.json: attitude error {var}"})
+        aided = self._aided()
+        if aided:   # the aided runs: errors and the filter's 1-sigma per state on (time_aided, filter, aided_state)
+            parts = []
+            for name, (t, err, sig) in aided.items():
+                conv = np.array([ARCSEC if c.endswith("arcsec") else 1.0 for c in _AIDED_COLUMNS])
+                parts.append(xr.Dataset({"aided_error": (("time_aided", "aided_state"), err / conv),
+                                         "aided_sigma": (("time_aided", "aided_state"), sig[:, :9] / conv)},
+                                        coords={"time_aided": np.asarray(t, dtype=float)}))
+            ad = xr.concat(parts, dim="filter", join="outer").assign_coords(
+                filter=list(aided), aided_state=list(_AIDED_COLUMNS))
+            ad["aided_error"].attrs.update(long_name="aided solution's error against the truth (unit in aided_state)")
+            ad["aided_sigma"].attrs.update(long_name="the aided filter's 1-sigma (unit in aided_state)")
+            ds = ds.merge(ad, join="outer")
         ds["status"] = xr.DataArray(summ["status"].astype(str).to_numpy(), dims=("filter",))
         ds["time"].attrs.update(units="s", long_name="centre of the stored interval")
         ds["time_truth"].attrs.update(units="s")

@@ -66,6 +66,7 @@ from sins_sim.navigation.coning import CONING_ALGORITHMS
 from sins_sim.simulation.responses import tuned_design
 from sins_sim.navigation.attitude import attitude_error
 from sins_sim.navigation.strapdown import StrapdownNavigator
+from sins_sim.simulation.aiding import AidedMission, AidingSettings
 from sins_sim.simulation.aligning import AlignmentAccumulator, AlignmentSettings
 from sins_sim.simulation.channel import ChannelConfig, DriveControl
 from sins_sim.simulation.metrics import N_COLS, ErrorSeries, NavErrorStats
@@ -275,6 +276,9 @@ class NavSettings:
         ``truth`` (the default) starts from the true attitude with the offset averaging of ``align_s``;
         another method aligns from the filter's own increments over ``alignment.duration_s`` before
         ``start_s`` and starts from what it finds, with zero velocity.
+    aiding : AidingSettings or None
+        GNSS aiding (:mod:`sins_sim.simulation.aiding`): each filter's increments also navigated by the
+        error-state filter with the same fixes; None: free navigation only.
     """
 
     coning: str = "two_sample"
@@ -290,6 +294,7 @@ class NavSettings:
     tuned_band_hz: tuple | None = None
     designs: dict | None = field(default=None, compare=False)  # derived from the settings and the unit
     alignment: AlignmentSettings = field(default_factory=AlignmentSettings)
+    aiding: AidingSettings | None = None
 
     def __post_init__(self):
         v.choice("navigation", "coning", self.coning, NAV_ALGORITHMS)
@@ -396,6 +401,11 @@ class SinsResult:
         With ``navigation.alignment`` other than ``truth``: per filter the
         :class:`~sins_sim.navigation.alignment_result.AlignmentResult` (``result``) and its error against the
         true attitude at the navigation start (``error_rad``, psi in NED: north and east tilt, heading).
+    aided : dict name -> dict
+        With ``navigation.aiding``: per filter :meth:`sins_sim.simulation.aiding.AidedMission.finish` (``result``:
+        the :class:`~sins_sim.navigation.aided.AidedResult` without its covariance matrices, ``errors`` (K, 9)
+        against the truth, ``growth``: the outage growth, ``nees``, ``smoothed``, ``true_bias``), and
+        ``"fixes"``: the :class:`~sins_sim.navigation.gnss.GnssFixes` every filter was given.
     """
 
     stats: dict
@@ -418,6 +428,7 @@ class SinsResult:
     block: dict | None = None
     online: dict = field(default_factory=dict)
     alignments: dict = field(default_factory=dict)
+    aided: dict = field(default_factory=dict)
 
 
 def axis_pool(threads: int, n_axes: int = 3):
@@ -583,6 +594,9 @@ class _FilterNav:
         self.aligner = None  # AlignmentAccumulator while the alignment window fills (navigation.alignment)
         self.align_next = None  # next truth index whose increment the aligner takes
         self.alignment = None  # {"result": AlignmentResult, "q_true": ...} once aligned
+        self.aided = None  # the filter's aided run (navigation.aiding)
+        self.aid_mission = None  # the mission's AidedMission, shared by the filters
+        self.n_out = None  # filter samples of the run
 
 
 def tuned_designs(imu: ImuConfig, filters, band_hz, key: str = "navigation.coning") -> dict:
@@ -767,9 +781,13 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     if nav is not None:
         k_start = int(round(nav.start_s * fs))
         every = max(1, int(round(fs / nav.n_sub / nav.series_rate_hz(duration_s))))
+        aid_mission = (AidedMission(nav.aiding, nav.alignment, fs, nav.n_sub, duration_s, seed, nav.compensation)
+                       if nav.aiding is not None else None)
         for name in filters:
             d = delays[name]
             navs[name] = _FilterNav(name, d, d if nav.accel_delay == "none" else 0)
+            navs[name].aid_mission = aid_mission
+            navs[name].n_out = n_out
             if nav.alignment.active:  # the window (k_start - n, k_start] feeds the alignment
                 navs[name].aligner = AlignmentAccumulator(nav.alignment, nav.n_sub, 1.0 / fs)
                 navs[name].align_next = k_start - int(round(nav.alignment.duration_s * fs)) + 1
@@ -858,6 +876,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                     diverged[name] = {"axis": AXES[int(bad[1])], "time_s": (k_prev + int(bad[0])) / fs,
                                       "reason": getattr(flt3.get(name), "failure", None) or "filter output not finite"}
             if nav is not None:
+                if aid_mission is not None:  # the fixes whose truth rows have arrived (before any filter needs them)
+                    aid_mission.make_fixes(tr_buf)
                 _navigate(navs, nav, tr_buf, outs_buf, phi_buf, k_start, fs, every, diverged, n_align)
                 spec_next = _keep_spectra(spectra, spec_next, outs_buf, phi_buf, delays, k1, min(k_start + n_spec, n_out),
                                           max_delay, filters)
@@ -901,6 +921,18 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     records = _error_records(allan_rec, fs / allan_stride, k_start / fs, diverged) if nav is not None else {}
     allan = _allan_analyses(records, diverged) if nav is not None else {}
     ts = {k: (np.concatenate(a) if a else np.zeros(0)) for k, a in truth_series.items()}
+    aided = {}
+    if nav is not None and aid_mission is not None:
+        from sins_sim.navigation.gnss import concat_fixes
+
+        for n, nf in navs.items():
+            if nf.aided is not None and n not in diverged:
+                aided[n] = aid_mission.finish(nf.aided, records, n,
+                                              np.zeros(3) if gyro_err is None else gyro_err.bias,
+                                              np.zeros(3) if accel_err is None else accel_err.bias)
+                nf.aided = None  # its covariance matrices go with it
+        if aid_mission.parts:
+            aided["fixes"] = concat_fixes(aid_mission.parts)
     return SinsResult(stats={n: nf.stats for n, nf in navs.items()}, series=series, truth_series=ts, spectra=spec,
                       delays=dict(delays, residual_eliminator=residual_delay), diverged=diverged, drives=drives,
                       filter_rate_hz=fs, duration_s=duration_s, nav_start_s=(nav.start_s if nav else 0.0),
@@ -912,7 +944,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
                               for i, ch in enumerate(chains) if ch.online is not None},
                       alignments={n: {"result": nf.alignment["result"],
                                       "error_rad": attitude_error(nf.alignment["result"].q_nb, nf.alignment["q_true"])}
-                                  for n, nf in navs.items() if nf.alignment is not None})
+                                  for n, nf in navs.items() if nf.alignment is not None},
+                      aided=aided)
 
 
 def _run_three_axis(flt3, pickoffs, outs) -> None:
@@ -973,6 +1006,9 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
         nf.nav = StrapdownNavigator(lat0, lon0, h0, v0, q0,
                                     1.0 / fs, coning=coning, sculling=sculling, n_sub=nav.n_sub,
                                     vertical=nav.vertical, height_aid_tau_s=nav.height_aid_tau_s)
+        if nf.aid_mission is not None:  # the aided run starts where the free navigation does, from the same state
+            nf.aided = nf.aid_mission.start_run(name, j0, nf.n_out - nf.d - 1 - j0, lat0, lon0, h0, v0, q0,
+                                                None if nf.alignment is None else nf.alignment["result"])
         nf.j0 = j0
         nf.next_j = j0 + 1
         nf.epoch_j = j0
@@ -1011,6 +1047,8 @@ def _navigate_one(name, nf, nav: NavSettings, tr_buf, outs_buf, phi_buf, k_start
         return {"axis": ax, "time_s": (ja + (bad // 3 if bad >= 0 else 0)) / fs,
                 "reason": "angle increments not finite"}
     n_before = nf.nav.n_updates
+    if bad == -1 and nf.aided is not None:  # the same increments through the aided navigation
+        nf.aid_mission.feed(nf.aided, dth, dv, tr_buf)
     if bad == -1:  # checked here: the kernel directly (StrapdownNavigator.process checks and copies)
         out = nf.nav._run(dth, np.ascontiguousarray(dv), h_aid if nav.vertical == "height_aid" else _NO_AID)
     else:  # a height aid that is not finite, or windows of unequal length: the public path raises its error
