@@ -192,13 +192,13 @@ def test_gnss_file_round_trip(tmp_path):
                                rtol=0, atol=1e-7)
 
 
-def test_aided_figures_are_written_when_the_plotting_module_is_there(mission, tmp_path):
-    pytest.importorskip("sins_sim.plots.aided")
+def test_aided_figures_are_written_per_filter(mission, tmp_path):
     from sins_sim.jobs.run import aided_figures
 
     res, _ = mission
     names = aided_figures(res, tmp_path, "aided")
-    assert "aided_outage_growth.png" in names and all((tmp_path / n).is_file() for n in names)
+    expected = {f"aided_{kind}_{f}.png" for kind in ("error", "bias", "outage_growth") for f in ("ideal", "eliminator")}
+    assert set(names) == expected and all((tmp_path / n).stat().st_size > 10_000 for n in names)
 
 
 def test_a_run_with_a_gnss_file_copies_it_into_its_inputs(tmp_path):

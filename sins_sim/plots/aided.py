@@ -423,10 +423,10 @@ def outage_growth_figure(growths, *, result=None, path=None):
             later = np.flatnonzero(result.updated & (result.t_s > ta))
             t_next = float(result.t_s[later[0]]) if later.size else math.inf
             sel = (result.t_s >= ta) & (result.t_s < t_next)
-            pp = result.p_pred[sel].copy()
-            pp[0] = result.p_upd[np.flatnonzero(sel)[0]]         # at t_a itself: after its update
+            # result.sigma is after each epoch's update: at t_a the updated covariance, later (no update in
+            # between) the propagated one; a mission's kept result carries sigma but not the 15x15 matrices
             x_line = result.t_s[sel] - ta
-            sig_line = np.sqrt(pp[:, 0, 0] + pp[:, 1, 1])
+            sig_line = np.hypot(result.sigma[sel, 0], result.sigma[sel, 1])
         else:
             x_line, sig_line = tau[have], g.predicted_sigma_m[have]
         mark = {} if result is not None else {"marker": "_", "ms": 9}
