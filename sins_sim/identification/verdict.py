@@ -27,8 +27,13 @@ selected so far) when both tests reject "no improvement" at level :data:`ALPHA`:
 1. **held-out error** (Diebold & Mariano 1995, "Comparing predictive accuracy", J. Bus. Econ.
    Stat. 13(3); with the small-sample Student-t reference of Harvey, Leybourne & Newbold 1997):
    the recording is cut into blocks, even blocks fit and odd blocks score. The loss differential
-   ``d_k = ln MSE_ref,k - ln MSE_new,k`` over the held-out blocks gives ``t = mean(d) / (sd(d) /
-   sqrt(m))``, one-sided against ``t_{m-1}``. The loss is the logarithm of each block's mean
+   ``d_k = ln MSE_ref,k - ln MSE_new,k`` over the ``m`` held-out blocks gives ``DM = mean(d) /
+   sqrt(S / m)``, ``S`` the Newey-West long-run variance of ``d`` (Newey & West 1987; lag truncation
+   ``floor(4 (m / 100)^(2/9))``, Newey & West 1994), with the Harvey-Leybourne-Newbold correction for
+   that many lags, one-sided against ``t_{m-1}`` (:func:`dm_test`). The blocks are neighbours in time,
+   interleaved with the blocks the models were fitted on, so their differentials are correlated: with the
+   plain ``sd(d) / sqrt(m)`` (before issue 39) the test preferred the wrong one of a near-degenerate pair
+   far more often than its level (:mod:`~sins_sim.identification.calibration` measures it). The loss is the logarithm of each block's mean
    square residual, so that the blocks count alike: a residual's envelope changes by orders of
    magnitude over a recording (a start transient, a drift), and the plain difference would be
    decided by its largest block alone. An effect that only fits noise on the training blocks
@@ -87,7 +92,10 @@ the axes each is kept on.
 
    give_verdict
    heldout_block_losses
+   dm_test
    dm_pvalue
+   hac_variance
+   nw_bandwidth
    f_pvalue
    assess
 """
@@ -104,7 +112,8 @@ from sins_sim.models.effects import EFFECTS, BlockMode
 from sins_sim.units import ARCSEC
 
 __all__ = ["ALTERNATIVE_MARGIN", "ALPHA", "AHEAD_ALPHA", "MIN_PARTIAL", "MIN_STEP", "MAX_EFFECTS", "STATUSES",
-           "give_verdict", "heldout_block_losses", "dm_pvalue", "f_pvalue", "assess", "closes", "excess_power",
+           "give_verdict", "heldout_block_losses", "dm_test", "dm_pvalue", "dm_pvalue_iid", "hac_variance",
+           "nw_bandwidth", "f_pvalue", "assess", "closes", "excess_power",
            "parsimonious", "first_step", "unresolved", "resolved_first", "MODE_ZETA_MAX", "DOMINANT", "keep_dominant"]
 
 #: Candidates scoring within this fraction of the best one are named as alternatives of the verdict.
@@ -152,11 +161,71 @@ def heldout_block_losses(fits: dict, axes, train: np.ndarray, used: np.ndarray) 
     return out
 
 
-def dm_pvalue(loss_ref: np.ndarray, loss_new: np.ndarray) -> float:
-    """One-sided p-value of "the new model predicts the held-out blocks no better" (Diebold-Mariano).
+def nw_bandwidth(m: int) -> int:
+    """Newey-West lag truncation for ``m`` loss differentials: ``floor(4 (m / 100)^(2/9))`` (Newey & West 1994,
+    "Automatic lag selection in covariance matrix estimation", Rev. Econ. Stud. 61(4), the Bartlett kernel's
+    rule), at least 1 and at most ``m - 2``: 2 lags for the 10 held-out blocks of a recording up to 10 s, 2 for
+    20 and 3 for 43."""
+    return int(max(1, min(m - 2, math.floor(4.0 * (m / 100.0) ** (2.0 / 9.0)))))
 
-    ``d = ln loss_ref - ln loss_new`` per block; ``t = mean(d) / (sd(d) / sqrt(m))`` against Student's t with
-    ``m - 1`` degrees of freedom (Harvey, Leybourne & Newbold 1997). Fewer than 3 blocks: 1.
+
+def hac_variance(d: np.ndarray, lags: int) -> float:
+    """Newey-West (Bartlett-kernel) long-run variance of ``d``: ``g_0 + 2 sum_{j=1}^{L} (1 - j / (L + 1)) g_j``.
+
+    ``g_j = (1/m) sum_{k>j} (d_k - mean)(d_{k-j} - mean)`` (Newey & West 1987, "A simple, positive semi-definite,
+    heteroskedasticity and autocorrelation consistent covariance matrix", Econometrica 55(3), eq. 2); the
+    Bartlett weights keep it non-negative. ``var(mean(d)) = hac_variance(d) / m``.
+    """
+    d = np.asarray(d, dtype=np.float64)
+    m = d.size
+    e = d - d.mean()
+    s = float(e @ e) / m
+    for j in range(1, min(lags, m - 1) + 1):
+        s += 2.0 * (1.0 - j / (lags + 1.0)) * float(e[j:] @ e[:-j]) / m
+    return max(s, 0.0)
+
+
+def dm_test(loss_ref: np.ndarray, loss_new: np.ndarray) -> dict:
+    """Diebold-Mariano test of "the new model predicts the held-out blocks no better", one-sided.
+
+    ``d_k = ln loss_ref,k - ln loss_new,k`` over the ``m`` held-out blocks. The blocks are neighbours in
+    time, interleaved with the training blocks the models were fitted on, and a residual's envelope drifts
+    over a recording, so the ``d_k`` are correlated; their mean's variance is the Newey-West long-run
+    variance (:func:`hac_variance`) over ``m``, with the lag truncation ``L`` of :func:`nw_bandwidth`
+    (Diebold & Mariano 1995, "Comparing predictive accuracy", J. Bus. Econ. Stat. 13(3), sec. 1.1, whose
+    statistic uses this long-run variance). ``DM = mean(d) / sqrt(S / m)``; the small-sample correction
+    of Harvey, Leybourne & Newbold 1997 ("Testing the equality of prediction mean squared errors",
+    Int. J. Forecasting 13(2), eq. 9) for a differential correlated over ``h - 1 = L`` lags,
+    ``DM* = DM sqrt((m + 1 - 2h + h (h - 1) / m) / m)``, against Student's t with ``m - 1`` degrees of freedom.
+
+    Returns ``statistic`` (DM*), ``p`` (one-sided), ``m``, ``lags``. Fewer than 3 blocks: ``p = 1``.
+    """
+    tiny = 1e-300
+    d = np.log(np.maximum(np.asarray(loss_ref, dtype=np.float64), tiny)) - \
+        np.log(np.maximum(np.asarray(loss_new, dtype=np.float64), tiny))
+    m = d.size
+    if m < 3:
+        return {"statistic": math.nan, "p": 1.0, "m": m, "lags": 0}
+    lags = nw_bandwidth(m)
+    mean = float(np.mean(d))
+    var = hac_variance(d, lags)
+    if var <= 0.0:
+        return {"statistic": math.copysign(math.inf, mean) if mean else 0.0, "p": 0.0 if mean > 0.0 else 1.0,
+                "m": m, "lags": lags}
+    h = lags + 1
+    t = mean / math.sqrt(var / m) * math.sqrt(max(m + 1.0 - 2.0 * h + h * (h - 1.0) / m, 1.0) / m)
+    return {"statistic": t, "p": float(stats.t.sf(t, m - 1)), "m": m, "lags": lags}
+
+
+def dm_pvalue(loss_ref: np.ndarray, loss_new: np.ndarray) -> float:
+    """One-sided p-value of "the new model predicts the held-out blocks no better" (:func:`dm_test`)."""
+    return dm_test(loss_ref, loss_new)["p"]
+
+
+def dm_pvalue_iid(loss_ref: np.ndarray, loss_new: np.ndarray) -> float:
+    """The held-out test before issue 39: ``t = mean(d) / (sd(d) / sqrt(m))`` against ``t_{m-1}``, the blocks
+    taken as independent. Kept to measure its calibration against :func:`dm_pvalue`
+    (:mod:`~sins_sim.identification.calibration`). Fewer than 3 blocks: 1.
     """
     tiny = 1e-300
     d = np.log(np.maximum(np.asarray(loss_ref, dtype=np.float64), tiny)) - \
@@ -168,8 +237,7 @@ def dm_pvalue(loss_ref: np.ndarray, loss_new: np.ndarray) -> float:
     mean = float(np.mean(d))
     if sd == 0.0:
         return 0.0 if mean > 0.0 else 1.0
-    t = mean / (sd / math.sqrt(m))
-    return float(stats.t.sf(t, m - 1))
+    return float(stats.t.sf(mean / (sd / math.sqrt(m)), m - 1))
 
 
 def _train_rss(fits: dict, axes, train: np.ndarray):
