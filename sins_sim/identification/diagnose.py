@@ -388,7 +388,7 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
             remainder = {"axis": worst, "band_hz": lw["band_hz"], "peaks_hz": lw["peaks_hz"], "time_s": lw["time_s"],
                          "excess_rms_arcsec": {a: math.sqrt(excess[a]) / ARCSEC for a in sig_axes}}
     # 6. the verdict
-    verdict = give_verdict(fits, sig_axes, candidates, settings, steps, remainder)
+    verdict = give_verdict(fits, sig_axes, candidates, settings, steps, remainder, duration_s=rec.duration_s)
     # a still recording without meta.site: the steady rate the bias nuisance took, the Earth's or a bias
     verdict["steady_rate"] = steady_rate(rec, fits, used, settings.gap_alpha) if drift else None
     # 7. a close call is said, with the experiment that separates it (discriminate.close_call)

@@ -15,6 +15,10 @@ Statuses
     ``remainder`` where the rest sits (axis, band, time window).
 ``unknown``
     No effect passes: the localisation is the answer.
+    When a candidate closes at least :data:`MIN_PARTIAL` of the gap in-sample but fails the held-out test,
+    ``unconfirmed`` names it: "closes 0.89 in-sample, not confirmed on held-out data (p = 0.09)", with the
+    recording length that would confirm it at :data:`CONFIRM_POWER` (:func:`unconfirmed`,
+    :func:`confirm_duration`).
 ``invalid data``
     The data checks (:mod:`sins_sim.identification.checks`) found the recording unfit to judge;
     no verdict, the ``findings`` say what is wrong, on which axis and when.
@@ -98,6 +102,8 @@ the axes each is kept on.
    nw_bandwidth
    f_pvalue
    assess
+   unconfirmed
+   confirm_duration
 """
 
 from __future__ import annotations
@@ -114,7 +120,8 @@ from sins_sim.units import ARCSEC
 __all__ = ["ALTERNATIVE_MARGIN", "ALPHA", "AHEAD_ALPHA", "MIN_PARTIAL", "MIN_STEP", "MAX_EFFECTS", "STATUSES",
            "give_verdict", "heldout_block_losses", "dm_test", "dm_pvalue", "dm_pvalue_iid", "hac_variance",
            "nw_bandwidth", "f_pvalue", "assess", "closes", "excess_power",
-           "parsimonious", "first_step", "unresolved", "resolved_first", "MODE_ZETA_MAX", "DOMINANT", "keep_dominant"]
+           "parsimonious", "first_step", "unresolved", "resolved_first", "MODE_ZETA_MAX", "DOMINANT", "keep_dominant",
+           "CONFIRM_POWER", "confirm_duration", "unconfirmed"]
 
 #: Candidates scoring within this fraction of the best one are named as alternatives of the verdict.
 ALTERNATIVE_MARGIN = 0.05
@@ -134,6 +141,8 @@ MIN_STEP = 0.3
 #: coupling closed 0.89; an off-catalogue drive harmonic (``diagnose-eval --seed 1``) got 0.71 from
 #: ``scale_factor``, tied with ``lock_in`` (at one half it was named, wrongly; before, ``unknown``).
 DOMINANT = 0.8
+#: Power at which :func:`unconfirmed` estimates the recording length that would confirm an in-sample candidate.
+CONFIRM_POWER = 0.8
 #: Most effects the greedy selection names.
 MAX_EFFECTS = 3
 #: The block mode's damping ratio beyond which it has no resonant peak (``BlockMode.ZETA_RESONANT_MAX``).
@@ -277,7 +286,8 @@ def assess(candidates: list, ref_fits: dict, sig_axes: list, train: np.ndarray, 
         k = c.get("n_params", 1) * c.get("n_axes", len(sig_axes))
         p = sum(n_ref[a] for a in sig_axes) + k
         c["_losses"] = loss
-        c["p_heldout"] = dm_pvalue(ref_loss, loss)
+        dm = dm_test(ref_loss, loss)
+        c["p_heldout"], c["t_heldout"], c["m_heldout"] = dm["p"], dm["statistic"], dm["m"]
         c["p_f"] = f_pvalue(ref_rss, rss, k, p, n_eff)
         c["unresolved"] = unresolved(c, ref_fits, sig_axes)
         c["significant"] = bool(c["p_heldout"] < ALPHA and c["p_f"] < ALPHA and c["gap_reduction"] > 0.0)
@@ -312,7 +322,7 @@ def closes(remaining: dict, excess0: dict, tol: dict, settings: DiagnoseSettings
 
 
 def give_verdict(fits: dict, sig_axes: list, candidates: list, settings: DiagnoseSettings,
-                 steps: list | None = None, remainder: dict | None = None) -> dict:
+                 steps: list | None = None, remainder: dict | None = None, duration_s: float | None = None) -> dict:
     """The verdict from the baseline refit, the ranked first-round candidates and the greedy steps.
 
     Parameters
@@ -332,6 +342,9 @@ def give_verdict(fits: dict, sig_axes: list, candidates: list, settings: Diagnos
         ``candidates`` alone (first round).
     remainder : dict or None
         Where the excess left by the selected model sits (axis, band, time window).
+    duration_s : float or None
+        The recording's length: with it, a verdict ``unknown`` names the candidate that closes the gap
+        in-sample but fails the held-out test, with the length that would confirm it (:func:`unconfirmed`).
 
     Returns
     -------
@@ -340,7 +353,8 @@ def give_verdict(fits: dict, sig_axes: list, candidates: list, settings: Diagnos
         ``explained_fraction`` (of the baseline's excess power, all selected effects), ``gap_reduction``
         (the same, kept for older readers), ``effects`` (the selected effects in order),
         ``alternatives``, ``remainder``, ``baseline_score`` (held-out RMS of the baseline, arcsec),
-        ``criterion`` (the selection rule in words).
+        ``criterion`` (the selection rule in words); for ``unknown``, ``unconfirmed`` (:func:`unconfirmed`,
+        or ``None``).
     """
     base_held = math.sqrt(np.mean([fits[a].heldout_rms ** 2 for a in sig_axes])) if sig_axes else math.nan
     criterion = (f"held-out Diebold-Mariano and nested F-test at {ALPHA:g}; partly explained when >= {MIN_PARTIAL:g} "
@@ -358,7 +372,8 @@ def give_verdict(fits: dict, sig_axes: list, candidates: list, settings: Diagnos
         best = candidates[0] if candidates else None
         out.update(effect="unknown", status="unknown", explained_fraction=0.0,
                    gap_reduction=best["gap_reduction"] if best else 0.0, remainder=remainder,
-                   plausibility=_plausibility([], candidates))
+                   plausibility=_plausibility([], candidates),
+                   unconfirmed=unconfirmed(candidates, duration_s) if duration_s else None)
         return out
     total = float(sum(s["explained_fraction"] for s in steps))
     done = steps[-1]["closes_gap"] and total >= settings.min_gap_reduction
@@ -379,6 +394,56 @@ def give_verdict(fits: dict, sig_axes: list, candidates: list, settings: Diagnos
                remainder=None if done else remainder,
                plausibility=_plausibility(steps, candidates))
     return out
+
+
+def confirm_duration(t_observed: float, m: int, duration_s: float, alpha: float = ALPHA,
+                     power: float = CONFIRM_POWER) -> float | None:
+    """The recording length (s) at which the held-out test would reject at ``alpha`` with probability ``power``.
+
+    For an effect of fixed size the loss differential's mean is fixed and its standard error falls as
+    ``1 / sqrt(n)`` (more held-out blocks, or longer ones averaging more samples), so the statistic grows as
+    ``sqrt(n)``: ``E[DM](n') = t_obs sqrt(n' / n)``. The test rejects when ``DM > c``, ``c`` the one-sided
+    ``t_{m-1}`` critical value at ``alpha`` (kept at this recording's ``m``: a longer recording has at least
+    as many blocks, so ``c`` only falls, and the length is an upper estimate); with ``DM`` about normal with
+    unit variance around its mean, ``P(DM > c) = power`` when ``E[DM] = c + z_power``:
+
+    ``n' = n ((c + z_power) / t_obs)^2`` (the usual sample-size rule, e.g. Chow, Shao & Wang 2008, "Sample
+    Size Calculations in Clinical Research", sec. 3.1, with the observed standardised effect in place of the
+    assumed one). ``t_obs`` is itself estimated from the fit, so the length is an estimate of the same
+    precision. ``None`` when ``t_obs <= 0``: the held-out blocks show no improvement, and no length follows.
+    """
+    if not (math.isfinite(t_observed) and t_observed > 0.0) or m < 3:
+        return None
+    c = float(stats.t.isf(alpha, m - 1))
+    return float(duration_s * ((c + float(stats.norm.ppf(power))) / t_observed) ** 2)
+
+
+def unconfirmed(candidates: list, duration_s: float) -> dict | None:
+    """The candidate a verdict ``unknown`` names as shown in-sample but not confirmed on held-out data.
+
+    The first candidate (in the ranking: plausible and resolved before the others, then by held-out score)
+    that closes at least :data:`MIN_PARTIAL` of the gap in-sample (``gap_reduction``, the training and held-out
+    samples together) and fails the held-out test at :data:`ALPHA`. Returns ``effect``,
+    ``in_sample_fraction``, ``p_heldout``, ``alpha``, ``params``, ``uncertainty``, ``duration_s`` (the
+    recording's), ``confirm_duration_s`` (:func:`confirm_duration` at :data:`CONFIRM_POWER`, or ``None``),
+    ``power`` and ``message``; ``None`` when no candidate qualifies.
+    """
+    ranked = sorted(candidates, key=lambda c: (bool(c.get("unresolved")),
+                                               not c.get("plausibility", {}).get("plausible", True), c["score"]))
+    c = next((c for c in ranked if c["gap_reduction"] >= MIN_PARTIAL and c.get("p_heldout", 1.0) >= ALPHA), None)
+    if c is None:
+        return None
+    need = confirm_duration(c.get("t_heldout", math.nan), int(c.get("m_heldout", 0)), duration_s)
+    msg = (f"{c['effect']} closes {c['gap_reduction']:.2f} in-sample, not confirmed on held-out data "
+           f"(p = {c['p_heldout']:.2g})")
+    if need is None:
+        msg += "; its held-out blocks show no improvement, so no longer recording is predicted to confirm it"
+    else:
+        msg += (f"; a recording of about {need:.3g} s would confirm it at power {CONFIRM_POWER:g} (level "
+                f"{ALPHA:g}), were the effect as large as this fit says")
+    return {"effect": c["effect"], "in_sample_fraction": float(c["gap_reduction"]), "p_heldout": float(c["p_heldout"]),
+            "alpha": ALPHA, "params": c["params"], "uncertainty": c["uncertainty"], "duration_s": float(duration_s),
+            "confirm_duration_s": need, "power": CONFIRM_POWER, "message": msg}
 
 
 def _plausibility(steps: list, candidates: list) -> dict:

@@ -330,6 +330,8 @@ def format_diagnosis(js: dict) -> str:
     alts = f" (or: {', '.join(v['alternatives'])})" if v.get("alternatives") else ""
     lines.append(f"verdict: {v.get('effect')}{alts} [{v.get('status')}], explained fraction "
                  f"{_fmt(v.get('explained_fraction') or 0.0, '.3f')}")
+    if v.get("unconfirmed"):
+        lines.append(f"in-sample only: {v['unconfirmed'].get('message')}")
     cc = v.get("close_call")
     if cc:
         lines.append("close call: " + ", ".join(f"{e.get('effect')} {_fmt(e.get('explained_fraction'), '.5f')}"
