@@ -317,16 +317,18 @@ def judge_hard(info: dict, verdict: dict) -> tuple:
     return _judge({**info, "label": inner if inner else "none"}, verdict)
 
 
-def evaluate_seeds(n: int, seeds, duration_s: float = 1.0, suite: str = "hard", progress=None, jobs: int = 1) -> dict:
+def evaluate_seeds(n: int, seeds, duration_s: float = 1.0, suite: str = "hard", progress=None, jobs: int = 1,
+                   labels=None) -> dict:
     """:func:`~sins_sim.identification.blind.evaluate` over several seeds, pooled per class.
 
     Returns ``per_seed`` (each seed's result), ``per_class`` (pooled: ``n``, ``correct``, ``accuracy``),
-    ``accuracy`` (pooled), ``seeds`` and ``suite``.
+    ``accuracy`` (pooled), ``seeds`` and ``suite``. ``labels``: only these classes (default all).
     """
     seeds = [int(s) for s in seeds]
     if not seeds:
         raise ValueError("diagnose_eval.seeds: needs at least one seed")
-    runs = [evaluate(n, s, duration_s=duration_s, progress=progress, jobs=jobs, suite=suite) for s in seeds]
+    runs = [evaluate(n, s, duration_s=duration_s, labels=labels, progress=progress, jobs=jobs, suite=suite)
+            for s in seeds]
     classes = []
     for r in runs:
         classes += [c for c in r["per_class"] if c not in classes]
@@ -335,9 +337,17 @@ def evaluate_seeds(n: int, seeds, duration_s: float = 1.0, suite: str = "hard", 
         k = sum(r["per_class"].get(c, {}).get("n", 0) for r in runs)
         ok = sum(r["per_class"].get(c, {}).get("correct", 0) for r in runs)
         pooled[c] = {"n": k, "correct": ok, "accuracy": ok / k if k else math.nan}
+    forms = []
+    for r in runs:
+        forms += [f for f in r["per_form"] if f not in forms]
+    per_form = {}
+    for f in sorted(forms):
+        k = sum(r["per_form"].get(f, {}).get("n", 0) for r in runs)
+        ok = sum(r["per_form"].get(f, {}).get("correct", 0) for r in runs)
+        per_form[f] = {"n": k, "correct": ok, "accuracy": ok / k if k else math.nan}
     total = sum(r["n"] for r in runs)
     return {"suite": suite, "seeds": seeds, "n_per_seed": int(n), "duration_s": float(duration_s),
-            "per_class": pooled, "accuracy": sum(p["correct"] for p in pooled.values()) / total,
+            "per_class": pooled, "per_form": per_form, "accuracy": sum(p["correct"] for p in pooled.values()) / total,
             "per_seed": runs}
 
 
@@ -348,6 +358,12 @@ def format_seeds(res: dict) -> str:
              f"{res['duration_s']:g} s each", "", "class".ljust(w) + "right / cases  accuracy"]
     for k, a in res["per_class"].items():
         lines.append(k.ljust(w) + f"{a['correct']:>5d} / {a['n']:<5d}  {a['accuracy']:8.3f}")
+    forms = res.get("per_form") or {}
+    if forms:
+        wf = max([len(k) for k in forms] + [len("form")]) + 2
+        lines += ["", "form".ljust(wf) + "right / cases  accuracy"]
+        for k, a in forms.items():
+            lines.append(k.ljust(wf) + f"{a['correct']:>5d} / {a['n']:<5d}  {a['accuracy']:8.3f}")
     lines.append("")
     for r in res["per_seed"]:
         lines.append(f"seed {r['seed']}: accuracy {r['accuracy']:.3f} ({r['n']} recordings, {r['runtime_s']:.0f} s)")

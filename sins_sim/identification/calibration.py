@@ -1,7 +1,8 @@
 """Calibration of the held-out test that ranks candidates (issue 39, item 2).
 
 The verdict declares one candidate better than another when the held-out Diebold-Mariano test
-(:func:`~sins_sim.identification.verdict.dm_pvalue`) rejects "no better" at :data:`~sins_sim.identification.verdict.AHEAD_ALPHA`.
+(:func:`~sins_sim.identification.verdict.dm_pvalue`) rejects "no better" at
+:data:`~sins_sim.identification.verdict.AHEAD_ALPHA`.
 On a pair of candidates the recording cannot tell apart, that test must not prefer the wrong one more
 often than its level says. :func:`false_preference` measures it on the project's own generator: each
 recording carries the ``true`` effect, the diagnosis fits both candidates (and only them: the held-out

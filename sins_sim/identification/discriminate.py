@@ -365,7 +365,8 @@ def close_call(rec: Recording, verdict: dict, candidates: list, floors: dict, se
 def close_call_lines(cc: dict) -> list:
     """The report's section on a close call (Markdown lines): the rivals' fractions and the experiment."""
     lines = ["## Close call", "", "The recording cannot tell these apart (each closes the gap within the allowance "
-             "for model error, or the held-out test does not declare one better):", "", "| effect | explained fraction | held-out RMS (arcsec) | parameters |",
+             "for model error, or the held-out test does not declare one better):", "",
+             "| effect | explained fraction | held-out RMS (arcsec) | parameters |",
              "|---|---|---|---|"]
     for e in cc["effects"]:
         pars = "; ".join(f"{ax}: " + ", ".join(f"{k} = {val:.4g}" for k, val in pv.items())
