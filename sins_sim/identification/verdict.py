@@ -196,6 +196,13 @@ def hac_variance(d: np.ndarray, lags: int) -> float:
     return max(s, 0.0)
 
 
+def _log_differential(loss_ref, loss_new) -> np.ndarray:
+    """``ln loss_ref - ln loss_new`` per block (losses floored at 1e-300, so an exact fit stays finite)."""
+    tiny = 1e-300
+    return (np.log(np.maximum(np.asarray(loss_ref, dtype=np.float64), tiny))
+            - np.log(np.maximum(np.asarray(loss_new, dtype=np.float64), tiny)))
+
+
 def dm_test(loss_ref: np.ndarray, loss_new: np.ndarray) -> dict:
     """Diebold-Mariano test of "the new model predicts the held-out blocks no better", one-sided.
 
@@ -211,9 +218,7 @@ def dm_test(loss_ref: np.ndarray, loss_new: np.ndarray) -> dict:
 
     Returns ``statistic`` (DM*), ``p`` (one-sided), ``m``, ``lags``. Fewer than 3 blocks: ``p = 1``.
     """
-    tiny = 1e-300
-    d = np.log(np.maximum(np.asarray(loss_ref, dtype=np.float64), tiny)) - \
-        np.log(np.maximum(np.asarray(loss_new, dtype=np.float64), tiny))
+    d = _log_differential(loss_ref, loss_new)
     m = d.size
     if m < 3:
         return {"statistic": math.nan, "p": 1.0, "m": m, "lags": 0}
@@ -238,9 +243,7 @@ def dm_pvalue_iid(loss_ref: np.ndarray, loss_new: np.ndarray) -> float:
     taken as independent. Kept to measure its calibration against :func:`dm_pvalue`
     (:mod:`~sins_sim.identification.calibration`). Fewer than 3 blocks: 1.
     """
-    tiny = 1e-300
-    d = np.log(np.maximum(np.asarray(loss_ref, dtype=np.float64), tiny)) - \
-        np.log(np.maximum(np.asarray(loss_new, dtype=np.float64), tiny))
+    d = _log_differential(loss_ref, loss_new)
     m = d.size
     if m < 3:
         return 1.0
