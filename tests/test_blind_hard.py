@@ -150,4 +150,6 @@ def test_earth_rate_rules():
     unk = {"status": "unknown", "effect": "unknown", "alternatives": [], "effects": []}
     assert j({"label": "earth_rate", "form": "table_no_site"}, unk)[1]
     sf = {"status": "explained", "effect": "scale_factor", "alternatives": [], "effects": [{"effect": "scale_factor"}]}
-    assert not j({"label": "earth_rate", "form": "table_no_site"}, sf)[1]
+    assert not j({"label": "earth_rate", "form": "table_no_site"}, sf)[1]  # a scale error claimed, the Earth unsaid
+    assert j({"label": "earth_rate", "form": "table_no_site"},
+             {**sf, "alternatives": ["earth_rate"], "steady_rate": {"finding": "earth_rate"}})[1]

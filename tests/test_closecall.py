@@ -213,3 +213,40 @@ def test_confirming_length_gives_the_stated_power_on_simulated_differentials():
     s = sd / math.sqrt(need)
     hits = sum(dm_test(np.exp(rng.normal(mu, s, m)), np.ones(m))["p"] < ALPHA for _ in range(draws))
     assert abs(hits / draws - CONFIRM_POWER) < 0.05, (need, hits / draws)
+
+
+# --- a scale-factor error on a table without the site can be the Earth's rate -----------------------------
+def test_a_scale_error_on_a_table_without_site_is_named_beside_the_earth_rate():
+    """A table turning at 10 deg/s on axes x, y, z (its angle on them ``theta t_i``, ``t = (0.6, 0, 0.8)``). A
+    scale-factor error ``e = r / theta'`` on x and z is the steady rate ``r t_i``: with ``r`` = 0.8 of the Earth's
+    rate, the recording cannot tell it from the Earth's rate along the table axis, so ``earth_rate`` joins the
+    alternatives and the finding gives the implied rates (``e_i theta'_i``, to rounding); with ``r`` = 3 Earth
+    rates, 1e-9 of sigma, it cannot be the Earth's: unchanged; with the site in the header: unchanged."""
+    from sins_sim.earth import EARTH_RATE_RAD_S
+    from sins_sim.identification.steady_rate import table_scale_as_earth
+    from sins_sim.units import DEG, DEG_PER_H
+
+    t = np.arange(7201) / 7200.0
+    tvec = {"x": 0.6, "y": 0.0, "z": 0.8}
+    rate = 10.0 * DEG
+    sins = np.column_stack([rate * t * tvec[a] for a in "xyz"])
+
+    def rec(site=None):
+        return SimpleNamespace(site=site, sins_angle=sins, duration_s=1.0, axes=("x", "y", "z"),
+                               axis_index=lambda a: "xyz".index(a))
+
+    def verdict(r):
+        e = r / rate
+        return {"status": "explained", "effect": "scale_factor", "alternatives": [],
+                "effects": [{"effect": "scale_factor", "params": {"x": {"error": e}, "z": {"error": e}},
+                             "uncertainty": {"x": {"error": 1e-9 * e}, "z": {"error": 1e-9 * e}}}]}
+
+    v = table_scale_as_earth(rec(), verdict(0.8 * EARTH_RATE_RAD_S))
+    assert v["alternatives"] == ["earth_rate"] and v["steady_rate"]["finding"] == "earth_rate"
+    for a in ("x", "z"):
+        assert v["steady_rate"]["rate_deg_h"][a] == pytest.approx(0.8 * EARTH_RATE_RAD_S * tvec[a] / DEG_PER_H,
+                                                                  rel=1e-9)
+    assert "give the site" in v["steady_rate"]["message"]
+    big = verdict(3.0 * EARTH_RATE_RAD_S)
+    assert table_scale_as_earth(rec(), big) is big
+    assert table_scale_as_earth(rec({"latitude_deg": 50.0}), verdict(0.8 * EARTH_RATE_RAD_S))["alternatives"] == []

@@ -38,8 +38,10 @@ class                the recording                                              
                      ``table_site`` a rate table (5-20 deg/s and a 7 Hz swing)    with the steady-rate
                      about an axis 0-40 deg from the vertical, the unit tilted by finding ``earth_rate``;
                      up to 2 deg, with the site; ``table_no_site`` the same       ``table_no_site``:
-                     without it                                                   ``unknown`` (a gap no
-                                                                                  catalogue effect explains)
+                     without it                                                   ``unknown``, or the
+                                                                                  steady-rate finding
+                                                                                  ``earth_rate`` beside the
+                                                                                  effect named
 ``randomised``       a catalogue effect (in the experiments of                     as in the standard set
                      :data:`~sins_sim.identification.blind.EXPERIMENTS`) or a
                      clean case, made by the standard generator with the
@@ -308,7 +310,8 @@ def judge_hard(info: dict, verdict: dict) -> tuple:
         if info["form"] == "still_no_site":
             return pred, status == "none" and sr.get("finding") == "earth_rate"
         if info["form"] == "table_no_site":
-            return pred, status == "unknown"
+            # a gap no catalogue effect explains, or the Earth's rate named beside what explains it
+            return pred, status == "unknown" or sr.get("finding") == "earth_rate"
         return pred, status == "none" and not sr
     if label == "bias_drift" and info["form"] == "alone":
         return verdict["effect"], verdict["effect"] == "none"

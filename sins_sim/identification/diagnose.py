@@ -125,7 +125,7 @@ from sins_sim.identification.refit import (CANCEL, AxisFit, DiagnoseSettings, _P
                                           worker_pool)
 from sins_sim.identification.plausibility import assess_plausibility, plausible_first
 from sins_sim.identification.report import Diagnosis, plausibility_flags, write_report
-from sins_sim.identification.steady_rate import steady_rate
+from sins_sim.identification.steady_rate import steady_rate, table_scale_as_earth
 from sins_sim.identification.verdict import (ALTERNATIVE_MARGIN, MAX_EFFECTS, MIN_PARTIAL, MIN_STEP,  # noqa: F401
                                              _step,
                                              assess, closes, excess_power, first_step, give_verdict,
@@ -391,6 +391,8 @@ def _diagnose(rec: Recording, settings: DiagnoseSettings, progress=None) -> Diag
     verdict = give_verdict(fits, sig_axes, candidates, settings, steps, remainder, duration_s=rec.duration_s)
     # a still recording without meta.site: the steady rate the bias nuisance took, the Earth's or a bias
     verdict["steady_rate"] = steady_rate(rec, fits, used, settings.gap_alpha) if drift else None
+    # a rate table without meta.site: a scale-factor error there can be the Earth's rate along the table axis
+    verdict = table_scale_as_earth(rec, verdict)
     # 7. a close call is said, with the experiment that separates it (discriminate.close_call)
     verdict = close_call(rec, verdict, candidates, floors, settings)
     timing["total"] = time.perf_counter() - t_start
