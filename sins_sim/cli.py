@@ -619,10 +619,16 @@ def _cmd_diagnose_eval(args) -> int:
             raise ConfigError(f"--seeds: must be comma-separated integers, got {args.seeds!r}") from None
         if not seeds or any(x < 0 for x in seeds):
             raise ConfigError(f"--seeds: must be comma-separated integers >= 0, got {args.seeds!r}")
+    labels = None
+    if args.labels is not None:
+        labels = [x.strip() for x in args.labels.split(",") if x.strip()]
+        if not labels:
+            raise ConfigError(f"--labels: must be comma-separated class names, got {args.labels!r}")
     with ExitStack() as stack:
         json_tmp = stack.enter_context(atomic_output_file(args.json, "--json")) if args.json is not None else None
         result = diagnose_eval(args.n, args.seed, duration_s=args.duration, json_out=json_tmp, progress=progress,
-                               jobs=args.jobs, suite="hard" if args.hard else "standard", seeds=seeds)
+                               jobs=args.jobs, suite="hard" if args.hard else "standard", seeds=seeds,
+                               labels=labels)
     print(format_eval(result))
     return EXIT_OK
 
@@ -1171,11 +1177,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=_count, default=1, help="recordings diagnosed at once, in processes [1]")
     p.add_argument("--hard", action="store_true", help="the harder set: time gaps and sign flips under table motion, "
                                                        "bias drift, structural modes, near-degenerate pairs, "
-                                                       "randomised units (identification.blind_hard)")
+                                                       "the Earth's rate, randomised units (identification.blind_hard)")
     p.add_argument("--seeds", help="comma-separated seeds instead of --seed: --n recordings each, accuracy pooled "
                                    "per class")
     p.add_argument("--holdout", action="store_true", help="with --hard: the two seeds kept unlooked-at during "
                                                           "development (blind_hard.HOLDOUT_SEEDS)")
+    p.add_argument("--labels", help="comma-separated classes to draw (default all of the set's), e.g. "
+                                    "earth_rate,near_degenerate with --hard")
     p.set_defaults(func=_cmd_diagnose_eval)
 
     p = sub.add_parser("schema", help="every key of an input format with its unit, range and default",

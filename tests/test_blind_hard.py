@@ -118,3 +118,38 @@ def test_holdout_needs_hard(capsys):
     assert "--holdout" in err and len(err.strip().splitlines()) == 1
     assert main(["diagnose-eval", "--n", "1", "--seeds", "1,x"]) != 0
     assert "--seeds" in capsys.readouterr().err
+
+
+def test_earth_rate_class_puts_the_site_in_the_header_only_when_its_form_says_so():
+    """Each form of ``earth_rate`` (issue 39, item 4): three axes; the header's ``site`` present exactly for the
+    ``*_site`` forms (the truth carries the Earth's rate in every form), a table axis only on the table forms,
+    latitude and heading in their drawn ranges, a level unit on the still bench."""
+    for i, form in enumerate(bh.HARD_FORMS["earth_rate"]):
+        rec, info = _case("earth_rate", form, duration_s=0.2, i=i)
+        assert list(rec.axes) == ["x", "y", "z"]
+        given = form in ("still_site", "table_site")
+        assert (rec.site is not None) == given, form
+        site = info["site"]
+        assert -70.0 <= site["latitude_deg"] <= 70.0 and 0.0 <= site["orientation_ned"]["heading_deg"] < 360.0
+        assert ("table_axis_ned" in site) == form.startswith("table") == (rec.sins_angle is not None)
+        if not form.startswith("table"):
+            assert site["orientation_ned"]["pitch_deg"] == 0.0 == site["orientation_ned"]["roll_deg"]
+
+
+def test_earth_rate_rules():
+    j = bh.judge_hard
+    none = {"status": "none", "effect": "none", "alternatives": [], "effects": [], "steady_rate": None}
+    found = {**none, "steady_rate": {"finding": "earth_rate"}}
+    assert j({"label": "earth_rate", "form": "still_site"}, none)[1]
+    assert not j({"label": "earth_rate", "form": "still_site"}, found)[1]  # the model had the site: nothing left
+    assert j({"label": "earth_rate", "form": "still_no_site"}, found)[1]
+    assert not j({"label": "earth_rate", "form": "still_no_site"}, none)[1]  # the rate went unreported
+    assert not j({"label": "earth_rate", "form": "still_no_site"},
+                 {**none, "steady_rate": {"finding": "gyro_bias"}})[1]
+    assert j({"label": "earth_rate", "form": "table_site"}, none)[1]
+    unk = {"status": "unknown", "effect": "unknown", "alternatives": [], "effects": []}
+    assert j({"label": "earth_rate", "form": "table_no_site"}, unk)[1]
+    sf = {"status": "explained", "effect": "scale_factor", "alternatives": [], "effects": [{"effect": "scale_factor"}]}
+    assert not j({"label": "earth_rate", "form": "table_no_site"}, sf)[1]  # a scale error claimed, the Earth unsaid
+    assert j({"label": "earth_rate", "form": "table_no_site"},
+             {**sf, "alternatives": ["earth_rate"], "steady_rate": {"finding": "earth_rate"}})[1]

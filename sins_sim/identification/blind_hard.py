@@ -7,36 +7,46 @@ header's as in :mod:`sins_sim.identification.blind` (f0 by 0.2 %, k1..k5 by 5 %,
 truth is integrated at 72 kHz by the exact or the RK4 integrator, with white readout noise in 40 % of
 the cases. The classes (:data:`HARD_LABELS`) and what counts as right (:func:`judge_hard`):
 
-=================== ============================================================ ==========================
-class               the recording                                                right when
-=================== ============================================================ ==========================
-``time_gap``        rate table; 1-120 samples (log-uniform) dropped from every    ``invalid data`` naming
-                    array at a random instant in the middle 30-70 % (the header   ``time continuity``
-                    claims a continuous record)
-``sign_flip``       rate table; the counts negated (``counts``) or the table      ``invalid data`` naming
-                    angle ``sins_angle`` negated (``table``)                      ``sign``
-``bias_drift``      stationary; a readout bias drift (0.5-10 deg/h, a ramp of     ``none`` (``alone``), the
-                    up to the bias over the record and a random walk of 1-10 %    effect's name
-                    of it per sqrt(s)), ``alone`` or ``with_effect``              (``with_effect``, as in
-                    (``resonance_drift`` or ``lock_in`` at moderate strength)     the standard set)
-``structural_mode`` stationary or rate table; a clean mount mode                  ``unknown`` (never
-                    (``mount_mode``) at 1.5-2.5 kHz, damping ratio 0.01-0.05,     ``invalid data``)
-                    0.2-4 arcsec RMS
-``near_degenerate`` stationary (the dither only); a drive lag (``piezo_lag``,     the verdict names one of
-                    50-300 us) or a readout delay (20-150 us); then the           the pair and lists the
-                    experiment the verdict suggests is recorded on the same unit  other as an alternative
-                    with the same effect and diagnosed (:func:`follow_up`)        (the close call is said),
-                                                                                  and the suggested
-                                                                                  experiment's recording is
-                                                                                  diagnosed as the true
-                                                                                  effect, ``explained``, the
-                                                                                  other not an alternative
-                                                                                  (the round trip)
-``randomised``      a catalogue effect (in the experiments of                     as in the standard set
-                    :data:`~sins_sim.identification.blind.EXPERIMENTS`) or a
-                    clean case, made by the standard generator with the
-                    randomised unit
-=================== ============================================================ ==========================
+==================== ============================================================ ==========================
+class                the recording                                                right when
+==================== ============================================================ ==========================
+``time_gap``         rate table; 1-120 samples (log-uniform) dropped from every    ``invalid data`` naming
+                     array at a random instant in the middle 30-70 % (the header   ``time continuity``
+                     claims a continuous record)
+``sign_flip``        rate table; the counts negated (``counts``) or the table      ``invalid data`` naming
+                     angle ``sins_angle`` negated (``table``)                      ``sign``
+``bias_drift``       stationary; a readout bias drift (0.5-10 deg/h, a ramp of     ``none`` (``alone``), the
+                     up to the bias over the record and a random walk of 1-10 %    effect's name
+                     of it per sqrt(s)), ``alone`` or ``with_effect``              (``with_effect``, as in
+                     (``resonance_drift`` or ``lock_in`` at moderate strength)     the standard set)
+``structural_mode``  stationary or rate table; a clean mount mode                  ``unknown`` (never
+                     (``mount_mode``) at 1.5-2.5 kHz, damping ratio 0.01-0.05,     ``invalid data``)
+                     0.2-4 arcsec RMS
+``near_degenerate``  stationary (the dither only); a drive lag (``piezo_lag``,     the verdict names one of
+                     50-300 us) or a readout delay (20-150 us); then the           the pair and lists the
+                     experiment the verdict suggests is recorded on the same unit  other as an alternative
+                     with the same effect and diagnosed (:func:`follow_up`)        (the close call is said),
+                                                                                   and the suggested
+                                                                                   experiment's recording is
+                                                                                   diagnosed as the true
+                                                                                   effect, ``explained``, the
+                                                                                   other not an alternative
+                                                                                   (the round trip)
+``earth_rate``       three axes at a random site (latitude -70..70 deg, heading   ``still_site`` and
+                     0-360 deg): ``still_site`` a level still bench, the site in  ``table_site``: ``none``;
+                     the header; ``still_no_site`` the same without it;           ``still_no_site``: ``none``
+                     ``table_site`` a rate table (5-20 deg/s and a 7 Hz swing)    with the steady-rate
+                     about an axis 0-40 deg from the vertical, the unit tilted by finding ``earth_rate``;
+                     up to 2 deg, with the site; ``table_no_site`` the same       ``table_no_site``:
+                     without it                                                   ``unknown``, or the
+                                                                                  steady-rate finding
+                                                                                  ``earth_rate`` beside the
+                                                                                  effect named
+``randomised``       a catalogue effect (in the experiments of                     as in the standard set
+                     :data:`~sins_sim.identification.blind.EXPERIMENTS`) or a
+                     clean case, made by the standard generator with the
+                     randomised unit
+==================== ============================================================ ==========================
 
 Seeds: the development seeds are :data:`DEV_SEEDS`; :data:`HOLDOUT_SEEDS` are kept unlooked-at
 (``diagnose-eval --hard --holdout``) until a change is final, so that the accuracy they give is not
@@ -67,19 +77,26 @@ from sins_sim.simulation.experiment import (ExperimentInputs, ExperimentSettings
                                             stationary_drive, table_motion)
 from sins_sim.units import ARCMIN, ARCSEC, DEG, DEG_PER_H, INTERPOLATED_QUANTUM_RAD
 
-__all__ = ["HARD_LABELS", "HARD_FORMS", "HARD_EXPECTED", "DEV_SEEDS", "HOLDOUT_SEEDS", "make_hard_case", "follow_up",
+__all__ = ["HARD_LABELS", "HARD_FORMS", "HARD_EXPECTED", "EARTH_EXPECTED", "DEV_SEEDS", "HOLDOUT_SEEDS",
+           "make_hard_case", "follow_up",
            "judge_hard",
            "evaluate_seeds", "format_seeds"]
 
 #: The classes of the hard set.
-HARD_LABELS = ("time_gap", "sign_flip", "bias_drift", "structural_mode", "near_degenerate", "randomised")
+HARD_LABELS = ("time_gap", "sign_flip", "bias_drift", "structural_mode", "near_degenerate", "earth_rate",
+               "randomised")
 #: The forms a class is drawn in.
 HARD_FORMS = {"time_gap": ("rate_table",), "sign_flip": ("counts", "table"), "bias_drift": ("alone", "with_effect"),
               "structural_mode": ("stationary", "rate_table"), "near_degenerate": ("piezo_lag", "readout_delay"),
+              "earth_rate": ("still_site", "still_no_site", "table_site", "table_no_site"),
               "randomised": tuple(EFFECTS) + ("none",)}
 #: The verdict expected per class (``randomised`` and ``bias_drift/with_effect``: the effect drawn).
 HARD_EXPECTED = {"time_gap": "invalid_data", "sign_flip": "invalid_data", "bias_drift": "none",
-                 "structural_mode": "unknown", "near_degenerate": "close call", "randomised": None}
+                 "structural_mode": "unknown", "near_degenerate": "close call", "earth_rate": None,
+                 "randomised": None}
+#: The verdict expected per form of the ``earth_rate`` class.
+EARTH_EXPECTED = {"still_site": "none", "still_no_site": "none (earth_rate)", "table_site": "none",
+                  "table_no_site": "unknown"}
 #: The seeds the hard set is developed on (accuracy reported per class over these).
 DEV_SEEDS = (0, 1, 2)
 #: The seeds kept unlooked-at until the end (``diagnose-eval --hard --holdout``).
@@ -121,6 +138,8 @@ def make_hard_case(label: str, rng: np.random.Generator, duration_s: float = 1.0
     elif form not in forms:
         raise ValueError(f"blind_hard: form: must be one of {list(forms)} for {label!r}, got {form!r}")
     axes = ["x"]
+    if label == "earth_rate":
+        return _earth_case(form, rng, duration_s)
     nominal, truth, amp = _unit(rng, axes)
     if label == "randomised":
         f0 = {"x": nominal["x"].f0_hz, "y": _log_uniform(rng, *F0_RANGE_HZ)}  # y: for axis_coupling
@@ -191,6 +210,46 @@ def make_hard_case(label: str, rng: np.random.Generator, duration_s: float = 1.0
     return rec, info
 
 
+def _earth_case(form: str, rng, duration_s: float):
+    """A three-axis recording at a random site (``earth_rate`` class; see the module docstring)."""
+    from sins_sim.simulation.site import earth_motions, table_on_axes
+
+    axes = ["x", "y", "z"]
+    nominal, truth, amp = _unit(rng, axes)
+    table_form = form.startswith("table")
+    site = {"latitude_deg": float(rng.uniform(-70.0, 70.0)),
+            "orientation_ned": {"heading_deg": float(rng.uniform(0.0, 360.0)),
+                                "pitch_deg": float(rng.uniform(-2.0, 2.0)) if table_form else 0.0,
+                                "roll_deg": float(rng.uniform(-2.0, 2.0)) if table_form else 0.0}}
+    n = int(round(duration_s * FS)) + 1
+    drive = stationary_drive(nominal, axes, amp, FS, n)
+    table, desc = None, "still bench"
+    if table_form:
+        tilt, az = math.radians(rng.uniform(0.0, 40.0)), rng.uniform(0.0, 2.0 * math.pi)
+        site["table_axis_ned"] = [math.sin(tilt) * math.cos(az), math.sin(tilt) * math.sin(az), math.cos(tilt)]
+        rate = (1.0 if rng.uniform() < 0.5 else -1.0) * rng.uniform(5.0, 20.0) * DEG
+        table = table_on_axes(site, axes, table_motion(rate, [(30 * ARCMIN, 7.0, rng.uniform(0.0, 6.3))]))
+        desc = (f"rate table {rate / DEG:.3g} deg/s about an axis {math.degrees(tilt):.0f} deg from the vertical")
+    inputs = ExperimentInputs(axes, FS, n, FS, drive, table, earth_motions(site, axes, (n - 1) / FS, table))
+    integrator = "rk4" if rng.uniform() < 0.3 else "exact"
+    noise = rng.uniform(0.02, 0.1) * ARCSEC if rng.uniform() < 0.4 else 0.0
+    given = form.endswith("_site") and not form.endswith("no_site")
+    rec = record(inputs, truth, nominal, INTERPOLATED_QUANTUM_RAD, [],
+                 ExperimentSettings(plant_rate_hz=72000.0, integrator=integrator), noise_rad=noise,
+                 seed=int(rng.integers(2 ** 31)), experiment="rate_table" if table_form else "stationary",
+                 description="blind evaluation case (hard)", extra_meta={"site": site} if given else None)
+    o = site["orientation_ned"]
+    desc = (f"Earth's rate, latitude {site['latitude_deg']:.1f} deg, heading {o['heading_deg']:.0f} deg, {desc}, "
+            f"site {'in' if given else 'not in'} the header")
+    info = {"label": "earth_rate", "form": form, "weak": False, "experiment": rec.experiment, "effect": desc,
+            "integrator": integrator, "noise_arcsec": noise / ARCSEC, "initial_state": rec.initial_state,
+            "axes": axes, "params": None, "pair": None, "inner": None, "defect": None, "site": site,
+            "expected": EARTH_EXPECTED[form], "amplitude_arcmin": amp / ARCMIN,
+            "f0_hz": {a: truth[a].f0_hz for a in axes},
+            "truth": {a: nominal_from_suspension(truth[a]) for a in axes}}
+    return rec, info
+
+
 def follow_up(info: dict, verdict: dict, rec: Recording, settings) -> dict:
     """The round trip of a ``near_degenerate`` case whose verdict is a close call (else ``{}``).
 
@@ -245,6 +304,15 @@ def judge_hard(info: dict, verdict: dict) -> tuple:
                       and bool(info.get("round_trip_right")))
     if label == "structural_mode":
         return verdict["effect"], status == "unknown"
+    if label == "earth_rate":
+        sr = verdict.get("steady_rate") or {}
+        pred = verdict["effect"] + (f" ({sr['finding']})" if sr.get("finding") else "")
+        if info["form"] == "still_no_site":
+            return pred, status == "none" and sr.get("finding") == "earth_rate"
+        if info["form"] == "table_no_site":
+            # a gap no catalogue effect explains, or the Earth's rate named beside what explains it
+            return pred, status == "unknown" or sr.get("finding") == "earth_rate"
+        return pred, status == "none" and not sr
     if label == "bias_drift" and info["form"] == "alone":
         return verdict["effect"], verdict["effect"] == "none"
     inner = info.get("inner")
@@ -252,16 +320,18 @@ def judge_hard(info: dict, verdict: dict) -> tuple:
     return _judge({**info, "label": inner if inner else "none"}, verdict)
 
 
-def evaluate_seeds(n: int, seeds, duration_s: float = 1.0, suite: str = "hard", progress=None, jobs: int = 1) -> dict:
+def evaluate_seeds(n: int, seeds, duration_s: float = 1.0, suite: str = "hard", progress=None, jobs: int = 1,
+                   labels=None) -> dict:
     """:func:`~sins_sim.identification.blind.evaluate` over several seeds, pooled per class.
 
     Returns ``per_seed`` (each seed's result), ``per_class`` (pooled: ``n``, ``correct``, ``accuracy``),
-    ``accuracy`` (pooled), ``seeds`` and ``suite``.
+    ``accuracy`` (pooled), ``seeds`` and ``suite``. ``labels``: only these classes (default all).
     """
     seeds = [int(s) for s in seeds]
     if not seeds:
         raise ValueError("diagnose_eval.seeds: needs at least one seed")
-    runs = [evaluate(n, s, duration_s=duration_s, progress=progress, jobs=jobs, suite=suite) for s in seeds]
+    runs = [evaluate(n, s, duration_s=duration_s, labels=labels, progress=progress, jobs=jobs, suite=suite)
+            for s in seeds]
     classes = []
     for r in runs:
         classes += [c for c in r["per_class"] if c not in classes]
@@ -270,9 +340,17 @@ def evaluate_seeds(n: int, seeds, duration_s: float = 1.0, suite: str = "hard", 
         k = sum(r["per_class"].get(c, {}).get("n", 0) for r in runs)
         ok = sum(r["per_class"].get(c, {}).get("correct", 0) for r in runs)
         pooled[c] = {"n": k, "correct": ok, "accuracy": ok / k if k else math.nan}
+    forms = []
+    for r in runs:
+        forms += [f for f in r["per_form"] if f not in forms]
+    per_form = {}
+    for f in sorted(forms):
+        k = sum(r["per_form"].get(f, {}).get("n", 0) for r in runs)
+        ok = sum(r["per_form"].get(f, {}).get("correct", 0) for r in runs)
+        per_form[f] = {"n": k, "correct": ok, "accuracy": ok / k if k else math.nan}
     total = sum(r["n"] for r in runs)
     return {"suite": suite, "seeds": seeds, "n_per_seed": int(n), "duration_s": float(duration_s),
-            "per_class": pooled, "accuracy": sum(p["correct"] for p in pooled.values()) / total,
+            "per_class": pooled, "per_form": per_form, "accuracy": sum(p["correct"] for p in pooled.values()) / total,
             "per_seed": runs}
 
 
@@ -283,6 +361,12 @@ def format_seeds(res: dict) -> str:
              f"{res['duration_s']:g} s each", "", "class".ljust(w) + "right / cases  accuracy"]
     for k, a in res["per_class"].items():
         lines.append(k.ljust(w) + f"{a['correct']:>5d} / {a['n']:<5d}  {a['accuracy']:8.3f}")
+    forms = res.get("per_form") or {}
+    if forms:
+        wf = max([len(k) for k in forms] + [len("form")]) + 2
+        lines += ["", "form".ljust(wf) + "right / cases  accuracy"]
+        for k, a in forms.items():
+            lines.append(k.ljust(wf) + f"{a['correct']:>5d} / {a['n']:<5d}  {a['accuracy']:8.3f}")
     lines.append("")
     for r in res["per_seed"]:
         lines.append(f"seed {r['seed']}: accuracy {r['accuracy']:.3f} ({r['n']} recordings, {r['runtime_s']:.0f} s)")

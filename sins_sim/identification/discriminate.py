@@ -7,7 +7,10 @@ than the tolerance or ``close_fraction`` of the baseline's excess, the model-err
 power) is a rival the recording cannot rule out: what separates them is below the allowance the
 diagnosis grants to model error, so the ranking between them is no evidence. In a dither-only
 recording a first-order drive lag (``piezo_lag``) and a readout delay (``readout_delay``) are such a
-pair: both delay the narrow-band dither response. The verdict then lists the rivals in
+pair: both delay the narrow-band dither response. So is, for a verdict ``explained`` or ``partly
+explained``, every significant candidate that closes at least ``MIN_PARTIAL`` of the gap and that the
+held-out test (``verdict.dm_pvalue``) does not put behind the named one at ``AHEAD_ALPHA``: the two
+explain alike (issue 39). The verdict then lists the rivals in
 ``alternatives`` and gives ``close_call``: every effect of the close call with its explained
 fraction and held-out score, and the experiment that separates them.
 
@@ -57,6 +60,7 @@ import numpy as np
 from scipy import stats
 
 from sins_sim.identification.refit import DiagnoseSettings, effects_of
+from sins_sim.identification.verdict import AHEAD_ALPHA, MIN_PARTIAL, dm_pvalue
 from sins_sim.io.recording import Recording
 from sins_sim.simulation.experiment import (FIT_SETTINGS, ExperimentInputs, afc_drive, simulate_experiment,
                                             stationary_drive, suspension_from_nominal, table_motion)
@@ -89,18 +93,34 @@ FD_STEP = 1e-4
 def close_rivals(verdict: dict, candidates: list, settings: DiagnoseSettings) -> list:
     """The candidates the recording cannot rule out against the verdict's effect (see the module docstring).
 
-    Only for a verdict ``explained`` by one effect; a rival must be significant, close the gap and remove at
-    least ``settings.min_gap_reduction`` of the excess power; one whose fit lacks its effect's defining feature
-    (``unresolved``) is a rival only of a best fit that lacks its own too.
+    Only for a verdict that names one effect (``explained`` or ``partly explained``). A rival must be
+    significant and either
+
+    - explain alike: close at least ``MIN_PARTIAL`` of the gap, and the held-out test does not declare the
+      verdict's effect better at ``AHEAD_ALPHA`` (``verdict.dm_pvalue``, the Newey-West Diebold-Mariano
+      test; issue 39: the pair is then reported, not ranked), or
+    - for ``explained``, close the gap as well and remove at least ``settings.min_gap_reduction`` of the
+      excess power (within the allowance for model error, the ranking between them is no evidence).
+
+    One whose fit lacks its effect's defining feature (``unresolved``) is a rival only of a best fit that lacks
+    its own too.
     """
-    if verdict.get("status") != "explained" or len(verdict.get("effects", [])) != 1:
+    status = verdict.get("status")
+    if status not in ("explained", "partly explained") or len(verdict.get("effects", [])) != 1:
         return []
     best = next((c for c in candidates if c["effect"] == verdict["effect"]), None)
     if best is None:
         return []
-    return [c for c in candidates if c is not best and c.get("significant") and c["closes_gap"]
-            and c["gap_reduction"] >= settings.min_gap_reduction
-            and (best.get("unresolved") or not c.get("unresolved"))]
+    out = []
+    for c in candidates:
+        if c is best or not c.get("significant") or (c.get("unresolved") and not best.get("unresolved")):
+            continue
+        alike = (c["gap_reduction"] >= MIN_PARTIAL and "_losses" in c and "_losses" in best
+                 and dm_pvalue(c["_losses"], best["_losses"]) >= AHEAD_ALPHA)
+        closes_too = status == "explained" and c["closes_gap"] and c["gap_reduction"] >= settings.min_gap_reduction
+        if alike or closes_too:
+            out.append(c)
+    return out
 
 
 def _amplitude(rec: Recording) -> float:
@@ -345,7 +365,8 @@ def close_call(rec: Recording, verdict: dict, candidates: list, floors: dict, se
 def close_call_lines(cc: dict) -> list:
     """The report's section on a close call (Markdown lines): the rivals' fractions and the experiment."""
     lines = ["## Close call", "", "The recording cannot tell these apart (each closes the gap within the allowance "
-             "for model error):", "", "| effect | explained fraction | held-out RMS (arcsec) | parameters |",
+             "for model error, or the held-out test does not declare one better):", "",
+             "| effect | explained fraction | held-out RMS (arcsec) | parameters |",
              "|---|---|---|---|"]
     for e in cc["effects"]:
         pars = "; ".join(f"{ax}: " + ", ".join(f"{k} = {val:.4g}" for k, val in pv.items())

@@ -744,7 +744,7 @@ def _drift_centred(prob: _Problem, effect_cls, xn: np.ndarray, values: dict) -> 
 
 def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effect_starts=None,
              max_nfev: int | None = None, polish: bool = False, uncertainty: bool = True, jac_hint=None,
-             keep_jac: bool = False) -> AxisFit:
+             keep_jac: bool = False, chord: bool = True) -> AxisFit:
     """Fit the nominal parameters (and an effect's) on one axis, on the training blocks.
 
     Stages: (0) without a start, the grid :data:`_F_GRID` of the
@@ -787,6 +787,11 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
     keep_jac : bool
         With ``polish``: keep those columns of this polish's Jacobian in
         :attr:`AxisFit.shared_jac`.
+    chord : bool
+        With ``polish``: the chord method (the start's Jacobian kept). ``False``: the Jacobian updated
+        at every accepted step (``_solve``'s Broyden update), for a fit continued from where a small
+        budget stopped it in a curved valley, where the start's Jacobian points off the valley floor;
+        ``jac_hint`` is then not used.
     """
     n_nom = len(NOMINAL_KEYS)
     n_nui = len(prob.nuisance)
@@ -806,8 +811,8 @@ def fit_axis(prob: _Problem, effect_cls=None, start: AxisFit | None = None, effe
             vals = start.effect.values(prob.axis)
             x0_eff = np.array([vals[p.name] / p.scale for p in eff_space])
         x, jac, unpack, _ = _solve(prob, effect_cls, np.concatenate([x0_nom, x0_nui, x0_eff]), space,
-                                   max_nfev or prob.settings.polish_nfev, threads, prob.train, frozen_jac=True,
-                                   jac_hint=jac_hint)
+                                   max_nfev or prob.settings.polish_nfev, threads, prob.train, frozen_jac=chord,
+                                   jac_hint=jac_hint if chord else None)
         fit = _finish(prob, x, jac, unpack, space)
         if keep_jac:
             fit.shared_jac = np.ascontiguousarray(jac[:, :n_nom + n_nui])

@@ -345,6 +345,8 @@ def write_report(diag: Diagnosis, report_dir, json_path=None) -> dict:
              f"- criterion: {v.get('criterion', '')}", ""]
     if v.get("steady_rate"):
         lines += [f"- steady rate ({v['steady_rate']['finding']}): {v['steady_rate']['message']}", ""]
+    if v.get("unconfirmed"):
+        lines += [f"- in-sample only: {v['unconfirmed']['message']}", ""]
     if v.get("effects"):
         lines += ["## Selected effects (in order)", "", "| effect | axes | share of the gap | parameters "
                   "(+- 1 sigma) | p held-out | p F-test |", "|---|---|---|---|---|---|"]

@@ -18,6 +18,15 @@ the vector is:
 - ``gyro_bias`` when every ``|b_i| <= MAX_PLAUSIBLE_BIAS_DEG_H``;
 - ``unknown`` otherwise.
 
+On a **rate table without ``meta.site``** (:func:`table_scale_as_earth`) there is no bias nuisance, and the
+Earth's rate along the table axis ``u``, ``Omega_u``, adds to each gyro ``i`` the steady rate ``Omega_u t_i``
+where ``t = C_nb0^T u`` also maps the table's angle onto the axes (``sins_angle_i = theta t_i``): a readout
+scale-factor error ``e_i = Omega_u / theta'`` gives the same ramp ``e_i theta' t_i t``. A ``scale_factor`` the
+verdict names there is a steady rate ``r_i = e_i theta'_i`` (``theta'_i`` the table's mean rate on axis ``i``);
+when ``|r|`` is at most the Earth's rate plus :data:`MATCH_SIGMAS` of its sigma, the recording cannot tell
+the two apart (a ppm scale error on a table turning at 10 deg/s is a fraction of a deg/h): ``earth_rate``
+joins the verdict's ``alternatives`` and ``steady_rate`` asks for the site.
+
 Sigmas: ``b_i``'s from the linear least squares of the nuisance on the used samples,
 ``var(b) = s^2 [(X'X)^-1]_bb L`` with ``s^2`` the residual's mean square and ``L`` its integrated
 correlation length (the inflation the refit uses, ``refit._correlation_length``); those of ``|b|``, ``u``,
@@ -35,7 +44,7 @@ from sins_sim.earth import EARTH_RATE_RAD_S
 from sins_sim.identification.refit import _correlation_length
 from sins_sim.units import DEG, DEG_PER_H
 
-__all__ = ["MATCH_SIGMAS", "MAX_PLAUSIBLE_BIAS_DEG_H", "steady_rate"]
+__all__ = ["MATCH_SIGMAS", "MAX_PLAUSIBLE_BIAS_DEG_H", "steady_rate", "table_scale_as_earth"]
 
 #: The magnitude matches the Earth's rate when within this many of its sigmas (a two-sided 99.7 % band).
 MATCH_SIGMAS = 3.0
@@ -136,4 +145,45 @@ def steady_rate(rec, fits: dict, used: np.ndarray, alpha: float) -> dict | None:
                           f"{mag_sd / DEG_PER_H:.2g} deg/h: neither the Earth's {EARTH_RATE_RAD_S / DEG_PER_H:.4g} "
                           f"deg/h" + ("" if triad else " (not all of x, y, z recorded)")
                           + f" nor a plausible gyro bias (at most {MAX_PLAUSIBLE_BIAS_DEG_H:g} deg/h): unknown")
+    return out
+
+
+def table_scale_as_earth(rec, verdict: dict) -> dict:
+    """The verdict (a copy) with the Earth's rate named beside a ``scale_factor`` it cannot be told from.
+
+    Only for a recording with table motion and without ``meta.site`` whose verdict names ``scale_factor``
+    (module docstring); otherwise ``verdict`` unchanged. Adds ``earth_rate`` to ``alternatives`` and
+    ``steady_rate`` (``finding`` ``earth_rate``, the implied steady ``rate_deg_h`` per axis with
+    ``sigma_deg_h``, ``magnitude_deg_h`` and ``message``).
+    """
+    if rec.site is not None or rec.sins_angle is None:
+        return verdict
+    sf = next((e for e in verdict.get("effects") or [] if e["effect"] == "scale_factor"), None)
+    if sf is None:
+        return verdict
+    axes = [a for a in rec.axes if "error" in sf["params"].get(a, {})]
+    if not axes:
+        return verdict
+    r, sd = [], []
+    for a in axes:
+        th = np.asarray(rec.sins_angle[:, rec.axis_index(a)], dtype=np.float64)
+        rate = float(th[-1] - th[0]) / rec.duration_s
+        r.append(sf["params"][a]["error"] * rate)
+        sd.append(abs(sf["uncertainty"].get(a, {}).get("error", 0.0) * rate))
+    r, sd = np.array(r), np.array(sd)
+    mag = float(np.linalg.norm(r))
+    mag_sd = float(math.sqrt(np.sum((r * sd) ** 2)) / mag) if mag > 0.0 else float(np.linalg.norm(sd))
+    if mag - MATCH_SIGMAS * mag_sd > EARTH_RATE_RAD_S:
+        return verdict
+    rates = ", ".join(f"{a} {x / DEG_PER_H:+.4g} +- {s / DEG_PER_H:.2g}" for a, x, s in zip(axes, r, sd))
+    out = dict(verdict)
+    out["alternatives"] = list(verdict.get("alternatives") or []) + ["earth_rate"]
+    out["steady_rate"] = {
+        "finding": "earth_rate", "rate_deg_h": {a: float(x / DEG_PER_H) for a, x in zip(axes, r)},
+        "sigma_deg_h": {a: float(x / DEG_PER_H) for a, x in zip(axes, sd)},
+        "magnitude_deg_h": mag / DEG_PER_H, "magnitude_sigma_deg_h": mag_sd / DEG_PER_H,
+        "message": (f"the Earth's rate: give the site and orientation (meta.site). On this turning table the scale-"
+                    f"factor error is a steady rate ({rates} deg/h) of magnitude {mag / DEG_PER_H:.4g} +- "
+                    f"{mag_sd / DEG_PER_H:.2g} deg/h, at most the Earth's {EARTH_RATE_RAD_S / DEG_PER_H:.4g} deg/h: "
+                    "without the site the recording cannot tell the Earth's rate along the table axis from it")}
     return out

@@ -261,7 +261,7 @@ def diagnose_many(rec_paths, json_dir=None, report_dir=None, effects=None, jobs:
 
 
 def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, progress=None, jobs: int = 1,
-                  suite: str = "standard", seeds=None) -> dict:
+                  suite: str = "standard", seeds=None, labels=None) -> dict:
     """Blind evaluation (``sins_sim.identification.blind.evaluate``); the result dictionary.
 
     Parameters
@@ -284,15 +284,17 @@ def diagnose_eval(n: int, seed: int, duration_s: float = 1.0, json_out=None, pro
     seeds : sequence of int, optional
         Several seeds instead of ``seed``: ``n`` recordings each, accuracy pooled per class
         (:func:`sins_sim.identification.blind_hard.evaluate_seeds`).
+    labels : sequence of str, optional
+        Only these classes (default all of the suite's).
     """
     if seeds is not None:
         from sins_sim.identification.blind_hard import evaluate_seeds
 
-        res = evaluate_seeds(n, seeds, duration_s=duration_s, suite=suite, progress=progress, jobs=jobs)
+        res = evaluate_seeds(n, seeds, duration_s=duration_s, suite=suite, progress=progress, jobs=jobs, labels=labels)
     else:
         from sins_sim.identification.blind import evaluate
 
-        res = evaluate(n, seed, duration_s=duration_s, progress=progress, jobs=jobs, suite=suite)
+        res = evaluate(n, seed, duration_s=duration_s, progress=progress, jobs=jobs, suite=suite, labels=labels)
     if json_out is not None:
         import json
 
@@ -330,6 +332,8 @@ def format_diagnosis(js: dict) -> str:
     alts = f" (or: {', '.join(v['alternatives'])})" if v.get("alternatives") else ""
     lines.append(f"verdict: {v.get('effect')}{alts} [{v.get('status')}], explained fraction "
                  f"{_fmt(v.get('explained_fraction') or 0.0, '.3f')}")
+    if v.get("unconfirmed"):
+        lines.append(f"in-sample only: {v['unconfirmed'].get('message')}")
     cc = v.get("close_call")
     if cc:
         lines.append("close call: " + ", ".join(f"{e.get('effect')} {_fmt(e.get('explained_fraction'), '.5f')}"
