@@ -442,6 +442,8 @@ def _resolved(doc: dict, layout: LogLayout, matrix) -> dict:
     out = fill_defaults(doc, LOG_SCHEMA)
     drop_time = ("unit", "stamp", "jitter", "gaps") if layout.time_column is None else ("start_s",)
     out["time"] = {k: v for k, v in out["time"].items() if k not in drop_time}
+    if layout.temperature_column is None:
+        out.pop("temperature", None)
     if layout.fmt == "parquet":
         out["format"] = {k: v for k, v in out["format"].items() if k not in ("header_rows", "comment")}
     else:
