@@ -40,7 +40,7 @@ def _sine_increments(amp, f_hz, t_end):
 
 
 def rest_log(path, seed, minutes=10.0, *, sway=False, vibration=False, temperature=None, gyro_tc_deg_h_c=(0, 0, 0),
-             accel_tc_ug_c=(0, 0, 0), rrw=K_SI):
+             accel_tc_ug_c=(0, 0, 0), rrw=K_SI, step=None):
     """Write a log at rest (level, heading 30 deg); return ``(t, rate, force)`` before noise."""
     rng = np.random.default_rng(seed)
     n = int(minutes * 60.0 * FS)
@@ -56,6 +56,8 @@ def rest_log(path, seed, minutes=10.0, *, sway=False, vibration=False, temperatu
         dth[:, 0] += _sine_increments(2.0 * math.pi * SWAY_HZ * SWAY_ARCSEC * ARCSEC, SWAY_HZ, t)
     if vibration:
         dv[:, 2] += _sine_increments(VIB_UG * MICRO_G, VIB_HZ, t)
+    if step is not None:                               # (axis, time_s, deg/h): a gyro bias step
+        dth[t > step[1], step[0]] += step[2] * DEG_PER_H * DT
     if temperature is not None:
         dt_c = temperature - temperature.mean()
         dth += np.outer(dt_c, np.asarray(gyro_tc_deg_h_c) * DEG_PER_H * DT)
@@ -230,13 +232,18 @@ def test_temperature_unit_without_a_column_is_one_line():
 
 # --- the twin beside the log -----------------------------------------------------------------------------------------
 
+#: A 1 deg/h step of the z gyro at 240 s: the step's sigma is about 0.15 deg/h in 8 min (the noise's GLS), so
+#: z ~ 7 against a threshold of 4.1 (5 % over 181 boundaries and 6 axes)
+STEP = (2, 240.0, 1.0)
+
+
 @pytest.fixture(scope="module")
 def twin_runs(tmp_path_factory):
     from sins_sim.jobs.identify import identify
 
     folder = tmp_path_factory.mktemp("twin")
     rest_log(folder / "plain.parquet", 31, minutes=8.0)
-    rest_log(folder / "sway.parquet", 32, minutes=8.0, sway=True)
+    rest_log(folder / "sway.parquet", 32, minutes=8.0, sway=True, step=STEP)
     plain = identify(folder / "plain.parquet", folder / "plain", twin_seeds=5)
     sway = identify(folder / "sway.parquet", twin_seeds=5)
     return plain, sway, folder
@@ -252,8 +259,15 @@ def test_a_log_of_the_twins_kind_stays_in_its_envelope(twin_runs):
         plain["noise"]["gyro"]["x"]["arw_deg_rt_h"]["value"], rel=1e-12)
 
 
-def test_a_sway_line_is_localised_in_band(twin_runs):
+def test_a_sway_line_and_a_bias_step_are_localised_in_band_and_time(twin_runs):
     sway = twin_runs[1]
+    steps = [f for f in sway["twin"]["findings"] if f["quantity"] == "bias_step"]
+    assert len(steps) == 1
+    s = steps[0]
+    assert (s["sensor"], s["axis"]) == ("gyro", "z")
+    # the time to one block (2.4 s), the size within 3 of its sigmas
+    assert abs(s["time_s"] - STEP[1]) <= s["time_resolution_s"]
+    assert abs(s["size_deg_h"] - STEP[2]) <= 3.0 * s["sigma_deg_h"]
     lines = [f for f in sway["twin"]["findings"] if f["quantity"] == "psd_line"]
     assert len(lines) == 1
     f = lines[0]

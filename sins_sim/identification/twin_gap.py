@@ -12,7 +12,8 @@ of quantity (``alpha``, Bonferroni over the points tested):
   ``F(edf, S edf)`` distributed. The twin's terms are themselves fitted from the log, to a few per cent (the Allan
   fit's model tolerance, :data:`MODEL_TOLERANCE` on the deviation, as in :mod:`sins_sim.navigation.allan`), so the
   F interval is widened by that factor each side. A tau is outside where the ratio leaves the central
-  ``1 - alpha / (6 n_tau)`` interval so widened; a finding is a run of consecutive taus outside on one side.
+  ``1 - alpha / (6 n_tau)`` interval so widened; a finding is a run of consecutive taus outside on one side (gaps
+  of up to :data:`BRIDGE` taus bridged).
 * **Spectral lines**: a line of the log (found at the log's false-alarm level) with no line of the twin within
   two bins in at least half its seeds.
 * **Navigation** (north and east position, north and east velocity, attitude drift about north, east and down):
@@ -40,6 +41,8 @@ MIN_CLUSTERS = 10
 #: Relative tolerance of the twin's Allan deviation for its terms' own fit (the 5 % floor of the Allan fit's
 #: weights, :func:`sins_sim.navigation.allan.fit_allan`).
 MODEL_TOLERANCE = 0.05
+#: Taus inside the band that may separate two runs outside on the same side and still make one finding.
+BRIDGE = 2
 #: (key in RestRun.nav, column, label, factor from SI to the edge unit, edge unit)
 NAV_QUANTITIES = (
     ("position_m", 0, "north position", 1.0, "m"),
@@ -103,8 +106,9 @@ def nav_band(log_values, twin_values, level: float) -> dict:
             "outside": np.abs(y - mean) > half}
 
 
-def _runs(flags: np.ndarray) -> list:
-    """``(start, stop)`` index pairs of the runs of equal non-zero values."""
+def _runs(flags: np.ndarray, bridge: int = BRIDGE) -> list:
+    """``(start, stop)`` index pairs of the runs of equal non-zero values, gaps of up to ``bridge`` points between
+    two runs of the same sign bridged (one effect's ripple crossing the band edge stays one finding)."""
     out, i, n = [], 0, flags.size
     while i < n:
         if flags[i] == 0:
@@ -113,7 +117,10 @@ def _runs(flags: np.ndarray) -> list:
         j = i
         while j + 1 < n and flags[j + 1] == flags[i]:
             j += 1
-        out.append((i, j))
+        if out and flags[out[-1][0]] == flags[i] and i - out[-1][1] - 1 <= bridge:
+            out[-1] = (out[-1][0], j)
+        else:
+            out.append((i, j))
         i = j + 1
     return out
 

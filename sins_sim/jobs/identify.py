@@ -55,6 +55,8 @@ _BIAS_UNIT = {"gyro": ("deg_h", 1.0 / DEG_PER_H), "accelerometer": ("ug", 1.0 / 
 LINE_FALSE_ALARM = 0.01
 #: Significance of a temperature coefficient, over the six axes together (Bonferroni).
 TEMPERATURE_ALPHA = 0.05
+#: Chance of a false bias step, over the six axes together (Bonferroni).
+STEP_ALPHA = 0.05
 #: Most seeds of the twin.
 MAX_TWIN_SEEDS = 100
 
@@ -213,6 +215,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         raise ConfigError(f"LOG: {exc}") from None
     temp = read_log_temperature(log)
     temperature = _temperature(rate, spec_force, temp, fs) if temp is not None else None
+    steps = _bias_steps(rate, spec_force, fs)
     metrics = {
         "log": str(log), "duration_s": float(t_total), "rate_hz": float(fs),
         "site": {"lat_deg": math.degrees(site["lat_rad"]), "lon_deg": math.degrees(site["lon_rad"]),
@@ -224,6 +227,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         "noise": noise,
         "bias": bias,
         "lines": _lines_metrics(log_run.lines, line_false_alarm),
+        "bias_steps": steps,
         "temperature": temperature if temperature is not None else {
             "status": "no temperature column (temperature_c) in the log"},
         "notes": [
@@ -244,6 +248,9 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
                      "floor (median of the neighbouring bins) exceeds the F(edf, edf_floor) quantile at the "
                      "false-alarm level over the bins searched (Bonferroni); amplitude from the excess power over "
                      "+-3 bins, corrected for the increments' sinc",
+            "bias_steps": "one step b0 + d H(t - t_s) per axis at every block boundary (200 blocks) by the same "
+                          "generalised least squares; found where the largest |z| exceeds the Bonferroni threshold "
+                          "over the boundaries and the six axes at 5 %",
             "temperature": "bias = b0 + k (T - T_mean) by generalised least squares on 200 block means with the "
                            "covariance of white noise and a rate random walk (Allan-fitted, the random walk at its "
                            "95 % upper bound); reported where |k| > z sigma at 5 % over the six axes",
@@ -393,6 +400,26 @@ def _lines_metrics(searches: dict, false_alarm: float) -> dict:
     return out
 
 
+def _bias_steps(rate, spec_force, fs: float) -> dict:
+    """Each axis's most likely bias step (:func:`sins_sim.navigation.temperature_fit.scan_bias_step`), with its
+    size only where found at :data:`STEP_ALPHA` over the six axes."""
+    from sins_sim.navigation.temperature_fit import scan_bias_step
+
+    out = {"alpha_over_axes": STEP_ALPHA}
+    for sensor, x, kind in (("gyro", rate, "gyro"), ("accelerometer", spec_force, "accel")):
+        unit, scale = _BIAS_UNIT[sensor]
+        out[sensor] = {}
+        for i, ax in enumerate("xyz"):
+            try:
+                r = scan_bias_step(x[:, i], fs, sensor=kind, alpha=STEP_ALPHA / 6.0)
+            except ValueError as exc:
+                raise ConfigError(f"LOG: bias step scan: {exc}") from None
+            e = {"z": r.z, "threshold": r.threshold, "resolution_s": r.resolution_s}
+            out[sensor][ax] = ({"time_s": r.time_s, f"size_{unit}": r.size * scale, f"sigma_{unit}": r.sigma * scale,
+                                **e} if r.found else {"status": "none found", **e})
+    return out
+
+
 def _temperature(rate, spec_force, temp, fs: float) -> dict:
     """Each axis's temperature coefficient (:func:`sins_sim.navigation.temperature_fit.fit_temperature_coefficient`),
     the value only where significant at :data:`TEMPERATURE_ALPHA` over the six axes."""
@@ -476,6 +503,23 @@ def twin_sensors(metrics: dict, q_nb, analyses: dict | None = None) -> tuple:
     return out, source
 
 
+def _step_findings(steps: dict) -> list:
+    """The bias steps found, as findings: the twin's noise is stationary, so a step is where the log leaves it."""
+    out = []
+    for sensor in ("gyro", "accelerometer"):
+        unit, _ = _BIAS_UNIT[sensor]
+        for ax, e in steps[sensor].items():
+            if "time_s" not in e:
+                continue
+            out.append({"quantity": "bias_step", "sensor": sensor, "axis": ax, "time_s": e["time_s"],
+                        "time_resolution_s": e["resolution_s"], f"size_{unit}": e[f"size_{unit}"],
+                        f"sigma_{unit}": e[f"sigma_{unit}"],
+                        "statement": (f"{sensor} {ax}: a bias step of {e[f'size_{unit}']:.3g} +- "
+                                      f"{e[f'sigma_{unit}']:.2g} {unit} at {e['time_s']:.4g} s (to "
+                                      f"{e['resolution_s']:.2g} s; z = {e['z']:.3g}, threshold {e['threshold']:.3g})")})
+    return out
+
+
 def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seeds: int, run_kw: dict,
           log_run) -> tuple:
     """Run the twin beside the log and localise where they part (:mod:`sins_sim.simulation.twin`,
@@ -491,6 +535,7 @@ def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seed
     except ValueError as exc:
         raise ConfigError(f"--twin-seeds: the twin's run failed: {exc}") from None
     gap = localise(log_run, runs)
+    gap["findings"] += _step_findings(metrics["bias_steps"])
     nav_end = {}
     for key, col, label, scale, unit in NAV_QUANTITIES:
         b = gap["nav_bands"][(key, col)]
@@ -529,6 +574,22 @@ def _lines_report(metrics: dict) -> list:
                 out.append(f"| {sensor} | {ax} | {ln['frequency_hz']:.4f} +- {e['resolution_hz']:.2g} | "
                            f"{ln[f'amplitude_{unit}']:.4g} {unit} | {ln[f'amplitude_sigma_{unit}']:.2g} | {ang} | "
                            f"{ln['snr_db']:.1f} | {thr_db:.1f} |")
+    return out
+
+
+def _steps_report(metrics: dict) -> list:
+    st = metrics["bias_steps"]
+    out = ["", "## Bias steps", "",
+           ("One step per axis tried at every block boundary (generalised least squares with the noise's "
+            f"correlation); found where |z| exceeds the threshold ({100 * st['alpha_over_axes']:.3g} % over the "
+            "boundaries and the six axes)."), "", "| sensor | axis | step | time (s) | z | threshold |",
+           "|---|---|---|---|---|---|"]
+    for sensor in ("gyro", "accelerometer"):
+        unit, _ = _BIAS_UNIT[sensor]
+        for ax, e in st[sensor].items():
+            what = (f"{e[f'size_{unit}']:.3g} +- {e[f'sigma_{unit}']:.2g} {unit}" if "time_s" in e else e["status"])
+            when = f"{e['time_s']:.4g} +- {e['resolution_s']:.2g}" if "time_s" in e else ""
+            out.append(f"| {sensor} | {ax} | {what} | {when} | {e['z']:.3g} | {e['threshold']:.3g} |")
     return out
 
 
@@ -618,6 +679,6 @@ def _write(folder: Path, metrics: dict, detail: dict) -> list:
 
         written += draw_twin_figures(detail, metrics, folder)
     (folder / "imu-sensors.yaml").write_text(sensors_yaml(metrics))
-    (folder / "report.md").write_text(_report(metrics) + "\n".join(_lines_report(metrics) + _temperature_report(metrics)
+    (folder / "report.md").write_text(_report(metrics) + "\n".join(_lines_report(metrics) + _steps_report(metrics) + _temperature_report(metrics)
                                                                    + _twin_report(metrics)) + "\n")
     return written

@@ -1,4 +1,7 @@
-"""Bias against temperature: the linear temperature coefficient of a sensor axis from a log at rest.
+"""Bias against temperature, and bias steps: regressions of a sensor axis at rest with its noise's correlation.
+
+:func:`fit_temperature_coefficient` fits the linear temperature coefficient; :func:`scan_bias_step` looks for one
+bias step by the same generalised least squares.
 
 Arrays in, numbers out (SI rate or specific force, temperature in deg C).
 
@@ -45,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TemperatureFit", "fit_temperature_coefficient"]
+__all__ = ["StepScan", "TemperatureFit", "fit_temperature_coefficient", "scan_bias_step"]
 
 #: Block means in the regression (or fewer for a short log: at least 20 samples a block).
 DEFAULT_BLOCKS = 200
@@ -94,6 +97,34 @@ def _block_means(x: np.ndarray, n_blocks: int, m: int) -> np.ndarray:
     return x[:n_blocks * m].reshape(n_blocks, m).mean(axis=1)
 
 
+def _block_covariance(y: np.ndarray, rate_hz: float, sensor: str, n_blocks: int, block_s: float,
+                      s2: float) -> tuple:
+    """The covariance of the block means of ``y``'s noise (module docstring, item 2) and the noise terms used;
+    ``s2`` the block means' own residual variance, the diagonal where the fit finds no white noise."""
+    from scipy.stats import chi2
+
+    from sins_sim.navigation.allan import allan_deviation, fit_allan
+
+    curve = allan_deviation(y - y.mean(), rate_hz)
+    c = fit_allan(curve, sensor).coefficients
+    white2 = float(c.get("white", 0.0))                           # C_white = N^2
+    k2 = 3.0 * float(c.get("random_walk", 0.0))                    # C_rw = K^2 / 3
+    duration = y.size / rate_hz
+    k2_eff = k2 + 3.0 * float(c.get("flicker", 0.0)) / (duration / 2.0)
+    reliable = curve.clusters >= MIN_CLUSTERS
+    if np.any(reliable):                                           # all of the longest reliable tau's variance as
+        i = int(np.flatnonzero(reliable)[-1])                      # a random walk, at its 95 % upper bound
+        edf = max(float(curve.clusters[i]) - 1.0, 1.0)
+        upper = 3.0 * curve.adev[i] ** 2 / curve.tau_s[i] * edf / float(chi2.ppf(0.05, edf))
+        k2_eff = max(k2_eff, upper)
+    centres = (np.arange(n_blocks) + 0.5) * block_s
+    cov = k2_eff * np.minimum.outer(centres, centres)
+    # a block mean's own scatter: the white part, or where the fit found none the residual's (never zero)
+    diag = white2 / block_s if white2 > 0.0 else s2
+    cov[np.diag_indices(n_blocks)] += diag - k2_eff * block_s / 6.0
+    return cov, {"white": math.sqrt(white2), "random_walk": math.sqrt(k2), "random_walk_used": math.sqrt(k2_eff)}
+
+
 def fit_temperature_coefficient(y, temperature_c, rate_hz: float, *, sensor: str = "gyro", alpha: float = 0.05,
                                 blocks: int = DEFAULT_BLOCKS) -> TemperatureFit:
     """Fit ``y = b0 + k (T - T_ref) + noise`` with the noise's correlation accounted for (module docstring).
@@ -116,9 +147,7 @@ def fit_temperature_coefficient(y, temperature_c, rate_hz: float, *, sensor: str
     ValueError
         Arrays of different lengths, non-finite values, a log too short, a constant temperature.
     """
-    from scipy.stats import chi2, norm
-
-    from sins_sim.navigation.allan import allan_deviation, fit_allan
+    from scipy.stats import norm
 
     y = np.asarray(y, dtype=np.float64)
     temp = np.asarray(temperature_c, dtype=np.float64)
@@ -143,23 +172,7 @@ def fit_temperature_coefficient(y, temperature_c, rate_hz: float, *, sensor: str
     res_b = yb - x @ beta_ols
     s2 = float(res_b @ res_b) / (n_blocks - 2)
     ols_sigma = math.sqrt(s2 * np.linalg.inv(x.T @ x)[1, 1])
-    curve = allan_deviation(y - y.mean(), rate_hz)
-    c = fit_allan(curve, sensor).coefficients
-    white2 = float(c.get("white", 0.0))                           # C_white = N^2
-    k2 = 3.0 * float(c.get("random_walk", 0.0))                    # C_rw = K^2 / 3
-    duration = y.size / rate_hz
-    k2_eff = k2 + 3.0 * float(c.get("flicker", 0.0)) / (duration / 2.0)
-    reliable = curve.clusters >= MIN_CLUSTERS
-    if np.any(reliable):                                           # all of the longest reliable tau's variance as
-        i = int(np.flatnonzero(reliable)[-1])                      # a random walk, at its 95 % upper bound
-        edf = max(float(curve.clusters[i]) - 1.0, 1.0)
-        upper = 3.0 * curve.adev[i] ** 2 / curve.tau_s[i] * edf / float(chi2.ppf(0.05, edf))
-        k2_eff = max(k2_eff, upper)
-    centres = (np.arange(n_blocks) + 0.5) * block_s
-    cov = k2_eff * np.minimum.outer(centres, centres)
-    # a block mean's own scatter: the white part, or where the fit found none the OLS residual's (never zero)
-    diag = white2 / block_s if white2 > 0.0 else s2
-    cov[np.diag_indices(n_blocks)] += diag - k2_eff * block_s / 6.0
+    cov, noise = _block_covariance(y, rate_hz, sensor, n_blocks, block_s, s2)
     ci = np.linalg.inv(cov)
     info = x.T @ ci @ x
     cov_beta = np.linalg.inv(info)
@@ -170,5 +183,84 @@ def fit_temperature_coefficient(y, temperature_c, rate_hz: float, *, sensor: str
     t_axis = np.arange(y.size, dtype=np.float64)
     corr = float(np.corrcoef(t_axis, temp)[0, 1]) if np.ptp(temp) > 0 else 0.0
     return TemperatureFit(k, sigma, bool(abs(k) > z * sigma), z, t_ref, (float(tb.min()), float(tb.max())),
-                          ols_sigma, corr, {"white": math.sqrt(white2), "random_walk": math.sqrt(k2),
-                                            "random_walk_used": math.sqrt(k2_eff)})
+                          ols_sigma, corr, noise)
+
+
+@dataclass(frozen=True)
+class StepScan:
+    """The most likely bias step of one axis.
+
+    Attributes
+    ----------
+    found : bool
+        ``|z| > threshold``.
+    time_s : float
+        The block boundary where the step fits best (s from the record's start).
+    size : float
+        The step (SI, after minus before).
+    sigma : float
+        Its 1-sigma.
+    z : float
+        ``size / sigma`` there.
+    threshold : float
+        The two-sided normal quantile of ``alpha / candidates`` (Bonferroni over the boundaries tried).
+    candidates : int
+        Block boundaries tried.
+    resolution_s : float
+        Block length: the time is known to a block.
+    """
+
+    found: bool
+    time_s: float
+    size: float
+    sigma: float
+    z: float
+    threshold: float
+    candidates: int
+    resolution_s: float
+
+
+def scan_bias_step(y, rate_hz: float, *, sensor: str = "gyro", alpha: float = 0.05, blocks: int = DEFAULT_BLOCKS,
+                   margin: float = 0.05) -> StepScan:
+    """Scan a record at rest for one bias step: ``y = b0 + d H(t - t_s) + noise`` at every block boundary ``t_s``
+    not within ``margin`` of the record's ends, by the same generalised least squares as the temperature
+    coefficient (module docstring; the noise's covariance computed once), and the boundary with the largest
+    ``|z|``. A step is found where that ``|z|`` exceeds the Bonferroni threshold over the boundaries tried (the
+    chance of a false step at most ``alpha``). A steady drift is part of the noise model (the random walk), so a
+    slow trend is not taken for a step.
+
+    Raises
+    ------
+    ValueError
+        Non-finite values, a record too short.
+    """
+    from scipy.stats import norm
+
+    y = np.asarray(y, dtype=np.float64)
+    if y.ndim != 1 or not np.all(np.isfinite(y)):
+        raise ValueError("record: must be a finite 1-D array")
+    n_blocks = min(int(blocks), y.size // 20)
+    if n_blocks < 10:
+        raise ValueError(f"record: needs at least 200 samples for a step scan, got {y.size}")
+    m = y.size // n_blocks
+    block_s = m / rate_hz
+    yb = _block_means(y, n_blocks, m)
+    s2 = float(np.var(yb, ddof=1))
+    cov, _ = _block_covariance(y, rate_hz, sensor, n_blocks, block_s, s2)
+    ci = np.linalg.inv(cov)
+    lo = max(1, int(math.ceil(margin * n_blocks)))
+    hi = min(n_blocks - 1, int(math.floor((1.0 - margin) * n_blocks)))
+    ones = np.ones(n_blocks)
+    best = None
+    for k in range(lo, hi + 1):
+        x = np.column_stack([ones, (np.arange(n_blocks) >= k).astype(np.float64)])
+        cov_beta = np.linalg.inv(x.T @ ci @ x)
+        beta = cov_beta @ (x.T @ ci @ yb)
+        sig = math.sqrt(float(cov_beta[1, 1]))
+        z = float(beta[1]) / sig
+        if best is None or abs(z) > abs(best[3]):
+            best = (k, float(beta[1]), sig, z)
+    cands = hi - lo + 1
+    thr = float(norm.isf(alpha / (2.0 * cands)))
+    k, d, sig, z = best
+    return StepScan(bool(abs(z) > thr), k * block_s, d, sig, z, thr, cands, block_s)

@@ -63,12 +63,17 @@ def plot_psd_lines(searches: dict, path=None, title: str = ""):
         ax.loglog(f[ok], np.sqrt(fl[ok]) * scale, color="tab:green", lw=1.0, label="local floor")
         ax.loglog(f[ok], np.sqrt(fl[ok] * s.threshold) * scale, color="tab:orange", lw=0.9, ls="--",
                   label=f"threshold (x{s.threshold:.2g} in power)")
+        top = float(np.max(np.sqrt(p))) * scale
+        ax.set_ylim(top=top * 4.0)                     # room above the highest peak for its label
+        right = math.sqrt(f[0] * f[-1])
         for line in s.lines:
             k = int(np.argmin(np.abs(s.psd.freq_hz - line.frequency_hz)))
             y = math.sqrt(s.psd.psd[k]) * scale
             ax.plot([line.frequency_hz], [y], "v", color=OUT_COLOR, ms=6)
-            ax.annotate(_line_label(sensor, line), (line.frequency_hz, y), textcoords="offset points", xytext=(4, 4),
-                        fontsize=7.5, color=OUT_COLOR)
+            left = line.frequency_hz > right             # label to the left of a line in the upper half
+            ax.annotate(_line_label(sensor, line), (line.frequency_hz, y), textcoords="offset points",
+                        xytext=(-6 if left else 6, 2), ha="right" if left else "left", va="bottom", fontsize=7.5,
+                        color=OUT_COLOR, bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none", "alpha": 0.8})
         ax.set_title(f"{sensor} {ax_name}: {len(s.lines)} line(s)", fontsize=10)
         ax.set_xlabel("frequency (Hz)")
         ax.set_ylabel(f"ASD ({unit}/sqrt(Hz))")
