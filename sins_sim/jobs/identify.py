@@ -1,4 +1,4 @@
-"""``sins-sim identify LOG --out DIR``: the noise terms and the biases of a unit from its log at rest.
+"""``sins-sim identify LOG --out DIR``: a unit fitted from its log at rest, and its twin run beside the log.
 
 The log is an increments table (``sins-sim import-log``; :func:`~sins_sim.jobs.import_log.read_log_table`):
 angle and velocity increments in body FRD axes. On it, for a unit at rest over the whole log:
@@ -14,10 +14,23 @@ angle and velocity increments in body FRD axes. On it, for a unit at rest over t
    :mod:`sins_sim.navigation.alignment`), then the residual of the means against the Earth's rate and normal
    gravity at the site (:func:`sins_sim.navigation.rest_bias.rest_biases`): the north and down gyro
    components and the down accelerometer component with their sigma; the others "not observable";
-3. **output**: ``metrics.json``, ``allan.png``, ``imu-sensors.yaml`` (a ``sensors:`` section for the unit's
+3. **spectral lines** of each axis (:mod:`sins_sim.navigation.spectral_lines`: Welch PSD, local floor, an F
+   threshold for a chance of :data:`LINE_FALSE_ALARM` of a false line in the whole log; amplitudes with sigmas);
+4. **bias steps** and, where the log has a ``temperature_c`` column, **temperature coefficients**
+   (:mod:`sins_sim.navigation.temperature_fit`: generalised least squares with the Allan-fitted noise covariance),
+   each reported only where significant (5 % over the six axes);
+5. **the twin beside the log** (``twin_seeds`` > 0): the twin's ``sensors:`` (:func:`twin_sensors`) simulated on
+   the log's time axis and the log's mission run on each seed and on the log (:mod:`sins_sim.simulation.twin`),
+   and where the log leaves the twin's envelope (:mod:`sins_sim.identification.twin_gap`, ``twin.findings``);
+6. **output**: ``metrics.json``, ``allan.png``, ``psd.png``, ``twin-allan.png``, ``twin-psd.png``,
+   ``twin-alignment.png``, ``twin-nav.png``, ``imu-sensors.yaml`` (a ``sensors:`` section for the unit's
    twin, each value's source and sigma in a comment) and ``report.md``.
 
-API: :func:`identify` (returns the metrics; writes the folder when ``out_dir`` is given).
+Not covered yet: motion-excited terms (scale factors, misalignments, g-sensitivity from a rate table or a known
+trajectory); a log must be at rest throughout.
+
+API: :func:`identify` (returns :class:`~sins_sim.results.identify.IdentifyResult`, the metrics as a dict with
+``to_pandas()``, ``plot(kind)`` and ``files``; writes the folder when ``out_dir`` is given), :func:`twin_sensors`.
 """
 
 from __future__ import annotations

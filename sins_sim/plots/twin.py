@@ -33,6 +33,31 @@ def _grid(plt, rows=2, cols=3, size=(5.0, 3.9)):
     return plt.subplots(rows, cols, figsize=(size[0] * cols, size[1] * rows), squeeze=False, constrained_layout=True)
 
 
+def _panel(axes, sensor: str, ax_name: str):
+    """The panel of a sensor axis: gyros on the top row, accelerometers below, x, y, z across."""
+    return axes[0 if sensor == "gyro" else 1]["xyz".index(ax_name)]
+
+
+def _sensor_panels(plt, by_channel: dict):
+    """The 2 x 3 figure and, per ``(sensor, axis) -> item``, ``(key, item, panel, factor to the edge unit, unit)``."""
+    fig, axes = _grid(plt)
+    return fig, axes, [(key, item, _panel(axes, *key), *_SCALE[key[0]]) for key, item in by_channel.items()]
+
+
+def _label(ax, title: str, xlabel: str, ylabel: str, which: str = "both") -> None:
+    ax.set_title(title, fontsize=10)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which=which, alpha=0.25)
+
+
+def _finish(fig, axes, title: str, path, legend_size: float = 7.5, loc: str = "best"):
+    axes[0][0].legend(fontsize=legend_size, loc=loc)
+    if title:
+        fig.suptitle(title, fontsize=11)
+    return finish_figure(fig, path)
+
+
 def _line_label(sensor: str, line) -> str:
     scale, unit = _SCALE[sensor]
     if sensor == "gyro":
@@ -51,11 +76,8 @@ def plot_psd_lines(searches: dict, path=None, title: str = ""):
     path : path, optional
         The PNG to write (None: the figure is returned open).
     """
-    plt = _pyplot(path is not None)
-    fig, axes = _grid(plt)
-    for (sensor, ax_name), s in searches.items():
-        ax = axes[0 if sensor == "gyro" else 1]["xyz".index(ax_name)]
-        scale, unit = _SCALE[sensor]
+    fig, axes, panels = _sensor_panels(_pyplot(path is not None), searches)
+    for (sensor, ax_name), s, ax, scale, unit in panels:
         f, p = s.psd.freq_hz[1:], s.psd.psd[1:]
         ax.loglog(f, np.sqrt(p) * scale, color=LOG_COLOR, lw=0.6, label="PSD (Welch, Hann)")
         fl = s.floor[1:]
@@ -74,14 +96,8 @@ def plot_psd_lines(searches: dict, path=None, title: str = ""):
             ax.annotate(_line_label(sensor, line), (line.frequency_hz, y), textcoords="offset points",
                         xytext=(-6 if left else 6, 2), ha="right" if left else "left", va="bottom", fontsize=7.5,
                         color=OUT_COLOR, bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none", "alpha": 0.8})
-        ax.set_title(f"{sensor} {ax_name}: {len(s.lines)} line(s)", fontsize=10)
-        ax.set_xlabel("frequency (Hz)")
-        ax.set_ylabel(f"ASD ({unit}/sqrt(Hz))")
-        ax.grid(True, which="both", alpha=0.25)
-    axes[0][0].legend(fontsize=7.5, loc="upper right")
-    if title:
-        fig.suptitle(title, fontsize=11)
-    return finish_figure(fig, path)
+        _label(ax, f"{sensor} {ax_name}: {len(s.lines)} line(s)", "frequency (Hz)", f"ASD ({unit}/sqrt(Hz))")
+    return _finish(fig, axes, title, path, loc="upper right")
 
 
 def plot_twin_allan(log_curves: dict, twin_curves: dict, bands: dict, path=None, title: str = ""):
@@ -96,12 +112,9 @@ def plot_twin_allan(log_curves: dict, twin_curves: dict, bands: dict, path=None,
     bands : dict
         ``(sensor, axis) -> band`` (:func:`sins_sim.identification.twin_gap.allan_band`).
     """
-    plt = _pyplot(path is not None)
-    fig, axes = _grid(plt)
-    for key, curve in log_curves.items():
+    fig, axes, panels = _sensor_panels(_pyplot(path is not None), log_curves)
+    for key, curve, ax, scale, unit in panels:
         sensor, ax_name = key
-        ax = axes[0 if sensor == "gyro" else 1]["xyz".index(ax_name)]
-        scale, unit = _SCALE[sensor]
         for j, c in enumerate(twin_curves[key]):
             ax.loglog(c.tau_s, c.adev * scale, color=TWIN_COLOR, lw=0.5, alpha=0.5,
                       label="twin seeds" if j == 0 else None)
@@ -113,14 +126,8 @@ def plot_twin_allan(log_curves: dict, twin_curves: dict, bands: dict, path=None,
         out = b["outside"] != 0
         if np.any(out):
             ax.loglog(b["tau_s"][out], b["log"][out] * scale, "o", color=OUT_COLOR, ms=4, label="outside the band")
-        ax.set_title(f"{sensor} {ax_name}", fontsize=10)
-        ax.set_xlabel("tau (s)")
-        ax.set_ylabel(f"Allan deviation ({unit})")
-        ax.grid(True, which="both", alpha=0.25)
-    axes[0][0].legend(fontsize=7.5)
-    if title:
-        fig.suptitle(title, fontsize=11)
-    return finish_figure(fig, path)
+        _label(ax, f"{sensor} {ax_name}", "tau (s)", f"Allan deviation ({unit})")
+    return _finish(fig, axes, title, path)
 
 
 def _log_bands(f: np.ndarray, p: np.ndarray, per_decade: int) -> tuple:
@@ -136,12 +143,9 @@ def _log_bands(f: np.ndarray, p: np.ndarray, per_decade: int) -> tuple:
 def plot_twin_psd(log_searches: dict, twin_searches: dict, path=None, title: str = "", per_decade: int = 30):
     """The log's PSD over the min-max envelope of its twin's seeds (amplitude spectral density), each averaged in
     ``1 / per_decade``-decade bands for display (the lines found in the log marked by dotted verticals)."""
-    plt = _pyplot(path is not None)
-    fig, axes = _grid(plt)
-    for key, s in log_searches.items():
+    fig, axes, panels = _sensor_panels(_pyplot(path is not None), log_searches)
+    for key, s, ax, scale, unit in panels:
         sensor, ax_name = key
-        ax = axes[0 if sensor == "gyro" else 1]["xyz".index(ax_name)]
-        scale, unit = _SCALE[sensor]
         f = s.psd.freq_hz[1:]
         fc, tw = _log_bands(f, np.array([t.psd.psd[1:] for t in twin_searches[key]]), per_decade)
         _, lg = _log_bands(f, s.psd.psd[1:], per_decade)
@@ -151,16 +155,8 @@ def plot_twin_psd(log_searches: dict, twin_searches: dict, path=None, title: str
                   label=f"log (means over 1/{per_decade} decade)")
         for line in s.lines:
             ax.axvline(line.frequency_hz, color=OUT_COLOR, lw=0.6, ls=":")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_title(f"{sensor} {ax_name}", fontsize=10)
-        ax.set_xlabel("frequency (Hz)")
-        ax.set_ylabel(f"ASD ({unit}/sqrt(Hz))")
-        ax.grid(True, which="both", alpha=0.25)
-    axes[0][0].legend(fontsize=7.5)
-    if title:
-        fig.suptitle(title, fontsize=11)
-    return finish_figure(fig, path)
+        _label(ax, f"{sensor} {ax_name}", "frequency (Hz)", f"ASD ({unit}/sqrt(Hz))")
+    return _finish(fig, axes, title, path)
 
 
 def plot_twin_nav(t_s, log_nav: dict, twin_navs: list, bands: dict, quantities, path=None, title: str = ""):
@@ -200,16 +196,10 @@ def plot_twin_nav(t_s, log_nav: dict, twin_navs: list, bands: dict, quantities, 
             inside = np.flatnonzero(~out)
             start = int(inside[-1] + 1) if inside.size else 0
             ax.axvline(t[start], color=OUT_COLOR, lw=0.8, ls="--", label="leaves the envelope")
-        ax.set_title(label, fontsize=9.5)
-        ax.set_xlabel("time (min)")
-        ax.set_ylabel(unit)
-        ax.grid(True, alpha=0.25)
+        _label(ax, label, "time (min)", unit, which="major")
     for k in range(n, rows * cols):
         axes[k // cols][k % cols].axis("off")
-    axes[0][0].legend(fontsize=7)
-    if title:
-        fig.suptitle(title, fontsize=11)
-    return finish_figure(fig, path)
+    return _finish(fig, axes, title, path, legend_size=7.0)
 
 
 def plot_twin_alignment(side: dict, path=None, title: str = ""):
@@ -229,11 +219,5 @@ def plot_twin_alignment(side: dict, path=None, title: str = ""):
         ax.plot(x, errs, "o", color=TWIN_COLOR, label="twin's error, per seed")
         ax.axhline(0.0, color="grey", lw=0.5)
         ax.set_xticks(x)
-        ax.set_xlabel("twin seed")
-        ax.set_ylabel(f"alignment error ({unit})")
-        ax.set_title(label, fontsize=10)
-        ax.grid(True, alpha=0.25)
-    axes[0][0].legend(fontsize=7)
-    if title:
-        fig.suptitle(title, fontsize=11)
-    return finish_figure(fig, path)
+        _label(ax, label, "twin seed", f"alignment error ({unit})", which="major")
+    return _finish(fig, axes, title, path, legend_size=7.0)
