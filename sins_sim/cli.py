@@ -935,7 +935,16 @@ def _cmd_import_log(args) -> int:
 
 
 def _cmd_identify(args) -> int:
-    from sins_sim.jobs.identify import identify
+    from sins_sim.jobs.identify import identify, identify_rate_table
+
+    if args.rate_table is not None:
+        m = identify_rate_table(args.log, args.rate_table, args.out, force=args.force, manifest=_manifest(args))
+        for group in ("scale_factor_ppm", "misalignment_arcsec"):
+            cells = [f"{k} {e['value']:.4g} +- {e['sigma']:.2g}" if "value" in e else f"{k} {e['status']}"
+                     for k, e in m["motion_terms"][group].items()]
+            print(f"gyro {group}: {'; '.join(cells)}")
+        print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
+        return EXIT_OK
 
     m = identify(args.log, args.out, lat_deg=args.site_lat_deg, lon_deg=args.site_lon_deg,
                  height_m=args.site_height_m, alignment=args.align, gyro_bias_prior_deg_h=args.gyro_bias_prior_deg_h,
@@ -1301,6 +1310,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="1-sigma gyro bias before the log, for the unobservable part's coupling (deg/h) [0.01]")
     p.add_argument("--accel-bias-prior-ug", type=float, default=100.0,
                    help="1-sigma accelerometer bias before the log, for the tilt's coupling (ug) [100]")
+    p.add_argument("--rate-table", default=None, metavar="SEGMENTS.csv",
+                   help="the log is a rate-table run: windows of constant rate (start_s, end_s, axis, rate_deg_s); "
+                        "gives the gyro scale factors and misalignments from the reversal pairs instead")
     p.add_argument("--twin-seeds", type=int, default=5,
                    help="seeds of the twin simulated beside the log; 0: no twin [5]")
     p.add_argument("--line-false-alarm", type=float, default=0.01,

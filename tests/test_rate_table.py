@@ -101,3 +101,27 @@ def test_bad_segment_is_one_line():
     t, dth, segments, _ = table_log(6, 10.0, 1.0, axes=(0,))
     with pytest.raises(ValueError, match=r"^segments\[0\]: axis must be 0, 1 or 2"):
         fit_rate_table(t, dth, [(0.0, 1.0, 3, 0.1)])
+
+
+def test_cli_rate_table_writes_the_terms(tmp_path, capsys):
+    import json
+
+    from sins_sim.cli import EXIT_OK, EXIT_USAGE, main
+    from sins_sim.jobs.import_log import write_log_table
+
+    t, dth, segments, e = table_log(7, 10.0, 36.0)
+    log = tmp_path / "table.parquet"
+    write_log_table(log, t, dth, np.zeros_like(dth), {})
+    seg = tmp_path / "segments.csv"
+    seg.write_text("start_s,end_s,axis,rate_deg_s\n" + "".join(
+        f"{a:.6g},{b:.6g},{'xyz'[ax]},{math.degrees(w):.12g}\n" for a, b, ax, w in segments))
+    out = tmp_path / "fit"
+    assert main(["identify", str(log), "--out", str(out), "--rate-table", str(seg)]) == EXIT_OK
+    m = json.loads((out / "metrics.json").read_text())
+    s_z = m["motion_terms"]["scale_factor_ppm"]["z"]
+    assert abs(s_z["value"] - SF_PPM[2]) <= 3.0 * s_z["sigma"]
+    assert "gyro scale_factor_ppm" in capsys.readouterr().out
+    seg.write_text("start_s,end_s,axis,rate_deg_s\n0,36,w,10\n")
+    assert main(["identify", str(log), "--out", str(tmp_path / "bad"), "--rate-table", str(seg)]) == EXIT_USAGE
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "line 2: axis must be x, y or z" in err[0]

@@ -26,8 +26,9 @@ angle and velocity increments in body FRD axes. On it, for a unit at rest over t
    ``twin-alignment.png``, ``twin-nav.png``, ``imu-sensors.yaml`` (a ``sensors:`` section for the unit's
    twin, each value's source and sigma in a comment) and ``report.md``.
 
-Not covered yet: motion-excited terms (scale factors, misalignments, g-sensitivity from a rate table or a known
-trajectory); a log must be at rest throughout.
+A rate-table log (``sins-sim identify LOG --rate-table SEGMENTS.csv``, :func:`identify_rate_table`) gives the gyro
+scale factors and misalignments from its reversal pairs (:mod:`sins_sim.navigation.rate_table`) instead. Not
+covered yet: the accelerometers' g-sensitivity and scale factors, a log on a known trajectory.
 
 API: :func:`identify` (returns :class:`~sins_sim.results.identify.IdentifyResult`, the metrics as a dict with
 ``to_pandas()``, ``plot(kind)`` and ``files``; writes the folder when ``out_dir`` is given), :func:`twin_sensors`.
@@ -44,7 +45,8 @@ import numpy as np
 from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
-__all__ = ["LINE_FALSE_ALARM", "NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "sensors_yaml", "twin_sensors"]
+__all__ = ["LINE_FALSE_ALARM", "NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "identify_rate_table",
+           "read_segments", "sensors_yaml", "twin_sensors"]
 
 NOT_DETERMINABLE = "not determinable"
 NOT_OBSERVABLE = "not observable"
@@ -695,3 +697,116 @@ def _write(folder: Path, metrics: dict, detail: dict) -> list:
     (folder / "report.md").write_text(_report(metrics) + "\n".join(_lines_report(metrics) + _steps_report(metrics) + _temperature_report(metrics)
                                                                    + _twin_report(metrics)) + "\n")
     return written
+
+
+#: The columns of a rate table's segments file (CSV): window, body axis (x, y or z), table rate.
+SEGMENT_COLUMNS = ("start_s", "end_s", "axis", "rate_deg_s")
+
+
+def read_segments(path) -> list:
+    """The windows of constant table rate from a CSV with the columns :data:`SEGMENT_COLUMNS`, as
+    ``(start_s, end_s, axis 0..2, rate_rad_s)``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the row and the column.
+    """
+    import pandas as pd
+
+    p = Path(path)
+    try:
+        df = pd.read_csv(p, comment="#", skipinitialspace=True)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is the file's fault: one line
+        raise ConfigError(f"--rate-table: {p}: cannot read: {' '.join(str(exc).split())}") from None
+    df.columns = [str(c).strip() for c in df.columns]
+    missing = [c for c in SEGMENT_COLUMNS if c not in df.columns]
+    if missing:
+        raise ConfigError(f"--rate-table: {p}: column {missing[0]}: missing (needs {', '.join(SEGMENT_COLUMNS)})")
+    out = []
+    for i, row in enumerate(df.itertuples(index=False), start=2):
+        axis = str(row.axis).strip().lower()
+        if axis not in ("x", "y", "z"):
+            raise ConfigError(f"--rate-table: {p}: line {i}: axis must be x, y or z, got {row.axis!r}")
+        try:
+            t0, t1, w = float(row.start_s), float(row.end_s), float(row.rate_deg_s)
+        except ValueError:
+            raise ConfigError(f"--rate-table: {p}: line {i}: start_s, end_s and rate_deg_s must be numbers") from None
+        if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0 and math.isfinite(w) and w != 0.0):
+            raise ConfigError(f"--rate-table: {p}: line {i}: needs end_s > start_s and a finite non-zero rate_deg_s")
+        out.append((t0, t1, "xyz".index(axis), math.radians(w)))
+    return out
+
+
+def identify_rate_table(log, segments, out_dir=None, *, force: bool = False, manifest=None):
+    """Gyro scale factors and misalignments of a unit from its rate-table log (reversal pairs; module docstring).
+
+    Parameters
+    ----------
+    log : path
+        The increments table.
+    segments : path or sequence
+        The windows of constant table rate: a CSV (:func:`read_segments`) or ``(start_s, end_s, axis, rate_rad_s)``.
+    out_dir : path, optional
+        Folder for ``metrics.json`` and ``report.md``; None: write nothing.
+    force : bool
+        Replace an earlier result at ``out_dir``.
+    manifest : Manifest, optional
+        The command's manifest.
+
+    Returns
+    -------
+    IdentifyResult
+        ``motion_terms``: ``scale_factor_ppm`` and ``misalignment_arcsec`` per entry, each a value with its sigma or
+        ``not excited``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the flag or the file.
+    """
+    from sins_sim.jobs.import_log import read_log_table
+    from sins_sim.navigation.rate_table import fit_rate_table
+    from sins_sim.results.identify import IdentifyResult
+
+    t, dth, _, _ = read_log_table(log)
+    dt = _interval(t)
+    segs = read_segments(segments) if isinstance(segments, (str, Path)) else list(segments)
+    try:
+        fit = fit_rate_table(t, dth, segs)
+    except ValueError as exc:
+        raise ConfigError(f"--rate-table: {exc}") from None
+    metrics = _json_ready({
+        "log": str(log), "duration_s": float(t.size * dt), "rate_hz": 1.0 / dt, "motion_terms": fit.to_dict(),
+        "methods": {"motion_terms": "reversal pairs: E[:, a] = (m+ - m-) / (2 W) - e_a from the mean rates of a "
+                                    "window at +W and one at -W about body axis a; sigma: the windows' means "
+                                    "(std / sqrt(n)) and the Earth's rate across the axis over part of a turn"}})
+    files = {}
+    if out_dir is not None:
+        from sins_sim.jobs.manifest import Manifest, result_dir
+
+        if manifest is None:
+            manifest = Manifest("identify", settings={"rate_table": [list(s) for s in segs]})
+        manifest.add_input("log", log)
+        with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
+            (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+            (Path(tmp) / "report.md").write_text(_rate_table_report(metrics))
+        files = {name: Path(out_dir) / name for name in ("metrics.json", "report.md")}
+    return IdentifyResult(metrics, files=files)
+
+
+def _rate_table_report(metrics: dict) -> str:
+    mt = metrics["motion_terms"]
+    out = ["# Gyro scale factors and misalignments from a rate table", "",
+           (f"Log `{metrics['log']}`: {metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz. Model "
+            "w_meas = b + (I + E) w (Groves 2013, sec. 4.4.6): scale factors on the diagonal of E, misalignment "
+            "M_ij (sensor i towards body axis j) off it; each column from a pair of windows at +W and -W."), "",
+           "Pairs: " + ", ".join(f"{p['axis']} at +-{p['rate_deg_s']:.4g} deg/s ({p['seconds'][0]:.4g} s, "
+                                 f"{p['seconds'][1]:.4g} s)" for p in mt["pairs"]) + ".", "",
+           "| term | value | 1-sigma |", "|---|---|---|"]
+    for group, unit in (("scale_factor_ppm", "ppm"), ("misalignment_arcsec", "arcsec")):
+        for key, e in mt[group].items():
+            name = f"S_{key}" if group == "scale_factor_ppm" else f"M_{key}"
+            out.append(f"| {name} ({unit}) | {e['value']:.4g} | {e['sigma']:.2g} |" if "value" in e else
+                       f"| {name} ({unit}) | {e['status']} | |")
+    return "\n".join(out) + "\n"

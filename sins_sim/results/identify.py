@@ -94,9 +94,16 @@ class IdentifyResult(dict):
     def to_pandas(self) -> dict:
         """The tables: ``noise`` (sensor, axis, term, value, ci95 low/high), ``bias`` (sensor, component, value,
         sigma), ``lines`` (sensor, axis and each line's readings), ``temperature`` (sensor, axis, coefficient,
-        sigma, significant) and ``findings`` (one row per place the log leaves its twin)."""
+        sigma, significant) and ``findings`` (one row per place the log leaves its twin); for a rate-table result
+        ``motion_terms`` (term, unit, value, sigma, status)."""
         import pandas as pd
 
+        if "motion_terms" in self:                   # a rate-table result
+            mt = self["motion_terms"]
+            rows = [{"term": f"{'S' if g == 'scale_factor_ppm' else 'M'}_{k}", "unit": g.rsplit("_", 1)[1],
+                     "value": e.get("value"), "sigma": e.get("sigma"), "status": e.get("status", "excited")}
+                    for g in ("scale_factor_ppm", "misalignment_arcsec") for k, e in mt[g].items()]
+            return {"motion_terms": pd.DataFrame(rows)}
         noise = [{"sensor": s, "axis": ax, "term": key, "value": e.get("value"),
                   "ci95_low": (e.get("ci95") or [None, None])[0], "ci95_high": (e.get("ci95") or [None, None])[1],
                   "status": e.get("status", "determined")}
