@@ -45,11 +45,12 @@ Public API (imported lazily, so ``import sins_sim`` stays light and never loads 
 * navigation: :class:`StrapdownNavigator`;
 * configuration: :func:`load_imu`, :func:`load_scenario` (a file or a dict), :func:`load_yaml` (a YAML file as
   the loaders read it: YAML 1.2 numbers such as ``7.58e5`` are numbers), :func:`run_scenario`;
-* a unit's log at rest: :func:`identify` (noise terms, rest biases, the twin's ``sensors:`` section);
+* a unit's log at rest: :func:`identify` (noise terms, spectral lines, rest biases, bias steps, temperature
+  coefficients, the twin's ``sensors:`` section, the twin run beside the log and where they part);
 * notebooks: :func:`run` (a scenario file, dict or object -> :class:`MissionResult` with tables,
   figures and ``save``), :func:`load` (a result folder -> :class:`MissionResult`, :class:`BudgetResult`
   or :class:`SweepResult`), :func:`sweep_run` (one run of a sweep -> :class:`MissionResult`);
-  :class:`DiagnosisResult` is what ``diagnose`` returns.
+  :class:`DiagnosisResult` is what ``diagnose`` returns, :class:`IdentifyResult` what :func:`identify` returns.
 """
 
 from __future__ import annotations
@@ -85,6 +86,7 @@ _API = {
     "BudgetResult": "sins_sim.results",
     "SweepResult": "sins_sim.results",
     "DiagnosisResult": "sins_sim.results",
+    "IdentifyResult": "sins_sim.results",
 }
 
 __all__ = sorted(_API) + ["__version__"]

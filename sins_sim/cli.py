@@ -967,11 +967,21 @@ def _cmd_import_log(args) -> int:
 
 
 def _cmd_identify(args) -> int:
-    from sins_sim.jobs.identify import identify
+    from sins_sim.jobs.identify import identify, identify_rate_table
+
+    if args.rate_table is not None:
+        m = identify_rate_table(args.log, args.rate_table, args.out, force=args.force, manifest=_manifest(args))
+        for group in ("scale_factor_ppm", "misalignment_arcsec"):
+            cells = [f"{k} {e['value']:.4g} +- {e['sigma']:.2g}" if "value" in e else f"{k} {e['status']}"
+                     for k, e in m["motion_terms"][group].items()]
+            print(f"gyro {group}: {'; '.join(cells)}")
+        print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
+        return EXIT_OK
 
     m = identify(args.log, args.out, lat_deg=args.site_lat_deg, lon_deg=args.site_lon_deg,
                  height_m=args.site_height_m, alignment=args.align, gyro_bias_prior_deg_h=args.gyro_bias_prior_deg_h,
-                 accel_bias_prior_ug=args.accel_bias_prior_ug, force=args.force, manifest=_manifest(args))
+                 accel_bias_prior_ug=args.accel_bias_prior_ug, twin_seeds=args.twin_seeds,
+                 line_false_alarm=args.line_false_alarm, force=args.force, manifest=_manifest(args))
     for sensor, key in (("gyro", "arw_deg_rt_h"), ("gyro", "rrw_deg_h_rt_h"), ("accelerometer", "vrw_ug_rt_hz")):
         cells = [f"{e['value']:.4g}" if "value" in e else e["status"] for e in
                  (m["noise"][sensor][ax][key] for ax in "xyz")]
@@ -979,7 +989,13 @@ def _cmd_identify(args) -> int:
     for sensor, key in (("gyro", "north_deg_h"), ("gyro", "down_deg_h"), ("accelerometer", "down_ug")):
         e = m["bias"][sensor][key]
         print(f"{sensor} bias {key}: {e['value']:.4g} +- {e['sigma']:.2g} (1 sigma)")
-    print(f"wrote {args.out}: metrics.json, allan.png, imu-sensors.yaml, report.md, manifest.json")
+    n_lines = sum(len(e["lines"]) for s in ("gyro", "accelerometer") for e in m["lines"][s].values())
+    print(f"spectral lines: {n_lines}")
+    if "twin" in m:
+        print(f"twin: {m['twin']['summary']}")
+        for f in m["twin"]["findings"]:
+            print(f"  {f['statement']}")
+    print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
     return EXIT_OK
 
 
@@ -1330,12 +1346,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace an existing --out (once the new file is complete)")
     p.set_defaults(func=_cmd_import_log)
 
-    p = sub.add_parser("identify", help="fit a unit's noise terms and rest biases from its log at rest",
+    p = sub.add_parser("identify", help="fit a unit from its log at rest and run its twin beside it",
                        description="From an increments file of a unit at rest (sins-sim import-log): the overlapping "
                                    "Allan deviation of each gyro and accelerometer axis with the IEEE Std 952 terms "
                                    "(95 %% intervals, 'not determinable' where a term has no slope region), the "
                                    "biases observable at rest against the Earth's rate and normal gravity ('not "
-                                   "observable' for the others), and a sensors: section for the unit's twin.")
+                                   "observable' for the others), the PSD's spectral lines, the temperature "
+                                   "coefficients where the log has a temperature_c column, a sensors: section for "
+                                   "the unit's twin, and the twin simulated beside the log (Allan deviation, PSD, "
+                                   "alignment, free navigation) with where the log leaves its envelope.")
     p.add_argument("log", help="increments file (from sins-sim import-log)")
     p.add_argument("--out", required=True, help="result folder to write")
     p.add_argument("--site-lat-deg", type=float, default=None, help="site latitude (deg) [from the log]")
@@ -1346,6 +1365,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="1-sigma gyro bias before the log, for the unobservable part's coupling (deg/h) [0.01]")
     p.add_argument("--accel-bias-prior-ug", type=float, default=100.0,
                    help="1-sigma accelerometer bias before the log, for the tilt's coupling (ug) [100]")
+    p.add_argument("--rate-table", default=None, metavar="SEGMENTS.csv",
+                   help="the log is a rate-table run: windows of constant rate (start_s, end_s, axis, rate_deg_s); "
+                        "gives the gyro scale factors and misalignments from the reversal pairs instead")
+    p.add_argument("--twin-seeds", type=int, default=5,
+                   help="seeds of the twin simulated beside the log; 0: no twin [5]")
+    p.add_argument("--line-false-alarm", type=float, default=0.01,
+                   help="chance of one or more false spectral lines in the whole log [0.01]")
     _force_flag(p)
     p.set_defaults(func=_cmd_identify)
 

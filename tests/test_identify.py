@@ -165,7 +165,8 @@ def test_cli_identify_writes_the_folder_and_refuses_a_bad_site(tmp_path, capsys)
     out = tmp_path / "fit"
     assert main(["identify", str(p), "--out", str(out)]) == EXIT_OK
     written = sorted(x.name for x in out.iterdir() if not x.name.startswith("."))
-    assert written == ["allan.png", "imu-sensors.yaml", "manifest.json", "metrics.json", "report.md"]
+    assert written == ["allan.png", "imu-sensors.yaml", "manifest.json", "metrics.json", "psd.png", "report.md",
+                       "twin-alignment.png", "twin-allan.png", "twin-nav.png", "twin-psd.png"]
     assert "gyro arw_deg_rt_h" in capsys.readouterr().out
     assert main(["identify", str(p), "--out", str(tmp_path / "bad"), "--site-lat-deg", "91"]) == EXIT_USAGE
     err = capsys.readouterr().err.strip().splitlines()

@@ -305,6 +305,8 @@ LOG_SCHEMA = Map({
         "time": _Column(doc="the time column (absent: a fixed rate time.rate_hz)"),
         "gyro": _Columns3(required=True, doc="the gyro channels along the log's x, y, z axes"),
         "accelerometer": _Columns3(required=True, doc="the accelerometer channels along the log's x, y, z axes"),
+        "temperature": _Column(doc="the unit's temperature (one reading per row; unit temperature.unit): written "
+                                   "to the increments as temperature_c for sins-sim identify's coefficients"),
     }, required=True, doc="0-based positions or names (csv and parquet)"),
     "time": Map({
         "rate": Num(unit="hz", min=0.0, min_exclusive=True, max=1.0e6, default=None,
@@ -322,6 +324,9 @@ LOG_SCHEMA = Map({
                     doc="a missing interval: refuse, or fill it with the mean of the intervals either side (each "
                         "filled interval listed in the output's metadata)"),
     }, default={}, doc="the time base"),
+    "temperature": Map({
+        "unit": Str(choices=("C", "K"), default="C", doc="the temperature column's unit: deg C or kelvin"),
+    }, default={}, doc="the temperature column (columns.temperature)"),
     "gyro": _Channel("gyro"),
     "accelerometer": _Channel("accelerometer"),
     "axes": _Axes(),
@@ -396,6 +401,10 @@ def _description(doc: dict, ctx: str) -> LogDescription:
                                         "key-value metadata)")
     refs = [("columns.time", cols["time"])] if cols["time"] is not None else []
     refs += [(f"columns.{s}[{i}]", r) for s in ("gyro", "accelerometer") for i, r in enumerate(cols[s])]
+    if cols["temperature"] is not None:
+        refs.append(("columns.temperature", cols["temperature"]))
+    elif "unit" in _given(doc, "temperature"):
+        _fail(ctx, "temperature.unit", "needs a temperature column (columns.temperature)")
     if fmt["type"] == "text":
         named = next(((k, r) for k, r in refs if isinstance(r, str)), None)
         if named:
@@ -423,7 +432,8 @@ def _description(doc: dict, ctx: str) -> LogDescription:
         accel_wrap_bits=a["wrap_bits"], time_column=cols["time"], time_scale=time_scale,
         time_count=tm["unit"] == "count", time_stamp=tm["stamp"], rate_hz=tm["rate_hz"], start_s=tm["start_s"],
         jitter=tm["jitter"], gaps=tm["gaps"], delimiter=delimiter, header_rows=fmt["header_rows"],
-        comment=fmt["comment"], site=site, velocity=velocity)
+        comment=fmt["comment"], site=site, velocity=velocity, temperature_column=cols["temperature"],
+        temperature_offset=-273.15 if c["temperature"]["unit"] == "K" else 0.0)
     return LogDescription(layout, _resolved(doc, layout, c["axes"]["matrix"]), ctx)
 
 
@@ -432,6 +442,8 @@ def _resolved(doc: dict, layout: LogLayout, matrix) -> dict:
     out = fill_defaults(doc, LOG_SCHEMA)
     drop_time = ("unit", "stamp", "jitter", "gaps") if layout.time_column is None else ("start_s",)
     out["time"] = {k: v for k, v in out["time"].items() if k not in drop_time}
+    if layout.temperature_column is None:
+        out.pop("temperature", None)
     if layout.fmt == "parquet":
         out["format"] = {k: v for k, v in out["format"].items() if k not in ("header_rows", "comment")}
     else:

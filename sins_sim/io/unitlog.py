@@ -163,6 +163,10 @@ class LogLayout:
     site, velocity : dict
         name -> float (SI) or :class:`HeaderValue`: ``lat_rad, lon_rad, height_m`` and
         ``north_m_s, east_m_s, down_m_s``; a missing name is unknown.
+    temperature_column : int, str or None
+        The unit's temperature (one reading per row), or None.
+    temperature_offset : float
+        Added to the column to give deg C (``273.15`` subtracted for kelvin: ``-273.15``).
     """
 
     fmt: str
@@ -188,18 +192,22 @@ class LogLayout:
     comment: str = "#"
     site: dict = field(default_factory=dict)
     velocity: dict = field(default_factory=dict)
+    temperature_column: int | str | None = None
+    temperature_offset: float = 0.0
 
 
 @dataclass(frozen=True)
 class UnitLog:
     """A converted log: ``t_s`` (N,) end of each interval (s), ``dtheta`` (N, 3) rad and ``dv`` (N, 3) m/s in FRD
     body axes (raw: no coning or sculling compensation), and ``report`` (a JSON-able dict: rows read, duplicates
-    dropped, gaps and filled intervals, rate, duration, site, initial velocity)."""
+    dropped, gaps and filled intervals, rate, duration, site, initial velocity); ``temperature_c`` (N,) the
+    unit's temperature at the row closing each interval (deg C; a filled interval's interpolated), or None."""
 
     t_s: np.ndarray
     dtheta: np.ndarray
     dv: np.ndarray
     report: dict
+    temperature_c: np.ndarray | None = None
 
 
 # --- axes ----------------------------------------------------------------------------------------------------------
@@ -660,7 +668,10 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
     tcol = None
     if layout.time_column is not None:
         tcol = _column_index(p, raw, layout.time_column, "columns.time", "time")
-    used = ([tcol] if tcol is not None else []) + cols
+    temp_col = None
+    if layout.temperature_column is not None:
+        temp_col = _column_index(p, raw, layout.temperature_column, "columns.temperature", "temperature")
+    used = ([tcol] if tcol is not None else []) + cols + ([temp_col] if temp_col is not None else [])
     if len(set(used)) < len(used):
         twice = next(c for c in used if used.count(c) > 1)
         _fail(p, f"columns: column {twice} is named for two channels")
@@ -669,12 +680,15 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
                             for j, key, role, kind in zip(cols, _KEYS, _ROLES, kinds)]) \
         if raw.where else np.empty((0, 6))
     n_read = len(raw.where)
+    temp = (_numbers(p, raw, temp_col, "columns.temperature", "temperature", False) + layout.temperature_offset
+            if temp_col is not None and raw.where else None)
     report = {"file": str(p), "format": fmt, "rows_read": n_read}
     if tcol is not None:
         tc = _numbers(p, raw, tcol, "columns.time", "time", False)
         t = tc / layout.rate_hz if layout.time_count else tc * layout.time_scale
         keep, idx, dt, treport = _time_base(p, raw, layout, t, np.column_stack([tc, chan]))
         chan = chan[keep]
+        temp = None if temp is None else temp[keep]
         t_first = float(t[keep][0]) + (dt if layout.time_stamp == "start" else 0.0)
     else:
         if n_read < 2:
@@ -690,6 +704,7 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
             _fail(p, f"needs at least 3 data rows with running totals (the first is the reference), got "
                      f"{chan.shape[0]}")
         chan = _differences(chan, totals, (layout.gyro_wrap_bits,) * 3 + (layout.accel_wrap_bits,) * 3)
+        temp = None if temp is None else temp[1:]   # the reading at the row that closes each interval
         steps, pos = np.diff(idx), idx[1:] - idx[0] - 1
         if tcol is not None:  # the first row's time is the reference reading's; without a column, start_s is
             t_first += dt
@@ -704,6 +719,8 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
     if pos[-1] + 1 != pos.size:
         x, filled = _fill(x, pos, steps, (totals[0], totals[3]))
         filled_rows = np.flatnonzero(filled)
+        if temp is not None:  # a slow quantity: linear between the readings either side of a gap
+            temp = np.interp(np.arange(x.shape[0]), pos, temp)
     t_s = t_first + dt * np.arange(x.shape[0])
     table = _header_table(raw, layout.comment)
     site, site_from = {}, {}
@@ -734,4 +751,7 @@ def read_unit_log(path, layout: LogLayout) -> UnitLog:
         "initial_velocity_ned_m_s": vel, "initial_velocity_from": vel_from,
         "headers": {k: v for k, v, _ in table},
     })
-    return UnitLog(t_s, np.ascontiguousarray(x[:, :3]), np.ascontiguousarray(x[:, 3:]), report)
+    if temp is not None:
+        report["temperature_c"] = {"column": layout.temperature_column, "min": float(np.min(temp)),
+                                   "max": float(np.max(temp))}
+    return UnitLog(t_s, np.ascontiguousarray(x[:, :3]), np.ascontiguousarray(x[:, 3:]), report, temp)

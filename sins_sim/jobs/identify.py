@@ -1,4 +1,4 @@
-"""``sins-sim identify LOG --out DIR``: the noise terms and the biases of a unit from its log at rest.
+"""``sins-sim identify LOG --out DIR``: a unit fitted from its log at rest, and its twin run beside the log.
 
 The log is an increments table (``sins-sim import-log``; :func:`~sins_sim.jobs.import_log.read_log_table`):
 angle and velocity increments in body FRD axes. On it, for a unit at rest over the whole log:
@@ -14,10 +14,24 @@ angle and velocity increments in body FRD axes. On it, for a unit at rest over t
    :mod:`sins_sim.navigation.alignment`), then the residual of the means against the Earth's rate and normal
    gravity at the site (:func:`sins_sim.navigation.rest_bias.rest_biases`): the north and down gyro
    components and the down accelerometer component with their sigma; the others "not observable";
-3. **output**: ``metrics.json``, ``allan.png``, ``imu-sensors.yaml`` (a ``sensors:`` section for the unit's
+3. **spectral lines** of each axis (:mod:`sins_sim.navigation.spectral_lines`: Welch PSD, local floor, an F
+   threshold for a chance of :data:`LINE_FALSE_ALARM` of a false line in the whole log; amplitudes with sigmas);
+4. **bias steps** and, where the log has a ``temperature_c`` column, **temperature coefficients**
+   (:mod:`sins_sim.navigation.temperature_fit`: generalised least squares with the Allan-fitted noise covariance),
+   each reported only where significant (5 % over the six axes);
+5. **the twin beside the log** (``twin_seeds`` > 0): the twin's ``sensors:`` (:func:`twin_sensors`) simulated on
+   the log's time axis and the log's mission run on each seed and on the log (:mod:`sins_sim.simulation.twin`),
+   and where the log leaves the twin's envelope (:mod:`sins_sim.identification.twin_gap`, ``twin.findings``);
+6. **output**: ``metrics.json``, ``allan.png``, ``psd.png``, ``twin-allan.png``, ``twin-psd.png``,
+   ``twin-alignment.png``, ``twin-nav.png``, ``imu-sensors.yaml`` (a ``sensors:`` section for the unit's
    twin, each value's source and sigma in a comment) and ``report.md``.
 
-API: :func:`identify` (returns the metrics; writes the folder when ``out_dir`` is given).
+A rate-table log (``sins-sim identify LOG --rate-table SEGMENTS.csv``, :func:`identify_rate_table`) gives the gyro
+scale factors and misalignments from its reversal pairs (:mod:`sins_sim.navigation.rate_table`) instead. Not
+covered yet: the accelerometers' g-sensitivity and scale factors, a log on a known trajectory.
+
+API: :func:`identify` (returns :class:`~sins_sim.results.identify.IdentifyResult`, the metrics as a dict with
+``to_pandas()``, ``plot(kind)`` and ``files``; writes the folder when ``out_dir`` is given), :func:`twin_sensors`.
 """
 
 from __future__ import annotations
@@ -31,7 +45,8 @@ import numpy as np
 from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
-__all__ = ["NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "sensors_yaml"]
+__all__ = ["LINE_FALSE_ALARM", "NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "identify_rate_table",
+           "read_segments", "sensors_yaml", "twin_sensors"]
 
 NOT_DETERMINABLE = "not determinable"
 NOT_OBSERVABLE = "not observable"
@@ -51,6 +66,14 @@ _NOISE_KEYS = {
                       ("ramp", "ramp_ug_per_h", 3600.0 / MICRO_G, None)),
 }
 _BIAS_UNIT = {"gyro": ("deg_h", 1.0 / DEG_PER_H), "accelerometer": ("ug", 1.0 / MICRO_G)}
+#: Chance of one or more false spectral lines in a log (its six channels together).
+LINE_FALSE_ALARM = 0.01
+#: Significance of a temperature coefficient, over the six axes together (Bonferroni).
+TEMPERATURE_ALPHA = 0.05
+#: Chance of a false bias step, over the six axes together (Bonferroni).
+STEP_ALPHA = 0.05
+#: Most seeds of the twin.
+MAX_TWIN_SEEDS = 100
 
 
 def _site(meta: dict, lat_deg, lon_deg, height_m) -> dict:
@@ -103,9 +126,10 @@ def _bias_entries(values, sigmas, labels, scale, unit) -> dict:
 
 
 def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, alignment: str = "coarse",
-             gyro_bias_prior_deg_h: float = 0.01, accel_bias_prior_ug: float = 100.0, force: bool = False,
-             manifest=None) -> dict:
-    """Fit a unit's noise terms and biases from its log at rest (module docstring).
+             gyro_bias_prior_deg_h: float = 0.01, accel_bias_prior_ug: float = 100.0, twin_seeds: int = 5,
+             line_false_alarm: float = LINE_FALSE_ALARM, force: bool = False, manifest=None):
+    """Fit a unit's noise terms, lines, biases and temperature coefficients from its log at rest, and run its twin
+    beside it (module docstring).
 
     Parameters
     ----------
@@ -120,6 +144,10 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     gyro_bias_prior_deg_h, accel_bias_prior_ug : float
         1-sigma of the biases before the log: the unobservable part that couples into the observed ones
         (the tilt from a horizontal accelerometer bias, an axis near but not in the observable span).
+    twin_seeds : int
+        Seeds of the twin run beside the log (0: no twin; else at least 2, for an envelope).
+    line_false_alarm : float
+        Chance of one or more false spectral lines in the whole log (shared by its six channels).
     force : bool
         Replace an earlier result at ``out_dir`` (default: refuse it); the folder appears only once complete.
     manifest : Manifest, optional
@@ -128,8 +156,9 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
 
     Returns
     -------
-    dict
-        The metrics (as ``metrics.json``).
+    IdentifyResult
+        The metrics (a dict, as ``metrics.json``) with :meth:`~sins_sim.results.identify.IdentifyResult.to_pandas`,
+        :meth:`~sins_sim.results.identify.IdentifyResult.plot` and ``files`` (the files written).
 
     Raises
     ------
@@ -143,6 +172,12 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
 
     if alignment not in ("coarse", "inertial"):
         raise ConfigError(f"--alignment: must be one of ['coarse', 'inertial'], got {alignment!r}")
+    if isinstance(twin_seeds, bool) or not isinstance(twin_seeds, int) or not (twin_seeds == 0 or
+                                                                             2 <= twin_seeds <= MAX_TWIN_SEEDS):
+        raise ConfigError(f"--twin-seeds: must be 0 (no twin) or an integer in [2, {MAX_TWIN_SEEDS}], got "
+                          f"{twin_seeds!r}")
+    if not (isinstance(line_false_alarm, float) and 0.0 < line_false_alarm < 1.0):
+        raise ConfigError(f"--line-false-alarm: must be a number in (0, 1), got {line_false_alarm!r}")
     for flag, val in (("--gyro-bias-prior-deg-h", gyro_bias_prior_deg_h),
                       ("--accel-bias-prior-ug", accel_bias_prior_ug)):
         if not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0.0):
@@ -184,6 +219,18 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         unit, scale = _BIAS_UNIT[s]
         bias[s] = {**_bias_entries(ned, ned_sig, ("north", "east", "down"), scale, unit),
                    **_bias_entries(body, body_sig, ("x", "y", "z"), scale, unit)}
+    from sins_sim.jobs.import_log import read_log_temperature
+    from sins_sim.simulation.twin import rest_run
+
+    run_kw = {"gyro_bias_sigma_rad_s": prior_g, "accel_bias_sigma_m_s2": prior_a,
+              "false_alarm": line_false_alarm / 6.0}
+    try:
+        log_run = rest_run(t, dth, dv, site, alignment, alignment=al, **run_kw)
+    except ValueError as exc:
+        raise ConfigError(f"LOG: {exc}") from None
+    temp = read_log_temperature(log)
+    temperature = _temperature(rate, spec_force, temp, fs) if temp is not None else None
+    steps = _bias_steps(rate, spec_force, fs)
     metrics = {
         "log": str(log), "duration_s": float(t_total), "rate_hz": float(fs),
         "site": {"lat_deg": math.degrees(site["lat_rad"]), "lon_deg": math.degrees(site["lon_rad"]),
@@ -194,6 +241,10 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         "priors": {"gyro_bias_deg_h": gyro_bias_prior_deg_h, "accel_bias_ug": accel_bias_prior_ug},
         "noise": noise,
         "bias": bias,
+        "lines": _lines_metrics(log_run.lines, line_false_alarm),
+        "bias_steps": steps,
+        "temperature": temperature if temperature is not None else {
+            "status": "no temperature column (temperature_c) in the log"},
         "notes": [
             ("the down accelerometer bias is read against normal gravity (WGS-84 at the site's latitude and "
              "height): the site's gravity anomaly (typically tens of ug) is in the reading and not in its sigma"),
@@ -208,8 +259,22 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
                     "noise type, bounded over the region's correlated points (conservative)",
             "bias": "residual of the log's means against the Earth's rate and normal gravity in the aligned "
                     "frame; sigma: the fitted Allan deviation at the log's length and the priors' coupling",
+            "lines": "Welch PSD (Hann, 50 % overlap, 15 segments); a bin is a line where its ratio to the local "
+                     "floor (median of the neighbouring bins) exceeds the F(edf, edf_floor) quantile at the "
+                     "false-alarm level over the bins searched (Bonferroni); amplitude from the excess power over "
+                     "+-3 bins, corrected for the increments' sinc",
+            "bias_steps": "one step b0 + d H(t - t_s) per axis at every block boundary (200 blocks) by the same "
+                          "generalised least squares; found where the largest |z| exceeds the Bonferroni threshold "
+                          "over the boundaries and the six axes at 5 %",
+            "temperature": "bias = b0 + k (T - T_mean) by generalised least squares on 200 block means with the "
+                           "covariance of white noise and a rate random walk (Allan-fitted, the random walk at its "
+                           "95 % upper bound); reported where |k| > z sigma at 5 % over the six axes",
         },
     }
+    detail = {"analyses": analyses, "log_run": log_run}
+    if twin_seeds:
+        metrics["twin"], detail["twin"] = _twin(metrics, analyses, site, al, t, alignment, twin_seeds,
+                                                     run_kw, log_run)
     metrics = _json_ready(metrics)
     if out_dir is not None:
         from sins_sim.jobs.manifest import Manifest, result_dir
@@ -217,11 +282,17 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         if manifest is None:
             manifest = Manifest("identify", settings={
                 "lat_deg": lat_deg, "lon_deg": lon_deg, "height_m": height_m, "alignment": alignment,
-                "gyro_bias_prior_deg_h": gyro_bias_prior_deg_h, "accel_bias_prior_ug": accel_bias_prior_ug})
+                "gyro_bias_prior_deg_h": gyro_bias_prior_deg_h, "accel_bias_prior_ug": accel_bias_prior_ug,
+                "twin_seeds": twin_seeds, "line_false_alarm": line_false_alarm})
         manifest.add_input("log", log)
         with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
-            _write(Path(tmp), metrics, analyses)
-    return metrics
+            names = _write(Path(tmp), metrics, detail)
+        files = {name: Path(out_dir) / name for name in names}
+    else:
+        files = {}
+    from sins_sim.results.identify import IdentifyResult
+
+    return IdentifyResult(metrics, detail=detail, files=files)
 
 
 def _mean_sigma(analysis, t_total: float) -> float:
@@ -322,12 +393,420 @@ def _report(metrics: dict) -> str:
     return "\n".join(out)
 
 
-def _write(folder: Path, metrics: dict, analyses: dict) -> None:
-    from sins_sim.plots.allan import plot_allan
+def _lines_metrics(searches: dict, false_alarm: float) -> dict:
+    """Per sensor and axis: the search's settings and its lines in edge units (gyro: the rate's amplitude in deg/h
+    and the angle's, ``A / (2 pi f)``, in arcsec; accelerometer: ug)."""
+    out = {"false_alarm_per_log": false_alarm, "gyro": {}, "accelerometer": {}}
+    for (sensor, ax), srch in searches.items():
+        unit, scale = _BIAS_UNIT[sensor]
+        rows = []
+        for ln in srch.lines:
+            row = {"frequency_hz": ln.frequency_hz, f"amplitude_{unit}": ln.amplitude * scale,
+                   f"amplitude_sigma_{unit}": ln.amplitude_sigma * scale, "snr": ln.snr,
+                   "snr_db": 10.0 * math.log10(ln.snr)}
+            if sensor == "gyro":
+                w = 2.0 * math.pi * ln.frequency_hz
+                row["angle_amplitude_arcsec"] = ln.amplitude / w / ARCSEC
+                row["angle_amplitude_sigma_arcsec"] = ln.amplitude_sigma / w / ARCSEC
+            rows.append(row)
+        out[sensor][ax] = {"threshold_power_ratio": srch.threshold, "false_alarm": srch.false_alarm,
+                           "band_hz": list(srch.band_hz), "resolution_hz": srch.psd.resolution_hz,
+                           "edf": srch.psd.edf, "floor_edf": srch.floor_edf, "lines": rows}
+    return out
 
+
+def _bias_steps(rate, spec_force, fs: float) -> dict:
+    """Each axis's most likely bias step (:func:`sins_sim.navigation.temperature_fit.scan_bias_step`), with its
+    size only where found at :data:`STEP_ALPHA` over the six axes."""
+    from sins_sim.navigation.temperature_fit import scan_bias_step
+
+    out = {"alpha_over_axes": STEP_ALPHA}
+    for sensor, x, kind in (("gyro", rate, "gyro"), ("accelerometer", spec_force, "accel")):
+        unit, scale = _BIAS_UNIT[sensor]
+        out[sensor] = {}
+        for i, ax in enumerate("xyz"):
+            try:
+                r = scan_bias_step(x[:, i], fs, sensor=kind, alpha=STEP_ALPHA / 6.0)
+            except ValueError as exc:
+                raise ConfigError(f"LOG: bias step scan: {exc}") from None
+            e = {"z": r.z, "threshold": r.threshold, "resolution_s": r.resolution_s}
+            out[sensor][ax] = ({"time_s": r.time_s, f"size_{unit}": r.size * scale, f"sigma_{unit}": r.sigma * scale,
+                                **e} if r.found else {"status": "none found", **e})
+    return out
+
+
+def _temperature(rate, spec_force, temp, fs: float) -> dict:
+    """Each axis's temperature coefficient (:func:`sins_sim.navigation.temperature_fit.fit_temperature_coefficient`),
+    the value only where significant at :data:`TEMPERATURE_ALPHA` over the six axes."""
+    from sins_sim.navigation.temperature_fit import fit_temperature_coefficient
+
+    if temp.shape[0] != rate.shape[0]:
+        raise ConfigError(f"LOG: temperature_c has {temp.shape[0]} rows, the increments {rate.shape[0]}")
+    if float(np.ptp(temp)) <= 0.0:
+        return {"status": "the temperature is constant over the log: no coefficient can be fitted",
+                "range_c": [float(temp.min()), float(temp.max())]}
+    out = {"range_c": [float(temp.min()), float(temp.max())], "alpha_over_axes": TEMPERATURE_ALPHA}
+    for sensor, x, kind in (("gyro", rate, "gyro"), ("accelerometer", spec_force, "accel")):
+        unit, scale = _BIAS_UNIT[sensor]
+        out[sensor] = {}
+        for i, ax in enumerate("xyz"):
+            try:
+                fit = fit_temperature_coefficient(x[:, i], temp, fs, sensor=kind, alpha=TEMPERATURE_ALPHA / 6.0)
+            except ValueError as exc:
+                raise ConfigError(f"LOG: temperature fit: {exc}") from None
+            entry = {"sigma": fit.sigma * scale, "threshold": fit.z * fit.sigma * scale, "t_ref_c": fit.t_ref_c,
+                     "corr_with_time": fit.corr_time, "ols_sigma": fit.ols_sigma * scale}
+            key = f"coefficient_{unit}_per_c"
+            if fit.significant:
+                entry = {"value": fit.coefficient * scale, **entry}
+            else:
+                entry = {"status": "not significant", **entry}
+            out[sensor][ax] = {key: entry}
+    return out
+
+
+def twin_sensors(metrics: dict, q_nb, analyses: dict | None = None) -> tuple:
+    """The twin's ``sensors:`` mapping (:func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) from the
+    metrics, and where each noise value came from.
+
+    Noise: each term reported; a white noise or random walk that was not reported (no decade of its own slope)
+    but that the power-law fit of the curve holds (``analyses``: its coefficient ``C_k``, ``N = sqrt(C)``,
+    ``K = sqrt(3 C)``, IEEE Std 952-1997, Annex C) enters too, so that the twin reproduces the curve the log shows
+    and not only the terms it proves; a bias instability only where reported (its flat region is needed for the
+    twin's Gauss-Markov sum). Biases: those observable at rest put back in body axes at the aligned attitude,
+    ``b_body = C_nb^T (b_N, 0, b_D)`` for the gyros and ``C_nb^T (0, 0, b_D)`` for the accelerometers (the
+    unobservable components are absorbed by the alignment alike in the log and its twin)."""
+    from sins_sim.navigation.attitude import dcm_from_quat
+
+    c_nb = dcm_from_quat(np.asarray(q_nb, dtype=np.float64))
+    out, source = {}, {}
+    from_c = {"white": lambda c: math.sqrt(c), "random_walk": lambda c: math.sqrt(3.0 * c)}
+    for s in ("gyro", "accelerometer"):
+        unit, _ = _BIAS_UNIT[s]
+        sec = {}
+        for name, key, scale, imu_key in _NOISE_KEYS[s]:
+            if imu_key is None:
+                continue
+            vals = []
+            for ax in "xyz":
+                e = metrics["noise"][s][ax][key]
+                c = (analyses or {}).get(s, {}).get(ax)
+                c = None if c is None else float(c.coefficients.get(name, 0.0))
+                if e.get("value") is not None:
+                    vals.append(float(e["value"]))
+                    source[f"{s}.{imu_key}.{ax}"] = "reported term"
+                elif name in from_c and c is not None and c > 0.0:
+                    vals.append(from_c[name](c) * scale)
+                    source[f"{s}.{imu_key}.{ax}"] = "power-law fit (term not reported)"
+                else:
+                    vals.append(0.0)
+                    source[f"{s}.{imu_key}.{ax}"] = "absent"
+            sec[imu_key] = vals
+            if name == "flicker":
+                ranges = [metrics["noise"][s][ax][key]["tau_range_s"] for ax in "xyz"
+                          if "tau_range_s" in metrics["noise"][s][ax][key]]
+                if ranges:
+                    lo = min(r[0] for r in ranges)
+                    sec["bias_instability_tau_s"] = [lo, max(max(r[1] for r in ranges), lo)]
+        b = metrics["bias"][s]
+        ned = np.array([b[f"{c}_{unit}"].get("value") or 0.0 for c in ("north", "east", "down")])
+        ned[1] = 0.0
+        if s == "accelerometer":
+            ned[0] = 0.0
+        sec["bias_deg_h" if s == "gyro" else "bias_ug"] = (c_nb.T @ ned).tolist()
+        out[s] = sec
+    return out, source
+
+
+def _step_findings(steps: dict) -> list:
+    """The bias steps found, as findings: the twin's noise is stationary, so a step is where the log leaves it."""
+    out = []
+    for sensor in ("gyro", "accelerometer"):
+        unit, _ = _BIAS_UNIT[sensor]
+        for ax, e in steps[sensor].items():
+            if "time_s" not in e:
+                continue
+            out.append({"quantity": "bias_step", "sensor": sensor, "axis": ax, "time_s": e["time_s"],
+                        "time_resolution_s": e["resolution_s"], f"size_{unit}": e[f"size_{unit}"],
+                        f"sigma_{unit}": e[f"sigma_{unit}"],
+                        "statement": (f"{sensor} {ax}: a bias step of {e[f'size_{unit}']:.3g} +- "
+                                      f"{e[f'sigma_{unit}']:.2g} {unit} at {e['time_s']:.4g} s (to "
+                                      f"{e['resolution_s']:.2g} s; z = {e['z']:.3g}, threshold {e['threshold']:.3g})")})
+    return out
+
+
+def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seeds: int, run_kw: dict,
+          log_run) -> tuple:
+    """Run the twin beside the log and localise where they part (:mod:`sins_sim.simulation.twin`,
+    :mod:`sins_sim.identification.twin_gap`)."""
+    from sins_sim.identification.twin_gap import NAV_QUANTITIES, alignment_side_by_side, localise
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+    from sins_sim.simulation.twin import twin_runs
+
+    doc, source = twin_sensors(metrics, al.q_nb, analyses)
+    params = sensor_params_from_dict(doc, "the identified twin")
+    try:
+        runs = twin_runs(params, t, site, al.q_nb, alignment, range(1, seeds + 1), **run_kw)
+    except ValueError as exc:
+        raise ConfigError(f"--twin-seeds: the twin's run failed: {exc}") from None
+    gap = localise(log_run, runs)
+    gap["findings"] += _step_findings(metrics["bias_steps"])
+    nav_end = {}
+    for key, col, label, scale, unit in NAV_QUANTITIES:
+        b = gap["nav_bands"][(key, col)]
+        nav_end[label] = {f"log_{unit}": float(log_run.nav[key][min(len(b["mean"]), len(log_run.nav_t_s)) - 1, col]
+                                                 * scale),
+                          f"twin_mean_{unit}": float(b["mean"][-1] * scale),
+                          f"twin_halfwidth_{unit}": float((b["hi"][-1] - b["mean"][-1]) * scale)}
+    out = {"seeds": seeds, "sensors": doc, "sensors_source": source, "simulated_at": "increments after dither removal (sensor errors on the "
+                                                          "exact increments at rest)",
+           "alignment": alignment_side_by_side(log_run, runs, al.q_nb), "navigation_at_end": nav_end,
+           "alpha": gap["alpha"], "findings": gap["findings"],
+           "summary": (f"the log stays within its twin's envelope ({seeds} seeds) in every quantity tested"
+                       if not gap["findings"] else f"{len(gap['findings'])} place(s) where the log leaves its "
+                                                   f"twin's envelope ({seeds} seeds)")}
+    return out, {"runs": runs, "gap": gap}
+
+
+def _lines_report(metrics: dict) -> list:
+    lm = metrics["lines"]
+    out = ["", "## Spectral lines", "",
+           (f"Welch PSD, Hann window, 50 % overlap; a line is declared where a bin exceeds its local floor by the "
+            f"threshold below, set for a chance of {100 * lm['false_alarm_per_log']:.3g} % of one or more false lines "
+            "in the whole log (module `sins_sim.navigation.spectral_lines`). Gyro amplitudes are of the rate "
+            "(deg/h) and of the angle (arcsec); all corrected for the increments' averaging (sinc)."), "",
+           "| sensor | axis | frequency (Hz) | amplitude | 1-sigma | angle (arcsec) | SNR (dB) | threshold (dB) |",
+           "|---|---|---|---|---|---|---|---|"]
+    for sensor in ("gyro", "accelerometer"):
+        unit, _ = _BIAS_UNIT[sensor]
+        for ax, e in lm[sensor].items():
+            thr_db = 10.0 * math.log10(e["threshold_power_ratio"])
+            if not e["lines"]:
+                out.append(f"| {sensor} | {ax} | none in {e['band_hz'][0]:.3g} to {e['band_hz'][1]:.4g} Hz | | | | | "
+                           f"{thr_db:.1f} |")
+            for ln in e["lines"]:
+                ang = f"{ln['angle_amplitude_arcsec']:.3g}" if "angle_amplitude_arcsec" in ln else ""
+                out.append(f"| {sensor} | {ax} | {ln['frequency_hz']:.4f} +- {e['resolution_hz']:.2g} | "
+                           f"{ln[f'amplitude_{unit}']:.4g} {unit} | {ln[f'amplitude_sigma_{unit}']:.2g} | {ang} | "
+                           f"{ln['snr_db']:.1f} | {thr_db:.1f} |")
+    return out
+
+
+def _steps_report(metrics: dict) -> list:
+    st = metrics["bias_steps"]
+    out = ["", "## Bias steps", "",
+           ("One step per axis tried at every block boundary (generalised least squares with the noise's "
+            f"correlation); found where |z| exceeds the threshold ({100 * st['alpha_over_axes']:.3g} % over the "
+            "boundaries and the six axes)."), "", "| sensor | axis | step | time (s) | z | threshold |",
+           "|---|---|---|---|---|---|"]
+    for sensor in ("gyro", "accelerometer"):
+        unit, _ = _BIAS_UNIT[sensor]
+        for ax, e in st[sensor].items():
+            what = (f"{e[f'size_{unit}']:.3g} +- {e[f'sigma_{unit}']:.2g} {unit}" if "time_s" in e else e["status"])
+            when = f"{e['time_s']:.4g} +- {e['resolution_s']:.2g}" if "time_s" in e else ""
+            out.append(f"| {sensor} | {ax} | {what} | {when} | {e['z']:.3g} | {e['threshold']:.3g} |")
+    return out
+
+
+def _temperature_report(metrics: dict) -> list:
+    tm = metrics["temperature"]
+    out = ["", "## Temperature coefficients", ""]
+    if "status" in tm:
+        return out + [tm["status"] + "."]
+    out += [(f"Temperature {tm['range_c'][0]:.2f} to {tm['range_c'][1]:.2f} deg C. Model: bias = b0 + k (T - T_mean), "
+             "generalised least squares with the noise's correlation (white noise and a rate random walk from the "
+             "Allan fit, the random walk at its 95 % upper bound); a coefficient is given where |k| exceeds the "
+             f"threshold (z sigma, {100 * tm['alpha_over_axes']:.3g} % over the six axes)."), "",
+            "| sensor | axis | k | 1-sigma | threshold |", "|---|---|---|---|---|"]
+    for sensor in ("gyro", "accelerometer"):
+        for ax, by_key in tm[sensor].items():
+            for key, e in by_key.items():
+                shown = f"{e['value']:.4g}" if "value" in e else e["status"]
+                out.append(f"| {sensor} | {ax} | {shown} {key.split('_', 1)[1]} | {e['sigma']:.2g} | "
+                           f"{e['threshold']:.2g} |")
+    return out
+
+
+def _sigma_note(al: dict, seeds: int) -> list:
+    """A note where the twin's alignment errors are too large for the sigma the alignment states: under that sigma
+    ``seeds * (rms / sigma)^2`` is chi-square with ``seeds`` degrees of freedom; flagged below a 1 % chance."""
+    from scipy.stats import chi2
+
+    keys = ("north_arcsec", "east_arcsec", "down_deg")
+    bad = [k for k in keys if al["twin_sigma_mean"][k] > 0.0
+           and chi2.sf(seeds * (al["twin_error_rms"][k] / al["twin_sigma_mean"][k]) ** 2, seeds) < 0.01]
+    if not bad:
+        return []
+    return ["", (f"The twin's actual alignment errors ({', '.join(bad)}) are too large for the sigma the alignment "
+                 "states (chance below 1 % under it): that sigma is too small for this unit's noise (a rate random "
+                 "walk, say, which the block-means standard error of the coarse alignment does not cover). The log's "
+                 "stated sigma is then too small as well.")]
+
+
+def _twin_report(metrics: dict) -> list:
+    tw = metrics.get("twin")
+    if not tw:
+        return []
+    al = tw["alignment"]
+    out = ["", "## The twin beside the log", "",
+           (f"The twin (the `sensors:` above, the observable biases put back in body axes) simulated {tw['seeds']} "
+            f"times at the {tw['simulated_at']}, then the log's mission on each: Allan deviation, PSD, "
+            f"{metrics['alignment']['method']} alignment, free navigation from it (start height held). Figures: "
+            "`twin-allan.png`, `twin-psd.png`, `twin-alignment.png`, `twin-nav.png`."), "",
+           "Alignment (the twin's truth is the log's aligned attitude):", "",
+           "| | north (arcsec) | east (arcsec) | heading (deg) |", "|---|---|---|---|",
+           "| log's stated 1-sigma | " + " | ".join(f"{al['log']['sigma'][k]:.3g}" for k in
+                                                   ("north_arcsec", "east_arcsec", "down_deg")) + " |",
+           "| twin's stated 1-sigma (mean) | " + " | ".join(f"{al['twin_sigma_mean'][k]:.3g}" for k in
+                                                           ("north_arcsec", "east_arcsec", "down_deg")) + " |",
+           "| twin's actual error (RMS over seeds) | " + " | ".join(f"{al['twin_error_rms'][k]:.3g}" for k in
+                                                                   ("north_arcsec", "east_arcsec", "down_deg")) + " |",
+           *_sigma_note(al, tw["seeds"]),
+           "", "Free navigation at the end of the log (twin: mean and the prediction half-width):", "",
+           "| quantity | log | twin |", "|---|---|---|"]
+    for label, e in tw["navigation_at_end"].items():
+        unit = next(k for k in e if k.startswith("log_"))[4:]
+        out.append(f"| {label} ({unit}) | {e['log_' + unit]:.4g} | {e['twin_mean_' + unit]:.4g} +- "
+                   f"{e['twin_halfwidth_' + unit]:.3g} |")
+    out += ["", "## Where the log leaves its twin", "", tw["summary"] + ".", ""]
+    out += [f"- {f['statement']}" for f in tw["findings"]]
+    out += ["", (f"Tests (false alarms {100 * tw['alpha']:.3g} % per log and kind, Bonferroni): Allan variance ratio "
+                 "against F(edf, seeds x edf) at each tau with >= 10 clusters; a line of the log that fewer than half "
+                 "the twin's seeds show; navigation outside the twin's prediction interval "
+                 "(mean +- t s sqrt(1 + 1/seeds)) from a time to the end.")]
+    return out
+
+
+def _write(folder: Path, metrics: dict, detail: dict) -> list:
+    from sins_sim.plots.allan import plot_allan
+    from sins_sim.plots.twin import plot_psd_lines
+
+    name = Path(metrics["log"]).name
+    analyses = detail["analyses"]
     (folder / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
     panels = {f"{'gyro' if s == 'gyro' else 'accel'} {ax}": a for s, by_ax in analyses.items()
               for ax, a in by_ax.items()}
-    plot_allan(panels, folder / "allan.png", title=f"Allan deviation of {Path(metrics['log']).name}", ncols=3)
+    plot_allan(panels, folder / "allan.png", title=f"Allan deviation of {name}", ncols=3)
+    plot_psd_lines(detail["log_run"].lines, folder / "psd.png", title=f"PSD and spectral lines of {name}")
+    written = ["metrics.json", "allan.png", "psd.png", "imu-sensors.yaml", "report.md"]
+    if "twin" in detail:
+        from sins_sim.results.identify import draw_twin_figures
+
+        written += draw_twin_figures(detail, metrics, folder)
     (folder / "imu-sensors.yaml").write_text(sensors_yaml(metrics))
-    (folder / "report.md").write_text(_report(metrics))
+    (folder / "report.md").write_text(_report(metrics) + "\n".join(_lines_report(metrics) + _steps_report(metrics) + _temperature_report(metrics)
+                                                                   + _twin_report(metrics)) + "\n")
+    return written
+
+
+#: The columns of a rate table's segments file (CSV): window, body axis (x, y or z), table rate.
+SEGMENT_COLUMNS = ("start_s", "end_s", "axis", "rate_deg_s")
+
+
+def read_segments(path) -> list:
+    """The windows of constant table rate from a CSV with the columns :data:`SEGMENT_COLUMNS`, as
+    ``(start_s, end_s, axis 0..2, rate_rad_s)``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the row and the column.
+    """
+    import pandas as pd
+
+    p = Path(path)
+    try:
+        df = pd.read_csv(p, comment="#", skipinitialspace=True)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is the file's fault: one line
+        raise ConfigError(f"--rate-table: {p}: cannot read: {' '.join(str(exc).split())}") from None
+    df.columns = [str(c).strip() for c in df.columns]
+    missing = [c for c in SEGMENT_COLUMNS if c not in df.columns]
+    if missing:
+        raise ConfigError(f"--rate-table: {p}: column {missing[0]}: missing (needs {', '.join(SEGMENT_COLUMNS)})")
+    out = []
+    for i, row in enumerate(df.itertuples(index=False), start=2):
+        axis = str(row.axis).strip().lower()
+        if axis not in ("x", "y", "z"):
+            raise ConfigError(f"--rate-table: {p}: line {i}: axis must be x, y or z, got {row.axis!r}")
+        try:
+            t0, t1, w = float(row.start_s), float(row.end_s), float(row.rate_deg_s)
+        except ValueError:
+            raise ConfigError(f"--rate-table: {p}: line {i}: start_s, end_s and rate_deg_s must be numbers") from None
+        if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0 and math.isfinite(w) and w != 0.0):
+            raise ConfigError(f"--rate-table: {p}: line {i}: needs end_s > start_s and a finite non-zero rate_deg_s")
+        out.append((t0, t1, "xyz".index(axis), math.radians(w)))
+    return out
+
+
+def identify_rate_table(log, segments, out_dir=None, *, force: bool = False, manifest=None):
+    """Gyro scale factors and misalignments of a unit from its rate-table log (reversal pairs; module docstring).
+
+    Parameters
+    ----------
+    log : path
+        The increments table.
+    segments : path or sequence
+        The windows of constant table rate: a CSV (:func:`read_segments`) or ``(start_s, end_s, axis, rate_rad_s)``.
+    out_dir : path, optional
+        Folder for ``metrics.json`` and ``report.md``; None: write nothing.
+    force : bool
+        Replace an earlier result at ``out_dir``.
+    manifest : Manifest, optional
+        The command's manifest.
+
+    Returns
+    -------
+    IdentifyResult
+        ``motion_terms``: ``scale_factor_ppm`` and ``misalignment_arcsec`` per entry, each a value with its sigma or
+        ``not excited``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the flag or the file.
+    """
+    from sins_sim.jobs.import_log import read_log_table
+    from sins_sim.navigation.rate_table import fit_rate_table
+    from sins_sim.results.identify import IdentifyResult
+
+    t, dth, _, _ = read_log_table(log)
+    dt = _interval(t)
+    segs = read_segments(segments) if isinstance(segments, (str, Path)) else list(segments)
+    try:
+        fit = fit_rate_table(t, dth, segs)
+    except ValueError as exc:
+        raise ConfigError(f"--rate-table: {exc}") from None
+    metrics = _json_ready({
+        "log": str(log), "duration_s": float(t.size * dt), "rate_hz": 1.0 / dt, "motion_terms": fit.to_dict(),
+        "methods": {"motion_terms": "reversal pairs: E[:, a] = (m+ - m-) / (2 W) - e_a from the mean rates of a "
+                                    "window at +W and one at -W about body axis a; sigma: the windows' means "
+                                    "(std / sqrt(n)) and the Earth's rate across the axis over part of a turn"}})
+    files = {}
+    if out_dir is not None:
+        from sins_sim.jobs.manifest import Manifest, result_dir
+
+        if manifest is None:
+            manifest = Manifest("identify", settings={"rate_table": [list(s) for s in segs]})
+        manifest.add_input("log", log)
+        with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
+            (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+            (Path(tmp) / "report.md").write_text(_rate_table_report(metrics))
+        files = {name: Path(out_dir) / name for name in ("metrics.json", "report.md")}
+    return IdentifyResult(metrics, files=files)
+
+
+def _rate_table_report(metrics: dict) -> str:
+    mt = metrics["motion_terms"]
+    out = ["# Gyro scale factors and misalignments from a rate table", "",
+           (f"Log `{metrics['log']}`: {metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz. Model "
+            "w_meas = b + (I + E) w (Groves 2013, sec. 4.4.6): scale factors on the diagonal of E, misalignment "
+            "M_ij (sensor i towards body axis j) off it; each column from a pair of windows at +W and -W."), "",
+           "Pairs: " + ", ".join(f"{p['axis']} at +-{p['rate_deg_s']:.4g} deg/s ({p['seconds'][0]:.4g} s, "
+                                 f"{p['seconds'][1]:.4g} s)" for p in mt["pairs"]) + ".", "",
+           "| term | value | 1-sigma |", "|---|---|---|"]
+    for group, unit in (("scale_factor_ppm", "ppm"), ("misalignment_arcsec", "arcsec")):
+        for key, e in mt[group].items():
+            name = f"S_{key}" if group == "scale_factor_ppm" else f"M_{key}"
+            out.append(f"| {name} ({unit}) | {e['value']:.4g} | {e['sigma']:.2g} |" if "value" in e else
+                       f"| {name} ({unit}) | {e['status']} | |")
+    return "\n".join(out) + "\n"

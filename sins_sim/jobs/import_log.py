@@ -22,22 +22,28 @@ import numpy as np
 from sins_sim.config.errors import ConfigError
 from sins_sim.jobs.navigate import INCREMENT_COLUMNS, read_increments
 
-__all__ = ["META_KEY", "import_log", "read_log_table", "write_log_table", "summary_lines"]
+__all__ = ["META_KEY", "TEMPERATURE_COLUMN", "import_log", "read_log_table", "read_log_temperature",
+           "write_log_table", "summary_lines"]
 
 #: The Parquet key-value metadata key holding the provenance (JSON).
 META_KEY = "sins_sim"
+#: The optional temperature column of an increments table (deg C, the unit's temperature over each interval).
+TEMPERATURE_COLUMN = "temperature_c"
 _PARQUET_SUFFIXES = (".parquet", ".pq")
 
 
-def write_log_table(path, t_s, dtheta, dv, meta: dict) -> None:
-    """Write an increments table (Parquet, columns :data:`INCREMENT_COLUMNS`) with ``meta`` as JSON under
-    :data:`META_KEY` in its key-value metadata."""
+def write_log_table(path, t_s, dtheta, dv, meta: dict, temperature_c=None) -> None:
+    """Write an increments table (Parquet, columns :data:`INCREMENT_COLUMNS`, and ``temperature_c`` (deg C) when
+    given) with ``meta`` as JSON under :data:`META_KEY` in its key-value metadata."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     arrays = [np.asarray(t_s, dtype=np.float64)] + [np.asarray(a, dtype=np.float64)[:, i]
                                                       for a in (dtheta, dv) for i in range(3)]
-    table = pa.table(dict(zip(INCREMENT_COLUMNS, arrays)))
+    columns = dict(zip(INCREMENT_COLUMNS, arrays))
+    if temperature_c is not None:
+        columns[TEMPERATURE_COLUMN] = np.asarray(temperature_c, dtype=np.float64)
+    table = pa.table(columns)
     table = table.replace_schema_metadata({META_KEY: json.dumps(meta, allow_nan=False)})
     pq.write_table(table, path)
 
@@ -64,6 +70,37 @@ def read_log_table(path) -> tuple:
             except (UnicodeDecodeError, ValueError) as exc:
                 raise ConfigError(f"{p}: metadata key {META_KEY!r} is not JSON ({exc})") from None
     return t, dth, dv, meta
+
+
+def read_log_temperature(path):
+    """The ``temperature_c`` column of an increments file (deg C, one per interval), or None where it has none.
+
+    Raises
+    ------
+    ConfigError
+        A cell that is not a finite number.
+    """
+    import pandas as pd
+
+    p = Path(path)
+    if p.suffix.lower() in _PARQUET_SUFFIXES:
+        import pyarrow.parquet as pq
+
+        if TEMPERATURE_COLUMN not in pq.read_schema(p).names:
+            return None
+        x = pq.read_table(p, columns=[TEMPERATURE_COLUMN]).column(0).to_numpy()
+    else:
+        head = pd.read_csv(p, comment="#", nrows=0)
+        if TEMPERATURE_COLUMN not in [str(c).strip() for c in head.columns]:
+            return None
+        df = pd.read_csv(p, comment="#", skip_blank_lines=True, float_precision="round_trip")
+        df.columns = [str(c).strip() for c in df.columns]
+        x = pd.to_numeric(df[TEMPERATURE_COLUMN], errors="coerce").to_numpy(dtype=np.float64)
+    x = np.asarray(x, dtype=np.float64)
+    bad = np.flatnonzero(~np.isfinite(x))
+    if bad.size:
+        raise ConfigError(f"{p}: {TEMPERATURE_COLUMN}: row {int(bad[0]) + 1} is not a finite number")
+    return x
 
 
 def _deg(x):
@@ -121,7 +158,7 @@ def import_log(log, describe, out, *, force: bool = False) -> dict:
         "report": rep,
     }
     with atomic_output_file(target, "--out") as tmp:
-        write_log_table(tmp, res.t_s, res.dtheta, res.dv, meta)
+        write_log_table(tmp, res.t_s, res.dtheta, res.dv, meta, temperature_c=res.temperature_c)
     return meta
 
 

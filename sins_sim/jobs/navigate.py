@@ -29,10 +29,12 @@ import numpy as np
 
 from sins_sim.config.errors import ConfigError
 
-__all__ = ["INCREMENT_COLUMNS", "read_increments", "write_increments", "navigate_increments", "navigate_file"]
+__all__ = ["INCREMENT_COLUMNS", "OPTIONAL_COLUMNS", "read_increments", "write_increments", "navigate_increments", "navigate_file"]
 
 #: The columns of an increments file, in this order when sins-sim writes one.
 INCREMENT_COLUMNS = ("time_s", "dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_m_s", "dv_y_m_s", "dv_z_m_s")
+#: Columns an increments file may hold beside them (read by ``sins-sim identify``, passed over by navigation).
+OPTIONAL_COLUMNS = ("temperature_c",)
 
 
 def read_increments(path) -> tuple:
@@ -66,13 +68,13 @@ def read_increments(path) -> tuple:
     if missing:
         raise ConfigError(f"{p}: column {missing[0]}: missing{' (with ' + ', '.join(missing[1:]) + ')' if missing[1:] else ''}"
                           f"; the file needs {', '.join(INCREMENT_COLUMNS)}")
-    extra = [c for c in cols if c not in INCREMENT_COLUMNS]
+    extra = [c for c in cols if c not in INCREMENT_COLUMNS + OPTIONAL_COLUMNS]
     if extra:
         import difflib
 
         close = difflib.get_close_matches(extra[0], INCREMENT_COLUMNS, n=1)
         raise ConfigError(f"{p}: column {extra[0]}: unknown{'; did you mean ' + repr(close[0]) + '?' if close else ''} "
-                          f"(allowed: {', '.join(INCREMENT_COLUMNS)})")
+                          f"(allowed: {', '.join(INCREMENT_COLUMNS + OPTIONAL_COLUMNS)})")
     df.columns = cols
     data = {}
     for c in INCREMENT_COLUMNS:

@@ -15,8 +15,10 @@ from __future__ import annotations
 
 from sins_sim.results.budget import BudgetResult
 from sins_sim.results.diagnosis import DiagnosisResult
+from sins_sim.results.identify import IdentifyResult
 from sins_sim.results.mission import FIGURE_KINDS, SERIES_COLUMNS, MissionResult, StoredRun
 from sins_sim.results.sweep import SweepResult
 
-__all__ = ["MissionResult", "StoredRun", "BudgetResult", "SweepResult", "DiagnosisResult", "FIGURE_KINDS",
+__all__ = ["MissionResult", "StoredRun", "BudgetResult", "SweepResult", "DiagnosisResult", "IdentifyResult",
+           "FIGURE_KINDS",
            "SERIES_COLUMNS"]

@@ -1,0 +1,157 @@
+"""A unit's twin at rest beside its log: the same mission run on the log and on seeds of the twin.
+
+The mission of a log at rest (:func:`rest_run`), run alike on the log and on each seed of the twin:
+
+1. the Allan deviation of each gyro (rate) and accelerometer (specific force) axis
+   (:func:`sins_sim.navigation.allan.allan_deviation`);
+2. the PSD of each and its lines (:func:`sins_sim.navigation.spectral_lines.find_lines`);
+3. the self-alignment over the whole record (coarse or inertial, :mod:`sins_sim.navigation.alignment`);
+4. free navigation from that alignment (:func:`sins_sim.simulation.external.navigate_free`, the start height
+   held): at rest its position is its error (the displacement from the start), its velocity too, and its
+   attitude's rotation from the aligned start (:func:`sins_sim.navigation.attitude.attitude_error` of the
+   attitude against the start's, about north, east, down) the attitude drift.
+
+The twin (:func:`twin_increments`) is simulated at the log's own level, the increments after dither removal:
+the exact increments of a unit at rest at the site (the Earth's rate and normal gravity seen in body axes at
+the log's aligned attitude; Titterton and Weston 2004, sec. 10.2) with the twin's ``sensors:`` errors applied
+(:class:`sins_sim.models.sensor_errors.GyroErrors`, :class:`~sins_sim.models.sensor_errors.AccelErrors`: noise,
+biases, scale factors). The dither chain is not re-run: what it leaves in a real log (a line at the dither
+frequency, folded) is a line the twin has not, which is what the comparison is to show.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["ALIGNMENT_AT_REST", "RestRun", "align_at_rest", "rest_run", "twin_increments", "twin_runs"]
+
+#: The self-alignments a log at rest is aligned with.
+ALIGNMENT_AT_REST = ("coarse", "inertial")
+SENSORS = ("gyro", "accelerometer")
+
+
+@dataclass
+class RestRun:
+    """One run of the mission at rest (module docstring).
+
+    Attributes
+    ----------
+    allan : dict
+        ``(sensor, axis) -> AllanCurve`` (SI deviation).
+    lines : dict
+        ``(sensor, axis) -> LineSearch`` (the PSD, its floor and its lines).
+    alignment : AlignmentResult
+    nav_t_s : ndarray
+        Times of the navigation rows from the start of navigation (s).
+    nav : dict
+        ``position_m`` (M, 3) north, east, up displacement; ``velocity_m_s`` (M, 3) NED; ``attitude_rad``
+        (M, 3) rotation from the aligned start about north, east, down.
+    """
+
+    allan: dict
+    lines: dict
+    alignment: object
+    nav_t_s: np.ndarray
+    nav: dict = field(default_factory=dict)
+
+
+def align_at_rest(dth, dv, dt_s: float, site: dict, method: str, *, gyro_bias_sigma_rad_s: float,
+                  accel_bias_sigma_m_s2: float):
+    """The self-alignment of a record at rest over its whole length (``coarse`` or ``inertial``).
+
+    Raises
+    ------
+    ValueError
+        An unknown method, or the alignment's own refusal (e.g. the unit not at rest).
+    """
+    from sins_sim.navigation.alignment import align_coarse, align_inertial
+
+    if method not in ALIGNMENT_AT_REST:
+        raise ValueError(f"alignment: must be one of {list(ALIGNMENT_AT_REST)}, got {method!r}")
+    if method == "coarse":
+        return align_coarse(dth, dv, dt_s, site["lat_rad"], gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
+                            accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+    return align_inertial(dth, dv, dt_s, site["lat_rad"], site["height_m"], gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
+                          accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+
+
+def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: float, accel_bias_sigma_m_s2: float,
+             false_alarm: float, alignment=None) -> RestRun:
+    """Run the mission at rest on one record (module docstring).
+
+    Parameters
+    ----------
+    t_s, dth, dv : ndarray
+        End time of each interval (s), angle (rad) and velocity (m/s) increments (N, 3), evenly spaced.
+    site : dict
+        ``lat_rad``, ``lon_rad``, ``height_m``.
+    method : str
+        ``coarse`` or ``inertial``.
+    gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2 : float
+        The alignment's bias priors.
+    false_alarm : float
+        Per channel, the chance of one or more false lines (:func:`~sins_sim.navigation.spectral_lines.find_lines`).
+    alignment : AlignmentResult, optional
+        An alignment already made on this record (else made here).
+    """
+    from sins_sim.navigation.allan import allan_deviation
+    from sins_sim.navigation.attitude import attitude_error
+    from sins_sim.navigation.spectral_lines import find_lines
+    from sins_sim.simulation.external import navigate_free
+
+    t = np.asarray(t_s, dtype=np.float64)
+    dt = float(t[1] - t[0])
+    fs = 1.0 / dt
+    allan, lines = {}, {}
+    for sensor, inc in zip(SENSORS, (dth, dv)):
+        x = np.asarray(inc, dtype=np.float64) / dt
+        for i, ax in enumerate("xyz"):
+            col = x[:, i] - x[:, i].mean()
+            allan[(sensor, ax)] = allan_deviation(col, fs)
+            lines[(sensor, ax)] = find_lines(col, fs, false_alarm=false_alarm, increment_dt=dt)
+    if alignment is None:
+        alignment = align_at_rest(dth, dv, dt, site, method, gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
+                                  accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+    free = navigate_free(t, dth, dv, site["lat_rad"], site["lon_rad"], site["height_m"], alignment.q_nb,
+                         np.zeros(3))
+    sol = free.solution
+    q0 = np.tile(np.asarray(alignment.q_nb, dtype=np.float64), (sol.q_nb.shape[0], 1))
+    nav = {"position_m": free.displacement_m(), "velocity_m_s": np.asarray(sol.v_ned_m_s, dtype=np.float64),
+           "attitude_rad": attitude_error(sol.q_nb, q0)}
+    return RestRun(allan, lines, alignment, np.asarray(sol.t_s) - free.start["t_s"], nav)
+
+
+def twin_increments(sensors, n: int, dt_s: float, site: dict, q_nb, seed: int) -> tuple:
+    """``(t_s, dtheta, dv)`` of the twin at rest: ``n`` intervals of ``dt_s`` at the site, body attitude ``q_nb``.
+
+    The exact increments at rest are ``C_bn w_ie^n dt`` and ``C_bn (0, 0, -g) dt`` (``g`` normal gravity at the
+    site's latitude and height, :func:`sins_sim.earth.gravity_down`); the errors ``sensors``
+    (:class:`~sins_sim.models.sensor_errors.SensorErrorParams`) are applied to them with ``seed``.
+    """
+    from sins_sim.earth import earth_rate_ned, gravity_down
+    from sins_sim.models.sensor_errors import AccelErrors, GyroErrors
+    from sins_sim.navigation.attitude import dcm_from_quat
+
+    c_nb = dcm_from_quat(np.asarray(q_nb, dtype=np.float64))
+    w_b = c_nb.T @ earth_rate_ned(site["lat_rad"])
+    f_b = c_nb.T @ np.array([0.0, 0.0, -gravity_down(site["lat_rad"], site["height_m"])])
+    rng = np.random.default_rng(seed)
+    gyros = GyroErrors(sensors.gyro, rng, dt_s)
+    accels = AccelErrors(sensors.accelerometer, rng, dt_s)
+    dth = gyros.apply(np.tile(w_b * dt_s, (n, 1)))
+    dv = accels.apply(np.tile(f_b * dt_s, (n, 1)))
+    return np.arange(1, n + 1) * dt_s, dth, dv
+
+
+def twin_runs(sensors, t_s, site: dict, q_nb, method: str, seeds, **kwargs) -> list:
+    """:func:`rest_run` on the twin (:func:`twin_increments`) once per seed, on the log's time axis ``t_s``."""
+    t = np.asarray(t_s, dtype=np.float64)
+    dt = float(t[1] - t[0])
+    runs = []
+    for seed in seeds:
+        _, dth, dv = twin_increments(sensors, t.size, dt, site, q_nb, int(seed))
+        runs.append(rest_run(t, dth, dv, site, method, **kwargs))
+    return runs
+
