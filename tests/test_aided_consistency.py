@@ -27,12 +27,21 @@ from scipy.stats import chi2
 
 from sins_sim import earth
 from sins_sim.models.motion import CoordinatedTurn, Cruise, Trajectory
-from sins_sim.models.sensor_errors import AccelErrorParams, GyroErrorParams, SensorErrorParams
+from sins_sim.models.sensor_errors import (
+    AccelErrorParams,
+    GyroErrorParams,
+    SensorErrorParams,
+)
 from sins_sim.navigation import ekf
 from sins_sim.navigation.aided import navigate_aided
 from sins_sim.navigation.attitude import quat_from_rotvec, quat_multiply
 from sins_sim.navigation.gnss import GnssSettings, simulate_gnss
-from sins_sim.simulation.aiding import AidingSettings, filter_model, markov_equivalent_sigma, unmodelled_densities
+from sins_sim.simulation.aiding import (
+    AidingSettings,
+    filter_model,
+    markov_equivalent_sigma,
+    unmodelled_densities,
+)
 from sins_sim.simulation.external import ideal_increments
 from sins_sim.units import ARCSEC
 
@@ -60,7 +69,7 @@ class Mission:
     def __init__(self):
         self.traj = Trajectory(LAT, LON, H, 60.0, math.radians(40.0),
                                [Cruise(30.0), CoordinatedTurn(30.0, math.pi / 2), Cruise(61.0)])
-        self.n = int(round(DURATION_S / DT))
+        self.n = round(DURATION_S / DT)
         self.t = DT * np.arange(1, self.n + 1)
         self.dth, self.dv = ideal_increments(self.traj, self.t)
         self.tt = np.concatenate([[0.0], self.t])
@@ -101,7 +110,8 @@ class Mission:
 
 def nees_mc(mission, noise, pos_sigma, vel_sigma, seeds=N_SEEDS):
     """Per block the NEES averaged over the seeds at every epoch after the start, and the fraction of epochs inside
-    the 95 % interval of that average (``N * mean`` ~ chi2(3 N): chi2.ppf(0.025, 3 N) / N .. chi2.ppf(0.975, 3 N) / N)."""
+    the 95 % interval of that average (``N * mean`` ~ chi2(3 N): chi2.ppf(0.025, 3 N) / N to
+    chi2.ppf(0.975, 3 N) / N)."""
     total = 0.0
     for seed in range(seeds):
         res, err = mission.run(seed, noise, pos_sigma, vel_sigma)
@@ -125,8 +135,9 @@ def test_mission_filter_model_is_consistent_and_mistuned_ones_are_not(mission):
     interval (n = 50 seeds x 120 epochs) at >= 90 % of the epochs (95 % expected; neighbouring epochs are
     correlated over ~10 s, so the fraction itself scatters: 0.91 / 0.95 / 1.00 for these seeds, 0.80 to 0.98 for
     position over two further sets of 50). The same truth told only the unit's white noise and R = white +
-    Gauss-Markov variance fails too (0.18 / 0.84 / 0.52). Told ``R / 10`` or ``Q / 10`` (white densities, including the unmodelled
-    errors' equivalent), the filter trusts the fixes or its propagation too much and fails the same test."""
+    Gauss-Markov variance fails too (0.18 / 0.84 / 0.52). Told ``R / 10`` or ``Q / 10`` (white densities,
+    including the unmodelled errors' equivalent), the filter trusts the fixes or its propagation too much and
+    fails the same test."""
     m = mission.model
     frac, nees = nees_mc(mission, m.noise, m.position_sigma_m, m.velocity_sigma_m_s)
     assert np.all(frac >= 0.9), (frac, np.median(nees, axis=0))

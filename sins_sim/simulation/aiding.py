@@ -58,7 +58,7 @@ import numpy as np
 
 from sins_sim.units import ARCSEC, DEG
 
-__all__ = ["AidingSettings", "AidedMission", "OUTAGE_AFTER_S", "OUTPUT_PERIOD_S", "FilterModel", "filter_model",
+__all__ = ["OUTAGE_AFTER_S", "OUTPUT_PERIOD_S", "AidedMission", "AidingSettings", "FilterModel", "filter_model",
            "markov_equivalent_sigma", "unmodelled_densities"]
 
 #: Times into each outage at which the growth is read (s).
@@ -267,7 +267,7 @@ def filter_model(settings: AidingSettings, noise, sensors=None, vehicle=None, t0
     t1 = t0_s if t1_s is None else float(t1_s)
     interval = settings.decimation / g.rate_hz
     span = _longest_aided_s(float(t0_s), t1, g.outages_s)
-    n = max(1, int(math.floor(span / interval + 1e-9)))
+    n = max(1, math.floor(span / interval + 1e-9))
     if settings.file is None and np.any(np.asarray(g.markov_sigma_m) > 0.0):
         pos = markov_equivalent_sigma(g.position_sigma_m, g.markov_sigma_m, g.markov_tau_s, interval, n)
     else:
@@ -285,8 +285,10 @@ def filter_model(settings: AidingSettings, noise, sensors=None, vehicle=None, t0
               "gyro_arw_unit_rad_sqrt_s": noise.gyro_arw_rad_sqrt_s, "gyro_arw_told_rad_sqrt_s": arw,
               "accel_vrw_unit_m_s_sqrt_s": noise.accel_vrw_m_s_sqrt_s, "accel_vrw_told_m_s_sqrt_s": vrw}
     extra = np.concatenate([un["gyro_bias_var"], un["accel_bias_var"]])
-    record["gyro_bias_prior_told_rad_s_body"] = [float(x) for x in np.sqrt(noise.gyro_bias_sigma_rad_s ** 2 + extra[:3])]
-    record["accel_bias_prior_told_m_s2_body"] = [float(x) for x in np.sqrt(noise.accel_bias_sigma_m_s2 ** 2 + extra[3:])]
+    gyro_prior = np.sqrt(noise.gyro_bias_sigma_rad_s ** 2 + extra[:3])
+    accel_prior = np.sqrt(noise.accel_bias_sigma_m_s2 ** 2 + extra[3:])
+    record["gyro_bias_prior_told_rad_s_body"] = [float(x) for x in gyro_prior]
+    record["accel_bias_prior_told_m_s2_body"] = [float(x) for x in accel_prior]
     return FilterModel(told, pos, np.asarray(g.velocity_sigma_m_s, dtype=np.float64), record, extra)
 
 
