@@ -207,6 +207,12 @@ def aided_metrics(entry: dict) -> dict:
             out[f"nis_{name}_mean"] = float(np.mean(nis))
             out[f"nis_{name}_bound_low"] = float(chi2.ppf(0.025, 3 * n) / n)
             out[f"nis_{name}_bound_high"] = float(chi2.ppf(0.975, 3 * n) / n)
+    for key, val in (entry.get("filter_model") or {}).items():   # what the filter was told (flat, SI)
+        if isinstance(val, (list, tuple)):
+            for i, ax in enumerate(("x", "y", "z") if key.endswith("_body") else _NED):
+                out[f"filter_{key}_{ax}"] = float(val[i])
+        else:
+            out[f"filter_{key}"] = val
     lo, hi = chi2.ppf(0.025, 3), chi2.ppf(0.975, 3)
     for name, val in entry["nees"].items():
         ok = np.isfinite(val)

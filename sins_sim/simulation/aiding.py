@@ -25,7 +25,27 @@ at 5 Hz); once the metrics, the outage growth and the smoother are computed they
 
    AidingSettings
    AidedMission
+   FilterModel
+   filter_model
+   markov_equivalent_sigma
+   unmodelled_densities
    OUTAGE_AFTER_S
+
+The filter's model of what it does not estimate (a 15-state filter: no GNSS error states, no scale-factor or
+misalignment states; :func:`filter_model`, stated in ``metrics.json`` ``aiding.filter_model``):
+
+* **The fixes' Gauss-Markov error** enters ``R`` as an equivalent white variance
+  (:func:`markov_equivalent_sigma`): the white variance whose mean over the ``n`` updates of the longest aided
+  stretch has the variance of the mean of the first-order Gauss-Markov sequence over the same ``n``
+  (the variance of the mean of an AR(1) sequence; Box, Jenkins & Reinsel 2008, sec. 2.1.5). With ``n = 1`` it is
+  the Gauss-Markov variance itself, for ``n`` far beyond the correlation the familiar ``2 tau / dt`` inflation.
+* **Scale factors and misalignments** (gyro and accelerometer) enter the white process noise
+  (:func:`unmodelled_densities`): a constant error ``K`` times a rate that persists over a window ``W``
+  accumulates ``K delta_theta_W``; the white density that reaches the same variance at the window where that
+  ratio peaks is ``sigma_K^2 max_W |delta_theta_W|^2 / W`` (for a turn at a constant rate ``omega`` over ``T``:
+  ``sigma_K^2 omega^2 T``), computed from the vehicle's own rates and specific forces (the accelerometers' from
+  the specific force's change from its median, the median itself is a bias the bias states absorb).
+  It over-states the error at every other window (conservative there).
 """
 
 from __future__ import annotations
@@ -38,7 +58,8 @@ import numpy as np
 
 from sins_sim.units import ARCSEC, DEG
 
-__all__ = ["AidingSettings", "AidedMission", "OUTAGE_AFTER_S", "OUTPUT_PERIOD_S"]
+__all__ = ["OUTAGE_AFTER_S", "OUTPUT_PERIOD_S", "AidedMission", "AidingSettings", "FilterModel", "filter_model",
+           "markov_equivalent_sigma", "unmodelled_densities"]
 
 #: Times into each outage at which the growth is read (s).
 OUTAGE_AFTER_S = (10.0, 30.0, 60.0, 120.0)
@@ -86,6 +107,191 @@ class AidingSettings:
         return max(1, int(round(self.gnss.rate_hz / self.update_rate_hz)))
 
 
+def markov_equivalent_sigma(white_sigma, markov_sigma, markov_tau_s, interval_s, n) -> np.ndarray:
+    """The white 1-sigma a filter is told for fixes with white and first-order Gauss-Markov errors (per axis).
+
+    ``R_eq = sigma_w^2 + sigma_gm^2 g(n)`` with ``rho = exp(-interval / tau)`` and
+    ``g(n) = (1 + rho) / (1 - rho) - 2 rho (1 - rho^n) / (n (1 - rho)^2)``: ``sigma_gm^2 g(n) / n`` is the variance
+    of the mean of ``n`` consecutive samples of the Gauss-Markov sequence (Box, Jenkins & Reinsel 2008, sec.
+    2.1.5, the variance of a sample mean of an AR(1) process), so that a filter that averages the ``n`` fixes as
+    white reaches the variance the true errors' mean has. ``g(1) = 1``; ``g(n) -> 2 tau / interval`` for
+    ``n interval >> tau``.
+
+    Parameters
+    ----------
+    white_sigma, markov_sigma : array_like, shape (3,)
+        White and Gauss-Markov 1-sigma per axis.
+    markov_tau_s : float
+        Correlation time (s), > 0.
+    interval_s : float
+        Interval between the applied fixes (s), > 0.
+    n : int
+        Applied fixes the filter averages (the longest aided stretch), >= 1.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+
+    Examples
+    --------
+    >>> markov_equivalent_sigma([1.0] * 3, [0.0] * 3, 300.0, 0.2, 500).tolist()
+    [1.0, 1.0, 1.0]
+    >>> round(float(markov_equivalent_sigma([0.0] * 3, [1.0] * 3, 300.0, 0.2, 1)[0]), 12)
+    1.0
+    """
+    n = max(1, int(n))
+    rho = math.exp(-float(interval_s) / float(markov_tau_s))
+    one_m = -math.expm1(-float(interval_s) / float(markov_tau_s))
+    g = (1.0 + rho) / one_m - 2.0 * rho * (1.0 - rho ** n) / (n * one_m * one_m)
+    g = min(max(g, 1.0), float(n))   # the bounds of the exact sum (fully white: 1; fully correlated: n)
+    return np.sqrt(np.asarray(white_sigma, dtype=np.float64) ** 2 + np.asarray(markov_sigma, dtype=np.float64) ** 2 * g)
+
+
+def _window_peak(cum, t_s) -> float:
+    """``max_W |cum(t + W) - cum(t)|^2 / W`` over every pair of samples (``cum``: (N, 3) running integral)."""
+    if cum.shape[0] < 2:
+        return 0.0
+    d = cum[None, :, :] - cum[:, None, :]
+    w = t_s[None, :] - t_s[:, None]
+    ok = w > 0.0
+    return float(np.max(np.einsum("ijk,ijk->ij", d, d)[ok] / w[ok]))
+
+
+def unmodelled_densities(sensors, vehicle, t0_s, t1_s, step_s=0.5) -> dict:
+    """White densities equivalent to the scale factors and misalignments a 15-state filter does not estimate.
+
+    The body-axis error ``K x`` of a constant error matrix ``K`` (``S`` on the diagonal, ``M`` off it) on a
+    quantity ``x`` (rate or specific-force change) has per axis the variance
+    ``sigma_S^2 x_i^2 + sigma_M^2 sum_(j != i) x_j^2 <= sigma_K^2 |x|^2`` with ``sigma_K = max(sigma_S, sigma_M)``
+    (``sigma_S`` the root sum square of scale factor and asymmetry, ``sigma_M`` the largest misalignment; the
+    unit's numbers read as 1-sigma). Accumulated over a window ``W`` it is ``sigma_K^2 |int_W x dt|^2``; a white
+    density ``q`` gives ``q W``. ``q = sigma_K^2 max_W |int_W x dt|^2 / W`` matches at the worst window and
+    exceeds it at every other one (a turn at ``omega`` for ``T`` s: ``sigma_K^2 omega^2 T``). Gyros: ``x`` the
+    vehicle's inertial rate; accelerometers: its specific force minus the median (the constant part reads as
+    a bias, which the bias states estimate).
+
+    Parameters
+    ----------
+    sensors : SensorErrorParams or None
+    vehicle : trajectory or None
+        With ``evaluate(t)`` giving ``omega_iv_v_rad_s`` and ``f_v_m_s2``.
+    t0_s, t1_s : float
+        The aided span (s).
+    step_s : float
+        Sampling of the rates (s).
+
+    Returns
+    -------
+    dict
+        ``gyro_rad2_s`` (rad^2/s) and ``accel_m2_s3`` (m^2/s^3) densities, ``gyro_k`` and ``accel_k`` (the
+        sigma_K used, dimensionless).
+    """
+    out = {"gyro_rad2_s": 0.0, "accel_m2_s3": 0.0, "gyro_k": 0.0, "accel_k": 0.0,
+           "gyro_bias_var": np.zeros(3), "accel_bias_var": np.zeros(3)}
+    if sensors is None or vehicle is None or t1_s <= t0_s:
+        return out
+    t = np.arange(t0_s, t1_s + 1e-9, step_s)
+    tr = vehicle.evaluate(t)
+    for key, par, x in (("gyro", sensors.gyro, np.asarray(tr.omega_iv_v_rad_s)),
+                        ("accel", sensors.accelerometer, np.asarray(tr.f_v_m_s2))):
+        ppm = 1e-6
+        s = math.sqrt(float(np.max(np.asarray(par.scale_factor_ppm, dtype=float) ** 2
+                                   + np.asarray(par.scale_factor_asymmetry_ppm, dtype=float) ** 2))) * ppm
+        m = float(np.max(np.abs(np.asarray(par.misalignment_arcsec, dtype=float)))) * ARCSEC
+        k = max(s, m)
+        med = np.median(x, axis=0)
+        # the constant part's error, a bias per body axis: sigma_S^2 x_i^2 + sigma_M^2 sum_(j != i) x_j^2
+        out[f"{key}_bias_var"] = s * s * med ** 2 + m * m * (np.sum(med ** 2) - med ** 2)
+        x = x - med
+        cum = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (x[1:] + x[:-1]) * step_s, axis=0)])
+        out[f"{key}_k"] = k
+        out["gyro_rad2_s" if key == "gyro" else "accel_m2_s3"] = k * k * _window_peak(cum, t)
+    return out
+
+
+@dataclass(frozen=True)
+class FilterModel:
+    """What the filter is told: its sensor noise and the fixes' sigmas (:func:`filter_model`).
+
+    ``noise`` the :class:`~sins_sim.navigation.ekf.ImuNoise` (white densities including the unmodelled
+    errors' equivalent), ``position_sigma_m`` and ``velocity_sigma_m_s`` the fixes' ``R`` (1-sigma per NED
+    axis), ``record`` the derivation's numbers for ``metrics.json`` (SI, units in the keys).
+    """
+
+    noise: object
+    position_sigma_m: np.ndarray
+    velocity_sigma_m_s: np.ndarray
+    record: dict
+    bias_var_extra: np.ndarray = field(default_factory=lambda: np.zeros(6))
+
+    def initial_covariance(self, pos_sigma_m, vel_sigma_m_s, tilt_sigma_rad, heading_sigma_rad) -> np.ndarray:
+        """``P0`` (:func:`~sins_sim.navigation.ekf.initial_covariance`) with the bias variances per body axis
+        raised by the constant part of the scale factors' and misalignments' error (gyros xyz, accelerometers
+        xyz; :func:`unmodelled_densities`), which the bias states take up."""
+        from sins_sim.navigation import ekf
+
+        p0 = ekf.initial_covariance(pos_sigma_m, vel_sigma_m_s, tilt_sigma_rad, heading_sigma_rad, self.noise)
+        i = np.arange(6)
+        p0[ekf.GYRO_BIAS.start + i, ekf.GYRO_BIAS.start + i] += self.bias_var_extra
+        return p0
+
+
+def _longest_aided_s(t0_s, t1_s, outages_s) -> float:
+    edges = [t0_s]
+    for a, b in sorted(outages_s):
+        edges += [max(t0_s, min(a, t1_s)), max(t0_s, min(b, t1_s))]
+    edges.append(t1_s)
+    return max(edges[i + 1] - edges[i] for i in range(0, len(edges), 2))
+
+
+def filter_model(settings: AidingSettings, noise, sensors=None, vehicle=None, t0_s=0.0, t1_s=None) -> FilterModel:
+    """The filter's model from the numbers that drive the simulation (module docstring).
+
+    Parameters
+    ----------
+    settings : AidingSettings
+    noise : ImuNoise
+        The unit's white noise and bias sigmas (:func:`~sins_sim.simulation.aligning.filter_noise`).
+    sensors : SensorErrorParams or None
+        The unit's sensor errors (scale factors, misalignments); None: none beyond ``noise``.
+    vehicle : trajectory or None
+        The vehicle's motion (rates and specific forces); None: no unmodelled-error noise.
+    t0_s, t1_s : float
+        The aided span (s); ``t1_s`` None: ``t0_s``.
+
+    Returns
+    -------
+    FilterModel
+    """
+    g = settings.gnss
+    t1 = t0_s if t1_s is None else float(t1_s)
+    interval = settings.decimation / g.rate_hz
+    span = _longest_aided_s(float(t0_s), t1, g.outages_s)
+    n = max(1, math.floor(span / interval + 1e-9))
+    if settings.file is None and np.any(np.asarray(g.markov_sigma_m) > 0.0):
+        pos = markov_equivalent_sigma(g.position_sigma_m, g.markov_sigma_m, g.markov_tau_s, interval, n)
+    else:
+        pos = np.asarray(g.position_sigma_m, dtype=np.float64)
+    un = unmodelled_densities(sensors, vehicle, float(t0_s), t1)
+    arw = math.sqrt(noise.gyro_arw_rad_sqrt_s ** 2 + un["gyro_rad2_s"])
+    vrw = math.sqrt(noise.accel_vrw_m_s_sqrt_s ** 2 + un["accel_m2_s3"])
+    told = dataclasses.replace(noise, gyro_arw_rad_sqrt_s=arw, accel_vrw_m_s_sqrt_s=vrw)
+    record = {"states": 15,
+              "gnss_markov": "equivalent white variance in R over the longest aided stretch",
+              "gnss_markov_fixes_averaged": n,
+              "position_sigma_told_m": [float(x) for x in pos],
+              "velocity_sigma_told_m_s": [float(x) for x in np.asarray(g.velocity_sigma_m_s)],
+              "gyro_unmodelled_k": un["gyro_k"], "accel_unmodelled_k": un["accel_k"],
+              "gyro_arw_unit_rad_sqrt_s": noise.gyro_arw_rad_sqrt_s, "gyro_arw_told_rad_sqrt_s": arw,
+              "accel_vrw_unit_m_s_sqrt_s": noise.accel_vrw_m_s_sqrt_s, "accel_vrw_told_m_s_sqrt_s": vrw}
+    extra = np.concatenate([un["gyro_bias_var"], un["accel_bias_var"]])
+    gyro_prior = np.sqrt(noise.gyro_bias_sigma_rad_s ** 2 + extra[:3])
+    accel_prior = np.sqrt(noise.accel_bias_sigma_m_s2 ** 2 + extra[3:])
+    record["gyro_bias_prior_told_rad_s_body"] = [float(x) for x in gyro_prior]
+    record["accel_bias_prior_told_m_s2_body"] = [float(x) for x in accel_prior]
+    return FilterModel(told, pos, np.asarray(g.velocity_sigma_m_s, dtype=np.float64), record, extra)
+
+
 def _prior(settings: AidingSettings, alignment_result):
     g = settings.gnss
     pos = np.sqrt(np.asarray(g.position_sigma_m) ** 2 + np.asarray(g.markov_sigma_m) ** 2)
@@ -110,16 +316,24 @@ class AidedMission:
         Filter samples per navigation update.
     duration_s : float
     seed : int
-    coning, sculling : callable(name) -> (coning, sculling)
+    compensation : callable(name) -> (coning, sculling)
         The navigators' compensation per filter.
+    sensors : SensorErrorParams or None
+        The unit's sensor errors: their scale factors and misalignments enter the filter's process noise
+        (:func:`filter_model`).
+    vehicle : trajectory or None
+        The vehicle (its rates and specific forces, for the same).
     """
 
-    def __init__(self, settings: AidingSettings, noise_settings, fs, n_sub, duration_s, seed, compensation):
+    def __init__(self, settings: AidingSettings, noise_settings, fs, n_sub, duration_s, seed, compensation,
+                 sensors=None, vehicle=None):
         from sins_sim.navigation.gnss import gnss_errors
         from sins_sim.simulation.aligning import filter_noise
 
         self.settings = settings
         self.noise = filter_noise(noise_settings)
+        self.sensors, self.vehicle = sensors, vehicle
+        self._models = {}
         self.fs, self.n_sub, self.duration_s = float(fs), int(n_sub), float(duration_s)
         self.compensation = compensation
         g = settings.gnss
@@ -213,27 +427,35 @@ class AidedMission:
         out = np.asarray(out)
         return np.unique(out[(out >= t0_s) & (out <= t_end_s + 1e-9)])
 
+    def model(self, t0_s, t_end_s) -> FilterModel:
+        """The filter's model over the aided span ``[t0_s, t_end_s]`` (:func:`filter_model`; one per span)."""
+        key = (round(float(t0_s), 9), round(float(t_end_s), 9))
+        if key not in self._models:
+            self._models[key] = filter_model(self.settings, self.noise, self.sensors, self.vehicle, t0_s, t_end_s)
+        return self._models[key]
+
     def start_run(self, name, j0, n_increments, lat0, lon0, h0, v0, q0, alignment_result=None):
         """The :class:`AidedRun` of filter ``name`` starting at truth index ``j0`` (its fixes so far added)."""
         from sins_sim.navigation import ekf
         from sins_sim.navigation.aided import AidedRun
 
         t0 = j0 / self.fs
+        g = self.settings.gnss
+        t_end = (j0 + n_increments) / self.fs
+        model = self.model(t0, t_end)
         pos, vel, tilt, heading = _prior(self.settings, alignment_result)
-        p0 = ekf.initial_covariance(pos, vel, tilt, heading, self.noise)
+        p0 = model.initial_covariance(pos, vel, tilt, heading)
         start = ekf.NavState(t0, lat0, lon0, h0, np.asarray(v0, dtype=np.float64), np.asarray(q0, dtype=np.float64),
                              np.zeros(3), np.zeros(3))
         coning, sculling = self.compensation(name)
-        g = self.settings.gnss
-        t_end = (j0 + n_increments) / self.fs
-        run = AidedRun(t0, 1.0 / self.fs, n_increments, start, self.noise, p0, self.t_valid_s, self.t_deliver_s,
-                       g.position_sigma_m, g.velocity_sigma_m_s, g.lever_arm_b_m,
+        run = AidedRun(t0, 1.0 / self.fs, n_increments, start, model.noise, p0, self.t_valid_s, self.t_deliver_s,
+                       model.position_sigma_m, model.velocity_sigma_m_s, g.lever_arm_b_m,
                        output_t_s=self.output_times(t0, t_end), use=self.settings.measurements,
                        n_sub=self.n_sub, max_propagation_s=1.0 / self.settings.update_rate_hz,
                        feedback=self.settings.feedback, coning=coning, sculling=sculling)
         for part in self.parts:
             run.add_fixes(part)
-        return _FilterAided(run, len(self.parts))
+        return _FilterAided(run, len(self.parts), model)
 
     def feed(self, fa, dth, dv, tr_buf):
         """Feed a filter's increments (after adding the fixes made since) and keep the truth at its new epochs."""
@@ -275,6 +497,7 @@ class AidedMission:
         empty = np.zeros((0, 15, 15))
         light = dataclasses.replace(res, phi=empty, p_pred=empty, p_upd=empty)
         return {"result": light, "errors": errors, "growth": growth, "nees": nees, "smoothed": smoothed,
+                "filter_model": fa.model.record,
                 "true_bias": true_biases(records, name, float(res.t_s[0]) if n else 0.0, gyro_bias_rad_s,
                                          accel_bias_m_s2),
                 "unaided_bias_sigma": fa.run.unaided_bias_sigma}
@@ -283,8 +506,9 @@ class AidedMission:
 class _FilterAided:
     """One filter's aided run and the truth at its epochs."""
 
-    def __init__(self, run, parts_added):
+    def __init__(self, run, parts_added, model):
         self.run = run
+        self.model = model
         self.parts_added = parts_added
         self.truth = {k: [] for k in ("lat", "lon", "h", "v", "q")}
 

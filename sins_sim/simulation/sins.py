@@ -781,7 +781,8 @@ def simulate_sins(imu: ImuConfig, motion, duration_s: float, seed: int = 0, nav:
     if nav is not None:
         k_start = int(round(nav.start_s * fs))
         every = max(1, int(round(fs / nav.n_sub / nav.series_rate_hz(duration_s))))
-        aid_mission = (AidedMission(nav.aiding, nav.alignment, fs, nav.n_sub, duration_s, seed, nav.compensation)
+        aid_mission = (AidedMission(nav.aiding, nav.alignment, fs, nav.n_sub, duration_s, seed, nav.compensation,
+                                     sensors=sens, vehicle=vehicle)
                        if nav.aiding is not None else None)
         for name in filters:
             d = delays[name]
