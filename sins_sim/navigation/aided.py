@@ -66,6 +66,7 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim import earth
+from sins_sim._kernels import ekf as kekf
 from sins_sim.navigation import ekf
 from sins_sim.navigation.attitude import _increments, attitude_error, quat_from_rotvec, quat_multiply
 from sins_sim.navigation.gnss import GnssFixes
@@ -82,7 +83,16 @@ GNSS_MEASUREMENTS = ("position", "velocity")
 
 def _correct_rows(lat, lon, h, vel, q, dx):
     """Remove error states ``dx`` (one row or one per row) from solution rows: the inverse of the state's
-    definition, the vectorised form of :meth:`StrapdownNavigator.apply_correction`."""
+    definition, :meth:`StrapdownNavigator.apply_correction` row by row (compiled, :func:`kekf.correct_rows`;
+    :func:`_correct_rows_reference` is the numpy form it is tested against). Returns new arrays."""
+    out = [np.array(a, dtype=np.float64) for a in (lat, lon, h, vel, q)]
+    d = np.ascontiguousarray(np.asarray(dx, dtype=np.float64).reshape(-1, ekf.N_STATES))
+    kekf.correct_rows(*out, d)
+    return tuple(out)
+
+
+def _correct_rows_reference(lat, lon, h, vel, q, dx):
+    """:func:`_correct_rows` vectorised in numpy."""
     dx = np.broadcast_to(dx, (lat.shape[0], ekf.N_STATES))
     r_n, r_e = earth.radii(lat)
     lat_c = lat - dx[:, 0] / (r_n + h)
@@ -446,6 +456,10 @@ class AidedRun:
         self._sig_p = np.broadcast_to(np.asarray(position_sigma_m, dtype=np.float64), (3,)).copy()
         self._sig_v = np.broadcast_to(np.asarray(velocity_sigma_m_s, dtype=np.float64), (3,)).copy()
         self._lever = np.asarray(lever_arm_b_m, dtype=np.float64).reshape(3).copy()
+        # R and the lever arm checked once here (the per-fix measurements are built from checked values)
+        self._lever = ekf._vec3("lever_arm_b_m", self._lever)
+        self._r_pos = ekf._sigma_matrix("position_sigma_m", self._sig_p, 3) if "position" in use else None
+        self._r_vel = ekf._sigma_matrix("velocity_sigma_m_s", self._sig_v, 3) if "velocity" in use else None
         self._has_lever = bool(np.any(self._lever != 0.0))
         self._tv = tv
         self._n_fix_sched = tv.shape[0]
@@ -489,6 +503,11 @@ class AidedRun:
         want = self._tv[self._n_fixes:self._n_fixes + m]
         if want.shape[0] != m or np.max(np.abs(want - fixes.t_valid_s)) > 1e-9 * max(1.0, float(np.max(np.abs(want)))):
             raise ValueError("fixes: their times of validity must continue the schedule (t_valid_s) in order")
+        for name, val, meas in (("lat_rad", fixes.lat_rad, "position"), ("lon_rad", fixes.lon_rad, "position"),
+                                ("h_m", fixes.h_m, "position"), ("v_ned_m_s", fixes.v_ned_m_s, "velocity")):
+            if meas in self._use and not np.all(np.isfinite(val)):
+                raise ValueError(f"fixes.{name}: must be finite (a {meas} measurement is applied), got "
+                                 f"{np.count_nonzero(~np.isfinite(val))} non-finite values")
         self._fix_parts.append(fixes)
         self._n_fixes += m
         self._fix = None
@@ -571,10 +590,11 @@ class AidedRun:
                 rate = (self._rate_at(int(round((tv - self._t0) / self._big_t))) if self._has_lever
                         else np.zeros(3))
                 if "position" in self._use:
-                    meas.append(_AtState(ekf.Position(fixes.lat_rad[i], fixes.lon_rad[i], fixes.h_m[i], self._sig_p,
-                                                      self._lever), state))
+                    meas.append(_AtState(ekf.Position._checked(fixes.lat_rad[i], fixes.lon_rad[i], fixes.h_m[i],
+                                                               self._r_pos, self._lever), state))
                 if "velocity" in self._use:
-                    meas.append(_AtState(ekf.Velocity(fixes.v_ned_m_s[i], self._sig_v, self._lever, rate), state))
+                    meas.append(_AtState(ekf.Velocity._checked(np.array(fixes.v_ned_m_s[i], dtype=np.float64),
+                                                               self._r_vel, self._lever, rate), state))
                 t_valid += [float(fixes.t_valid_s[i])] * len(self._use)
             x_before = aided.x
             recs = aided.update(*meas)

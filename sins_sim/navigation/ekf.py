@@ -112,6 +112,7 @@ References
 from __future__ import annotations
 
 import abc
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -119,6 +120,7 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim import earth
+from sins_sim._kernels import ekf as kekf
 from sins_sim._kernels import strapdown as ksd
 from sins_sim.units import DEG, DEG_PER_H, MICRO_G
 from sins_sim.navigation.attitude import _increments
@@ -344,9 +346,9 @@ class NavState:
     gyro_bias_rad_s: np.ndarray
     accel_bias_m_s2: np.ndarray
 
-    @property
+    @functools.cached_property
     def c_nb(self) -> np.ndarray:
-        """``C_nb`` of :attr:`q_nb`."""
+        """``C_nb`` of :attr:`q_nb` (computed once per state: every measurement of an update reads it)."""
         return _dcm(self.q_nb)
 
 
@@ -413,6 +415,15 @@ class Velocity(_Measurement):
         self.lever = _vec3("lever_arm_b_m", lever_arm_b_m)
         self.rate = _vec3("gyro_rate_b_rad_s", gyro_rate_b_rad_s)
         self._has_lever = bool(np.any(self.lever != 0.0))
+
+    @classmethod
+    def _checked(cls, v_ned_m_s, r_matrix, lever_arm_b_m, gyro_rate_b_rad_s):
+        """The measurement from values already checked (float arrays of shape (3,), ``R`` (3, 3)): the per-fix
+        path of an aided run, which checks its fixes, sigmas and lever arm once."""
+        m = cls.__new__(cls)
+        m.z, m._r, m.lever, m.rate = v_ned_m_s, r_matrix, lever_arm_b_m, gyro_rate_b_rad_s
+        m._has_lever = bool(np.any(lever_arm_b_m != 0.0))
+        return m
 
     def _predict(self, state):
         vel = np.asarray(state.v_ned_m_s, dtype=np.float64)
@@ -482,6 +493,14 @@ class Position(_Measurement):
         self.h = v.finite("", "h_m", h_m)
         self._r = _sigma_matrix("sigma_m", sigma_m, self.dim)
         self.lever = _vec3("lever_arm_b_m", lever_arm_b_m)
+
+    @classmethod
+    def _checked(cls, lat_rad, lon_rad, h_m, r_matrix, lever_arm_b_m):
+        """The measurement from values already checked (finite floats, ``R`` (3, 3), the lever arm a float
+        array of shape (3,)): the per-fix path of an aided run, which checks its fixes once."""
+        m = cls.__new__(cls)
+        m.lat, m.lon, m.h, m._r, m.lever = float(lat_rad), float(lon_rad), float(h_m), r_matrix, lever_arm_b_m
+        return m
 
     def _ned(self, state):
         r_n, r_e = earth.radii(state.lat_rad)
@@ -896,6 +915,7 @@ class AidedNavigator:
                                              * (1.0 + 1e-12))))
         self._feedback = bool(feedback)
         self._qc = process_noise_density(noise)
+        self._inv_tau = (1.0 / noise.gyro_bias_tau_s, 1.0 / noise.accel_bias_tau_s)   # 0.0 for inf
         self._prior_bias_var = np.diag(self._p)[BIASES].copy()
         self._records: list[Innovation] = []
         self._block_start = self._snapshot_row()
@@ -978,8 +998,10 @@ class AidedNavigator:
     # --- processing -----------------------------------------------------------------------------------------
 
     def _snapshot_row(self):
-        nav = self._nav
-        return (nav.lat_rad, nav.h_m, nav.v_ned_m_s, nav.q_nb)
+        """``(lat, h, v_N, v_E, v_D, q0..q3)`` of the navigator now (a block end, :func:`kekf.propagate_block`)."""
+        s = self._nav.state_array()
+        return np.concatenate([s[ksd.ST_LAT:ksd.ST_LAT + 1], s[ksd.ST_H:ksd.ST_H + 1], s[ksd.ST_V:ksd.ST_V + 3],
+                               s[ksd.ST_Q:ksd.ST_Q + 4]])
 
     def process(self, dtheta, dv) -> NavSolution:
         """Navigate a chunk of increments with the bias estimates removed, propagating the covariance.
@@ -1009,8 +1031,11 @@ class AidedNavigator:
         # block ends inside this chunk: rows j with (block_n + j + 1) % n_prop == 0
         first = self._n_prop - self._block_n - 1
         ends = range(first, m, self._n_prop)
-        for j in ends:
-            self._propagate_block((sol.lat_rad[j], sol.h_m[j], sol.v_ned_m_s[j], sol.q_nb[j]), self._n_prop)
+        if len(ends):
+            rows = np.column_stack([sol.lat_rad[first::self._n_prop], sol.h_m[first::self._n_prop],
+                                    sol.v_ned_m_s[first::self._n_prop], sol.q_nb[first::self._n_prop]])
+            for row in rows:
+                self._propagate_block(row, self._n_prop)
         last = ends[-1] if len(ends) else -1
         if last >= 0:
             self._block_n = m - 1 - last
@@ -1019,8 +1044,20 @@ class AidedNavigator:
         return sol
 
     def _propagate_block(self, end, n_updates):
-        lat0, h0, v0, q0 = self._block_start
-        lat1, h1, v1, q1 = end
+        """One block (the compiled :func:`kekf.propagate_block`; the reference in numpy is
+        :meth:`_propagate_block_reference`)."""
+        t = n_updates * self._nav.update_period_s
+        kekf.propagate_block(self._block_start, end, t, self._inv_tau[0], self._inv_tau[1], self._qc, self._p,
+                             self._phi_acc, self._x, not self._feedback)
+        self._prior_bias_var = self._noise.bias_variance_after(self._prior_bias_var, t)
+        self._block_start = end
+
+    def _propagate_block_reference(self, end, n_updates):
+        """:meth:`_propagate_block` in numpy from :func:`error_dynamics` and :func:`discretize` (the reference the
+        tests hold the kernel to)."""
+        s0, s1 = self._block_start, end
+        lat0, h0, v0, q0 = s0[0], s0[1], s0[2:5], s0[5:9]
+        lat1, h1, v1, q1 = s1[0], s1[1], s1[2:5], s1[5:9]
         t = n_updates * self._nav.update_period_s
         lat, h = 0.5 * (lat0 + lat1), 0.5 * (h0 + h1)
         vel = 0.5 * (v0 + v1)
@@ -1111,22 +1148,16 @@ class AidedNavigator:
             dzs.append(meas.innovation(state))
             rs.append(meas.r_matrix())
             dims.append(meas.dim)
-        h = np.vstack(hs)
-        nu = np.concatenate(dzs) - h @ self._x
+        h = np.vstack(hs) if len(hs) > 1 else np.ascontiguousarray(hs[0], dtype=np.float64)
         n = h.shape[0]
         r = np.zeros((n, n))
         k0 = 0
         for rm, d in zip(rs, dims):
             r[k0:k0 + d, k0:k0 + d] = rm
             k0 += d
-        ph = self._p @ h.T
-        s = h @ ph + r
-        s = 0.5 * (s + s.T)
-        gain = np.linalg.solve(s, ph.T).T
-        self._x = self._x + gain @ nu
-        ikh = np.eye(N_STATES) - gain @ h
-        p = ikh @ self._p @ ikh.T + gain @ r @ gain.T      # Joseph form
-        self._p = 0.5 * (p + p.T)
+        # Joseph form, compiled (kekf.joseph_update; _joseph_reference is the numpy form it is tested against)
+        self._x = self._x.copy()
+        nu, s = kekf.joseph_update(self._p, self._x, h, r, np.concatenate(dzs).astype(np.float64, copy=False))
         recs = []
         k0 = 0
         t = self.t_s
@@ -1140,6 +1171,18 @@ class AidedNavigator:
         if self._feedback:
             self._apply_feedback()
         return recs
+
+    @staticmethod
+    def _joseph_reference(p, x, h, r, dz):
+        """The update of :func:`kekf.joseph_update` in numpy (Groves 2013, eq. 3.58): ``(p, x, nu, s)`` after it."""
+        nu = dz - h @ x
+        ph = p @ h.T
+        s = h @ ph + r
+        s = 0.5 * (s + s.T)
+        gain = np.linalg.solve(s, ph.T).T
+        ikh = np.eye(p.shape[0]) - gain @ h
+        pn = ikh @ p @ ikh.T + gain @ r @ gain.T
+        return 0.5 * (pn + pn.T), x + gain @ nu, nu, s
 
     def _apply_feedback(self):
         x = self._x
