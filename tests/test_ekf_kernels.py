@@ -141,3 +141,30 @@ def test_correct_rows_equals_the_numpy_reference():
         assert np.all(np.abs(got[0] - lat) > 0.0) and np.all(r_n > 0)
     # the inputs are not modified
     assert np.all(np.abs(lon) < math.pi)
+
+
+def test_gnss_measurement_equals_the_plug_ins():
+    """H and dz of the compiled GNSS fix (AidedRun's path) against ekf.Position and ekf.Velocity, with and
+    without a lever arm, position and velocity alone and stacked."""
+    rng = np.random.default_rng(5)
+    q = quat_from_rotvec([0.05, -0.03, 2.4])
+    state = ekf.NavState(0.0, math.radians(52.0), math.pi - 2e-7, 310.0, np.array([40.0, -30.0, 1.0]), q,
+                         np.array([1e-6, -2e-6, 3e-6]), np.zeros(3))
+    rate = np.array([0.01, -0.02, 0.15])
+    z_lat, z_lon, z_h = state.lat_rad + 2e-7, -math.pi + 1e-7, 308.0      # across the date line
+    z_v = state.v_ned_m_s + rng.standard_normal(3) * 0.05
+    for lever in (np.zeros(3), np.array([0.5, 0.0, -1.2])):
+        pos = ekf.Position(z_lat, z_lon, z_h, 1.0, lever)
+        vel = ekf.Velocity(z_v, 0.05, lever, rate)
+        for use_pos, use_vel, plugs in ((True, True, (pos, vel)), (True, False, (pos,)), (False, True, (vel,))):
+            rows = 3 * len(plugs)
+            h, dz = np.full((rows, N), np.nan), np.full(rows, np.nan)
+            kekf.gnss_measurement(state.lat_rad, state.lon_rad, state.h_m, state.v_ned_m_s, state.q_nb,
+                                  state.gyro_bias_rad_s, rate, lever, z_lat, z_lon, z_h, z_v, use_pos, use_vel, h, dz)
+            h_ref = np.vstack([m.h_matrix(state) for m in plugs])
+            dz_ref = np.concatenate([m.innovation(state) for m in plugs])
+            # each entry: the same sums of at most nine products, reordered: 16 eps of the largest term; the
+            # position's dz (about 1 m) is a difference of metres on an Earth radius, 4 eps of R_E dlat
+            assert np.all(np.abs(h - h_ref) <= 16 * EPS * np.maximum(np.abs(h_ref), 1.0)), np.max(np.abs(h - h_ref))
+            assert np.array_equal(h == 0.0, h_ref == 0.0)
+            assert np.all(np.abs(dz - dz_ref) <= 4 * EPS * 6.4e6 * 1e-6 + 16 * EPS * np.abs(dz_ref))

@@ -27,7 +27,7 @@ from sins_sim._kernels._config import jit
 from sins_sim._kernels.nav import quat_mul, rotvec_to_quat
 from sins_sim._kernels.strapdown import gravity_down, radii
 
-__all__ = ["SERIES_ORDER", "propagate_block", "joseph_update", "correct_rows", "error_dynamics_into"]
+__all__ = ["SERIES_ORDER", "propagate_block", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
 
 #: Highest power of ``F`` in the series of ``Phi`` and ``Q_d`` (the reference's ``_SERIES_ORDER``).
 SERIES_ORDER = 5
@@ -272,6 +272,21 @@ def joseph_update(p, x, h, r, dz):
 
 
 @jit
+def block_nis(s, nu, sizes):
+    """``nu_b^T S_b^-1 nu_b`` of each diagonal block ``b`` of sizes ``sizes`` (the normalised innovation
+    squared of each measurement of a stacked update; Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4)."""
+    out = np.empty(sizes.shape[0])
+    k0 = 0
+    for b in range(sizes.shape[0]):
+        d = sizes[b]
+        sb = np.ascontiguousarray(s[k0:k0 + d, k0:k0 + d])
+        nb = np.ascontiguousarray(nu[k0:k0 + d])
+        out[b] = np.dot(nb, np.linalg.solve(sb, nb))
+        k0 += d
+    return out
+
+
+@jit
 def correct_rows(lat, lon, h, vel, q, dx):
     """Remove error states from solution rows, in place: per row ``i`` (``dx`` row ``i``, or its only row)::
 
@@ -302,3 +317,76 @@ def correct_rows(lat, lon, h, vel, q, dx):
         nq = math.sqrt(qi[0] * qi[0] + qi[1] * qi[1] + qi[2] * qi[2] + qi[3] * qi[3])
         for k in range(4):
             q[i, k] = qi[k] / nq
+
+
+@jit
+def gnss_measurement(lat, lon, h, vel, q, bg, rate, lever, z_lat, z_lon, z_h, z_v, use_pos, use_vel, h_out, dz_out):
+    """``H`` and ``dz = h(x_c) - z`` of a GNSS position and/or velocity fix at a point ``lever`` (body, m) from
+    the IMU, written into the rows of ``h_out`` (zeroed first) and ``dz_out``: position first when used.
+
+    The models of :class:`sins_sim.navigation.ekf.Position` (Groves 2013, eq. 14.110)::
+
+        dz = ((lat - z_lat)(R_N + h), wrap(lon - z_lon)(R_E + h) cos lat, -(h - z_h)) + C l
+        H  = [I, 0, -[(C l) x], 0, 0]
+
+    and :class:`sins_sim.navigation.ekf.Velocity` (eq. 14.113-14.114), ``w = rate - bg``::
+
+        dz = v + C (w x l) - omega_ie x (C l) - z_v
+        H  = [[C l x] d omega_ie / d dr_N, I, -[(C (w x l)) x] + [omega_ie x][(C l) x], C [l x], 0]
+    """
+    h_out[:, :] = 0.0
+    c = np.empty((3, 3))
+    _dcm_into(q, c)
+    cl = np.empty(3)
+    for i in range(3):
+        cl[i] = c[i, 0] * lever[0] + c[i, 1] * lever[1] + c[i, 2] * lever[2]
+    r_n, r_e = radii(lat)
+    row = 0
+    if use_pos:
+        dz_out[0] = (lat - z_lat) * (r_n + h) + cl[0]
+        dz_out[1] = ((lon - z_lon + math.pi) % (2.0 * math.pi) - math.pi) * (r_e + h) * math.cos(lat) + cl[1]
+        dz_out[2] = -(h - z_h) + cl[2]
+        for i in range(3):
+            h_out[i, i] = 1.0
+        _skew_into(cl[0], cl[1], cl[2], h_out, 0, 6, -1.0)
+        row = 3
+    if use_vel:
+        for i in range(3):
+            h_out[row + i, 3 + i] = 1.0
+        if lever[0] != 0.0 or lever[1] != 0.0 or lever[2] != 0.0:
+            w0, w1, w2 = rate[0] - bg[0], rate[1] - bg[1], rate[2] - bg[2]
+            wl0 = w1 * lever[2] - w2 * lever[1]
+            wl1 = w2 * lever[0] - w0 * lever[2]
+            wl2 = w0 * lever[1] - w1 * lever[0]
+            cwl = np.empty(3)
+            for i in range(3):
+                cwl[i] = c[i, 0] * wl0 + c[i, 1] * wl1 + c[i, 2] * wl2
+            e0, e2 = _OMEGA * math.cos(lat), _OMEGA * -math.sin(lat)
+            # omega_ie x (C l), omega_ie = (e0, 0, e2)
+            ex0 = -e2 * cl[1]
+            ex1 = e2 * cl[0] - e0 * cl[2]
+            ex2 = e0 * cl[1]
+            dz_out[row] = vel[0] + cwl[0] - ex0 - z_v[0]
+            dz_out[row + 1] = vel[1] + cwl[1] - ex1 - z_v[1]
+            dz_out[row + 2] = vel[2] + cwl[2] - ex2 - z_v[2]
+            _skew_into(cwl[0], cwl[1], cwl[2], h_out, row, 6, -1.0)
+            sw = np.zeros((3, 3))
+            _skew_into(e0, 0.0, e2, sw, 0, 0, 1.0)
+            sc = np.zeros((3, 3))
+            _skew_into(cl[0], cl[1], cl[2], sc, 0, 0, 1.0)
+            sl = np.zeros((3, 3))
+            _skew_into(lever[0], lever[1], lever[2], sl, 0, 0, 1.0)
+            d0, d2 = _OMEGA * -math.sin(lat) / (r_n + h), _OMEGA * -math.cos(lat) / (r_n + h)
+            for i in range(3):
+                h_out[row + i, 0] = sc[i, 0] * d0 + sc[i, 2] * d2
+                for j in range(3):
+                    a = 0.0
+                    b = 0.0
+                    for k in range(3):
+                        a += sw[i, k] * sc[k, j]
+                        b += c[i, k] * sl[k, j]
+                    h_out[row + i, 6 + j] += a
+                    h_out[row + i, 9 + j] = b
+        else:
+            for i in range(3):
+                dz_out[row + i] = vel[i] - z_v[i]

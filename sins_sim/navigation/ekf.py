@@ -162,6 +162,10 @@ N_STATES = len(STATE_NAMES)
 BIAS_KEYS = ("gyro_bias_x", "gyro_bias_y", "gyro_bias_z", "accel_bias_x", "accel_bias_y", "accel_bias_z")
 
 _I3 = np.eye(3)
+#: Columns of the navigator's output rows that make a block row of :func:`kekf.propagate_block` (lat, h, v, q).
+_BLOCK_ROW = np.array([ksd.OUT_LAT, ksd.OUT_H, *range(ksd.OUT_V, ksd.OUT_V + 3), *range(ksd.OUT_Q, ksd.OUT_Q + 4)])
+#: The height aid of a navigator with ``vertical="free"`` (none).
+_NO_AID = np.empty(0)
 
 
 def skew(a) -> np.ndarray:
@@ -416,15 +420,6 @@ class Velocity(_Measurement):
         self.rate = _vec3("gyro_rate_b_rad_s", gyro_rate_b_rad_s)
         self._has_lever = bool(np.any(self.lever != 0.0))
 
-    @classmethod
-    def _checked(cls, v_ned_m_s, r_matrix, lever_arm_b_m, gyro_rate_b_rad_s):
-        """The measurement from values already checked (float arrays of shape (3,), ``R`` (3, 3)): the per-fix
-        path of an aided run, which checks its fixes, sigmas and lever arm once."""
-        m = cls.__new__(cls)
-        m.z, m._r, m.lever, m.rate = v_ned_m_s, r_matrix, lever_arm_b_m, gyro_rate_b_rad_s
-        m._has_lever = bool(np.any(lever_arm_b_m != 0.0))
-        return m
-
     def _predict(self, state):
         vel = np.asarray(state.v_ned_m_s, dtype=np.float64)
         if not self._has_lever:
@@ -493,14 +488,6 @@ class Position(_Measurement):
         self.h = v.finite("", "h_m", h_m)
         self._r = _sigma_matrix("sigma_m", sigma_m, self.dim)
         self.lever = _vec3("lever_arm_b_m", lever_arm_b_m)
-
-    @classmethod
-    def _checked(cls, lat_rad, lon_rad, h_m, r_matrix, lever_arm_b_m):
-        """The measurement from values already checked (finite floats, ``R`` (3, 3), the lever arm a float
-        array of shape (3,)): the per-fix path of an aided run, which checks its fixes once."""
-        m = cls.__new__(cls)
-        m.lat, m.lon, m.h, m._r, m.lever = float(lat_rad), float(lon_rad), float(h_m), r_matrix, lever_arm_b_m
-        return m
 
     def _ned(self, state):
         r_n, r_e = earth.radii(state.lat_rad)
@@ -1020,20 +1007,32 @@ class AidedNavigator:
         """
         dth = _increments("dtheta", dtheta)
         dvel = _increments("dv", dv)
-        dt = self._nav.dt_s
+        if dvel.shape[0] != dth.shape[0]:
+            raise ValueError(f"dv: must have {dth.shape[0]} rows (len(dtheta)), got {dvel.shape[0]}")
+        return self._process_checked(dth, dvel)
+
+    def _process_checked(self, dth, dvel) -> NavSolution:
+        """:meth:`process` on checked increments (float64, finite, C-contiguous, shape (n, 3) each): the
+        navigator's kernel directly (its ``vertical`` is ``free``: no height aid), one check per chunk in
+        :class:`~sins_sim.navigation.aided.AidedRun`."""
+        nav = self._nav
+        dt = nav.dt_s
         if dth.shape[0]:
             self._sum_dtheta += dth.sum(axis=0)
             self._sum_n += dth.shape[0]
-        sol = self._nav.process(dth - self._bg * dt, dvel - self._ba * dt)
-        m = len(sol)
+        out = nav._run(dth - self._bg * dt, dvel - self._ba * dt, _NO_AID)
+        m = out.shape[0]
+        sol = NavSolution(t_s=(nav.n_updates - m + 1 + np.arange(m)) * nav.update_period_s,
+                          lat_rad=out[:, ksd.OUT_LAT].copy(), lon_rad=out[:, ksd.OUT_LON].copy(),
+                          h_m=out[:, ksd.OUT_H].copy(), v_ned_m_s=out[:, ksd.OUT_V:ksd.OUT_V + 3].copy(),
+                          q_nb=out[:, ksd.OUT_Q:ksd.OUT_Q + 4].copy())
         if m == 0:
             return sol
         # block ends inside this chunk: rows j with (block_n + j + 1) % n_prop == 0
         first = self._n_prop - self._block_n - 1
         ends = range(first, m, self._n_prop)
         if len(ends):
-            rows = np.column_stack([sol.lat_rad[first::self._n_prop], sol.h_m[first::self._n_prop],
-                                    sol.v_ned_m_s[first::self._n_prop], sol.q_nb[first::self._n_prop]])
+            rows = out[first::self._n_prop][:, _BLOCK_ROW]
             for row in rows:
                 self._propagate_block(row, self._n_prop)
         last = ends[-1] if len(ends) else -1
@@ -1136,11 +1135,7 @@ class AidedNavigator:
         """
         if not measurements:
             raise ValueError("measurements: give at least one measurement")
-        if self._nav.pending_samples:
-            raise ValueError(f"update: measurements apply at navigation updates; {self._nav.pending_samples} "
-                             f"input samples are pending (feed whole multiples of n_sub)")
-        self._roll_epoch()
-        self._flush()
+        self._begin_update()
         state = self.nav_state()
         hs, dzs, rs, dims = [], [], [], []
         for meas in measurements:
@@ -1155,16 +1150,31 @@ class AidedNavigator:
         for rm, d in zip(rs, dims):
             r[k0:k0 + d, k0:k0 + d] = rm
             k0 += d
+        return self._update_stacked(h, np.concatenate(dzs).astype(np.float64, copy=False), r,
+                                    [meas.name for meas in measurements], dims)
+
+    def _begin_update(self):
+        """Checks and the propagation up to now before an update (:meth:`update`)."""
+        if self._nav.pending_samples:
+            raise ValueError(f"update: measurements apply at navigation updates; {self._nav.pending_samples} "
+                             f"input samples are pending (feed whole multiples of n_sub)")
+        self._roll_epoch()
+        self._flush()
+
+    def _update_stacked(self, h, dz, r, names, dims) -> list:
+        """The update of :meth:`update` from the stacked ``H``, ``dz`` and block-diagonal ``R`` (after
+        :meth:`_begin_update`), with the records and the feedback."""
         # Joseph form, compiled (kekf.joseph_update; _joseph_reference is the numpy form it is tested against)
         self._x = self._x.copy()
-        nu, s = kekf.joseph_update(self._p, self._x, h, r, np.concatenate(dzs).astype(np.float64, copy=False))
+        nu, s = kekf.joseph_update(self._p, self._x, h, r, dz)
         recs = []
         k0 = 0
         t = self.t_s
-        for meas, d in zip(measurements, dims):
+        nis = kekf.block_nis(s, nu, np.array(dims, dtype=np.int64))
+        for name, d, nis_b in zip(names, dims, nis):
             sb = s[k0:k0 + d, k0:k0 + d]
             nb = nu[k0:k0 + d]
-            rec = Innovation(t, meas.name, nb.copy(), sb.copy(), float(nb @ np.linalg.solve(sb, nb)))
+            rec = Innovation(t, name, nb.copy(), sb.copy(), float(nis_b))
             recs.append(rec)
             k0 += d
         self._records.extend(recs)
