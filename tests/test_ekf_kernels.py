@@ -168,3 +168,32 @@ def test_gnss_measurement_equals_the_plug_ins():
             assert np.all(np.abs(h - h_ref) <= 16 * EPS * np.maximum(np.abs(h_ref), 1.0)), np.max(np.abs(h - h_ref))
             assert np.array_equal(h == 0.0, h_ref == 0.0)
             assert np.all(np.abs(dz - dz_ref) <= 4 * EPS * 6.4e6 * 1e-6 + 16 * EPS * np.abs(dz_ref))
+
+
+def test_aided_run_refuses_non_finite_fix_values_it_applies():
+    """The compiled fix path reads checked values: add_fixes names a non-finite field of a measurement in use and
+    accepts it in one that is not used (a recorded solution without velocities)."""
+    import dataclasses
+
+    from sins_sim.navigation.aided import AidedRun
+    from sins_sim.navigation.gnss import GnssSettings, simulate_gnss
+
+    lat, h = math.radians(52.0), 300.0
+    t = np.arange(0.0, 3.0, 1.0)
+    fixes = simulate_gnss(t, np.full(3, lat), np.zeros(3), np.full(3, h), np.zeros((3, 3)), GnssSettings(rate_hz=1.0),
+                          seed=1)
+    noise = ekf.ImuNoise(1e-6, 2e-4, 5e-8, 1e-3)
+    p0 = ekf.initial_covariance(1.0, 0.05, 1e-4, 1e-3, noise)
+
+    def run(use):
+        start = ekf.NavState(0.0, lat, 0.0, h, np.zeros(3), np.array([1.0, 0, 0, 0]), np.zeros(3), np.zeros(3))
+        return AidedRun(0.0, 0.01, 300, start, noise, p0, fixes.t_valid_s, fixes.t_deliver_s, fixes.position_sigma_m,
+                        fixes.velocity_sigma_m_s, fixes.lever_arm_b_m, use=use)
+
+    bad_v = dataclasses.replace(fixes, v_ned_m_s=np.full((3, 3), np.nan))
+    with np.testing.assert_raises_regex(ValueError, r"fixes\.v_ned_m_s: must be finite"):
+        run(("position", "velocity")).add_fixes(bad_v)
+    run(("position",)).add_fixes(bad_v)
+    bad_lat = dataclasses.replace(fixes, lat_rad=np.array([lat, np.inf, lat]))
+    with np.testing.assert_raises_regex(ValueError, r"fixes\.lat_rad: must be finite"):
+        run(("position",)).add_fixes(bad_lat)

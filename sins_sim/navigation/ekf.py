@@ -61,7 +61,9 @@ five powers hold all of it and two more slow factors (a bias correlation time, t
 rate, ``(omega T)^2 < 1e-5`` at ``T = 1`` s); the noise enters at the start of the chains on both sides
 (the gyro noise reaches the position variance as ``g^2 S_g T^5 / 20``, the ``k = 4`` term). Both are
 checked against ``scipy.linalg.expm`` of van Loan's block matrix in the tests (tails below 1e-9 of the
-kept terms). Cost: ten 15 x 15 products per propagation.
+kept terms). Cost: ten 15 x 15 products per propagation. :class:`AidedNavigator` runs the propagation and the
+Joseph update compiled (:mod:`sins_sim._kernels.ekf`, one call per block and per update); :func:`error_dynamics`
+and :func:`discretize` here are the reference the tests hold the kernels to.
 
 Measurements (plug-ins, :data:`MEASUREMENTS`): each gives ``dz = h(x_c) - z`` (computed minus measured),
 modelled as ``dz = H x + v``, ``v ~ N(0, R)``. Update in Joseph form (Bucy & Joseph 1968; Groves 2013,
