@@ -66,6 +66,7 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim import earth
+from sins_sim._kernels import ekf as kekf
 from sins_sim.navigation import ekf
 from sins_sim.navigation.attitude import _increments, attitude_error, quat_from_rotvec, quat_multiply
 from sins_sim.navigation.gnss import GnssFixes
@@ -76,13 +77,23 @@ __all__ = ["navigate_aided", "AidedRun", "AidedResult", "smooth", "SmoothedResul
 
 #: How a fix's latency is handled: against the solution at its time of validity, or ignored.
 LATENCY_MODES = ("compensate", "ignore")
+_ZERO3 = np.zeros(3)
 #: The GNSS measurements :func:`navigate_aided` can apply.
 GNSS_MEASUREMENTS = ("position", "velocity")
 
 
 def _correct_rows(lat, lon, h, vel, q, dx):
     """Remove error states ``dx`` (one row or one per row) from solution rows: the inverse of the state's
-    definition, the vectorised form of :meth:`StrapdownNavigator.apply_correction`."""
+    definition, :meth:`StrapdownNavigator.apply_correction` row by row (compiled, :func:`kekf.correct_rows`;
+    :func:`_correct_rows_reference` is the numpy form it is tested against). Returns new arrays."""
+    out = [np.array(a, dtype=np.float64) for a in (lat, lon, h, vel, q)]
+    d = np.ascontiguousarray(np.asarray(dx, dtype=np.float64).reshape(-1, ekf.N_STATES))
+    kekf.correct_rows(*out, d)
+    return tuple(out)
+
+
+def _correct_rows_reference(lat, lon, h, vel, q, dx):
+    """:func:`_correct_rows` vectorised in numpy."""
     dx = np.broadcast_to(dx, (lat.shape[0], ekf.N_STATES))
     r_n, r_e = earth.radii(lat)
     lat_c = lat - dx[:, 0] / (r_n + h)
@@ -246,23 +257,6 @@ class SmoothedResult(_Series):
     estimate: np.ndarray
 
 
-class _AtState:
-    """A measurement plug-in evaluated at a given (earlier) navigation state instead of the current one."""
-
-    def __init__(self, meas, state: ekf.NavState):
-        self._meas, self._state = meas, state
-        self.name, self.dim = meas.name, meas.dim
-
-    def h_matrix(self, state):
-        return self._meas.h_matrix(self._state)
-
-    def innovation(self, state):
-        return self._meas.innovation(self._state)
-
-    def r_matrix(self):
-        return self._meas.r_matrix()
-
-
 class _History:
     """The solution rows of the last seconds (for fixes with latency), kept corrected by every feedback."""
 
@@ -286,12 +280,12 @@ class _History:
 
     def state_at(self, t_v, bg, ba) -> ekf.NavState:
         """Linear interpolation between the stored rows (quaternions sign-aligned and normalised)."""
-        i = int(np.clip(np.searchsorted(self.t, t_v) - 1, 0, max(self.t.size - 2, 0)))
+        i = min(max(int(np.searchsorted(self.t, t_v)) - 1, 0), max(self.t.size - 2, 0))
         if self.t.size == 1:
             w, j = 0.0, 0
         else:
             j = i + 1
-            w = float(np.clip((t_v - self.t[i]) / (self.t[j] - self.t[i]), 0.0, 1.0))
+            w = min(max(float((t_v - self.t[i]) / (self.t[j] - self.t[i])), 0.0), 1.0)
         dlon = (self.lon[j] - self.lon[i] + math.pi) % (2.0 * math.pi) - math.pi
         qj = self.q[j] if float(self.q[i] @ self.q[j]) >= 0.0 else -self.q[j]
         q = (1.0 - w) * self.q[i] + w * qj
@@ -446,6 +440,11 @@ class AidedRun:
         self._sig_p = np.broadcast_to(np.asarray(position_sigma_m, dtype=np.float64), (3,)).copy()
         self._sig_v = np.broadcast_to(np.asarray(velocity_sigma_m_s, dtype=np.float64), (3,)).copy()
         self._lever = np.asarray(lever_arm_b_m, dtype=np.float64).reshape(3).copy()
+        # R and the lever arm checked once here (the per-fix measurements are built from checked values)
+        self._lever = ekf._vec3("lever_arm_b_m", self._lever)
+        self._r_pos = ekf._sigma_matrix("position_sigma_m", self._sig_p, 3) if "position" in use else None
+        self._r_vel = ekf._sigma_matrix("velocity_sigma_m_s", self._sig_v, 3) if "velocity" in use else None
+        self._r_by_count = {}
         self._has_lever = bool(np.any(self._lever != 0.0))
         self._tv = tv
         self._n_fix_sched = tv.shape[0]
@@ -489,6 +488,11 @@ class AidedRun:
         want = self._tv[self._n_fixes:self._n_fixes + m]
         if want.shape[0] != m or np.max(np.abs(want - fixes.t_valid_s)) > 1e-9 * max(1.0, float(np.max(np.abs(want)))):
             raise ValueError("fixes: their times of validity must continue the schedule (t_valid_s) in order")
+        for name, val, meas in (("lat_rad", fixes.lat_rad, "position"), ("lon_rad", fixes.lon_rad, "position"),
+                                ("h_m", fixes.h_m, "position"), ("v_ned_m_s", fixes.v_ned_m_s, "velocity")):
+            if meas in self._use and not np.all(np.isfinite(val)):
+                raise ValueError(f"fixes.{name}: must be finite (a {meas} measurement is applied), got "
+                                 f"{np.count_nonzero(~np.isfinite(val))} non-finite values")
         self._fix_parts.append(fixes)
         self._n_fixes += m
         self._fix = None
@@ -500,6 +504,18 @@ class AidedRun:
             self._fix = concat_fixes(self._fix_parts)
             self._fix_parts = [self._fix]
         return self._fix
+
+    def _r_stack(self, k_fix):
+        """Block-diagonal ``R`` of ``k_fix`` fixes (position then velocity per fix, as in use), cached by count."""
+        r = self._r_by_count.get(k_fix)
+        if r is None:
+            blocks = ([self._r_pos] if self._r_pos is not None else []) + ([self._r_vel] if self._r_vel is not None
+                                                                          else [])
+            r = np.zeros((3 * len(blocks) * k_fix,) * 2)
+            for b, blk in enumerate(blocks * k_fix):
+                r[3 * b:3 * b + 3, 3 * b:3 * b + 3] = blk
+            self._r_by_count[k_fix] = r
+        return r
 
     def _rate_at(self, j):
         """Mean raw gyro rate over the navigation update ending at update ``j`` (rad/s, body)."""
@@ -515,10 +531,10 @@ class AidedRun:
     def feed(self, dtheta, dv) -> None:
         """Navigate a chunk of increments (raw; ``(n, 3)`` each), handling every epoch they reach.
 
-        (Their values are checked where they are navigated, :meth:`AidedNavigator.process`; here their shapes.)"""
-        dth = np.asarray(dtheta, dtype=np.float64)
-        dvel = np.asarray(dv, dtype=np.float64)
-        if dth.ndim != 2 or dth.shape[1] != 3:
+        (Checked here once, shapes and values: the navigation of each piece between epochs reads them as checked.)"""
+        dth = v.finite_array("", "dtheta", dtheta, ndim=2)
+        dvel = v.finite_array("", "dv", dv, ndim=2)
+        if dth.shape[1] != 3:
             raise ValueError(f"dtheta: must have shape (n, 3), got {dth.shape}")
         if dvel.shape != dth.shape:
             raise ValueError(f"dv: must have the shape of dtheta {dth.shape}, got {dvel.shape}")
@@ -537,7 +553,7 @@ class AidedRun:
             return
         n = (j - self._done) * self._n_sub
         dth, dvel = self._pend_th[:n], self._pend_v[:n]
-        sol = self._aided.process(dth, dvel)
+        sol = self._aided._process_checked(np.ascontiguousarray(dth), np.ascontiguousarray(dvel))
         self._hist.append(self._t0 + sol.t_s, sol, self._keep_s)
         sums = dth.reshape(-1, self._n_sub, 3).sum(axis=1)
         keep_upd = int(math.ceil(self._keep_s / self._big_t)) + 2
@@ -563,21 +579,27 @@ class AidedRun:
                 raise RuntimeError(f"the fix valid at {self._tv[max(fix_list)]!r} s is due at {t_now!r} s and has not "
                                    "been added (add_fixes)")
             fixes = self._fixes()
+            aided._begin_update()
             bg, ba = aided.gyro_bias_rad_s, aided.accel_bias_m_s2
-            meas, t_valid = [], []
-            for i in fix_list:
+            use_pos, use_vel = "position" in self._use, "velocity" in self._use
+            per_fix = 3 * (use_pos + use_vel)
+            k_fix = len(fix_list)
+            h = np.empty((k_fix * per_fix, ekf.N_STATES))
+            dz = np.empty(k_fix * per_fix)
+            t_valid = []
+            for n, i in enumerate(fix_list):
                 tv = float(fixes.t_valid_s[i]) if self._latency == "compensate" else t_now
-                state = self._hist.state_at(tv, bg, ba)
+                st = self._hist.state_at(tv, bg, ba)
                 rate = (self._rate_at(int(round((tv - self._t0) / self._big_t))) if self._has_lever
-                        else np.zeros(3))
-                if "position" in self._use:
-                    meas.append(_AtState(ekf.Position(fixes.lat_rad[i], fixes.lon_rad[i], fixes.h_m[i], self._sig_p,
-                                                      self._lever), state))
-                if "velocity" in self._use:
-                    meas.append(_AtState(ekf.Velocity(fixes.v_ned_m_s[i], self._sig_v, self._lever, rate), state))
+                        else _ZERO3)
+                # Position and Velocity (ekf) at the fix's time of validity, compiled; tested equal to the plug-ins
+                kekf.gnss_measurement(st.lat_rad, st.lon_rad, st.h_m, st.v_ned_m_s, st.q_nb, bg, rate, self._lever,
+                                      fixes.lat_rad[i], fixes.lon_rad[i], fixes.h_m[i], fixes.v_ned_m_s[i], use_pos,
+                                      use_vel, h[n * per_fix:(n + 1) * per_fix], dz[n * per_fix:(n + 1) * per_fix])
                 t_valid += [float(fixes.t_valid_s[i])] * len(self._use)
+            names = (["position"] * use_pos + ["velocity"] * use_vel) * k_fix
             x_before = aided.x
-            recs = aided.update(*meas)
+            recs = aided._update_stacked(h, dz, self._r_stack(k_fix), names, [3] * len(names))
             if self._feedback:
                 corr = aided.last_correction
                 self._hist.correct(corr)

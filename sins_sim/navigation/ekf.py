@@ -61,7 +61,9 @@ five powers hold all of it and two more slow factors (a bias correlation time, t
 rate, ``(omega T)^2 < 1e-5`` at ``T = 1`` s); the noise enters at the start of the chains on both sides
 (the gyro noise reaches the position variance as ``g^2 S_g T^5 / 20``, the ``k = 4`` term). Both are
 checked against ``scipy.linalg.expm`` of van Loan's block matrix in the tests (tails below 1e-9 of the
-kept terms). Cost: ten 15 x 15 products per propagation.
+kept terms). Cost: ten 15 x 15 products per propagation. :class:`AidedNavigator` runs the propagation and the
+Joseph update compiled (:mod:`sins_sim._kernels.ekf`, one call per block and per update); :func:`error_dynamics`
+and :func:`discretize` here are the reference the tests hold the kernels to.
 
 Measurements (plug-ins, :data:`MEASUREMENTS`): each gives ``dz = h(x_c) - z`` (computed minus measured),
 modelled as ``dz = H x + v``, ``v ~ N(0, R)``. Update in Joseph form (Bucy & Joseph 1968; Groves 2013,
@@ -112,6 +114,7 @@ References
 from __future__ import annotations
 
 import abc
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -119,6 +122,7 @@ import numpy as np
 
 from sins_sim import _validate as v
 from sins_sim import earth
+from sins_sim._kernels import ekf as kekf
 from sins_sim._kernels import strapdown as ksd
 from sins_sim.units import DEG, DEG_PER_H, MICRO_G
 from sins_sim.navigation.attitude import _increments
@@ -160,6 +164,10 @@ N_STATES = len(STATE_NAMES)
 BIAS_KEYS = ("gyro_bias_x", "gyro_bias_y", "gyro_bias_z", "accel_bias_x", "accel_bias_y", "accel_bias_z")
 
 _I3 = np.eye(3)
+#: Columns of the navigator's output rows that make a block row of :func:`kekf.propagate_block` (lat, h, v, q).
+_BLOCK_ROW = np.array([ksd.OUT_LAT, ksd.OUT_H, *range(ksd.OUT_V, ksd.OUT_V + 3), *range(ksd.OUT_Q, ksd.OUT_Q + 4)])
+#: The height aid of a navigator with ``vertical="free"`` (none).
+_NO_AID = np.empty(0)
 
 
 def skew(a) -> np.ndarray:
@@ -344,9 +352,9 @@ class NavState:
     gyro_bias_rad_s: np.ndarray
     accel_bias_m_s2: np.ndarray
 
-    @property
+    @functools.cached_property
     def c_nb(self) -> np.ndarray:
-        """``C_nb`` of :attr:`q_nb`."""
+        """``C_nb`` of :attr:`q_nb` (computed once per state: every measurement of an update reads it)."""
         return _dcm(self.q_nb)
 
 
@@ -896,6 +904,7 @@ class AidedNavigator:
                                              * (1.0 + 1e-12))))
         self._feedback = bool(feedback)
         self._qc = process_noise_density(noise)
+        self._inv_tau = (1.0 / noise.gyro_bias_tau_s, 1.0 / noise.accel_bias_tau_s)   # 0.0 for inf
         self._prior_bias_var = np.diag(self._p)[BIASES].copy()
         self._records: list[Innovation] = []
         self._block_start = self._snapshot_row()
@@ -978,8 +987,10 @@ class AidedNavigator:
     # --- processing -----------------------------------------------------------------------------------------
 
     def _snapshot_row(self):
-        nav = self._nav
-        return (nav.lat_rad, nav.h_m, nav.v_ned_m_s, nav.q_nb)
+        """``(lat, h, v_N, v_E, v_D, q0..q3)`` of the navigator now (a block end, :func:`kekf.propagate_block`)."""
+        s = self._nav.state_array()
+        return np.concatenate([s[ksd.ST_LAT:ksd.ST_LAT + 1], s[ksd.ST_H:ksd.ST_H + 1], s[ksd.ST_V:ksd.ST_V + 3],
+                               s[ksd.ST_Q:ksd.ST_Q + 4]])
 
     def process(self, dtheta, dv) -> NavSolution:
         """Navigate a chunk of increments with the bias estimates removed, propagating the covariance.
@@ -998,19 +1009,34 @@ class AidedNavigator:
         """
         dth = _increments("dtheta", dtheta)
         dvel = _increments("dv", dv)
-        dt = self._nav.dt_s
+        if dvel.shape[0] != dth.shape[0]:
+            raise ValueError(f"dv: must have {dth.shape[0]} rows (len(dtheta)), got {dvel.shape[0]}")
+        return self._process_checked(dth, dvel)
+
+    def _process_checked(self, dth, dvel) -> NavSolution:
+        """:meth:`process` on checked increments (float64, finite, C-contiguous, shape (n, 3) each): the
+        navigator's kernel directly (its ``vertical`` is ``free``: no height aid), one check per chunk in
+        :class:`~sins_sim.navigation.aided.AidedRun`."""
+        nav = self._nav
+        dt = nav.dt_s
         if dth.shape[0]:
             self._sum_dtheta += dth.sum(axis=0)
             self._sum_n += dth.shape[0]
-        sol = self._nav.process(dth - self._bg * dt, dvel - self._ba * dt)
-        m = len(sol)
+        out = nav._run(dth - self._bg * dt, dvel - self._ba * dt, _NO_AID)
+        m = out.shape[0]
+        sol = NavSolution(t_s=(nav.n_updates - m + 1 + np.arange(m)) * nav.update_period_s,
+                          lat_rad=out[:, ksd.OUT_LAT].copy(), lon_rad=out[:, ksd.OUT_LON].copy(),
+                          h_m=out[:, ksd.OUT_H].copy(), v_ned_m_s=out[:, ksd.OUT_V:ksd.OUT_V + 3].copy(),
+                          q_nb=out[:, ksd.OUT_Q:ksd.OUT_Q + 4].copy())
         if m == 0:
             return sol
         # block ends inside this chunk: rows j with (block_n + j + 1) % n_prop == 0
         first = self._n_prop - self._block_n - 1
         ends = range(first, m, self._n_prop)
-        for j in ends:
-            self._propagate_block((sol.lat_rad[j], sol.h_m[j], sol.v_ned_m_s[j], sol.q_nb[j]), self._n_prop)
+        if len(ends):
+            rows = out[first::self._n_prop][:, _BLOCK_ROW]
+            for row in rows:
+                self._propagate_block(row, self._n_prop)
         last = ends[-1] if len(ends) else -1
         if last >= 0:
             self._block_n = m - 1 - last
@@ -1019,8 +1045,20 @@ class AidedNavigator:
         return sol
 
     def _propagate_block(self, end, n_updates):
-        lat0, h0, v0, q0 = self._block_start
-        lat1, h1, v1, q1 = end
+        """One block (the compiled :func:`kekf.propagate_block`; the reference in numpy is
+        :meth:`_propagate_block_reference`)."""
+        t = n_updates * self._nav.update_period_s
+        kekf.propagate_block(self._block_start, end, t, self._inv_tau[0], self._inv_tau[1], self._qc, self._p,
+                             self._phi_acc, self._x, not self._feedback)
+        self._prior_bias_var = self._noise.bias_variance_after(self._prior_bias_var, t)
+        self._block_start = end
+
+    def _propagate_block_reference(self, end, n_updates):
+        """:meth:`_propagate_block` in numpy from :func:`error_dynamics` and :func:`discretize` (the reference the
+        tests hold the kernel to)."""
+        s0, s1 = self._block_start, end
+        lat0, h0, v0, q0 = s0[0], s0[1], s0[2:5], s0[5:9]
+        lat1, h1, v1, q1 = s1[0], s1[1], s1[2:5], s1[5:9]
         t = n_updates * self._nav.update_period_s
         lat, h = 0.5 * (lat0 + lat1), 0.5 * (h0 + h1)
         vel = 0.5 * (v0 + v1)
@@ -1099,11 +1137,7 @@ class AidedNavigator:
         """
         if not measurements:
             raise ValueError("measurements: give at least one measurement")
-        if self._nav.pending_samples:
-            raise ValueError(f"update: measurements apply at navigation updates; {self._nav.pending_samples} "
-                             f"input samples are pending (feed whole multiples of n_sub)")
-        self._roll_epoch()
-        self._flush()
+        self._begin_update()
         state = self.nav_state()
         hs, dzs, rs, dims = [], [], [], []
         for meas in measurements:
@@ -1111,35 +1145,56 @@ class AidedNavigator:
             dzs.append(meas.innovation(state))
             rs.append(meas.r_matrix())
             dims.append(meas.dim)
-        h = np.vstack(hs)
-        nu = np.concatenate(dzs) - h @ self._x
+        h = np.vstack(hs) if len(hs) > 1 else np.ascontiguousarray(hs[0], dtype=np.float64)
         n = h.shape[0]
         r = np.zeros((n, n))
         k0 = 0
         for rm, d in zip(rs, dims):
             r[k0:k0 + d, k0:k0 + d] = rm
             k0 += d
-        ph = self._p @ h.T
-        s = h @ ph + r
-        s = 0.5 * (s + s.T)
-        gain = np.linalg.solve(s, ph.T).T
-        self._x = self._x + gain @ nu
-        ikh = np.eye(N_STATES) - gain @ h
-        p = ikh @ self._p @ ikh.T + gain @ r @ gain.T      # Joseph form
-        self._p = 0.5 * (p + p.T)
+        return self._update_stacked(h, np.concatenate(dzs).astype(np.float64, copy=False), r,
+                                    [meas.name for meas in measurements], dims)
+
+    def _begin_update(self):
+        """Checks and the propagation up to now before an update (:meth:`update`)."""
+        if self._nav.pending_samples:
+            raise ValueError(f"update: measurements apply at navigation updates; {self._nav.pending_samples} "
+                             f"input samples are pending (feed whole multiples of n_sub)")
+        self._roll_epoch()
+        self._flush()
+
+    def _update_stacked(self, h, dz, r, names, dims) -> list:
+        """The update of :meth:`update` from the stacked ``H``, ``dz`` and block-diagonal ``R`` (after
+        :meth:`_begin_update`), with the records and the feedback."""
+        # Joseph form, compiled (kekf.joseph_update; _joseph_reference is the numpy form it is tested against)
+        self._x = self._x.copy()
+        nu, s = kekf.joseph_update(self._p, self._x, h, r, dz)
         recs = []
         k0 = 0
         t = self.t_s
-        for meas, d in zip(measurements, dims):
+        nis = kekf.block_nis(s, nu, np.array(dims, dtype=np.int64))
+        for name, d, nis_b in zip(names, dims, nis):
             sb = s[k0:k0 + d, k0:k0 + d]
             nb = nu[k0:k0 + d]
-            rec = Innovation(t, meas.name, nb.copy(), sb.copy(), float(nb @ np.linalg.solve(sb, nb)))
+            rec = Innovation(t, name, nb.copy(), sb.copy(), float(nis_b))
             recs.append(rec)
             k0 += d
         self._records.extend(recs)
         if self._feedback:
             self._apply_feedback()
         return recs
+
+    @staticmethod
+    def _joseph_reference(p, x, h, r, dz):
+        """The update of :func:`kekf.joseph_update` in numpy (Groves 2013, eq. 3.58): ``(p, x, nu, s)`` after it."""
+        nu = dz - h @ x
+        ph = p @ h.T
+        s = h @ ph + r
+        s = 0.5 * (s + s.T)
+        gain = np.linalg.solve(s, ph.T).T
+        ikh = np.eye(p.shape[0]) - gain @ h
+        pn = ikh @ p @ ikh.T + gain @ r @ gain.T
+        return 0.5 * (pn + pn.T), x + gain @ nu, nu, s
 
     def _apply_feedback(self):
         x = self._x
