@@ -7,6 +7,7 @@ pinned, and a minimum pin must sit on the lower bound's own release (so raising 
 raising the minimum file fails here).
 """
 
+import re
 from pathlib import Path
 
 import pytest
@@ -100,9 +101,23 @@ def test_the_checks_can_fail():
     assert _lower_bound(Requirement("pyarrow>=14")) == Version("14")
 
 
-def test_readme_tells_how_to_reproduce_ci():
+def _readme_constraint_commands() -> dict[str, tuple[str, ...]]:
+    """``pip install -c constraints/F -e ".[extras]"`` lines of the README's code blocks: file -> extras."""
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    assert 'pip install -c constraints/ci.txt -e ".[test,docs]"' in readme
+    blocks = re.findall(r"^```[^\n]*\n(.*?)^```", readme, re.M | re.S)
+    found = {}
+    for line in "\n".join(blocks).splitlines():
+        m = re.match(r'pip install -c constraints/(\S+) -e "\.\[([\w,]+)\]" && pytest(\s|$)', line.strip())
+        if m:
+            found[m.group(1)] = tuple(m.group(2).split(","))
+    return found
+
+
+def test_readme_tells_how_to_reproduce_ci():
+    """Both of CI's environments, as commands in a README code block, each with the extras its file pins for
+    (``FILES``): a renamed file or a changed extra fails here."""
+    assert _readme_constraint_commands() == FILES
+    assert all((ROOT / "constraints" / f).is_file() for f in FILES)
 
 
 def test_ci_runs_the_readme_command_in_either_environment():

@@ -487,10 +487,15 @@ def test_streaming_equals_one_call():
     assert_array_equal(full[0], q0)
     assert np.max(np.abs(full[1:] - whole)) <= 1e-15
     # closed-form motions stream too
+    # closed-form motions stream too, bit for bit: evaluated from the stream's start, not chained per chunk
     c = Coning(ARCMIN, 386.0)
-    s = AttitudeStream(c)
-    assert np.max(np.abs(np.concatenate([s.advance(x) for x in uneven_chunks(t)]) - c.attitude(t))) <= 1e-15
+    s = AttitudeStream(c, q0=q0)
+    parts = np.concatenate([s.advance(x) for x in uneven_chunks(t)])
+    assert_array_equal(parts, c.attitude_stream(0.0, q0, t))
+    assert np.max(np.abs(AttitudeStream(c).advance(t) - c.attitude(t))) <= 1e-15
     assert s.advance([]).shape == (0, 4)
+    with pytest.raises(ValueError, match="must start after t0"):
+        s.advance(t[-2:])
 
 
 def test_attitude_grid_not_starting_at_zero():

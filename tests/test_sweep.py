@@ -13,6 +13,7 @@ import os
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 from types import SimpleNamespace
@@ -205,20 +206,47 @@ def test_local_cluster_gives_the_rows_of_serial_runs(tiny, local):
     assert (local.out / "distributions.png").stat().st_size > 10_000
 
 
+#: The interrupted sweep's gate (``_first_two_then_wait``): runs started, and the event that releases the others.
+_GATE = {"lock": threading.Lock(), "started": 0, "interrupted": threading.Event()}
+
+
+def _first_two_then_wait(spec):
+    """``run_task`` for the first two runs a worker thread starts; every later run waits until the test has
+    interrupted the sweep, then raises without computing (its future is cancelled by then, nothing is stored).
+
+    So the interruption finds exactly two runs done and no run computing, however fast or loaded the machine:
+    with plain ``run_task`` the other worker thread is inside a third run when the interrupt comes, which then
+    finishes (or not) while the client closes and the resumed sweep starts."""
+    with _GATE["lock"]:
+        _GATE["started"] += 1
+        mine = _GATE["started"]
+    if mine > 2:
+        # a guard against a deadlock if the test broke, not a timing: the test sets the event before it raises
+        if not _GATE["interrupted"].wait(timeout=600):
+            raise RuntimeError("the test never interrupted the sweep")
+        raise RuntimeError("run not started: the sweep was interrupted")
+    return run_task(spec)
+
+
 def test_resume_after_an_interruption_runs_only_what_is_missing(tiny, local, tmp_path, capsys):
     out = tmp_path / "sweep"
+    _GATE["started"] = 0
+    _GATE["interrupted"].clear()
 
     def interrupt_after_two(done, total, failed):
         if done >= 2:
+            _GATE["interrupted"].set()  # the waiting runs return at once, so the client closes on idle threads
             raise KeyboardInterrupt
 
     from dask.distributed import Client
 
     with Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as client:
         with pytest.raises(KeyboardInterrupt):
-            run_sweep(tiny, out, client=client, progress=interrupt_after_two, log=lambda s: None)
+            run_sweep(tiny, out, client=client, progress=interrupt_after_two, log=lambda s: None,
+                      task_fn=_first_two_then_wait)
+    assert _GATE["interrupted"].is_set()
     parts = list((out / "runs").glob("*.parquet"))
-    assert 2 <= len(parts) < 6
+    assert len(parts) == 2 and not list((out / "failed").glob("*.json"))
     assert not list(out.rglob(".*tmp-*")) and not (out / "summary.json").exists()
     assert main(["sweep", str(tiny), "--out", str(out), "--workers", "2", "--quiet"]) == 0
     text = capsys.readouterr().out

@@ -596,6 +596,13 @@ class AttitudeStream:
         self._t = v.finite("AttitudeStream", "t0", t0)
         self.substeps = _substeps("AttitudeStream", substeps)
         self.method = v.choice("AttitudeStream", "method", method, {"auto", "closed_form", "numeric"})
+        # A closed form is evaluated from the stream's start, ``q0 (x) transition(t0, t)``, not from the last
+        # chunk's end: the attitude is then a function of ``t`` alone, the same bits however the run is chunked
+        # (chaining ``q_end (x) transition(t_end, t)`` would round differently at every chunk boundary, by about
+        # 1e-16, and the engine's plant inputs, which rotate the vehicle's rate by this attitude, with it).
+        self._closed = self.method != "numeric" and motion.has_closed_form_attitude
+        self._t0 = self._t
+        self._q0 = self._q.copy()
 
     @property
     def t(self) -> float:
@@ -622,7 +629,12 @@ class AttitudeStream:
         t = np.asarray(t_grid, dtype=np.float64).reshape(-1)
         if t.size == 0:
             return np.empty((0, 4))
-        q = self.motion.attitude_stream(self._t, self._q, t, substeps=self.substeps, method=self.method)
+        if self._closed:
+            if not t[0] > self._t:  # attitude_stream below checks the grid against the stream's start only
+                raise ValueError(f"attitude.t_grid: must start after t0 = {self._t!r}, got {t[0]!r}")
+            q = self.motion.attitude_stream(self._t0, self._q0, t, method="closed_form")
+        else:
+            q = self.motion.attitude_stream(self._t, self._q, t, substeps=self.substeps, method=self.method)
         self._t = float(t[-1])
         self._q = q[-1].copy()
         return q
