@@ -60,13 +60,9 @@ class _Sine:
         return np.array([np.linalg.norm(self.c) + n, self.w * n, self.w ** 2 * n])
 
 
-def _prod_bound(*factors):
-    """Bound of ``|F''|`` for a cross product of the factors (each ``(|v|, |v'|, |v''|)``): the product rule."""
-    if len(factors) == 2:
-        (f0, f1, f2), (g0, g1, g2) = factors
-        return f2 * g0 + 2 * f1 * g1 + f0 * g2
-    (f0, f1, f2), (g0, g1, g2), (h0, h1, h2) = factors
-    return (f2 * g0 * h0 + f0 * g2 * h0 + f0 * g0 * h2 + 2 * (f1 * g1 * h0 + f1 * g0 * h1 + f0 * g1 * h1))
+def _prod(f, g):
+    """Bounds ``(|F|, |F'|, |F''|)`` of a cross product ``F = a x b`` from those of its factors (the product rule)."""
+    return np.array([f[0] * g[0], f[1] * g[0] + f[0] * g[1], f[2] * g[0] + 2 * f[1] * g[1] + f[0] * g[2]])
 
 
 def _integral(fun, t0, t1):
@@ -75,19 +71,33 @@ def _integral(fun, t0, t1):
     return 0.5 * (t1 - t0) * np.einsum("n,ni->i", _GL_W, fun(t))
 
 
+def _rodrigues(th, v, kind):
+    """``R(theta)^T v`` (``kind="rt"``) or ``J_r(theta) v`` (``"jr"``), exactly (Rodrigues' formula and the right
+    Jacobian of the rotation vector, Bortz 1971; the coefficients' series to ``a^4``, exact to rounding for
+    ``a = |theta|`` of 1e-3 rad)."""
+    a2 = np.sum(th * th, axis=-1, keepdims=True)
+    if kind == "rt":
+        c1, c2 = 1 - a2 / 6 + a2 ** 2 / 120, 0.5 - a2 / 24 + a2 ** 2 / 720
+    else:
+        c1, c2 = 0.5 - a2 / 24 + a2 ** 2 / 720, 1 / 6 - a2 / 120 + a2 ** 2 / 5040
+    tv = np.cross(th, v)
+    return v - c1 * tv + c2 * np.cross(th, tv)
+
+
 def test_block_truth_carries_the_chassis_rotation_into_the_block_translation():
     """``block_truth`` on a prescribed motion: the block rocks (``theta``, 180 Hz, 60-100 arcsec) and translates
-    (``x``, 90 Hz, 40-80 micrometres, cm/s) on a chassis that turns (0.1-0.3 rad/s) and vibrates angularly
+    (``x``, 90 Hz, 40-80 micrometres, cm/s) on a chassis that turns (0.5-1 rad/s) and vibrates angularly
     (``w``, 230 Hz, 0.05-0.12 rad/s) and linearly (``a``, 300 Hz, 10-20 m/s^2), each axis with its own phase.
-    Against the closed-form integrals over each filter sample (module docstring; ``int (I - [theta x]) x'' dt``
-    and the angle to second order as the kernel states them):
+    Against the integrals over each filter sample of the exact kinematics (module docstring, with the exact
+    rotation ``R(theta)^T`` and Jacobian ``J_r(theta)``):
 
     - velocity increment: within the sum of the composite trapezoid rule's error bounds
       ``H h^2 max|F''| / 12`` of each integral it takes (``H`` the sample, ``h`` the plant step, ``|F''|`` by the
-      product rule from each factor's amplitude and frequency) and of the mean tilt times ``int a`` (the mean's
-      own trapezoid error, ``h^2 max|theta''| / 12``). The rotating-frame terms exceed the bound by more than
-      100 times, so leaving any of them out fails;
-    - angle increments: within the trapezoid bound of ``int g dt``;
+      product rule from each factor's amplitude and frequency), of the mean tilt times ``int a`` (the mean's own
+      trapezoid error, ``h^2 max|theta''| / 12``) and of the fourth order it leaves out
+      (``H (|theta|^3 |x''| / 6 + |theta|^2 |rotating-frame terms| / 2)``). The rotating-frame terms exceed the
+      bound by more than 100 times and the third order by more than 3 times, so leaving any of them out fails;
+    - angle increments: within the trapezoid bound of ``int g dt`` and the fourth order it leaves out;
     - the tilt's mean over the sample: within ``h^2 max|theta''| / 12`` (the trapezoid; the mean taken at the
       plant steps' ends alone is off by ``h |theta'| / 2``, 50 times more);
     - the end values ``x' + w x x``, ``x`` and ``theta``: to rounding.
@@ -96,14 +106,19 @@ def test_block_truth_carries_the_chassis_rotation_into_the_block_translation():
     hf = h * r
     x = _Sine([60e-6, -40e-6, 80e-6], 90.0, [0.3, 1.4, -0.7])
     th = _Sine(np.array([100.0, -60.0, 80.0]) * ARCSEC, 180.0, [0.9, -0.4, 2.0])
-    om = _Sine([0.12, 0.05, -0.08], 230.0, [-1.1, 0.2, 0.6], const=[0.1, -0.2, 0.3])
+    om = _Sine([0.12, 0.05, -0.08], 230.0, [-1.1, 0.2, 0.6], const=[0.5, -1.0, 0.8])
     acc = _Sine([20.0, -10.0, 15.0], 300.0, [0.5, -2.2, 1.3])
     umat = np.eye(3) + np.array([[0, 2e-3, 0], [0, 0, 0], [-1e-3, 0, 0]])
     umat /= np.linalg.norm(umat, axis=1)[:, None]
 
-    def g(t):  # the block's rate beyond the chassis' and theta', second order (block_truth's docstring)
-        tt = th(t)
-        return -np.cross(tt, om(t)) - 0.5 * np.cross(tt, th(t, 1))
+    def g(t):  # the block's inertial rate beyond w + theta', exactly
+        tt, w = th(t), om(t)
+        return (_rodrigues(tt, w, "rt") - w) + (_rodrigues(tt, th(t, 1), "jr") - th(t, 1))
+
+    def f_rel(t):  # the block's specific force beyond R^T f_c (the chassis' rotation carrying x), exactly
+        w, xx, xd = om(t), x(t), x(t, 1)
+        return _rodrigues(th(t), x(t, 2) + 2 * np.cross(w, xd) + np.cross(om(t, 1), xx)
+                          + np.cross(w, np.cross(w, xx)), "rt")
 
     t_end = h * np.arange(1, m * r + 1)  # the plant steps' ends
     z = np.concatenate([x(t_end), th(t_end), x(t_end, 1), th(t_end, 1)], axis=1)
@@ -112,45 +127,56 @@ def test_block_truth_carries_the_chassis_rotation_into_the_block_translation():
     lin0 = np.ascontiguousarray(a_nodes[:-1].T)
     lin1 = np.ascontiguousarray(np.diff(a_nodes, axis=0).T / h)
     carry = np.zeros(kblock.T_SIZE)  # the motion's values at t = 0 (the kernel's state before its first step)
-    w0, x0, xd0 = om(0.0), x(0.0), x(0.0, 1)
-    carry[kblock.T_THETA:kblock.T_THETA + 3] = th(0.0)
+    w0, x0, xd0, t0_, td0 = om(0.0), x(0.0), x(0.0, 1), th(0.0), th(0.0, 1)
+    wx0 = np.cross(w0, x0)
+    tw, tdd = np.cross(t0_, w0), np.cross(t0_, td0)
+    mm = np.cross(w0, xd0 + wx0)
+    carry[kblock.T_THETA:kblock.T_THETA + 3] = t0_
     carry[kblock.T_XDOT:kblock.T_XDOT + 3] = xd0
-    carry[kblock.T_G:kblock.T_G + 3] = g(np.array(0.0))
-    carry[kblock.T_THD:kblock.T_THD + 3] = th(0.0, 1)
-    carry[kblock.T_WV:kblock.T_WV + 3] = np.cross(w0, xd0 + np.cross(w0, x0))
-    carry[kblock.T_WX:kblock.T_WX + 3] = np.cross(w0, x0)
+    carry[kblock.T_G:kblock.T_G + 3] = -tw - 0.5 * tdd + np.cross(t0_, 0.5 * tw + tdd / 6)
+    carry[kblock.T_THD:kblock.T_THD + 3] = td0
+    carry[kblock.T_WV:kblock.T_WV + 3] = (mm - np.cross(t0_, mm) + np.cross(td0, wx0)
+                                          - 0.5 * (np.cross(td0, np.cross(t0_, xd0)) + np.cross(t0_, np.cross(td0, xd0))))
+    carry[kblock.T_WX:kblock.T_WX + 3] = wx0 - np.cross(t0_, wx0) + 0.5 * np.cross(t0_, np.cross(t0_, xd0))
     add = np.empty((3, m * r))
     out = {k: np.empty((3, m)) for k in ("dth", "tavg", "tend", "dvel", "xdot", "xend")}
     kblock.block_truth(z, rate, lin0, lin1, umat, h, r, carry, add, out["dth"], out["tavg"], out["tend"],
                        out["dvel"], out["xdot"], out["xend"])
 
     bx, bt, bw, ba = x.bounds(), th.bounds(), om.bounds(), acc.bounds()
-    bxd = np.array([bx[1], bx[2], x.w * bx[2]])  # bounds of |x'|, |x''|, |x'''|
+    bxd = np.array([bx[1], bx[2], x.w * bx[2]])  # bounds of the derivatives of x', then of theta'
     btd = np.array([bt[1], bt[2], th.w * bt[2]])
+    bwu = _prod(bw, bxd + _prod(bw, bx))  # w x (x' + w x x)
     trap = hf * h ** 2 / 12
-    tol_v = trap * (_prod_bound(btd, bxd)  # int theta' x x'
-                    + _prod_bound(bw, bxd) + _prod_bound(bw, bw, bx)  # int w x (x' + w x x)
-                    + _prod_bound(bt, ba)) + (h ** 2 * bt[2] / 12) * hf * ba[0]  # int theta x a, the mean tilt
-    tol_g = trap * (_prod_bound(bt, bw) + 0.5 * _prod_bound(bt, btd))
-    rot_terms = []
+    integrands_v = [_prod(btd, bxd), bwu, _prod(bt, ba),  # theta' x x', w x u, theta x a
+                    _prod(bt, bwu), _prod(btd, _prod(bw, bx)),  # the third orders
+                    0.5 * _prod(btd, _prod(bt, bxd)), 0.5 * _prod(bt, _prod(btd, bxd))]
+    fourth_v = bt[0] ** 3 * bxd[1] / 6 + bt[0] ** 2 * (2 * bw[0] * bxd[0] + bw[1] * bx[0] + bw[0] ** 2 * bx[0]) / 2
+    tol_v = trap * sum(f[2] for f in integrands_v) + (h ** 2 * bt[2] / 12) * hf * ba[0] + hf * fourth_v
+    tw_b, td_b = _prod(bt, bw), _prod(bt, btd)
+    integrands_g = [tw_b, 0.5 * td_b, 0.5 * _prod(bt, tw_b), _prod(bt, td_b) / 6]
+    tol_g = trap * sum(f[2] for f in integrands_g) + hf * bt[0] ** 3 * (bw[0] / 6 + btd[0] / 24)
+    rot_terms, third = [], []
     for k in range(m):
         t0, t1 = k * hf, (k + 1) * hf
         mean = _integral(th, t0, t1) / hf
-        dvel = (x(t1, 1) - x(t0, 1)
-                - _integral(lambda t: np.cross(th(t), x(t, 2)), t0, t1)
-                + _integral(lambda t: 2 * np.cross(om(t), x(t, 1)) + np.cross(om(t, 1), x(t))
-                            + np.cross(om(t), np.cross(om(t), x(t))), t0, t1)
-                - _integral(lambda t: np.cross(th(t) - mean, acc(t)), t0, t1))
-        rot_terms.append(_integral(lambda t: 2 * np.cross(om(t), x(t, 1)) + np.cross(om(t, 1), x(t)), t0, t1))
+        tilt_a = _integral(lambda t: np.cross(th(t) - mean, acc(t)), t0, t1)
+        dvel = _integral(f_rel, t0, t1) - tilt_a
+        rot = _integral(lambda t: 2 * np.cross(om(t), x(t, 1)) + np.cross(om(t, 1), x(t))
+                        + np.cross(om(t), np.cross(om(t), x(t))), t0, t1)
+        rot_terms.append(rot)
+        second = x(t1, 1) - x(t0, 1) - _integral(lambda t: np.cross(th(t), x(t, 2)), t0, t1) + rot - tilt_a
+        third.append(dvel - second)
         assert np.all(np.abs(out["dvel"][:, k] - dvel) <= tol_v), (k, out["dvel"][:, k] - dvel, tol_v)
         dang = umat @ (th(t1) - th(t0) + _integral(g, t0, t1))
-        assert np.all(np.abs(out["dth"][:, k] - dang) <= tol_g + 1e-18), (k, out["dth"][:, k] - dang, tol_g)
+        assert np.all(np.abs(out["dth"][:, k] - dang) <= tol_g), (k, out["dth"][:, k] - dang, tol_g)
         assert np.all(np.abs(out["tavg"][:, k] - mean) <= h ** 2 * bt[2] / 12), k
         assert np.allclose(out["xdot"][:, k], x(t1, 1) + np.cross(om(t1), x(t1)), rtol=0, atol=1e-15)
         last = z[(k + 1) * r - 1]  # the step ending at t1
         assert np.array_equal(out["xend"][:, k], last[0:3]) and np.array_equal(out["tend"][:, k], last[3:6])
-    # the bound is tight enough that each rotating-frame term would be seen
+    # the bound is tight enough that each rotating-frame term, and the velocity's third order, would be seen
     assert np.min(np.max(np.abs(rot_terms), axis=0)) > 100 * tol_v
+    assert np.max(np.abs(third)) > 3 * tol_v, (np.max(np.abs(third)), tol_v)
     # the end-of-step mean is off by about h |theta'| / 2: the trapezoid bound resolves it
     assert 0.5 * h * bt[1] > 50 * h ** 2 * bt[2] / 12
 
