@@ -1062,9 +1062,9 @@ def block_truth(z, rate, lin0, lin1, umat, h, r, carry, add, dth, theta_avg, the
     rocked block). Its integral beyond the chassis' own is ``theta + c`` with ``c = int g dt`` (trapezoid over
     the plant steps, error ``(w h)^2 / 12`` of a term that is itself second order in the arcsec-level
     ``theta``). The second-order part is what makes dither coning: it drifts when two axes rock at one frequency.
-    The third-order part oscillates, but the navigation's own rotation rectifies it: left out, 250 arcsec of
-    rocking at 100 Hz on a chassis turning 100 arcsec at the same frequency drifted the ideal's attitude by about
-    1e-9 rad/s (6.7 m in 30 min). What is left out is fourth order (below 1e-12 rad/s there).
+    The third order keeps the increments on the exact kinematics to fourth order (``tests/
+    test_block_truth_combined.py`` checks them against ``R(theta)`` and ``J_r(theta)`` exactly); what is left out is
+    below ``|theta|^3 |w| / 6``, 1e-10 rad/s for 250 arcsec of rocking on a chassis turning at 0.3 rad/s.
 
     Velocity. The c.g.'s position relative to the chassis point, ``C_ic x``, differentiated twice in the inertial
     frame (the theorem of Coriolis applied twice, motion with respect to a rotating frame: Groves 2013, sec. 2.3):
