@@ -4,17 +4,18 @@ A block on isolators whose chassis both turns and shakes: the block's c.g. sits 
 it rests on, in a frame that rotates at ``w``. Its accelerometers see (Groves 2013, sec. 2.3, motion with respect
 to a rotating frame)
 
-    ``f_b = (I - [theta x]) (f_c + x'' + 2 w x x' + w' x x + w x (w x x))``
+    ``f_b = R(theta)^T (f_c + x'' + 2 w x x' + w' x x + w x (w x x))``
 
 and its velocity relative to the chassis point is ``x' + w x x``. The truth lacked the rotating-frame terms (and
 took the tilt's mean over a sample half a plant step late), so the ideal increments drifted away from the truth's
-velocity when both vibrations entered at the chassis. Two checks:
+velocity when both vibrations entered at the chassis. The checks:
 
-- the kernel (``_kernels.block.block_truth``) against the closed-form integrals of a prescribed sinusoidal
-  motion, within the trapezoid rule's error bound;
+- the kernel (``_kernels.block.block_truth``) against the integrals of the exact kinematics of a prescribed
+  sinusoidal motion, within the trapezoid rule's error bound, and the same in chunks as whole;
 - the engine: both vibrations as sines at the chassis of a block whose elastic centre is off its c.g.; the
   block's lines against the frequency-domain solution of its model, the closed-form velocity drift that the
-  missing terms made, and the ideal navigation at the rigid unit's floor.
+  missing terms made, and the ideal navigation at the rigid unit's floor over 120 s;
+- the issue's random case over 30 min (``slow``).
 """
 
 from __future__ import annotations
