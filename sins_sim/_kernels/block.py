@@ -1028,32 +1028,81 @@ def drive_plant_three_block(i0, ang, rate, uniforms, fpar, ipar, dstate, pstate,
         propagate_rest(ridx, phi, cin, bstate, out_z)
 
 
+@jit(inline="always")
+def _cross(a0, a1, a2, b0, b1, b2):
+    """``a x b`` of two vectors given by their components."""
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
 # carry of :func:`block_truth` between chunks
 T_THETA = 0  # theta at the last step, 3 values
 T_XDOT = 3  # x' at the last step, 3 values
 T_G = 6  # the second-order rate g at the last step, 3 values
 T_C = 9  # its integral c, 3 values
 T_THD = 12  # theta' at the last step, 3 values
-T_SIZE = 15
+T_WV = 15  # the rotating-frame integrand at the last step (w x (x' + w x x) and its third order), 3 values
+T_WX = 18  # the boundary term w x x - theta x (w x x) + (1/2) theta x (theta x x') at the last step, 3 values
+T_SIZE = 21
 
 
 @jit
-def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel, xdot_end, x_end):
+def block_truth(z, rate, lin0, lin1, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel, xdot_end, x_end):
     """What the block's relative motion adds to the gyros and the truth, from its state at the plant steps.
 
-    The block's inertial rate in block axes is ``w_b = R(theta)^T w_c + J_r(theta) theta'``, to second order
-    ``w_c + theta' + g`` with ``g = -theta x w_c - (1/2) theta x theta'`` (the right Jacobian of the rotation
-    vector, Bortz 1971; ``R(theta)^T w_c`` the chassis rate seen in the rocked block). Its integral beyond the
-    chassis' own is ``theta + c`` with ``c = int g dt`` (trapezoid over the plant steps, error
-    ``(w h)^2 / 12`` of a term that is itself second order in the arcsec-level ``theta``). The second-order part
-    is what makes dither coning: it drifts when two axes rock at one frequency.
+    Frames and point. ``c``: the chassis (the truth's body frame without the block: the vehicle turned by the
+    angular profiles that enter at the chassis), rotating at ``w`` (its inertial rate, chassis axes); ``b``: the
+    block, turned from ``c`` by the small rotation vector ``theta``. The point is the block's c.g., where its
+    accelerometers' specific force and the navigated position are taken; it sits at ``x`` (chassis axes, zero at
+    rest) from the chassis point it rests on.
+
+    Angle. The block's inertial rate in block axes is ``w_b = R(theta)^T w + J_r(theta) theta'``, to third order
+    ``w + theta' + g`` with ``g = -theta x w - (1/2) theta x theta' + theta x ((1/2) theta x w + (1/6) theta x
+    theta')`` (``R(theta)^T = I - [theta x] + [theta x]^2 / 2`` and the right Jacobian of the rotation vector
+    ``J_r = I - [theta x] / 2 + [theta x]^2 / 6``, Bortz 1971; ``R(theta)^T w`` the chassis rate seen in the
+    rocked block). Its integral beyond the chassis' own is ``theta + c`` with ``c = int g dt`` (trapezoid over
+    the plant steps, error ``(w h)^2 / 12`` of a term that is itself second order in the arcsec-level
+    ``theta``). The second-order part is what makes dither coning: it drifts when two axes rock at one frequency.
+    The third order keeps the increments on the exact kinematics to fourth order (``tests/
+    test_block_truth_combined.py`` checks them against ``R(theta)`` and ``J_r(theta)`` exactly); what is left out is
+    below ``|theta|^3 |w| / 6``, 1e-10 rad/s for 250 arcsec of rocking on a chassis turning at 0.3 rad/s.
+
+    Velocity. The c.g.'s position relative to the chassis point, ``C_ic x``, differentiated twice in the inertial
+    frame (the theorem of Coriolis applied twice, motion with respect to a rotating frame: Groves 2013, sec. 2.3):
+    velocity ``C_ic (x' + w x x)``, acceleration
+    ``C_ic (x'' + 2 w x x' + w' x x + w x (w x x))``. So the block's accelerometers see
+
+        ``f_b = (I - [theta x]) (f_c + x'' + 2 w x x' + w' x x + w x (w x x))``
+
+    (``f_c`` the chassis' specific force; ``(I - [theta x])`` here stands for ``I - [theta x] + [theta x]^2 / 2``
+    on ``x''`` and ``I - [theta x]`` on the rotating-frame terms: the third order, as for the angle). The three
+    rotating-frame terms couple the chassis' rotation to the block's translation on its isolators: under angular
+    and linear vibration at the chassis ``w x x'`` is the product of two vibrations (mm/s^2), which leaving out
+    walked the velocity away from the truth's (``C_nc x'``, whose derivative holds ``w x x'``). Over a filter
+    sample, with ``w' x x`` by parts (``int w' x x = Delta(w x x) - int w x x'``), they integrate to
+    ``Delta(w x x) + int w x u dt`` with ``u = x' + w x x``; their third order to
+    ``-Delta(theta x (w x x)) - int (theta x (w x u) - theta' x (w x x)) dt``, and that of ``x''`` to
+    ``(1/2) Delta(theta x (theta x x')) - (1/2) int (theta' x (theta x x') + theta x (theta' x x')) dt`` (each
+    integral by the trapezoid over the plant steps). The Earth-rate parts of ``w`` relative to the Earth are left
+    out (the truth's velocity is taken with the inertial ``w``: ``7e-5 rad/s`` times a micrometre displacement).
+
+    Tilt. ``int C_bc f_c dt`` is formed by the caller as ``(I - [theta_avg x] + [theta_avg x]^2 / 2) Delta v_c``
+    (``simulation.unit.apply_block_to_truth``) with ``theta_avg`` the trapezoid mean of ``theta`` over the sample
+    (the mean of the steps' ends alone lags by half a plant step: ``h theta' / 2`` against gravity and against the
+    vibration it rocks with); the chassis' linear vibration ``a`` (``lin0``,
+    ``lin1``: the fast part of ``f_c``) varies within the sample as ``theta`` does, and
+    ``int (theta - theta_avg) x a dt`` (the same trapezoid) is subtracted here. What remains,
+    ``(theta - theta_avg) x (f_c - a)``, is third order (``f_c - a`` is gravity turned by the chassis' arcsec-level
+    rocking).
 
     Parameters
     ----------
     z : (n, 12)
         Block state at the ends of the plant steps (``run_three_block``).
     rate : (3, n)
-        Chassis rate about block axes at the same steps (rad/s).
+        Chassis rate about block axes at the same steps (rad/s): ``w``.
+    lin0, lin1 : (3, n)
+        The chassis' linear vibration at each step's start and its slope over the step (m/s^2, m/s^3;
+        ``CoupledPlant.step``); zeros when none enters at the chassis.
     umat : (3, 3)
         Gyro input axes (rows).
     h : float
@@ -1068,23 +1117,26 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
     dth : (3, m), filled
         The same as ideal increments over each filter sample, ``u_i . Delta(theta + c)`` (rad).
     theta_avg, theta_end : (3, m), filled
-        ``theta`` averaged over each filter sample and at its end (block axes, rad): the accelerometers' tilt and
-        the block's attitude relative to the chassis.
+        ``theta`` averaged over each filter sample (trapezoid over its plant steps, both ends halved) and at its
+        end (block axes, rad): the accelerometers' tilt and the block's attitude relative to the chassis.
     dvel : (3, m), filled
-        What the block's relative translation adds to its accelerometers' velocity increment over each filter
-        sample (m/s): ``int (I - [theta x]) x'' dt = Delta x' - Delta(theta x x') + int theta' x x' dt`` (by
-        parts; the integral by the trapezoid over the plant steps, error ``(w h)^2 / 12`` of a second-order term).
+        What the block's relative motion adds to its accelerometers' velocity increment over each filter sample
+        beyond ``(I - [theta_avg x]) Delta v_c`` (m/s):
+        ``int (I - [theta x]) x'' dt = Delta x' - Delta(theta x x') + int theta' x x' dt`` (by parts), plus the
+        rotating-frame terms ``Delta(w x x) + int w x (x' + w x x) dt``, plus the third orders (above), minus
+        ``int (theta - theta_avg) x a dt``; each integral by the trapezoid over the plant steps (error
+        ``(w h)^2 / 12`` of a second-order term).
         The ``theta x x''`` part is sculling: under chassis vibration the relative acceleration is as large as the
         chassis' own, and a rocking in phase with it rectifies (``(1/2) theta x''`` cos of their phase).
     xdot_end : (3, m), filled
-        ``x'`` at the end of each filter sample (m/s, block axes): the block's c.g. velocity relative to the
-        chassis (cm/s under chassis vibration near the isolator modes).
+        ``x' + w x x`` at the end of each filter sample (m/s, chassis axes): the block's c.g. velocity relative to
+        the chassis point, seen from the inertial frame (cm/s under chassis vibration near the isolator modes).
     x_end : (3, m), filled
-        ``x`` at the end of each filter sample (m, block axes): the block's c.g. displacement relative to the
+        ``x`` at the end of each filter sample (m, chassis axes): the block's c.g. displacement relative to the
         chassis (tens of micrometres under chassis vibration near the isolator modes), the position truth's part.
     """
     n = z.shape[0]
-    th = np.empty(3)
+    th = np.empty(3)  # theta at the sample's start
     g = np.empty(3)
     for i in range(3):
         th[i] = carry[T_THETA + i]
@@ -1107,6 +1159,16 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
     q0 = carry[T_THD + 1] * xd[2] - carry[T_THD + 2] * xd[1]
     q1 = carry[T_THD + 2] * xd[0] - carry[T_THD] * xd[2]
     q2 = carry[T_THD] * xd[1] - carry[T_THD + 1] * xd[0]
+    # the chassis frame's rotation: w x (x' + w x x) at the last step, and w x x at the sample's start
+    iv0 = carry[T_WV]
+    iv1 = carry[T_WV + 1]
+    iv2 = carry[T_WV + 2]
+    wx0 = carry[T_WX]
+    wx1 = carry[T_WX + 1]
+    wx2 = carry[T_WX + 2]
+    pt0 = th[0]  # theta at the last step
+    pt1 = th[1]
+    pt2 = th[2]
     half_h = 0.5 * h
     for k in range(n // r):
         s0 = 0.0
@@ -1115,6 +1177,12 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
         a0 = 0.0
         a1 = 0.0
         a2 = 0.0
+        la0 = 0.0  # int a dt and int theta x a dt over the sample (trapezoid)
+        la1 = 0.0
+        la2 = 0.0
+        ta0 = 0.0
+        ta1 = 0.0
+        ta2 = 0.0
         for jj in range(r):
             j = k * r + jj
             t0 = z[j, 3]
@@ -1129,18 +1197,53 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
             p0 = d1 * v2 - d2 * v1
             p1 = d2 * v0 - d0 * v2
             p2 = d0 * v1 - d1 * v0
-            a0 += half_h * (q0 + p0)
-            a1 += half_h * (q1 + p1)
-            a2 += half_h * (q2 + p2)
-            q0 = p0
-            q1 = p1
-            q2 = p2
             w0 = rate[0, j]
             w1 = rate[1, j]
             w2 = rate[2, j]
-            g[0] = -(t1 * w2 - t2 * w1) - 0.5 * (t1 * d2 - t2 * d1)
-            g[1] = -(t2 * w0 - t0 * w2) - 0.5 * (t2 * d0 - t0 * d2)
-            g[2] = -(t0 * w1 - t1 * w0) - 0.5 * (t0 * d1 - t1 * d0)
+            # the rotating-frame terms at this step: w x u with u = x' + w x x; then the third-order integrand
+            # -theta x (w x u) + theta' x (w x x) - (1/2) theta' x (theta x x') - (1/2) theta x (theta' x x')
+            wa0, wa1, wa2 = _cross(w0, w1, w2, z[j, 0], z[j, 1], z[j, 2])
+            m0, m1, m2 = _cross(w0, w1, w2, v0 + wa0, v1 + wa1, v2 + wa2)
+            ya0, ya1, ya2 = _cross(t0, t1, t2, m0, m1, m2)
+            yb0, yb1, yb2 = _cross(d0, d1, d2, wa0, wa1, wa2)
+            tx0, tx1, tx2 = _cross(t0, t1, t2, v0, v1, v2)
+            yc0, yc1, yc2 = _cross(d0, d1, d2, tx0, tx1, tx2)
+            yd0, yd1, yd2 = _cross(t0, t1, t2, p0, p1, p2)
+            m0 += (yb0 - ya0) - 0.5 * (yc0 + yd0)
+            m1 += (yb1 - ya1) - 0.5 * (yc1 + yd1)
+            m2 += (yb2 - ya2) - 0.5 * (yc2 + yd2)
+            a0 += half_h * ((q0 + p0) + (iv0 + m0))
+            a1 += half_h * ((q1 + p1) + (iv1 + m1))
+            a2 += half_h * ((q2 + p2) + (iv2 + m2))
+            q0 = p0
+            q1 = p1
+            q2 = p2
+            iv0 = m0
+            iv1 = m1
+            iv2 = m2
+            # the chassis' linear vibration at the step's start and end, and theta x a there
+            b0 = lin0[0, j]
+            b1 = lin0[1, j]
+            b2 = lin0[2, j]
+            e0 = b0 + h * lin1[0, j]
+            e1 = b1 + h * lin1[1, j]
+            e2 = b2 + h * lin1[2, j]
+            la0 += half_h * (b0 + e0)
+            la1 += half_h * (b1 + e1)
+            la2 += half_h * (b2 + e2)
+            ta0 += half_h * ((pt1 * b2 - pt2 * b1) + (t1 * e2 - t2 * e1))
+            ta1 += half_h * ((pt2 * b0 - pt0 * b2) + (t2 * e0 - t0 * e2))
+            ta2 += half_h * ((pt0 * b1 - pt1 * b0) + (t0 * e1 - t1 * e0))
+            pt0 = t0
+            pt1 = t1
+            pt2 = t2
+            # g = -theta x w - (1/2) theta x theta' + theta x ((1/2) theta x w + (1/6) theta x theta')
+            tw0, tw1, tw2 = _cross(t0, t1, t2, w0, w1, w2)
+            td0, td1, td2 = _cross(t0, t1, t2, d0, d1, d2)
+            g3a, g3b, g3c = _cross(t0, t1, t2, 0.5 * tw0 + td0 / 6.0, 0.5 * tw1 + td1 / 6.0, 0.5 * tw2 + td2 / 6.0)
+            g[0] = (-tw0 - 0.5 * td0) + g3a
+            g[1] = (-tw1 - 0.5 * td1) + g3b
+            g[2] = (-tw2 - 0.5 * td2) + g3c
             c0 += half_h * (gp0 + g[0])
             c1 += half_h * (gp1 + g[1])
             c2 += half_h * (gp2 + g[2])
@@ -1153,25 +1256,46 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
             s1 += t1
             s2 += t2
         j = k * r + r - 1
+        # the trapezoid mean of theta: the start and the end halved, every step between
+        m0 = (s0 + 0.5 * (th[0] - z[j, 3])) / r
+        m1 = (s1 + 0.5 * (th[1] - z[j, 4])) / r
+        m2 = (s2 + 0.5 * (th[2] - z[j, 5])) / r
+        theta_avg[0, k] = m0
+        theta_avg[1, k] = m1
+        theta_avg[2, k] = m2
+        # int (theta - theta_avg) x a dt
+        ta0 -= m1 * la2 - m2 * la1
+        ta1 -= m2 * la0 - m0 * la2
+        ta2 -= m0 * la1 - m1 * la0
         e0 = z[j, 4] * z[j, 8] - z[j, 5] * z[j, 7]
         e1 = z[j, 5] * z[j, 6] - z[j, 3] * z[j, 8]
         e2 = z[j, 3] * z[j, 7] - z[j, 4] * z[j, 6]
-        dvel[0, k] = z[j, 6] - xd[0] - (e0 - cs0) + a0
-        dvel[1, k] = z[j, 7] - xd[1] - (e1 - cs1) + a1
-        dvel[2, k] = z[j, 8] - xd[2] - (e2 - cs2) + a2
+        # w x x at the sample's end (the last step's w and x), and the boundary term
+        # w x x - theta x (w x x) + (1/2) theta x (theta x x') of the integrals by parts
+        f0, f1, f2 = _cross(rate[0, j], rate[1, j], rate[2, j], z[j, 0], z[j, 1], z[j, 2])
+        ya0, ya1, ya2 = _cross(z[j, 3], z[j, 4], z[j, 5], 0.5 * e0 - f0, 0.5 * e1 - f1, 0.5 * e2 - f2)
+        ya0 += f0
+        ya1 += f1
+        ya2 += f2
+        dvel[0, k] = z[j, 6] - xd[0] - (e0 - cs0) + a0 + (ya0 - wx0) - ta0
+        dvel[1, k] = z[j, 7] - xd[1] - (e1 - cs1) + a1 + (ya1 - wx1) - ta1
+        dvel[2, k] = z[j, 8] - xd[2] - (e2 - cs2) + a2 + (ya2 - wx2) - ta2
         cs0 = e0
         cs1 = e1
         cs2 = e2
+        wx0 = ya0
+        wx1 = ya1
+        wx2 = ya2
         for i in range(3):
             dth[i, k] = add[i, j] - prev_add[i]
             prev_add[i] = add[i, j]
             theta_end[i, k] = z[j, 3 + i]
+            th[i] = z[j, 3 + i]
             xd[i] = z[j, 6 + i]
-            xdot_end[i, k] = xd[i]
             x_end[i, k] = z[j, i]
-        theta_avg[0, k] = s0 / r
-        theta_avg[1, k] = s1 / r
-        theta_avg[2, k] = s2 / r
+        xdot_end[0, k] = xd[0] + f0
+        xdot_end[1, k] = xd[1] + f1
+        xdot_end[2, k] = xd[2] + f2
     if n > 0:
         for i in range(3):
             carry[T_THETA + i] = z[n - 1, 3 + i]
@@ -1183,3 +1307,9 @@ def block_truth(z, rate, umat, h, r, carry, add, dth, theta_avg, theta_end, dvel
     carry[T_C] = c0
     carry[T_C + 1] = c1
     carry[T_C + 2] = c2
+    carry[T_WV] = iv0
+    carry[T_WV + 1] = iv1
+    carry[T_WV + 2] = iv2
+    carry[T_WX] = wx0
+    carry[T_WX + 1] = wx1
+    carry[T_WX + 2] = wx2

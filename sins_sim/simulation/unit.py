@@ -305,7 +305,8 @@ class SideBySide:
                                            st.f0t, st.gch, st.idx, st.ridx, st.pos, st.ax, lin0, lin1, self.bstate,
                                            cin, z, bang, brate, self.base_prev)
             extra = np.empty((len(BLOCK_KEYS), 3, m))  # BLOCK_KEYS, in order
-            kblock.block_truth(z, rate_ax, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add, *extra)
+            kblock.block_truth(z, rate_ax, lin0, lin1, st.umat, chains[0].plant.h, chains[0].r_dec, self.tcarry, add,
+                               *extra)
             seen = angle_ax + add  # each gyro: the chassis angle plus the block's own rotation about its axis
         x = np.empty((2, 3, m))  # readout angle and drive at the filter rate, per axis
         for a, ch in enumerate(chains):
@@ -356,17 +357,21 @@ def apply_block_to_truth(tc, outs, block_phi):
     - ideal gyro increments and angles: ``+ u_i . Delta(theta + c)`` (``_kernels.block.block_truth``); the running
       sum ``block_phi`` (3,) is carried between chunks and returned;
     - attitude: ``q_nb (x) exp(theta)`` (the block rotated by ``theta`` relative to the chassis);
-    - velocity increments, in the rocked block's axes: ``dv - theta_avg x dv`` plus what its relative translation
-      adds, sculling included (``_kernels.block.block_truth``: ``int (I - [theta x]) x'' dt``);
-    - velocity: the chassis' plus the block's relative c.g. velocity ``x'`` (block axes, rotated by the chassis'
-      attitude: cm/s under chassis vibration near the isolator modes);
+    - velocity increments, in the rocked block's axes: ``dv - theta_avg x dv + (1/2) theta_avg x (theta_avg x dv)``
+      (the rotation matrix of the rotation vector ``-theta`` to second order, Groves 2013, sec. 2.2.4: the second
+      order rectifies 100 arcsec of rocking against gravity into 1e-6 m/s^2) plus what its relative motion adds
+      (``_kernels.block.block_truth``): ``int (I - [theta x]) x'' dt`` (sculling included), the chassis' rotation
+      carrying the block's translation, ``2 w x x' + w' x x + w x (w x x)`` (Groves 2013, sec. 2.3: motion with
+      respect to a rotating frame), and the tilt's variation within the sample against the chassis' linear
+      vibration;
+    - velocity: the chassis' plus the block's c.g. velocity relative to the chassis point, ``x' + w x x`` (chassis
+      axes, rotated by the chassis' attitude: cm/s under chassis vibration near the isolator modes);
     - position: the chassis' plus the block's relative c.g. displacement ``x`` (block axes, rotated to NED by the
       chassis' attitude: ``d_ned = C_nb,chassis x``), as latitude ``+ d_N / (R_N + h)``, longitude
       ``+ d_E / ((R_E + h) cos lat)`` and height ``- d_D`` (radii of :func:`sins_sim.earth.radii`; Titterton and
       Weston 2004, eq. 3.87-3.89 for the small displacement). Tens of micrometres under chassis vibration near the
-      isolator modes. The navigated position is then the block's, the reference trajectory the chassis'. The
-      velocity above omits ``omega x x`` (the chassis' rate times the micrometre displacement: below 1e-7 m/s at
-      1 rad/s), as the displacement is rotated at each node by the chassis' attitude at that node.
+      isolator modes. The navigated position is then the block's, the reference trajectory the chassis'; the
+      velocity above is its derivative (``C_nc x`` differentiated: ``C_nc (x' + w x x)``).
 
     The first chunk's truth also holds node 0 (increments zero, the block at rest on its mounts), which the block
     leaves as it is.
@@ -384,7 +389,8 @@ def apply_block_to_truth(tc, outs, block_phi):
     tavg = np.stack([o["block_theta_avg"] for o in outs], axis=1)
     dvel = np.stack([o["block_dvel"] for o in outs], axis=1)
     dv = tc.dv_m_s[lead:]
-    tc.dv_m_s[lead:] = dv - np.cross(tavg, dv) + dvel
+    tilt = np.cross(tavg, dv)
+    tc.dv_m_s[lead:] = dv - tilt + 0.5 * np.cross(tavg, tilt) + dvel
     xdot = np.stack([o["block_xdot_end"] for o in outs], axis=1)
     c_nb = dcm_from_quat(q_chassis)
     tc.v_ned_m_s[lead:] += np.einsum("nij,nj->ni", c_nb, xdot)
