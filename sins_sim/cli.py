@@ -256,6 +256,11 @@ class _Progress:
         if done > self.bar.n:
             self.bar.update(done - self.bar.n)
 
+    def phase(self, text: str) -> None:
+        """Say what the job does after the engine (no more simulated seconds to count): replaces the time left."""
+        if self.bar is not None:
+            self.bar.set_postfix_str(text, refresh=True)
+
     def advise(self, message: str) -> None:
         """Print a job's configuration-time warning now, one line (before the engine runs), and remember it."""
         from sins_sim.jobs.messages import format_warning_lines

@@ -109,6 +109,42 @@ def test_progress_without_a_cold_cache_has_no_compile_phase(cache, capsys):
     assert "compiling" not in capsys.readouterr().err
 
 
+def test_after_the_engine_the_bar_says_the_files_are_being_written(cache, capsys):
+    """The engine's last report is 100 %; writing metrics and figures can take as long again (a mission with
+    aiding draws three figures per filter), so the bar replaces its time left by what is being done."""
+    from sins_sim.cli import _Progress
+
+    p = _Progress("demo", disable=False)
+    p.estimate(es.calibrate(_est()) | {"compile_s": 0.0})
+    p(1.0)
+    p.phase("simulation done; writing metrics")
+    p.close()
+    err = capsys.readouterr().err
+    assert err.rstrip().endswith("simulation done; writing metrics]")
+
+
+def test_run_scenario_tells_the_phase_after_the_engine(tmp_path):
+    """``run_scenario`` calls ``progress.phase`` once, after the engine's last report and before the files."""
+    from sins_sim.jobs.run import run_scenario
+
+    calls = []
+
+    class Recorder:
+        def __call__(self, fraction):
+            calls.append(("fraction", float(fraction)))
+
+        def phase(self, text):
+            calls.append(("phase", text, (tmp_path / "out" / "metrics.json").exists()))
+
+    doc = tmp_path / "s.yaml"
+    doc.write_text("name: phase\nimu: " + str(ROOT / "configs" / "default-imu.yaml") + "\nduration_s: 0.2\n"
+                   "navigation: {start_s: 0.05}\noutputs: {plots: false}\n")
+    run_scenario(doc, tmp_path / "out", progress=Recorder())
+    phases = [c for c in calls if c[0] == "phase"]
+    assert len(phases) == 1 and "writing metrics" in phases[0][1] and not phases[0][2]
+    assert calls.index(phases[0]) == len(calls) - 1 and calls[-2] == ("fraction", 1.0)
+
+
 # --- configuration errors before the heavy imports -----------------------------------------------------------
 _PROBE = """
 import sys

@@ -313,6 +313,9 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
     out.mkdir(parents=True, exist_ok=True)
     record_run(manifest, scenario, path, overrides, out)  # before the engine: a missing input copy fails now
     res, metrics = compute_run(scenario, config_warnings, progress, threads)
+    phase = getattr(progress, "phase", None)  # the CLI's bar says the engine is done and the files are written
+    if phase is not None:
+        phase(f"simulation done; writing metrics{', figures' if scenario.outputs['plots'] else ''} and the report")
     write_run(out, scenario, res, metrics, manifest)
     return metrics
 
