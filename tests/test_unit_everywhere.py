@@ -215,8 +215,10 @@ def test_the_filters_that_take_parameters():
     eliminator (the drive frequency only) and the LMS stripper (its own adaptation) do not."""
     from sins_sim.filters import registry
 
-    assert registry.parameter_filters() == ("correcting", "correcting_paper", "correcting_aligned",
-                                            "correcting_lownoise", "correcting_wideband")
+    # other test modules register their own plug-ins (named *_test) at import: they take parameters too
+    shipped = tuple(n for n in registry.parameter_filters() if not n.endswith("_test"))
+    assert shipped == ("correcting", "correcting_paper", "correcting_aligned", "correcting_lownoise",
+                       "correcting_wideband")
     assert not any(registry.takes_parameters(n) for n in ("ideal", "raw", "eliminator", "lms_stripper"))
 
 

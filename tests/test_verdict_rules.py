@@ -108,7 +108,8 @@ def test_significance_needs_a_positive_gap_reduction():
 
 # --- the Diebold-Mariano statistic and its degrees of freedom ------------------------------------------------------
 def _dm_by_hand(d):
-    """``t = mean(d) / (sd(d) / sqrt(m))`` written out (sample sd with m - 1), one-sided p from Student's t_{m-1}."""
+    """``t = mean(d) / (sd(d) / sqrt(m))`` written out (sample sd with m - 1), one-sided p from Student's t_{m-1}:
+    the held-out test before issue 39 (``dm_pvalue_iid``)."""
     m = len(d)
     mean = sum(d) / m
     sd = math.sqrt(sum((x - mean) ** 2 for x in d) / (m - 1))
@@ -116,25 +117,45 @@ def _dm_by_hand(d):
     return t, float(stats.t.sf(t, m - 1))
 
 
+def _dm_hac_by_hand(d):
+    """The held-out test since issue 39, written out with loops: the Newey-West long-run variance with the
+    Bartlett weights and ``L = max(1, min(m - 2, floor(4 (m/100)^(2/9))))`` lags (Newey & West 1987, eq. 2;
+    1994), ``DM = mean / sqrt(S / m)``, the Harvey-Leybourne-Newbold factor with ``h = L + 1``
+    (1997, eq. 9), one-sided p from Student's t_{m-1}."""
+    m = len(d)
+    mean = sum(d) / m
+    lags = max(1, min(m - 2, math.floor(4.0 * (m / 100.0) ** (2.0 / 9.0))))
+    gamma = [sum((d[k] - mean) * (d[k - j] - mean) for k in range(j, m)) / m for j in range(lags + 1)]
+    var = gamma[0] + 2.0 * sum((1.0 - j / (lags + 1.0)) * gamma[j] for j in range(1, lags + 1))
+    h = lags + 1
+    # the factor's numerator held at >= 1 (it is 2/3 at m = 3, h = 2, where the correction would inflate DM)
+    t = mean / math.sqrt(var / m) * math.sqrt(max(m + 1.0 - 2.0 * h + h * (h - 1.0) / m, 1.0) / m)
+    return t, float(stats.t.sf(t, m - 1))
+
+
 @pytest.mark.parametrize("d", [[0.3, -0.1, 0.2, 0.05], [0.02, 0.01, -0.03, 0.04, 0.0, 0.05, 0.01],
                                [-0.2, 0.1, -0.05]])
 def test_dm_pvalue_against_a_hand_computed_statistic(d):
     """Losses ``loss_ref = exp(d)``, ``loss_new = 1`` make the loss differential exactly ``d``; the p-value equals
-    the hand computation to rounding (1e-12 relative: a few operations on numbers of order one)."""
-    _, p = _dm_by_hand(d)
-    got = vd.dm_pvalue(np.exp(d), np.ones(len(d)))
-    assert got == pytest.approx(p, rel=1e-12, abs=1e-15)
+    the hand computation to rounding (1e-12 relative: a few operations on numbers of order one), for the test in
+    use and for the independent-blocks form kept to measure its calibration."""
+    _, p = _dm_hac_by_hand(d)
+    assert vd.dm_pvalue(np.exp(d), np.ones(len(d))) == pytest.approx(p, rel=1e-12, abs=1e-15)
+    _, p_iid = _dm_by_hand(d)
+    assert vd.dm_pvalue_iid(np.exp(d), np.ones(len(d))) == pytest.approx(p_iid, rel=1e-12, abs=1e-15)
 
 
 def test_dm_degrees_of_freedom_decide_a_statistic_between_the_two_critical_values():
-    """m = 4 blocks, t = 4.0 exactly: t_{3} gives p = 0.0140 > ALPHA = 0.01 (not significant), t_{4} would give
+    """m = 4 blocks, DM* = 4.0 exactly: t_{3} gives p = 0.0140 > ALPHA = 0.01 (not significant), t_{4} would give
     p = 0.0081 < ALPHA. The candidate's held-out losses carry that differential through ``assess``: it must not be
     significant, though its training fit is far better (p_f ~ 0)."""
     z = np.array([-1.5, -0.5, 0.5, 1.5])
     z = z / np.std(z, ddof=1)  # mean 0, sample sd 1
     s = 0.1
-    d = 2.0 * s + s * z  # mean / (s / sqrt(4)) = 4
-    t, p = _dm_by_hand(list(d))
+    t_unit, _ = _dm_hac_by_hand(list(1.0 + s * z))  # DM* is linear in the mean at fixed deviations
+    mu = 4.0 / t_unit
+    d = mu + s * z
+    t, p = _dm_hac_by_hand(list(d))
     assert t == pytest.approx(4.0, rel=1e-12)
     assert stats.t.sf(4.0, 3) > vd.ALPHA > stats.t.sf(4.0, 4)  # the threshold sits between the two
     assert vd.dm_pvalue(np.exp(d), np.ones(4)) == pytest.approx(p, rel=1e-12)
@@ -154,7 +175,7 @@ def test_dm_degrees_of_freedom_decide_a_statistic_between_the_two_critical_value
     assert c["p_f"] < 1e-6
     assert not c["significant"]
     # and a statistic just past the t_3 critical value is significant
-    d2 = 1.2 * d.mean() + s * z  # t = 4.8 > t_3 critical 4.54
+    d2 = 1.2 * mu + s * z  # DM* = 4.8 > t_3 critical 4.54
     assert vd.dm_pvalue(np.exp(d2), np.ones(4)) < vd.ALPHA < stats.t.sf(4.0, 3)
 
 
