@@ -986,14 +986,19 @@ def _cmd_identify(args) -> int:
     m = identify(args.log, args.out, lat_deg=args.site_lat_deg, lon_deg=args.site_lon_deg,
                  height_m=args.site_height_m, alignment=args.align, gyro_bias_prior_deg_h=args.gyro_bias_prior_deg_h,
                  accel_bias_prior_ug=args.accel_bias_prior_ug, twin_seeds=args.twin_seeds,
-                 line_false_alarm=args.line_false_alarm, force=args.force, manifest=_manifest(args))
+                 line_false_alarm=args.line_false_alarm, until_s=args.until_s, force=args.force,
+                 manifest=_manifest(args))
     for sensor, key in (("gyro", "arw_deg_rt_h"), ("gyro", "rrw_deg_h_rt_h"), ("accelerometer", "vrw_ug_rt_hz")):
         cells = [f"{e['value']:.4g}" if "value" in e else e["status"] for e in
                  (m["noise"][sensor][ax][key] for ax in "xyz")]
         print(f"{sensor} {key} x, y, z: {', '.join(cells)}")
     for sensor, key in (("gyro", "north_deg_h"), ("gyro", "down_deg_h"), ("accelerometer", "down_ug")):
         e = m["bias"][sensor][key]
-        print(f"{sensor} bias {key}: {e['value']:.4g} +- {e['sigma']:.2g} (1 sigma)")
+        if "value" not in e:
+            print(f"{sensor} bias {key}: {e['status']}")
+            continue
+        sig = "sigma not determinable" if e.get("sigma") is None else f"+- {e['sigma']:.2g} (1 sigma)"
+        print(f"{sensor} bias {key}: {e['value']:.4g} {sig}")
     n_lines = sum(len(e["lines"]) for s in ("gyro", "accelerometer") for e in m["lines"][s].values())
     print(f"spectral lines: {n_lines}")
     if "twin" in m:
@@ -1377,6 +1382,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seeds of the twin simulated beside the log; 0: no twin [5]")
     p.add_argument("--line-false-alarm", type=float, default=0.01,
                    help="chance of one or more false spectral lines in the whole log [0.01]")
+    p.add_argument("--until-s", type=float, default=None,
+                   help="fit the log's first seconds only (a log still at first, then moving) [the whole log]")
     _force_flag(p)
     p.set_defaults(func=_cmd_identify)
 

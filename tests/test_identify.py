@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -238,3 +239,29 @@ def test_unevenly_spaced_increments_are_refused(tmp_path):
     write_increments(p, t, np.zeros((n, 3)), np.tile([0.0, 0.0, -0.098], (n, 1)))
     with pytest.raises(ConfigError, match=r"^LOG: the increments must be evenly spaced"):
         identify(p, lat_deg=45.0)
+
+
+@pytest.mark.filterwarnings("error")  # no numpy or matplotlib warning on its quiet channels either
+def test_a_log_that_moves_is_refused_and_its_still_start_is_fitted(tmp_path):
+    """The bundled unit log stands still for 21 s, then drives off at 0.26 m/s^2: every fit of identify assumes
+    rest, so the whole log is refused in one line naming the time it moves and the flag; ``until_s`` fits the
+    still start, whose quantised quiet channels (the horizontal accelerometers read 0 pulses) give 'not
+    determinable', never a crash or a number without a sigma."""
+    from sins_sim.config.errors import ConfigError
+    from sins_sim.jobs.import_log import import_log
+    from sins_sim.jobs.identify import identify
+
+    root = Path(__file__).resolve().parents[1] / "scenarios" / "logs"
+    table = tmp_path / "u7.parquet"
+    import_log(root / "rlg-unit7.log", root / "rlg-unit7.yaml", table)
+    with pytest.raises(ConfigError, match=r"moves from 21 s on .* give --until-s 21") as info:
+        identify(table, None, twin_seeds=0)
+    assert "\n" not in str(info.value)
+    with pytest.raises(ConfigError, match="--until-s: must be a number > 0"):
+        identify(table, None, until_s=-3.0, twin_seeds=0)
+    with pytest.raises(ConfigError, match="beyond the log's 40 s"):
+        identify(table, None, until_s=60.0, twin_seeds=0)
+    m = identify(table, tmp_path / "fit", until_s=20.0, twin_seeds=2)
+    assert m["duration_s"] == pytest.approx(20.0)
+    report = (tmp_path / "fit" / "report.md").read_text()
+    assert "not determinable" in report and "None" not in report

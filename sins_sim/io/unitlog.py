@@ -621,6 +621,24 @@ def rest_latitude(dtheta, dv, dt: float) -> dict:
     return {"window_s": float(n * per * dt), "latitude_deg": lat, "sin_latitude": s}
 
 
+def first_motion_s(dtheta, dv, dt: float) -> float | None:
+    """When a log that starts at rest first moves: the start (s from the log's start) of the first one-second
+    block whose mean specific force or rate leaves the first block's by the thresholds of :func:`rest_latitude`
+    (0.05 m/s^2, 5 Earth rates: a vehicle starting or a table turning, far above a soak's drifts, its noise
+    averaged over a second, or a vibration line above 1 Hz); None when it stays at rest to its end. A log shorter
+    than two blocks: None.
+    """
+    per = max(1, int(round(1.0 / dt)))
+    nblocks = dtheta.shape[0] // per
+    if nblocks < 2:
+        return None
+    w = dtheta[:nblocks * per].reshape(nblocks, per, 3).sum(axis=1) / (per * dt)
+    f = dv[:nblocks * per].reshape(nblocks, per, 3).sum(axis=1) / (per * dt)
+    moving = (np.linalg.norm(f - f[0], axis=1) >= _REST_FORCE_M_S2) | \
+        (np.linalg.norm(w - w[0], axis=1) >= _REST_RATE_EARTH * EARTH_RATE_RAD_S)
+    return float(np.argmax(moving) * per * dt) if moving.any() else None
+
+
 def _check_latitude(path, rest: dict, lat_rad: float, source: str) -> bool | None:
     """Compare the site's latitude with the log's at rest: refuse radians under a ``_deg`` key, warn otherwise."""
     s = rest["sin_latitude"]

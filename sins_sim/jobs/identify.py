@@ -68,6 +68,9 @@ _NOISE_KEYS = {
 _BIAS_UNIT = {"gyro": ("deg_h", 1.0 / DEG_PER_H), "accelerometer": ("ug", 1.0 / MICRO_G)}
 #: Chance of one or more false spectral lines in a log (its six channels together).
 LINE_FALSE_ALARM = 0.01
+#: The shortest still span fitted (s): ten one-second blocks, as the log's own rest check asks
+#: (``sins_sim.io.unitlog.rest_latitude``).
+MIN_REST_S = 10.0
 #: Significance of a temperature coefficient, over the six axes together (Bonferroni).
 TEMPERATURE_ALPHA = 0.05
 #: Chance of a false bias step, over the six axes together (Bonferroni).
@@ -127,7 +130,8 @@ def _bias_entries(values, sigmas, labels, scale, unit) -> dict:
 
 def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, alignment: str = "coarse",
              gyro_bias_prior_deg_h: float = 0.01, accel_bias_prior_ug: float = 100.0, twin_seeds: int = 5,
-             line_false_alarm: float = LINE_FALSE_ALARM, force: bool = False, manifest=None):
+             line_false_alarm: float = LINE_FALSE_ALARM, until_s: float | None = None, force: bool = False,
+             manifest=None):
     """Fit a unit's noise terms, lines, biases and temperature coefficients from its log at rest, and run its twin
     beside it (module docstring).
 
@@ -148,6 +152,9 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         Seeds of the twin run beside the log (0: no twin; else at least 2, for an envelope).
     line_false_alarm : float
         Chance of one or more false spectral lines in the whole log (shared by its six channels).
+    until_s : float, optional
+        Use the log's first ``until_s`` seconds only (a log that is still at first and then moves). A log that
+        moves within the span used is refused, naming the time it starts to move.
     force : bool
         Replace an earlier result at ``out_dir`` (default: refuse it); the folder appears only once complete.
     manifest : Manifest, optional
@@ -165,6 +172,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     ConfigError
         One line naming the flag or the file.
     """
+    from sins_sim.io.unitlog import first_motion_s
     from sins_sim.jobs.import_log import read_log_table
     from sins_sim.navigation.alignment import align_coarse, align_inertial
     from sins_sim.navigation.allan import allan_axes, screen_noise
@@ -182,9 +190,24 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
                       ("--accel-bias-prior-ug", accel_bias_prior_ug)):
         if not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0.0):
             raise ConfigError(f"{flag}: must be a finite number >= 0, got {val!r}")
+    if until_s is not None and not (isinstance(until_s, (int, float)) and math.isfinite(until_s) and until_s > 0):
+        raise ConfigError(f"--until-s: must be a number > 0 (seconds from the log's start), got {until_s!r}")
     t, dth, dv, meta = read_log_table(log)
     site = _site(meta, lat_deg, lon_deg, height_m)
     dt = _interval(t)
+    if until_s is not None:
+        keep = int(round(until_s / dt))
+        if keep > t.size:
+            raise ConfigError(f"--until-s: {until_s:g} s is beyond the log's {t.size * dt:g} s")
+        if keep * dt < MIN_REST_S:
+            raise ConfigError(f"--until-s: {until_s:g} s leaves less than {MIN_REST_S:g} s of the log to fit")
+        t, dth, dv = t[:keep], dth[:keep], dv[:keep]
+    moved = first_motion_s(dth, dv, dt)
+    if moved is not None:  # the noise, the biases and the twin are all fits of a unit at rest: never of a moving one
+        hint = (f"give --until-s {moved:g} to fit its still start" if moved >= MIN_REST_S else
+                "a still log is needed (or --rate-table for a rate-table run)")
+        raise ConfigError(f"{log}: the unit moves from {moved:g} s on (its one-second mean specific force or rate "
+                          f"leaves its start's): identify fits a log at rest; {hint}")
     fs = 1.0 / dt
     rate, spec_force = dth / dt, dv / dt
     analyses = {
@@ -384,7 +407,8 @@ def _report(metrics: dict) -> str:
             "| sensor | component | value | 1-sigma |", "|---|---|---|---|"]
     for s, comps in metrics["bias"].items():
         for key, e in comps.items():
-            out.append(f"| {s} | {key} | {e['value']:.4g} | {e['sigma']:.2g} |" if "value" in e else
+            sig = ("not determinable (no noise term fitted)" if e.get("sigma") is None else f"{e['sigma']:.2g}")
+            out.append(f"| {s} | {key} | {e['value']:.4g} | {sig} |" if "value" in e else
                        f"| {s} | {key} | {e['status']} | |")
     out += ["", ("Not observable at rest: the east gyro bias (inseparable from the heading) and the horizontal "
                  "accelerometer biases (inseparable from the tilts); a body axis's bias only where the axis lies in "
@@ -427,6 +451,9 @@ def _bias_steps(rate, spec_force, fs: float) -> dict:
         for i, ax in enumerate("xyz"):
             try:
                 r = scan_bias_step(x[:, i], fs, sensor=kind, alpha=STEP_ALPHA / 6.0)
+            except np.linalg.LinAlgError:  # block means without scatter: a record constant at its quantisation
+                out[sensor][ax] = {"status": "not determinable (the axis shows no noise above its pulse weight)"}
+                continue
             except ValueError as exc:
                 raise ConfigError(f"LOG: bias step scan: {exc}") from None
             e = {"z": r.z, "threshold": r.threshold, "resolution_s": r.resolution_s}
@@ -604,7 +631,9 @@ def _steps_report(metrics: dict) -> list:
         for ax, e in st[sensor].items():
             what = (f"{e[f'size_{unit}']:.3g} +- {e[f'sigma_{unit}']:.2g} {unit}" if "time_s" in e else e["status"])
             when = f"{e['time_s']:.4g} +- {e['resolution_s']:.2g}" if "time_s" in e else ""
-            out.append(f"| {sensor} | {ax} | {what} | {when} | {e['z']:.3g} | {e['threshold']:.3g} |")
+            z = f"{e['z']:.3g}" if "z" in e else ""
+            thr = f"{e['threshold']:.3g}" if "threshold" in e else ""
+            out.append(f"| {sensor} | {ax} | {what} | {when} | {z} | {thr} |")
     return out
 
 

@@ -244,7 +244,11 @@ def find_lines(x, rate_hz: float, *, false_alarm: float = 0.01, nperseg: int | N
         raise ValueError(f"record: too short for a line search ({p.size} bins; the floor needs {2 * half_window + 3})")
     thr = float(f_dist.isf(false_alarm / searched.size, nu, nu_f))
     ratio = np.full(p.size, np.nan)
-    ratio[searched] = p[searched] / floor[searched]
+    # a floor of exactly 0 (a channel constant at its pulse weight around that bin): no line can stand above
+    # noise that is not there, unless the bin itself holds power
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio[searched] = np.where(floor[searched] > 0.0, p[searched] / floor[searched],
+                                   np.where(p[searched] > 0.0, np.inf, 0.0))
     order = searched[np.argsort(-ratio[searched])]
     order = order[ratio[order] > thr]
     lines, taken = [], np.zeros(p.size, dtype=bool)

@@ -115,6 +115,13 @@ def plot_allan(analyses, path, title: str = "", ncols: int | None = None) -> Non
     for ax, (label, a) in zip(axes.flat, items):
         c = a.curve
         scale = a.display_scale
+        if not np.any(c.adev > 0.0):  # a channel constant at its pulse weight: nothing on a log scale
+            ax.set_title(label)
+            ax.text(0.5, 0.5, "no Allan deviation:\nthe channel shows no noise\nabove its pulse weight",
+                    ha="center", va="center", transform=ax.transAxes)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            continue
         used = c.clusters >= a.min_clusters
         ax.fill_between(c.tau_s, (c.adev - c.adev_err) * scale, (c.adev + c.adev_err) * scale,
                         color="0.85", lw=0, label="1-sigma of the estimate")

@@ -51,6 +51,15 @@ def _label(ax, title: str, xlabel: str, ylabel: str, which: str = "both") -> Non
     ax.grid(True, which=which, alpha=0.25)
 
 
+def _quiet(ax, title: str) -> None:
+    """A channel with nothing to draw on a log scale: its readout never moved off one pulse count."""
+    ax.set_title(title, fontsize=10)
+    ax.text(0.5, 0.5, "no noise above the pulse weight:\nthe channel reads a constant count",
+            ha="center", va="center", transform=ax.transAxes, fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
 def _finish(fig, axes, title: str, path, legend_size: float = 7.5, loc: str = "best"):
     axes[0][0].legend(fontsize=legend_size, loc=loc)
     if title:
@@ -79,6 +88,9 @@ def plot_psd_lines(searches: dict, path=None, title: str = ""):
     fig, axes, panels = _sensor_panels(_pyplot(path is not None), searches)
     for (sensor, ax_name), s, ax, scale, unit in panels:
         f, p = s.psd.freq_hz[1:], s.psd.psd[1:]
+        if not np.any(p > 0.0):
+            _quiet(ax, f"{sensor} {ax_name}")
+            continue
         ax.loglog(f, np.sqrt(p) * scale, color=LOG_COLOR, lw=0.6, label="PSD (Welch, Hann)")
         fl = s.floor[1:]
         ok = np.isfinite(fl)
@@ -115,6 +127,9 @@ def plot_twin_allan(log_curves: dict, twin_curves: dict, bands: dict, path=None,
     fig, axes, panels = _sensor_panels(_pyplot(path is not None), log_curves)
     for key, curve, ax, scale, unit in panels:
         sensor, ax_name = key
+        if not np.any(curve.adev > 0.0):
+            _quiet(ax, f"{sensor} {ax_name}")
+            continue
         for j, c in enumerate(twin_curves[key]):
             ax.loglog(c.tau_s, c.adev * scale, color=TWIN_COLOR, lw=0.5, alpha=0.5,
                       label="twin seeds" if j == 0 else None)
@@ -147,10 +162,18 @@ def plot_twin_psd(log_searches: dict, twin_searches: dict, path=None, title: str
     for key, s, ax, scale, unit in panels:
         sensor, ax_name = key
         f = s.psd.freq_hz[1:]
+        if not np.any(s.psd.psd[1:] > 0.0):
+            _quiet(ax, f"{sensor} {ax_name}")
+            continue
         fc, tw = _log_bands(f, np.array([t.psd.psd[1:] for t in twin_searches[key]]), per_decade)
         _, lg = _log_bands(f, s.psd.psd[1:], per_decade)
-        ax.fill_between(fc, np.sqrt(tw.min(axis=0)) * scale, np.sqrt(tw.max(axis=0)) * scale, color=TWIN_COLOR,
-                        alpha=0.3, lw=0, label=f"twin, min-max of {tw.shape[0]} seeds")
+        lo, hi = tw.min(axis=0), tw.max(axis=0)
+        pos = lo > 0.0  # a twin without noise on the channel has no band to draw on a log scale
+        if np.any(pos):
+            ax.fill_between(fc[pos], np.sqrt(lo[pos]) * scale, np.sqrt(hi[pos]) * scale, color=TWIN_COLOR,
+                            alpha=0.3, lw=0, label=f"twin, min-max of {tw.shape[0]} seeds")
+        else:
+            ax.plot([], [], color=TWIN_COLOR, label="twin: no noise on this channel")
         ax.loglog(fc, np.sqrt(lg) * scale, color=LOG_COLOR, lw=1.0,
                   label=f"log (means over 1/{per_decade} decade)")
         for line in s.lines:
