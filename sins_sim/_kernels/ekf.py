@@ -24,7 +24,7 @@ import numpy as np
 
 from sins_sim import earth
 from sins_sim._kernels._config import jit
-from sins_sim._kernels.nav import quat_mul, rotvec_to_quat
+from sins_sim._kernels.nav import quat_mul, quat_to_dcm, rotvec_to_quat
 from sins_sim._kernels.strapdown import gravity_down, radii
 
 __all__ = ["SERIES_ORDER", "propagate_block", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
@@ -126,21 +126,6 @@ def error_dynamics_into(lat, h, vel, c, f_n, inv_tau_g, inv_tau_a, f):
 
 
 @jit
-def _dcm_into(q, c):
-    """``C_nb`` of a unit quaternion (Titterton & Weston 2004, eq. 3.63)."""
-    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
-    c[0, 0] = 1 - 2 * (q2 * q2 + q3 * q3)
-    c[0, 1] = 2 * (q1 * q2 - q0 * q3)
-    c[0, 2] = 2 * (q1 * q3 + q0 * q2)
-    c[1, 0] = 2 * (q1 * q2 + q0 * q3)
-    c[1, 1] = 1 - 2 * (q1 * q1 + q3 * q3)
-    c[1, 2] = 2 * (q2 * q3 - q0 * q1)
-    c[2, 0] = 2 * (q1 * q3 - q0 * q2)
-    c[2, 1] = 2 * (q2 * q3 + q0 * q1)
-    c[2, 2] = 1 - 2 * (q1 * q1 + q2 * q2)
-
-
-@jit
 def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, p, phi_acc, x, open_loop):
     """Propagate the covariance over one block of navigation updates, in place.
 
@@ -194,7 +179,7 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, p, phi_acc, x, open
     for i in range(4):
         qm[i] /= nq
     c = np.empty((3, 3))
-    _dcm_into(qm, c)
+    quat_to_dcm(qm, c)
     r_n, r_e = radii(lat)
     w0 = 2.0 * _OMEGA * math.cos(lat) + vel[1] / (r_e + h)
     w1 = -vel[0] / (r_n + h)
@@ -336,7 +321,7 @@ def gnss_measurement(lat, lon, h, vel, q, bg, rate, lever, z_lat, z_lon, z_h, z_
     """
     h_out[:, :] = 0.0
     c = np.empty((3, 3))
-    _dcm_into(q, c)
+    quat_to_dcm(q, c)
     cl = np.empty(3)
     for i in range(3):
         cl[i] = c[i, 0] * lever[0] + c[i, 1] * lever[1] + c[i, 2] * lever[2]

@@ -119,6 +119,22 @@ def quat_mul(p, q, out):
 
 
 @jit
+def quat_to_dcm(q, c):
+    """The direction cosine matrix of a unit quaternion (scalar first) into the 3x3 array ``c``: ``C_nb`` of
+    ``q_nb`` (Titterton & Weston 2004, eq. 3.63)."""
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    c[0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
+    c[0, 1] = 2.0 * (q1 * q2 - q0 * q3)
+    c[0, 2] = 2.0 * (q1 * q3 + q0 * q2)
+    c[1, 0] = 2.0 * (q1 * q2 + q0 * q3)
+    c[1, 1] = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
+    c[1, 2] = 2.0 * (q2 * q3 - q0 * q1)
+    c[2, 0] = 2.0 * (q1 * q3 - q0 * q2)
+    c[2, 1] = 2.0 * (q2 * q3 + q0 * q1)
+    c[2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+
+
+@jit
 def rotvec_to_quat(phi, out):
     """Quaternion of the rotation vector ``phi`` (rad).
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from sins_sim._kernels._config import jit
-from sins_sim._kernels.nav import error_rotvec
+from sins_sim._kernels.nav import error_rotvec, quat_to_dcm
 from sins_sim._kernels.strapdown import radii
 
 #: 3-point Gauss-Legendre on [0, 1] (Abramowitz & Stegun 25.4.29).
@@ -82,17 +82,10 @@ def lagrange4(nodes, j0, h, t, q_col, out, full_every=1, c_lo=0, c_hi=0):
 @jit
 def _cbv_from_q(q, c):
     """``C_bv = C(q_vb)^T`` (q_vb: block to vehicle, scalar first) into the 3x3 array ``c``."""
-    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
-    # C_vb rows, transposed on the fly
-    c[0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
-    c[1, 0] = 2.0 * (q1 * q2 - q0 * q3)
-    c[2, 0] = 2.0 * (q1 * q3 + q0 * q2)
-    c[0, 1] = 2.0 * (q1 * q2 + q0 * q3)
-    c[1, 1] = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
-    c[2, 1] = 2.0 * (q2 * q3 - q0 * q1)
-    c[0, 2] = 2.0 * (q1 * q3 - q0 * q2)
-    c[1, 2] = 2.0 * (q2 * q3 + q0 * q1)
-    c[2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+    quat_to_dcm(q, c)
+    for i in range(3):
+        for j in range(i + 1, 3):
+            c[i, j], c[j, i] = c[j, i], c[i, j]
 
 
 @jit
