@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from sins_sim import earth
-from sins_sim.io.trajectory import HEIGHT_RANGE_M, MAX_ABS_LAT_DEG, MAX_SPEED_M_S
+from sins_sim.io.trajectory import HEIGHT_RANGE_M, MAX_ABS_LAT_DEG, MAX_SPEED_M_S, read_numeric_table
 from sins_sim.units import DEG
 
 __all__ = ["GnssFileError", "GnssFile", "read_gnss_file", "write_gnss_file", "GNSS_COLUMNS"]
@@ -118,21 +118,19 @@ def _check(cols: dict, where: str, row_label) -> None:
                                          f"{MAX_SPEED_M_S:g} m/s")
 
 
-def _header(names, where):
+def _header(names, fail):
     unknown = [n for n in names if n not in GNSS_COLUMNS]
     if unknown:
-        raise GnssFileError(f"{where}: header: unknown column {unknown[0]!r}; the columns are "
-                            f"{', '.join(GNSS_COLUMNS)} (units in the names)")
+        fail(f"unknown column {unknown[0]!r}; the columns are {', '.join(GNSS_COLUMNS)} (units in the names)")
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
-        raise GnssFileError(f"{where}: header: column {dup[0]} appears more than once")
+        fail(f"column {dup[0]} appears more than once")
     missing = [n for n in _REQUIRED if n not in names]
     if missing:
-        raise GnssFileError(f"{where}: header: missing required column {missing[0]}")
+        fail(f"missing required column {missing[0]}")
     vel = [n for n in _VELOCITY if n in names]
     if vel and len(vel) != 3:
-        raise GnssFileError(f"{where}: header: the velocity columns {', '.join(_VELOCITY)} come all three or none, "
-                            f"got {', '.join(vel)}")
+        fail(f"the velocity columns {', '.join(_VELOCITY)} come all three or none, got {', '.join(vel)}")
 
 
 def read_gnss_file(path) -> GnssFile:
@@ -147,66 +145,10 @@ def read_gnss_file(path) -> GnssFile:
     where = f"GNSS file {p}"
     if not p.is_file():
         raise GnssFileError(f"{where}: does not exist" if not p.exists() else f"{where}: is not a file")
-    suffix = p.suffix.lower()
-    if suffix == ".csv":
-        try:
-            lines = p.read_text(encoding="utf-8-sig").splitlines()
-        except (OSError, UnicodeDecodeError) as exc:
-            raise GnssFileError(f"{where}: cannot be read as UTF-8 text ({exc})") from None
-        i = 0
-        while i < len(lines) and lines[i].lstrip().startswith("#"):
-            i += 1
-        if i == len(lines):
-            raise GnssFileError(f"{where}: expected the header row ({','.join(_REQUIRED)}) after the comments")
-        names = [c.strip() for c in lines[i].split(",")]
-        _header(names, where)
-        body = [ln for ln in lines[i + 1:]]
-        while body and not body[-1].strip():
-            body.pop()
-        rows = []
-        for j, line in enumerate(body):
-            cells = line.split(",")
-            if len(cells) != len(names):
-                raise GnssFileError(f"{where}: row {j + 1} (line {i + 2 + j}): expected {len(names)} cells, "
-                                    f"got {len(cells)}")
-            try:
-                rows.append([float(c) for c in cells])
-            except ValueError:
-                bad = next(c for c in cells if not _is_number(c))
-                raise GnssFileError(f"{where}: row {j + 1} (line {i + 2 + j}): must be a number, got "
-                                    f"{bad.strip()!r}") from None
-        values = np.array(rows, dtype=np.float64).reshape(-1, len(names))
-        cols = {n: np.ascontiguousarray(values[:, c]) for c, n in enumerate(names)}
-        _check(cols, where, lambda r: f"row {r + 1} (line {i + 2 + r})")
-    elif suffix in (".parquet", ".pq"):
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-
-        try:
-            table = pq.read_table(p)
-        except (OSError, pa.ArrowException) as exc:
-            raise GnssFileError(f"{where}: not a readable Parquet file ({exc})") from None
-        names = list(table.column_names)
-        _header(names, where)
-        cols = {}
-        for n in names:
-            col = table.column(n)
-            if not (pa.types.is_floating(col.type) or pa.types.is_integer(col.type)) or col.null_count:
-                raise GnssFileError(f"{where}: column {n}: must be numeric without nulls, got {col.type}")
-            cols[n] = np.ascontiguousarray(col.to_numpy(), dtype=np.float64)
-        _check(cols, where, lambda r: f"row {r + 1}")
-    else:
-        raise GnssFileError(f"{where}: unknown suffix {p.suffix!r}; use .csv, .parquet or .pq")
+    cols, row_label = read_numeric_table(p, where, GnssFileError, _header, _REQUIRED, _MIN_ROWS)
+    _check(cols, where, row_label)
     vel = np.column_stack([cols[c] for c in _VELOCITY]) if "vn_m_s" in cols else None
     return GnssFile(cols["time_s"], cols["lat_deg"] * DEG, cols["lon_deg"] * DEG, cols["height_m"], vel, str(p))
-
-
-def _is_number(text) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def write_gnss_file(path, t_s, lat_rad, lon_rad, h_m, v_ned_m_s=None) -> Path:

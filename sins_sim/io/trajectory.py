@@ -400,33 +400,61 @@ def read_trajectory(path) -> TrajectoryData:
     where = f"trajectory file {p}"
     if not p.is_file():
         raise TrajectoryFileError(f"{where}: does not exist" if not p.exists() else f"{where}: is not a file")
+    return _read_table(p, where)
+
+
+def _read_table(p, where):
+    cols, row_label = read_numeric_table(p, where, TrajectoryFileError, _check_header, REQUIRED_COLUMNS, MIN_ROWS)
+    _check_values(cols, _Checker(where, row_label, lambda c: f"column {c}"))
+    return _data_from_columns(cols, str(p))
+
+
+def read_numeric_table(p, where: str, error, check_header, required, min_rows: int):
+    """The columns of a numeric table file: CSV (``#`` comment lines, a header row of names, comma-separated
+    numbers) or Parquet (numeric columns without nulls), by suffix; shared by the trajectory and GNSS files.
+
+    Parameters
+    ----------
+    p : Path
+        The file (it exists).
+    where : str
+        The file as messages name it.
+    error : type
+        The ``ValueError`` subclass raised, with one line naming the row, the line and the column.
+    check_header : callable(names, fail)
+        The format's rules on the column names; ``fail(rule)`` raises.
+    required : sequence of str
+        The required columns (named when the header row is missing).
+    min_rows : int
+        Named when the file holds a header and no data.
+
+    Returns
+    -------
+    (dict, callable)
+        ``name -> float64 array`` and ``row_label(r)`` naming a row (and its line, for CSV) in messages.
+    """
     suffix = p.suffix.lower()
-    if suffix == ".csv":
-        return _read_csv(p, where)
     if suffix in _PARQUET_SUFFIXES:
-        return _read_parquet(p, where)
-    raise TrajectoryFileError(f"{where}: unknown suffix {p.suffix!r}; use .csv, .parquet or .pq")
-
-
-def _read_csv(p, where):
+        return _parquet_columns(p, where, error, check_header)
+    if suffix != ".csv":
+        raise error(f"{where}: unknown suffix {p.suffix!r}; use .csv, .parquet or .pq")
     try:
         text = p.read_text(encoding="utf-8-sig")  # a byte-order mark is allowed
     except (OSError, UnicodeDecodeError) as exc:
-        raise TrajectoryFileError(f"{where}: cannot be read as UTF-8 text ({exc})") from None
+        raise error(f"{where}: cannot be read as UTF-8 text ({exc})") from None
     lines = text.splitlines()
     i = 0
     while i < len(lines) and lines[i].lstrip().startswith("#"):
         i += 1
     if i == len(lines) or not lines[i].strip():
-        raise TrajectoryFileError(f"{where}: line {i + 1}: expected the header row "
-                                  f"({','.join(REQUIRED_COLUMNS)}) after the comments")
+        raise error(f"{where}: line {i + 1}: expected the header row ({','.join(required)}) after the comments")
     header_line = i + 1
 
     def header_fail(rule):
-        raise TrajectoryFileError(f"{where}: header (line {header_line}): {rule}")
+        raise error(f"{where}: header (line {header_line}): {rule}")
 
     names = [c.strip() for c in lines[i].split(",")]
-    _check_header(names, header_fail)
+    check_header(names, header_fail)
     body = lines[i + 1:]
     while body and not body[-1].strip():  # blank lines at the end
         body.pop()
@@ -436,16 +464,16 @@ def _read_csv(p, where):
         ln = header_line + 1 + j
         r = j + 1
         if not line.strip():
-            raise TrajectoryFileError(f"{where}: row {r} (line {ln}): empty line inside the data")
+            raise error(f"{where}: row {r} (line {ln}): empty line inside the data")
         cells = line.split(",")
         if len(cells) != ncol:
-            raise TrajectoryFileError(f"{where}: row {r} (line {ln}): expected {ncol} comma-separated cells "
-                                      f"(one per header column), got {len(cells)}")
+            raise error(f"{where}: row {r} (line {ln}): expected {ncol} comma-separated cells "
+                        f"(one per header column), got {len(cells)}")
         rows.append(cells)
         line_no.append(ln)
     if not rows:
-        raise TrajectoryFileError(f"{where}: column time_s: needs at least {MIN_ROWS} rows, got 0: the file "
-                                  "holds a header and no data")
+        raise error(f"{where}: column {required[0]}: needs at least {min_rows} rows, got 0: the file holds a header "
+                    "and no data")
     try:
         values = np.array([[_number(x) for x in cells] for cells in rows])
     except ValueError:
@@ -454,41 +482,39 @@ def _read_csv(p, where):
                 try:
                     _number(x)
                 except ValueError:
-                    raise TrajectoryFileError(f"{where}: row {r + 1} (line {line_no[r]}), column {names[c]}: "
-                                              f"must be a number, got {x.strip()!r}") from None
+                    raise error(f"{where}: row {r + 1} (line {line_no[r]}), column {names[c]}: "
+                                f"must be a number, got {x.strip()!r}") from None
         raise  # pragma: no cover - the scan above finds the cell
     cols = {name: np.ascontiguousarray(values[:, c]) for c, name in enumerate(names)}
-    _check_values(cols, _Checker(where, lambda r: f"row {r + 1} (line {line_no[r]})", lambda c: f"column {c}"))
-    return _data_from_columns(cols, str(p))
+    return cols, lambda r: f"row {r + 1} (line {line_no[r]})"
 
 
-def _read_parquet(p, where):
+def _parquet_columns(p, where, error, check_header):
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:  # pragma: no cover - pyarrow is a dependency
-        raise TrajectoryFileError(f"{where}: reading Parquet needs pyarrow, which is not installed") from None
+        raise error(f"{where}: reading Parquet needs pyarrow, which is not installed") from None
     try:
         table = pq.read_table(p)
     except (OSError, pa.ArrowException) as exc:
-        raise TrajectoryFileError(f"{where}: not a readable Parquet file ({exc})") from None
+        raise error(f"{where}: not a readable Parquet file ({exc})") from None
 
     def header_fail(rule):
-        raise TrajectoryFileError(f"{where}: {rule}")
+        raise error(f"{where}: {rule}")
 
     names = list(table.column_names)
-    _check_header(names, header_fail)
+    check_header(names, header_fail)
     cols = {}
     for name in names:
         col = table.column(name)
         if not (pa.types.is_floating(col.type) or pa.types.is_integer(col.type)):
-            raise TrajectoryFileError(f"{where}: column {name}: must be numeric (float or integer), got {col.type}")
+            raise error(f"{where}: column {name}: must be numeric (float or integer), got {col.type}")
         if col.null_count:
             r = int(np.flatnonzero(np.asarray(col.is_null()))[0])
-            raise TrajectoryFileError(f"{where}: row {r + 1}, column {name}: must be a number, got null")
+            raise error(f"{where}: row {r + 1}, column {name}: must be a number, got null")
         cols[name] = np.ascontiguousarray(col.to_numpy(), dtype=np.float64)
-    _check_values(cols, _Checker(where, lambda r: f"row {r + 1}", lambda c: f"column {c}"))
-    return _data_from_columns(cols, str(p))
+    return cols, lambda r: f"row {r + 1}"
 
 
 # --- writing -------------------------------------------------------------------------
