@@ -40,25 +40,35 @@ def _rows(rng):
     """Block start and end rows (lat, h, v, q) of a 60 m/s turning cruise at 52 deg N, 0.2 s apart."""
     q0 = quat_from_rotvec([0.01, -0.02, 0.7])
     q1 = quat_from_rotvec([0.011, -0.019, 0.705])
-    start = np.concatenate([[math.radians(52.0), 300.0], [46.0, 38.5, -0.3], q0])
-    end = np.concatenate([[math.radians(52.0) + 9.2 / 6.4e6, 300.06], [45.8, 38.8, -0.28], -q1])  # sign flipped
+    # the running integrals of the raw angle (rad) and of the velocity less the reference (m/s), body: a turn
+    # in progress (the angle grows on every axis) and a velocity change that shrinks on one axis
+    acc0 = np.array([0.1, -0.02, 0.7, 0.5, -0.3, 0.2])
+    acc1 = np.array([0.101, -0.021, 0.705, 0.52, -0.29, 0.25])
+    start = np.concatenate([[math.radians(52.0), 300.0], [46.0, 38.5, -0.3], q0, acc0])
+    end = np.concatenate([[math.radians(52.0) + 9.2 / 6.4e6, 300.06], [45.8, 38.8, -0.28], -q1, acc1])  # sign flipped
     return start, end
 
 
-def _navigator(start, feedback, p0, noise):
+#: Scale factors and misalignments of an unmodelled-error model (30 ppm / 6 arcsec gyros, 300 ppm / 20 arcsec
+#: accelerometers), so that the kernel's per-block process noise enters the comparison.
+UNMODELLED = ekf.UnmodelledErrors(30e-6, 2.9e-5, 3e-4, 9.7e-5, (0.0, 0.0, -9.81))
+
+
+def _navigator(start, feedback, p0, noise, unmodelled=None):
     nav = StrapdownNavigator(start[0], 0.08, start[1], start[2:5], start[5:9], 1.0 / 400.0)
-    return ekf.AidedNavigator(nav, noise, p0, feedback=feedback)
+    return ekf.AidedNavigator(nav, noise, p0, feedback=feedback, unmodelled=unmodelled)
 
 
 def test_propagate_block_equals_the_numpy_reference():
-    """Phi P Phi^T + Q_d, the transition product and (open loop) Phi x: Gauss-Markov and random-walk biases."""
+    """Phi P Phi^T + Q_d, the transition product and (open loop) Phi x: Gauss-Markov and random-walk biases,
+    without and with the unmodelled scale factors' and misalignments' process noise per block."""
     rng = np.random.default_rng(37)
     start, end = _rows(rng)
     p0 = _spd(rng, SIGMAS)
     for noise in (ekf.ImuNoise(1e-6, 2e-4, 5e-8, 1e-3, gyro_bias_tau_s=300.0, accel_bias_tau_s=600.0),
                   ekf.ImuNoise(1e-6, 2e-4, 5e-8, 1e-3, gyro_bias_rw_rad_s_sqrt_s=1e-9)):
-        for feedback in (True, False):
-            a, b = _navigator(start, feedback, p0, noise), _navigator(start, feedback, p0, noise)
+        for feedback, un in ((True, None), (False, None), (True, UNMODELLED), (False, UNMODELLED)):
+            a, b = _navigator(start, feedback, p0, noise, un), _navigator(start, feedback, p0, noise, un)
             x0 = rng.standard_normal(N) * SIGMAS
             for nav in (a, b):
                 nav._block_start = start.copy()

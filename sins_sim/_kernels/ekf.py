@@ -27,7 +27,7 @@ from sins_sim._kernels._config import jit
 from sins_sim._kernels.nav import quat_mul, quat_to_dcm, rotvec_to_quat
 from sins_sim._kernels.strapdown import gravity_down, radii
 
-__all__ = ["SERIES_ORDER", "propagate_block", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
+__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
 
 #: Highest power of ``F`` in the series of ``Phi`` and ``Q_d`` (the reference's ``_SERIES_ORDER``).
 SERIES_ORDER = 5
@@ -126,19 +126,49 @@ def error_dynamics_into(lat, h, vel, c, f_n, inv_tau_g, inv_tau_a, f):
 
 
 @jit
-def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, p, phi_acc, x, open_loop):
+def unmodelled_increment_into(a0, a1, origin, s2, m2, out):
+    """Per body axis ``max(0, v_i(a1 - o) - v_i(a0 - o))`` with ``v_i(a) = s2 a_i^2 + m2 (|a|^2 - a_i^2)``, into
+    ``out``; the origin ``o`` (``origin``, in place) restarts at ``a0`` when the step heads back towards it
+    (:func:`sins_sim.navigation.ekf.unmodelled_variance_increment`, the reference)."""
+    back = 0.0
+    for i in range(3):
+        back += (a1[i] - a0[i]) * (a0[i] - origin[i])
+    if back < 0.0:
+        for i in range(3):
+            origin[i] = a0[i]
+    n0 = 0.0
+    n1 = 0.0
+    for i in range(3):
+        n0 += (a0[i] - origin[i]) ** 2
+        n1 += (a1[i] - origin[i]) ** 2
+    for i in range(3):
+        b0 = (a0[i] - origin[i]) ** 2
+        b1 = (a1[i] - origin[i]) ** 2
+        out[i] = max(0.0, s2 * (b1 - b0) + m2 * ((n1 - b1) - (n0 - b0)))
+
+
+@jit
+def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, phi_acc, x, open_loop):
     """Propagate the covariance over one block of navigation updates, in place.
 
     Parameters
     ----------
-    start, end : ndarray, shape (9,)
-        The navigator's ``(lat, h, v_N, v_E, v_D, q0, q1, q2, q3)`` at the block's start and end.
+    start, end : ndarray, shape (15,)
+        The navigator's ``(lat, h, v_N, v_E, v_D, q0, q1, q2, q3)`` at the block's start and end, then the
+        running integrals of the raw rate (rad, body) and of the specific force less its reference (m/s, body)
+        that the unmodelled scale factors and misalignments multiply.
     t : float
         The block's length (s).
     inv_tau_g, inv_tau_a : float
         Bias correlation rates (1/s; 0 for constant biases).
     qc : ndarray, shape (15, 15)
         ``Q' = G Q G^T`` (per second).
+    unmod : ndarray, shape (4,)
+        Variances of the scale factor and the misalignment of the gyros, then of the accelerometers
+        (dimensionless); their block's variance increments (:func:`unmodelled_increment_into`, body axes) enter
+        ``Q'`` as ``C diag(d) C^T / T`` on the attitude and the velocity rows.
+    origin : ndarray, shape (6,)
+        The integrals' origins (gyros, accelerometers), updated in place.
     p : ndarray, shape (15, 15)
         Covariance, replaced by ``Phi P Phi^T + Q_d`` (symmetrised).
     phi_acc : ndarray, shape (15, 15)
@@ -191,6 +221,20 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, p, phi_acc, x, open
     f_n[2] -= gravity_down(lat, h)
     f = np.empty((n, n))
     error_dynamics_into(lat, h, vel, c, f_n, inv_tau_g, inv_tau_a, f)
+    m = qc.copy()
+    d = np.empty(3)
+    for blk in range(2):
+        if unmod[2 * blk] == 0.0 and unmod[2 * blk + 1] == 0.0:
+            continue
+        unmodelled_increment_into(start[9 + 3 * blk:12 + 3 * blk], end[9 + 3 * blk:12 + 3 * blk],
+                                  origin[3 * blk:3 * blk + 3], unmod[2 * blk], unmod[2 * blk + 1], d)
+        r0 = 6 if blk == 0 else 3          # gyros: attitude rows; accelerometers: velocity rows
+        for i in range(3):
+            for j in range(3):
+                a = 0.0
+                for k in range(3):
+                    a += c[i, k] * d[k] * c[j, k]
+                m[r0 + i, r0 + j] += a / t
     # Phi = sum (F T)^k / k!
     ft = f * t
     term = np.eye(n)
@@ -199,7 +243,6 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, p, phi_acc, x, open
         term = np.dot(term, ft) / k
         phi += term
     # Q_d = sum M_k T^(k+1) / (k+1)!, M_0 = Q', M_k = F M_(k-1) + M_(k-1) F^T
-    m = qc.copy()
     q_d = m * t
     coef = t
     for k in range(1, SERIES_ORDER + 1):

@@ -306,7 +306,7 @@ def _uniform_times(t_s, n):
 
 def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0, fixes: GnssFixes, *,
                    output_t_s=None, use=GNSS_MEASUREMENTS, latency="compensate", n_sub=1,
-                   max_propagation_s=1.0, feedback=True) -> AidedResult:
+                   max_propagation_s=1.0, feedback=True, unmodelled=None) -> AidedResult:
     """GNSS-aided navigation of a record of increments (module docstring).
 
     Parameters
@@ -337,6 +337,9 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
     feedback : bool
         Closed loop (default); ``False`` leaves the navigator free and the error state accumulating (the
         open-loop filter, whose solution is the free one minus the estimate; for comparison).
+    unmodelled : UnmodelledErrors or None
+        Scale factors and misalignments told to the filter as process noise per propagation step
+        (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`).
 
     Returns
     -------
@@ -358,7 +361,8 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
         raise ValueError(f"fixes: must be GnssFixes, got {type(fixes).__name__}")
     run = AidedRun(t[0] - dt, dt, dth.shape[0], start, noise, p0, fixes.t_valid_s, fixes.t_deliver_s,
                    fixes.position_sigma_m, fixes.velocity_sigma_m_s, fixes.lever_arm_b_m, output_t_s=output_t_s,
-                   use=use, latency=latency, n_sub=n_sub, max_propagation_s=max_propagation_s, feedback=feedback)
+                   use=use, latency=latency, n_sub=n_sub, max_propagation_s=max_propagation_s, feedback=feedback,
+                   unmodelled=unmodelled)
     run.add_fixes(fixes)
     run.feed(dth, dvel)
     return run.result()
@@ -380,7 +384,7 @@ class AidedRun:
         Increment period (s).
     n_increments : int
         Increments in the whole record.
-    start, noise, p0, output_t_s, use, latency, n_sub, max_propagation_s, feedback
+    start, noise, p0, output_t_s, use, latency, n_sub, max_propagation_s, feedback, unmodelled
         As in :func:`navigate_aided`.
     t_valid_s, t_deliver_s : array_like, shape (M,)
         The fix schedule: time of validity and of delivery of each fix (s).
@@ -394,7 +398,7 @@ class AidedRun:
     def __init__(self, t0_s, dt_s, n_increments, start: ekf.NavState, noise: ekf.ImuNoise, p0, t_valid_s,
                  t_deliver_s, position_sigma_m, velocity_sigma_m_s, lever_arm_b_m, *, output_t_s=None,
                  use=GNSS_MEASUREMENTS, latency="compensate", n_sub=1, max_propagation_s=1.0, feedback=True,
-                 coning="two_sample", sculling="two_sample"):
+                 coning="two_sample", sculling="two_sample", unmodelled=None):
         dt = v.positive("", "dt_s", dt_s)
         t0 = float(t0_s)
         if not isinstance(start, ekf.NavState):
@@ -415,7 +419,7 @@ class AidedRun:
                                  n_sub=n_sub, coning=coning, sculling=sculling)
         self._aided = ekf.AidedNavigator(nav, noise, p0, gyro_bias_rad_s=start.gyro_bias_rad_s,
                                          accel_bias_m_s2=start.accel_bias_m_s2, max_propagation_s=max_propagation_s,
-                                         feedback=bool(feedback))
+                                         feedback=bool(feedback), unmodelled=unmodelled)
         self._t0, self._dt, self._n_sub = t0, dt, int(n_sub)
         self._big_t = big_t = nav.update_period_s
         self._n_upd = n_upd = int(n_increments) // self._n_sub

@@ -8,6 +8,8 @@ inertial sensors, feeds them back after every measurement, and resets its error 
 .. autosummary::
 
    ImuNoise
+   UnmodelledErrors
+   unmodelled_variance_increment
    NavState
    AidedNavigator
    Innovation
@@ -130,9 +132,10 @@ from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
 
 __all__ = [
     "N_STATES", "STATE_NAMES", "POS", "VEL", "ATT", "GYRO_BIAS", "ACCEL_BIAS", "BIASES", "HEADING", "BIAS_KEYS",
-    "ImuNoise", "NavState", "Innovation", "AidedNavigator", "MEASUREMENTS", "make_measurement",
+    "ImuNoise", "UnmodelledErrors", "NavState", "Innovation", "AidedNavigator", "MEASUREMENTS", "make_measurement",
     "ZeroVelocity", "ZeroAngularRate", "Position", "Velocity", "Height",
     "error_dynamics", "process_noise_density", "discretize", "initial_covariance", "skew",
+    "unmodelled_variance_increment",
 ]
 
 # --- state layout -------------------------------------------------------------------------------------------
@@ -320,6 +323,106 @@ class ImuNoise:
             else:
                 out[sl] = out[sl] + rw * rw * t_s
         return out
+
+
+@dataclass(frozen=True)
+class UnmodelledErrors:
+    """Scale factors and misalignments the 15 states do not hold, told to the filter as process noise per step.
+
+    Parameters
+    ----------
+    gyro_scale_factor, gyro_misalignment_rad : float
+        1-sigma of the gyros' scale-factor error (dimensionless) and of each misalignment (rad), >= 0.
+    accel_scale_factor, accel_misalignment_rad : float
+        The same for the accelerometers.
+    accel_reference_b_m_s2 : array_like, shape (3,), or None
+        The specific force (body, m/s^2) whose error the accelerometer bias states take up (in level flight
+        mostly gravity); None: the mean of the first chunk the filter navigates.
+
+    Notes
+    -----
+    The model (a constant error matrix ``K``, ``sigma_S`` on its diagonal and ``sigma_M`` off it, on a body
+    quantity ``x``, the rate or the specific force less its reference: the IMU error model
+    ``omega_meas = b_g + (I + M_g) omega + w_g``, Groves 2013, sec. 4.4.6, and its place in the error
+    equations, Titterton & Weston 2004, ch. 12; Groves 2013, ch. 14, inflates the system noise for unestimated
+    states without a formula). The error ``K x`` integrates to ``K a(t)``, ``a`` the
+    running integral of ``x`` since the start (the angle turned through; the velocity change less the
+    reference's), with per body axis the variance::
+
+        v_i(a) = sigma_S^2 a_i^2 + sigma_M^2 (|a|^2 - a_i^2)
+
+    Each propagation step from ``a_0`` to ``a_1`` adds ``max(0, v_i(a_1 - o) - v_i(a_0 - o))`` to the attitude
+    (gyros) or velocity (accelerometers) error variance, rotated by the step's mean ``C_nb``
+    (:func:`unmodelled_variance_increment`; ``Q'`` gains ``C diag(d) C^T / T`` over the step). The origin
+    ``o`` starts at 0 and restarts at ``a_0`` when a step heads back towards it (a turn back): the filter has
+    measured and corrected part of the first leg's error by then, and the second leg's ``K (a - o)`` is new
+    to it. Over a turn the steps add up to ``sigma^2 |a - o|^2``, the coherent error of the constant ``K`` (a
+    constant rate ``omega`` about one axis for ``t``: ``sigma_S^2 omega^2 t^2``, step ``k`` adding
+    ``sigma_S^2 omega^2 T^2 (2 k + 1)``); in cruise nothing is added, the turn's error stays in ``P`` as the
+    constant it is. A white density ``sigma^2 omega^2 dt`` per step would instead give ``sigma^2 omega^2 T t``,
+    short of the coherent growth by ``T / t``. Conservative for a turn back with no measurement in between
+    (the two legs' errors cancel, their variances add) and for the horizontal misalignment terms of a heading
+    change (their true sum is the chord ``2 sin(a/2)`` of the arc ``a``). The vibration's angles and velocities
+    are bounded and oscillate: each half cycle adds the variance of its own amplitude, ``sigma^2 (2 A)^2``, far
+    below the white noise for the rotor lines (0.3 arcmin: 3e-17 rad^2 per half cycle at 30 ppm).
+    """
+
+    gyro_scale_factor: float
+    gyro_misalignment_rad: float
+    accel_scale_factor: float
+    accel_misalignment_rad: float
+    accel_reference_b_m_s2: object = None
+
+    def __post_init__(self):
+        for name in ("gyro_scale_factor", "gyro_misalignment_rad", "accel_scale_factor", "accel_misalignment_rad"):
+            object.__setattr__(self, name, v.non_negative("UnmodelledErrors", name, getattr(self, name)))
+        if self.accel_reference_b_m_s2 is not None:
+            object.__setattr__(self, "accel_reference_b_m_s2",
+                               _vec3("accel_reference_b_m_s2", self.accel_reference_b_m_s2))
+
+    @property
+    def variances(self) -> np.ndarray:
+        """``(sigma_S^2, sigma_M^2)`` of the gyros, then of the accelerometers (the kernel's ``unmod``)."""
+        return np.array([self.gyro_scale_factor, self.gyro_misalignment_rad, self.accel_scale_factor,
+                         self.accel_misalignment_rad]) ** 2
+
+
+def unmodelled_variance_increment(a0, a1, scale_sigma, misalignment_sigma, origin=(0.0, 0.0, 0.0)):
+    """Per body axis the variance a step adds (:class:`UnmodelledErrors`), and the origin after it.
+
+    The origin ``o`` restarts at ``a0`` when the step heads back towards it (``(a1 - a0) . (a0 - o) < 0``); then
+    ``d_i = max(0, v_i(a1 - o) - v_i(a0 - o))`` with ``v_i(a) = sigma_S^2 a_i^2 + sigma_M^2 (|a|^2 - a_i^2)``.
+
+    Parameters
+    ----------
+    a0, a1 : array_like, shape (3,)
+        The running integral at the step's start and end (rad for gyros, m/s for accelerometers; body).
+    scale_sigma, misalignment_sigma : float
+        1-sigma of the scale factor and of each misalignment.
+    origin : array_like, shape (3,)
+        The origin before the step.
+
+    Returns
+    -------
+    d : ndarray, shape (3,)
+    origin : ndarray, shape (3,)
+
+    Examples
+    --------
+    >>> d, o = unmodelled_variance_increment([0.0, 0.0, 0.0], [0.0, 0.0, 2.0], 1e-3, 0.0)
+    >>> d.tolist(), o.tolist()
+    ([0.0, 0.0, 4e-06], [0.0, 0.0, 0.0])
+    """
+    a0 = np.asarray(a0, dtype=np.float64)
+    a1 = np.asarray(a1, dtype=np.float64)
+    o = np.asarray(origin, dtype=np.float64)
+    if float((a1 - a0) @ (a0 - o)) < 0.0:
+        o = a0.copy()
+
+    def var(a):
+        return scale_sigma ** 2 * a ** 2 + misalignment_sigma ** 2 * (float(a @ a) - a ** 2)
+
+    return np.maximum(var(a1 - o) - var(a0 - o), 0.0), o
 
 
 # --- navigation snapshot --------------------------------------------------------------------------------------
@@ -877,10 +980,13 @@ class AidedNavigator:
         Closed loop (default). ``False`` keeps the navigator free and lets the error state accumulate
         (``x <- Phi x`` between updates): the open-loop filter, whose corrected solution is
         :meth:`corrected_state`.
+    unmodelled : UnmodelledErrors or None
+        Scale factors and misalignments not estimated: process noise per propagation block from the angle
+        and velocity change the block adds (:class:`UnmodelledErrors`); None: none.
     """
 
     def __init__(self, navigator, noise, p0, *, gyro_bias_rad_s=(0.0, 0.0, 0.0), accel_bias_m_s2=(0.0, 0.0, 0.0),
-                 max_propagation_s=1.0, feedback=True):
+                 max_propagation_s=1.0, feedback=True, unmodelled=None):
         if not isinstance(navigator, StrapdownNavigator):
             raise ValueError(f"navigator: must be a StrapdownNavigator, got {type(navigator).__name__}")
         if navigator.vertical != "free":
@@ -888,6 +994,8 @@ class AidedNavigator:
                              f"the 'height' measurement), got vertical={navigator.vertical!r}")
         if not isinstance(noise, ImuNoise):
             raise ValueError(f"noise: must be an ImuNoise, got {type(noise).__name__}")
+        if unmodelled is not None and not isinstance(unmodelled, UnmodelledErrors):
+            raise ValueError(f"unmodelled: must be UnmodelledErrors or None, got {type(unmodelled).__name__}")
         p = v.finite_array("", "p0", p0, ndim=2)
         if p.shape != (N_STATES, N_STATES) or not np.allclose(p, p.T, rtol=0.0, atol=1e-12 * np.max(np.abs(p))) \
                 or np.min(np.linalg.eigvalsh(p)) < -1e-12 * np.max(np.abs(p)):
@@ -904,6 +1012,12 @@ class AidedNavigator:
                                              * (1.0 + 1e-12))))
         self._feedback = bool(feedback)
         self._qc = process_noise_density(noise)
+        self._unmod = unmodelled
+        self._unmod_var = np.zeros(4) if unmodelled is None else unmodelled.variances
+        self._f_ref = None if unmodelled is None else unmodelled.accel_reference_b_m_s2
+        # running integrals at the last navigation update: raw angle (rad) and velocity less f_ref t (m/s), body
+        self._acc = np.zeros(6)
+        self._origin = np.zeros(6)     # their origins (UnmodelledErrors: restarted where the vehicle turns back)
         self._inv_tau = (1.0 / noise.gyro_bias_tau_s, 1.0 / noise.accel_bias_tau_s)   # 0.0 for inf
         self._prior_bias_var = np.diag(self._p)[BIASES].copy()
         self._records: list[Innovation] = []
@@ -911,6 +1025,7 @@ class AidedNavigator:
         self._block_n = 0          # navigation updates since the block start
         self._sum_dtheta = np.zeros(3)
         self._sum_n = 0
+        self._pend_raw = (np.zeros((0, 3)), np.zeros((0, 3)))
         self._epoch_rate = np.full(3, np.nan)
         self._epoch_update = -1
         self._phi_acc = np.eye(N_STATES)     # product of the block transitions since the last propagate()
@@ -987,10 +1102,26 @@ class AidedNavigator:
     # --- processing -----------------------------------------------------------------------------------------
 
     def _snapshot_row(self):
-        """``(lat, h, v_N, v_E, v_D, q0..q3)`` of the navigator now (a block end, :func:`kekf.propagate_block`)."""
+        """``(lat, h, v_N, v_E, v_D, q0..q3)`` of the navigator now and the running integrals of the raw angle and
+        velocity (a block end, :func:`kekf.propagate_block`)."""
         s = self._nav.state_array()
         return np.concatenate([s[ksd.ST_LAT:ksd.ST_LAT + 1], s[ksd.ST_H:ksd.ST_H + 1], s[ksd.ST_V:ksd.ST_V + 3],
-                               s[ksd.ST_Q:ksd.ST_Q + 4]])
+                               s[ksd.ST_Q:ksd.ST_Q + 4], self._acc])
+
+    def _integrals(self, dth, dvel, pending, m):
+        """The running integrals at the end of each of the ``m`` navigation updates this chunk completes (the
+        chunk's first ``n_sub - pending`` samples complete the pending update), and carried on past them."""
+        nav = self._nav
+        if self._f_ref is None:
+            self._f_ref = dvel.sum(axis=0) / (dvel.shape[0] * nav.dt_s)
+        acc = np.empty((m, 6))
+        if m:
+            idx = (np.arange(m) + 1) * nav.n_sub - pending - 1
+            t_row = (np.arange(m) + 1) * nav.update_period_s
+            acc[:, :3] = self._acc[:3] + np.cumsum(dth, axis=0)[idx]
+            acc[:, 3:] = self._acc[3:] + np.cumsum(dvel, axis=0)[idx] - np.outer(t_row, self._f_ref)
+            self._acc = acc[-1].copy()
+        return acc
 
     def process(self, dtheta, dv) -> NavSolution:
         """Navigate a chunk of increments with the bias estimates removed, propagating the covariance.
@@ -1022,8 +1153,19 @@ class AidedNavigator:
         if dth.shape[0]:
             self._sum_dtheta += dth.sum(axis=0)
             self._sum_n += dth.shape[0]
+        pending = nav.pending_samples
         out = nav._run(dth - self._bg * dt, dvel - self._ba * dt, _NO_AID)
         m = out.shape[0]
+        if self._unmod is not None and dth.shape[0]:
+            if pending:      # the running integrals count whole updates: the pending samples join this chunk
+                dth = np.concatenate([self._pend_raw[0], dth])
+                dvel = np.concatenate([self._pend_raw[1], dvel])
+                pending = 0
+            acc = self._integrals(dth, dvel, pending, m)
+            rest = dth.shape[0] - m * nav.n_sub
+            self._pend_raw = (dth[dth.shape[0] - rest:].copy(), dvel[dvel.shape[0] - rest:].copy())
+        else:
+            acc = np.zeros((m, 6))
         sol = NavSolution(t_s=(nav.n_updates - m + 1 + np.arange(m)) * nav.update_period_s,
                           lat_rad=out[:, ksd.OUT_LAT].copy(), lon_rad=out[:, ksd.OUT_LON].copy(),
                           h_m=out[:, ksd.OUT_H].copy(), v_ned_m_s=out[:, ksd.OUT_V:ksd.OUT_V + 3].copy(),
@@ -1034,7 +1176,7 @@ class AidedNavigator:
         first = self._n_prop - self._block_n - 1
         ends = range(first, m, self._n_prop)
         if len(ends):
-            rows = out[first::self._n_prop][:, _BLOCK_ROW]
+            rows = np.concatenate([out[first::self._n_prop][:, _BLOCK_ROW], acc[first::self._n_prop]], axis=1)
             for row in rows:
                 self._propagate_block(row, self._n_prop)
         last = ends[-1] if len(ends) else -1
@@ -1048,8 +1190,8 @@ class AidedNavigator:
         """One block (the compiled :func:`kekf.propagate_block`; the reference in numpy is
         :meth:`_propagate_block_reference`)."""
         t = n_updates * self._nav.update_period_s
-        kekf.propagate_block(self._block_start, end, t, self._inv_tau[0], self._inv_tau[1], self._qc, self._p,
-                             self._phi_acc, self._x, not self._feedback)
+        kekf.propagate_block(self._block_start, end, t, self._inv_tau[0], self._inv_tau[1], self._qc, self._unmod_var,
+                             self._origin, self._p, self._phi_acc, self._x, not self._feedback)
         self._prior_bias_var = self._noise.bias_variance_after(self._prior_bias_var, t)
         self._block_start = end
 
@@ -1072,7 +1214,15 @@ class AidedNavigator:
         f_n = (v1 - v0) / t + _cross(2.0 * wie + wen, vel)
         f_n[2] -= float(earth.gravity_down(lat, h))
         fm = error_dynamics(lat, h, vel, c, f_n, self._noise)
-        phi, q_d = discretize(fm, self._qc, t)
+        qc = self._qc.copy()
+        un = self._unmod
+        if un is not None:       # the unmodelled errors' variance over the block (UnmodelledErrors), body to NED
+            for sl, a, sig_s, sig_m in ((ATT, slice(9, 12), un.gyro_scale_factor, un.gyro_misalignment_rad),
+                                        (VEL, slice(12, 15), un.accel_scale_factor, un.accel_misalignment_rad)):
+                o = slice(a.start - 9, a.stop - 9)
+                d, self._origin[o] = unmodelled_variance_increment(s0[a], s1[a], sig_s, sig_m, self._origin[o])
+                qc[sl, sl] += c @ np.diag(d) @ c.T / t
+        phi, q_d = discretize(fm, qc, t)
         p = phi @ self._p @ phi.T + q_d
         self._p = 0.5 * (p + p.T)
         self._phi_acc = phi @ self._phi_acc

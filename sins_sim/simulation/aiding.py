@@ -28,7 +28,7 @@ at 5 Hz); once the metrics, the outage growth and the smoother are computed they
    FilterModel
    filter_model
    markov_equivalent_sigma
-   unmodelled_densities
+   unmodelled_errors
    OUTAGE_AFTER_S
 
 The filter's model of what it does not estimate (a 15-state filter: no GNSS error states, no scale-factor or
@@ -39,13 +39,13 @@ misalignment states; :func:`filter_model`, stated in ``metrics.json`` ``aiding.f
   stretch has the variance of the mean of the first-order Gauss-Markov sequence over the same ``n``
   (the variance of the mean of an AR(1) sequence; Box, Jenkins & Reinsel 2008, sec. 2.1.5). With ``n = 1`` it is
   the Gauss-Markov variance itself, for ``n`` far beyond the correlation the familiar ``2 tau / dt`` inflation.
-* **Scale factors and misalignments** (gyro and accelerometer) enter the white process noise
-  (:func:`unmodelled_densities`): a constant error ``K`` times a rate that persists over a window ``W``
-  accumulates ``K delta_theta_W``; the white density that reaches the same variance at the window where that
-  ratio peaks is ``sigma_K^2 max_W |delta_theta_W|^2 / W`` (for a turn at a constant rate ``omega`` over ``T``:
-  ``sigma_K^2 omega^2 T``), computed from the vehicle's own rates and specific forces (the accelerometers' from
-  the specific force's change from its median, the median itself is a bias the bias states absorb).
-  It over-states the error at every other window (conservative there).
+* **Scale factors and misalignments** (gyro and accelerometer) enter the process noise per propagation step
+  (:func:`unmodelled_errors`, :class:`~sins_sim.navigation.ekf.UnmodelledErrors`): the variance their constant
+  error ``K`` adds to the attitude (velocity) error over the step, from the angle turned through (the velocity
+  change less the median specific force) since the start, ``sigma_S^2 a_i^2 + sigma_M^2 (|a|^2 - a_i^2)``
+  per body axis, coherent as a constant error is (a constant rate ``omega`` about one axis for ``t``:
+  ``sigma_S^2 omega^2 t^2``), and nothing in cruise. Their constant part (the median rate and specific force)
+  raises the bias priors instead.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ import numpy as np
 from sins_sim.units import ARCSEC, DEG
 
 __all__ = ["OUTAGE_AFTER_S", "OUTPUT_PERIOD_S", "AidedMission", "AidingSettings", "FilterModel", "filter_model",
-           "markov_equivalent_sigma", "unmodelled_densities"]
+           "markov_equivalent_sigma", "unmodelled_errors"]
 
 #: Times into each outage at which the growth is read (s).
 OUTAGE_AFTER_S = (10.0, 30.0, 60.0, 120.0)
@@ -147,75 +147,66 @@ def markov_equivalent_sigma(white_sigma, markov_sigma, markov_tau_s, interval_s,
     return np.sqrt(np.asarray(white_sigma, dtype=np.float64) ** 2 + np.asarray(markov_sigma, dtype=np.float64) ** 2 * g)
 
 
-def _window_peak(cum, t_s) -> float:
-    """``max_W |cum(t + W) - cum(t)|^2 / W`` over every pair of samples (``cum``: (N, 3) running integral)."""
-    if cum.shape[0] < 2:
-        return 0.0
-    d = cum[None, :, :] - cum[:, None, :]
-    w = t_s[None, :] - t_s[:, None]
-    ok = w > 0.0
-    return float(np.max(np.einsum("ijk,ijk->ij", d, d)[ok] / w[ok]))
+def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
+    """The scale factors and misalignments a 15-state filter does not estimate, as the filter is told them.
 
-
-def unmodelled_densities(sensors, vehicle, t0_s, t1_s, step_s=0.5) -> dict:
-    """White densities equivalent to the scale factors and misalignments a 15-state filter does not estimate.
-
-    The body-axis error ``K x`` of a constant error matrix ``K`` (``S`` on the diagonal, ``M`` off it) on a
-    quantity ``x`` (rate or specific-force change) has per axis the variance
-    ``sigma_S^2 x_i^2 + sigma_M^2 sum_(j != i) x_j^2 <= sigma_K^2 |x|^2`` with ``sigma_K = max(sigma_S, sigma_M)``
-    (``sigma_S`` the root sum square of scale factor and asymmetry, ``sigma_M`` the largest misalignment; the
-    unit's numbers read as 1-sigma). Accumulated over a window ``W`` it is ``sigma_K^2 |int_W x dt|^2``; a white
-    density ``q`` gives ``q W``. ``q = sigma_K^2 max_W |int_W x dt|^2 / W`` matches at the worst window and
-    exceeds it at every other one (a turn at ``omega`` for ``T`` s: ``sigma_K^2 omega^2 T``). Gyros: ``x`` the
-    vehicle's inertial rate; accelerometers: its specific force minus the median (the constant part reads as
-    a bias, which the bias states estimate).
+    ``sigma_S`` the root sum square of scale factor and asymmetry, ``sigma_M`` the largest misalignment (the
+    unit's numbers read as 1-sigma, the largest axis), for gyros and accelerometers: the process noise per
+    propagation step of :class:`~sins_sim.navigation.ekf.UnmodelledErrors`. The accelerometers' reference is the
+    vehicle's median specific force over the span (body; in level flight gravity): its error ``K f_ref`` is
+    constant and reads as a bias, so the bias priors per body axis are raised by ``sigma_S^2 x_i^2 + sigma_M^2
+    sum_(j != i) x_j^2`` of the median rate and specific force instead.
 
     Parameters
     ----------
     sensors : SensorErrorParams or None
     vehicle : trajectory or None
-        With ``evaluate(t)`` giving ``omega_iv_v_rad_s`` and ``f_v_m_s2``.
+        With ``evaluate(t)`` giving ``omega_iv_v_rad_s`` and ``f_v_m_s2``; None: the reference is the filter's
+        first chunk (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`) and the priors are not raised.
     t0_s, t1_s : float
         The aided span (s).
     step_s : float
-        Sampling of the rates (s).
+        Sampling of the vehicle's motion for the medians (s).
 
     Returns
     -------
-    dict
-        ``gyro_rad2_s`` (rad^2/s) and ``accel_m2_s3`` (m^2/s^3) densities, ``gyro_k`` and ``accel_k`` (the
-        sigma_K used, dimensionless).
+    unmodelled : UnmodelledErrors or None
+        None without ``sensors``.
+    bias_var_extra : ndarray, shape (6,)
+        The bias priors' added variances (gyros xyz in (rad/s)^2, accelerometers xyz in (m/s^2)^2).
     """
-    out = {"gyro_rad2_s": 0.0, "accel_m2_s3": 0.0, "gyro_k": 0.0, "accel_k": 0.0,
-           "gyro_bias_var": np.zeros(3), "accel_bias_var": np.zeros(3)}
-    if sensors is None or vehicle is None or t1_s <= t0_s:
-        return out
-    t = np.arange(t0_s, t1_s + 1e-9, step_s)
-    tr = vehicle.evaluate(t)
-    for key, par, x in (("gyro", sensors.gyro, np.asarray(tr.omega_iv_v_rad_s)),
-                        ("accel", sensors.accelerometer, np.asarray(tr.f_v_m_s2))):
-        ppm = 1e-6
+    from sins_sim.navigation.ekf import UnmodelledErrors
+
+    extra = np.zeros(6)
+    if sensors is None:
+        return None, extra
+    ppm = 1e-6
+    sig = {}
+    for key, par in (("gyro", sensors.gyro), ("accel", sensors.accelerometer)):
         s = math.sqrt(float(np.max(np.asarray(par.scale_factor_ppm, dtype=float) ** 2
                                    + np.asarray(par.scale_factor_asymmetry_ppm, dtype=float) ** 2))) * ppm
         m = float(np.max(np.abs(np.asarray(par.misalignment_arcsec, dtype=float)))) * ARCSEC
-        k = max(s, m)
-        med = np.median(x, axis=0)
-        # the constant part's error, a bias per body axis: sigma_S^2 x_i^2 + sigma_M^2 sum_(j != i) x_j^2
-        out[f"{key}_bias_var"] = s * s * med ** 2 + m * m * (np.sum(med ** 2) - med ** 2)
-        x = x - med
-        cum = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (x[1:] + x[:-1]) * step_s, axis=0)])
-        out[f"{key}_k"] = k
-        out["gyro_rad2_s" if key == "gyro" else "accel_m2_s3"] = k * k * _window_peak(cum, t)
-    return out
+        sig[key] = (s, m)
+    f_ref = None
+    if vehicle is not None and t1_s > t0_s:
+        tr = vehicle.evaluate(np.arange(t0_s, t1_s + 1e-9, step_s))
+        for k, (key, x) in enumerate((("gyro", np.asarray(tr.omega_iv_v_rad_s)), ("accel", np.asarray(tr.f_v_m_s2)))):
+            s, m = sig[key]
+            med = np.median(x, axis=0)
+            extra[3 * k:3 * k + 3] = s * s * med ** 2 + m * m * (np.sum(med ** 2) - med ** 2)
+            if key == "accel":
+                f_ref = med
+    return UnmodelledErrors(sig["gyro"][0], sig["gyro"][1], sig["accel"][0], sig["accel"][1], f_ref), extra
 
 
 @dataclass(frozen=True)
 class FilterModel:
     """What the filter is told: its sensor noise and the fixes' sigmas (:func:`filter_model`).
 
-    ``noise`` the :class:`~sins_sim.navigation.ekf.ImuNoise` (white densities including the unmodelled
-    errors' equivalent), ``position_sigma_m`` and ``velocity_sigma_m_s`` the fixes' ``R`` (1-sigma per NED
-    axis), ``record`` the derivation's numbers for ``metrics.json`` (SI, units in the keys).
+    ``noise`` the unit's :class:`~sins_sim.navigation.ekf.ImuNoise`, ``position_sigma_m`` and
+    ``velocity_sigma_m_s`` the fixes' ``R`` (1-sigma per NED axis), ``record`` the derivation's numbers for
+    ``metrics.json`` (SI, units in the keys), ``unmodelled`` the scale factors and misalignments told as process
+    noise per step (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`, or None).
     """
 
     noise: object
@@ -223,11 +214,12 @@ class FilterModel:
     velocity_sigma_m_s: np.ndarray
     record: dict
     bias_var_extra: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    unmodelled: object = None
 
     def initial_covariance(self, pos_sigma_m, vel_sigma_m_s, tilt_sigma_rad, heading_sigma_rad) -> np.ndarray:
         """``P0`` (:func:`~sins_sim.navigation.ekf.initial_covariance`) with the bias variances per body axis
         raised by the constant part of the scale factors' and misalignments' error (gyros xyz, accelerometers
-        xyz; :func:`unmodelled_densities`), which the bias states take up."""
+        xyz; :func:`unmodelled_errors`), which the bias states take up."""
         from sins_sim.navigation import ekf
 
         p0 = ekf.initial_covariance(pos_sigma_m, vel_sigma_m_s, tilt_sigma_rad, heading_sigma_rad, self.noise)
@@ -272,24 +264,23 @@ def filter_model(settings: AidingSettings, noise, sensors=None, vehicle=None, t0
         pos = markov_equivalent_sigma(g.position_sigma_m, g.markov_sigma_m, g.markov_tau_s, interval, n)
     else:
         pos = np.asarray(g.position_sigma_m, dtype=np.float64)
-    un = unmodelled_densities(sensors, vehicle, float(t0_s), t1)
-    arw = math.sqrt(noise.gyro_arw_rad_sqrt_s ** 2 + un["gyro_rad2_s"])
-    vrw = math.sqrt(noise.accel_vrw_m_s_sqrt_s ** 2 + un["accel_m2_s3"])
-    told = dataclasses.replace(noise, gyro_arw_rad_sqrt_s=arw, accel_vrw_m_s_sqrt_s=vrw)
+    un, extra = unmodelled_errors(sensors, vehicle, float(t0_s), t1)
     record = {"states": 15,
               "gnss_markov": "equivalent white variance in R over the longest aided stretch",
               "gnss_markov_fixes_averaged": n,
               "position_sigma_told_m": [float(x) for x in pos],
               "velocity_sigma_told_m_s": [float(x) for x in np.asarray(g.velocity_sigma_m_s)],
-              "gyro_unmodelled_k": un["gyro_k"], "accel_unmodelled_k": un["accel_k"],
-              "gyro_arw_unit_rad_sqrt_s": noise.gyro_arw_rad_sqrt_s, "gyro_arw_told_rad_sqrt_s": arw,
-              "accel_vrw_unit_m_s_sqrt_s": noise.accel_vrw_m_s_sqrt_s, "accel_vrw_told_m_s_sqrt_s": vrw}
-    extra = np.concatenate([un["gyro_bias_var"], un["accel_bias_var"]])
+              "unmodelled": "process noise per step from the angle and velocity change (coherent accumulation)",
+              "gyro_arw_rad_sqrt_s": noise.gyro_arw_rad_sqrt_s, "accel_vrw_m_s_sqrt_s": noise.accel_vrw_m_s_sqrt_s}
+    if un is not None:
+        record.update(gyro_scale_factor_sigma=un.gyro_scale_factor, gyro_misalignment_sigma_rad=un.gyro_misalignment_rad,
+                      accel_scale_factor_sigma=un.accel_scale_factor,
+                      accel_misalignment_sigma_rad=un.accel_misalignment_rad)
     gyro_prior = np.sqrt(noise.gyro_bias_sigma_rad_s ** 2 + extra[:3])
     accel_prior = np.sqrt(noise.accel_bias_sigma_m_s2 ** 2 + extra[3:])
     record["gyro_bias_prior_told_rad_s_body"] = [float(x) for x in gyro_prior]
     record["accel_bias_prior_told_m_s2_body"] = [float(x) for x in accel_prior]
-    return FilterModel(told, pos, np.asarray(g.velocity_sigma_m_s, dtype=np.float64), record, extra)
+    return FilterModel(noise, pos, np.asarray(g.velocity_sigma_m_s, dtype=np.float64), record, extra, un)
 
 
 def _prior(settings: AidingSettings, alignment_result):
@@ -452,7 +443,7 @@ class AidedMission:
                        model.position_sigma_m, model.velocity_sigma_m_s, g.lever_arm_b_m,
                        output_t_s=self.output_times(t0, t_end), use=self.settings.measurements,
                        n_sub=self.n_sub, max_propagation_s=1.0 / self.settings.update_rate_hz,
-                       feedback=self.settings.feedback, coning=coning, sculling=sculling)
+                       feedback=self.settings.feedback, coning=coning, sculling=sculling, unmodelled=model.unmodelled)
         for part in self.parts:
             run.add_fixes(part)
         return _FilterAided(run, len(self.parts), model)
