@@ -245,3 +245,21 @@ def test_mission_result_tables_carry_the_aided_runs(mission, tmp_path):
     t = back.to_pandas()["aided_ideal"]
     np.testing.assert_array_equal(ds["aided_error"].sel(filter="ideal", aided_state="east_m").dropna("time_aided")
                                   .to_numpy(), t["east_m"].to_numpy())
+
+
+def test_report_states_the_nis_the_gauss_markov_fold_predicts():
+    """With R holding the fixes' Gauss-Markov error (the fold), the report gives the position NIS's expected upper
+    bound, ``sum_axes (sigma_w^2 + sigma_gm^2) / sigma_told^2`` (docs/theory/aided.md): for white 1, 1, 2 m,
+    Gauss-Markov 0.5, 0.5, 1 m and told 10, 10, 20 m it is 2 * 1.25 / 100 + 5 / 400 = 0.0375."""
+    from sins_sim.jobs.run import _aided_findings
+
+    ref = {"horizontal_position_sigma_median_m": 0.9, "nees_position_within_95_fraction": 0.9,
+           "nees_velocity_within_95_fraction": 0.9, "nees_attitude_within_95_fraction": 0.9, "nees_position_n": 10,
+           "nis_position_mean": 0.03, "nis_position_bound_low": 2.8, "nis_position_bound_high": 3.2,
+           "nis_position_n": 10, "filter_position_sigma_told_m_north": 10.0, "filter_position_sigma_told_m_east": 10.0,
+           "filter_position_sigma_told_m_down": 20.0}
+    metrics = {"aiding": {"position_sigma_m": [1.0, 1.0, 2.0], "markov_sigma_m": [0.5, 0.5, 1.0]}}
+    text = _aided_findings(metrics, {"ideal": ref})[-1]
+    assert "expected at most 0.037" in text or "expected at most 0.038" in text, text
+    metrics["aiding"]["markov_sigma_m"] = [0.0, 0.0, 0.0]
+    assert "expected at most" not in _aided_findings(metrics, {"ideal": ref})[-1]
