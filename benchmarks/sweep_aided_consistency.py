@@ -1,0 +1,122 @@
+"""NEES coverage of the aided filter over Monte Carlo seeds on a scenario's trajectory, fixes and filter model.
+
+The numbers of the bundled helicopter in ``docs/user-guide/aided.md`` ("Example")::
+
+    PYTHONPATH=. python benchmarks/sweep_aided_consistency.py scenarios/helicopter-aided.yaml --seeds 50
+
+What is simulated: the scenario's trajectory (its vehicle), fixes, aiding settings and the filter's model
+(:meth:`~sins_sim.simulation.aiding.AidedMission.model`, the mission's own), at the mission's epochs. What is not:
+the channel simulation (the increments are the trajectory's exact ones at ``--rate-hz``, so no vibration, no
+dither filter, no bias instability; minutes per seed otherwise). Per seed, drawn from the sigmas the filter is
+told: the gyro and accelerometer biases, a constant scale-factor and misalignment matrix per sensor triad, white
+angle and velocity random walk, the initial navigation errors (the filter's prior without the bias part: the drawn
+matrix adds its constant part itself), and the fixes' white and Gauss-Markov errors.
+
+Printed per block (position, velocity, attitude): the fraction of epochs whose seed-averaged NEES lies inside the
+chi-square 95 % interval of a mean of ``N`` (``chi2(3 N) / N``), the fractions below and above it, the mean NEES,
+the effective number of independent epochs and the Clopper-Pearson 95 % interval of the fraction
+(``tests/test_aided_consistency.py``'s ``coverage``), and the mean NEES in and after each outage.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import chi2
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+
+def main(argv=None) -> None:
+    from test_aided_consistency import coverage
+
+    from sins_sim import earth
+    from sins_sim.config.scenario import load_scenario
+    from sins_sim.navigation import ekf
+    from sins_sim.navigation.aided import navigate_aided
+    from sins_sim.navigation.attitude import quat_from_rotvec, quat_multiply
+    from sins_sim.navigation.gnss import simulate_gnss
+    from sins_sim.simulation.aiding import AidedMission, _prior
+    from sins_sim.simulation.external import ideal_increments
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scenario")
+    ap.add_argument("--seeds", type=int, default=50)
+    ap.add_argument("--rate-hz", type=float, default=50.0, help="increment rate (Hz), a multiple of the fix rate")
+    ap.add_argument("--duration-s", type=float, default=None, help="shorter than the scenario's")
+    a = ap.parse_args(argv)
+    sc = load_scenario(a.scenario)
+    nav, aid = sc.nav, sc.nav.aiding
+    if aid is None or sc.vehicle is None:
+        raise SystemExit(f"{a.scenario}: needs aiding: and a trajectory")
+    g = aid.gnss
+    dur = float(a.duration_s or sc.duration_s)
+    t0, fs = nav.start_s, a.rate_hz
+    dt = 1.0 / fs
+    n = int(round((dur - t0) * fs))
+    t = t0 + dt * np.arange(1, n + 1)
+    dth_true, dv_true = ideal_increments(sc.vehicle, t)
+    tt = np.concatenate([[t0], t])
+    truth = sc.vehicle.evaluate(tt)
+    mission = AidedMission(aid, nav.alignment, fs, 1, dur, 0, lambda name: ("two_sample", "two_sample"),
+                           sensors=sc.imu.sensors, vehicle=sc.vehicle)
+    model = mission.model(t0, dur)
+    noise, un = model.noise, model.unmodelled
+    prior = _prior(aid, None)
+    p0 = model.initial_covariance(*prior)
+    p0_truth = ekf.initial_covariance(*prior, noise)
+    out_t = mission.output_times(t0, dur)
+    blocks = (ekf.POS, ekf.VEL, ekf.ATT)
+    total = None
+    for seed in range(a.seeds):
+        rng = np.random.default_rng([seed, 3737])
+        bg = rng.normal(0.0, noise.gyro_bias_sigma_rad_s, 3)
+        ba = rng.normal(0.0, noise.accel_bias_sigma_m_s2, 3)
+        k = {}
+        for name, s_s, s_m in (("gyro", un.gyro_scale_factor, un.gyro_misalignment_rad),
+                               ("accel", un.accel_scale_factor, un.accel_misalignment_rad)):
+            m = rng.normal(0.0, s_m, (3, 3))
+            np.fill_diagonal(m, rng.normal(0.0, s_s, 3))
+            k[name] = np.eye(3) + m
+        dth = dth_true @ k["gyro"].T + bg * dt + rng.normal(0.0, noise.gyro_arw_rad_sqrt_s * math.sqrt(dt), (n, 3))
+        dv = dv_true @ k["accel"].T + ba * dt + rng.normal(0.0, noise.accel_vrw_m_s_sqrt_s * math.sqrt(dt), (n, 3))
+        x0 = rng.multivariate_normal(np.zeros(ekf.N_STATES), p0_truth)
+        r_n, r_e = earth.radii(truth.lat_rad[0])
+        lat, h = float(truth.lat_rad[0]), float(truth.h_m[0])
+        start = ekf.NavState(t0, lat + x0[0] / (r_n + h), truth.lon_rad[0] + x0[1] / ((r_e + h) * math.cos(lat)),
+                             h - x0[2], truth.v_ned_m_s[0] + x0[3:6],
+                             quat_multiply(quat_from_rotvec(x0[6:9]), truth.q_nv[0]), np.zeros(3), np.zeros(3))
+        fixes = simulate_gnss(tt, truth.lat_rad, truth.lon_rad, truth.h_m, truth.v_ned_m_s, g, rng,
+                              q_nb=truth.q_nv, omega_ib_b_rad_s=truth.omega_iv_v_rad_s)
+        fixes = dataclasses.replace(fixes, position_sigma_m=np.asarray(model.position_sigma_m, dtype=float))
+        res = navigate_aided(t, dth, dv, start, noise, p0, fixes, output_t_s=out_t, use=aid.measurements,
+                             max_propagation_s=1.0 / aid.update_rate_hz, unmodelled=un)
+        o = sc.vehicle.evaluate(res.t_s)
+        e = res.errors(o.lat_rad, o.lon_rad, o.h_m, o.v_ned_m_s, o.q_nv)[1:]
+        p = res.p_upd[1:]
+        nees = np.stack([np.einsum("ki,ki->k", e[:, b], np.linalg.solve(p[:, b, b], e[:, b, None])[..., 0])
+                         for b in blocks], axis=1)
+        total = nees if total is None else total + nees
+    nees = total / a.seeds
+    t_ep = res.t_s[1:]
+    lo, hi = chi2.ppf([0.025, 0.975], 3 * a.seeds) / a.seeds
+    print(f"{a.scenario}: {a.seeds} seeds, {dur:g} s, {t_ep.size} epochs, interval [{lo:.3f}, {hi:.3f}]")
+    for name, (frac, n_eff, c_lo, c_hi), col in zip(("position", "velocity", "attitude"), coverage(nees, a.seeds),
+                                                   nees.T):
+        print(f"  {name}: inside {frac:.3f} (below {np.mean(col < lo):.3f}, above {np.mean(col > hi):.3f}), "
+              f"mean {col.mean():.2f}, n_eff {n_eff:.1f}, Clopper-Pearson 95 % [{c_lo:.3f}, {c_hi:.3f}]")
+    for w0, w1 in g.outages_s:
+        inside = (t_ep > w0) & (t_ep <= w1)
+        after = (t_ep > w1) & (t_ep <= w1 + 20.0)
+        print(f"  outage {w0:g}-{w1:g} s: mean NEES {np.round(nees[inside].mean(axis=0), 2).tolist()}, "
+              f"20 s after: {np.round(nees[after].mean(axis=0), 2).tolist()}")
+
+
+if __name__ == "__main__":
+    main()
