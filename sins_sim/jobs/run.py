@@ -358,7 +358,7 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
     -------
     (SinsResult, dict)
     """
-    from sins_sim.config import advisories
+    from sins_sim.plan import advisories
     from sins_sim.simulation.sins import simulate_sins  # the engine, once the scenario is known to be valid
 
     res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
