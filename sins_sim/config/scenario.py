@@ -3,9 +3,10 @@
 A scenario names an IMU configuration, the mission (a site, and a trajectory of segments or
 a trajectory file), the block's motion on its mounts as a list of parts that add up, the
 filters to compare, navigation settings and a seed. A run is reproducible from the YAML and
-the seed. :class:`Scenario` holds what the engine takes (an :class:`~sins_sim.simulation.sins.ImuConfig`,
-:class:`~sins_sim.simulation.sins.NavSettings`, the motion, the filters); the commands above run it
-(``sins-sim run``, :func:`sins_sim.run_scenario`).
+the seed. This module checks a scenario's keys, units and ranges; :class:`Scenario` then has the plan
+(:func:`sins_sim.plan.resolve_plan`) resolve what needs the physics, and holds the :class:`~sins_sim.plan.Plan`
+the engine takes (an :class:`~sins_sim.simulation.sins.ImuConfig`, :class:`~sins_sim.simulation.sins.NavSettings`,
+the motion, the vehicle, the filters); the commands above run it (``sins-sim run``, :func:`sins_sim.run_scenario`).
 """
 
 from __future__ import annotations
