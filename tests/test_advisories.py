@@ -16,7 +16,7 @@ from scipy import integrate, signal
 
 from sins_sim.cli import main
 from sins_sim.io.trajectory import TrajectoryData, read_trajectory, write_trajectory
-from sins_sim.config import advisories
+from sins_sim.plan import advisories
 from sins_sim.config.imu import imu_from_dict
 from sins_sim.config.scenario import load_scenario
 from sins_sim.config.errors import ConfigError

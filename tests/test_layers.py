@@ -1,8 +1,8 @@
-"""The package's import direction (style.md): cli -> jobs -> results -> config -> identification -> simulation ->
-{models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
+"""The package's import direction (style.md): cli -> jobs -> results -> config -> identification -> plan -> simulation
+-> {models, filters, navigation} -> _kernels -> units. models/, filters/ and navigation/ never import
 each other; config/ and results/ never import jobs/, bench/ or cli, and inside config/ a file's path reads top to bottom
-(reference -> {scenario, sweep, experiment, log} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
--> schema -> errors).
+(reference -> {scenario, sweep, experiment, log} -> imu -> {filter_params, effects_schema, block_schema} -> yaml_io
+-> schema -> errors), and a scenario's configuration enters the plan (sins_sim.plan) through one entry point.
 Checked on the source with ``ast`` (module-level and function-level imports alike)."""
 
 from __future__ import annotations
@@ -30,22 +30,28 @@ ALLOWED = {
     # the paper figures draw eq. 9 itself; the aided-run figures read the filter's state layout (navigation.ekf)
     "plots": {"units", "earth", "models", "navigation"},
     "simulation": BASE | {"models", "filters", "navigation", "io"},
-    "identification": BASE | {"simulation", "models", "filters", "navigation", "io", "plots"},
-    "config": BASE | {"simulation", "models", "filters", "navigation", "io"},
+    # the resolve stage: builds what the engine runs from configuration's checked keys (the engine never imports it)
+    "plan": BASE | {"simulation", "models", "filters", "navigation", "io"},
+    "identification": BASE | {"plan", "simulation", "models", "filters", "navigation", "io", "plots"},
+    # config reaches the physics through the plan (experiment files still build their own engine inputs)
+    "config": BASE | {"plan", "simulation", "models", "filters", "navigation", "io"},
     # the result objects: below the commands, above configuration; figures through plots/ and the diagnosis'
     # own figures (lazily); no engine, no command
     "results": BASE | {"config", "identification", "plots"},
-    "jobs": BASE | {"results", "config", "simulation", "models", "filters", "navigation", "io", "identification",
+    "jobs": BASE | {"results", "config", "plan", "simulation", "models", "filters", "navigation", "io", "identification",
                     "plots"},
 }
 
 #: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank
 CONFIG_ORDER = {"reference": 0, "scenario": 1, "sweep": 1, "experiment": 1, "log": 1, "imu": 2, "filter_params": 3,
-                "effects_schema": 3, "advisories": 3, "block_schema": 3, "yaml_io": 4, "schema": 5, "errors": 6}
-#: jobs/ modules kept as deprecated aliases of the config/ modules (for code outside the package)
-MOVED_TO_CONFIG = {m: m for m in ("schema", "yaml_io", "scenario", "imu", "filter_params", "effects_schema",
-                                  "advisories", "reference")}
-MOVED_TO_CONFIG["sweep.schema"] = "sweep"
+                "effects_schema": 3, "block_schema": 3, "yaml_io": 4, "schema": 5, "errors": 6}
+#: jobs/ modules kept as deprecated aliases of the config/ modules (for code outside the package) -> their home
+MOVED_TO_CONFIG = {m: f"sins_sim.config.{m}" for m in ("schema", "yaml_io", "scenario", "imu", "filter_params",
+                                                       "effects_schema", "reference")}
+MOVED_TO_CONFIG["sweep.schema"] = "sins_sim.config.sweep"
+MOVED_TO_CONFIG["advisories"] = "sins_sim.plan.advisories"  # they need the physics: the plan's (issue 38)
+#: config/ module -> the names it may import from sins_sim.plan: one entry point per file format
+PLAN_ENTRIES = {"scenario": {"resolve_plan", "PlanError"}, "imu": {"resolve_imu", "PlanError"}}
 
 
 def _layer(module: str) -> str:
@@ -110,7 +116,7 @@ def test_config_reads_top_to_bottom():
 def test_the_package_imports_configuration_from_config(name, path):
     """The jobs/ aliases of the moved modules are for code outside the package: nothing in sins_sim imports them
     (the aliases import the config/ modules), so the layering is the code's, not the aliases'."""
-    old = {f"sins_sim.jobs.{m}": f"sins_sim.config.{new}" for m, new in MOVED_TO_CONFIG.items()}
+    old = {f"sins_sim.jobs.{m}": new for m, new in MOVED_TO_CONFIG.items()}
     bad = [f"{path.name}:{line} imports {t} (now {old[t]})" for t, line in _imports(path) if t in old]
     assert not bad, "; ".join(bad)
 
@@ -128,9 +134,9 @@ def test_the_old_paths_still_work_with_a_deprecation_warning():
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             old = importlib.import_module(f"sins_sim.jobs.{m}")
-        assert old is importlib.import_module(f"sins_sim.config.{new}"), m
+        assert old is importlib.import_module(new), m
         assert [str(w.message) for w in caught if w.category is DeprecationWarning] == \
-            [f"sins_sim.jobs.{m} moved to sins_sim.config.{new}"]
+            [f"sins_sim.jobs.{m} moved to {new}"]
     from sins_sim.config import errors, scenario
     from sins_sim.jobs.schema import ConfigError
 
@@ -149,3 +155,21 @@ def test_import_linter_contracts_are_kept():
     out = subprocess.run([exe, "--config", str(root / "pyproject.toml")], cwd=root, capture_output=True, text=True)
     assert out.returncode == 0, out.stdout[-3000:]
     assert "0 broken" in out.stdout
+
+
+def test_configuration_enters_the_plan_through_one_entry_point():
+    """config/ checks keys, units and ranges; what needs the physics is the plan's (sins_sim.plan), which a scenario
+    enters through ``resolve_plan`` and an IMU file (``load_imu``) through ``resolve_imu``, nothing else: no config
+    module calls the engine's helpers (``simulation``, ``_kernels``) on a scenario's path."""
+    bad = []
+    for path in sorted((PKG / "config").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("sins_sim.plan"):
+                names = {a.name for a in node.names}
+                if not names <= PLAN_ENTRIES.get(path.stem, set()):
+                    bad.append(f"config/{path.name}:{node.lineno} imports {sorted(names)} from {node.module}")
+            if (path.stem in PLAN_ENTRIES and isinstance(node, ast.ImportFrom) and node.module
+                    and node.module.startswith(("sins_sim.simulation", "sins_sim._kernels"))):
+                bad.append(f"config/{path.name}:{node.lineno} imports {node.module} (the plan's business)")
+    assert not bad, "; ".join(bad)

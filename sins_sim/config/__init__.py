@@ -1,4 +1,4 @@
-"""Configuration: YAML files to the engine's inputs, below the commands (``jobs/``) and above the engine.
+"""Configuration: YAML files checked key by key, below the commands (``jobs/``) and above the plan and the engine.
 
 A scenario file's path reads top to bottom::
 
@@ -8,13 +8,14 @@ A scenario file's path reads top to bottom::
       -> schema.validate            types, ranges, units in the key names converted to SI and rad
                                     (SCENARIO_SCHEMA); a broken rule is one errors.ConfigError line
                                     naming the file, the line, the key path and the rule
-      -> scenario.Scenario          the validated scenario:
-           imu.imu_from_dict        the unit (``imu:`` a file, read by imu.load_imu, or a mapping)
-             -> filter_params       what the filters believe (f0, Q, tracking), and
+      -> scenario.Scenario          the validated scenario: its keys, units and ranges, and
+           imu.parse_imu            the unit's (``imu:`` a file or a mapping; no model imported)
+             -> filter_params       what the filters believe (source, f0, tracking), and
                 effects_schema      the catalogue effects
-           advisories               vibration against the filters' stop bands and the dithers
-      -> engine inputs              ImuConfig, NavSettings, motion, filters, seed
-                                    (sins_sim.simulation.sins), run by the commands in ``jobs/``
+      -> sins_sim.plan.resolve_plan the one entry point into the physics: the unit built, the rates, the
+                                    designs, the vehicle, alignment and aiding; pairs that do not compose
+                                    refused naming both keys (a PlanError, raised here as a ConfigError)
+      -> sins_sim.plan.run_plan     the engine runs the plan (Scenario.plan), from the commands in ``jobs/``
 
 A sweep file (``sweep.load_sweep``) takes the same path, yaml_io then schema (``SWEEP_SCHEMA``); each
 of the scenarios it names is a scenario file as above. An experiment file
@@ -25,9 +26,10 @@ and becomes the plain layout the log reader takes (sins_sim.io.unitlog.LogLayout
 
 Modules, each importing only the ones below it (import-linter contract in ``pyproject.toml``)::
 
-    reference -> {scenario, sweep, experiment, log} -> imu -> {filter_params, effects_schema, advisories} -> yaml_io
+    reference -> {scenario, sweep, experiment, log} -> imu -> {filter_params, effects_schema, block_schema} -> yaml_io
         -> schema -> errors
 
 ``reference`` renders every format's reference and JSON Schema from these schemas (``sins-sim
-schema``). Nothing here imports ``jobs``, ``bench`` or ``cli``.
+schema``). Nothing here imports ``jobs``, ``bench`` or ``cli``; a scenario's and an IMU file's modules import
+no engine module (``simulation``, ``_kernels``, ``navigation``, ``io``): they call the plan, once.
 """

@@ -24,12 +24,9 @@ misaligned axis is the sensor-error model's ``sensors.gyro.misalignment``.
 
 from __future__ import annotations
 
-import numpy as np
-
-from sins_sim.config.errors import ConfigError
 from sins_sim.config.schema import Map, Num, Vec
 
-__all__ = ["BLOCK_SCHEMA", "block_from_section", "check_block_effects"]
+__all__ = ["BLOCK_SCHEMA"]
 
 #: Physical ranges. Mass: a MEMS board (0.1 kg) to a large marine RLG unit's sensor assembly (50 kg). Inertia
 #: about any axis: 1e-5 kg m^2 (a 0.1 kg, 3 cm block) to 5 kg m^2. A dithered gyro body: 1e-6 kg m^2 (a 10 cm
@@ -75,47 +72,3 @@ BLOCK_SCHEMA = Map({
 ), doc="the sensor block as a body on its isolators (omit: the rigid block of the nominal model)")
 
 
-def block_from_section(c: dict | None, ctx: str, path: str) -> BlockParams | None:
-    """The validated ``block`` section (SI keys, :data:`BLOCK_SCHEMA`) as :class:`BlockParams`; None stays None."""
-    from sins_sim.models.block import BlockParams  # the model (scipy) once the section has passed its schema
-
-    if c is None:
-        return None
-    j = c["inertia_kg_m2"]
-    tensor = np.array([[j["xx"], j["xy"], j["xz"]], [j["xy"], j["yy"], j["yz"]], [j["xz"], j["yz"], j["zz"]]])
-    axes = np.eye(3)
-    for i, a in enumerate(("x", "y", "z")):
-        off = 1e-3 * np.asarray(c["gyro_axes_mrad"][a], dtype=float)  # mrad -> rad
-        if off[i] != 0.0:
-            raise ConfigError(f"{ctx}: {path}.gyro_axes_mrad.{a}[{i}]: must be 0 (the offset of the {a} axis is "
-                              f"across it), got {off[i] * 1e3:g}")
-        axes[i] += off
-    iso = c["isolators"]
-    try:
-        return BlockParams(mass_kg=c["mass_kg"], inertia_kg_m2=tensor, gyro_inertia_kg_m2=c["gyro_inertia_kg_m2"],
-                           input_axes=axes, k_trans_n_per_m=iso["stiffness_n_per_m"],
-                           c_trans_n_s_per_m=iso["damping_n_s_per_m"],
-                           k_rot_n_m_per_rad=iso["rotational_stiffness_n_m_per_rad"],
-                           c_rot_n_m_s_per_rad=iso["rotational_damping_n_m_s_per_rad"],
-                           elastic_centre_m=iso["elastic_centre_m"])
-    except ValueError as exc:
-        msg = str(exc)
-        key = {"input_axes": "gyro_axes_mrad"}
-        for name, user in key.items():
-            msg = msg.replace(f"{name}:", f"{user}:", 1) if msg.startswith(name) else msg
-        raise ConfigError(f"{ctx}: {path}.{msg}") from None
-
-
-def check_block_effects(effects, ctx: str, pre: str = "") -> None:
-    """A block on isolators with an effect that acts beyond the suspension: refused, naming both keys.
-
-    The block's kernel steps the three suspensions and the block together on the fused path; the effect stages
-    (``sins_sim.simulation.channel._EffectStages``: piezo lag, the block-mode filter, resonance drift, readout
-    delay and scale, lock-in) run on each channel's own reference path, which has no block. ``block_mode`` would
-    also count the mount twice. ``viscous_damping`` changes the suspension itself and composes.
-    """
-    for i, e in enumerate(effects):
-        if getattr(e, "stage", "") != "suspension":
-            raise ConfigError(f"{ctx}: {pre}effects[{i}] ({e.name}) with {pre}block: not modelled together (the "
-                              f"effect stages run on a channel's own path, which has no block on isolators; "
-                              f"docs/user-guide/combinations.md): remove one")

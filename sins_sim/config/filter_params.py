@@ -64,19 +64,13 @@ mismatch, Fig. 6).
 
 from __future__ import annotations
 
-import json
-import math
-from pathlib import Path
-
 from sins_sim.config.schema import Bool, ConfigError, Map, Num, Str, json_schema, validate
 
-__all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters", "filter_suspensions",
-           "filters_used"]
+__all__ = ["FILTER_PARAMETERS_SCHEMA", "SOURCES", "F0_SOURCES", "parse_filter_parameters"]
 
 SOURCES = ("true", "nominal", "explicit", "diagnose", "online")
 F0_SOURCES = ("pll", "unit", "given")
 _DEFAULT_F0 = {"true": "unit", "nominal": "pll", "explicit": "pll", "diagnose": "given", "online": "pll"}
-_K_KEYS = (("k1", "k1"), ("k2_rad", "k2"), ("k3", "k3"), ("k4_per_rad", "k4"), ("k5_rad_per_v", "k5"))
 
 
 def _k_fields():
@@ -188,149 +182,3 @@ def parse_filter_parameters(value, ctx: str, path: str = "filter_parameters") ->
     return c
 
 
-def _read_diagnosis(path: Path, ctx: str, where: str) -> dict:
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"{ctx}: {where}: file not found: {path}") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ConfigError(f"{ctx}: {where}: not a readable diagnosis JSON ({type(exc).__name__}): {path}") from None
-    try:
-        params = doc["baseline"]["params"]
-    except (KeyError, TypeError):
-        raise ConfigError(f"{ctx}: {where}: {path} has no baseline.params (is it a `sins-sim diagnose --json` "
-                          f"file?)") from None
-    if not isinstance(params, dict):
-        raise ConfigError(f"{ctx}: {where}: baseline.params must be a mapping of axes")
-    return params
-
-
-def filter_suspensions(spec: dict, true_by_axis: dict, nominal: dict, design_f0: dict, drive_hz: dict,
-                       amplitude_rad: dict, ctx: str, base_dir: Path | None = None,
-                       path: str = "filter_parameters") -> dict:
-    """The suspension each axis's filters believe (axis -> SuspensionParams, or None for the truth itself).
-
-    Parameters
-    ----------
-    spec : dict
-        :func:`parse_filter_parameters` output.
-    true_by_axis : dict axis -> SuspensionParams
-        The unit's true suspensions.
-    nominal : dict
-        The shared (datasheet) ``k1, k2, k3, k4, k5`` (SI).
-    design_f0 : dict axis -> float
-        The channels' ``f0_hz`` in the IMU file (Hz).
-    drive_hz, amplitude_rad : dict axis -> float
-        Each drive's frequency (Hz) and target amplitude (rad): the PLL's lock point.
-    """
-    from sins_sim.models.suspension import SuspensionParams  # here: parsing a file stays light (no scipy, numba)
-
-    src, f0_src, ppm = spec["source"], spec["f0"], spec["f0_mismatch_ppm"]
-    if src == "true" and f0_src == "unit" and ppm == 0.0:
-        return {a: None for a in true_by_axis}
-    diag = None
-    if src == "diagnose":
-        p = Path(spec["file"])
-        if base_dir is not None and not p.is_absolute():
-            p = base_dir / p
-        diag = _read_diagnosis(p, ctx, f"{path}.file")
-    out = {}
-    for axis, true in true_by_axis.items():
-        where = f"{path} (axis {axis})"
-        given_f0 = design_f0[axis]
-        if src == "true":
-            ks = {k: getattr(true, k) for k in ("k1", "k2", "k3", "k4", "k5")}
-        elif src in ("nominal", "online"):  # online: the datasheet until the estimator has learnt
-            ks = dict(nominal)
-        elif src == "explicit":
-            ks = dict(nominal)
-            for key, attr in _K_KEYS:
-                for block in (spec["suspension"], spec["channels"][axis]["suspension"]):
-                    if block.get(key) is not None:
-                        ks[attr] = block[key]
-            given_f0 = spec["channels"][axis]["f0_hz"]
-        else:
-            row = diag.get(axis)
-            if not isinstance(row, dict):
-                raise ConfigError(f"{ctx}: {path}.file: the diagnosis has no axis {axis!r} "
-                                  f"(axes: {', '.join(map(str, diag))})")
-            try:
-                ks = {k: float(row[k]) for k in ("k1", "k2", "k3", "k4", "k5")}
-                given_f0 = float(row["f0_hz"])
-            except (KeyError, TypeError, ValueError):
-                raise ConfigError(f"{ctx}: {path}.file: baseline.params.{axis} must hold f0_hz, k1..k5 as "
-                                  f"numbers") from None
-        try:
-            if f0_src == "unit":
-                f0 = true.f0_hz
-            elif f0_src == "given":
-                f0 = given_f0
-            else:
-                # PLL: the drive is locked to F(a); the filter inverts F(a)/f0 with the k1, k2 it believes (eq. 9)
-                probe = SuspensionParams(f0_hz=true.f0_hz, **ks)
-                f0 = drive_hz[axis] * probe.f0_hz / probe.resonance_hz(amplitude_rad[axis])
-            f0 *= 1.0 + 1e-6 * ppm
-            if not math.isfinite(f0):
-                raise ValueError(f"f0 not finite ({f0!r})")
-            out[axis] = SuspensionParams(f0_hz=f0, zeta=true.zeta, **ks)
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: {where}: {exc}") from None
-    return out
-
-
-#: eq. 5's two forms (``sins_sim.simulation.channel``): ``correcting`` is unity at DC, ``correcting_paper`` as printed.
-_EQ5_FORMS = {"correcting": "unity", "correcting_paper": "paper"}
-
-
-def filters_used(channels, spec: dict, filters, axes=("x", "y", "z")) -> dict:
-    """The parameters each filter of a run actually used, per axis, in SI with the unit in the key.
-
-    Parameters
-    ----------
-    channels : sequence of ChannelConfig
-        The unit's channels as the run built them (``filter_suspension`` set by :func:`filter_suspensions`).
-    spec : dict
-        :func:`parse_filter_parameters` output (where the values came from).
-    filters : sequence of str
-        The run's filters.
-
-    Returns
-    -------
-    dict
-        ``filter -> axis -> {...}``. eq. 5 (``correcting``, ``correcting_paper``) and plug-ins: ``f0_hz``,
-        ``k1``, ``k2_rad``, ``k3``, ``k4_per_rad``, ``k5_rad_per_v``, ``fs_hz``, ``hysteresis``, the unit's own
-        ``unit_f0_hz`` and ``f0_error_ppm`` = (f0_hz / unit_f0_hz - 1) 1e6 (the mismatch the filter runs with,
-        the PLL's inversion included), and the ``source``, ``f0_source``, ``f0_mismatch_ppm`` and ``track`` of
-        ``filter_parameters``; ``eliminator``: the elliptic design (``band_hz``, ``order``, ``rp_db``,
-        ``rs_db``, ``fs_hz``) centred on ``drive_hz``; ``ideal`` and ``raw``: nothing to believe (``{}``).
-    """
-    import dataclasses
-
-    origin = {"source": spec["source"], "f0_source": spec["f0"], "f0_mismatch_ppm": float(spec["f0_mismatch_ppm"]),
-              "track": bool(spec["track"])}
-    out = {}
-    for name in filters:
-        per_axis = {}
-        for axis, ch in zip(axes, channels):
-            if name in ("ideal", "raw"):
-                per_axis[axis] = {}
-                continue
-            if name == "eliminator":
-                d = ch.eliminator_design()
-                per_axis[axis] = {"band_hz": [float(x) for x in d.band_hz], "order": int(d.order),
-                                  "rp_db": float(d.rp_db), "rs_db": float(d.rs_db), "fs_hz": float(d.fs_hz),
-                                  "drive_hz": float(ch.drive_signal().frequency_hz)}
-                continue
-            if name in _EQ5_FORMS:
-                b = dataclasses.asdict(ch.correcting_design(_EQ5_FORMS[name]))
-            else:
-                b = dataclasses.asdict(ch.filter_context(axis))
-            unit_f0 = ch.suspension.f0_hz
-            row = {"f0_hz": b["f0_hz"], "k1": b["k1"], "k2_rad": b["k2"], "k3": b["k3"], "k4_per_rad": b["k4"],
-                   "k5_rad_per_v": b["k5"], "fs_hz": b["fs_hz"], "hysteresis": b["hysteresis"]}
-            if "form" in b:
-                row["form"] = b["form"]
-            row.update(unit_f0_hz=unit_f0, f0_error_ppm=(b["f0_hz"] / unit_f0 - 1.0) * 1e6, **origin)
-            per_axis[axis] = row
-        out[name] = per_axis
-    return out

@@ -33,7 +33,6 @@ the unit's own.
 from __future__ import annotations
 
 import math
-import re
 
 # Only light imports here: the schema is built from the models' declared ranges (sins_sim.models.ranges,
 # sins_sim.filters.ranges), so a file is checked key by key before the models, the engine, numba and scipy are
@@ -47,7 +46,7 @@ from sins_sim.config.effects_schema import EffectsList
 from sins_sim.config.schema import ConfigError, ListOf, Map, Num, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml  # re-exported: other modules import it from here
 
-__all__ = ["IMU_SCHEMA", "load_yaml", "load_imu", "imu_from_dict"]
+__all__ = ["IMU_SCHEMA", "load_yaml", "load_imu", "imu_from_dict", "parse_imu"]
 
 
 # The ranges are the models' physical ranges (sins_sim.models.ranges, where each is justified); the schema repeats them so that an error names the YAML key and the reference lists them.
@@ -220,47 +219,6 @@ IMU_SCHEMA = Map({
 })
 
 
-def _merged(shared: dict, own: dict) -> dict:
-    return {k: (own[k] if own.get(k) is not None else shared[k]) for k in shared}
-
-
-def _check_shared(c: dict, ctx: str, path: str) -> None:
-    """The shared suspension and drive must be physical on their own, even where every channel overrides them."""
-    from sins_sim.models.drive import DriveParams
-    from sins_sim.models.suspension import SuspensionParams
-
-    sus, where = c["suspension"], f"{path + '.' if path else ''}suspension"
-    try:
-        shared = SuspensionParams(f0_hz=c["channels"]["x"]["f0_hz"], k1=sus["k1"], k2=sus["k2_rad"], k3=sus["k3"],
-                                  k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
-        DriveParams(amplitude_rad=c["drive"]["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]).resolve(shared)
-    except ValueError as exc:
-        raise ConfigError(f"{ctx}: {where} (shared, with channels.x.f0_hz): {_user_keys(str(exc))}") from None
-
-
-#: Field names of the model objects -> the IMU file's keys, for messages: an error names the key the user wrote
-#: (``readout.output_rate_hz: ... plant.rate_hz ...``, never the readout's internal ``input_rate_hz``).
-_USER_KEYS = {
-    "readout.input_rate_hz": "plant.rate_hz",
-    "input_rate_hz": "plant.rate_hz",
-    "readout.quantum_rad": "readout.quantum_arcsec",
-    "readout.noise_rad": "readout.noise_arcsec",
-    "drive.amplitude_rad": "drive.amplitude_arcmin",
-    "suspension.k2": "suspension.k2_rad",
-    "suspension.k4": "suspension.k4_per_rad",
-    "suspension.k5": "suspension.k5_rad_per_v",
-    "suspension.f0_hz": "f0_hz",
-    "eliminator.band_hz": "eliminator.width_hz (the band centred on the dither)",
-}
-_USER_KEY_RE = re.compile(r"(?<![\w.])(" + "|".join(re.escape(k) for k in sorted(_USER_KEYS, key=len, reverse=True))
-                          + r")(?![\w])")
-
-
-def _user_keys(message: str) -> str:
-    """``message`` with the model's field names replaced by the IMU file's keys (:data:`_USER_KEYS`)."""
-    return _USER_KEY_RE.sub(lambda m: _USER_KEYS[m.group(1)], message)
-
-
 def _check_rates(plant_hz: float, output_hz: float, ctx: str, pre: str) -> None:
     """plant.rate_hz / readout.output_rate_hz must be a whole number (the readout keeps every n-th plant sample)."""
     ratio = plant_hz / output_hz
@@ -278,13 +236,15 @@ def _check_rates(plant_hz: float, output_hz: float, ctx: str, pre: str) -> None:
 _NO_SENSORS = object()
 
 
-def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConfig:
-    """Validate an IMU mapping and build the ImuConfig (errors name ``ctx`` and the key path).
+def parse_imu(doc: dict, ctx: str, path: str = "", base_dir=None) -> dict:
+    """Check an IMU mapping's keys, units, ranges and rates (errors name ``ctx`` and the key path).
 
-    The optional ``sensors:`` section (gyro and accelerometer errors in datasheet units, see
-    :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) and ``filter_parameters``
-    (what the filters believe, :mod:`sins_sim.config.filter_params`) are validated by their own
-    parsers; ``base_dir`` resolves a diagnosis file named there (default: the working directory).
+    No model is imported: the schema is built from the ranges the models declare. The result is what the plan
+    builds the unit from (:func:`sins_sim.plan.imu.resolve_imu`): ``c`` (the validated mapping, SI keys),
+    ``fspec`` (``filter_parameters``, :mod:`sins_sim.config.filter_params`), ``sensors`` and ``has_sensors``
+    (the ``sensors:`` section, parsed by :func:`sins_sim.models.sensor_errors.sensor_params_from_dict` there),
+    ``ctx``, ``path`` and ``base_dir`` (where a diagnosis file named in ``filter_parameters`` is taken from;
+    default: the working directory).
     """
     pre = f"{path + '.' if path else ''}"
     fspec = _fparams.parse_filter_parameters(True, ctx, f"{pre}filter_parameters")
@@ -296,143 +256,30 @@ def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConf
         doc = dict(doc)
         sensors_doc = doc.pop("sensors")
     c = validate(doc, IMU_SCHEMA, ctx, path)
-    ro = c["readout"]
-    anti = ro["anti_alias"]
-    _check_rates(c["plant"]["rate_hz"], ro["output_rate_hz"], ctx, pre)
-    # The keys, types, ranges and rates are right: the models and the engine (numba, scipy) are needed from here on.
-    from sins_sim.models.drive import DriveParams
-    from sins_sim.models.plant import PlantSettings, check_resolution
-    from sins_sim.models.readout import AntiAliasParams, ReadoutParams
-    from sins_sim.models.sensor_errors import sensor_params_from_dict
-    from sins_sim.models.suspension import SuspensionParams
-    from sins_sim.simulation.channel import ChannelConfig, EliminatorSettings
-    from sins_sim.simulation.sins import DriveControl, ImuConfig
+    _check_rates(c["plant"]["rate_hz"], c["readout"]["output_rate_hz"], ctx, pre)
+    has_sensors = sensors_doc is not _NO_SENSORS
+    return {"c": c, "fspec": fspec, "sensors": sensors_doc if has_sensors else None, "has_sensors": has_sensors,
+            "ctx": ctx, "path": path, "base_dir": base_dir}
 
-    sensors = None
-    if sensors_doc is not _NO_SENSORS:
-        try:
-            sensors = sensor_params_from_dict(sensors_doc, ctx, f"{pre}sensors")
-        except ConfigError:
-            raise
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: {exc}" if not str(exc).startswith(ctx) else str(exc)) from None
+
+def imu_from_dict(doc: dict, ctx: str, path: str = "", base_dir=None) -> ImuConfig:
+    """Validate an IMU mapping and build the ImuConfig (errors name ``ctx`` and the key path).
+
+    :func:`parse_imu` checks the keys; the plan (:func:`sins_sim.plan.imu.resolve_imu`) builds the unit,
+    once the keys, types, ranges and rates are right (the models and the engine, numba and scipy, are
+    imported from there on). The optional ``sensors:`` section (gyro and accelerometer errors in datasheet
+    units, see :func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) and ``filter_parameters``
+    (what the filters believe, :mod:`sins_sim.config.filter_params`) are validated by their own
+    parsers; ``base_dir`` resolves a diagnosis file named there (default: the working directory).
+    """
+    parsed = parse_imu(doc, ctx, path, base_dir)
+    from sins_sim.plan import PlanError
+    from sins_sim.plan.imu import resolve_imu
+
     try:
-        readout = ReadoutParams(
-            quantum_rad=ro["quantum_rad"], noise_rad=ro["noise_rad"], input_rate_hz=c["plant"]["rate_hz"],
-            output_rate_hz=ro["output_rate_hz"],
-            anti_alias=None if anti is None else AntiAliasParams(cutoff_hz=anti["cutoff_hz"],
-                                                                 numtaps=anti["numtaps"]))
-        plant = PlantSettings(rate_hz=c["plant"]["rate_hz"], hysteresis=c["plant"]["hysteresis"])
-        elim = EliminatorSettings(width_hz=c["eliminator"]["width_hz"], rp_db=c["eliminator"]["rp_db"],
-                                  rs_db=c["eliminator"]["rs_db"])
-        control = DriveControl(mode=c["drive"]["control"], loop_time_s=c["drive"]["loop_time_s"],
-                               block_cycles=int(c["drive"]["block_cycles"]),
-                               modulation_depth=c["drive"]["modulation_depth"],
-                               modulation=c["drive"]["modulation"],
-                               modulation_period_s=c["drive"]["modulation_period_s"])
-        _check_shared(c, ctx, path)
-        channels = []
-        for axis in ("x", "y", "z"):
-            where = f"{path + '.' if path else ''}channels.{axis}"
-            try:
-                ch = c["channels"][axis]
-                sus = _merged(c["suspension"], ch["suspension"])
-                drv = _merged({"amplitude_rad": c["drive"]["amplitude_rad"]}, ch["drive"])
-                suspension = SuspensionParams(f0_hz=ch["f0_hz"], k1=sus["k1"], k2=sus["k2_rad"], k3=sus["k3"],
-                                              k4=sus["k4_per_rad"], k5=sus["k5_rad_per_v"], zeta=sus["zeta"])
-                check_resolution(suspension, plant.rate_hz)
-                cfg = ChannelConfig(
-                    suspension=suspension,
-                    drive=DriveParams(amplitude_rad=drv["amplitude_rad"], dac_rate_hz=c["drive"]["dac_rate_hz"]),
-                    plant=plant, readout=readout, filter_hysteresis=c["correcting"]["hysteresis"], eliminator=elim)
-                cfg.eliminator_design().sos  # the band fits and the design is stable, checked before any kernel
-                cfg.correcting_design("paper")
-            except ValueError as exc:
-                raise ConfigError(f"{ctx}: {where}: {_user_keys(str(exc))}") from None
-            channels.append(cfg)
-        channels = _with_filter_parameters(channels, fspec, c, ctx, f"{pre}filter_parameters", base_dir)
-        block = _block.block_from_section(c["block"], ctx, f"{pre}block")  # its own ConfigError
-        if block is not None:
-            _block.check_block_effects(c["effects"] or (), ctx, pre)
-            from sins_sim.models.block import check_block_resolution
-
-            try:
-                check_block_resolution(block, channels[0].plant.rate_hz)
-            except ValueError as exc:
-                raise ConfigError(f"{ctx}: {pre}block.{exc}") from None
-        pickoff, lms = _pickoff_and_lms(c, ro["output_rate_hz"], ctx, pre,
-                                        tuple(ch.drive_signal().frequency_hz for ch in channels))
-        try:
-            return ImuConfig(channels=tuple(channels), drive_control=control, name=c["name"], sensors=sensors,
-                             effects=c["effects"] or (), block=block, pickoff=pickoff,
-                             filter_settings={"lms_stripper": lms})
-        except ValueError as exc:  # an effect the engine cannot run (axis_coupling)
-            raise ConfigError(f"{ctx}: {pre}{exc}") from None
-    except ConfigError:
-        raise
-    except ValueError as exc:  # a physical rule that needs several fields (Q > 0, fs > 2 f0, ...)
-        raise ConfigError(f"{ctx}: {path + ': ' if path else ''}{_user_keys(str(exc))}") from None
-
-
-def _pickoff_and_lms(c: dict, fs_hz: float, ctx: str, pre: str, dither_hz: tuple):
-    """The pickoff triad and the LMS stripper's settings, checked as the engine will build them (one line naming
-    the key otherwise)."""
-    from sins_sim.filters.lms_stripper import LmsStripperDesign
-    from sins_sim.models.pickoff import PickoffParams, PickoffTriadParams
-
-    p = c["pickoff"]
-    try:
-        coil = PickoffParams(scale_v_per_rad_s=p["scale_v_per_rad_s"], gain_error=p["gain_error"], lag_s=p["lag_s"],
-                             noise_v=p["noise_v"], rate_hz=c["plant"]["rate_hz"],
-                             nonlinearity_per_rad2=p["nonlinearity_per_rad2"])
-        triad = PickoffTriadParams(coils=(coil, coil, coil), coupling=tuple(tuple(r) for r in p["cross_coupling"]))
-    except ValueError as exc:
-        raise ConfigError(f"{ctx}: {pre}{exc}") from None
-    lms = dict(c["lms_stripper"])
-    try:
-        LmsStripperDesign(fs_hz=fs_hz, scale_v_per_rad_s=(coil.scale_v_per_rad_s,) * 3, dither_hz=dither_hz, **lms)
-    except ValueError as exc:
-        raise ConfigError(f"{ctx}: {pre}{exc}") from None
-    return triad, lms
-
-
-def _with_filter_parameters(channels, fspec, c, ctx, where, base_dir):
-    """The channels with the suspension their filters believe (``ChannelConfig.filter_suspension``)."""
-    import dataclasses
-    from pathlib import Path
-
-    axes = ("x", "y", "z")
-    sus = c["suspension"]
-    nominal = {"k1": sus["k1"], "k2": sus["k2_rad"], "k3": sus["k3"], "k4": sus["k4_per_rad"], "k5": sus["k5_rad_per_v"]}
-    believed = _fparams.filter_suspensions(
-        fspec, {a: ch.suspension for a, ch in zip(axes, channels)}, nominal,
-        {a: c["channels"][a]["f0_hz"] for a in axes},
-        {a: ch.drive_signal().frequency_hz for a, ch in zip(axes, channels)},
-        {a: ch.drive.amplitude_rad for a, ch in zip(axes, channels)}, ctx,
-        Path(base_dir) if base_dir is not None else None, where)
-    online = {a: None for a in axes}
-    if fspec["source"] == "online":
-        from sins_sim.filters.online_estimator import OnlineSettings
-        from sins_sim.simulation.online import OnlineSpec
-
-        if c["drive"]["modulation_depth"] <= 0.0:
-            raise ConfigError(f"{ctx}: {where}.source: online learns from the amplitude modulation: needs "
-                              f"drive.modulation_depth > 0, got {c['drive']['modulation_depth']!r}")
-        o = fspec["online"]
-        settings = OnlineSettings(forgetting_s=o["forgetting_s"], interval_cycles=int(o["interval_cycles"]),
-                                  window_cycles=int(o["window_cycles"]), band=o["band"], k_prior=o["k_prior"],
-                                  min_spread=o["min_spread"])
-        for a in axes:
-            online[a] = OnlineSpec(settings=settings, update_s=o["update_s"], smoothing_s=o["smoothing_s"],
-                                   apply=True, datasheet={"f0_hz": c["channels"][a]["f0_hz"], **nominal})
-    out = []
-    for a, ch in zip(axes, channels):
-        try:
-            out.append(dataclasses.replace(ch, filter_suspension=believed[a], pll_tracking=bool(fspec["track"]),
-                                           online=online[a]))
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: {where} (axis {a}): {exc}") from None
-    return out
+        return resolve_imu(parsed)
+    except PlanError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def load_imu(source) -> ImuConfig:

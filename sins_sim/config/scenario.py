@@ -3,22 +3,19 @@
 A scenario names an IMU configuration, the mission (a site, and a trajectory of segments or
 a trajectory file), the block's motion on its mounts as a list of parts that add up, the
 filters to compare, navigation settings and a seed. A run is reproducible from the YAML and
-the seed. :class:`Scenario` holds what the engine takes (an :class:`~sins_sim.simulation.sins.ImuConfig`,
-:class:`~sins_sim.simulation.sins.NavSettings`, the motion, the filters); the commands above run it
-(``sins-sim run``, :func:`sins_sim.run_scenario`).
+the seed. This module checks a scenario's keys, units and ranges; :class:`Scenario` then has the plan
+(:func:`sins_sim.plan.resolve_plan`) resolve what needs the physics, and holds the :class:`~sins_sim.plan.Plan`
+the engine takes (an :class:`~sins_sim.simulation.sins.ImuConfig`, :class:`~sins_sim.simulation.sins.NavSettings`,
+the motion, the vehicle, the filters); the commands above run it (``sins-sim run``, :func:`sins_sim.run_scenario`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import re
 import warnings
 from pathlib import Path
 
-import numpy as np
-
-from sins_sim.config import advisories
 from sins_sim.config import filter_params as _fparams
 from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
 from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
@@ -69,10 +66,6 @@ MAX_SPECTRUM_S = 600.0
 #: that loading a scenario imports neither the navigation package nor numba; tests/test_mission_alignment.py checks
 #: that the two agree).
 ALIGNMENT_METHODS = ("truth", "coarse", "inertial", "kalman")
-#: The speed (m/s) above which the vehicle is not at rest for an alignment window: a still or swaying base
-#: moves at millimetres per second (a 5 arcmin sway of a point 1 m off the axis at 3 Hz: 9 mm/s); a
-#: vehicle taxiing moves at metres per second.
-ALIGNMENT_REST_SPEED_M_S = 0.1
 _DUR = dict(min=0.0, min_exclusive=True, max=MAX_DURATION_S)
 _START = dict(min=0.0, max=MAX_DURATION_S)
 _FREQ_RULE = (f"every frequency must be < the filter Nyquist (readout.output_rate_hz / 2 of the IMU, 3600 Hz by "
@@ -270,32 +263,6 @@ TEMPERATURE_SCHEMA = OneOf({
     for name in ("constant", "ramp", "step", "table")})
 
 
-def _thermal_model(c: dict, ctx: str):
-    """The scenario's ``temperature`` section -> ThermalModel (one line naming the key on a bad value)."""
-    from sins_sim.simulation.temperature import K_NAMES, TemperatureProfile, ThermalModel
-
-    kind = c["profile"]
-    try:
-        if kind == "table":
-            rows = c["table_s_k"]
-            prof = TemperatureProfile("table", start_k=rows[0][1], end_k=rows[-1][1], table=tuple(map(tuple, rows)))
-        elif kind == "ramp":
-            prof = TemperatureProfile("ramp", start_k=c["initial_k"], end_k=c["final_k"], start_s=c["start_s"],
-                                      duration_s=c["duration_s"])
-        elif kind == "step":
-            prof = TemperatureProfile("step", start_k=c["initial_k"], end_k=c["initial_k"] + c["step_k"],
-                                      step_k=c["step_k"], start_s=c["start_s"])
-        else:
-            prof = TemperatureProfile("constant", start_k=c["initial_k"], end_k=c["initial_k"])
-        return ThermalModel(prof, f0_per_k=1e-6 * c["f0_ppm_per_k"],
-                            k_per_k=tuple(1e-6 * c["k_ppm_per_k"][n] for n in K_NAMES),
-                            reference_k=c["reference_k"], update_s=c["update_s"],
-                            isolator_stiffness_per_k=1e-6 * c["isolators"]["stiffness_ppm_per_k"],
-                            isolator_damping_per_k=1e-6 * c["isolators"]["damping_ppm_per_k"])
-    except ValueError as exc:
-        raise ConfigError(f"{ctx}: {exc}") from None
-
-
 class _FilterName(Str):
     """A filter name: built-in, shipped plug-in (the reference lists these) or registered at run time."""
 
@@ -479,26 +446,15 @@ SCENARIO_SCHEMA.fields["imu"] = _Any()
 SCENARIO_SCHEMA.fields["filter_parameters"] = _FilterParameters()
 
 
-def _n_sub_of_rate(rate_hz: float, fs_hz: float, n_sub_given, ctx: str) -> int:
-    """``n_sub`` of ``navigation.rate_hz``: the filter samples per update, a whole number (issue 26)."""
-    ratio = fs_hz / rate_hz
-    n = int(round(ratio))
-    if n < 1 or abs(ratio - n) > 1e-9 * ratio:
-        near = sorted({fs_hz / max(1, int(math.floor(ratio))), fs_hz / max(1, int(math.ceil(ratio)))})
-        raise ConfigError(f"{ctx}: navigation.rate_hz: must divide the filter rate {fs_hz:g} Hz "
-                          f"(readout.output_rate_hz) into a whole number of samples per update (<= {fs_hz:g} Hz), "
-                          f"e.g. {' or '.join(f'{r:g}' for r in near)} Hz; got {rate_hz:g}")
-    if n_sub_given is not None and n_sub_given != n:
-        raise ConfigError(f"{ctx}: navigation.rate_hz: {rate_hz:g} Hz is n_sub = {n}, but navigation.n_sub is "
-                          f"{n_sub_given!r}: give one of them")
-    return n
-
-
 class Scenario:
-    """A validated scenario: IMU, motion, filters, navigation settings, seed.
+    """A validated scenario: its keys checked here, its mission resolved by the plan.
 
+    The keys, units and ranges are checked here (and the IMU file's, :func:`sins_sim.config.imu.parse_imu`);
+    everything that needs the physics is resolved by :func:`sins_sim.plan.resolve_plan`, called once, whose
+    :class:`~sins_sim.plan.Plan` is :attr:`plan` (what the engine runs, :func:`sins_sim.plan.run_plan`); its
+    fields are also this object's attributes (``imu``, ``nav``, ``motion``, ``vehicle``, ``site``, ...).
     ``duration_key`` is how a refusal names the run's length (``duration_s``, or ``--duration`` when the
-    command line set it). Configuration-time advisories (:mod:`sins_sim.config.advisories`) are issued as
+    command line set it). Configuration-time advisories (:mod:`sins_sim.plan.advisories`) are issued as
     :class:`UserWarning` and kept in :attr:`advisories`.
     """
 
@@ -508,9 +464,9 @@ class Scenario:
             raise ConfigError(f"{ctx}: navigation.start_s: must be < duration_s = {c['duration_s']:g}, "
                               f"got {c['navigation']['start_s']:g}")
         _check_file_trajectory(doc, ctx)
-        # the IMU, the motion and the navigation are built from here on; the IMU's own schema is checked before
-        # the models and the engine are imported (sins_sim.config.imu), so a wrong IMU file fails as fast
-        from sins_sim.config.imu import imu_from_dict
+        # the IMU's own schema is checked before the models and the engine are imported (sins_sim.config.imu),
+        # so a wrong IMU file fails as fast
+        from sins_sim.config.imu import parse_imu
 
         self.ctx = ctx
         #: the mapping validated (overrides applied) and the folder its relative paths are taken from
@@ -520,8 +476,6 @@ class Scenario:
         self.path = None
         self.name = c["name"]
         self.description = c["description"]
-        self.seed = int(c["seed"])
-        self.duration_s = c["duration_s"]
         imu = c["imu"]
         if isinstance(imu, str):
             imu_path = (base_dir / imu).resolve()
@@ -532,191 +486,33 @@ class Scenario:
             if c["filter_parameters"] is not None and isinstance(imu_doc, dict):
                 imu_doc = dict(imu_doc, filter_parameters=c["filter_parameters"])
             alias_marks(f"{ctx} -> {imu_path.name}", str(imu_path))  # its errors give the IMU file's lines
-            self.imu = imu_from_dict(imu_doc, f"{ctx} -> {imu_path.name}", base_dir=imu_path.parent)
+            unit = parse_imu(imu_doc, f"{ctx} -> {imu_path.name}", base_dir=imu_path.parent)
         else:
             self.imu_source = "inline"
             if c["filter_parameters"] is not None:
                 imu = dict(imu, filter_parameters=c["filter_parameters"])
-            self.imu = imu_from_dict(imu, ctx, "imu", base_dir=base_dir)
+            unit = parse_imu(imu, ctx, "imu", base_dir=base_dir)
             imu_doc = imu
         #: what the filters believe (sins_sim.config.filter_params): source, f0, f0_mismatch_ppm, track
         fp = imu_doc.get("filter_parameters", True) if isinstance(imu_doc, dict) else True
         self.filter_spec = _fparams.parse_filter_parameters(fp, ctx)
-        self.temperature = None
-        if c["temperature"] is not None:
-            self.temperature = _thermal_model(c["temperature"], ctx)
-            self.imu = _with_temperature(self.imu, self.temperature, self.duration_s, ctx)
-            _check_block_temperature(self.imu, self.temperature, self.duration_s, ctx)
-        fs = self.imu.filter_rate_hz
-        _check_motion(c["motion"], c["linear_vibration"], fs, ctx, self.imu.plant_rate_hz)
-        nv = c["navigation"]
-        if nv["rate_hz"] is not None:
-            nv["n_sub"] = _n_sub_of_rate(nv["rate_hz"], fs, nv["n_sub"], ctx)
-        elif nv["n_sub"] is None:  # the mission default (issue 26): about 400 Hz
-            from sins_sim.simulation.sins import default_n_sub  # the IMU is valid: the engine may load now
-
-            nv["n_sub"] = default_n_sub(fs)
-        if nv["timeseries_rate_hz"] is not None and nv["timeseries_rate_hz"] > fs / nv["n_sub"]:
-            raise ConfigError(f"{ctx}: navigation.timeseries_rate_hz: must be <= the navigation update rate "
-                              f"{fs / nv['n_sub']:g} Hz (readout.output_rate_hz / n_sub; navigation.rate_hz "
-                              f"raises it), got {nv['timeseries_rate_hz']:g}")
+        _check_motion(c["motion"], c["linear_vibration"], unit["c"]["readout"]["output_rate_hz"], ctx,
+                      unit["c"]["plant"]["rate_hz"])
         self.motion_spec = c["motion"]
-        self.motion = _build_motion(c["motion"], self.seed, ctx)
-        self.filters = tuple(dict.fromkeys(c["filters"]))
-        nv = c["navigation"]
-        from sins_sim.simulation.sins import NavSettings
-
-        try:
-            self.nav = NavSettings(coning=nv["coning"], sculling=nv["sculling"], start_s=nv["start_s"],
-                                   n_sub=nv["n_sub"], vertical=nv["vertical"],
-                                   height_aid_tau_s=nv["height_aid_tau_s"], accel_delay=nv["accel_delay"], align_s=nv["align_s"],
-                                   timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"],
-                                   tuned_band_hz=None if nv["tuned_band_hz"] is None else tuple(nv["tuned_band_hz"]),
-                                   alignment=_alignment_settings(nv["alignment"], self.imu))
-            if self.nav.tuned:  # the design is part of loading the scenario (issue 28): errors here, not mid-run
-                from sins_sim.simulation.sins import tuned_designs
-
-                key = "navigation.coning" if nv["coning"] == "filter_tuned" else "navigation.sculling"
-                self.nav = dataclasses.replace(self.nav, designs=tuned_designs(self.imu, self.filters,
-                                                                                self.nav.tuned_band_hz, key))
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: {exc}") from None
-        single_cone = len(c["motion"]) == 1 and c["motion"][0].get("type") == "coning"
-        if nv["tuned_band_hz"] is not None and not self.nav.tuned and not single_cone:
-            # read by filter_tuned, and by the coning table of a run whose motion is one coning part (jobs.run)
-            raise ConfigError(f"{ctx}: navigation.tuned_band_hz: applies only with coning or sculling: filter_tuned "
-                              f"(the design band of its coefficients), got coning: {nv['coning']} and sculling: "
-                              f"{nv['sculling']}, where it would be ignored: remove it or choose filter_tuned")
-        self.site = c["site"]
         self.trajectory_spec = c["trajectory"]
-        written = isinstance(doc.get("trajectory"), dict) and "velocity_tolerance_m_s" in doc["trajectory"]
-        self.vehicle = _build_vehicle(c["site"], {**c["trajectory"], "velocity_tolerance_written": written},
-                                      self.duration_s, ctx, base_dir,
-                                      duration_key, start_s=nv["start_s"])
-        if c["trajectory"]["file"]:  # the mission starts where the file does: the site is its first row
-            self.site = _site_of(self.vehicle)
-        _check_at_rest_for_alignment(self.nav, self.vehicle, ctx)
-        if c["aiding"] is not None:
-            self.nav = dataclasses.replace(self.nav, aiding=_aiding_settings(doc.get("aiding") or {}, c["aiding"],
-                                                                             self, base_dir, ctx, duration_key))
-        self.events = _events(c["motion"], self.vehicle)
-        self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
-        self.vibration_enters = c["vibration_enters"]
-        self.motion_enters = c["motion_enters"]
         self.outputs = c["outputs"]
-        #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
-        self.advisories = (advisories.vibration_advisories(self.imu, c["motion"], self.filters)
-                           + advisories.online_on_block_advisories(self.imu))
-        for msg in self.advisories:
-            warnings.warn(msg, UserWarning, stacklevel=2)
+        # the one entry point into the physics: the plan resolves the unit, the rates, the designs, the vehicle,
+        # the alignment and the aiding, and refuses what does not compose (its lines are this file's errors)
+        from sins_sim.plan import PlanError, resolve_plan
 
-
-def _aiding_settings(written: dict, a: dict, sc, base_dir, ctx, duration_key) -> object:
-    """``aiding`` -> AidingSettings; what cannot compose is refused naming both keys."""
-    from sins_sim.navigation.gnss import GnssSettings
-    from sins_sim.simulation.aiding import AidingSettings
-
-    fs = sc.imu.filter_rate_hz
-    start, dur = sc.nav.start_s, sc.duration_s
-    rate = a["rate_hz"]
-    upd = rate if a["update_rate_hz"] is None else a["update_rate_hz"]
-    if upd > rate * (1.0 + 1e-12) or abs(rate / upd - round(rate / upd)) > 1e-9 * rate / upd:
-        raise ConfigError(f"{ctx}: aiding.update_rate_hz: must divide aiding.rate_hz = {rate:g} Hz into a whole "
-                          f"number of fixes per update, got {upd:g}")
-    for i, w in enumerate(a["outages_s"]):
-        if not w[0] < w[1]:
-            raise ConfigError(f"{ctx}: aiding.outages_s[{i}]: must be [start_s, end_s] with start < end, got {w}")
-        if not (start < w[0] and w[1] <= dur):
-            raise ConfigError(f"{ctx}: aiding.outages_s[{i}]: {w} must lie within navigation.start_s = {start:g} s "
-                              f"(an update must come before it) and {duration_key} = {dur:g} s")
-    data = None
-    if a["file"]:
-        for key in ("markov_sigma_m", "markov_tau_s"):
-            if key in written:
-                raise ConfigError(f"{ctx}: aiding.{key}: describes simulated fixes and would be ignored beside "
-                                  f"aiding.file (a recorded solution carries its own errors): remove one of them")
-        from sins_sim.io.gnss_file import read_gnss_file
-
-        path = (Path(base_dir) / a["file"]).resolve()
         try:
-            data = read_gnss_file(path)
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: aiding.file: {exc}") from None
-        if "velocity" in a["measurements"] and data.v_ned_m_s is None:
-            raise ConfigError(f"{ctx}: aiding.measurements: velocity needs the velocity columns (vn_m_s, ve_m_s, "
-                              f"vd_m_s) of aiding.file ({a['file']}), which has none: use measurements: [position]")
-        if not (data.t_s[0] <= start and data.t_s[-1] >= dur - 1.0 / rate):
-            raise ConfigError(f"{ctx}: aiding.file: its fixes span {data.t_s[0]:g} to {data.t_s[-1]:g} s and must "
-                              f"cover navigation.start_s = {start:g} s to {duration_key} = {dur:g} s")
-    else:
-        ratio = fs / rate
-        if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
-            raise ConfigError(f"{ctx}: aiding.rate_hz: must divide the filter rate readout.output_rate_hz = {fs:g} Hz "
-                              f"into whole samples (a fix is the truth at a filter sample), got {rate:g}")
-    try:
-        gnss = GnssSettings(rate_hz=rate, position_sigma_m=tuple(a["position_sigma_m"]),
-                            velocity_sigma_m_s=tuple(a["velocity_sigma_m_s"]),
-                            markov_sigma_m=tuple(a["markov_sigma_m"]), markov_tau_s=a["markov_tau_s"],
-                            latency_s=a["latency_s"], lever_arm_b_m=tuple(a["lever_arm_m"]),
-                            outages_s=tuple(tuple(w) for w in a["outages_s"]))
-    except ValueError as exc:
-        raise ConfigError(f"{ctx}: aiding: {exc}") from None
-    return AidingSettings(gnss=gnss, measurements=tuple(dict.fromkeys(a["measurements"])), update_rate_hz=upd,
-                          feedback=a["feedback"], smoother=a["smoother"], file=data)
-
-
-def _alignment_settings(spec: dict, imu):
-    """``navigation.alignment`` with the unit's bias and noise numbers (the observability bounds, the filter)."""
-    from sins_sim.simulation.aligning import alignment_settings
-
-    return alignment_settings(spec["method"], spec["duration_s"], imu.sensors)
-
-
-def _check_at_rest_for_alignment(nav, vehicle, ctx):
-    """An alignment window needs the vehicle at rest (it may sway): refuse a window over which it travels."""
-    al = nav.alignment
-    if not al.active:
-        return
-    t0 = nav.start_s - al.duration_s
-    t = np.linspace(t0, nav.start_s, max(2, int(math.ceil(al.duration_s * 10.0)) + 1))
-    speed = np.linalg.norm(vehicle.evaluate(t).v_ned_m_s, axis=1)
-    worst = int(np.argmax(speed))
-    if speed[worst] > ALIGNMENT_REST_SPEED_M_S:
-        raise ConfigError(f"{ctx}: navigation.alignment: the vehicle must be at rest over the alignment window "
-                          f"[{t0:g}, {nav.start_s:g}] s (start_s - duration_s to start_s), but it moves at "
-                          f"{speed[worst]:.3g} m/s at t = {t[worst]:.6g} s (at most {ALIGNMENT_REST_SPEED_M_S:g} m/s); "
-                          f"start the trajectory with a stationary segment or use method: truth")
-
-
-def _with_temperature(imu, model, duration_s, ctx):
-    """The unit with every channel following ``model`` (checked at the profile's extremes)."""
-    import dataclasses
-
-    from sins_sim.simulation.channel import check_thermal
-
-    channels = []
-    for axis, ch in zip(("x", "y", "z"), imu.channels):
-        ch = dataclasses.replace(ch, temperature=model)
-        try:
-            check_thermal(ch, duration_s, "temperature")
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: {exc} (channel {axis})") from None
-        channels.append(ch)
-    return dataclasses.replace(imu, channels=tuple(channels))
-
-
-def _check_block_temperature(imu, model, duration_s, ctx):
-    """The isolators' temperature coefficients need a block (refused without one, naming both keys), and keep the
-    block's linear model in range at the profile's extremes."""
-    if not model.moves_isolators:
-        return
-    if imu.block is None:
-        raise ConfigError(f"{ctx}: temperature.isolators: needs an IMU block: section (the isolators it moves), but "
-                          f"imu has none (a rigid block): remove temperature.isolators or add imu.block")
-    try:
-        model.check_block(imu.block, duration_s)
-    except ValueError as exc:
-        raise ConfigError(f"{ctx}: {exc}") from None
+            #: what the engine runs (sins_sim.plan.run_plan)
+            self.plan = resolve_plan({"c": c, "doc": doc, "imu": unit, "ctx": ctx, "base_dir": base_dir,
+                                      "duration_key": duration_key})
+        except PlanError as exc:
+            raise ConfigError(str(exc)) from None
+        for field in dataclasses.fields(self.plan):
+            setattr(self, field.name, getattr(self.plan, field.name))
 
 
 def _motion_frequencies(seg):
@@ -795,81 +591,6 @@ def _check_motion(motion, linear, fs_hz: float, ctx: str, plant_hz: float | None
                                           f"beyond the {MAX_RATE_DEG_S:g} deg/s an RLG measures")
 
 
-def _build_motion(segments, seed, ctx):
-    from sins_sim.models import motion as m3
-
-    parts = []
-    for i, seg in enumerate(segments):
-        kind = seg["type"]
-        path = f"motion[{i}]"
-        try:
-            if kind == "static":
-                part = m3.Static()
-            elif kind == "constant_rate":
-                part = m3.ConstantRate(rate_rad_s=np.array(seg["rate_rad_s"]))
-            elif kind == "turn":
-                part = m3.Turn(axis=np.array(seg["axis"]), angle_rad=seg["angle_rad"],
-                               duration_s=seg["duration_s"], start_s=seg["start_s"])
-            elif kind == "sines":
-                part = m3.AxisSines(amplitude_rad=np.array(seg["amplitude_rad"]),
-                                    frequency_hz=np.array(seg["frequency_hz"]), phase_rad=np.array(seg["phase_rad"]))
-            elif kind == "coning":
-                part = m3.Coning(amplitude_rad=seg["amplitude_rad"], frequency_hz=seg["frequency_hz"],
-                                 phase_rad=seg["phase_rad"])
-            elif kind == "random_vibration":
-                table = [(f, p * (math.pi / 180.0) ** 2) for f, p in seg["psd_deg2_s2_per_hz"]]  # (deg/s)^2/Hz -> (rad/s)^2/Hz
-                common = dict(psd_table=tuple(table), f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
-                              axis_weights=tuple(seg["axes"]), seed=seed + 1000 * (i + 1))
-                if seg["method"] == "filtered_noise":
-                    part = m3.FilteredNoiseVibration(generator=seg["generator"], **common)
-                elif seg["generator"] != GENERATORS[0]:
-                    raise ValueError(f"generator: {seg['generator']} applies to method: filtered_noise only "
-                                     f"(method: tones has no noise generator)")
-                else:
-                    part = m3.RandomVibration(**common)
-            elif kind == "shock":
-                part = m3.Shock(axis=np.array(seg["axis"]), peak_rate_rad_s=seg["peak_rate_rad_s"],
-                                duration_s=seg["duration_s"], start_s=seg["start_s"],
-                                ring_frequency_hz=seg["ring_frequency_hz"] or None,
-                                ring_amplitude_rad_s=seg["ring_amplitude_rad_s"], ring_decay_s=seg["ring_decay_s"])
-            else:  # sweep (the schema admits no other type)
-                part = m3.RateTableSweep(axis=np.array(seg["axis"]), amplitude_rad=seg["amplitude_rad"],
-                                         f_start_hz=seg["f_start_hz"], f_stop_hz=seg["f_stop_hz"],
-                                         duration_s=seg["duration_s"], start_s=seg["start_s"], kind=seg["kind"])
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: {path}: {exc}") from None
-        parts.append(part)
-    motion = parts[0]
-    for part in parts[1:]:
-        motion = motion + part
-    return motion
-
-
-def _build_translation(segments, seed, ctx):
-    """The block's translational vibration (None when there is none)."""
-    from sins_sim.models import motion as m3
-
-    parts = []
-    for i, seg in enumerate(segments):
-        try:
-            if seg["type"] == "sines":
-                parts.append(m3.LinearSines(tuple(seg["amplitude_m_s2"]), tuple(seg["frequency_hz"]),
-                                            tuple(seg["phase_rad"])))
-            else:
-                parts.append(m3.LinearRandomVibration(psd_table=tuple(tuple(r) for r in seg["psd_g2_per_hz"]),
-                                                      f_lo_hz=seg["f_lo_hz"], f_hi_hz=seg["f_hi_hz"],
-                                                      axis_weights=tuple(seg["axes"]), seed=seed + 5000 + 1000 * i,
-                                                      generator=seg["generator"]))
-        except ValueError as exc:
-            raise ConfigError(f"{ctx}: linear_vibration[{i}]: {exc}") from None
-    if not parts:
-        return None
-    total = parts[0]
-    for part in parts[1:]:
-        total = total + part
-    return total
-
-
 def _check_file_trajectory(doc, ctx) -> None:
     """A trajectory file holds the whole motion and its own start: keys that would be ignored beside it are refused
     (they were dropped without a word, and metrics.json then reported the default site)."""
@@ -885,156 +606,6 @@ def _check_file_trajectory(doc, ctx) -> None:
     if extra:
         raise ConfigError(f"{ctx}: {extra[0]}: would be ignored beside trajectory.file, which holds the whole motion "
                           f"and starts at its first row: remove {', '.join(extra)} or the file")
-
-
-def _site_of(vehicle) -> dict:
-    """The site (``lat_rad``, ``lon_rad``, ``height_m``, ``heading_rad``) at a trajectory's start."""
-    import math
-
-    tr = vehicle.evaluate(np.zeros(1))
-    q0, q1, q2, q3 = (float(x) for x in np.asarray(tr.q_nv).reshape(-1, 4)[0])
-    return {"lat_rad": float(np.ravel(tr.lat_rad)[0]), "lon_rad": float(np.ravel(tr.lon_rad)[0]),
-            "height_m": float(np.ravel(tr.h_m)[0]),
-            "heading_rad": math.atan2(2.0 * (q0 * q3 + q1 * q2), 1.0 - 2.0 * (q2 * q2 + q3 * q3))}
-
-
-def _shorter_run(duration_key: str, lasts_s: float, start_s: float) -> str:
-    """The advice of a run past its trajectory's end: a shorter run when one fits, else the length one needs.
-
-    A run must last longer than ``navigation.start_s`` and needs 0.1 s of trajectory past its end, so a trajectory
-    of ``start_s + 0.1`` s or less carries no run at all (a negative duration is never advised).
-    """
-    if lasts_s - 0.1 > start_s:
-        return f"set {duration_key} <= {lasts_s - 0.1:g}"
-    return (f"the trajectory is too short for any run that starts navigating at navigation.start_s = {start_s:g} s: "
-            f"it must last more than {start_s + 0.1:g} s (start_s + the 0.1 s past the run's end)")
-
-
-def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration_s", start_s: float = 0.0):
-    """The vehicle: a trajectory file, segments after the start, or at rest at the site.
-
-    A run longer than its trajectory (``duration_s`` + 0.1 s past the end of the file or of the segments) is
-    refused naming ``duration_key`` (``duration_s``, or ``--duration`` when the command line set it), unless
-    the segments' ``extend`` is ``hold``. A file is checked by :func:`sins_sim.config.advisories.trajectory_advisories`.
-    """
-    from sins_sim.models.motion import trajectory as tj
-
-    need = duration_s + 0.1
-    if spec["file"] and spec["extend"] != "none":
-        raise ConfigError(f"{ctx}: trajectory.extend: applies to segments only (a file holds what it holds), "
-                          f"got {spec['extend']!r} with trajectory.file")
-    try:
-        if spec["file"]:
-            from sins_sim.io.trajectory import read_trajectory
-
-            path = (base_dir / spec["file"]).resolve()
-            data = read_trajectory(path)
-            try:
-                msgs = advisories.trajectory_advisories(data, spec["file"])
-            except ConfigError as exc:
-                raise ConfigError(f"{ctx}: {exc}") from None
-            for msg in msgs:
-                warnings.warn(msg, UserWarning, stacklevel=3)
-            if data.v_ned_m_s is None and spec.get("velocity_tolerance_written"):
-                raise ConfigError(f"{ctx}: trajectory.velocity_tolerance_m_s: applies to a file with velocity "
-                                  f"columns; {spec['file']} has none (vn_m_s, ve_m_s, vd_m_s): remove the key")
-            vehicle = tj.SampledTrajectory.from_data(data, v_tol_m_s=spec["velocity_tolerance_m_s"])
-            where = f"trajectory.file ({spec['file']})"
-        else:
-            segs = []
-            for seg in spec["segments"]:
-                kind = seg["type"]
-                if kind == "stationary":
-                    segs.append(tj.Stationary(seg["duration_s"]))
-                elif kind == "cruise":
-                    segs.append(tj.Cruise(seg["duration_s"]))
-                elif kind == "accelerate":
-                    segs.append(tj.Accelerate(seg["duration_s"], seg["delta_speed_m_s"]))
-                elif kind == "turn":
-                    segs.append(tj.CoordinatedTurn(seg["duration_s"], seg["heading_change_rad"]))
-                else:
-                    segs.append(tj.Climb(seg["duration_s"], seg["delta_height_m"]))
-            flown = sum(sg.duration_s for sg in segs)
-            if segs and flown < need and spec["extend"] == "none":
-                raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of the trajectory's "
-                                  f"segments, which last {flown:g} s (the run needs {duration_key} + 0.1 s of "
-                                  f"trajectory): {_shorter_run(duration_key, flown, start_s)}; add a segment (e.g. "
-                                  f"{{type: cruise, duration_s: {math.ceil(need - flown):g}}}), or set "
-                                  f"trajectory.extend: hold to hold the last state")
-            tail = duration_s + 1.0 - flown  # after the last segment the vehicle holds its state
-            if tail > 0:
-                segs.append(tj.Stationary(tail) if _ends_at_rest(spec, segs) else tj.Cruise(tail))
-            vehicle = tj.Trajectory(site["lat_rad"], site["lon_rad"], site["height_m"], spec["speed_m_s"],
-                                    site["heading_rad"], tuple(segs), transition_s=spec["transition_s"])
-            where = "trajectory"
-            _check_latitude_reach(vehicle, min(need, vehicle.duration_s), ctx)
-    except ConfigError:
-        raise
-    except ValueError as exc:
-        if spec["file"]:  # the model's names -> the file's columns and rows
-            msg = tj.velocity_check_in_file_terms(str(exc), f"trajectory.file ({spec['file']})",
-                                                  "trajectory.velocity_tolerance_m_s")
-            raise ConfigError(f"{ctx}: {msg}") from None
-        turn = re.match(r"Trajectory\.segments\[(\d+)\]\.delta_heading_rad: (.*), got (\S+)$", str(exc))
-        if turn:  # the model's radians -> the key the user wrote
-            raise ConfigError(f"{ctx}: trajectory.segments[{turn.group(1)}].heading_change_deg: {turn.group(2)}, got "
-                              f"{math.degrees(float(turn.group(3))):g}") from None
-        raise ConfigError(f"{ctx}: trajectory: {exc}") from None
-    if vehicle.duration_s < need:  # a file (segments are refused above or held to the end)
-        raise ConfigError(f"{ctx}: {duration_key}: {duration_s:g} s runs past the end of {where}, which lasts "
-                          f"{vehicle.duration_s:g} s (the run needs {duration_key} + 0.1 s of trajectory): "
-                          f"{_shorter_run(duration_key, vehicle.duration_s, start_s)}; or give a longer file")
-    return vehicle
-
-
-#: Longest flight (s) whose latitude reach is integrated at load (2 days of flight, about 20 s of integration);
-#: beyond it the engine itself stops at the limit, in the model's words.
-_LAT_CHECK_MAX_S = 2.0e5
-
-
-def _check_latitude_reach(vehicle, t_end, ctx) -> None:
-    """A segment flight that would pass 89.5 deg of latitude is refused now, naming the keys (it stopped the engine
-    mid-run with the model's words): the position is integrated to the run's end once (RK4 at 100 Hz, the
-    engine's own integration)."""
-    from sins_sim.io.trajectory import MAX_ABS_LAT_DEG, POLE_REASON
-
-    # a flight that cannot cover the distance to 89.5 deg at its fastest is not integrated (the default vehicle at
-    # rest, and huge durations that the run-time estimate refuses next: the integration costs 100 steps per
-    # simulated second); 110 km per degree is below the shortest meridian degree (110.57 km at the equator)
-    speeds = [abs(vehicle.start_speed_m_s)]
-    for sg in vehicle.segments:
-        speeds.append(speeds[-1] + abs(getattr(sg, "delta_speed_m_s", 0.0)))
-    reach_m = (max(speeds) + 1e-9) * t_end
-    if reach_m < (MAX_ABS_LAT_DEG - abs(math.degrees(vehicle.start_lat_rad))) * 110.0e3 or t_end > _LAT_CHECK_MAX_S:
-        return
-    try:
-        vehicle.evaluate(np.linspace(0.0, t_end, int(min(max(t_end, 1.0), 1e5)) + 1))  # the time within ~1 s
-    except ValueError as exc:
-        m = re.search(r"before t = (?:np\.float64\()?([0-9.eE+-]+)", str(exc))
-        when = f" before t = {float(m.group(1)):.4g} s" if m else ""
-        raise ConfigError(f"{ctx}: trajectory.segments: the flight from site.lat_deg "
-                          f"{math.degrees(vehicle.start_lat_rad):g} passes {MAX_ABS_LAT_DEG:g} deg of latitude{when}: "
-                          f"{POLE_REASON}; shorten the run, turn away from the pole or start farther from it") from None
-
-
-def _ends_at_rest(spec, segs) -> bool:
-    speed = spec["speed_m_s"]
-    for sg in segs:
-        speed += getattr(sg, "delta_speed_m_s", 0.0)
-    return abs(speed) < 1e-9
-
-
-def _events(motion_spec, vehicle):
-    """Shocks and block turns of the motion list, for the step and scale-factor metrics."""
-    out = []
-    for seg in motion_spec:
-        if seg["type"] == "shock":
-            out.append({"kind": "shock", "start_s": seg["start_s"], "end_s": seg["start_s"] + seg["duration_s"]})
-        elif seg["type"] == "turn":
-            ax = np.asarray(seg["axis"], dtype=float)
-            out.append({"kind": "turn", "start_s": seg["start_s"], "end_s": seg["start_s"] + seg["duration_s"],
-                        "angle_rad": seg["angle_rad"], "axis_body": (ax / np.linalg.norm(ax)).tolist()})
-    return out
 
 
 def load_scenario(source, overrides: dict | None = None, base_dir=None) -> Scenario:

@@ -21,7 +21,7 @@ and, for ``sins-sim run`` (:func:`record_run`):
     run.seed          the seed every random stream of the run derives from
     run.filter_parameters
                       where the filters' parameters came from, and filter -> axis -> the values each filter
-                      actually used (sins_sim.config.filter_params.filters_used): f0_hz, k1 .. k5 in SI,
+                      actually used (sins_sim.plan.imu.filters_used): f0_hz, k1 .. k5 in SI,
                       the unit's f0 and the filter's f0 error in ppm, source, f0 source, mismatch, tracking
 
 ``run.scenario`` and ``run.imu`` are also written as ``inputs/scenario.yaml`` and ``inputs/imu.yaml``,
@@ -388,7 +388,7 @@ def record_run(manifest: Manifest, scenario, path, overrides: dict | None, folde
     ``path`` is the scenario file or, for a scenario given as a mapping, that mapping (its relative
     paths taken from ``scenario.base_dir``).
     """
-    from sins_sim.config.filter_params import filters_used
+    from sins_sim.plan.imu import filters_used
     from sins_sim.simulation.unit import run_channels  # the drives the run builds its filters on (a block's own)
 
     res = resolve_run_inputs(path, overrides, getattr(scenario, "base_dir", None))

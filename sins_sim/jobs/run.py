@@ -285,7 +285,8 @@ def run_scenario(path, out_dir, progress=None, overrides: dict | None = None, th
                  manifest=None) -> dict:
     """Run a scenario file end to end; write the results into ``out_dir``; return the metrics.
 
-    The steps are :func:`prepare_run` (validate), :func:`compute_run` (the engine and the metrics, in
+    The steps are :func:`prepare_run` (``load_scenario``: the keys checked and the plan resolved,
+    :func:`sins_sim.plan.resolve_plan`), :func:`compute_run` (:func:`sins_sim.plan.run_plan` and the metrics, in
     memory) and :func:`write_run` (the folder); :func:`sins_sim.jobs.notebook.run` does the first two
     for a notebook and :meth:`~sins_sim.results.MissionResult.save` the last.
 
@@ -358,13 +359,9 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
     -------
     (SinsResult, dict)
     """
-    from sins_sim.config import advisories
-    from sins_sim.simulation.sins import simulate_sins  # the engine, once the scenario is known to be valid
+    from sins_sim.plan import advisories, run_plan
 
-    res = simulate_sins(scenario.imu, scenario.motion, scenario.duration_s, seed=scenario.seed, nav=scenario.nav,
-                        filters=scenario.filters, progress=progress, threads=threads, vehicle=scenario.vehicle,
-                        translation=scenario.translation, vibration_enters=scenario.vibration_enters,
-                        motion_enters=scenario.motion_enters)
+    res = run_plan(scenario.plan, progress=progress, threads=threads)  # the engine runs what load_scenario resolved
     metrics = {
         "scenario": scenario.name,
         "description": scenario.description,

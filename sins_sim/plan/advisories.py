@@ -14,7 +14,7 @@ Three families (issue 22, points 7 and 8):
   by more than :data:`VOLTAGE_TOLERANCE`.
 * **Trajectory files whose attitude does not fit their ground track** (:func:`trajectory_advisories`):
   the radians-for-degrees slip. A file that fits only when its angle columns are read as radians is
-  refused (:class:`~sins_sim.config.schema.ConfigError`); one whose yaw strays far from its track is
+  refused (:class:`~sins_sim.config.schema.PlanError`); one whose yaw strays far from its track is
   warned about.
 
 Each check is a small function returning the messages; :func:`sins_sim.config.scenario.load_scenario`
@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from sins_sim import earth
-from sins_sim.config.errors import ConfigError
+from sins_sim.plan.errors import PlanError
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["N_BANDWIDTHS", "AMPLITUDE_TOLERANCE", "VOLTAGE_TOLERANCE", "vibration_advisories", "drive_advisories",
@@ -433,7 +433,7 @@ def trajectory_advisories(data, name: str) -> list[str]:
 
     Raises
     ------
-    ConfigError
+    PlanError
         When the file fits only with angle columns read as radians: the yaw column follows the ground track
         within :data:`RADIANS_FIT_DEG` once multiplied by 180/pi but not as written (lat_deg, lon_deg named too
         when rescaling them makes the fit better, roll_deg when it then is the coordinated bank in radians);
@@ -465,7 +465,7 @@ def trajectory_advisories(data, name: str) -> list[str]:
                 rf = _roll_fit(fit, t, lat * pos, h, roll)
                 if rf is not None and rf[1] <= 0.25:
                     cols.insert(-1, "roll_deg")
-            raise ConfigError(f"{head}columns {', '.join(cols)} look like radians, not degrees: the ground track "
+            raise PlanError(f"{head}columns {', '.join(cols)} look like radians, not degrees: the ground track "
                               f"from lat_deg/lon_deg differs from yaw_deg by {cmp['median_deg']:.3g} deg (median "
                               f"over {cmp['moving_s']:.4g} s moving) but by {fit['median_deg']:.2g} deg with "
                               f"{', '.join(cols)} read as radians; write every angle column in degrees (multiply "
@@ -477,7 +477,7 @@ def trajectory_advisories(data, name: str) -> list[str]:
     elif moving and "roll_deg" in radians_ok:
         rf = _roll_fit(cmp, t, lat, h, roll)
         if rf is not None and rf[1] <= 0.25 and rf[0] > 0.5:
-            raise ConfigError(f"{head}columns roll_deg look like radians, not degrees: in the turns roll_deg is "
+            raise PlanError(f"{head}columns roll_deg look like radians, not degrees: in the turns roll_deg is "
                               f"{rf[2]:.3g} deg where the coordinated bank atan(v yaw_rate / g) is {rf[3]:.3g} deg, "
                               f"and it matches that within {100 * rf[1]:.2g} % read as radians; write degrees "
                               f"(multiply by 180/pi)")
@@ -489,7 +489,7 @@ def trajectory_advisories(data, name: str) -> list[str]:
 
         as_rad = _track_vs_yaw(t, lat * scale, lon * scale, h, yaw)
         if misfit(cmp) > 0.5 and as_rad is not None and misfit(as_rad) <= 0.1:
-            raise ConfigError(f"{head}columns lat_deg, lon_deg look like radians, not degrees: the positions move "
+            raise PlanError(f"{head}columns lat_deg, lon_deg look like radians, not degrees: the positions move "
                               f"at {np.median(cmp['speed']):.3g} m/s where the velocity columns (vn_m_s, ve_m_s) "
                               f"say {np.median(as_rad['speed']):.4g} m/s, and match them within "
                               f"{100 * misfit(as_rad):.2g} % read as radians; write degrees (multiply by 180/pi)")
