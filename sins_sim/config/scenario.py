@@ -20,6 +20,7 @@ import numpy as np
 
 from sins_sim.config import advisories
 from sins_sim.config import filter_params as _fparams
+from sins_sim.config import vibration_spec as _vspec
 from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
 from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml
@@ -184,7 +185,21 @@ SEGMENT_SCHEMA = OneOf({
     "climb": Map({"duration": Num(unit="s", required=True, **_DUR),
                   "delta_height": Num(unit="m", required=True, min=-101000.0, max=101000.0)},
                  doc="height change (heights stay in [-1000, 100000] m)"),
-}, rules={"climb": ("the flight-path angle asin(h'/V) stays within 60 deg (a climb needs a speed > 0; the pitch "
+    "hover": Map({"duration": Num(unit="s", required=True, **_DUR),
+                  "roll": Num(unit="deg", default=0.0, min=-30.0, max=30.0,
+                              doc="roll on the plateau (+ = right wing down), eased in and out"),
+                  "pitch": Num(unit="deg", default=0.0, min=-30.0, max=30.0,
+                               doc="pitch on the plateau (+ = nose up), eased in and out")},
+                 doc="hover at the current height: zero velocity, a small attitude (from rest)"),
+    "sideways": Map({"duration": Num(unit="s", required=True, **_DUR),
+                     "lateral_speed": Num(unit="m_s", required=True, min=-50.0, max=50.0,
+                                          doc="speed to the right of the heading on the plateau (- = left)")},
+                    doc="sideways flight from a hover back to a hover: velocity perpendicular to the heading, "
+                        "the bank atan(u'/g) balancing its acceleration"),
+}, rules={"hover": ("needs speed 0 at its start; with a roll or pitch it lasts at least 2 transition_s",),
+          "sideways": ("needs speed 0 at its start (a hover); lasts at least 2 transition_s; the balancing bank "
+                       "stays within 60 deg and its roll rate within 1000 deg/s: lengthen transition_s",),
+          "climb": ("the flight-path angle asin(h'/V) stays within 60 deg (a climb needs a speed > 0; the pitch "
                     "stays away from the Euler singularity): a steeper climb is refused",),
           "turn": ("the centripetal acceleration V psi' stays <= 2000 m/s^2 (about 200 g) and the peak body rate "
                    "(heading rate and the roll rate into the coordinated bank) <= 1000 deg/s, the range of an RLG: "
@@ -376,6 +391,7 @@ SCENARIO_SCHEMA = Map({
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
     "temperature": TEMPERATURE_SCHEMA,
     "aiding": None,  # AIDING_SCHEMA, set below
+    "vibration": _vspec.VIBRATION_SCHEMA,
 }, rules=("the run's estimated wall time must be <= 48 h (sins_sim.jobs.estimate; shown before the run starts)",))
 
 
@@ -600,7 +616,19 @@ class Scenario:
             self.nav = dataclasses.replace(self.nav, aiding=_aiding_settings(doc.get("aiding") or {}, c["aiding"],
                                                                              self, base_dir, ctx, duration_key))
         self.events = _events(c["motion"], self.vehicle)
-        self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
+        #: the vibration specification (sins_sim.models.vibration_spec.SineOnRandomSpec) or None
+        self.vibration_spec = None
+        if c["vibration"] is not None:
+            if "linear_vibration" in doc:
+                raise ConfigError(f"{ctx}: vibration.spec: refused beside linear_vibration, which it would "
+                                  f"duplicate (the spec resolves to the translational vibration): give one of them")
+            self.vibration_spec = _vspec.parse_vibration_spec(c["vibration"]["spec"], base_dir, ctx, 0.5 * fs)
+            try:
+                self.translation = self.vibration_spec.translation(self.seed)
+            except ValueError as exc:
+                raise ConfigError(f"{ctx}: vibration.spec: {exc}") from None
+        else:
+            self.translation = _build_translation(c["linear_vibration"], self.seed, ctx)
         self.vibration_enters = c["vibration_enters"]
         self.motion_enters = c["motion_enters"]
         self.outputs = c["outputs"]
@@ -952,6 +980,10 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
                     segs.append(tj.Accelerate(seg["duration_s"], seg["delta_speed_m_s"]))
                 elif kind == "turn":
                     segs.append(tj.CoordinatedTurn(seg["duration_s"], seg["heading_change_rad"]))
+                elif kind == "hover":
+                    segs.append(tj.Hover(seg["duration_s"], seg["roll_rad"], seg["pitch_rad"]))
+                elif kind == "sideways":
+                    segs.append(tj.Sideways(seg["duration_s"], seg["lateral_speed_m_s"]))
                 else:
                     segs.append(tj.Climb(seg["duration_s"], seg["delta_height_m"]))
             flown = sum(sg.duration_s for sg in segs)
@@ -1003,7 +1035,7 @@ def _check_latitude_reach(vehicle, t_end, ctx) -> None:
     # simulated second); 110 km per degree is below the shortest meridian degree (110.57 km at the equator)
     speeds = [abs(vehicle.start_speed_m_s)]
     for sg in vehicle.segments:
-        speeds.append(speeds[-1] + abs(getattr(sg, "delta_speed_m_s", 0.0)))
+        speeds.append(speeds[-1] + abs(getattr(sg, "delta_speed_m_s", 0.0)) + abs(getattr(sg, "lateral_speed_m_s", 0.0)))
     reach_m = (max(speeds) + 1e-9) * t_end
     if reach_m < (MAX_ABS_LAT_DEG - abs(math.degrees(vehicle.start_lat_rad))) * 110.0e3 or t_end > _LAT_CHECK_MAX_S:
         return
