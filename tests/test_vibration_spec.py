@@ -128,6 +128,10 @@ def test_the_bundled_spec_loads_from_a_scenario_with_its_source():
     assert "illustrative" in s["source"] and "MIL-STD-810H Method 514.8" in s["source"]
     assert [f for f, _ in s["axes"]["z"]["lines_hz_g"]] == pytest.approx([89.5, 21.6, 43.2, 64.8])
     assert "ILLUSTRATIVE" in SPEC_FILE.read_text()
+    # the user guide quotes the bundled file's closed form
+    page = (ROOT / "docs" / "user-guide" / "vibration-specs.md").read_text()
+    z = s["axes"]["z"]
+    assert f"{z['random_grms_g']:.4f} g random, {z['sine_grms_g']:.4f} g lines, {z['grms_g']:.4f} g in all" in page
 
 
 @pytest.mark.parametrize("spec, match", [

@@ -619,7 +619,7 @@ class Scenario:
         #: the vibration specification (sins_sim.models.vibration_spec.SineOnRandomSpec) or None
         self.vibration_spec = None
         if c["vibration"] is not None:
-            if "linear_vibration" in doc:
+            if doc.get("linear_vibration"):  # an empty list (the default written out) duplicates nothing
                 raise ConfigError(f"{ctx}: vibration.spec: refused beside linear_vibration, which it would "
                                   f"duplicate (the spec resolves to the translational vibration): give one of them")
             self.vibration_spec = _vspec.parse_vibration_spec(c["vibration"]["spec"], base_dir, ctx, 0.5 * fs)
