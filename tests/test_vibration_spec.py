@@ -6,8 +6,8 @@ background, LinearSines for the lines), sampled at 7200 Hz for 60 s. Tolerances 
 estimates, not from a run:
 
 * mean square of a record of length T of a Gaussian process with one-sided PSD G: its variance is
-  ``(1/T) integral G^2 df`` (Bendat & Piersol, *Random Data*, 4th ed., 2010, sec. 8.2.1, eq. 8.29 for the
-  variance of a mean-square estimate, ``1 / (2 B T)`` for band-limited white noise), plus for each line of peak
+  ``(1/T) integral G^2 df`` (Bendat & Piersol, *Random Data*, 4th ed., 2010, ch. 8, the random error of a
+  mean-square estimate: ``1 / (B T)`` relative variance for band-limited white noise), plus for each line of peak
   ``a`` the cross term ``a^2 G(f_line) / T`` (the variance of ``(2a/T) integral x sin(wt) dt``); the test
   allows 5 sigma (two-sided false alarm 6e-7), and the generator's interpolation images (``image_level_db``,
   about -106 dB) on top;

@@ -12,19 +12,18 @@ The specification resolves to the existing translational models: the background 
 
 * the background, ``integral_{f_1}^{f_k} G(f) df`` of the piecewise power law ``G(f) = G_i (f / f_i)^b_i``,
   ``b_i = ln(G_{i+1} / G_i) / ln(f_{i+1} / f_i)``, segment by segment
-  ``G_i f_i / (b_i + 1) ((f_{i+1} / f_i)^(b_i + 1) - 1)`` (``G_i f_i ln(f_{i+1} / f_i)`` when ``b_i = -1``) [3]_;
+  ``G_i f_i / (b_i + 1) ((f_{i+1} / f_i)^(b_i + 1) - 1)`` (``G_i f_i ln(f_{i+1} / f_i)`` when ``b_i = -1``), the
+  integral of a power law (:func:`sins_sim.models.motion.base._loglog_segment_integral`);
 * a line of peak ``a`` adds ``a^2 / 2`` (its RMS is ``a / sqrt 2``);
 * ``g_rms = sqrt(background + sum a^2 / 2)``.
 
 References
 ----------
 .. [1] MIL-STD-810H, *Environmental Engineering Considerations and Laboratory Tests*, Method 514.8 "Vibration",
-   2019: Annex A (sine-on-random definitions), Annex D (operational schedules; helicopter vibration as sinusoids
-   at the rotor's blade-passage harmonics over a broadband background).
-.. [2] W. Johnson, *Helicopter Theory*, Princeton University Press, 1980 (Dover 1994), ch. 16: the rotor
-   transmits to the fuselage at the blade passage ``N Omega`` and its harmonics.
-.. [3] T. Irvine, "Power spectral density units: [G^2/Hz]" and "Integration of a PSD with log-log
-   interpolation", Vibrationdata, 2000-2012 (the segment integral of a power-law PSD).
+   2019, Annex D (operational tailoring guidance; its helicopter category: sinusoids at the rotor's
+   blade-passage harmonics over a broadband background). The form is taken from it, no level.
+.. [2] W. Johnson, *Helicopter Theory*, Princeton University Press, 1980 (Dover 1994), the chapter on
+   helicopter vibration: an N-bladed rotor transmits to the fuselage at ``N Omega`` and its harmonics.
 """
 
 from __future__ import annotations

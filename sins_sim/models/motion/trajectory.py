@@ -1292,7 +1292,7 @@ def build_trajectory(spec) -> Trajectory:
         The keyword arguments of :class:`Trajectory`; ``segments`` is a list
         of ``{"type": name, **fields}`` with ``name`` a key of
         :data:`SEGMENT_TYPES` (``stationary``, ``cruise``, ``accelerate``,
-        ``turn``, ``climb``).
+        ``turn``, ``climb``, ``hover``, ``sideways``).
 
     Returns
     -------
