@@ -44,7 +44,7 @@ ALLOWED = {
 
 #: inside config/: module -> its rank, top (0) to bottom; a module imports only modules of a higher rank
 CONFIG_ORDER = {"reference": 0, "scenario": 1, "sweep": 1, "experiment": 1, "log": 1, "imu": 2, "filter_params": 3,
-                "effects_schema": 3, "block_schema": 3, "yaml_io": 4, "schema": 5, "errors": 6}
+                "effects_schema": 3, "block_schema": 3, "vibration_spec": 3, "yaml_io": 4, "schema": 5, "errors": 6}
 #: jobs/ modules kept as deprecated aliases of the config/ modules (for code outside the package) -> their home
 MOVED_TO_CONFIG = {m: f"sins_sim.config.{m}" for m in ("schema", "yaml_io", "scenario", "imu", "filter_params",
                                                        "effects_schema", "reference")}

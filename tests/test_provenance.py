@@ -247,7 +247,8 @@ def test_the_inputs_as_run_load_to_the_same_scenario(path, tmp_path):
     assert again.imu == sc.imu and again.filter_spec["file"] in (None, "diagnosis.json")
     assert {k: v for k, v in again.filter_spec.items() if k != "file"} == \
            {k: v for k, v in sc.filter_spec.items() if k != "file"}
-    for attr in ("name", "seed", "duration_s", "nav", "motion_spec", "site", "filters", "outputs", "events"):
+    for attr in ("name", "seed", "duration_s", "nav", "motion_spec", "site", "filters", "outputs", "events",
+                 "vibration_spec"):
         assert getattr(again, attr) == getattr(sc, attr), attr
     assert {k: v for k, v in again.trajectory_spec.items() if k != "file"} == \
            {k: v for k, v in sc.trajectory_spec.items() if k != "file"}

@@ -17,6 +17,7 @@ import warnings
 from pathlib import Path
 
 from sins_sim.config import filter_params as _fparams
+from sins_sim.config import vibration_spec as _vspec
 from sins_sim.config.errors import ConfigError, alias_marks, forget_mark
 from sins_sim.config.schema import Bool, ListOf, Map, Num, OneOf, Str, Vec, validate
 from sins_sim.config.yaml_io import load_yaml
@@ -177,7 +178,21 @@ SEGMENT_SCHEMA = OneOf({
     "climb": Map({"duration": Num(unit="s", required=True, **_DUR),
                   "delta_height": Num(unit="m", required=True, min=-101000.0, max=101000.0)},
                  doc="height change (heights stay in [-1000, 100000] m)"),
-}, rules={"climb": ("the flight-path angle asin(h'/V) stays within 60 deg (a climb needs a speed > 0; the pitch "
+    "hover": Map({"duration": Num(unit="s", required=True, **_DUR),
+                  "roll": Num(unit="deg", default=0.0, min=-30.0, max=30.0,
+                              doc="roll on the plateau (+ = right wing down), eased in and out"),
+                  "pitch": Num(unit="deg", default=0.0, min=-30.0, max=30.0,
+                               doc="pitch on the plateau (+ = nose up), eased in and out")},
+                 doc="hover at the current height: zero velocity, a small attitude (from rest)"),
+    "sideways": Map({"duration": Num(unit="s", required=True, **_DUR),
+                     "lateral_speed": Num(unit="m_s", required=True, min=-50.0, max=50.0,
+                                          doc="speed to the right of the heading on the plateau (- = left)")},
+                    doc="sideways flight from a hover back to a hover: velocity perpendicular to the heading, "
+                        "the bank atan(u'/g) balancing its acceleration"),
+}, rules={"hover": ("needs speed 0 at its start; with a roll or pitch it lasts at least 2 transition_s",),
+          "sideways": ("needs speed 0 at its start (a hover); lasts at least 2 transition_s; the balancing bank "
+                       "stays within 60 deg and its roll rate within 1000 deg/s: lengthen transition_s",),
+          "climb": ("the flight-path angle asin(h'/V) stays within 60 deg (a climb needs a speed > 0; the pitch "
                     "stays away from the Euler singularity): a steeper climb is refused",),
           "turn": ("the centripetal acceleration V psi' stays <= 2000 m/s^2 (about 200 g) and the peak body rate "
                    "(heading rate and the roll rate into the coordinated bank) <= 1000 deg/s, the range of an RLG: "
@@ -343,6 +358,7 @@ SCENARIO_SCHEMA = Map({
     "outputs": Map({"plots": Bool(default=True), "timeseries": Bool(default=True)}, default={}),
     "temperature": TEMPERATURE_SCHEMA,
     "aiding": None,  # AIDING_SCHEMA, set below
+    "vibration": _vspec.VIBRATION_SCHEMA,
 }, rules=("the run's estimated wall time must be <= 48 h (sins_sim.jobs.estimate; shown before the run starts)",))
 
 
@@ -500,6 +516,15 @@ class Scenario:
                       unit["c"]["plant"]["rate_hz"])
         self.motion_spec = c["motion"]
         self.trajectory_spec = c["trajectory"]
+        #: the vibration specification (sins_sim.models.vibration_spec.SineOnRandomSpec) or None; the plan builds
+        #: the translational vibration from it
+        vibration_spec = None
+        if c["vibration"] is not None:
+            if doc.get("linear_vibration"):  # an empty list (the default written out) duplicates nothing
+                raise ConfigError(f"{ctx}: vibration.spec: refused beside linear_vibration, which it would "
+                                  f"duplicate (the spec resolves to the translational vibration): give one of them")
+            vibration_spec = _vspec.parse_vibration_spec(c["vibration"]["spec"], base_dir, ctx,
+                                                         0.5 * unit["c"]["readout"]["output_rate_hz"])
         self.outputs = c["outputs"]
         # the one entry point into the physics: the plan resolves the unit, the rates, the designs, the vehicle,
         # the alignment and the aiding, and refuses what does not compose (its lines are this file's errors)
@@ -508,7 +533,7 @@ class Scenario:
         try:
             #: what the engine runs (sins_sim.plan.run_plan)
             self.plan = resolve_plan({"c": c, "doc": doc, "imu": unit, "ctx": ctx, "base_dir": base_dir,
-                                      "duration_key": duration_key})
+                                      "duration_key": duration_key, "vibration_spec": vibration_spec})
         except PlanError as exc:
             raise ConfigError(str(exc)) from None
         for field in dataclasses.fields(self.plan):

@@ -298,7 +298,7 @@ def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> di
     dict
         ``scenario`` and ``imu`` (documents that load to the same run: ``scenario.imu`` is ``imu.yaml``,
         ``trajectory.file`` and ``filter_parameters.file`` name the copies), ``files`` (role -> the original
-        path: scenario, imu, trajectory, diagnosis, gnss) and ``copies`` (role -> the copy's name in ``inputs/``).
+        path: scenario, imu, trajectory, diagnosis, gnss, vibration_spec) and ``copies`` (role -> the copy's name in ``inputs/``).
     """
     from sins_sim.config.imu import IMU_SCHEMA, load_yaml
     from sins_sim.config.scenario import SCENARIO_SCHEMA, scenario_document
@@ -360,6 +360,11 @@ def resolve_run_inputs(path, overrides: dict | None = None, base_dir=None) -> di
         copies["gnss"] = "gnss" + gpath.suffix
         doc["aiding"] = {k: v for k, v in dict(aid, file=copies["gnss"]).items()
                          if k not in ("markov_sigma_m", "markov_tau_s")}
+    vib = doc.get("vibration") or {}
+    if isinstance(vib.get("spec"), str):  # a specification file: recorded, and written inline (one document)
+        spath = (base / vib["spec"]).resolve()
+        files["vibration_spec"] = spath
+        doc["vibration"] = dict(vib, spec=load_yaml(spath))
     return {"scenario": doc, "imu": imu_doc, "files": files, "copies": copies}
 
 

@@ -371,7 +371,10 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
                              "lon_deg": math.degrees(scenario.site["lon_rad"]), "height_m": scenario.site["height_m"]},
                     "trajectory": scenario.vehicle.describe() if hasattr(scenario.vehicle, "describe") else "file",
                     # a file with velocity columns: the smoothing fit's residuals and noise levels (else None)
-                    "trajectory_fit": getattr(scenario.vehicle, "fit", None)},
+                    "trajectory_fit": getattr(scenario.vehicle, "fit", None),
+                    # vibration.spec: its source and closed-form g_rms per axis (random, sine lines, total)
+                    "vibration_spec": (None if getattr(scenario, "vibration_spec", None) is None
+                                       else scenario.vibration_spec.summary())},
         "navigation": {"coning": scenario.nav.coning, "sculling": scenario.nav.sculling,
                        "start_s": scenario.nav.start_s, "n_sub": scenario.nav.n_sub,
                        "update_rate_hz": res.filter_rate_hz / scenario.nav.n_sub,
@@ -937,10 +940,21 @@ def _aided_findings(metrics: dict, aided: dict) -> list:
     return out + ["", "".join(cons)]
 
 
+def _spec_lines(spec) -> list:
+    """The report's line of a ``vibration.spec``: the closed-form g_rms per axis (random + lines) and its source."""
+    if not spec:
+        return []
+    parts = [f"{ax} {a['grms_g']:.4g} g (random {a['random_grms_g']:.4g}, lines {a['sine_grms_g']:.4g})"
+             for ax, a in spec["axes"].items()]
+    src = f"; source: {spec['source']}" if spec["source"] else ""
+    return [f"- vibration specification: g_rms {', '.join(parts)}{src}"]
+
+
 def _report(scenario, metrics, figures, filter_table: str = "") -> str:
     nv = metrics["navigation"]
     lines = [f"# {scenario.name}", "", scenario.description or "", "",
              f"- mission: {metrics['duration_s']:g} s, {metrics['mission']['trajectory']}",
+             *_spec_lines(metrics["mission"].get("vibration_spec")),
              f"- unit: IMU `{scenario.imu.name}` ({scenario.imu_source}), seed {scenario.seed}",
              f"- navigation: from t = {nv['start_s']:g} s {_start_words(nv)}, updates at {nv['update_rate_hz']:g} Hz, "
              f"`{nv['coning']}` coning, `{nv['sculling']}` sculling, vertical channel `{nv['vertical']}`, "

@@ -63,6 +63,8 @@ class Plan:
         ``chassis`` or ``block`` (with an IMU block).
     advisories : tuple of str
         Configuration-time warnings (vibration against the filters and the dithers, online estimation on a block).
+    vibration_spec : SineOnRandomSpec or None
+        The sine-on-random specification (``vibration.spec``) the translation was built from, for the report.
     """
 
     imu: object
@@ -79,6 +81,7 @@ class Plan:
     vibration_enters: str = "chassis"
     motion_enters: str = "chassis"
     advisories: tuple = ()
+    vibration_spec: object = None
 
 
 def resolve_plan(parsed: dict) -> Plan:
@@ -151,8 +154,16 @@ def resolve_plan(parsed: dict) -> Plan:
                   + advisories.online_on_block_advisories(imu))
     for msg in notes:
         warnings.warn(msg, UserWarning, stacklevel=3)
-    return dataclasses.replace(plan, nav=nav, events=_events(c["motion"], vehicle),
-                               translation=_build_translation(c["linear_vibration"], seed, ctx),
+    spec = parsed.get("vibration_spec")
+    if spec is not None:  # a sine-on-random specification (vibration.spec) resolves to the translation
+        try:
+            translation = spec.translation(seed)
+        except ValueError as exc:
+            raise PlanError(f"{ctx}: vibration.spec: {exc}") from None
+    else:
+        translation = _build_translation(c["linear_vibration"], seed, ctx)
+    return dataclasses.replace(plan, nav=nav, events=_events(c["motion"], vehicle), translation=translation,
+                               vibration_spec=spec,
                                vibration_enters=c["vibration_enters"], motion_enters=c["motion_enters"],
                                advisories=notes)
 
@@ -490,6 +501,10 @@ def _build_vehicle(site, spec, duration_s, ctx, base_dir, duration_key="duration
                     segs.append(tj.Accelerate(seg["duration_s"], seg["delta_speed_m_s"]))
                 elif kind == "turn":
                     segs.append(tj.CoordinatedTurn(seg["duration_s"], seg["heading_change_rad"]))
+                elif kind == "hover":
+                    segs.append(tj.Hover(seg["duration_s"], seg["roll_rad"], seg["pitch_rad"]))
+                elif kind == "sideways":
+                    segs.append(tj.Sideways(seg["duration_s"], seg["lateral_speed_m_s"]))
                 else:
                     segs.append(tj.Climb(seg["duration_s"], seg["delta_height_m"]))
             flown = sum(sg.duration_s for sg in segs)
@@ -541,7 +556,7 @@ def _check_latitude_reach(vehicle, t_end, ctx) -> None:
     # simulated second); 110 km per degree is below the shortest meridian degree (110.57 km at the equator)
     speeds = [abs(vehicle.start_speed_m_s)]
     for sg in vehicle.segments:
-        speeds.append(speeds[-1] + abs(getattr(sg, "delta_speed_m_s", 0.0)))
+        speeds.append(speeds[-1] + abs(getattr(sg, "delta_speed_m_s", 0.0)) + abs(getattr(sg, "lateral_speed_m_s", 0.0)))
     reach_m = (max(speeds) + 1e-9) * t_end
     if reach_m < (MAX_ABS_LAT_DEG - abs(math.degrees(vehicle.start_lat_rad))) * 110.0e3 or t_end > _LAT_CHECK_MAX_S:
         return

@@ -59,8 +59,10 @@ from sins_sim.models.motion.trajectory import (
     Climb,
     CoordinatedTurn,
     Cruise,
+    Hover,
     SampledTrajectory,
     SampledTrajectoryStream,
+    Sideways,
     Stationary,
     Trajectory,
     TrajectoryStream,
@@ -79,7 +81,7 @@ __all__ = [
     "FilteredNoiseVibration", "Translation", "LinearSines", "LinearRandomVibration", "SumTranslation",
     "DEFAULT_NODE_RATE_HZ",
     # vehicle trajectories
-    "Stationary", "Cruise", "Accelerate", "CoordinatedTurn", "Climb", "SEGMENT_TYPES", "Trajectory",
+    "Stationary", "Cruise", "Accelerate", "CoordinatedTurn", "Climb", "Hover", "Sideways", "SEGMENT_TYPES", "Trajectory",
     "TrajectoryStream", "TrajectoryTruth", "SampledTrajectory", "SampledTrajectoryStream", "build_trajectory",
     "DEFAULT_TRANSITION_S", "DEFAULT_STEP_S",
 ]

@@ -44,7 +44,8 @@ Sources of truth
 ----------------
 :class:`Trajectory`
     Segments (:class:`Stationary`, :class:`Cruise`, :class:`Accelerate`,
-    :class:`CoordinatedTurn`, :class:`Climb`) strung together. Speed,
+    :class:`CoordinatedTurn`, :class:`Climb`, :class:`Hover`,
+    :class:`Sideways`) strung together. Speed,
     heading, flight-path angle, height and their derivatives are closed-form
     functions of time; latitude and longitude are integrated (RK4) on a fixed
     internal grid, streaming (:class:`TrajectoryStream`).
@@ -63,6 +64,8 @@ Both return :class:`TrajectoryTruth` from ``evaluate(t)`` and from the
    Accelerate
    CoordinatedTurn
    Climb
+   Hover
+   Sideways
    Trajectory
    TrajectoryStream
    TrajectoryTruth
@@ -113,6 +116,9 @@ __all__ = [
     "CoordinatedTurn",
     "Turn",
     "Climb",
+    "Hover",
+    "Sideways",
+    "sideways_peaks",
     "SEGMENT_TYPES",
     "Trajectory",
     "TrajectoryStream",
@@ -157,10 +163,21 @@ MAX_TURN_ACCEL_M_S2 = 2000.0
 vehicle's turn (fighters pull 9 g, missiles 30-60 g) and the same bound as the block's translational vibration
 (``sins_sim.config.scenario.MAX_ACCEL_M_S2``)."""
 
+MAX_HOVER_ATTITUDE_RAD = math.radians(30.0)
+"""Largest |roll| and |pitch| (rad) of a :class:`Hover`: a helicopter hovers within a few degrees of level (a roll
+of 2-4 deg against the tail rotor's thrust); 30 deg is beyond any hover."""
+
+MAX_SIDEWAYS_SPEED_M_S = 50.0
+"""Largest |sideways speed| (m/s) of a :class:`Sideways` segment: helicopters are cleared for sideways flight up to
+about 35-45 kt (18-23 m/s); 50 m/s is beyond any rotorcraft's sideways envelope."""
+
+MAX_SIDEWAYS_BANK_RAD = math.radians(60.0)
+"""Largest bank (rad) of a :class:`Sideways` segment's balanced acceleration, ``atan(max|u'| / g)``."""
+
 HEIGHT_RANGE_M = (-1000.0, 100000.0)
 """Allowed height range (m), the same as the trajectory file reader's."""
 
-_KIND_CONSTANT, _KIND_ACCELERATE, _KIND_TURN, _KIND_CLIMB = 0.0, 1.0, 2.0, 3.0
+_KIND_CONSTANT, _KIND_ACCELERATE, _KIND_TURN, _KIND_CLIMB, _KIND_HOVER, _KIND_SIDEWAYS = 0.0, 1.0, 2.0, 3.0, 4.0, 5.0
 _TWO_PI = 2.0 * math.pi
 _E2 = earth.WGS84_E2
 _OMEGA = earth.EARTH_RATE_RAD_S
@@ -228,6 +245,23 @@ def _profile(tau, dur, tr):
 
 
 @jit
+def _profile_dd(tau, dur, tr):
+    """``p''`` of :func:`_profile`: ``s''(x) / tr^2`` on the rising ramp, ``s''(x') / tr^2`` on the falling one
+    (``x' = (dur - tau) / tr``; ``s''(x) = 420 x^2 (1 - x)^2 (1 - 2 x)``, the derivative of ``s'`` of :func:`_ramp`),
+    0 on the plateau and outside."""
+    if tau <= 0.0 or tau >= dur:
+        return 0.0
+    if tau < tr:
+        x = tau / tr
+    elif tau <= dur - tr:
+        return 0.0
+    else:
+        x = (dur - tau) / tr
+    y = x * (1.0 - x)
+    return 420.0 * y * y * (1.0 - 2.0 * x) / (tr * tr)
+
+
+@jit
 def _find_segment(tab, t):
     """Index of the last table row with start time ``<= t`` (binary search)."""
     lo = 0
@@ -243,14 +277,16 @@ def _find_segment(tab, t):
 
 @jit
 def _kinematics(tab, t):
-    """Closed-form speed, heading, flight-path angle, height and bank at time ``t``.
+    """Closed-form speed, heading, flight-path angle, height, bank, pitch and sideways speed at time ``t``.
 
     Table columns: start time, duration, ramp, kind, speed, heading and
-    height at the segment start, amplitude (speed rate, heading rate or climb
-    rate at the plateau), reference gravity of the bank.
+    height at the segment start, amplitude (speed rate, heading rate, climb
+    rate or sideways speed at the plateau), reference gravity of the bank,
+    and the hover's roll and pitch (rad).
 
-    Returns ``V, V', psi, psi', gamma, gamma', h, phi, phi'`` (m/s, m/s^2,
-    rad, rad/s, rad, rad/s, m, rad, rad/s).
+    Returns ``V, V', psi, psi', gamma, gamma', h, phi, phi', theta, theta', u, u'`` (m/s, m/s^2,
+    rad, rad/s, rad, rad/s, m, rad, rad/s, rad, rad/s, m/s, m/s^2): ``theta`` is the pitch (the flight-path
+    angle, plus a hover's pitch), ``u`` the speed to the right of the heading (sideways flight).
     """
     i = _find_segment(tab, t)
     kind = tab[i, 3]
@@ -264,6 +300,13 @@ def _kinematics(tab, t):
     h = tab[i, 6]
     amp = tab[i, 7]
     g = tab[i, 8]
+    phi0 = 0.0
+    dphi0 = 0.0
+    theta0 = 0.0
+    dtheta0 = 0.0
+    u = 0.0
+    du = 0.0
+    ddu = 0.0
     if kind != 0.0:
         big_p, p, dp = _profile(t - tab[i, 0], tab[i, 1], tab[i, 2])
         if kind == 1.0:
@@ -275,35 +318,48 @@ def _kinematics(tab, t):
             psi = psi + amp * big_p
             dpsi = amp * p
             ddpsi = amp * dp
-        else:
+        elif kind == 3.0:
             gam = math.asin(amp * p / speed)
             dgam = amp * dp / (speed * math.cos(gam))
             h = h + amp * big_p
-    # Coordinated (balanced) bank of a level turn, phi = atan(V psi' / g) ([1] sec. 3.6 / flight mechanics).
-    lat_acc = speed * dpsi
-    phi = math.atan2(lat_acc, g)
-    dphi = g * (dspeed * dpsi + speed * ddpsi) / (g * g + lat_acc * lat_acc)
-    return speed, dspeed, psi, dpsi, gam, dgam, h, phi, dphi
+        elif kind == 4.0:  # hover: roll and pitch eased in and out with the profile
+            phi0 = tab[i, 9] * p
+            dphi0 = tab[i, 9] * dp
+            theta0 = tab[i, 10] * p
+            dtheta0 = tab[i, 10] * dp
+        else:  # sideways: speed to the right u = amp p, its rate u' = amp p'
+            u = amp * p
+            du = amp * dp
+            ddu = amp * _profile_dd(t - tab[i, 0], tab[i, 1], tab[i, 2])
+    # Balanced bank: the lateral acceleration (V psi' of a level turn, u' of sideways flight) is carried by the
+    # tilted lift, phi = atan(a_lat / g), so the specific force stays in the body x-z plane ([1] sec. 3.6 /
+    # flight mechanics); a hover's roll adds to it.
+    lat_acc = speed * dpsi + du
+    dlat_acc = dspeed * dpsi + speed * ddpsi + ddu
+    phi = math.atan2(lat_acc, g) + phi0
+    dphi = g * dlat_acc / (g * g + lat_acc * lat_acc) + dphi0
+    return speed, dspeed, psi, dpsi, gam, dgam, h, phi, dphi, gam + theta0, dgam + dtheta0, u, du
 
 
 @jit
-def _velocity(speed, dspeed, psi, dpsi, gam, dgam):
-    """NED velocity and its derivative of speed ``V`` along heading ``psi`` and flight-path angle ``gamma``.
+def _velocity(speed, dspeed, psi, dpsi, gam, dgam, u, du):
+    """NED velocity and its derivative of speed ``V`` along heading ``psi`` and flight-path angle ``gamma``,
+    plus the sideways speed ``u`` to the right of the heading.
 
-    ``v = V [cos g cos psi, cos g sin psi, -sin g]``,
-    ``a = V' u + V (g' du/dg + psi' du/dpsi)``.
+    ``v = V [cos g cos psi, cos g sin psi, -sin g] + u [-sin psi, cos psi, 0]``,
+    ``a = V' e + V (g' de/dg + psi' de/dpsi) + u' r - u psi' [cos psi, sin psi, 0]``.
     """
     sg = math.sin(gam)
     cg = math.cos(gam)
     sp = math.sin(psi)
     cp = math.cos(psi)
     vh = speed * cg
-    vn = vh * cp
-    ve = vh * sp
+    vn = vh * cp - u * sp
+    ve = vh * sp + u * cp
     vd = -speed * sg
     dvh = dspeed * cg - speed * dgam * sg
-    an = dvh * cp - vh * dpsi * sp
-    ae = dvh * sp + vh * dpsi * cp
+    an = dvh * cp - vh * dpsi * sp - du * sp - u * dpsi * cp
+    ae = dvh * sp + vh * dpsi * cp + du * cp - u * dpsi * sp
     ad = -dspeed * sg - speed * dgam * cg
     return vn, ve, vd, an, ae, ad
 
@@ -318,8 +374,8 @@ def _position_rate(lat, h, vn, ve):
 @jit
 def _rate_at(tab, t, lat):
     """Position rate at time ``t`` for latitude ``lat`` (height and velocity from the closed forms)."""
-    speed, dspeed, psi, dpsi, gam, dgam, h, phi, dphi = _kinematics(tab, t)
-    vn, ve, vd, an, ae, ad = _velocity(speed, dspeed, psi, dpsi, gam, dgam)
+    speed, dspeed, psi, dpsi, gam, dgam, h, phi, dphi, theta, dtheta, u, du = _kinematics(tab, t)
+    vn, ve, vd, an, ae, ad = _velocity(speed, dspeed, psi, dpsi, gam, dgam, u, du)
     return _position_rate(lat, h, vn, ve)
 
 
@@ -490,8 +546,8 @@ def _trajectory_run(tab, dt, state, t, lat, lon, h, vel, acc, q, w, f):
         lat[i] = state[1] + (state[2] + (h01 * state[7] + dt * (h10 * state[5] + h11 * state[9])))
         lo = state[3] + (state[4] + (h01 * state[8] + dt * (h10 * state[6] + h11 * state[10])))
         lon[i] = _wrap_pi(lo)
-        speed, dspeed, psi, dpsi, gam, dgam, hi, phi, dphi = _kinematics(tab, ti)
-        vn, ve, vd, an, ae, ad = _velocity(speed, dspeed, psi, dpsi, gam, dgam)
+        speed, dspeed, psi, dpsi, gam, dgam, hi, phi, dphi, theta, dtheta, u, du = _kinematics(tab, ti)
+        vn, ve, vd, an, ae, ad = _velocity(speed, dspeed, psi, dpsi, gam, dgam, u, du)
         h[i] = hi
         vel[i, 0] = vn
         vel[i, 1] = ve
@@ -499,7 +555,7 @@ def _trajectory_run(tab, dt, state, t, lat, lon, h, vel, acc, q, w, f):
         acc[i, 0] = an
         acc[i, 1] = ae
         acc[i, 2] = ad
-        _truth_point(lat[i], hi, vn, ve, vd, an, ae, ad, phi, gam, psi, dphi, dgam, dpsi, q, w, f, i)
+        _truth_point(lat[i], hi, vn, ve, vd, an, ae, ad, phi, theta, psi, dphi, dtheta, dpsi, q, w, f, i)
         state[11] = ti
     return -1
 
@@ -765,12 +821,96 @@ class Climb:
         _set(self, "delta_height_m", v.finite("Climb", "delta_height_m", self.delta_height_m))
 
 
+@dataclass(frozen=True)
+class Hover:
+    """Hover at the current height for ``duration_s`` (s): zero velocity, a small roll and pitch held.
+
+    The speed at the segment's start must be 0 (decelerate first). Roll and pitch follow ``phi_h p(tau)`` and
+    ``theta_h p(tau)`` with ``p`` the smooth trapezoid of the trajectory's ``transition_s`` ramps (see
+    :class:`Trajectory`), so the attitude returns to level at the end; with a non-zero attitude the hover lasts at
+    least ``2 transition_s``. A helicopter hovers with a roll of a few degrees (the main rotor's thrust tilted
+    against the tail rotor's) and a pitch set by its c.g.; the kinematics impose zero velocity, so the specific
+    force is ``f^v = -C_vn g^n`` (plus the Coriolis-free Earth terms of zero velocity): ``g`` resolved in the
+    tilted body, ``[g sin theta, -g sin phi cos theta, -g cos phi cos theta]`` with ``g`` the local gravity
+    ([1] sec. 3.5, 3.6).
+
+    Parameters
+    ----------
+    duration_s : float
+        Duration (s), > 0 (>= 2 transition_s with a non-zero attitude).
+    roll_rad, pitch_rad : float
+        Roll and pitch on the plateau (rad), ``|.| <=`` :data:`MAX_HOVER_ATTITUDE_RAD`.
+    """
+
+    duration_s: float
+    roll_rad: float = 0.0
+    pitch_rad: float = 0.0
+
+    def __post_init__(self):
+        _set(self, "duration_s", v.positive("Hover", "duration_s", self.duration_s))
+        for name in ("roll_rad", "pitch_rad"):
+            val = v.finite("Hover", name, getattr(self, name))
+            if abs(val) > MAX_HOVER_ATTITUDE_RAD:
+                raise ValueError(f"Hover.{name}: |{name}| must be <= {math.degrees(MAX_HOVER_ATTITUDE_RAD):g} deg "
+                                 f"(a hover's attitude is a few degrees), got {math.degrees(val)!r} deg")
+            _set(self, name, val)
+
+
+@dataclass(frozen=True)
+class Sideways:
+    """Sideways flight from a hover: the velocity is perpendicular to the heading (+ = to the right).
+
+    The speed to the right of the heading is ``u = U p(tau)``: it rises to ``lateral_speed_m_s`` over the first
+    ``transition_s``, holds, and falls back to 0 over the last, so the segment starts and ends in a hover and
+    moves ``U (duration_s - transition_s)`` metres sideways; heading and height are held. The bank balances the
+    sideways acceleration, ``phi = atan(u' / g)`` (the tilted rotor's thrust supplies ``u'``), so the specific
+    force stays in the body x-z plane on a flat non-rotating Earth, as in :class:`CoordinatedTurn`; no
+    aerodynamic drag is modelled, so the bank is 0 on the plateau. Needs speed 0 at its start, the peak bank
+    ``atan(max|u'| / g) <= 60 deg`` and the peak roll rate ``<= 1000 deg/s``.
+
+    Parameters
+    ----------
+    duration_s : float
+        Duration (s), >= 2 transition_s.
+    lateral_speed_m_s : float
+        Sideways speed on the plateau (m/s), signed (+ = right), ``|.| <=`` :data:`MAX_SIDEWAYS_SPEED_M_S`.
+    """
+
+    duration_s: float
+    lateral_speed_m_s: float
+
+    def __post_init__(self):
+        _set(self, "duration_s", v.positive("Sideways", "duration_s", self.duration_s))
+        u = v.finite("Sideways", "lateral_speed_m_s", self.lateral_speed_m_s)
+        if abs(u) > MAX_SIDEWAYS_SPEED_M_S:
+            raise ValueError(f"Sideways.lateral_speed_m_s: must be within +-{MAX_SIDEWAYS_SPEED_M_S:g} m/s, got {u!r}")
+        _set(self, "lateral_speed_m_s", u)
+
+
+def sideways_peaks(lateral_speed_m_s: float, transition_s: float, g_m_s2: float) -> tuple:
+    """Peak bank (rad) and peak roll rate (rad/s) of a :class:`Sideways` segment.
+
+    ``u' = U s'(x) / tr`` and ``u'' = U s''(x) / tr^2`` over a ramp (``x = tau / tr``, ``s`` the septic smoothstep
+    of :func:`_ramp`); ``phi = atan(u' / g)``, ``phi' = g u'' / (g^2 + u'^2)``; both sampled at 4001 points of the
+    ramp (the falling ramp mirrors it).
+    """
+    x = np.linspace(0.0, 1.0, 4001)
+    y = x * (1.0 - x)
+    du = lateral_speed_m_s * 140.0 * y ** 3 / transition_s
+    ddu = lateral_speed_m_s * 420.0 * y * y * (1.0 - 2.0 * x) / (transition_s * transition_s)
+    bank = float(np.max(np.abs(np.arctan2(du, g_m_s2))))
+    rate = float(np.max(np.abs(g_m_s2 * ddu / (g_m_s2 * g_m_s2 + du * du))))
+    return bank, rate
+
+
 SEGMENT_TYPES = {
     "stationary": Stationary,
     "cruise": Cruise,
     "accelerate": Accelerate,
     "turn": CoordinatedTurn,
     "climb": Climb,
+    "hover": Hover,
+    "sideways": Sideways,
 }
 """Segment type names (the ``type`` key of :func:`build_trajectory`) and their classes."""
 
@@ -798,7 +938,7 @@ class Trajectory:
         Initial speed (m/s), >= 0.
     start_heading_rad : float
         Initial heading (rad, from north towards east).
-    segments : sequence of Stationary, Cruise, Accelerate, CoordinatedTurn, Climb
+    segments : sequence of Stationary, Cruise, Accelerate, CoordinatedTurn, Climb, Hover, Sideways
         Flown in order (at least one).
     transition_s : float
         Duration (s) of each smooth ramp, > 0 (default 4 s). Accelerate,
@@ -819,7 +959,9 @@ class Trajectory:
 
     Attitude: yaw = heading, pitch = flight-path angle (no angle of attack
     and no sideslip: the body x axis lies along the velocity), roll = the
-    coordinated bank of turns, 0 otherwise.
+    coordinated bank of turns, 0 otherwise; a :class:`Hover` adds its eased
+    roll and pitch, and :class:`Sideways` flies along the body y axis with
+    the bank that balances its sideways acceleration.
 
     Position: height is the closed-form integral of the vertical speed;
     latitude and longitude integrate ``v_N / (R_N + h)`` and
@@ -870,7 +1012,7 @@ class Trajectory:
         for i, seg in enumerate(segs):
             if type(seg) not in _SEGMENT_NAMES:
                 raise ValueError(f"{own}.segments[{i}]: must be one of Stationary, Cruise, Accelerate, "
-                                 f"CoordinatedTurn, Climb, got {type(seg).__name__}")
+                                 f"CoordinatedTurn, Climb, Hover, Sideways, got {type(seg).__name__}")
         for name, val in (("start_lat_rad", lat0), ("start_lon_rad", lon0), ("start_h_m", h0),
                           ("start_speed_m_s", speed), ("start_heading_rad", psi), ("transition_s", tr),
                           ("segments", segs)):
@@ -886,10 +1028,37 @@ class Trajectory:
             g_ref = float(earth.gravity_down(lat0, h))
             start = dict(speed=speed, heading=psi, h=h)
             extra = {}
-            if isinstance(seg, Stationary):
+            hover_att = (0.0, 0.0)
+            if isinstance(seg, (Stationary, Hover, Sideways)):
+                name = type(seg).__name__
                 if speed != 0.0:
-                    raise ValueError(f"{where}: Stationary needs speed 0 at its start, got {speed!r} m/s "
+                    raise ValueError(f"{where}: {name} needs speed 0 at its start, got {speed!r} m/s "
                                      "(decelerate to 0 first)")
+            if isinstance(seg, Hover) and (seg.roll_rad != 0.0 or seg.pitch_rad != 0.0):
+                if dur < 2.0 * tr:
+                    raise ValueError(f"{where}.duration_s: a hover with a roll or pitch must last >= 2 "
+                                     f"transition_s = {2.0 * tr!r} s (the attitude eased in and out), got {dur!r}")
+                kind, hover_att = _KIND_HOVER, (seg.roll_rad, seg.pitch_rad)
+                extra = dict(roll=seg.roll_rad, pitch=seg.pitch_rad)
+            elif isinstance(seg, Hover):
+                extra = dict(roll=0.0, pitch=0.0)
+            elif isinstance(seg, Sideways):
+                if dur < 2.0 * tr:
+                    raise ValueError(f"{where}.duration_s: must be >= 2 transition_s = {2.0 * tr!r} s "
+                                     f"(ramp in and out), got {dur!r}")
+                bank, roll_rate = sideways_peaks(seg.lateral_speed_m_s, tr, g_ref)
+                if bank > MAX_SIDEWAYS_BANK_RAD:
+                    raise ValueError(f"{where}.lateral_speed_m_s: the bank that balances the sideways acceleration, "
+                                     f"{math.degrees(bank):.4g} deg at its peak, must be <= "
+                                     f"{math.degrees(MAX_SIDEWAYS_BANK_RAD):g} deg; lengthen transition_s, got "
+                                     f"{seg.lateral_speed_m_s!r}")
+                if roll_rate > MAX_TURN_BODY_RATE_RAD_S:
+                    raise ValueError(f"{where}.lateral_speed_m_s: the roll rate into the balancing bank "
+                                     f"{math.degrees(roll_rate):.4g} deg/s must be <= "
+                                     f"{math.degrees(MAX_TURN_BODY_RATE_RAD_S):g} deg/s; lengthen transition_s, got "
+                                     f"{seg.lateral_speed_m_s!r}")
+                kind, amp = _KIND_SIDEWAYS, seg.lateral_speed_m_s
+                extra = dict(lateral_speed=amp, distance=amp * (dur - tr), bank=bank)
             elif isinstance(seg, (Accelerate, CoordinatedTurn, Climb)):
                 if dur < 2.0 * tr:
                     raise ValueError(f"{where}.duration_s: must be >= 2 transition_s = {2.0 * tr!r} s "
@@ -933,13 +1102,14 @@ class Trajectory:
                         raise ValueError(f"{where}.delta_height_m: the height would end at {h!r} m, outside "
                                          f"[{HEIGHT_RANGE_M[0]}, {HEIGHT_RANGE_M[1]}] m")
                     extra = dict(climb_rate=amp, gamma=math.asin(amp / speed))
-            rows.append([t0, dur, tr, kind, start["speed"], start["heading"], start["h"], amp, g_ref])
+            rows.append([t0, dur, tr, kind, start["speed"], start["heading"], start["h"], amp, g_ref, *hover_att])
             info.append(dict(kind=_SEGMENT_NAMES[type(seg)], t0=t0, t1=t0 + dur, start=start,
                              end=dict(speed=speed, heading=psi, h=h), **extra))
             t0 = t0 + dur
         # The state after the last segment continues as a cruise (used only by the
         # integrator's last node, which may lie past the end).
-        rows.append([t0, math.inf, tr, _KIND_CONSTANT, speed, psi, h, 0.0, float(earth.gravity_down(lat0, h))])
+        rows.append([t0, math.inf, tr, _KIND_CONSTANT, speed, psi, h, 0.0, float(earth.gravity_down(lat0, h)),
+                     0.0, 0.0])
         table = np.ascontiguousarray(np.array(rows, dtype=np.float64))
         table.setflags(write=False)
         _set(self, "_table", table)
@@ -979,6 +1149,12 @@ class Trajectory:
                 body = f"{a['speed']:.1f} m/s, heading {hdg(a['heading']):.1f} deg, h {a['h']:.1f} m"
             elif s["kind"] == "accelerate":
                 body = f"{a['speed']:.1f} -> {b['speed']:.1f} m/s (peak {s['accel']:+.3f} m/s^2)"
+            elif s["kind"] == "hover":
+                body = (f"hover at h {a['h']:.1f} m, heading {hdg(a['heading']):.1f} deg, roll {d(s['roll']):+.1f} "
+                        f"deg, pitch {d(s['pitch']):+.1f} deg")
+            elif s["kind"] == "sideways":
+                body = (f"sideways {s['lateral_speed']:+.1f} m/s ({s['distance']:+.1f} m, peak bank "
+                        f"{d(s['bank']):.1f} deg), heading {hdg(a['heading']):.1f} deg, h {a['h']:.1f} m")
             elif s["kind"] == "turn":
                 body = (f"heading {hdg(a['heading']):.1f} -> {hdg(b['heading']):.1f} deg "
                         f"(rate {d(s['rate']):+.3f} deg/s, bank {d(s['bank']):+.1f} deg) at {a['speed']:.1f} m/s")
@@ -1116,7 +1292,7 @@ def build_trajectory(spec) -> Trajectory:
         The keyword arguments of :class:`Trajectory`; ``segments`` is a list
         of ``{"type": name, **fields}`` with ``name`` a key of
         :data:`SEGMENT_TYPES` (``stationary``, ``cruise``, ``accelerate``,
-        ``turn``, ``climb``).
+        ``turn``, ``climb``, ``hover``, ``sideways``).
 
     Returns
     -------
