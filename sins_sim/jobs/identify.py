@@ -46,7 +46,7 @@ from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
 __all__ = ["LINE_FALSE_ALARM", "NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "identify_rate_table",
-           "read_segments", "sensors_yaml", "twin_sensors"]
+           "pulse_weights", "read_segments", "sensors_yaml", "twin_sensors"]
 
 NOT_DETERMINABLE = "not determinable"
 NOT_OBSERVABLE = "not observable"
@@ -209,6 +209,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         raise ConfigError(f"{log}: the unit moves from {moved:g} s on (its one-second mean specific force or rate "
                           f"leaves its start's): identify fits a log at rest; {hint}")
     fs = 1.0 / dt
+    pulses = pulse_weights(meta, dth, dv)
     rate, spec_force = dth / dt, dv / dt
     analyses = {
         "gyro": {ax: screen_noise(a) for ax, a in allan_axes(rate - rate.mean(axis=0), fs, "gyro").items()},
@@ -266,6 +267,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         "bias": bias,
         "lines": _lines_metrics(log_run.lines, line_false_alarm),
         "bias_steps": steps,
+        "pulse_weights": pulses.to_dict() if pulses is not None else {"status": "not quantised"},
         "temperature": temperature if temperature is not None else {
             "status": "no temperature column (temperature_c) in the log"},
         "notes": [
@@ -297,7 +299,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     detail = {"analyses": analyses, "log_run": log_run}
     if twin_seeds:
         metrics["twin"], detail["twin"] = _twin(metrics, analyses, site, al, t, alignment, twin_seeds,
-                                                     run_kw, log_run)
+                                                     run_kw, log_run, pulses=pulses)
     metrics = _json_ready(metrics)
     if out_dir is not None:
         from sins_sim.jobs.manifest import Manifest, result_dir
@@ -316,6 +318,44 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     from sins_sim.results.identify import IdentifyResult
 
     return IdentifyResult(metrics, detail=detail, files=files)
+
+
+def pulse_weights(meta: dict, dth, dv):
+    """The readout's pulse weights of a log (:class:`~sins_sim.simulation.twin.PulseWeights`), or None.
+
+    From the log's description (``sins-sim import-log`` stores it in the metadata): a sensor logged as ``counts``
+    or ``totals`` has its ``weight_<unit>`` per channel, in the log's own axes. Otherwise read off the increments
+    (:func:`~sins_sim.simulation.twin.pulse_weight_of`, per channel in the log's axes): a channel whose every
+    increment is a whole number of one step has that step as its weight. None where no channel is quantised.
+    """
+    from sins_sim.config.log import load_log_description
+    from sins_sim.simulation.twin import PulseWeights, pulse_weight_of
+
+    desc = (meta or {}).get("description")
+    layout = None
+    if isinstance(desc, dict):
+        try:
+            layout = load_log_description({k: val for k, val in desc.items()
+                                           if k not in ("source", "axes_matrix_frd")}).layout
+        except ConfigError as exc:
+            raise ConfigError(f"LOG: the description in its metadata does not load again: {exc}") from None
+    axes = np.eye(3) if layout is None else np.asarray(layout.axes, dtype=np.float64)
+    weights, sources = [], []
+    for name, inc, kind, scale in (("gyro", dth, getattr(layout, "gyro_kind", None), getattr(layout, "gyro_scale", None)),
+                                   ("accelerometer", dv, getattr(layout, "accel_kind", None),
+                                    getattr(layout, "accel_scale", None))):
+        if kind in ("counts", "totals"):
+            weights.append(np.asarray(scale, dtype=np.float64))
+            sources.append(f"{name}: the log's description ({kind}, weight per pulse)")
+            continue
+        x_log = np.asarray(inc, dtype=np.float64) @ axes.T
+        w = [pulse_weight_of(x_log[:, i]) for i in range(3)]
+        weights.append(np.array([0.0 if q is None else q for q in w]))
+        sources.append(f"{name}: read off the increments (every one a whole number of the weight)"
+                       if any(q is not None for q in w) else f"{name}: not quantised (no pulse weight)")
+    if not (np.any(weights[0]) or np.any(weights[1])):
+        return None
+    return PulseWeights(weights[0], weights[1], axes, "; ".join(sources))
 
 
 def _mean_sigma(analysis, t_total: float) -> float:
@@ -382,7 +422,19 @@ def sensors_yaml(metrics: dict) -> str:
                 lo = min(e["tau_range_s"][0] for e in entries)
                 hi = max(e["tau_range_s"][1] for e in entries)
                 lines.append(f"    bias_instability_tau_s: [{lo:.6g}, {hi:.6g}]   # the flat region read")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _pulse_yaml_lines(metrics)) + "\n"
+
+
+def _pulse_yaml_lines(metrics: dict) -> list:
+    """The readout's pulse weights as comment lines of the IMU file (the twin quantises its increments with them;
+    the IMU schema's ``readout`` is the channel-level readout before dither removal, not these)."""
+    pw = metrics.get("pulse_weights") or {}
+    if "gyro_weight_arcsec" not in pw:
+        return ["# readout pulses: the log's increments are not quantised (no pulse weight)"]
+    return ["# readout pulses of the unit's output (the twin quantises its increments with them, residue carried):",
+            "#   gyro_weight_arcsec: [" + ", ".join(f"{w:.9g}" for w in pw["gyro_weight_arcsec"]) + "]",
+            "#   accelerometer_weight_ug_s: [" + ", ".join(f"{w:.9g}" for w in pw["accelerometer_weight_ug_s"]) + "]",
+            "#   channel axes in FRD (rows): " + str(pw["axes_frd"]), "#   source: " + pw["source"]]
 
 
 def _report(metrics: dict) -> str:
@@ -563,7 +615,7 @@ def _step_findings(steps: dict) -> list:
 
 
 def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seeds: int, run_kw: dict,
-          log_run) -> tuple:
+          log_run, pulses=None) -> tuple:
     """Run the twin beside the log and localise where they part (:mod:`sins_sim.simulation.twin`,
     :mod:`sins_sim.identification.twin_gap`)."""
     from sins_sim.identification.twin_gap import NAV_QUANTITIES, alignment_side_by_side, localise
@@ -573,7 +625,7 @@ def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seed
     doc, source = twin_sensors(metrics, al.q_nb, analyses)
     params = sensor_params_from_dict(doc, "the identified twin")
     try:
-        runs = twin_runs(params, t, site, al.q_nb, alignment, range(1, seeds + 1), **run_kw)
+        runs = twin_runs(params, t, site, al.q_nb, alignment, range(1, seeds + 1), pulses=pulses, **run_kw)
     except ValueError as exc:
         raise ConfigError(f"--twin-seeds: the twin's run failed: {exc}") from None
     gap = localise(log_run, runs)
@@ -586,7 +638,9 @@ def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seed
                           f"twin_mean_{unit}": float(b["mean"][-1] * scale),
                           f"twin_halfwidth_{unit}": float((b["hi"][-1] - b["mean"][-1]) * scale)}
     out = {"seeds": seeds, "sensors": doc, "sensors_source": source, "simulated_at": "increments after dither removal (sensor errors on the "
-                                                          "exact increments at rest)",
+                                                          "exact increments at rest" + (
+                                                              ", then the readout's pulses)" if pulses is not None
+                                                              else ")"),
            "alignment": alignment_side_by_side(log_run, runs, al.q_nb), "navigation_at_end": nav_end,
            "alpha": gap["alpha"], "findings": gap["findings"],
            "summary": (f"the log stays within its twin's envelope ({seeds} seeds) in every quantity tested"
