@@ -226,10 +226,12 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     sig_g = np.array([_mean_sigma(analyses["gyro"][ax], t_total) for ax in "xyz"])
     sig_a = np.array([_mean_sigma(analyses["accelerometer"][ax], t_total) for ax in "xyz"])
     prior_g, prior_a = gyro_bias_prior_deg_h * DEG_PER_H, accel_bias_prior_ug * MICRO_G
+    wander = _gyro_wander(noise, analyses, t_total)
     align = align_coarse if alignment == "coarse" else align_inertial
     kwargs = {} if alignment == "coarse" else {"h_m": site["height_m"]}
     try:
         al = align(dth, dv, dt, site["lat_rad"], gyro_bias_sigma_rad_s=prior_g, accel_bias_sigma_m_s2=prior_a,
+                   gyro_wander_sigma_rad_s=wander,
                    **kwargs)
     except ValueError as exc:
         raise ConfigError(f"LOG: alignment failed: {exc}") from None
@@ -246,7 +248,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     from sins_sim.jobs.import_log import read_log_temperature
     from sins_sim.simulation.twin import rest_run
 
-    run_kw = {"gyro_bias_sigma_rad_s": prior_g, "accel_bias_sigma_m_s2": prior_a,
+    run_kw = {"gyro_bias_sigma_rad_s": prior_g, "accel_bias_sigma_m_s2": prior_a, "gyro_wander_sigma_rad_s": wander,
               "false_alarm": line_false_alarm / 6.0}
     try:
         log_run = rest_run(t, dth, dv, site, alignment, alignment=al, **run_kw)
@@ -318,6 +320,18 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     from sins_sim.results.identify import IdentifyResult
 
     return IdentifyResult(metrics, detail=detail, files=files)
+
+
+def _gyro_wander(noise: dict, analyses: dict, window_s: float) -> float:
+    """The gyros' bias wander over the alignment window (:func:`sins_sim.simulation.twin.gyro_wander_sigma`) for
+    the noise the twin gets (:func:`twin_sensors`: the rate random walk reported or held by the power-law fit, the
+    bias instability where reported), so that the log's alignment and its twin's state the same sigma."""
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+    from sins_sim.simulation.twin import gyro_wander_sigma
+
+    no_bias = {s: {f"{c}_{_BIAS_UNIT[s][0]}": {} for c in ("north", "east", "down")} for s in _BIAS_UNIT}
+    doc, _ = twin_sensors({"noise": noise, "bias": no_bias}, np.array([1.0, 0.0, 0.0, 0.0]), analyses)
+    return gyro_wander_sigma(sensor_params_from_dict(doc, "the identified twin"), window_s)
 
 
 def pulse_weights(meta: dict, dth, dv):

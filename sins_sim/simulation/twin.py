@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ALIGNMENT_AT_REST", "PULSE_TOLERANCE", "PulseWeights", "RestRun", "align_at_rest", "pulse_weight_of",
+__all__ = ["ALIGNMENT_AT_REST", "PULSE_TOLERANCE", "PulseWeights", "RestRun", "align_at_rest", "gyro_wander_sigma", "pulse_weight_of",
            "quantise_pulses", "rest_run", "twin_increments", "twin_runs"]
 
 #: The self-alignments a log at rest is aligned with.
@@ -135,9 +135,29 @@ class RestRun:
     nav: dict = field(default_factory=dict)
 
 
+def gyro_wander_sigma(sensors, window_s: float) -> float:
+    """The gyros' bias wander averaged over a window (:func:`sins_sim.navigation.alignment.mean_bias_wander_sigma`)
+    for the twin's ``sensors`` (:class:`~sins_sim.models.sensor_errors.SensorErrorParams`): each axis's rate random
+    walk and bias instability (its Gauss-Markov sum, :func:`~sins_sim.models.sensor_errors.bias_instability_components`,
+    the twin's own model of it), the RMS over the three axes (the east axis is a mix of them)."""
+    from sins_sim.models.sensor_errors import FLICKER_FLOOR_FACTOR, bias_instability_components
+    from sins_sim.navigation.alignment import mean_bias_wander_sigma
+    from sins_sim.units import DEG_PER_H
+
+    g = sensors.gyro
+    per_axis = []
+    for i in range(3):
+        k = float(g.rrw_deg_h_rt_h[i]) * DEG_PER_H / 60.0
+        floor = float(g.bias_instability_deg_h[i]) * DEG_PER_H * FLICKER_FLOOR_FACTOR
+        tc, q = bias_instability_components(floor, g.bias_instability_tau_s) if floor > 0.0 else ((), ())
+        per_axis.append(mean_bias_wander_sigma(window_s, k, tc, q))
+    return float(np.sqrt(np.mean(np.square(per_axis))))
+
+
 def align_at_rest(dth, dv, dt_s: float, site: dict, method: str, *, gyro_bias_sigma_rad_s: float,
-                  accel_bias_sigma_m_s2: float):
-    """The self-alignment of a record at rest over its whole length (``coarse`` or ``inertial``).
+                  accel_bias_sigma_m_s2: float, gyro_wander_sigma_rad_s: float = 0.0):
+    """The self-alignment of a record at rest over its whole length (``coarse`` or ``inertial``), its stated sigma
+    with the gyros' bias wander over the window (``gyro_wander_sigma_rad_s``, :func:`gyro_wander_sigma`).
 
     Raises
     ------
@@ -150,13 +170,13 @@ def align_at_rest(dth, dv, dt_s: float, site: dict, method: str, *, gyro_bias_si
         raise ValueError(f"alignment: must be one of {list(ALIGNMENT_AT_REST)}, got {method!r}")
     if method == "coarse":
         return align_coarse(dth, dv, dt_s, site["lat_rad"], gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
-                            accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+                            accel_bias_sigma_m_s2=accel_bias_sigma_m_s2, gyro_wander_sigma_rad_s=gyro_wander_sigma_rad_s)
     return align_inertial(dth, dv, dt_s, site["lat_rad"], site["height_m"], gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
-                          accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+                          accel_bias_sigma_m_s2=accel_bias_sigma_m_s2, gyro_wander_sigma_rad_s=gyro_wander_sigma_rad_s)
 
 
 def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: float, accel_bias_sigma_m_s2: float,
-             false_alarm: float, alignment=None) -> RestRun:
+             false_alarm: float, alignment=None, gyro_wander_sigma_rad_s: float = 0.0) -> RestRun:
     """Run the mission at rest on one record (module docstring).
 
     Parameters
@@ -169,6 +189,8 @@ def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: fl
         ``coarse`` or ``inertial``.
     gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2 : float
         The alignment's bias priors.
+    gyro_wander_sigma_rad_s : float
+        The gyros' bias wander over the record (:func:`gyro_wander_sigma`), in the alignment's stated sigma.
     false_alarm : float
         Per channel, the chance of one or more false lines (:func:`~sins_sim.navigation.spectral_lines.find_lines`).
     alignment : AlignmentResult, optional
@@ -191,7 +213,8 @@ def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: fl
             lines[(sensor, ax)] = find_lines(col, fs, false_alarm=false_alarm, increment_dt=dt)
     if alignment is None:
         alignment = align_at_rest(dth, dv, dt, site, method, gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
-                                  accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+                                  accel_bias_sigma_m_s2=accel_bias_sigma_m_s2,
+                                  gyro_wander_sigma_rad_s=gyro_wander_sigma_rad_s)
     free = navigate_free(t, dth, dv, site["lat_rad"], site["lon_rad"], site["height_m"], alignment.q_nb,
                          np.zeros(3))
     sol = free.solution
