@@ -46,7 +46,8 @@ from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
 __all__ = ["LINE_FALSE_ALARM", "NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "identify_rate_table",
-           "pulse_weights", "read_segments", "sensors_yaml", "twin_sensors"]
+           "identify_positions", "positions_yaml", "pulse_weights", "read_positions", "read_segments", "sensors_yaml",
+           "twin_sensors"]
 
 NOT_DETERMINABLE = "not determinable"
 NOT_OBSERVABLE = "not observable"
@@ -906,4 +907,180 @@ def _rate_table_report(metrics: dict) -> str:
             name = f"S_{key}" if group == "scale_factor_ppm" else f"M_{key}"
             out.append(f"| {name} ({unit}) | {e['value']:.4g} | {e['sigma']:.2g} |" if "value" in e else
                        f"| {name} ({unit}) | {e['status']} | |")
+    return "\n".join(out) + "\n"
+
+
+#: The columns of a multi-position segments file (CSV): the still window; ``up`` (optional: +x, -x, ... the body
+#: axis the fixture puts up) is checked against the log's force.
+POSITION_COLUMNS = ("start_s", "end_s")
+
+
+def read_positions(path) -> list:
+    """The still windows of a multi-position log from a CSV with the columns :data:`POSITION_COLUMNS` (and
+    optionally ``up``), as ``[(start_s, end_s, up or None)]``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the row and the column.
+    """
+    import pandas as pd
+
+    p = Path(path)
+    try:
+        df = pd.read_csv(p, comment="#", skipinitialspace=True)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is the file's fault: one line
+        raise ConfigError(f"--positions: {p}: cannot read: {' '.join(str(exc).split())}") from None
+    df.columns = [str(c).strip() for c in df.columns]
+    missing = [c for c in POSITION_COLUMNS if c not in df.columns]
+    if missing:
+        raise ConfigError(f"--positions: {p}: column {missing[0]}: missing (needs {', '.join(POSITION_COLUMNS)}, "
+                          "optionally up)")
+    out = []
+    for i, row in enumerate(df.itertuples(index=False), start=2):
+        try:
+            t0, t1 = float(row.start_s), float(row.end_s)
+        except ValueError:
+            raise ConfigError(f"--positions: {p}: line {i}: start_s and end_s must be numbers") from None
+        if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+            raise ConfigError(f"--positions: {p}: line {i}: needs finite start_s < end_s")
+        up = None
+        if "up" in df.columns and isinstance(row.up, str) and row.up.strip():
+            up = row.up.strip().lower()
+            if up not in ("+x", "-x", "+y", "-y", "+z", "-z"):
+                raise ConfigError(f"--positions: {p}: line {i}: up must be one of +x, -x, +y, -y, +z, -z, got "
+                                  f"{row.up!r}")
+        out.append((t0, t1, up))
+    return out
+
+
+def identify_positions(log, positions="auto", out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None,
+                       force: bool = False, manifest=None):
+    """Accelerometer biases, scale factors and misalignments and the gyros' biases and g-sensitivity from a
+    multi-position (tumble) log (:mod:`sins_sim.navigation.multiposition`).
+
+    Parameters
+    ----------
+    log : path
+        The increments table.
+    positions : "auto", path or sequence
+        The still windows: found from the log (``auto``: :func:`~sins_sim.navigation.multiposition.find_positions`),
+        a CSV (:func:`read_positions`) or ``(start_s, end_s)`` pairs.
+    out_dir : path, optional
+        Folder for ``metrics.json``, ``imu-sensors.yaml`` and ``report.md``; None: write nothing.
+    lat_deg, lon_deg, height_m : float, optional
+        The site where the log has none.
+    force : bool
+        Replace an earlier result at ``out_dir``.
+    manifest : Manifest, optional
+
+    Returns
+    -------
+    IdentifyResult
+        ``positions_fit``: :meth:`~sins_sim.navigation.multiposition.MultiPositionFit.to_dict`.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the flag or the file.
+    """
+    from sins_sim.jobs.import_log import read_log_table
+    from sins_sim.navigation.multiposition import find_positions, fit_multiposition
+    from sins_sim.results.identify import IdentifyResult
+
+    t, dth, dv, meta = read_log_table(log)
+    site = _site(meta, lat_deg, lon_deg, height_m)
+    _interval(t)
+    if isinstance(positions, str) and positions == "auto":
+        windows, given = find_positions(t, dth, dv), None
+        source = "found from the log (one-second blocks between changes of force or rate)"
+    else:
+        rows = read_positions(positions) if isinstance(positions, (str, Path)) else [
+            (float(a), float(b), None) for a, b in positions]
+        windows, given = [(a, b) for a, b, _ in rows], [u for _, _, u in rows]
+        source = f"given ({positions})" if isinstance(positions, (str, Path)) else "given"
+    try:
+        fit = fit_multiposition(t, dth, dv, windows, site["lat_rad"], site["height_m"])
+    except ValueError as exc:
+        raise ConfigError(f"--positions: {exc}") from None
+    if given is not None:
+        for (a, b), want, p in zip(windows, given, fit.positions):
+            if want is not None and want != p.label:
+                raise ConfigError(f"--positions: the window {a:g} to {b:g} s has {p.label} up in the log, the file "
+                                  f"says {want}")
+    metrics = _json_ready({
+        "log": str(log), "duration_s": float(t.size * (t[1] - t[0])), "rate_hz": float(1.0 / (t[1] - t[0])),
+        "site": {"lat_deg": math.degrees(site["lat_rad"]), "height_m": site["height_m"]},
+        "positions_source": source, "positions_fit": fit.to_dict(),
+        "methods": {"positions_fit": "weighted least squares per accelerometer row over the still positions "
+                                     "(m_f - g u = b + E g u), the gyros from each axis's up/down pair less the "
+                                     "Earth's vertical rate; sigmas from the standard error of each position's "
+                                     "one-second block means"},
+        "notes": ["the misalignments are relative to the fixture's faces: its own tilt and face errors alias into them",
+                  "the scale factors are read against normal gravity: a gravity anomaly dg enters them as dg / g "
+                  "(10 ug: 10 ppm), outside the sigma"]})
+    files = {}
+    if out_dir is not None:
+        from sins_sim.jobs.manifest import Manifest, result_dir
+
+        if manifest is None:
+            manifest = Manifest("identify", settings={"positions": positions if isinstance(positions, str) else
+                                                      [list(w) for w in windows]})
+        manifest.add_input("log", log)
+        with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
+            (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+            (Path(tmp) / "imu-sensors.yaml").write_text(positions_yaml(metrics))
+            (Path(tmp) / "report.md").write_text(_positions_report(metrics))
+        files = {name: Path(out_dir) / name for name in ("metrics.json", "imu-sensors.yaml", "report.md")}
+    return IdentifyResult(metrics, files=files)
+
+
+def _entries_line(key: str, entries: list, unit: str, what: str) -> str:
+    """``key: [...]   # what; 1-sigma [...]`` or a comment saying which entry is not determined."""
+    if any("value" not in e for e in entries):
+        why = next(e["status"] for e in entries if "value" not in e)
+        return f"    # {key}: left out ({why}); the twin's default 0 applies"
+    vals = ", ".join(f"{e['value']:.6g}" for e in entries)
+    sigs = ", ".join(f"{e['sigma']:.3g}" for e in entries)
+    return f"    {key}: [{vals}]   # {what}; 1-sigma [{sigs}] {unit}"
+
+
+def positions_yaml(metrics: dict) -> str:
+    """The ``sensors:`` keys a multi-position log gives (accelerometer bias, scale factors, misalignments; gyro bias),
+    each with its source and sigma; the g-sensitivity as comments (the sensor model has no such key)."""
+    pf = metrics["positions_fit"]
+    acc, gy = pf["accelerometer"], pf["gyro"]
+    what = f"multi-position fit over {len(pf['positions'])} positions"
+    mis_order = ("xy", "xz", "yx", "yz", "zx", "zy")
+    lines = [f"# identified by sins-sim identify --positions from {metrics['log']}", "sensors:", "  gyro:",
+             _entries_line("bias_deg_h", [gy["bias_deg_h"][a] for a in "xyz"], "deg/h", what + " (up/down pairs)"),
+             "  accelerometer:",
+             _entries_line("bias_ug", [acc["bias_ug"][a] for a in "xyz"], "ug", what),
+             _entries_line("scale_factor_ppm", [acc["scale_factor_ppm"][a] for a in "xyz"], "ppm", what),
+             _entries_line("misalignment_arcsec", [acc["misalignment_arcsec"][k] for k in mis_order], "arcsec",
+                           what + "; order xy, xz, yx, yz, zx, zy, relative to the fixture's faces"),
+             "# gyro g-sensitivity (deg/h/g; not a key of the twin's sensors: its model has no g-sensitivity):"]
+    for k, e in gy["g_sensitivity_deg_h_per_g"].items():
+        lines.append(f"#   G_{k}: {e['value']:.4g} +- {e['sigma']:.2g} (1-sigma)" if "value" in e else
+                     f"#   G_{k}: {e['status']}")
+    return "\n".join(lines) + "\n"
+
+
+def _positions_report(metrics: dict) -> str:
+    pf = metrics["positions_fit"]
+    out = ["# Accelerometer terms and gyro g-sensitivity from a multi-position log", "",
+           (f"Log `{metrics['log']}`: {metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz; site "
+            f"{metrics['site']['lat_deg']:.6f} deg N. Models (Groves 2013, sec. 4.4.6): m_f = b_a + (I + E_a) f, "
+            "m_w = b_g + w + G f; f = g u in a position with u up. Positions "
+            f"({metrics['positions_source']}): " + ", ".join(
+                f"{p['up']} {p['start_s']:.4g} to {p['end_s']:.4g} s" for p in pf["positions"]) + "."), "",
+           "| term | value | 1-sigma |", "|---|---|---|"]
+    groups = [("accelerometer", "bias_ug", "b_a", "ug"), ("accelerometer", "scale_factor_ppm", "S", "ppm"),
+              ("accelerometer", "misalignment_arcsec", "M", "arcsec"), ("gyro", "bias_deg_h", "b_g", "deg/h"),
+              ("gyro", "g_sensitivity_deg_h_per_g", "G", "deg/h/g")]
+    for sensor, key, sym, unit in groups:
+        for k, e in pf[sensor][key].items():
+            out.append(f"| {sym}_{k} ({unit}) | {e['value']:.5g} | {e['sigma']:.2g} |" if "value" in e else
+                       f"| {sym}_{k} ({unit}) | {e['status']} | |")
+    out += [""] + [f"- {n}" for n in metrics["notes"]]
     return "\n".join(out) + "\n"
