@@ -46,8 +46,8 @@ from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
 __all__ = ["LINE_FALSE_ALARM", "NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "identify_rate_table",
-           "identify_positions", "positions_yaml", "pulse_weights", "read_positions", "read_segments", "sensors_yaml",
-           "twin_sensors"]
+           "identify_positions", "identify_truth", "positions_yaml", "pulse_weights", "read_positions", "read_segments", "sensors_yaml",
+           "truth_yaml", "twin_sensors"]
 
 NOT_DETERMINABLE = "not determinable"
 NOT_OBSERVABLE = "not observable"
@@ -205,8 +205,9 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         t, dth, dv = t[:keep], dth[:keep], dv[:keep]
     moved = first_motion_s(dth, dv, dt)
     if moved is not None:  # the noise, the biases and the twin are all fits of a unit at rest: never of a moving one
-        hint = (f"give --until-s {moved:g} to fit its still start" if moved >= MIN_REST_S else
-                "a still log is needed (or --rate-table for a rate-table run)")
+        hint = ((f"give --until-s {moved:g} to fit its still start, or " if moved >= MIN_REST_S else "")
+                + "give --truth TRAJECTORY (the trajectory it moved on) to fit it against its known motion "
+                  "(--rate-table for a rate-table run, --positions for a multi-position test)")
         raise ConfigError(f"{log}: the unit moves from {moved:g} s on (its one-second mean specific force or rate "
                           f"leaves its start's): identify fits a log at rest; {hint}")
     fs = 1.0 / dt
@@ -1082,5 +1083,112 @@ def _positions_report(metrics: dict) -> str:
         for k, e in pf[sensor][key].items():
             out.append(f"| {sym}_{k} ({unit}) | {e['value']:.5g} | {e['sigma']:.2g} |" if "value" in e else
                        f"| {sym}_{k} ({unit}) | {e['status']} | |")
+    out += [""] + [f"- {n}" for n in metrics["notes"]]
+    return "\n".join(out) + "\n"
+
+
+def identify_truth(log, truth_file, out_dir=None, *, force: bool = False, manifest=None):
+    """Biases, scale factors and misalignments of a moving log against its known trajectory
+    (:mod:`sins_sim.navigation.truth_fit`): the errors are the log's increments minus the truth's ideal increments
+    (:func:`sins_sim.simulation.external.ideal_increments`, on the truth's time axis as ``sins-sim navigate --truth``
+    reads it), fitted by least squares where the motion excites them, "not observable" where it does not.
+
+    Parameters
+    ----------
+    log : path
+        The increments table.
+    truth_file : path
+        A trajectory file (:func:`sins_sim.io.trajectory.read_trajectory`) covering the log's span.
+    out_dir : path, optional
+        Folder for ``metrics.json``, ``imu-sensors.yaml`` and ``report.md``; None: write nothing.
+    force : bool
+        Replace an earlier result at ``out_dir``.
+    manifest : Manifest, optional
+
+    Returns
+    -------
+    IdentifyResult
+        ``truth_fit``: :meth:`~sins_sim.navigation.truth_fit.TruthFit.to_dict`.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the flag or the file.
+    """
+    from sins_sim.io.trajectory import read_trajectory
+    from sins_sim.jobs.import_log import read_log_table
+    from sins_sim.models.motion import SampledTrajectory
+    from sins_sim.navigation.truth_fit import fit_against_truth
+    from sins_sim.results.identify import IdentifyResult
+    from sins_sim.simulation.external import ideal_increments
+
+    t, dth, dv, _ = read_log_table(log)
+    dt = _interval(t)
+    try:
+        truth = SampledTrajectory.from_data(read_trajectory(truth_file))
+    except ValueError as exc:
+        raise ConfigError(f"--truth: {' '.join(str(exc).split())}") from None
+    t_truth = t - truth.time_offset_s
+    span = float(truth.duration_s)
+    if t_truth[0] - dt < -1e-9 or t_truth[-1] > span + 1e-9:
+        raise ConfigError(f"--truth: {truth_file} must cover the log's {t[0] - dt:g} to {t[-1]:g} s (its own times "
+                          f"run from {truth.time_offset_s:g} to {truth.time_offset_s + span:g} s)")
+    try:
+        ideal_th, ideal_v = ideal_increments(truth, t_truth)
+        fit = fit_against_truth(dt, {"gyro": dth, "accelerometer": dv}, {"gyro": ideal_th, "accelerometer": ideal_v})
+    except ValueError as exc:
+        raise ConfigError(f"--truth: {' '.join(str(exc).split())}") from None
+    metrics = _json_ready({
+        "log": str(log), "truth": str(truth_file), "duration_s": float(t.size * dt), "rate_hz": 1.0 / dt,
+        "truth_fit": fit.to_dict(),
+        "methods": {"truth_fit": "x_meas - x_ideal = b dt + E x_ideal per triad row, ordinary least squares on "
+                                 "one-second block sums, sigma from the residuals (s^2 (A^T A)^-1); a column whose "
+                                 "part apart from the others is below 1e-6 of its size is not observable"},
+        "notes": ["the sigmas hold the noise as the residuals show it, white over one-second blocks; a rate random "
+                  "walk or a bias drift over the log makes them too small",
+                  "the truth's own errors (its attitude, its timing against the log) are in the fitted terms"]})
+    files = {}
+    if out_dir is not None:
+        from sins_sim.jobs.manifest import Manifest, result_dir
+
+        if manifest is None:
+            manifest = Manifest("identify", settings={"truth": str(truth_file)})
+        manifest.add_input("log", log)
+        manifest.add_input("truth", truth_file)
+        with result_dir(out_dir, manifest, inputs=(log, truth_file), force=force) as tmp:
+            (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+            (Path(tmp) / "imu-sensors.yaml").write_text(truth_yaml(metrics))
+            (Path(tmp) / "report.md").write_text(_truth_report(metrics))
+        files = {name: Path(out_dir) / name for name in ("metrics.json", "imu-sensors.yaml", "report.md")}
+    return IdentifyResult(metrics, files=files)
+
+
+def truth_yaml(metrics: dict) -> str:
+    """The ``sensors:`` keys a log on a known trajectory gives, each with its source and sigma."""
+    tf = metrics["truth_fit"]
+    what = f"fit against the truth {Path(metrics['truth']).name}"
+    mis_order = ("xy", "xz", "yx", "yz", "zx", "zy")
+    lines = [f"# identified by sins-sim identify --truth from {metrics['log']}", "sensors:"]
+    for s, bkey, bunit in (("gyro", "bias_deg_h", "deg/h"), ("accelerometer", "bias_ug", "ug")):
+        sec = tf[s]
+        lines += [f"  {s}:", _entries_line(bkey, [sec[bkey][a] for a in "xyz"], bunit, what),
+                  _entries_line("scale_factor_ppm", [sec["scale_factor_ppm"][a] for a in "xyz"], "ppm", what),
+                  _entries_line("misalignment_arcsec", [sec["misalignment_arcsec"][k] for k in mis_order], "arcsec",
+                                what + "; order xy, xz, yx, yz, zx, zy")]
+    return "\n".join(lines) + "\n"
+
+
+def _truth_report(metrics: dict) -> str:
+    tf = metrics["truth_fit"]
+    out = ["# Unit fitted against its known trajectory", "",
+           (f"Log `{metrics['log']}` ({metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz) against the "
+            f"truth `{metrics['truth']}`. Model (Groves 2013, sec. 4.4.6): x_meas = x_ideal + b dt + E x_ideal, "
+            f"scale factors S on the diagonal of E, misalignments M off it; {tf['blocks']} blocks of "
+            f"{tf['block_s']:g} s."), "", "| sensor | term | value | 1-sigma |", "|---|---|---|---|"]
+    for s, bkey, sym in (("gyro", "bias_deg_h", "b (deg/h)"), ("accelerometer", "bias_ug", "b (ug)")):
+        for group, name in ((bkey, sym), ("scale_factor_ppm", "S (ppm)"), ("misalignment_arcsec", "M (arcsec)")):
+            for k, e in tf[s][group].items():
+                out.append(f"| {s} | {name} {k} | {e['value']:.5g} | {e['sigma']:.2g} |" if "value" in e else
+                           f"| {s} | {name} {k} | {e['status']} | |")
     out += [""] + [f"- {n}" for n in metrics["notes"]]
     return "\n".join(out) + "\n"
