@@ -27,8 +27,10 @@ angle and velocity increments in body FRD axes. On it, for a unit at rest over t
    twin, each value's source and sigma in a comment) and ``report.md``.
 
 A rate-table log (``sins-sim identify LOG --rate-table SEGMENTS.csv``, :func:`identify_rate_table`) gives the gyro
-scale factors and misalignments from its reversal pairs (:mod:`sins_sim.navigation.rate_table`) instead. Not
-covered yet: the accelerometers' g-sensitivity and scale factors, a log on a known trajectory.
+scale factors and misalignments from its reversal pairs (:mod:`sins_sim.navigation.rate_table`) instead; a
+multi-position log (``--positions``, :func:`identify_positions`) the accelerometers' biases, scale factors and
+misalignments and the gyros' g-sensitivity (:mod:`sins_sim.navigation.multiposition`); a moving log with its
+trajectory (``--truth``, :func:`identify_truth`) the terms its motion excites (:mod:`sins_sim.navigation.truth_fit`).
 
 API: :func:`identify` (returns :class:`~sins_sim.results.identify.IdentifyResult`, the metrics as a dict with
 ``to_pandas()``, ``plot(kind)`` and ``files``; writes the folder when ``out_dir`` is given), :func:`twin_sensors`.
