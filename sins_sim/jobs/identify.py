@@ -1022,20 +1022,29 @@ def identify_positions(log, positions="auto", out_dir=None, *, lat_deg=None, lon
         "notes": ["the misalignments are relative to the fixture's faces: its own tilt and face errors alias into them",
                   "the scale factors are read against normal gravity: a gravity anomaly dg enters them as dg / g "
                   "(10 ug: 10 ppm), outside the sigma"]})
-    files = {}
-    if out_dir is not None:
-        from sins_sim.jobs.manifest import Manifest, result_dir
-
-        if manifest is None:
-            manifest = Manifest("identify", settings={"positions": positions if isinstance(positions, str) else
-                                                      [list(w) for w in windows]})
-        manifest.add_input("log", log)
-        with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
-            (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
-            (Path(tmp) / "imu-sensors.yaml").write_text(positions_yaml(metrics))
-            (Path(tmp) / "report.md").write_text(_positions_report(metrics))
-        files = {name: Path(out_dir) / name for name in ("metrics.json", "imu-sensors.yaml", "report.md")}
+    settings = {"positions": positions if isinstance(positions, str) else [list(w) for w in windows]}
+    files = _write_fit(out_dir, metrics, {"imu-sensors.yaml": positions_yaml(metrics),
+                                          "report.md": _positions_report(metrics)},
+                       manifest, settings, {"log": log}, force)
     return IdentifyResult(metrics, files=files)
+
+
+def _write_fit(out_dir, metrics: dict, texts: dict, manifest, settings: dict, inputs: dict, force: bool) -> dict:
+    """Write ``metrics.json`` and ``texts`` (name -> text) into ``out_dir`` as one result (its manifest naming
+    ``inputs``, label -> path); the files written, name -> path (none without ``out_dir``)."""
+    if out_dir is None:
+        return {}
+    from sins_sim.jobs.manifest import Manifest, result_dir
+
+    if manifest is None:
+        manifest = Manifest("identify", settings=settings)
+    for label, path in inputs.items():
+        manifest.add_input(label, path)
+    with result_dir(out_dir, manifest, inputs=tuple(inputs.values()), force=force) as tmp:
+        (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+        for name, text in texts.items():
+            (Path(tmp) / name).write_text(text)
+    return {name: Path(out_dir) / name for name in ("metrics.json", *texts)}
 
 
 def _entries_line(key: str, entries: list, unit: str, what: str) -> str:
@@ -1149,19 +1158,8 @@ def identify_truth(log, truth_file, out_dir=None, *, force: bool = False, manife
         "notes": ["the sigmas hold the noise as the residuals show it, white over one-second blocks; a rate random "
                   "walk or a bias drift over the log makes them too small",
                   "the truth's own errors (its attitude, its timing against the log) are in the fitted terms"]})
-    files = {}
-    if out_dir is not None:
-        from sins_sim.jobs.manifest import Manifest, result_dir
-
-        if manifest is None:
-            manifest = Manifest("identify", settings={"truth": str(truth_file)})
-        manifest.add_input("log", log)
-        manifest.add_input("truth", truth_file)
-        with result_dir(out_dir, manifest, inputs=(log, truth_file), force=force) as tmp:
-            (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
-            (Path(tmp) / "imu-sensors.yaml").write_text(truth_yaml(metrics))
-            (Path(tmp) / "report.md").write_text(_truth_report(metrics))
-        files = {name: Path(out_dir) / name for name in ("metrics.json", "imu-sensors.yaml", "report.md")}
+    files = _write_fit(out_dir, metrics, {"imu-sensors.yaml": truth_yaml(metrics), "report.md": _truth_report(metrics)},
+                       manifest, {"truth": str(truth_file)}, {"log": log, "truth": truth_file}, force)
     return IdentifyResult(metrics, files=files)
 
 
