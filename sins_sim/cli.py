@@ -972,8 +972,31 @@ def _cmd_import_log(args) -> int:
 
 
 def _cmd_identify(args) -> int:
-    from sins_sim.jobs.identify import identify, identify_rate_table
+    from sins_sim.jobs.identify import identify, identify_positions, identify_rate_table, identify_truth
 
+    if args.truth is not None:
+        m = identify_truth(args.log, args.truth, args.out, force=args.force, manifest=_manifest(args))
+        tf = m["truth_fit"]
+        for sensor, bkey in (("gyro", "bias_deg_h"), ("accelerometer", "bias_ug")):
+            for group in (bkey, "scale_factor_ppm", "misalignment_arcsec"):
+                cells = [f"{k} {e['value']:.4g} +- {e['sigma']:.2g}" if "value" in e else f"{k} not observable"
+                         for k, e in tf[sensor][group].items()]
+                print(f"{sensor} {group}: {'; '.join(cells)}")
+        print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
+        return EXIT_OK
+    if args.positions is not None:
+        m = identify_positions(args.log, args.positions, args.out, lat_deg=args.site_lat_deg,
+                               lon_deg=args.site_lon_deg, height_m=args.site_height_m, force=args.force,
+                               manifest=_manifest(args))
+        pf = m["positions_fit"]
+        print("positions: " + ", ".join(f"{p['up']} {p['start_s']:.4g}-{p['end_s']:.4g} s" for p in pf["positions"]))
+        for sensor, group in (("accelerometer", "bias_ug"), ("accelerometer", "scale_factor_ppm"),
+                              ("accelerometer", "misalignment_arcsec"), ("gyro", "bias_deg_h"),
+                              ("gyro", "g_sensitivity_deg_h_per_g")):
+            cells = [f"{k} {e['value']:.4g} +- {e['sigma']:.2g}" for k, e in pf[sensor][group].items() if "value" in e]
+            print(f"{sensor} {group}: {'; '.join(cells) or 'none determined'}")
+        print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
+        return EXIT_OK
     if args.rate_table is not None:
         m = identify_rate_table(args.log, args.rate_table, args.out, force=args.force, manifest=_manifest(args))
         for group in ("scale_factor_ppm", "misalignment_arcsec"):
@@ -1378,6 +1401,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate-table", default=None, metavar="SEGMENTS.csv",
                    help="the log is a rate-table run: windows of constant rate (start_s, end_s, axis, rate_deg_s); "
                         "gives the gyro scale factors and misalignments from the reversal pairs instead")
+    p.add_argument("--truth", default=None, metavar="TRAJECTORY",
+                   help="the log moved on this known trajectory (a trajectory file, as navigate --truth): gives the "
+                        "biases, scale factors and misalignments the motion excites, by least squares on the log's "
+                        "increments less the trajectory's ideal ones")
+    p.add_argument("--positions", nargs="?", const="auto", default=None, metavar="POSITIONS.csv",
+                   help="the log is a multi-position (tumble) test: still windows (start_s, end_s, optionally up: +x, "
+                        "-x, ...), found from the log when no file is given; gives the accelerometer biases, scale "
+                        "factors and misalignments and the gyro biases and g-sensitivity instead")
     p.add_argument("--twin-seeds", type=int, default=5,
                    help="seeds of the twin simulated beside the log; 0: no twin [5]")
     p.add_argument("--line-false-alarm", type=float, default=0.01,

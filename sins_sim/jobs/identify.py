@@ -27,8 +27,10 @@ angle and velocity increments in body FRD axes. On it, for a unit at rest over t
    twin, each value's source and sigma in a comment) and ``report.md``.
 
 A rate-table log (``sins-sim identify LOG --rate-table SEGMENTS.csv``, :func:`identify_rate_table`) gives the gyro
-scale factors and misalignments from its reversal pairs (:mod:`sins_sim.navigation.rate_table`) instead. Not
-covered yet: the accelerometers' g-sensitivity and scale factors, a log on a known trajectory.
+scale factors and misalignments from its reversal pairs (:mod:`sins_sim.navigation.rate_table`) instead; a
+multi-position log (``--positions``, :func:`identify_positions`) the accelerometers' biases, scale factors and
+misalignments and the gyros' g-sensitivity (:mod:`sins_sim.navigation.multiposition`); a moving log with its
+trajectory (``--truth``, :func:`identify_truth`) the terms its motion excites (:mod:`sins_sim.navigation.truth_fit`).
 
 API: :func:`identify` (returns :class:`~sins_sim.results.identify.IdentifyResult`, the metrics as a dict with
 ``to_pandas()``, ``plot(kind)`` and ``files``; writes the folder when ``out_dir`` is given), :func:`twin_sensors`.
@@ -46,7 +48,8 @@ from sins_sim.config.errors import ConfigError
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
 __all__ = ["LINE_FALSE_ALARM", "NOT_DETERMINABLE", "NOT_OBSERVABLE", "identify", "identify_rate_table",
-           "read_segments", "sensors_yaml", "twin_sensors"]
+           "identify_positions", "identify_truth", "positions_yaml", "pulse_weights", "read_positions", "read_segments", "sensors_yaml",
+           "truth_yaml", "twin_sensors"]
 
 NOT_DETERMINABLE = "not determinable"
 NOT_OBSERVABLE = "not observable"
@@ -204,11 +207,13 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         t, dth, dv = t[:keep], dth[:keep], dv[:keep]
     moved = first_motion_s(dth, dv, dt)
     if moved is not None:  # the noise, the biases and the twin are all fits of a unit at rest: never of a moving one
-        hint = (f"give --until-s {moved:g} to fit its still start" if moved >= MIN_REST_S else
-                "a still log is needed (or --rate-table for a rate-table run)")
+        hint = ((f"give --until-s {moved:g} to fit its still start, or " if moved >= MIN_REST_S else "")
+                + "give --truth TRAJECTORY (the trajectory it moved on) to fit it against its known motion "
+                  "(--rate-table for a rate-table run, --positions for a multi-position test)")
         raise ConfigError(f"{log}: the unit moves from {moved:g} s on (its one-second mean specific force or rate "
                           f"leaves its start's): identify fits a log at rest; {hint}")
     fs = 1.0 / dt
+    pulses = pulse_weights(meta, dth, dv)
     rate, spec_force = dth / dt, dv / dt
     analyses = {
         "gyro": {ax: screen_noise(a) for ax, a in allan_axes(rate - rate.mean(axis=0), fs, "gyro").items()},
@@ -225,10 +230,12 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     sig_g = np.array([_mean_sigma(analyses["gyro"][ax], t_total) for ax in "xyz"])
     sig_a = np.array([_mean_sigma(analyses["accelerometer"][ax], t_total) for ax in "xyz"])
     prior_g, prior_a = gyro_bias_prior_deg_h * DEG_PER_H, accel_bias_prior_ug * MICRO_G
+    wander = _gyro_wander(noise, analyses, t_total)
     align = align_coarse if alignment == "coarse" else align_inertial
     kwargs = {} if alignment == "coarse" else {"h_m": site["height_m"]}
     try:
         al = align(dth, dv, dt, site["lat_rad"], gyro_bias_sigma_rad_s=prior_g, accel_bias_sigma_m_s2=prior_a,
+                   gyro_wander_sigma_rad_s=wander,
                    **kwargs)
     except ValueError as exc:
         raise ConfigError(f"LOG: alignment failed: {exc}") from None
@@ -245,7 +252,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     from sins_sim.jobs.import_log import read_log_temperature
     from sins_sim.simulation.twin import rest_run
 
-    run_kw = {"gyro_bias_sigma_rad_s": prior_g, "accel_bias_sigma_m_s2": prior_a,
+    run_kw = {"gyro_bias_sigma_rad_s": prior_g, "accel_bias_sigma_m_s2": prior_a, "gyro_wander_sigma_rad_s": wander,
               "false_alarm": line_false_alarm / 6.0}
     try:
         log_run = rest_run(t, dth, dv, site, alignment, alignment=al, **run_kw)
@@ -266,6 +273,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         "bias": bias,
         "lines": _lines_metrics(log_run.lines, line_false_alarm),
         "bias_steps": steps,
+        "pulse_weights": pulses.to_dict() if pulses is not None else {"status": "not quantised"},
         "temperature": temperature if temperature is not None else {
             "status": "no temperature column (temperature_c) in the log"},
         "notes": [
@@ -297,7 +305,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     detail = {"analyses": analyses, "log_run": log_run}
     if twin_seeds:
         metrics["twin"], detail["twin"] = _twin(metrics, analyses, site, al, t, alignment, twin_seeds,
-                                                     run_kw, log_run)
+                                                     run_kw, log_run, pulses=pulses)
     metrics = _json_ready(metrics)
     if out_dir is not None:
         from sins_sim.jobs.manifest import Manifest, result_dir
@@ -316,6 +324,56 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     from sins_sim.results.identify import IdentifyResult
 
     return IdentifyResult(metrics, detail=detail, files=files)
+
+
+def _gyro_wander(noise: dict, analyses: dict, window_s: float) -> float:
+    """The gyros' bias wander over the alignment window (:func:`sins_sim.simulation.twin.gyro_wander_sigma`) for
+    the noise the twin gets (:func:`twin_sensors`: the rate random walk reported or held by the power-law fit, the
+    bias instability where reported), so that the log's alignment and its twin's state the same sigma."""
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+    from sins_sim.simulation.twin import gyro_wander_sigma
+
+    no_bias = {s: {f"{c}_{_BIAS_UNIT[s][0]}": {} for c in ("north", "east", "down")} for s in _BIAS_UNIT}
+    doc, _ = twin_sensors({"noise": noise, "bias": no_bias}, np.array([1.0, 0.0, 0.0, 0.0]), analyses)
+    return gyro_wander_sigma(sensor_params_from_dict(doc, "the identified twin"), window_s)
+
+
+def pulse_weights(meta: dict, dth, dv):
+    """The readout's pulse weights of a log (:class:`~sins_sim.simulation.twin.PulseWeights`), or None.
+
+    From the log's description (``sins-sim import-log`` stores it in the metadata): a sensor logged as ``counts``
+    or ``totals`` has its ``weight_<unit>`` per channel, in the log's own axes. Otherwise read off the increments
+    (:func:`~sins_sim.simulation.twin.pulse_weight_of`, per channel in the log's axes): a channel whose every
+    increment is a whole number of one step has that step as its weight. None where no channel is quantised.
+    """
+    from sins_sim.config.log import load_log_description
+    from sins_sim.simulation.twin import PulseWeights, pulse_weight_of
+
+    desc = (meta or {}).get("description")
+    layout = None
+    if isinstance(desc, dict):
+        try:
+            layout = load_log_description({k: val for k, val in desc.items()
+                                           if k not in ("source", "axes_matrix_frd")}).layout
+        except ConfigError as exc:
+            raise ConfigError(f"LOG: the description in its metadata does not load again: {exc}") from None
+    axes = np.eye(3) if layout is None else np.asarray(layout.axes, dtype=np.float64)
+    weights, sources = [], []
+    for name, inc, kind, scale in (("gyro", dth, getattr(layout, "gyro_kind", None), getattr(layout, "gyro_scale", None)),
+                                   ("accelerometer", dv, getattr(layout, "accel_kind", None),
+                                    getattr(layout, "accel_scale", None))):
+        if kind in ("counts", "totals"):
+            weights.append(np.asarray(scale, dtype=np.float64))
+            sources.append(f"{name}: the log's description ({kind}, weight per pulse)")
+            continue
+        x_log = np.asarray(inc, dtype=np.float64) @ axes.T
+        w = [pulse_weight_of(x_log[:, i]) for i in range(3)]
+        weights.append(np.array([0.0 if q is None else q for q in w]))
+        sources.append(f"{name}: read off the increments (every one a whole number of the weight)"
+                       if any(q is not None for q in w) else f"{name}: not quantised (no pulse weight)")
+    if not (np.any(weights[0]) or np.any(weights[1])):
+        return None
+    return PulseWeights(weights[0], weights[1], axes, "; ".join(sources))
 
 
 def _mean_sigma(analysis, t_total: float) -> float:
@@ -382,7 +440,19 @@ def sensors_yaml(metrics: dict) -> str:
                 lo = min(e["tau_range_s"][0] for e in entries)
                 hi = max(e["tau_range_s"][1] for e in entries)
                 lines.append(f"    bias_instability_tau_s: [{lo:.6g}, {hi:.6g}]   # the flat region read")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _pulse_yaml_lines(metrics)) + "\n"
+
+
+def _pulse_yaml_lines(metrics: dict) -> list:
+    """The readout's pulse weights as comment lines of the IMU file (the twin quantises its increments with them;
+    the IMU schema's ``readout`` is the channel-level readout before dither removal, not these)."""
+    pw = metrics.get("pulse_weights") or {}
+    if "gyro_weight_arcsec" not in pw:
+        return ["# readout pulses: the log's increments are not quantised (no pulse weight)"]
+    return ["# readout pulses of the unit's output (the twin quantises its increments with them, residue carried):",
+            "#   gyro_weight_arcsec: [" + ", ".join(f"{w:.9g}" for w in pw["gyro_weight_arcsec"]) + "]",
+            "#   accelerometer_weight_ug_s: [" + ", ".join(f"{w:.9g}" for w in pw["accelerometer_weight_ug_s"]) + "]",
+            "#   channel axes in FRD (rows): " + str(pw["axes_frd"]), "#   source: " + pw["source"]]
 
 
 def _report(metrics: dict) -> str:
@@ -563,7 +633,7 @@ def _step_findings(steps: dict) -> list:
 
 
 def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seeds: int, run_kw: dict,
-          log_run) -> tuple:
+          log_run, pulses=None) -> tuple:
     """Run the twin beside the log and localise where they part (:mod:`sins_sim.simulation.twin`,
     :mod:`sins_sim.identification.twin_gap`)."""
     from sins_sim.identification.twin_gap import NAV_QUANTITIES, alignment_side_by_side, localise
@@ -573,7 +643,7 @@ def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seed
     doc, source = twin_sensors(metrics, al.q_nb, analyses)
     params = sensor_params_from_dict(doc, "the identified twin")
     try:
-        runs = twin_runs(params, t, site, al.q_nb, alignment, range(1, seeds + 1), **run_kw)
+        runs = twin_runs(params, t, site, al.q_nb, alignment, range(1, seeds + 1), pulses=pulses, **run_kw)
     except ValueError as exc:
         raise ConfigError(f"--twin-seeds: the twin's run failed: {exc}") from None
     gap = localise(log_run, runs)
@@ -586,7 +656,9 @@ def _twin(metrics: dict, analyses: dict, site: dict, al, t, alignment: str, seed
                           f"twin_mean_{unit}": float(b["mean"][-1] * scale),
                           f"twin_halfwidth_{unit}": float((b["hi"][-1] - b["mean"][-1]) * scale)}
     out = {"seeds": seeds, "sensors": doc, "sensors_source": source, "simulated_at": "increments after dither removal (sensor errors on the "
-                                                          "exact increments at rest)",
+                                                          "exact increments at rest" + (
+                                                              ", then the readout's pulses)" if pulses is not None
+                                                              else ")"),
            "alignment": alignment_side_by_side(log_run, runs, al.q_nb), "navigation_at_end": nav_end,
            "alpha": gap["alpha"], "findings": gap["findings"],
            "summary": (f"the log stays within its twin's envelope ({seeds} seeds) in every quantity tested"
@@ -838,4 +910,285 @@ def _rate_table_report(metrics: dict) -> str:
             name = f"S_{key}" if group == "scale_factor_ppm" else f"M_{key}"
             out.append(f"| {name} ({unit}) | {e['value']:.4g} | {e['sigma']:.2g} |" if "value" in e else
                        f"| {name} ({unit}) | {e['status']} | |")
+    return "\n".join(out) + "\n"
+
+
+#: The columns of a multi-position segments file (CSV): the still window; ``up`` (optional: +x, -x, ... the body
+#: axis the fixture puts up) is checked against the log's force.
+POSITION_COLUMNS = ("start_s", "end_s")
+
+
+def read_positions(path) -> list:
+    """The still windows of a multi-position log from a CSV with the columns :data:`POSITION_COLUMNS` (and
+    optionally ``up``), as ``[(start_s, end_s, up or None)]``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the row and the column.
+    """
+    import pandas as pd
+
+    p = Path(path)
+    try:
+        df = pd.read_csv(p, comment="#", skipinitialspace=True)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is the file's fault: one line
+        raise ConfigError(f"--positions: {p}: cannot read: {' '.join(str(exc).split())}") from None
+    df.columns = [str(c).strip() for c in df.columns]
+    missing = [c for c in POSITION_COLUMNS if c not in df.columns]
+    if missing:
+        raise ConfigError(f"--positions: {p}: column {missing[0]}: missing (needs {', '.join(POSITION_COLUMNS)}, "
+                          "optionally up)")
+    out = []
+    for i, row in enumerate(df.itertuples(index=False), start=2):
+        try:
+            t0, t1 = float(row.start_s), float(row.end_s)
+        except ValueError:
+            raise ConfigError(f"--positions: {p}: line {i}: start_s and end_s must be numbers") from None
+        if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+            raise ConfigError(f"--positions: {p}: line {i}: needs finite start_s < end_s")
+        up = None
+        if "up" in df.columns and isinstance(row.up, str) and row.up.strip():
+            up = row.up.strip().lower()
+            if up not in ("+x", "-x", "+y", "-y", "+z", "-z"):
+                raise ConfigError(f"--positions: {p}: line {i}: up must be one of +x, -x, +y, -y, +z, -z, got "
+                                  f"{row.up!r}")
+        out.append((t0, t1, up))
+    return out
+
+
+def identify_positions(log, positions="auto", out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None,
+                       force: bool = False, manifest=None):
+    """Accelerometer biases, scale factors and misalignments and the gyros' biases and g-sensitivity from a
+    multi-position (tumble) log (:mod:`sins_sim.navigation.multiposition`).
+
+    Parameters
+    ----------
+    log : path
+        The increments table.
+    positions : "auto", path or sequence
+        The still windows: found from the log (``auto``: :func:`~sins_sim.navigation.multiposition.find_positions`),
+        a CSV (:func:`read_positions`) or ``(start_s, end_s)`` pairs.
+    out_dir : path, optional
+        Folder for ``metrics.json``, ``imu-sensors.yaml`` and ``report.md``; None: write nothing.
+    lat_deg, lon_deg, height_m : float, optional
+        The site where the log has none.
+    force : bool
+        Replace an earlier result at ``out_dir``.
+    manifest : Manifest, optional
+
+    Returns
+    -------
+    IdentifyResult
+        ``positions_fit``: :meth:`~sins_sim.navigation.multiposition.MultiPositionFit.to_dict`.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the flag or the file.
+    """
+    from sins_sim.jobs.import_log import read_log_table
+    from sins_sim.navigation.multiposition import find_positions, fit_multiposition
+    from sins_sim.results.identify import IdentifyResult
+
+    t, dth, dv, meta = read_log_table(log)
+    site = _site(meta, lat_deg, lon_deg, height_m)
+    _interval(t)
+    if isinstance(positions, str) and positions == "auto":
+        windows, given = find_positions(t, dth, dv), None
+        source = "found from the log (one-second blocks between changes of force or rate)"
+    else:
+        rows = read_positions(positions) if isinstance(positions, (str, Path)) else [
+            (float(a), float(b), None) for a, b in positions]
+        windows, given = [(a, b) for a, b, _ in rows], [u for _, _, u in rows]
+        source = f"given ({positions})" if isinstance(positions, (str, Path)) else "given"
+    try:
+        fit = fit_multiposition(t, dth, dv, windows, site["lat_rad"], site["height_m"])
+    except ValueError as exc:
+        raise ConfigError(f"--positions: {exc}") from None
+    if given is not None:
+        for (a, b), want, p in zip(windows, given, fit.positions):
+            if want is not None and want != p.label:
+                raise ConfigError(f"--positions: the window {a:g} to {b:g} s has {p.label} up in the log, the file "
+                                  f"says {want}")
+    metrics = _json_ready({
+        "log": str(log), "duration_s": float(t.size * (t[1] - t[0])), "rate_hz": float(1.0 / (t[1] - t[0])),
+        "site": {"lat_deg": math.degrees(site["lat_rad"]), "height_m": site["height_m"]},
+        "positions_source": source, "positions_fit": fit.to_dict(),
+        "methods": {"positions_fit": "weighted least squares per accelerometer row over the still positions "
+                                     "(m_f - g u = b + E g u), the gyros from each axis's up/down pair less the "
+                                     "Earth's vertical rate; sigmas from the standard error of each position's "
+                                     "one-second block means"},
+        "notes": ["the misalignments are relative to the fixture's faces: its own tilt and face errors alias into them",
+                  "the scale factors are read against normal gravity: a gravity anomaly dg enters them as dg / g "
+                  "(10 ug: 10 ppm), outside the sigma"]})
+    settings = {"positions": positions if isinstance(positions, str) else [list(w) for w in windows]}
+    files = _write_fit(out_dir, metrics, {"imu-sensors.yaml": positions_yaml(metrics),
+                                          "report.md": _positions_report(metrics)},
+                       manifest, settings, {"log": log}, force)
+    return IdentifyResult(metrics, files=files)
+
+
+def _write_fit(out_dir, metrics: dict, texts: dict, manifest, settings: dict, inputs: dict, force: bool) -> dict:
+    """Write ``metrics.json`` and ``texts`` (name -> text) into ``out_dir`` as one result (its manifest naming
+    ``inputs``, label -> path); the files written, name -> path (none without ``out_dir``)."""
+    if out_dir is None:
+        return {}
+    from sins_sim.jobs.manifest import Manifest, result_dir
+
+    if manifest is None:
+        manifest = Manifest("identify", settings=settings)
+    for label, path in inputs.items():
+        manifest.add_input(label, path)
+    with result_dir(out_dir, manifest, inputs=tuple(inputs.values()), force=force) as tmp:
+        (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+        for name, text in texts.items():
+            (Path(tmp) / name).write_text(text)
+    return {name: Path(out_dir) / name for name in ("metrics.json", *texts)}
+
+
+def _entries_line(key: str, entries: list, unit: str, what: str) -> str:
+    """``key: [...]   # what; 1-sigma [...]`` or a comment saying which entry is not determined."""
+    if any("value" not in e for e in entries):
+        why = next(e["status"] for e in entries if "value" not in e)
+        return f"    # {key}: left out ({why}); the twin's default 0 applies"
+    vals = ", ".join(f"{e['value']:.6g}" for e in entries)
+    sigs = ", ".join(f"{e['sigma']:.3g}" for e in entries)
+    return f"    {key}: [{vals}]   # {what}; 1-sigma [{sigs}] {unit}"
+
+
+def positions_yaml(metrics: dict) -> str:
+    """The ``sensors:`` keys a multi-position log gives (accelerometer bias, scale factors, misalignments; gyro bias),
+    each with its source and sigma; the g-sensitivity as comments (the sensor model has no such key)."""
+    pf = metrics["positions_fit"]
+    acc, gy = pf["accelerometer"], pf["gyro"]
+    what = f"multi-position fit over {len(pf['positions'])} positions"
+    mis_order = ("xy", "xz", "yx", "yz", "zx", "zy")
+    lines = [f"# identified by sins-sim identify --positions from {metrics['log']}", "sensors:", "  gyro:",
+             _entries_line("bias_deg_h", [gy["bias_deg_h"][a] for a in "xyz"], "deg/h", what + " (up/down pairs)"),
+             "  accelerometer:",
+             _entries_line("bias_ug", [acc["bias_ug"][a] for a in "xyz"], "ug", what),
+             _entries_line("scale_factor_ppm", [acc["scale_factor_ppm"][a] for a in "xyz"], "ppm", what),
+             _entries_line("misalignment_arcsec", [acc["misalignment_arcsec"][k] for k in mis_order], "arcsec",
+                           what + "; order xy, xz, yx, yz, zx, zy, relative to the fixture's faces"),
+             "# gyro g-sensitivity (deg/h/g; not a key of the twin's sensors: its model has no g-sensitivity):"]
+    for k, e in gy["g_sensitivity_deg_h_per_g"].items():
+        lines.append(f"#   G_{k}: {e['value']:.4g} +- {e['sigma']:.2g} (1-sigma)" if "value" in e else
+                     f"#   G_{k}: {e['status']}")
+    return "\n".join(lines) + "\n"
+
+
+def _positions_report(metrics: dict) -> str:
+    pf = metrics["positions_fit"]
+    out = ["# Accelerometer terms and gyro g-sensitivity from a multi-position log", "",
+           (f"Log `{metrics['log']}`: {metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz; site "
+            f"{metrics['site']['lat_deg']:.6f} deg N. Models (Groves 2013, sec. 4.4.6): m_f = b_a + (I + E_a) f, "
+            "m_w = b_g + w + G f; f = g u in a position with u up. Positions "
+            f"({metrics['positions_source']}): " + ", ".join(
+                f"{p['up']} {p['start_s']:.4g} to {p['end_s']:.4g} s" for p in pf["positions"]) + "."), "",
+           "| term | value | 1-sigma |", "|---|---|---|"]
+    groups = [("accelerometer", "bias_ug", "b_a", "ug"), ("accelerometer", "scale_factor_ppm", "S", "ppm"),
+              ("accelerometer", "misalignment_arcsec", "M", "arcsec"), ("gyro", "bias_deg_h", "b_g", "deg/h"),
+              ("gyro", "g_sensitivity_deg_h_per_g", "G", "deg/h/g")]
+    for sensor, key, sym, unit in groups:
+        for k, e in pf[sensor][key].items():
+            out.append(f"| {sym}_{k} ({unit}) | {e['value']:.5g} | {e['sigma']:.2g} |" if "value" in e else
+                       f"| {sym}_{k} ({unit}) | {e['status']} | |")
+    out += [""] + [f"- {n}" for n in metrics["notes"]]
+    return "\n".join(out) + "\n"
+
+
+def identify_truth(log, truth_file, out_dir=None, *, force: bool = False, manifest=None):
+    """Biases, scale factors and misalignments of a moving log against its known trajectory
+    (:mod:`sins_sim.navigation.truth_fit`): the errors are the log's increments minus the truth's ideal increments
+    (:func:`sins_sim.simulation.external.ideal_increments`, on the truth's time axis as ``sins-sim navigate --truth``
+    reads it), fitted by least squares where the motion excites them, "not observable" where it does not.
+
+    Parameters
+    ----------
+    log : path
+        The increments table.
+    truth_file : path
+        A trajectory file (:func:`sins_sim.io.trajectory.read_trajectory`) covering the log's span.
+    out_dir : path, optional
+        Folder for ``metrics.json``, ``imu-sensors.yaml`` and ``report.md``; None: write nothing.
+    force : bool
+        Replace an earlier result at ``out_dir``.
+    manifest : Manifest, optional
+
+    Returns
+    -------
+    IdentifyResult
+        ``truth_fit``: :meth:`~sins_sim.navigation.truth_fit.TruthFit.to_dict`.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the flag or the file.
+    """
+    from sins_sim.io.trajectory import read_trajectory
+    from sins_sim.jobs.import_log import read_log_table
+    from sins_sim.models.motion import SampledTrajectory
+    from sins_sim.navigation.truth_fit import fit_against_truth
+    from sins_sim.results.identify import IdentifyResult
+    from sins_sim.simulation.external import ideal_increments
+
+    t, dth, dv, _ = read_log_table(log)
+    dt = _interval(t)
+    try:
+        truth = SampledTrajectory.from_data(read_trajectory(truth_file))
+    except ValueError as exc:
+        raise ConfigError(f"--truth: {' '.join(str(exc).split())}") from None
+    t_truth = t - truth.time_offset_s
+    span = float(truth.duration_s)
+    if t_truth[0] - dt < -1e-9 or t_truth[-1] > span + 1e-9:
+        raise ConfigError(f"--truth: {truth_file} must cover the log's {t[0] - dt:g} to {t[-1]:g} s (its own times "
+                          f"run from {truth.time_offset_s:g} to {truth.time_offset_s + span:g} s)")
+    try:
+        ideal_th, ideal_v = ideal_increments(truth, t_truth)
+        fit = fit_against_truth(dt, {"gyro": dth, "accelerometer": dv}, {"gyro": ideal_th, "accelerometer": ideal_v})
+    except ValueError as exc:
+        raise ConfigError(f"--truth: {' '.join(str(exc).split())}") from None
+    metrics = _json_ready({
+        "log": str(log), "truth": str(truth_file), "duration_s": float(t.size * dt), "rate_hz": 1.0 / dt,
+        "truth_fit": fit.to_dict(),
+        "methods": {"truth_fit": "x_meas - x_ideal = b dt + E x_ideal per triad row, ordinary least squares on "
+                                 "one-second block sums, sigma from the residuals (s^2 (A^T A)^-1); a column whose "
+                                 "part apart from the others is below 1e-6 of its size is not observable"},
+        "notes": ["the sigmas hold the noise as the residuals show it, white over one-second blocks; a rate random "
+                  "walk or a bias drift over the log makes them too small",
+                  "the truth's own errors (its attitude, its timing against the log) are in the fitted terms"]})
+    files = _write_fit(out_dir, metrics, {"imu-sensors.yaml": truth_yaml(metrics), "report.md": _truth_report(metrics)},
+                       manifest, {"truth": str(truth_file)}, {"log": log, "truth": truth_file}, force)
+    return IdentifyResult(metrics, files=files)
+
+
+def truth_yaml(metrics: dict) -> str:
+    """The ``sensors:`` keys a log on a known trajectory gives, each with its source and sigma."""
+    tf = metrics["truth_fit"]
+    what = f"fit against the truth {Path(metrics['truth']).name}"
+    mis_order = ("xy", "xz", "yx", "yz", "zx", "zy")
+    lines = [f"# identified by sins-sim identify --truth from {metrics['log']}", "sensors:"]
+    for s, bkey, bunit in (("gyro", "bias_deg_h", "deg/h"), ("accelerometer", "bias_ug", "ug")):
+        sec = tf[s]
+        lines += [f"  {s}:", _entries_line(bkey, [sec[bkey][a] for a in "xyz"], bunit, what),
+                  _entries_line("scale_factor_ppm", [sec["scale_factor_ppm"][a] for a in "xyz"], "ppm", what),
+                  _entries_line("misalignment_arcsec", [sec["misalignment_arcsec"][k] for k in mis_order], "arcsec",
+                                what + "; order xy, xz, yx, yz, zx, zy")]
+    return "\n".join(lines) + "\n"
+
+
+def _truth_report(metrics: dict) -> str:
+    tf = metrics["truth_fit"]
+    out = ["# Unit fitted against its known trajectory", "",
+           (f"Log `{metrics['log']}` ({metrics['duration_s']:.0f} s at {metrics['rate_hz']:.6g} Hz) against the "
+            f"truth `{metrics['truth']}`. Model (Groves 2013, sec. 4.4.6): x_meas = x_ideal + b dt + E x_ideal, "
+            f"scale factors S on the diagonal of E, misalignments M off it; {tf['blocks']} blocks of "
+            f"{tf['block_s']:g} s."), "", "| sensor | term | value | 1-sigma |", "|---|---|---|---|"]
+    for s, bkey, sym in (("gyro", "bias_deg_h", "b (deg/h)"), ("accelerometer", "bias_ug", "b (ug)")):
+        for group, name in ((bkey, sym), ("scale_factor_ppm", "S (ppm)"), ("misalignment_arcsec", "M (arcsec)")):
+            for k, e in tf[s][group].items():
+                out.append(f"| {s} | {name} {k} | {e['value']:.5g} | {e['sigma']:.2g} |" if "value" in e else
+                           f"| {s} | {name} {k} | {e['status']} | |")
+    out += [""] + [f"- {n}" for n in metrics["notes"]]
     return "\n".join(out) + "\n"

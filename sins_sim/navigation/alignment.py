@@ -27,6 +27,16 @@ tracked by the gyros from an estimate centred on the window, and carries half th
 and down besides: ``psi_N += eps_N T / 2``, ``psi_D += eps_D T / 2`` (the east drift is the gyrocompass term).
 Both methods report these bounds, combined in quadrature with the data's own scatter.
 
+The bias is not constant over the window where the gyros have a rate random walk or a bias instability: the
+gyrocompass then reads the window's *mean* east bias, ``psi_D = -mean(eps_E) / (Omega cos lat)`` (Titterton and
+Weston 2004, sec. 10.2.2). Beside the fixed bias's prior, the mean's wander enters with
+(:func:`mean_bias_wander_sigma`) ``var = K^2 T / 3`` for a random walk of density ``K`` started at the window's start
+(``(1 / T^2) int int min(s, t) ds dt = T / 3``) and, for each first-order Gauss-Markov process of variance ``q`` and
+correlation time ``tau`` (the bias instability as a sum of them), ``q f(T / tau)``, ``f(x) = 2 (x - 1 + e^-x) / x^2``
+(the variance of the time average of an exponentially correlated process; Brown and Hwang 2012, ch. 2, the
+time average of a Gauss-Markov process). The block means' scatter does not hold it: a random walk is correlated
+over the whole window, and its block means scatter far less than their common mean wanders.
+
 .. autosummary::
 
    align_coarse
@@ -78,7 +88,7 @@ from sins_sim.navigation.attitude import (
 from sins_sim.navigation.coning import parse_algorithm
 from sins_sim.units import DEG
 
-__all__ = ["MIN_WINDOW_S", "N_BLOCKS", "N_SUBWINDOWS", "align_coarse", "align_inertial"]
+__all__ = ["MIN_WINDOW_S", "N_BLOCKS", "N_SUBWINDOWS", "align_coarse", "align_inertial", "mean_bias_wander_sigma"]
 
 #: The shortest window either method accepts (s): a few seconds, below which not even the tilt is averaged.
 MIN_WINDOW_S = 5.0
@@ -182,6 +192,40 @@ def _triad(f_b, w_b) -> np.ndarray:
 # --- the bounds both methods report ---------------------------------------------------------------------------
 
 
+def mean_bias_wander_sigma(window_s: float, rrw_rad_s_sqrt_s: float = 0.0, gm_tau_c_s=(), gm_variance=()) -> float:
+    """1-sigma of a gyro's bias wander averaged over a window of ``T = window_s`` (module docstring):
+    ``sqrt(K^2 T / 3 + sum_i q_i f(T / tau_i))``, ``f(x) = 2 (x - 1 + e^-x) / x^2``.
+
+    Parameters
+    ----------
+    window_s : float
+        The window (s), > 0.
+    rrw_rad_s_sqrt_s : float
+        Rate random walk density ``K`` (rad/s/sqrt(s)), started at the window's start.
+    gm_tau_c_s, gm_variance : sequence of float
+        Correlation times (s) and stationary variances ((rad/s)^2) of the Gauss-Markov processes (a bias
+        instability's sum).
+
+    Examples
+    --------
+    >>> round(mean_bias_wander_sigma(300.0, 1e-8) / (1e-8 * (300.0 / 3.0) ** 0.5), 12)
+    1.0
+    >>> round(mean_bias_wander_sigma(1e-6, 0.0, [1.0], [4.0]), 5)    # T << tau: the process's own sigma
+    2.0
+    """
+    t = v.positive("", "window_s", window_s)
+    k = v.non_negative("", "rrw_rad_s_sqrt_s", rrw_rad_s_sqrt_s)
+    tc = np.asarray(gm_tau_c_s, dtype=np.float64).ravel()
+    q = np.asarray(gm_variance, dtype=np.float64).ravel()
+    if tc.shape != q.shape or np.any(tc <= 0.0) or np.any(q < 0.0):
+        raise ValueError("gm_tau_c_s, gm_variance: must be equal-length sequences of correlation times > 0 and "
+                         "variances >= 0")
+    x = t / tc
+    # f(x) = 2 (x - 1 + e^-x) / x^2 = 2 (x + expm1(-x)) / x^2, its series 1 - x / 3 for small x
+    f = np.where(x < 1e-4, 1.0 - x / 3.0, 2.0 * (x + np.expm1(-x)) / np.maximum(x, 1e-300) ** 2)
+    return float(math.sqrt(k * k * t / 3.0 + float(np.sum(q * f))))
+
+
 def _bias_bounds(lat: float, g: float, sigma_g: float, sigma_a: float) -> np.ndarray:
     """1-sigma ``psi`` (N, E, D) from the unobservable biases (module docstring; Groves 2013, attitude initialization):
     tilts ``sigma_a / g``, heading ``sqrt((sigma_g / (Omega cos lat))^2 + (tan lat sigma_a / g)^2)``; an isotropic
@@ -225,7 +269,7 @@ def _settling(t, heading) -> float:
 
 
 def align_coarse(dtheta, dv, dt_s, lat_rad, *, gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2,
-                 history_rate_hz=1.0) -> AlignmentResult:
+                 gyro_wander_sigma_rad_s=0.0, history_rate_hz=1.0) -> AlignmentResult:
     """Coarse alignment: levelling from the mean specific force, gyrocompassing from the mean rate.
 
     The attitude is the TRIAD of the window's mean specific force (down) and mean rate (whose horizontal part
@@ -248,6 +292,10 @@ def align_coarse(dtheta, dv, dt_s, lat_rad, *, gyro_bias_sigma_rad_s, accel_bias
     gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2 : float
         1-sigma per-axis gyro (rad/s) and accelerometer (m/s^2) bias: the unobservable part that bounds the
         heading and the tilts.
+    gyro_wander_sigma_rad_s : float
+        1-sigma per axis of the gyro bias's wander averaged over this window (:func:`mean_bias_wander_sigma`: a rate
+        random walk's ``K sqrt(T / 3)``, a bias instability's share), in quadrature with ``gyro_bias_sigma_rad_s``
+        in the heading's bound; 0 leaves it out.
     history_rate_hz : float
         Rate of the convergence history (the estimate from the data up to each time).
 
@@ -273,7 +321,8 @@ def align_coarse(dtheta, dv, dt_s, lat_rad, *, gyro_bias_sigma_rad_s, accel_bias
     w_mean = dth.sum(axis=0) / window
     c_nb = _triad(f_mean, w_mean)
     g = float(np.linalg.norm(f_mean))
-    bound = _bias_bounds(lat, g, sg, sa)
+    wander = v.non_negative("", "gyro_wander_sigma_rad_s", gyro_wander_sigma_rad_s)
+    bound = _bias_bounds(lat, g, math.hypot(sg, wander), sa)
 
     # standard error of the means by K block means (Flyvbjerg and Petersen 1989), resolved in NED
     k = _n_blocks(n, dt, N_BLOCKS)
@@ -352,7 +401,8 @@ def _outer_sums(r, b, edges) -> np.ndarray:
 
 
 def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2,
-                   gyro_arw_rad_sqrt_s=0.0, history_rate_hz=1.0, coning="two_sample") -> AlignmentResult:
+                   gyro_arw_rad_sqrt_s=0.0, gyro_wander_sigma_rad_s=0.0, history_rate_hz=1.0,
+                   coning="two_sample") -> AlignmentResult:
     """Inertial-frame (i0) alignment by the optimisation-based method of Wu et al. (2011): robust to base sway.
 
     Equations, with ``n0`` the navigation frame at the start and ``b0`` the body frame at the start, both held
@@ -393,6 +443,9 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
         of the tracked random walk the fit does not absorb, ``sqrt(13/35) N sqrt(T)``, which the sub-window scatter
         does not see (their fits share it); 0 leaves it out (about east the scatter holds it; about down it is
         about ``0.5 Omega T cos(lat)`` of the heading's random-walk scatter, under 1 % in quadrature for ``T <= 1 h``).
+    gyro_wander_sigma_rad_s : float
+        As :func:`align_coarse`: the mean bias wander over the window, in quadrature with ``gyro_bias_sigma_rad_s``
+        in every bias bound (the gyrocompass term and the drift ``T / 2`` about north and down).
     history_rate_hz : float
         Rate of the convergence history.
     coning : str
@@ -421,6 +474,7 @@ def align_inertial(dtheta, dv, dt_s, lat_rad, h_m=0.0, *, gyro_bias_sigma_rad_s,
                                              accel_bias_sigma_m_s2, history_rate_hz)
     h = v.finite("", "h_m", h_m)
     arw = v.non_negative("", "gyro_arw_rad_sqrt_s", gyro_arw_rad_sqrt_s)
+    sg = math.hypot(sg, v.non_negative("", "gyro_wander_sigma_rad_s", gyro_wander_sigma_rad_s))
     algo = parse_algorithm(coning, "coning")
     n = dth.shape[0]
     window = n * dt

@@ -23,7 +23,8 @@ turn starts), enters the sigma as a uniform error (its bound over ``sqrt 3``), b
 over a window of seconds). A column is determined only where a reversal pair about its axis exists; the others
 are "not excited".
 
-Not covered here: accelerometer scale factors and g-sensitivity (they need the table tilted through gravity),
+Not covered here: accelerometer scale factors and g-sensitivity (they need the unit turned through gravity:
+:mod:`sins_sim.navigation.multiposition`),
 scale-factor asymmetry (it cancels in ``m+ - m-`` and shows in ``m+ + m-``), nonlinearity (several rates).
 """
 

@@ -17,6 +17,15 @@ the log's aligned attitude; Titterton and Weston 2004, sec. 10.2) with the twin'
 (:class:`sins_sim.models.sensor_errors.GyroErrors`, :class:`~sins_sim.models.sensor_errors.AccelErrors`: noise,
 biases, scale factors). The dither chain is not re-run: what it leaves in a real log (a line at the dither
 frequency, folded) is a line the twin has not, which is what the comparison is to show.
+
+The readout's pulses (:class:`PulseWeights`, :func:`quantise_pulses`): a unit whose log holds pulse counts
+outputs, per interval, the whole pulses its counter accumulated; the part of a pulse not yet emitted is carried
+into the next interval (Savage 2007, sec. 7.1.2.3, integrating sensors with pulse outputs). The twin does the same
+in the log's own channel axes, with the log's pulse weights, each counter starting at a residue drawn uniformly in
+``[0, 1)`` pulse per seed (a real counter's residue at the log's first row is unknown). On a constant input of
+``x`` pulses per interval the output is a periodic pattern with lines at ``frac(x) f_s`` and its harmonics
+(folded), and the angle read off the counts is the true one to within one pulse, so the Allan deviation carries
+the quantisation slope ``sqrt(3) Q / tau`` with ``Q = q / sqrt(12)`` (IEEE Std 952-1997, Annex C, C.1).
 """
 
 from __future__ import annotations
@@ -25,11 +34,80 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ALIGNMENT_AT_REST", "RestRun", "align_at_rest", "rest_run", "twin_increments", "twin_runs"]
+__all__ = ["ALIGNMENT_AT_REST", "PULSE_TOLERANCE", "PulseWeights", "RestRun", "align_at_rest", "gyro_wander_sigma", "pulse_weight_of",
+           "quantise_pulses", "rest_run", "twin_increments", "twin_runs"]
 
 #: The self-alignments a log at rest is aligned with.
 ALIGNMENT_AT_REST = ("coarse", "inertial")
 SENSORS = ("gyro", "accelerometer")
+#: Relative distance from a whole number of pulses within which an increment counts as a whole number of pulses
+#: (:func:`pulse_weight_of`): float64 pulses times a weight, rotated by a signed permutation, are exact to a few
+#: units of 1e-16; 1e-9 leaves room for a text log's decimals (9 significant digits) and none for real noise.
+PULSE_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class PulseWeights:
+    """The readout's pulse weights of a unit's log (module docstring).
+
+    Attributes
+    ----------
+    gyro_rad, accel_m_s : ndarray, shape (3,)
+        The value of one pulse of each log channel (signed: a channel counting against its axis); 0 for a channel
+        that is not quantised.
+    axes : ndarray, shape (3, 3)
+        Rows: the log's channel axes expressed in body FRD (``v_log = axes @ v_frd``).
+    source : str
+        Where the weights came from (the log's description, or read off the increments).
+    """
+
+    gyro_rad: np.ndarray
+    accel_m_s: np.ndarray
+    axes: np.ndarray
+    source: str
+
+    def to_dict(self) -> dict:
+        """The weights at the edges: arcsec and ug s (``1 ug s`` = 9.80665e-6 m/s), the axes and the source."""
+        from sins_sim.units import ARCSEC, MICRO_G
+
+        return {"gyro_weight_arcsec": (np.asarray(self.gyro_rad) / ARCSEC).tolist(),
+                "accelerometer_weight_ug_s": (np.asarray(self.accel_m_s) / MICRO_G).tolist(),
+                "axes_frd": np.asarray(self.axes).tolist(), "source": self.source}
+
+
+def pulse_weight_of(x) -> float | None:
+    """The pulse weight of one channel's increments ``x`` (N,), read off the values: the smallest step between
+    their distinct values, where every value is a whole multiple of it (to :data:`PULSE_TOLERANCE` of a pulse);
+    None where they are not (an unquantised channel) or take a single value (no step to read)."""
+    u = np.unique(np.asarray(x, dtype=np.float64))
+    if u.size < 2:
+        return None
+    q = float(np.min(np.diff(u)))
+    scale = float(np.max(np.abs(u)))
+    if not (q > 0.0 and q > 1e3 * np.finfo(float).eps * scale):
+        return None
+    k = u / q
+    return q if float(np.max(np.abs(k - np.round(k)))) <= PULSE_TOLERANCE * max(1.0, float(np.max(np.abs(k)))) else None
+
+
+def quantise_pulses(x_frd, weights, axes, rng) -> np.ndarray:
+    """Increments ``x_frd`` (N, 3) (body FRD) as a pulse readout outputs them (module docstring).
+
+    Each log channel ``i`` (``x_log = x_frd axes^T``) with a non-zero weight ``w_i`` emits ``floor(r + x / w_i)``
+    pulses per interval, the residue ``r`` carried (:func:`sins_sim._kernels.sensors.pulse_quantise`), starting
+    uniform in ``[0, 1)`` from ``rng``; the pulses times the weights are turned back to FRD (``axes`` orthonormal).
+    """
+    from sins_sim._kernels.sensors import pulse_quantise
+
+    c = np.asarray(axes, dtype=np.float64)
+    w = np.asarray(weights, dtype=np.float64)
+    x_log = np.asarray(x_frd, dtype=np.float64) @ c.T
+    on = w != 0.0
+    frac = rng.uniform(0.0, 1.0, 3)
+    pulses = np.empty_like(x_log)
+    pulse_quantise(np.ascontiguousarray(x_log / np.where(on, w, 1.0)), frac, pulses)
+    out = np.where(on, pulses * w, x_log)
+    return out @ c
 
 
 @dataclass
@@ -57,9 +135,29 @@ class RestRun:
     nav: dict = field(default_factory=dict)
 
 
+def gyro_wander_sigma(sensors, window_s: float) -> float:
+    """The gyros' bias wander averaged over a window (:func:`sins_sim.navigation.alignment.mean_bias_wander_sigma`)
+    for the twin's ``sensors`` (:class:`~sins_sim.models.sensor_errors.SensorErrorParams`): each axis's rate random
+    walk and bias instability (its Gauss-Markov sum, :func:`~sins_sim.models.sensor_errors.bias_instability_components`,
+    the twin's own model of it), the RMS over the three axes (the east axis is a mix of them)."""
+    from sins_sim.models.sensor_errors import FLICKER_FLOOR_FACTOR, bias_instability_components
+    from sins_sim.navigation.alignment import mean_bias_wander_sigma
+    from sins_sim.units import DEG_PER_H
+
+    g = sensors.gyro
+    per_axis = []
+    for i in range(3):
+        k = float(g.rrw_deg_h_rt_h[i]) * DEG_PER_H / 60.0
+        floor = float(g.bias_instability_deg_h[i]) * DEG_PER_H * FLICKER_FLOOR_FACTOR
+        tc, q = bias_instability_components(floor, g.bias_instability_tau_s) if floor > 0.0 else ((), ())
+        per_axis.append(mean_bias_wander_sigma(window_s, k, tc, q))
+    return float(np.sqrt(np.mean(np.square(per_axis))))
+
+
 def align_at_rest(dth, dv, dt_s: float, site: dict, method: str, *, gyro_bias_sigma_rad_s: float,
-                  accel_bias_sigma_m_s2: float):
-    """The self-alignment of a record at rest over its whole length (``coarse`` or ``inertial``).
+                  accel_bias_sigma_m_s2: float, gyro_wander_sigma_rad_s: float = 0.0):
+    """The self-alignment of a record at rest over its whole length (``coarse`` or ``inertial``), its stated sigma
+    with the gyros' bias wander over the window (``gyro_wander_sigma_rad_s``, :func:`gyro_wander_sigma`).
 
     Raises
     ------
@@ -72,13 +170,13 @@ def align_at_rest(dth, dv, dt_s: float, site: dict, method: str, *, gyro_bias_si
         raise ValueError(f"alignment: must be one of {list(ALIGNMENT_AT_REST)}, got {method!r}")
     if method == "coarse":
         return align_coarse(dth, dv, dt_s, site["lat_rad"], gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
-                            accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+                            accel_bias_sigma_m_s2=accel_bias_sigma_m_s2, gyro_wander_sigma_rad_s=gyro_wander_sigma_rad_s)
     return align_inertial(dth, dv, dt_s, site["lat_rad"], site["height_m"], gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
-                          accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+                          accel_bias_sigma_m_s2=accel_bias_sigma_m_s2, gyro_wander_sigma_rad_s=gyro_wander_sigma_rad_s)
 
 
 def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: float, accel_bias_sigma_m_s2: float,
-             false_alarm: float, alignment=None) -> RestRun:
+             false_alarm: float, alignment=None, gyro_wander_sigma_rad_s: float = 0.0) -> RestRun:
     """Run the mission at rest on one record (module docstring).
 
     Parameters
@@ -91,6 +189,8 @@ def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: fl
         ``coarse`` or ``inertial``.
     gyro_bias_sigma_rad_s, accel_bias_sigma_m_s2 : float
         The alignment's bias priors.
+    gyro_wander_sigma_rad_s : float
+        The gyros' bias wander over the record (:func:`gyro_wander_sigma`), in the alignment's stated sigma.
     false_alarm : float
         Per channel, the chance of one or more false lines (:func:`~sins_sim.navigation.spectral_lines.find_lines`).
     alignment : AlignmentResult, optional
@@ -113,7 +213,8 @@ def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: fl
             lines[(sensor, ax)] = find_lines(col, fs, false_alarm=false_alarm, increment_dt=dt)
     if alignment is None:
         alignment = align_at_rest(dth, dv, dt, site, method, gyro_bias_sigma_rad_s=gyro_bias_sigma_rad_s,
-                                  accel_bias_sigma_m_s2=accel_bias_sigma_m_s2)
+                                  accel_bias_sigma_m_s2=accel_bias_sigma_m_s2,
+                                  gyro_wander_sigma_rad_s=gyro_wander_sigma_rad_s)
     free = navigate_free(t, dth, dv, site["lat_rad"], site["lon_rad"], site["height_m"], alignment.q_nb,
                          np.zeros(3))
     sol = free.solution
@@ -123,12 +224,15 @@ def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: fl
     return RestRun(allan, lines, alignment, np.asarray(sol.t_s) - free.start["t_s"], nav)
 
 
-def twin_increments(sensors, n: int, dt_s: float, site: dict, q_nb, seed: int) -> tuple:
+def twin_increments(sensors, n: int, dt_s: float, site: dict, q_nb, seed: int, pulses: PulseWeights | None = None
+                    ) -> tuple:
     """``(t_s, dtheta, dv)`` of the twin at rest: ``n`` intervals of ``dt_s`` at the site, body attitude ``q_nb``.
 
     The exact increments at rest are ``C_bn w_ie^n dt`` and ``C_bn (0, 0, -g) dt`` (``g`` normal gravity at the
     site's latitude and height, :func:`sins_sim.earth.gravity_down`); the errors ``sensors``
-    (:class:`~sins_sim.models.sensor_errors.SensorErrorParams`) are applied to them with ``seed``.
+    (:class:`~sins_sim.models.sensor_errors.SensorErrorParams`) are applied to them with ``seed``, then, with
+    ``pulses``, the readout's pulse quantisation (:func:`quantise_pulses`, the residues drawn after the errors from
+    the same seed).
     """
     from sins_sim.earth import earth_rate_ned, gravity_down
     from sins_sim.models.sensor_errors import AccelErrors, GyroErrors
@@ -142,16 +246,21 @@ def twin_increments(sensors, n: int, dt_s: float, site: dict, q_nb, seed: int) -
     accels = AccelErrors(sensors.accelerometer, rng, dt_s)
     dth = gyros.apply(np.tile(w_b * dt_s, (n, 1)))
     dv = accels.apply(np.tile(f_b * dt_s, (n, 1)))
+    if pulses is not None:
+        dth = quantise_pulses(dth, pulses.gyro_rad, pulses.axes, rng)
+        dv = quantise_pulses(dv, pulses.accel_m_s, pulses.axes, rng)
     return np.arange(1, n + 1) * dt_s, dth, dv
 
 
-def twin_runs(sensors, t_s, site: dict, q_nb, method: str, seeds, **kwargs) -> list:
-    """:func:`rest_run` on the twin (:func:`twin_increments`) once per seed, on the log's time axis ``t_s``."""
+def twin_runs(sensors, t_s, site: dict, q_nb, method: str, seeds, *, pulses: PulseWeights | None = None,
+              **kwargs) -> list:
+    """:func:`rest_run` on the twin (:func:`twin_increments`, with the readout's ``pulses``) once per seed, on the
+    log's time axis ``t_s``."""
     t = np.asarray(t_s, dtype=np.float64)
     dt = float(t[1] - t[0])
     runs = []
     for seed in seeds:
-        _, dth, dv = twin_increments(sensors, t.size, dt, site, q_nb, int(seed))
+        _, dth, dv = twin_increments(sensors, t.size, dt, site, q_nb, int(seed), pulses)
         runs.append(rest_run(t, dth, dv, site, method, **kwargs))
     return runs
 
