@@ -219,8 +219,9 @@ def test_live_plls_lock_each_drive_at_its_amplitude_and_pull_the_drives_together
     """Each drive on its PLL, 100 Hz apart, holds its dither amplitude (eq. 17 times the block's voltage factor:
     3 arcmin within 2 %, the loss of the suspension's hysteresis taken as viscous in the factor). 1 Hz apart with
     the 40 mrad tilt (a cross-axis line of a few % in each gyro) neither locks to the other. The live loops pull
-    the two drives towards each other, by more than the passive modes push them apart (the study's finding: the
-    frequency modulation the PLLs follow at the beat, 0.1-0.3 Hz here, shifts the mean phase each detects)."""
+    the two drives towards each other, against the passive modes' repulsion (the study's finding, measured 0.968 Hz
+    held and x 0.019 Hz down; no closed form yet), while following the beat with a frequency modulation (0.1-0.3 Hz
+    here)."""
     from sins_sim.jobs.separation_study import PLL_REFERENCE_HZ, _drives_hz, _place, _pll_run, _tilted
     from sins_sim.simulation.drive_pll import PllSettings, simulate_pll_drives
     from sins_sim.units import ARCMIN
