@@ -850,15 +850,27 @@ def _cmd_separation_study(args) -> int:
     from sins_sim.jobs.output import check_out_dir
     from sins_sim.jobs.separation_study import DEFAULT_SEPARATIONS_HZ, separation_study
 
+    from sins_sim.simulation.drive_pll import PllSettings
+
     check_out_dir(args.out, "--out", force=args.force)  # before minutes of computation
+    try:
+        pll = PllSettings(bandwidth_hz=args.pll_bandwidth_hz)
+    except ValueError as exc:
+        raise ConfigError(f"--pll-bandwidth-hz: {str(exc).split(': ', 1)[-1]}") from None
     imu = load_imu(args.imu)
+    scenario = None
+    if args.scenario is not None:
+        from sins_sim.config.scenario import load_scenario
+
+        scenario = load_scenario(args.scenario)
     pair = tuple(p.strip() for p in args.pair.split(","))
     seps = args.separations_hz if args.separations_hz else DEFAULT_SEPARATIONS_HZ
+    inputs = (args.imu,) + ((args.scenario,) if args.scenario is not None else ())
     with _progress("separation-study", False) as progress:
         res = separation_study(imu, args.out, pair=pair, separations_hz=seps, duration_s=args.duration_s,
                                start_s=args.start_s, axis_offset_mrad=args.axis_offset_mrad,
-                               budget_arcsec=args.budget_arcsec, seed=args.seed, force=args.force,
-                               manifest=_manifest(args), inputs=(args.imu,), progress=progress)
+                               budget_arcsec=args.budget_arcsec, seed=args.seed, scenario=scenario, pll=pll,
+                               force=args.force, manifest=_manifest(args), inputs=inputs, progress=progress)
     ans = res["answer"]
     print(f"separation above which the dither coning's beat in the heading error stays within {ans['budget_arcsec']:g} "
           "arcsec: "
@@ -866,7 +878,7 @@ def _cmd_separation_study(args) -> int:
                       for n, v in ans["required_separation_hz"].items()))
     lock = ans["no_entrainment_risk_down_to_hz"]
     print("no entrainment risk down to " + ("no tested separation" if lock is None else f"{lock:g} Hz"))
-    print(f"wrote {args.out}: separation.json, separation.csv, separation.png, report.md")
+    print(f"wrote {args.out}: separation.json, separation.csv, intermodulation.csv, separation.png, report.md")
     return EXIT_OK
 
 
@@ -1262,10 +1274,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("separation-study", help="how far apart must two dither resonances be on an isolated block",
                        description="Bring one axis's drive frequency towards another's on a unit whose IMU file has a "
-                                   "block: section, run a stationary mission per separation, and report each "
-                                   "filter's heading error (dither coning), the cross-axis dither line and an "
-                                   "entrainment-risk flag; writes separation.json, separation.csv, separation.png "
-                                   "and report.md.")
+                                   "block: section, run a mission per separation (at rest, or under a scenario's "
+                                   "vibration), and report each filter's heading error (dither coning), the "
+                                   "cross-axis dither line, the vibration lines' intermodulation with the dithers, "
+                                   "and the drives on live PLLs (pulling, entrainment); writes separation.json, "
+                                   "separation.csv, intermodulation.csv, separation.png and report.md.")
     p.add_argument("imu", help="IMU file with a block: section (e.g. configs/isolated-block.yaml)")
     p.add_argument("--out", required=True, help="result folder (created; an existing one only with --force)")
     _force_flag(p)
@@ -1281,6 +1294,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="largest beat amplitude the dither coning may put into a filter's heading error (arcsec) "
                         "[0.05]")
     p.add_argument("--seed", type=_seed, default=1, help="seed of the runs [1]")
+    p.add_argument("--scenario", default=None,
+                   help="scenario file whose vibration (motion, linear_vibration, where they enter) the unit is under "
+                        "[at rest]")
+    p.add_argument("--pll-bandwidth-hz", type=float, default=5.0,
+                   help="natural frequency of each drive's live PLL (Hz, at most 100) [5]")
     p.set_defaults(func=_cmd_separation_study)
 
     p = sub.add_parser("online-study", help="what learning the filters' parameters in operation buys",

@@ -517,6 +517,57 @@ def coning_drift_rate(a_x: float, a_y: float, w: float, phi: float) -> float:
     return 0.5 * a_x * a_y * w * math.sin(phi)
 
 
+def mode_pulling_hz(block: BlockParams, f_hz, i: int, j: int) -> float:
+    """Weak-coupling shift of gyro ``i``'s dither mode by gyro ``j``'s (Hz): two passive modes repel.
+
+    Gyros ``i`` and ``j`` on the block, the third held: with ``u_k . theta = sum_l C_kl delta_l`` (the block turned
+    by the gyros' reactions, :func:`free_block_coupling` with the isolators as a negative inertia at the mode,
+    ``M_eff = M + sum_k J_g,k [0; u_k][0; u_k]^T - K / w^2``, undamped), gyro ``k`` obeys
+    ``(1 + C_kk) delta_k'' + C_kl delta_l'' + w_k^2 delta_k = 0``. Writing ``W_k^2 = w_k^2 / (1 + C_kk)`` (the mode
+    with the other gyro held), the characteristic equation is ``(W_i^2 - w^2)(W_j^2 - w^2) = kappa^2 w^4`` with
+    ``kappa^2 = C_ij C_ji / ((1 + C_ii)(1 + C_jj))``; to first order in ``kappa^2``,
+    ``w^2 = W_i^2 + kappa^2 W_i^4 / (W_i^2 - W_j^2)`` (second-order perturbation of two coupled oscillators;
+    Landau and Lifshitz, *Mechanics*, sec. 23), so ``delta f_i = kappa^2 f_i^3 / (2 (f_i^2 - f_j^2))``: positive
+    for the higher mode, negative for the lower, ``kappa^2 f / (4 |f_i - f_j|)`` for near modes. ``f_hz``: (3,) the
+    modes (each drive's frequency on the block: the shift is second order). Valid while the shift stays well below
+    ``|f_i - f_j|``; ``C`` is evaluated at ``f_i`` (it varies by ``(f_iso / f)^2`` over the dither band).
+    """
+    w = 2.0 * math.pi * float(f_hz[i])
+    u6 = np.zeros((6, 3))
+    u6[3:, :] = block.input_axes.T
+    jg = block.gyro_inertia_kg_m2
+    m_eff = block.mass_matrix() + (u6 * jg) @ u6.T - block.stiffness_matrix() / (w * w)
+    c = -(u6.T @ np.linalg.solve(m_eff, u6)) * jg[None, :]
+    kappa2 = c[i, j] * c[j, i] / ((1.0 + c[i, i]) * (1.0 + c[j, j]))
+    fi, fj = float(f_hz[i]), float(f_hz[j])
+    if fi == fj:
+        raise ValueError(f"f_hz: modes {i} and {j} coincide ({fi:g} Hz); the weak-coupling shift needs them apart")
+    return kappa2 * fi ** 3 / (2.0 * (fi * fi - fj * fj))
+
+
+def block_rotation_from_chassis(block: BlockParams, omega_rad_s, q, axis: int, f_hz: float) -> np.ndarray:
+    """The block's absolute rotation (complex (3,), block axes) per unit chassis rotation about ``axis`` at ``f_hz``.
+
+    Base excitation of the linearised block with its three suspensions (degrees of freedom ``(x, theta, delta)``,
+    relative to the chassis; mass and stiffness of :func:`coupled_dither_frequencies`, the isolators' damping and
+    each suspension's loss as ``J_g w0 / Q``): a chassis rotation ``B e^{i w t}`` about ``axis`` moves every degree
+    of freedom as ``r = (0, e_axis, 0)`` does, so ``(K - w^2 M + i w C) q = w^2 M r B`` (Rao, *Mechanical
+    Vibrations*, sec. 3.6, in matrix form) and the block turns by ``theta + e_axis B``.
+    """
+    om = np.asarray(omega_rad_s, dtype=float)
+    m9, k9 = _matrices9(block, om)
+    c9 = np.zeros((9, 9))
+    c9[:6, :6] = block.damping_matrix()
+    jg = block.gyro_inertia_kg_m2
+    for k in range(3):
+        c9[6 + k, 6 + k] = jg[k] * om[k] / float(np.asarray(q, dtype=float)[k])
+    w = 2.0 * math.pi * float(f_hz)
+    r = np.zeros(9)
+    r[3 + axis] = 1.0
+    sol = np.linalg.solve(k9 - w * w * m9 + 1j * w * c9, w * w * (m9 @ r))
+    return sol[3:6] + r[3:6]
+
+
 # --- the coupled plant ---------------------------------------------------------------------------------------------
 #: The torques' smooth parts over a plant step are the polynomial of this degree through their values one to
 #: ``LAG_ORDER + 1`` steps back (``_kernels.block``: one step back, so the block's step does not wait for the

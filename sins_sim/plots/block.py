@@ -70,12 +70,14 @@ def plot_block_spectrum(res, path=None, title: str = ""):
 def plot_separation_study(res: dict, path=None):
     """The beat the dither coning puts into each filter's error about the third axis (measured where the stored
     series resolves it) beside its closed form and the budget, and the cross-axis ratio beside the entrainment
-    criterion, against the separation of the two drive frequencies (log axes: the beat grows as 1 / separation)."""
+    criterion, and the live PLLs' pull of the first drive (measured, from the linear coupled modes, and the
+    weak-coupling closed form) with each drive's frequency modulation at the beat, against the separation of the two
+    drive frequencies (log axes: the beat and the pull grow as 1 / separation)."""
     plt = _pyplot(headless=path is not None)
     pts = sorted(res["points"], key=lambda p: p["separation_hz"])
     x = np.array([p["separation_hz"] for p in pts])
     a, b = res["settings"]["pair"]
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 7.0), sharex=True)
+    fig, (ax1, ax2, ax3) = plt.subplots(3, 1, figsize=(7.5, 10.0), sharex=True)
     names = list(pts[0]["heading_error"])
     for name in names:
         y = np.array([np.nan if p["heading_error"][name]["beat_arcsec"] is None else p["heading_error"][name]["beat_arcsec"]
@@ -99,10 +101,27 @@ def plot_separation_study(res: dict, path=None):
     ax2.loglog(x, ratio, "s-", color=filter_color("raw"), ms=4, label=f"gyro {b}: line at {a}'s drive / own dither")
     ax2.axhline(res["settings"]["lock_ratio"], color="0.3", ls="--", lw=1,
                 label=f"entrainment-risk criterion ({res['settings']['lock_ratio']:g})")
-    ax2.set_xlabel("separation of the two drive frequencies (Hz)")
     ax2.set_ylabel("cross-axis / own dither")
     ax2.grid(True, which="both", alpha=0.3)
     ax2.legend(fontsize=7.5)
+    for key, style, label in (("pull_hz", "o-", f"{a}'s drive on its PLL, measured"),
+                              ("pull_linear_modes_hz", "s--", "linear coupled modes"),
+                              ("pull_closed_form_hz", ":", "weak coupling: kappa^2 f^3 / (2 (f_a^2 - f_b^2))")):
+        y = np.array([abs(p["pll"][key]) for p in pts])
+        ok = y > 0
+        if ok.any():
+            ax3.loglog(x[ok], y[ok], style, ms=4, label=f"|pull| ({label})")
+    for axis, style in ((a, "^-"), (b, "v-")):
+        y = np.array([np.nan if p["pll"]["fm_at_beat_hz"][axis] is None else p["pll"]["fm_at_beat_hz"][axis]
+                      for p in pts])
+        ok = np.isfinite(y) & (y > 0)
+        if ok.any():
+            ax3.loglog(x[ok], y[ok], style, ms=4, alpha=0.7, label=f"{axis}'s frequency modulation at the beat")
+    ax3.set_xlabel("separation of the two drive frequencies (Hz)")
+    ax3.set_ylabel("frequency (Hz)")
+    ax3.set_title(f"Live PLLs ({res['settings']['pll']['bandwidth_hz']:g} Hz): pull and modulation", fontsize=10)
+    ax3.grid(True, which="both", alpha=0.3)
+    ax3.legend(fontsize=7.5)
     fig.tight_layout()
     return finish_figure(fig, path)
 

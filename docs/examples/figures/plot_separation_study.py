@@ -3,8 +3,9 @@ How far apart must the resonances be?
 =====================================
 
 ``sins-sim separation-study IMU.yaml`` brings one axis's dither towards another's on the block and
-measures, at each separation, the dither coning in each filter's heading error and the line each gyro
-sees at the other's drive (:doc:`/user-guide/block`). Here three separations and 12 s missions (the
+measures, at each separation, the dither coning in each filter's heading error, the line each gyro
+sees at the other's drive, and the drives on live PLLs: their pull and their modulation at the beat
+(:doc:`/user-guide/block`). Here three separations and 12 s missions (the
 command's default: nine separations from 40 Hz to 0.1 Hz, 30 s each).
 """
 
