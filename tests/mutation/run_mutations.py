@@ -41,6 +41,8 @@ BLOCK = ["tests/test_block.py"]
 #: a limit of the coupled step, reported in the issue), so its failure says nothing about a mutation.
 DESELECT = ["tests/test_block.py::test_no_nan_or_inf_over_the_valid_parameter_space_and_chunks_agree"]
 NAV = ["tests/test_strapdown.py", "tests/test_strapdown_closed_form.py"]
+#: The flight without pulses, whose bounds are derived from the method (tests/test_ins_loop.py).
+FLIGHT_FLOOR = "tests/test_ins_loop.py::test_ideal_increments_along_a_flight_stay_within_the_algorithms_floor"
 EARTH = ["tests/test_strapdown.py", "tests/test_strapdown_closed_form.py", "tests/test_earth.py"]
 
 
@@ -137,6 +139,36 @@ MUTATIONS = [
        [("sins_sim/earth.py", "(1.0 + SOMIGLIANA_K * s2)", "(1.0 - SOMIGLIANA_K * s2)")], EARTH),
     _m("earth_meridian_radius", "R_N = R_E (1 - e^2) / w -> R_E (1 - e^2)",
        [("sins_sim/earth.py", "r_n = r_e * (1.0 - WGS84_E2) / w", "r_n = r_e * (1.0 - WGS84_E2)")], EARTH),
+    # issue 40, rerun: the flight's derived floor, the pulses' remainder, eq. 5's closed form, the loops
+    _m("strapdown_midpoint_velocity", "Coriolis/transport at v_{m-1} instead of the extrapolated v_{m-1/2}",
+       [(_KS, "vxn = vn + 0.5 * (vn - vn_p)", "vxn = vn"), (_KS, "vxe = ve + 0.5 * (ve - ve_p)", "vxe = ve"),
+        (_KS, "vxd = vd + 0.5 * (vd - vd_p)", "vxd = vd")], NAV + [FLIGHT_FLOOR]),
+    _m("strapdown_position_euler", "latitude: trapezoidal -> Euler on the old velocity",
+       [(_KS, "lat_new = lat + half_t * (vn + vn_new) / (r_n + h_mid)",
+         "lat_new = lat + 2.0 * half_t * vn / (r_n + h_mid)")], NAV + [FLIGHT_FLOOR]),
+    _m("strapdown_earth_rate_down", "Earth rate down component -Omega sin(lat) -> +",
+       [(_KS, "wie_d = -EARTH_RATE * sl", "wie_d = EARTH_RATE * sl")], NAV),
+    _m("strapdown_frame_rotation", "velocity: (I - 1/2 [zeta x]) dropped",
+       [(_KS, "dvn0 = n0 - 0.5 * (z1 * n2 - z2 * n1)", "dvn0 = n0"),
+        (_KS, "dvn1 = n1 - 0.5 * (z2 * n0 - z0 * n2)", "dvn1 = n1"),
+        (_KS, "dvn2 = n2 - 0.5 * (z0 * n1 - z1 * n0)", "dvn2 = n2")], NAV),
+    _m("height_aid_k2", "height aid k2 = 3/tau^2 - dg/dh -> + dg/dh",
+       [("sins_sim/navigation/strapdown.py", "3.0 / tau ** 2 - dgdh", "3.0 / tau ** 2 + dgdh")], NAV),
+    _m("accel_remainder_start", "pulse remainder starts at 0 instead of half a pulse (truncation, not rounding)",
+       [("sins_sim/models/accelerometer.py", "self._frac = np.full(3, 0.5)", "self._frac = np.full(3, 0.0)")],
+       ["tests/test_ins_loop.py::test_accelerometer_pulses_carry_the_remainder"]),
+    _m("correcting_no_refinement", "turning point: the raw sample instead of the parabola's vertex, every copy",
+       [(_KC, "/ (8.0 * curv)", "/ (8.0 * curv) * 0.0"),
+        ("sins_sim/bench/references.py", "/ (8.0 * curv)", "/ (8.0 * curv) * 0.0")], CORRECTING),
+    _m("correcting_drive_early", "eq. 5's drive term k5 V_{n-1} -> k5 V_n (both kernels)",
+       [(_KC, "nl += k5 * v1", "nl += k5 * volts[n]"),
+        (_KC, "nl += par[l, 6] * state[l, F_V1]", "nl += par[l, 6] * volts[rows[l], n]")], CORRECTING),
+    _m("plant_nonl_sign", "plant eq. 2: + Nonl(delta) -> - Nonl(delta) (RK4 kernel)",
+       [("sins_sim/_kernels/plant.py", "f = d + nonl_jit(d, k1, k2)", "f = d - nonl_jit(d, k1, k2)")], PLANT),
+    _m("eliminator_attenuation", "eliminator default stop-band attenuation 60 dB -> 40 dB",
+       [("sins_sim/filters/eliminator.py", "rs_db: float = 60.0", "rs_db: float = 40.0")], ELIMINATOR),
+    _m("allan_quantization", "quantisation Q = sqrt(C/3) -> sqrt(C/2)",
+       [(_AL, '"quantization": math.sqrt(c / 3.0)', '"quantization": math.sqrt(c / 2.0)')], ALLAN),
 ]
 
 
