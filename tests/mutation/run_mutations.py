@@ -40,6 +40,15 @@ BLOCK = ["tests/test_block.py"]
 #: where a gyro's inertia exceeds the block's about its axis under a stiff rotational isolator (non-finite output:
 #: a limit of the coupled step, reported in the issue), so its failure says nothing about a mutation.
 DESELECT = ["tests/test_block.py::test_no_nan_or_inf_over_the_valid_parameter_space_and_chunks_agree"]
+#: Tests that compare two copies of the same computation (a kernel against its transcription, chunked against whole,
+#: the design against scipy's own bits): ``--physics-only`` leaves them out, so that a catch is a physics or decision
+#: test's.
+COPY_TESTS = ["tests/test_strapdown.py::test_kernel_matches_naive_reference",
+              "tests/test_strapdown.py::test_chunked_processing_is_bit_exact",
+              "tests/test_strapdown.py::test_n_sub_high_rate_accumulation_agrees_with_single_sample_updates",
+              "tests/test_eliminator.py::test_sos_kernel_matches_scipy_sosfilt",
+              "tests/test_eliminator.py::test_sos_kernel_matches_scipy_from_nonzero_state",
+              "tests/test_eliminator.py::test_equal_designs_share_one_design_with_scipys_bits"]
 NAV = ["tests/test_strapdown.py", "tests/test_strapdown_closed_form.py"]
 #: The flight without pulses, whose bounds are derived from the method (tests/test_ins_loop.py).
 FLIGHT_FLOOR = "tests/test_ins_loop.py::test_ideal_increments_along_a_flight_stay_within_the_algorithms_floor"
@@ -172,14 +181,14 @@ MUTATIONS = [
 ]
 
 
-def _run_tests(tests, fast_fail: bool):
+def _run_tests(tests, fast_fail: bool, physics_only: bool = False):
     # a fresh numba cache for every mutated run: numba keys a kernel's cache on its own file only, so a kernel
     # that imports a mutated module (physics.py, earth.py, nav.py, ...) would otherwise run stale code, and a
     # kernel compiled against the mutation would stay in the checkout's cache after the revert
     cache = tempfile.mkdtemp(prefix="sins-sim-mutation-numba-")
     env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=cache)
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-rf", *tests]
-    for d in DESELECT:
+    for d in DESELECT + (COPY_TESTS if physics_only else []):
         cmd += ["--deselect", d]
     if fast_fail:
         cmd.append("-x")
@@ -208,13 +217,13 @@ def _apply(mut: Mutation) -> list:
     return files
 
 
-def run(mutations, fast_fail: bool = True) -> list:
+def run(mutations, fast_fail: bool = True, physics_only: bool = False) -> list:
     rows = []
     for mut in mutations:
         t0 = time.monotonic()
         files = _apply(mut)
         try:
-            code, failed, summary = _run_tests(list(mut.tests), fast_fail)
+            code, failed, summary = _run_tests(list(mut.tests), fast_fail, physics_only)
         finally:
             subprocess.run(["git", "checkout", "--", *files], cwd=ROOT, check=True)
         caught = code != 0
@@ -247,6 +256,8 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", help="names of the mutations to run (default: all)")
     ap.add_argument("--list", action="store_true", help="list the mutations and exit")
     ap.add_argument("--all-failures", action="store_true", help="run every test (no -x): slower, lists all failures")
+    ap.add_argument("--physics-only", action="store_true",
+                    help="leave out the tests that compare two copies of one computation (COPY_TESTS)")
     args = ap.parse_args(argv)
     if args.list:
         for m in MUTATIONS:
@@ -258,7 +269,7 @@ def main(argv=None) -> int:
         if unknown:
             raise SystemExit(f"--only: unknown mutation(s) {sorted(unknown)}")
         chosen = [m for m in MUTATIONS if m.name in args.only]
-    rows = run(chosen, fast_fail=not args.all_failures)
+    rows = run(chosen, fast_fail=not args.all_failures, physics_only=args.physics_only)
     print()
     print(table(rows))
     return 0 if all(caught for _, caught, _, _, _ in rows) else 1
