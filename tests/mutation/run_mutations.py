@@ -40,7 +40,18 @@ BLOCK = ["tests/test_block.py"]
 #: where a gyro's inertia exceeds the block's about its axis under a stiff rotational isolator (non-finite output:
 #: a limit of the coupled step, reported in the issue), so its failure says nothing about a mutation.
 DESELECT = ["tests/test_block.py::test_no_nan_or_inf_over_the_valid_parameter_space_and_chunks_agree"]
+#: Tests that compare two copies of the same computation (a kernel against its transcription, chunked against whole,
+#: the design against scipy's own bits): ``--physics-only`` leaves them out, so that a catch is a physics or decision
+#: test's.
+COPY_TESTS = ["tests/test_strapdown.py::test_kernel_matches_naive_reference",
+              "tests/test_strapdown.py::test_chunked_processing_is_bit_exact",
+              "tests/test_strapdown.py::test_n_sub_high_rate_accumulation_agrees_with_single_sample_updates",
+              "tests/test_eliminator.py::test_sos_kernel_matches_scipy_sosfilt",
+              "tests/test_eliminator.py::test_sos_kernel_matches_scipy_from_nonzero_state",
+              "tests/test_eliminator.py::test_equal_designs_share_one_design_with_scipys_bits"]
 NAV = ["tests/test_strapdown.py", "tests/test_strapdown_closed_form.py"]
+#: The flight without pulses, whose bounds are derived from the method (tests/test_ins_loop.py).
+FLIGHT_FLOOR = "tests/test_ins_loop.py::test_ideal_increments_along_a_flight_stay_within_the_algorithms_floor"
 EARTH = ["tests/test_strapdown.py", "tests/test_strapdown_closed_form.py", "tests/test_earth.py"]
 
 
@@ -137,17 +148,47 @@ MUTATIONS = [
        [("sins_sim/earth.py", "(1.0 + SOMIGLIANA_K * s2)", "(1.0 - SOMIGLIANA_K * s2)")], EARTH),
     _m("earth_meridian_radius", "R_N = R_E (1 - e^2) / w -> R_E (1 - e^2)",
        [("sins_sim/earth.py", "r_n = r_e * (1.0 - WGS84_E2) / w", "r_n = r_e * (1.0 - WGS84_E2)")], EARTH),
+    # issue 40, rerun: the flight's derived floor, the pulses' remainder, eq. 5's closed form, the loops
+    _m("strapdown_midpoint_velocity", "Coriolis/transport at v_{m-1} instead of the extrapolated v_{m-1/2}",
+       [(_KS, "vxn = vn + 0.5 * (vn - vn_p)", "vxn = vn"), (_KS, "vxe = ve + 0.5 * (ve - ve_p)", "vxe = ve"),
+        (_KS, "vxd = vd + 0.5 * (vd - vd_p)", "vxd = vd")], NAV + [FLIGHT_FLOOR]),
+    _m("strapdown_position_euler", "latitude: trapezoidal -> Euler on the old velocity",
+       [(_KS, "lat_new = lat + half_t * (vn + vn_new) / (r_n + h_mid)",
+         "lat_new = lat + 2.0 * half_t * vn / (r_n + h_mid)")], NAV + [FLIGHT_FLOOR]),
+    _m("strapdown_earth_rate_down", "Earth rate down component -Omega sin(lat) -> +",
+       [(_KS, "wie_d = -EARTH_RATE * sl", "wie_d = EARTH_RATE * sl")], NAV),
+    _m("strapdown_frame_rotation", "velocity: (I - 1/2 [zeta x]) dropped",
+       [(_KS, "dvn0 = n0 - 0.5 * (z1 * n2 - z2 * n1)", "dvn0 = n0"),
+        (_KS, "dvn1 = n1 - 0.5 * (z2 * n0 - z0 * n2)", "dvn1 = n1"),
+        (_KS, "dvn2 = n2 - 0.5 * (z0 * n1 - z1 * n0)", "dvn2 = n2")], NAV),
+    _m("height_aid_k2", "height aid k2 = 3/tau^2 - dg/dh -> + dg/dh",
+       [("sins_sim/navigation/strapdown.py", "3.0 / tau ** 2 - dgdh", "3.0 / tau ** 2 + dgdh")], NAV),
+    _m("accel_remainder_start", "pulse remainder starts at 0 instead of half a pulse (truncation, not rounding)",
+       [("sins_sim/models/accelerometer.py", "self._frac = np.full(3, 0.5)", "self._frac = np.full(3, 0.0)")],
+       ["tests/test_ins_loop.py::test_accelerometer_pulses_carry_the_remainder"]),
+    _m("correcting_no_refinement", "turning point: the raw sample instead of the parabola's vertex, every copy",
+       [(_KC, "/ (8.0 * curv)", "/ (8.0 * curv) * 0.0"),
+        ("sins_sim/bench/references.py", "/ (8.0 * curv)", "/ (8.0 * curv) * 0.0")], CORRECTING),
+    _m("correcting_drive_early", "eq. 5's drive term k5 V_{n-1} -> k5 V_n (both kernels)",
+       [(_KC, "nl += k5 * v1", "nl += k5 * volts[n]"),
+        (_KC, "nl += par[l, 6] * state[l, F_V1]", "nl += par[l, 6] * volts[rows[l], n]")], CORRECTING),
+    _m("plant_nonl_sign", "plant eq. 2: + Nonl(delta) -> - Nonl(delta) (RK4 kernel)",
+       [("sins_sim/_kernels/plant.py", "f = d + nonl_jit(d, k1, k2)", "f = d - nonl_jit(d, k1, k2)")], PLANT),
+    _m("eliminator_attenuation", "eliminator default stop-band attenuation 60 dB -> 40 dB",
+       [("sins_sim/filters/eliminator.py", "rs_db: float = 60.0", "rs_db: float = 40.0")], ELIMINATOR),
+    _m("allan_quantization", "quantisation Q = sqrt(C/3) -> sqrt(C/2)",
+       [(_AL, '"quantization": math.sqrt(c / 3.0)', '"quantization": math.sqrt(c / 2.0)')], ALLAN),
 ]
 
 
-def _run_tests(tests, fast_fail: bool):
+def _run_tests(tests, fast_fail: bool, physics_only: bool = False):
     # a fresh numba cache for every mutated run: numba keys a kernel's cache on its own file only, so a kernel
     # that imports a mutated module (physics.py, earth.py, nav.py, ...) would otherwise run stale code, and a
     # kernel compiled against the mutation would stay in the checkout's cache after the revert
     cache = tempfile.mkdtemp(prefix="sins-sim-mutation-numba-")
     env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=cache)
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-rf", *tests]
-    for d in DESELECT:
+    for d in DESELECT + (COPY_TESTS if physics_only else []):
         cmd += ["--deselect", d]
     if fast_fail:
         cmd.append("-x")
@@ -176,13 +217,13 @@ def _apply(mut: Mutation) -> list:
     return files
 
 
-def run(mutations, fast_fail: bool = True) -> list:
+def run(mutations, fast_fail: bool = True, physics_only: bool = False) -> list:
     rows = []
     for mut in mutations:
         t0 = time.monotonic()
         files = _apply(mut)
         try:
-            code, failed, summary = _run_tests(list(mut.tests), fast_fail)
+            code, failed, summary = _run_tests(list(mut.tests), fast_fail, physics_only)
         finally:
             subprocess.run(["git", "checkout", "--", *files], cwd=ROOT, check=True)
         caught = code != 0
@@ -215,6 +256,8 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", help="names of the mutations to run (default: all)")
     ap.add_argument("--list", action="store_true", help="list the mutations and exit")
     ap.add_argument("--all-failures", action="store_true", help="run every test (no -x): slower, lists all failures")
+    ap.add_argument("--physics-only", action="store_true",
+                    help="leave out the tests that compare two copies of one computation (COPY_TESTS)")
     args = ap.parse_args(argv)
     if args.list:
         for m in MUTATIONS:
@@ -226,7 +269,7 @@ def main(argv=None) -> int:
         if unknown:
             raise SystemExit(f"--only: unknown mutation(s) {sorted(unknown)}")
         chosen = [m for m in MUTATIONS if m.name in args.only]
-    rows = run(chosen, fast_fail=not args.all_failures)
+    rows = run(chosen, fast_fail=not args.all_failures, physics_only=args.physics_only)
     print()
     print(table(rows))
     return 0 if all(caught for _, caught, _, _, _ in rows) else 1
