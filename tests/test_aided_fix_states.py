@@ -245,3 +245,18 @@ def test_filter_model_chooses_states_or_fold():
     plain = filter_model(AidingSettings(gnss=dataclasses.replace(gnss, markov_sigma_m=(0.0, 0.0, 0.0)),
                                         update_rate_hz=5.0), noise)
     assert plain.record["states"] == 15 and plain.fix_errors is None
+
+
+def test_report_states_the_fix_error_states():
+    """With the Gauss-Markov states (``filter_states`` 18) the report says so and gives no fold bound on the NIS."""
+    from sins_sim.jobs.run import _aided_findings
+
+    ref = {"horizontal_position_sigma_median_m": 0.9, "nees_position_within_95_fraction": 0.9,
+           "nees_velocity_within_95_fraction": 0.9, "nees_attitude_within_95_fraction": 0.9, "nees_position_n": 10,
+           "nis_position_mean": 3.0, "nis_position_bound_low": 2.8, "nis_position_bound_high": 3.2,
+           "nis_position_n": 10, "filter_position_sigma_told_m_north": 1.0, "filter_position_sigma_told_m_east": 1.0,
+           "filter_position_sigma_told_m_down": 2.0, "filter_states": 18, "filter_gnss_markov_tau_s": 300.0}
+    metrics = {"aiding": {"position_sigma_m": [1.0, 1.0, 2.0], "markov_sigma_m": [0.5, 0.5, 1.0]}}
+    text = _aided_findings(metrics, {"ideal": ref})[-1]
+    assert "three position states (18 states" in text and "correlation 300 s" in text, text
+    assert "expected at most" not in text
