@@ -286,3 +286,33 @@ def test_smoother_with_fix_error_states_is_consistent():
                 total[i, b] += err[k, sl] @ np.linalg.solve(sm.p[k, sl, sl], err[k, sl])
     lo, hi = chi2.ppf([0.001, 0.999], 3 * N_SEEDS)
     assert np.all((total >= lo) & (total <= hi)), total
+
+
+def test_aided_run_with_velocity_fix_states():
+    """Position and velocity fix-error states in a run (21 states): each fix's position rows carry ``-I`` on
+    states 15-17 and its velocity rows on 18-20, so both triples are observed. At rest with no inertial error
+    (the first test's setting), 30 fixes at 1 Hz bring each triple's variance to its scalar filter's value after
+    30 updates (the Riccati recursion from the stationary prior, 1e-9 relative: the states see the fixes alone)."""
+    from sins_sim.navigation.aided import navigate_aided
+    from sins_sim.navigation.gnss import GnssSettings, simulate_gnss
+
+    vel_gm, vel_white = np.array([0.02, 0.02, 0.04]), np.array([0.05, 0.05, 0.1])
+    fe = ekf.FixErrorStates(GM_SIGMA, 20.0, vel_gm, 10.0)
+    dth, dv = _increments(30.0)
+    t = DT * np.arange(1, dth.shape[0] + 1)
+    tt = np.concatenate([[0.0], t])
+    fixes = simulate_gnss(tt, np.full(tt.size, LAT), np.full(tt.size, LON), np.full(tt.size, H),
+                          np.zeros((tt.size, 3)), GnssSettings(rate_hz=1.0, position_sigma_m=tuple(WHITE),
+                                                               velocity_sigma_m_s=tuple(vel_white)), seed=3)
+    p0 = np.zeros((21, 21))
+    p0[15:, 15:] = np.diag(fe.variance)
+    start = ekf.NavState(0.0, LAT, LON, H, np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), np.zeros(3))
+    res = navigate_aided(t, dth, dv, start, ZERO, p0, fixes, fix_errors=fe)
+    assert res.p_upd.shape[1:] == (21, 21)
+    for sl, sig, white, tau in ((slice(15, 18), GM_SIGMA, WHITE, 20.0), (slice(18, 21), vel_gm, vel_white, 10.0)):
+        a = math.exp(-1.0 / tau)
+        p = sig ** 2
+        for _ in range(int(res.updated.sum())):          # P- = a^2 P+ + q, P+ = P- r / (P- + r)
+            pm = a * a * p + sig ** 2 * (1.0 - a * a)
+            p = pm * white ** 2 / (pm + white ** 2)
+        assert np.allclose(np.diag(res.p_upd[-1])[sl], p, rtol=1e-9, atol=0.0), (np.diag(res.p_upd[-1])[sl], p)
