@@ -50,11 +50,16 @@ def main(argv=None) -> None:
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--rate-hz", type=float, default=50.0, help="increment rate (Hz), a multiple of the fix rate")
     ap.add_argument("--duration-s", type=float, default=None, help="shorter than the scenario's")
+    ap.add_argument("--fix-model", choices=("scenario", "states", "fold"), default="scenario",
+                    help="the fixes' Gauss-Markov error as filter states or folded into R (default: the scenario's "
+                         "aiding.fix_error_states)")
     a = ap.parse_args(argv)
     sc = load_scenario(a.scenario)
     nav, aid = sc.nav, sc.nav.aiding
     if aid is None or sc.vehicle is None:
         raise SystemExit(f"{a.scenario}: needs aiding: and a trajectory")
+    if a.fix_model != "scenario":
+        aid = dataclasses.replace(aid, fix_error_states=a.fix_model == "states")
     g = aid.gnss
     dur = float(a.duration_s or sc.duration_s)
     t0, fs = nav.start_s, a.rate_hz
@@ -96,7 +101,7 @@ def main(argv=None) -> None:
                               q_nb=truth.q_nv, omega_ib_b_rad_s=truth.omega_iv_v_rad_s)
         fixes = dataclasses.replace(fixes, position_sigma_m=np.asarray(model.position_sigma_m, dtype=float))
         res = navigate_aided(t, dth, dv, start, noise, p0, fixes, output_t_s=out_t, use=aid.measurements,
-                             max_propagation_s=1.0 / aid.update_rate_hz, unmodelled=un)
+                             max_propagation_s=1.0 / aid.update_rate_hz, unmodelled=un, fix_errors=model.fix_errors)
         o = sc.vehicle.evaluate(res.t_s)
         e = res.errors(o.lat_rad, o.lon_rad, o.h_m, o.v_ned_m_s, o.q_nv)[1:]
         p = res.p_upd[1:]
@@ -106,7 +111,8 @@ def main(argv=None) -> None:
     nees = total / a.seeds
     t_ep = res.t_s[1:]
     lo, hi = chi2.ppf([0.025, 0.975], 3 * a.seeds) / a.seeds
-    print(f"{a.scenario}: {a.seeds} seeds, {dur:g} s, {t_ep.size} epochs, interval [{lo:.3f}, {hi:.3f}]")
+    print(f"{a.scenario}: {a.seeds} seeds, {dur:g} s, {t_ep.size} epochs, interval [{lo:.3f}, {hi:.3f}], "
+          f"{model.record['states']} states (Gauss-Markov fix error: {model.record['gnss_markov']})")
     for name, (frac, n_eff, c_lo, c_hi), col in zip(("position", "velocity", "attitude"), coverage(nees, a.seeds),
                                                    nees.T):
         print(f"  {name}: inside {frac:.3f} (below {np.mean(col < lo):.3f}, above {np.mean(col > hi):.3f}), "

@@ -59,7 +59,9 @@ SENSORS = SensorErrorParams(GyroErrorParams(scale_factor_ppm=30.0, misalignment_
                             AccelErrorParams(scale_factor_ppm=300.0, misalignment_arcsec=[20.0] * 6))
 GNSS = GnssSettings(rate_hz=1.0, position_sigma_m=(0.5, 0.5, 1.0), velocity_sigma_m_s=(0.05, 0.05, 0.1),
                     markov_sigma_m=(1.0, 1.0, 2.0), markov_tau_s=1.0)
-AIDING = AidingSettings(gnss=GNSS, update_rate_hz=1.0)
+#: The fold (the Gauss-Markov error as an equivalent white variance in R, 15 states): the model this module tests;
+#: tests/test_aided_fix_states.py tests the fix-error states.
+AIDING = AidingSettings(gnss=GNSS, update_rate_hz=1.0, fix_error_states=False)
 TILT0, HEADING0 = 2e-4, 5e-3
 BLOCKS = (ekf.POS, ekf.VEL, ekf.ATT)
 
@@ -67,7 +69,8 @@ BLOCKS = (ekf.POS, ekf.VEL, ekf.ATT)
 class Mission:
     """The trajectory, its exact increments and its truth at the 1 Hz output times."""
 
-    def __init__(self):
+    def __init__(self, aiding=AIDING):
+        self.gnss = gnss = aiding.gnss
         self.traj = Trajectory(LAT, LON, H, 60.0, math.radians(40.0),
                                [Cruise(30.0), CoordinatedTurn(30.0, math.pi / 2), Cruise(61.0)])
         self.n = round(DURATION_S / DT)
@@ -77,14 +80,14 @@ class Mission:
         self.truth = self.traj.evaluate(self.tt)
         self.out_t = np.arange(0.0, DURATION_S + 0.5, 1.0)
         self.out_truth = self.traj.evaluate(self.out_t)
-        self.model = filter_model(AIDING, UNIT, SENSORS, self.traj, 0.0, DURATION_S)
-        prior = (np.hypot(GNSS.position_sigma_m, GNSS.markov_sigma_m), GNSS.velocity_sigma_m_s, TILT0, HEADING0)
+        self.model = filter_model(aiding, UNIT, SENSORS, self.traj, 0.0, DURATION_S)
+        prior = (np.hypot(gnss.position_sigma_m, gnss.markov_sigma_m), gnss.velocity_sigma_m_s, TILT0, HEADING0)
         self.p0 = self.model.initial_covariance(*prior)
         # the truth's initial errors: the unit's bias sigmas only, the drawn scale factors and misalignments add
         # their constant part (K f_ref) themselves; the filter's P0 holds both
         self.p0_truth = ekf.initial_covariance(*prior, UNIT)
 
-    def run(self, seed, noise, pos_sigma, vel_sigma, unmodelled):
+    def run(self, seed, noise, pos_sigma, vel_sigma, unmodelled, fix_errors=None):
         """One seed: biases, noise, unit errors, initial errors and fixes drawn; the filter told the given model."""
         rng = np.random.default_rng([seed, 37])
         bg = rng.normal(0.0, UNIT.gyro_bias_sigma_rad_s, 3)
@@ -103,22 +106,23 @@ class Mission:
         start = ekf.NavState(0.0, lat + x0[0] / (r_n + h), tr.lon_rad[0] + x0[1] / ((r_e + h) * math.cos(lat)),
                              h - x0[2], tr.v_ned_m_s[0] + x0[3:6], quat_multiply(quat_from_rotvec(x0[6:9]), tr.q_nv[0]),
                              bg + x0[9:12], ba + x0[12:15])
-        fixes = simulate_gnss(self.tt, tr.lat_rad, tr.lon_rad, tr.h_m, tr.v_ned_m_s, GNSS, rng,
+        fixes = simulate_gnss(self.tt, tr.lat_rad, tr.lon_rad, tr.h_m, tr.v_ned_m_s, self.gnss, rng,
                               q_nb=tr.q_nv, omega_ib_b_rad_s=tr.omega_iv_v_rad_s)
         fixes = dataclasses.replace(fixes, position_sigma_m=np.asarray(pos_sigma, dtype=float),
                                     velocity_sigma_m_s=np.asarray(vel_sigma, dtype=float))
-        res = navigate_aided(self.t, dth, dv, start, noise, self.p0, fixes, output_t_s=self.out_t, unmodelled=unmodelled)
+        res = navigate_aided(self.t, dth, dv, start, noise, self.p0, fixes, output_t_s=self.out_t, unmodelled=unmodelled,
+                             fix_errors=fix_errors)
         o = self.out_truth
         return res, res.errors(o.lat_rad, o.lon_rad, o.h_m, o.v_ned_m_s, o.q_nv)
 
 
-def nees_mc(mission, noise, pos_sigma, vel_sigma, unmodelled, seeds=N_SEEDS):
+def nees_mc(mission, noise, pos_sigma, vel_sigma, unmodelled, seeds=N_SEEDS, fix_errors=None):
     """Per block the NEES averaged over the seeds at every epoch after the start, and the fraction of epochs inside
     the 95 % interval of that average (``N * mean`` ~ chi2(3 N): chi2.ppf(0.025, 3 N) / N to
     chi2.ppf(0.975, 3 N) / N)."""
     total = 0.0
     for seed in range(seeds):
-        res, err = mission.run(seed, noise, pos_sigma, vel_sigma, unmodelled)
+        res, err = mission.run(seed, noise, pos_sigma, vel_sigma, unmodelled, fix_errors)
         p = res.p_upd[1:]
         e = err[1:]
         total = total + np.stack([np.einsum("ki,ki->k", e[:, b], np.linalg.solve(p[:, b, b], e[:, b, None])[..., 0])

@@ -1,7 +1,7 @@
 """Compiled steps of the error-state Kalman filter (:mod:`sins_sim.navigation.ekf`).
 
 The same equations as the numpy reference there, written for one call per filter step so that the
-aided mission pays no Python-level cost per 15 x 15 product (issue 37, item 7):
+aided mission pays no Python-level cost per n x n product (n = 15, or more with fix-error states) (issue 37, item 7):
 
 * :func:`propagate_block`: the continuous ``F`` at a block's mean navigation state (Groves 2013,
   sec. 14.2.4, eq. 14.64-14.71, the form of :func:`sins_sim.navigation.ekf.error_dynamics`), its
@@ -148,8 +148,14 @@ def unmodelled_increment_into(a0, a1, origin, s2, m2, out):
 
 
 @jit
-def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, phi_acc, x, open_loop):
+def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, phi_acc, x, open_loop, fix_tau,
+                    fix_var):
     """Propagate the covariance over one block of navigation updates, in place.
+
+    The state has ``n = p.shape[0]`` entries: the 15 of the inertial errors, then ``n - 15`` first-order
+    Gauss-Markov errors of the aiding fixes (:class:`sins_sim.navigation.ekf.FixErrorStates`), each decoupled
+    from the rest with the exact discrete model ``Phi_k = exp(-T/tau_k)``,
+    ``Q_d,k = sigma_k^2 (1 - exp(-2 T/tau_k))`` (Gelb 1974, sec. 3.8; Brown & Hwang 2012, sec. 4.2).
 
     Parameters
     ----------
@@ -161,26 +167,29 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, p
         The block's length (s).
     inv_tau_g, inv_tau_a : float
         Bias correlation rates (1/s; 0 for constant biases).
-    qc : ndarray, shape (15, 15)
-        ``Q' = G Q G^T`` (per second).
+    qc : ndarray, shape (n, n)
+        ``Q' = G Q G^T`` (per second; zero on the fix-error rows).
     unmod : ndarray, shape (4,)
         Variances of the scale factor and the misalignment of the gyros, then of the accelerometers
         (dimensionless); their block's variance increments (:func:`unmodelled_increment_into`, body axes) enter
         ``Q'`` as ``C diag(d) C^T / T`` on the attitude and the velocity rows.
     origin : ndarray, shape (6,)
         The integrals' origins (gyros, accelerometers), updated in place.
-    p : ndarray, shape (15, 15)
+    p : ndarray, shape (n, n)
         Covariance, replaced by ``Phi P Phi^T + Q_d`` (symmetrised).
-    phi_acc : ndarray, shape (15, 15)
+    phi_acc : ndarray, shape (n, n)
         Product of the transitions so far, replaced by ``Phi phi_acc``.
-    x : ndarray, shape (15,)
-        Error state, replaced by ``Phi x`` when ``open_loop``.
+    x : ndarray, shape (n,)
+        Error state, replaced by ``Phi x`` when ``open_loop``; in closed loop only its fix-error entries
+        (not fed back) are carried.
     open_loop : bool
         Whether the error state is carried (no feedback).
+    fix_tau, fix_var : ndarray, shape (n - 15,)
+        Correlation times (s) and stationary variances of the fix-error states.
 
     Returns
     -------
-    phi : ndarray, shape (15, 15)
+    phi : ndarray, shape (n, n)
         The block's transition matrix.
 
     Notes
@@ -250,6 +259,11 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, p
         m = fm + fm.T
         coef *= t / (k + 1)
         q_d += m * coef
+    # the fix-error states: F and Q' are zero on their rows, so the series left them I and 0; their exact model
+    for i in range(n - 15):
+        k = 15 + i
+        phi[k, k] = math.exp(-t / fix_tau[i])
+        q_d[k, k] = fix_var[i] * -math.expm1(-2.0 * t / fix_tau[i])
     pn = np.dot(np.dot(phi, p), phi.T) + 0.5 * (q_d + q_d.T)
     for i in range(n):
         for j in range(n):
@@ -257,6 +271,9 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, p
     phi_acc[:, :] = np.dot(phi, phi_acc)
     if open_loop:
         x[:] = np.dot(phi, x)
+    else:
+        for k in range(15, n):
+            x[k] *= phi[k, k]
     return phi
 
 

@@ -446,11 +446,16 @@ AIDING_SCHEMA = Map({
                            "rate_hz"),
     "feedback": Bool(default=True, doc="closed loop (corrections fed back to the navigator) or open loop"),
     "smoother": Bool(default=False, doc="also run the Rauch-Tung-Striebel fixed-interval smoother"),
+    "fix_error_states": Bool(default=True, doc="model the Gauss-Markov error (markov_sigma_m) as three filter "
+                                               "states, R the white noise (Gelb 1974 sec. 3.8); false: fold it "
+                                               "into R as the variance of the mean over the longest aided "
+                                               "stretch (15 states)"),
     "file": Str(default="", doc="a recorded GNSS solution instead of simulated fixes (CSV or Parquet: time_s, "
                                 "lat_deg, lon_deg, height_m, optional vn_m_s, ve_m_s, vd_m_s), relative to the "
                                 "scenario; it must cover navigation.start_s to duration_s"),
 }, default=None, allow_null=True,
-    doc="GNSS aiding: each filter's increments also navigated by a 15-state error-state Kalman filter with the "
+    doc="GNSS aiding: each filter's increments also navigated by an error-state Kalman filter (15 states, 18 with "
+        "the Gauss-Markov fix-error states) with the "
         "same fixes (absent: free navigation only)",
     rules=("rate_hz divides readout.output_rate_hz (simulated fixes); update_rate_hz divides rate_hz",
            "markov_sigma_m and markov_tau_s describe simulated fixes: refused with file",

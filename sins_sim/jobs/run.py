@@ -835,8 +835,9 @@ def _aided_report(metrics: dict) -> list:
     if not rows:
         return []
     a = metrics.get("aiding", {})
+    n_states = rows[0][1].get("filter_states", 15)
     lines = ["", "## Aided navigation", "",
-             f"Every filter's increments navigated again by the 15-state error-state filter with the same GNSS fixes "
+             f"Every filter's increments navigated again by the {n_states}-state error-state filter with the same GNSS fixes "
              f"({a.get('source', '')}, {a.get('rate_hz', 0):g} Hz, applied at {a.get('update_rate_hz', 0):g} Hz: "
              f"{', '.join(a.get('measurements', []))}; outages {a.get('outages_s', [])} s). Errors over the "
              "filter's epochs against the truth; the outage growth is the horizontal error at the times into the "
@@ -928,7 +929,12 @@ def _aided_findings(metrics: dict, aided: dict) -> list:
     aid = metrics.get("aiding", {})
     gm = max(aid.get("markov_sigma_m") or [0.0])
     told = [ref.get(f"filter_position_sigma_told_m_{ax}") for ax in ("north", "east", "down")]
-    if gm > 0.0 and all(told) and aid.get("position_sigma_m"):
+    if gm > 0.0 and ref.get("filter_states", 15) > 15:
+        cons.append(f" The fixes carry a Gauss-Markov error of up to {gm:g} m (1 sigma, correlation "
+                    f"{ref.get('filter_gnss_markov_tau_s', 0.0):g} s) that the filter estimates as three position "
+                    f"states ({ref['filter_states']} states; R the white noise), so the position NIS keeps its "
+                    "chi-square meaning, as the velocity NIS does.")
+    elif gm > 0.0 and all(told) and aid.get("position_sigma_m"):
         # E[NIS] per axis <= (sigma_w^2 + sigma_gm^2 + HPH^T) / (R_told + HPH^T) <= (sigma_w^2 + sigma_gm^2) / R_told
         # (R_told >= sigma_w^2 + sigma_gm^2; docs/theory/aided.md, "The filter's model in a mission")
         bound = sum((w * w + g * g) / (r * r) for w, g, r in zip(aid["position_sigma_m"], aid["markov_sigma_m"], told))

@@ -105,7 +105,7 @@ def _correct_rows_reference(lat, lon, h, vel, q, dx):
 @dataclass(frozen=True)
 class _Series(NavSolution):
     """A navigation solution at epochs (:class:`NavSolution`'s fields) with the bias estimates and the 1-sigma of
-    its 15 error states."""
+    its error states (15, then any fix-error states)."""
 
     gyro_bias_rad_s: np.ndarray
     accel_bias_m_s2: np.ndarray
@@ -171,19 +171,19 @@ class AidedResult(_Series):
         The solution at the epochs (s, rad, m, m/s, body-to-NED quaternion), ``(K,)`` or ``(K, n)``.
     gyro_bias_rad_s, accel_bias_m_s2 : ndarray, shape (K, 3)
         The bias estimates (body axes).
-    sigma : ndarray, shape (K, 15)
+    sigma : ndarray, shape (K, n)
         1-sigma of the error states after the epoch's update.
     updated : ndarray of bool, shape (K,)
         Whether fixes were applied at the epoch.
     t_valid_s : ndarray, shape (K,)
         Latest time of validity of the fixes applied at the epoch (NaN without).
-    phi : ndarray, shape (K, 15, 15)
+    phi : ndarray, shape (K, n, n)
         Transition matrix from the previous epoch (identity at the first).
-    p_pred, p_upd : ndarray, shape (K, 15, 15)
+    p_pred, p_upd : ndarray, shape (K, n, n)
         Covariance before and after the epoch's update (equal without one).
-    correction : ndarray, shape (K, 15)
-        Error state fed back at the epoch (zeros without an update); in open loop the update's change of the
-        estimate, ``x^+ - x^-``.
+    correction : ndarray, shape (K, n)
+        The update's change of the estimate at the epoch, ``x^+ - x^-`` (zeros without an update): in closed loop
+        its first 15 entries are what was fed back.
     innovation_t_s, innovation_t_valid_s : ndarray, shape (M,)
         Time each measurement was applied and the time of validity of its fix.
     innovation_name : ndarray of str, shape (M,)
@@ -244,11 +244,11 @@ class SmoothedResult(_Series):
     ----------
     t_s, lat_rad, lon_rad, h_m, v_ned_m_s, q_nb, gyro_bias_rad_s, accel_bias_m_s2 : ndarray
         As in :class:`AidedResult`, smoothed.
-    sigma : ndarray, shape (K, 15)
+    sigma : ndarray, shape (K, n)
         1-sigma of the smoothed error states.
-    p : ndarray, shape (K, 15, 15)
+    p : ndarray, shape (K, n, n)
         Smoothed covariance.
-    estimate : ndarray, shape (K, 15)
+    estimate : ndarray, shape (K, n)
         Smoothed estimate ``s_k`` of the error of the filter's solution (the filter's solution minus it is
         the smoothed solution).
     """
@@ -306,7 +306,7 @@ def _uniform_times(t_s, n):
 
 def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0, fixes: GnssFixes, *,
                    output_t_s=None, use=GNSS_MEASUREMENTS, latency="compensate", n_sub=1,
-                   max_propagation_s=1.0, feedback=True, unmodelled=None) -> AidedResult:
+                   max_propagation_s=1.0, feedback=True, unmodelled=None, fix_errors=None) -> AidedResult:
     """GNSS-aided navigation of a record of increments (module docstring).
 
     Parameters
@@ -340,6 +340,9 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
     unmodelled : UnmodelledErrors or None
         Scale factors and misalignments told to the filter as process noise per propagation step
         (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`).
+    fix_errors : FixErrorStates or None
+        The fixes' Gauss-Markov errors as filter states (:class:`~sins_sim.navigation.ekf.FixErrorStates`; ``R``
+        then the fixes' white noise); None: 15 states.
 
     Returns
     -------
@@ -362,7 +365,7 @@ def navigate_aided(t_s, dtheta, dv, start: ekf.NavState, noise: ekf.ImuNoise, p0
     run = AidedRun(t[0] - dt, dt, dth.shape[0], start, noise, p0, fixes.t_valid_s, fixes.t_deliver_s,
                    fixes.position_sigma_m, fixes.velocity_sigma_m_s, fixes.lever_arm_b_m, output_t_s=output_t_s,
                    use=use, latency=latency, n_sub=n_sub, max_propagation_s=max_propagation_s, feedback=feedback,
-                   unmodelled=unmodelled)
+                   unmodelled=unmodelled, fix_errors=fix_errors)
     run.add_fixes(fixes)
     run.feed(dth, dvel)
     return run.result()
@@ -384,7 +387,7 @@ class AidedRun:
         Increment period (s).
     n_increments : int
         Increments in the whole record.
-    start, noise, p0, output_t_s, use, latency, n_sub, max_propagation_s, feedback, unmodelled
+    start, noise, p0, output_t_s, use, latency, n_sub, max_propagation_s, feedback, unmodelled, fix_errors
         As in :func:`navigate_aided`.
     t_valid_s, t_deliver_s : array_like, shape (M,)
         The fix schedule: time of validity and of delivery of each fix (s).
@@ -398,7 +401,7 @@ class AidedRun:
     def __init__(self, t0_s, dt_s, n_increments, start: ekf.NavState, noise: ekf.ImuNoise, p0, t_valid_s,
                  t_deliver_s, position_sigma_m, velocity_sigma_m_s, lever_arm_b_m, *, output_t_s=None,
                  use=GNSS_MEASUREMENTS, latency="compensate", n_sub=1, max_propagation_s=1.0, feedback=True,
-                 coning="two_sample", sculling="two_sample", unmodelled=None):
+                 coning="two_sample", sculling="two_sample", unmodelled=None, fix_errors=None):
         dt = v.positive("", "dt_s", dt_s)
         t0 = float(t0_s)
         if not isinstance(start, ekf.NavState):
@@ -419,7 +422,7 @@ class AidedRun:
                                  n_sub=n_sub, coning=coning, sculling=sculling)
         self._aided = ekf.AidedNavigator(nav, noise, p0, gyro_bias_rad_s=start.gyro_bias_rad_s,
                                          accel_bias_m_s2=start.accel_bias_m_s2, max_propagation_s=max_propagation_s,
-                                         feedback=bool(feedback), unmodelled=unmodelled)
+                                         feedback=bool(feedback), unmodelled=unmodelled, fix_errors=fix_errors)
         self._t0, self._dt, self._n_sub = t0, dt, int(n_sub)
         self._big_t = big_t = nav.update_period_s
         self._n_upd = n_upd = int(n_increments) // self._n_sub
@@ -575,7 +578,8 @@ class AidedRun:
         p_pred = aided.p
         t_now = self._t0 + j * self._big_t
         fix_list = self._by_update.get(j, [])
-        corr = np.zeros(ekf.N_STATES)
+        n_x = aided.n_states
+        corr = np.zeros(n_x)
         inn = self._inn
         fixes = None
         if fix_list:
@@ -588,7 +592,12 @@ class AidedRun:
             use_pos, use_vel = "position" in self._use, "velocity" in self._use
             per_fix = 3 * (use_pos + use_vel)
             k_fix = len(fix_list)
-            h = np.empty((k_fix * per_fix, ekf.N_STATES))
+            h = np.empty((k_fix * per_fix, n_x))
+            fe = aided.fix_errors
+            gm_cols = []       # (first row within a fix, fix-error state columns) of each measurement they enter
+            if fe is not None:
+                gm_cols = ([(0, fe.columns("position"))] if use_pos else []) + \
+                          ([(3 * use_pos, fe.columns("velocity"))] if use_vel else [])
             dz = np.empty(k_fix * per_fix)
             t_valid = []
             for n, i in enumerate(fix_list):
@@ -600,13 +609,16 @@ class AidedRun:
                 kekf.gnss_measurement(st.lat_rad, st.lon_rad, st.h_m, st.v_ned_m_s, st.q_nb, bg, rate, self._lever,
                                       fixes.lat_rad[i], fixes.lon_rad[i], fixes.h_m[i], fixes.v_ned_m_s[i], use_pos,
                                       use_vel, h[n * per_fix:(n + 1) * per_fix], dz[n * per_fix:(n + 1) * per_fix])
+                for row, cols in gm_cols:     # dz = H x - e + v: -I on the fix-error states (ekf module docstring)
+                    if cols is not None:
+                        h[n * per_fix + row + np.arange(3), np.arange(cols.start, cols.stop)] = -1.0
                 t_valid += [float(fixes.t_valid_s[i])] * len(self._use)
             names = (["position"] * use_pos + ["velocity"] * use_vel) * k_fix
             x_before = aided.x
             recs = aided._update_stacked(h, dz, self._r_stack(k_fix), names, [3] * len(names))
             if self._feedback:
                 corr = aided.last_correction
-                self._hist.correct(corr)
+                self._hist.correct(corr[:ekf.N_STATES])
             else:       # open loop: the history stays the free solution, the estimate the change of x
                 corr = aided.x - x_before
             for r, tv in zip(recs, t_valid):
@@ -658,7 +670,7 @@ def smooth(result: AidedResult) -> SmoothedResult:
     if not isinstance(result, AidedResult):
         raise ValueError(f"result: must be an AidedResult, got {type(result).__name__}")
     k_ep = len(result)
-    est = np.zeros((k_ep, ekf.N_STATES))
+    est = np.zeros((k_ep, result.phi.shape[1] if k_ep else ekf.N_STATES))
     p_s = result.p_upd.copy()
     for k in range(k_ep - 2, -1, -1):
         pp = result.p_pred[k + 1]
@@ -669,7 +681,7 @@ def smooth(result: AidedResult) -> SmoothedResult:
         p = result.p_upd[k] + gain @ (p_s[k + 1] - pp) @ gain.T
         p_s[k] = 0.5 * (p + p.T)
     lat, lon, h, vel, q = _correct_rows(result.lat_rad, result.lon_rad, result.h_m, result.v_ned_m_s,
-                                        result.q_nb, est)
+                                        result.q_nb, est[:, :ekf.N_STATES])
     return SmoothedResult(
         t_s=result.t_s.copy(), lat_rad=lat, lon_rad=lon, h_m=h, v_ned_m_s=vel, q_nb=q,
         gyro_bias_rad_s=result.gyro_bias_rad_s - est[:, ekf.GYRO_BIAS],

@@ -9,6 +9,8 @@ inertial sensors, feeds them back after every measurement, and resets its error 
 
    ImuNoise
    UnmodelledErrors
+   FixErrorStates
+   gauss_markov_discrete
    unmodelled_variance_increment
    NavState
    AidedNavigator
@@ -66,6 +68,14 @@ checked against ``scipy.linalg.expm`` of van Loan's block matrix in the tests (t
 kept terms). Cost: ten 15 x 15 products per propagation. :class:`AidedNavigator` runs the propagation and the
 Joseph update compiled (:mod:`sins_sim._kernels.ekf`, one call per block and per update); :func:`error_dynamics`
 and :func:`discretize` here are the reference the tests hold the kernels to.
+
+Fix-error states (optional, :class:`FixErrorStates`): states 15 on hold the aiding fixes' first-order
+Gauss-Markov errors ``e = z - (true)`` (position NED, then velocity NED if modelled), ``e' = -e / tau + w``,
+discrete ``e_(k+1) = exp(-T/tau) e_k + w_k``, ``var(w_k) = sigma^2 (1 - exp(-2 T/tau))`` (Gelb 1974,
+sec. 3.8; Groves 2013, sec. 3.4.3; Brown & Hwang 2012, ch. 4), with the stationary ``sigma^2`` as their prior.
+They enter a GNSS ``position`` (``velocity``) measurement as ``dz = H x - e + v``: ``H`` gains ``-I`` on their
+columns and ``R`` holds the white noise only. They are not fed back (they are the receiver's error, not the
+navigator's) and are carried by ``Phi`` between updates in closed loop too.
 
 Measurements (plug-ins, :data:`MEASUREMENTS`): each gives ``dz = h(x_c) - z`` (computed minus measured),
 modelled as ``dz = H x + v``, ``v ~ N(0, R)``. Update in Joseph form (Bucy & Joseph 1968; Groves 2013,
@@ -132,7 +142,8 @@ from sins_sim.navigation.strapdown import NavSolution, StrapdownNavigator
 
 __all__ = [
     "N_STATES", "STATE_NAMES", "POS", "VEL", "ATT", "GYRO_BIAS", "ACCEL_BIAS", "BIASES", "HEADING", "BIAS_KEYS",
-    "ImuNoise", "UnmodelledErrors", "NavState", "Innovation", "AidedNavigator", "MEASUREMENTS", "make_measurement",
+    "ImuNoise", "UnmodelledErrors", "FixErrorStates", "gauss_markov_discrete", "NavState", "Innovation",
+    "AidedNavigator", "MEASUREMENTS", "make_measurement",
     "ZeroVelocity", "ZeroAngularRate", "Position", "Velocity", "Height",
     "error_dynamics", "process_noise_density", "discretize", "initial_covariance", "skew",
     "unmodelled_variance_increment",
@@ -385,6 +396,81 @@ class UnmodelledErrors:
         """``(sigma_S^2, sigma_M^2)`` of the gyros, then of the accelerometers (the kernel's ``unmod``)."""
         return np.array([self.gyro_scale_factor, self.gyro_misalignment_rad, self.accel_scale_factor,
                          self.accel_misalignment_rad]) ** 2
+
+
+def gauss_markov_discrete(tau_s, sigma, t_s):
+    """``(phi, q)`` of a first-order Gauss-Markov process over ``t_s``: ``phi = exp(-T/tau)``,
+    ``q = sigma^2 (1 - exp(-2 T/tau))`` (Gelb 1974, sec. 3.8; Brown & Hwang 2012, sec. 4.2), elementwise.
+
+    >>> phi, q = gauss_markov_discrete(300.0, 2.0, 300.0)
+    >>> round(float(phi), 12), round(float(q), 12)
+    (0.367879441171, 3.458658867254)
+    """
+    tau = np.asarray(tau_s, dtype=np.float64)
+    return np.exp(-t_s / tau), np.asarray(sigma, dtype=np.float64) ** 2 * -np.expm1(-2.0 * t_s / tau)
+
+
+@dataclass(frozen=True)
+class FixErrorStates:
+    """The aiding fixes' first-order Gauss-Markov errors as filter states (module docstring).
+
+    Parameters
+    ----------
+    position_sigma_m : array_like, shape (3,)
+        Stationary 1-sigma of the position fixes' Gauss-Markov error, NED (m), >= 0.
+    position_tau_s : float
+        Its correlation time (s), > 0.
+    velocity_sigma_m_s : array_like, shape (3,), or None
+        The velocity fixes' Gauss-Markov error, NED (m/s); None: no velocity states.
+    velocity_tau_s : float or None
+        Its correlation time (s), > 0 (with ``velocity_sigma_m_s``).
+    """
+
+    position_sigma_m: object
+    position_tau_s: float
+    velocity_sigma_m_s: object = None
+    velocity_tau_s: object = None
+
+    def __post_init__(self):
+        o = "FixErrorStates"
+        sig = _vec3("position_sigma_m", self.position_sigma_m)
+        if np.any(sig < 0.0):
+            raise ValueError(f"position_sigma_m: must be >= 0, got {sig.tolist()}")
+        object.__setattr__(self, "position_sigma_m", sig)
+        object.__setattr__(self, "position_tau_s", v.positive(o, "position_tau_s", self.position_tau_s))
+        if (self.velocity_sigma_m_s is None) != (self.velocity_tau_s is None):
+            raise ValueError("velocity_sigma_m_s, velocity_tau_s: give both or neither")
+        if self.velocity_sigma_m_s is not None:
+            sv = _vec3("velocity_sigma_m_s", self.velocity_sigma_m_s)
+            if np.any(sv < 0.0):
+                raise ValueError(f"velocity_sigma_m_s: must be >= 0, got {sv.tolist()}")
+            object.__setattr__(self, "velocity_sigma_m_s", sv)
+            object.__setattr__(self, "velocity_tau_s", v.positive(o, "velocity_tau_s", self.velocity_tau_s))
+
+    @property
+    def n_states(self) -> int:
+        """3 (position) or 6 (position and velocity)."""
+        return 3 if self.velocity_sigma_m_s is None else 6
+
+    @property
+    def tau_s(self) -> np.ndarray:
+        """Correlation time of each state (s)."""
+        t = [self.position_tau_s] * 3 + ([] if self.velocity_tau_s is None else [self.velocity_tau_s] * 3)
+        return np.array(t, dtype=np.float64)
+
+    @property
+    def variance(self) -> np.ndarray:
+        """Stationary variance of each state."""
+        parts = [self.position_sigma_m] + ([] if self.velocity_sigma_m_s is None else [self.velocity_sigma_m_s])
+        return np.concatenate(parts) ** 2
+
+    def columns(self, name):
+        """The state indices of measurement ``name`` (``position``, ``velocity``), or None."""
+        if name == "position":
+            return slice(N_STATES, N_STATES + 3)
+        if name == "velocity" and self.velocity_sigma_m_s is not None:
+            return slice(N_STATES + 3, N_STATES + 6)
+        return None
 
 
 def unmodelled_variance_increment(a0, a1, scale_sigma, misalignment_sigma, origin=(0.0, 0.0, 0.0)):
@@ -983,10 +1069,13 @@ class AidedNavigator:
     unmodelled : UnmodelledErrors or None
         Scale factors and misalignments not estimated: process noise per propagation block from the angle
         and velocity change the block adds (:class:`UnmodelledErrors`); None: none.
+    fix_errors : FixErrorStates or None
+        The fixes' Gauss-Markov errors as states 15 on (module docstring); ``p0`` may then be (15, 15), the
+        new states starting at their stationary variance, uncorrelated, or (n, n). None: 15 states.
     """
 
     def __init__(self, navigator, noise, p0, *, gyro_bias_rad_s=(0.0, 0.0, 0.0), accel_bias_m_s2=(0.0, 0.0, 0.0),
-                 max_propagation_s=1.0, feedback=True, unmodelled=None):
+                 max_propagation_s=1.0, feedback=True, unmodelled=None, fix_errors=None):
         if not isinstance(navigator, StrapdownNavigator):
             raise ValueError(f"navigator: must be a StrapdownNavigator, got {type(navigator).__name__}")
         if navigator.vertical != "free":
@@ -996,22 +1085,33 @@ class AidedNavigator:
             raise ValueError(f"noise: must be an ImuNoise, got {type(noise).__name__}")
         if unmodelled is not None and not isinstance(unmodelled, UnmodelledErrors):
             raise ValueError(f"unmodelled: must be UnmodelledErrors or None, got {type(unmodelled).__name__}")
+        if fix_errors is not None and not isinstance(fix_errors, FixErrorStates):
+            raise ValueError(f"fix_errors: must be FixErrorStates or None, got {type(fix_errors).__name__}")
+        n = N_STATES + (0 if fix_errors is None else fix_errors.n_states)
         p = v.finite_array("", "p0", p0, ndim=2)
-        if p.shape != (N_STATES, N_STATES) or not np.allclose(p, p.T, rtol=0.0, atol=1e-12 * np.max(np.abs(p))) \
+        if fix_errors is not None and p.shape == (N_STATES, N_STATES):
+            p = np.block([[p, np.zeros((N_STATES, n - N_STATES))],
+                          [np.zeros((n - N_STATES, N_STATES)), np.diag(fix_errors.variance)]])
+        if p.shape != (n, n) or not np.allclose(p, p.T, rtol=0.0, atol=1e-12 * np.max(np.abs(p))) \
                 or np.min(np.linalg.eigvalsh(p)) < -1e-12 * np.max(np.abs(p)):
-            raise ValueError(f"p0: must be a symmetric positive semi-definite ({N_STATES}, {N_STATES}) matrix, "
+            raise ValueError(f"p0: must be a symmetric positive semi-definite ({n}, {n}) matrix, "
                              f"got shape {p.shape}")
+        self._n = n
+        self._fix_errors = fix_errors
+        self._fix_tau = np.zeros(0) if fix_errors is None else fix_errors.tau_s
+        self._fix_var = np.zeros(0) if fix_errors is None else fix_errors.variance
         self._nav = navigator
         self._noise = noise
         self._p = 0.5 * (p + p.T)
-        self._x = np.zeros(N_STATES)
+        self._x = np.zeros(n)
         self._bg = _vec3("gyro_bias_rad_s", gyro_bias_rad_s)
         self._ba = _vec3("accel_bias_m_s2", accel_bias_m_s2)
         big_t = navigator.update_period_s
         self._n_prop = max(1, int(math.floor(v.positive("", "max_propagation_s", max_propagation_s) / big_t
                                              * (1.0 + 1e-12))))
         self._feedback = bool(feedback)
-        self._qc = process_noise_density(noise)
+        self._qc = np.zeros((n, n))
+        self._qc[:N_STATES, :N_STATES] = process_noise_density(noise)
         self._unmod = unmodelled
         self._unmod_var = np.zeros(4) if unmodelled is None else unmodelled.variances
         self._f_ref = None if unmodelled is None else unmodelled.accel_reference_b_m_s2
@@ -1028,8 +1128,8 @@ class AidedNavigator:
         self._pend_raw = (np.zeros((0, 3)), np.zeros((0, 3)))
         self._epoch_rate = np.full(3, np.nan)
         self._epoch_update = -1
-        self._phi_acc = np.eye(N_STATES)     # product of the block transitions since the last propagate()
-        self._last_correction = np.zeros(N_STATES)
+        self._phi_acc = np.eye(n)     # product of the block transitions since the last propagate()
+        self._last_correction = np.zeros(n)
 
     # --- state ----------------------------------------------------------------------------------------------
 
@@ -1039,13 +1139,23 @@ class AidedNavigator:
         return self._nav
 
     @property
+    def n_states(self) -> int:
+        """Number of states: 15, plus the fix-error states."""
+        return self._n
+
+    @property
+    def fix_errors(self):
+        """The fix-error states' model (:class:`FixErrorStates`) or None."""
+        return self._fix_errors
+
+    @property
     def t_s(self) -> float:
         """Time of the last navigation update (s)."""
         return self._nav.n_updates * self._nav.update_period_s
 
     @property
     def x(self) -> np.ndarray:
-        """Error-state estimate (copy; zero after feedback)."""
+        """Error-state estimate (copy; its first 15 entries zero after feedback)."""
         return self._x.copy()
 
     @property
@@ -1096,7 +1206,7 @@ class AidedNavigator:
                         self._bg - self._x[GYRO_BIAS], self._ba - self._x[ACCEL_BIAS])
 
     def sigma(self) -> np.ndarray:
-        """1-sigma of the 15 states (sqrt of the covariance diagonal)."""
+        """1-sigma of the states (sqrt of the covariance diagonal)."""
         return np.sqrt(np.maximum(np.diag(self._p), 0.0))
 
     # --- processing -----------------------------------------------------------------------------------------
@@ -1191,7 +1301,8 @@ class AidedNavigator:
         :meth:`_propagate_block_reference`)."""
         t = n_updates * self._nav.update_period_s
         kekf.propagate_block(self._block_start, end, t, self._inv_tau[0], self._inv_tau[1], self._qc, self._unmod_var,
-                             self._origin, self._p, self._phi_acc, self._x, not self._feedback)
+                             self._origin, self._p, self._phi_acc, self._x, not self._feedback, self._fix_tau,
+                             self._fix_var)
         self._prior_bias_var = self._noise.bias_variance_after(self._prior_bias_var, t)
         self._block_start = end
 
@@ -1222,12 +1333,19 @@ class AidedNavigator:
                 o = slice(a.start - 9, a.stop - 9)
                 d, self._origin[o] = unmodelled_variance_increment(s0[a], s1[a], sig_s, sig_m, self._origin[o])
                 qc[sl, sl] += c @ np.diag(d) @ c.T / t
-        phi, q_d = discretize(fm, qc, t)
+        n = self._n
+        fn, qn = np.zeros((n, n)), np.zeros((n, n))
+        fn[:N_STATES, :N_STATES], qn[:N_STATES, :N_STATES] = fm, qc[:N_STATES, :N_STATES]
+        phi, q_d = discretize(fn, qn, t)
+        gm = np.arange(N_STATES, n)
+        phi[gm, gm], q_d[gm, gm] = gauss_markov_discrete(self._fix_tau, np.sqrt(self._fix_var), t)
         p = phi @ self._p @ phi.T + q_d
         self._p = 0.5 * (p + p.T)
         self._phi_acc = phi @ self._phi_acc
         if not self._feedback:
             self._x = phi @ self._x
+        else:
+            self._x[gm] = phi[gm, gm] * self._x[gm]
         self._prior_bias_var = self._noise.bias_variance_after(self._prior_bias_var, t)
         self._block_start = end
 
@@ -1242,18 +1360,19 @@ class AidedNavigator:
 
         Returns
         -------
-        ndarray, shape (15, 15)
+        ndarray, shape (n, n)
             The transition matrix ``Phi`` from the previous call (or the start) to now, the product of the
             block transitions in between (a smoother's input; Rauch, Tung & Striebel 1965).
         """
         self._flush()
         phi = self._phi_acc
-        self._phi_acc = np.eye(N_STATES)
+        self._phi_acc = np.eye(self._n)
         return phi
 
     @property
     def last_correction(self) -> np.ndarray:
-        """The error state fed back by the last update (copy; zeros before any, and without feedback)."""
+        """The last update's change of the error state (copy; zeros before any, and without feedback): its first 15
+        entries the correction fed back, the rest the change of the fix-error estimates."""
         return self._last_correction.copy()
 
     def _roll_epoch(self):
@@ -1296,6 +1415,16 @@ class AidedNavigator:
             rs.append(meas.r_matrix())
             dims.append(meas.dim)
         h = np.vstack(hs) if len(hs) > 1 else np.ascontiguousarray(hs[0], dtype=np.float64)
+        if self._n > N_STATES:        # the fix-error states' -I on the rows of the GNSS measurements they corrupt
+            hn = np.zeros((h.shape[0], self._n))
+            hn[:, :h.shape[1]] = h
+            k0 = 0
+            for meas, d in zip(measurements, dims):
+                cols = self._fix_errors.columns(meas.name)
+                if cols is not None:
+                    hn[k0 + np.arange(3), np.arange(cols.start, cols.stop)] = -1.0
+                k0 += d
+            h = hn
         n = h.shape[0]
         r = np.zeros((n, n))
         k0 = 0
@@ -1318,7 +1447,9 @@ class AidedNavigator:
         :meth:`_begin_update`), with the records and the feedback."""
         # Joseph form, compiled (kekf.joseph_update; _joseph_reference is the numpy form it is tested against)
         self._x = self._x.copy()
+        x_before = self._x.copy()
         nu, s = kekf.joseph_update(self._p, self._x, h, r, dz)
+        self._change = self._x - x_before
         recs = []
         k0 = 0
         t = self.t_s
@@ -1348,9 +1479,10 @@ class AidedNavigator:
 
     def _apply_feedback(self):
         x = self._x
-        self._last_correction = x.copy()
+        self._last_correction = self._change
         self._nav.apply_correction(x[POS], x[VEL], x[ATT])
         self._bg = self._bg - x[GYRO_BIAS]
         self._ba = self._ba - x[ACCEL_BIAS]
-        self._x = np.zeros(N_STATES)
+        self._x = x.copy()
+        self._x[:N_STATES] = 0.0      # the fix-error states are the receiver's, not fed back
         self._block_start = self._snapshot_row()

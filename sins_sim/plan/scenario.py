@@ -304,7 +304,8 @@ def _aiding_settings(written: dict, a: dict, sc, base_dir, ctx, duration_key) ->
     except ValueError as exc:
         raise PlanError(f"{ctx}: aiding: {exc}") from None
     return AidingSettings(gnss=gnss, measurements=tuple(dict.fromkeys(a["measurements"])), update_rate_hz=upd,
-                          feedback=a["feedback"], smoother=a["smoother"], file=data)
+                          feedback=a["feedback"], smoother=a["smoother"], file=data,
+                          fix_error_states=a["fix_error_states"])
 
 
 def _alignment_settings(spec: dict, imu):

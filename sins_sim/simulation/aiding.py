@@ -31,11 +31,13 @@ at 5 Hz); once the metrics, the outage growth and the smoother are computed they
    unmodelled_errors
    OUTAGE_AFTER_S
 
-The filter's model of what it does not estimate (a 15-state filter: no GNSS error states, no scale-factor or
-misalignment states; :func:`filter_model`, stated in ``metrics.json`` ``aiding.filter_model``):
+The filter's model of what it does not estimate (15 inertial states, no scale-factor or misalignment states;
+:func:`filter_model`, stated in ``metrics.json`` ``aiding.filter_model`` with the number of states):
 
-* **The fixes' Gauss-Markov error** enters ``R`` as an equivalent white variance
-  (:func:`markov_equivalent_sigma`): the white variance whose mean over the ``n`` updates of the longest aided
+* **The fixes' Gauss-Markov error**, with ``aiding.fix_error_states`` (the default), is three filter states
+  (:class:`~sins_sim.navigation.ekf.FixErrorStates`: ``exp(-T/tau)`` transition, ``sigma^2 (1 - exp(-2 T/tau))``
+  driving noise, Gelb 1974 sec. 3.8; 18 states) and ``R`` is the white noise. Without it, it enters ``R`` as an
+  equivalent white variance (:func:`markov_equivalent_sigma`): the white variance whose mean over the ``n`` updates of the longest aided
   stretch has the variance of the mean of the first-order Gauss-Markov sequence over the same ``n``
   (the variance of the mean of an AR(1) sequence; Box, Jenkins & Reinsel 2008, sec. 2.1.5). With ``n = 1`` it is
   the Gauss-Markov variance itself, for ``n`` far beyond the correlation the familiar ``2 tau / dt`` inflation.
@@ -92,6 +94,9 @@ class AidingSettings:
     file : GnssFile or None
         A recorded solution instead of simulated fixes (its positions and velocities as they are; the noise
         sigmas of ``gnss`` are the filter's ``R``).
+    fix_error_states : bool
+        Model the fixes' Gauss-Markov error as three filter states (``R`` the white noise; default) rather than
+        fold it into ``R`` (:func:`markov_equivalent_sigma`); no effect without a Gauss-Markov error.
     """
 
     gnss: object
@@ -100,6 +105,7 @@ class AidingSettings:
     feedback: bool = True
     smoother: bool = False
     file: object = field(default=None, compare=False)
+    fix_error_states: bool = True
 
     @property
     def decimation(self) -> int:
@@ -148,7 +154,7 @@ def markov_equivalent_sigma(white_sigma, markov_sigma, markov_tau_s, interval_s,
 
 
 def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
-    """The scale factors and misalignments a 15-state filter does not estimate, as the filter is told them.
+    """The scale factors and misalignments the filter does not estimate, as the filter is told them.
 
     ``sigma_S`` the root sum square of scale factor and asymmetry, ``sigma_M`` the largest misalignment (the
     unit's numbers read as 1-sigma, the largest axis), for gyros and accelerometers: the process noise per
@@ -206,7 +212,8 @@ class FilterModel:
     ``noise`` the unit's :class:`~sins_sim.navigation.ekf.ImuNoise`, ``position_sigma_m`` and
     ``velocity_sigma_m_s`` the fixes' ``R`` (1-sigma per NED axis), ``record`` the derivation's numbers for
     ``metrics.json`` (SI, units in the keys), ``unmodelled`` the scale factors and misalignments told as process
-    noise per step (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`, or None).
+    noise per step (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`, or None), ``fix_errors`` the fixes'
+    Gauss-Markov error as filter states (:class:`~sins_sim.navigation.ekf.FixErrorStates`, or None).
     """
 
     noise: object
@@ -215,6 +222,7 @@ class FilterModel:
     record: dict
     bias_var_extra: np.ndarray = field(default_factory=lambda: np.zeros(6))
     unmodelled: object = None
+    fix_errors: object = None
 
     def initial_covariance(self, pos_sigma_m, vel_sigma_m_s, tilt_sigma_rad, heading_sigma_rad) -> np.ndarray:
         """``P0`` (:func:`~sins_sim.navigation.ekf.initial_covariance`) with the bias variances per body axis
@@ -260,14 +268,24 @@ def filter_model(settings: AidingSettings, noise, sensors=None, vehicle=None, t0
     interval = settings.decimation / g.rate_hz
     span = _longest_aided_s(float(t0_s), t1, g.outages_s)
     n = max(1, math.floor(span / interval + 1e-9))
-    if settings.file is None and np.any(np.asarray(g.markov_sigma_m) > 0.0):
+    from sins_sim.navigation.ekf import N_STATES, FixErrorStates
+
+    fix_errors = None
+    markov = settings.file is None and np.any(np.asarray(g.markov_sigma_m) > 0.0)
+    if markov and settings.fix_error_states:
+        pos = np.asarray(g.position_sigma_m, dtype=np.float64)
+        fix_errors = FixErrorStates(g.markov_sigma_m, g.markov_tau_s)
+        how = {"gnss_markov": "three first-order Gauss-Markov position states; R the white noise",
+               "gnss_markov_sigma_m": [float(x) for x in g.markov_sigma_m], "gnss_markov_tau_s": float(g.markov_tau_s)}
+    elif markov:
         pos = markov_equivalent_sigma(g.position_sigma_m, g.markov_sigma_m, g.markov_tau_s, interval, n)
+        how = {"gnss_markov": "equivalent white variance in R over the longest aided stretch",
+               "gnss_markov_fixes_averaged": n}
     else:
         pos = np.asarray(g.position_sigma_m, dtype=np.float64)
+        how = {"gnss_markov": "none"}
     un, extra = unmodelled_errors(sensors, vehicle, float(t0_s), t1)
-    record = {"states": 15,
-              "gnss_markov": "equivalent white variance in R over the longest aided stretch",
-              "gnss_markov_fixes_averaged": n,
+    record = {"states": N_STATES + (0 if fix_errors is None else fix_errors.n_states), **how,
               "position_sigma_told_m": [float(x) for x in pos],
               "velocity_sigma_told_m_s": [float(x) for x in np.asarray(g.velocity_sigma_m_s)],
               "unmodelled": "process noise per step from the angle and velocity change (coherent accumulation)",
@@ -280,7 +298,7 @@ def filter_model(settings: AidingSettings, noise, sensors=None, vehicle=None, t0
     accel_prior = np.sqrt(noise.accel_bias_sigma_m_s2 ** 2 + extra[3:])
     record["gyro_bias_prior_told_rad_s_body"] = [float(x) for x in gyro_prior]
     record["accel_bias_prior_told_m_s2_body"] = [float(x) for x in accel_prior]
-    return FilterModel(noise, pos, np.asarray(g.velocity_sigma_m_s, dtype=np.float64), record, extra, un)
+    return FilterModel(noise, pos, np.asarray(g.velocity_sigma_m_s, dtype=np.float64), record, extra, un, fix_errors)
 
 
 def _prior(settings: AidingSettings, alignment_result):
@@ -443,7 +461,8 @@ class AidedMission:
                        model.position_sigma_m, model.velocity_sigma_m_s, g.lever_arm_b_m,
                        output_t_s=self.output_times(t0, t_end), use=self.settings.measurements,
                        n_sub=self.n_sub, max_propagation_s=1.0 / self.settings.update_rate_hz,
-                       feedback=self.settings.feedback, coning=coning, sculling=sculling, unmodelled=model.unmodelled)
+                       feedback=self.settings.feedback, coning=coning, sculling=sculling, unmodelled=model.unmodelled,
+                       fix_errors=model.fix_errors)
         for part in self.parts:
             run.add_fixes(part)
         return _FilterAided(run, len(self.parts), model)
