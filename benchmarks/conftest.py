@@ -27,6 +27,13 @@ from sins_sim.bench import SIZES
 THRESHOLDS_FILE = Path(__file__).with_name("thresholds.json")
 
 
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config) -> int:
+    """One process: pyproject's ``addopts`` runs the tests with ``-n auto`` (pytest-xdist), but the benchmarks
+    compare CPU times measured in the same process, and pytest-benchmark turns itself off under xdist."""
+    return 0
+
+
 def pytest_addoption(parser):
     parser.addoption("--bench-quick", action="store_true", default=False,
                      help="sins_sim benchmarks: short inputs and few rounds (CI)")
