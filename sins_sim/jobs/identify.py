@@ -298,6 +298,8 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     if twin_seeds:
         metrics["twin"], detail["twin"] = _twin(metrics, analyses, site, al, t, alignment, twin_seeds,
                                                      run_kw, log_run)
+        metrics["explain"], metrics["verdict"] = _explain(metrics, analyses, site, al, t, dth, dv, alignment,
+                                                          twin_seeds, run_kw, log_run, temp)
     metrics = _json_ready(metrics)
     if out_dir is not None:
         from sins_sim.jobs.manifest import Manifest, result_dir
@@ -724,7 +726,8 @@ def _write(folder: Path, metrics: dict, detail: dict) -> list:
         written += draw_twin_figures(detail, metrics, folder)
     (folder / "imu-sensors.yaml").write_text(sensors_yaml(metrics))
     (folder / "report.md").write_text(_report(metrics) + "\n".join(_lines_report(metrics) + _steps_report(metrics) + _temperature_report(metrics)
-                                                                   + _twin_report(metrics)) + "\n")
+                                                                   + _twin_report(metrics)
+                                                                   + _verdict_report(metrics)) + "\n")
     return written
 
 
@@ -839,3 +842,84 @@ def _rate_table_report(metrics: dict) -> str:
             out.append(f"| {name} ({unit}) | {e['value']:.4g} | {e['sigma']:.2g} |" if "value" in e else
                        f"| {name} ({unit}) | {e['status']} | |")
     return "\n".join(out) + "\n"
+
+
+def _log_step_findings(steps: dict) -> list:
+    """The log's bias steps as findings with the readings the gap measure needs (``z``, ``threshold``; the
+    explain step's, :mod:`sins_sim.identification.twin_explain`)."""
+    out = []
+    for f in _step_findings(steps):
+        e = steps[f["sensor"]][f["axis"]]
+        out.append({**f, "z": e["z"], "threshold": e["threshold"]})
+    return out
+
+
+def _explain(metrics: dict, analyses: dict, site: dict, al, t, dth, dv, alignment: str, seeds: int, run_kw: dict,
+             log_run, temp) -> tuple:
+    """Explain and shrink the twin's findings with the catalogue, and the verdict
+    (:func:`sins_sim.identification.twin_explain.explain_twin`); ``(explain, verdict)`` for the metrics."""
+    from sins_sim.identification.twin_explain import explain_twin
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+
+    dt = float(t[1] - t[0])
+    doc, _ = twin_sensors(metrics, al.q_nb, analyses)
+    params = sensor_params_from_dict(doc, "the identified twin")
+    y6 = np.hstack([np.asarray(dth, dtype=np.float64), np.asarray(dv, dtype=np.float64)]) / dt
+    tc = None if temp is None else np.asarray(temp, dtype=np.float64)[:y6.shape[0]]
+    temperature = metrics["temperature"] if "status" not in metrics["temperature"] else None
+    try:
+        ex = explain_twin(log_run, y6, t, metrics["twin"]["findings"], _log_step_findings(metrics["bias_steps"]),
+                          sensors=params, site=site, q_nb=al.q_nb, method=alignment, seeds=range(1, seeds + 1),
+                          run_kw=run_kw, temperature_c=tc, temperature=temperature,
+                          intervals_s=np.diff(np.asarray(t, dtype=np.float64), prepend=float(t[0]) - dt),
+                          step_alpha=STEP_ALPHA / 6.0, bias=metrics["bias"], lat_rad=site["lat_rad"])
+    except ValueError as exc:
+        raise ConfigError(f"--twin-seeds: the twin's explain step failed: {exc}") from None
+    verdict = ex.pop("verdict")
+    return ex, verdict
+
+
+def _verdict_report(metrics: dict) -> list:
+    """The report's explain and verdict sections (as the channel diagnosis's verdict)."""
+    v = metrics.get("verdict")
+    if not v:
+        return []
+    ex = metrics["explain"]
+    out = ["", "## Explain: candidate effects added to the twin", "",
+           (f"Gap measure G = {ex['gap_measure']}; the twin's G_0 = {ex['gap']:.3g}. Each candidate is fitted on the "
+            "log, added to the twin, re-simulated over its seeds and localised again; shrink = 1 - G / G_0 (sd: "
+            f"bootstrap over the twin's seeds). Held-out: fitted on the {ex['heldout']['fit']} of "
+            f"{ex['heldout']['blocks']}, scored on the {ex['heldout']['scored']} (Diebold-Mariano).")]
+    if ex["candidates"]:
+        out += ["", "| candidate | fitted | shrink | sd | held-out p | findings removed |", "|---|---|---|---|---|---|"]
+        for c in ex["candidates"]:
+            fitted = "; ".join(f"{ax}: " + ", ".join(f"{k} {val:.4g} +- {c['uncertainty'][ax].get(k, float('nan')):.2g}"
+                                                     if k in c["uncertainty"][ax] else f"{k} {val:.4g}"
+                                                     for k, val in pv.items()) for ax, pv in c["params"].items())
+            out.append(f"| {c['label']} | {fitted} | {c['shrink']:.2f} | {c['shrink_sd']:.2f} | {c['p_heldout']:.2g} | "
+                       f"{len(c['removes'])} |")
+    out += ["", "Not testable in this log:", ""]
+    for k, why in ex["not_testable"].items():
+        if k == "implied_at_rest":
+            out += [f"- implied at rest: " + ", ".join(f"{n} {e['value']:.3g} +- {e['sigma']:.2g}" for n, e in
+                                                       why.items())]
+        else:
+            out.append(f"- {k}: {why}")
+    out += ["", "## Verdict", "", f"**{v['status']}**" + (f": {v['effect']}" if v["status"] in
+                                                          ("explained", "partly explained") else "")]
+    if v["status"] in ("explained", "partly explained"):
+        out += ["", f"Explained fraction of the gap: {v['explained_fraction']:.2f} +- {v['explained_fraction_sd']:.2f} "
+                    "(over the twin's seeds)."]
+        out += [f"- {e['label']}: {e['explained_fraction']:.2f} of the gap (held-out p = {e['p_heldout']:.2g})"
+                for e in v["effects"]]
+    if v["alternatives"]:
+        out += ["", "Alternatives (explain it alike on held-out data): " + ", ".join(v["alternatives"]) + "."]
+    if v["remainder"]:
+        out += ["", "Remainder (still outside the envelope):"] + [f"- {f['statement']}" for f in v["remainder"]]
+    if v["status"] == "unknown":
+        out += ["", "No candidate shrinks these findings (the band of the unknown):"] + [
+            f"- {f['statement']}" for f in v["band"]]
+        if v.get("unconfirmed"):
+            out += ["", v["unconfirmed"]["message"] + "."]
+    out += ["", f"Criterion: {v['criterion']}."]
+    return out

@@ -72,6 +72,12 @@ class IdentifyResult(dict):
         return (IdentifyResult, (dict(self), None, self.files))
 
     @property
+    def verdict(self) -> dict | None:
+        """The verdict beside the twin (``status``: ``none``, ``explained``, ``partly explained``, ``unknown``,
+        ``invalid data``; :mod:`sins_sim.identification.twin_explain`), or None without the twin."""
+        return self.get("verdict")
+
+    @property
     def figures(self) -> list:
         """The kinds :meth:`plot` can draw."""
         if self.detail is None:
@@ -94,7 +100,8 @@ class IdentifyResult(dict):
     def to_pandas(self) -> dict:
         """The tables: ``noise`` (sensor, axis, term, value, ci95 low/high), ``bias`` (sensor, component, value,
         sigma), ``lines`` (sensor, axis and each line's readings), ``temperature`` (sensor, axis, coefficient,
-        sigma, significant) and ``findings`` (one row per place the log leaves its twin); for a rate-table result
+        sigma, significant) and ``findings`` (one row per place the log leaves its twin), with the twin ``candidates``
+        (label, effect, shrink, shrink_sd, p_heldout, findings_removed: :mod:`sins_sim.identification.twin_explain`); for a rate-table result
         ``motion_terms`` (term, unit, value, sigma, status)."""
         import pandas as pd
 
@@ -122,5 +129,12 @@ class IdentifyResult(dict):
                     temp.append({"sensor": s, "axis": ax, "quantity": key, "value": e.get("value"),
                                  "sigma": e["sigma"], "significant": "value" in e})
         findings = [{k: v for k, v in f.items()} for f in (self.get("twin") or {}).get("findings", [])]
-        return {"noise": pd.DataFrame(noise), "bias": pd.DataFrame(bias), "lines": pd.DataFrame(lines),
-                "temperature": pd.DataFrame(temp), "findings": pd.DataFrame(findings)}
+        out = {"noise": pd.DataFrame(noise), "bias": pd.DataFrame(bias), "lines": pd.DataFrame(lines),
+               "temperature": pd.DataFrame(temp), "findings": pd.DataFrame(findings)}
+        if "explain" in self:
+            out["candidates"] = pd.DataFrame(
+                [{"label": c["label"], "effect": c["effect"], "shrink": c["shrink"], "shrink_sd": c["shrink_sd"],
+                  "p_heldout": c["p_heldout"], "findings_removed": len(c["removes"])}
+                 for c in self["explain"]["candidates"]], columns=["label", "effect", "shrink", "shrink_sd",
+                                                                   "p_heldout", "findings_removed"])
+        return out
