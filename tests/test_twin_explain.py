@@ -249,3 +249,17 @@ def test_a_log_of_the_twin_itself_gives_none_in_19_of_20_seeds(tmp_path):
         _twin_log(p, 7000 + seed, 1.0)
         statuses.append(identify(p, twin_seeds=5)["verdict"]["status"])
     assert statuses.count("none") >= 19, statuses
+
+
+# --- identify-eval ----------------------------------------------------------------------------------------------------
+
+def test_identify_eval_reads_its_foreign_layout_and_scores_none_and_invalid_data():
+    # a plain unit's log in the foreign layout (semicolon CSV of deg/h and mg rates, right-forward-up) comes back as
+    # none; the same with rows dropped mid-way is refused by the reader (gaps: refuse): invalid data
+    from sins_sim.jobs.identify_eval import format_identify_eval, identify_eval
+
+    r = identify_eval((0,), minutes=1.0, classes=["none", "time_gap"])
+    assert r["accuracy"]["looked"] == {"none": [1, 1], "time_gap": [1, 1]}, r["cases"]
+    assert "time_gap" in format_identify_eval(r)
+    with pytest.raises(ValueError, match="classes: must be among"):
+        identify_eval((0,), classes=["nope"])

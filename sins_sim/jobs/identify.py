@@ -22,7 +22,10 @@ angle and velocity increments in body FRD axes. On it, for a unit at rest over t
 5. **the twin beside the log** (``twin_seeds`` > 0): the twin's ``sensors:`` (:func:`twin_sensors`) simulated on
    the log's time axis and the log's mission run on each seed and on the log (:mod:`sins_sim.simulation.twin`),
    and where the log leaves the twin's envelope (:mod:`sins_sim.identification.twin_gap`, ``twin.findings``);
-6. **output**: ``metrics.json``, ``allan.png``, ``psd.png``, ``twin-allan.png``, ``twin-psd.png``,
+6. **explain and verdict** (with the twin): the catalogue's SINS-level effects added to the twin, re-simulated and
+   localised again, the gap's shrink with a held-out check, and the verdict in the channel diagnosis's words
+   (:mod:`sins_sim.identification.twin_explain`; ``explain`` and ``verdict`` in the metrics);
+7. **output**: ``metrics.json``, ``allan.png``, ``psd.png``, ``twin-allan.png``, ``twin-psd.png``,
    ``twin-alignment.png``, ``twin-nav.png``, ``imu-sensors.yaml`` (a ``sensors:`` section for the unit's
    twin, each value's source and sigma in a comment) and ``report.md``.
 
