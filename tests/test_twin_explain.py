@@ -61,7 +61,10 @@ def test_fit_line_step_and_ramp_recover_known_values_within_their_sigma():
     r = te.fit_line(y, t, dt, (0.29, 0.31), every)
     assert r["amplitude_sigma"] == pytest.approx(sigma * math.sqrt(2.0 / n), rel=0.05)
     assert abs(r["amplitude"] - 0.2) <= 4.0 * r["amplitude_sigma"]
-    assert abs(r["frequency_hz"] - 0.3) <= 0.02 / (te.LINE_GRID - 1)          # the grid point nearest 0.3 Hz
+    # the grid: a quarter of 1 / T = 1/300 Hz apart over 0.02 Hz (41 points, 0.0005 Hz); the Cramer-Rao sigma is
+    # sqrt(12 s^2 / (A^2 n^3)) fs / (2 pi) = 1.5e-5 Hz, so the grid's rounding (0.0005 / sqrt(12)) is the sigma
+    assert r["frequency_sigma_hz"] == pytest.approx(0.0005 / math.sqrt(12.0), rel=1e-9)
+    assert abs(r["frequency_hz"] - 0.3) <= 0.00025 + 1e-12                  # the grid point nearest 0.3 Hz
     assert abs(math.remainder(r["phase_rad"] - phi, 2 * math.pi)) < 0.1      # ~ sigma / amplitude = 0.04 rad
     # a step of 0.2 at 180 s: its size's sigma is sigma sqrt(1/n1 + 1/n2) = 0.0120; its time to a scale of
     # (sigma / d)^2 = 25 samples: the change point's error is the argmax of a two-sided random walk with drift, whose
@@ -184,7 +187,8 @@ def test_a_sway_line_and_a_bias_step_are_named_and_each_shrinks_the_gap_by_its_s
     # localised in band and time, and named
     assert line["label"].startswith("sway line gyro x")
     p = line["params"]["gyro_x"]
-    assert abs(p["frequency_hz"] - SWAY_HZ) <= line["uncertainty"]["gyro_x"]["frequency_hz"]
+    # the frequency within the finding's band (one PSD bin, 8 / T, each side)
+    assert abs(p["frequency_hz"] - SWAY_HZ) <= 8.0 / 480.0
     # the sway's rate amplitude 2 pi f theta, within 4 of its stated sigmas
     amp = 2 * math.pi * SWAY_HZ * SWAY_ARCSEC * ARCSEC / DEG_PER_H
     assert abs(p["amplitude_deg_h"] - amp) <= 4.0 * line["uncertainty"]["gyro_x"]["amplitude_deg_h"]
@@ -263,3 +267,21 @@ def test_identify_eval_reads_its_foreign_layout_and_scores_none_and_invalid_data
     assert "time_gap" in format_identify_eval(r)
     with pytest.raises(ValueError, match="classes: must be among"):
         identify_eval((0,), classes=["nope"])
+
+
+def test_a_change_of_noise_level_is_found_in_its_time_window_and_a_steady_log_has_none():
+    # white noise on six axes, tripled in standard deviation on the y gyro from 60 s to 84 s (blocks of 6 s): the
+    # block variance ratio is 9 there, far outside the band (about 0.6 to 1.7 for 600 samples a block at 1 % over
+    # 6 x 20 blocks); outside that window nothing (1 % per log: a false finding with this seed is unlikely)
+    rng = np.random.default_rng(3)
+    fs, n = 100.0, 12000
+    y = rng.standard_normal((n, 6))
+    assert te.noise_level_findings(y, fs) == []
+    y[6000:8400, 1] *= 3.0
+    found = te.noise_level_findings(y, fs)
+    assert len(found) == 1
+    f = found[0]
+    assert (f["sensor"], f["axis"], f["side"]) == ("gyro", "y", "above")
+    assert f["time_s"] == pytest.approx([60.0, 84.0])
+    assert f["ratio"] == pytest.approx(9.0, rel=0.25)       # the variance ratio's sd ~ sqrt(2 * 1.5 / 600) = 7 %
+    assert te.finding_excess(f) == pytest.approx(math.log(f["ratio"] / f["band"][1]))

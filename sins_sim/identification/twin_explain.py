@@ -41,7 +41,8 @@ Allan deviation, a line and a navigation error add in one unit):
 * Allan deviation: ``ln(log / hi)`` above the band, ``ln(lo / log)`` below, at the worst tau;
 * spectral line: ``ln(snr / threshold)`` (the line's power over its local floor, beyond the detection threshold);
 * navigation: ``ln(|log - mean| / halfwidth)`` at the log's end;
-* bias step: ``ln(|z| / threshold)``.
+* bias step: ``ln(|z| / threshold)``;
+* noise level (:func:`noise_level_findings`, a finding of the log alone): ``ln(ratio / hi)`` or ``ln(lo / ratio)``.
 
 The **gap** ``G`` is their sum; zero when the log stays in its envelope. A candidate's **shrink** is ``1 - G_c /
 G_0`` (``G_c`` with the candidate added to the twin, re-simulated over the twin's seeds and localised again); its
@@ -78,6 +79,7 @@ log's refusals, e.g. gaps in its time column or a unit that moves).
 .. autosummary::
 
    explain_twin
+   noise_level_findings
    finding_excess
    gap_measure
    choose_step
@@ -99,7 +101,7 @@ from sins_sim.identification.verdict import AHEAD_ALPHA, ALPHA, DOMINANT, MAX_EF
 from sins_sim.units import DEG_PER_H, MICRO_G
 
 __all__ = ["BOOTSTRAP", "CHANNELS", "HELD_BLOCKS", "NOT_TESTABLE_AT_REST", "SWAY_MAX_HZ", "choose_step",
-           "explain_twin", "finding_excess", "finding_key", "fit_line", "fit_ramp", "fit_step", "gap_measure",
+           "explain_twin", "finding_excess", "finding_key", "noise_level_findings", "LEVEL_ALPHA", "LEVEL_BLOCKS", "fit_line", "fit_ramp", "fit_step", "gap_measure",
            "give_twin_verdict", "heldout_losses", "invalid_data", "localise_with_steps"]
 
 #: The six axes of a log, in the column order of the added rate and force.
@@ -112,10 +114,20 @@ HELD_BLOCKS = 40
 BOOTSTRAP = 50
 #: A base-motion line below this frequency is called sway, above it vibration.
 SWAY_MAX_HZ = 2.0
-#: Frequencies tried across a line finding's band.
+#: Frequencies tried across a line's band: at least this many, a quarter of the log's resolution ``1 / T`` apart, at
+#: most :data:`MAX_LINE_GRID`.
 LINE_GRID = 41
+MAX_LINE_GRID = 2000
+#: A sinusoid's Allan deviation peaks at ``tau = 0.371 / f`` (``sigma^2 = Omega^2 (sin^2(pi f tau) / (pi f tau))^2``,
+#: IEEE Std 952-1997, Annex C, C.7): a line below the PSD's search band is sought across the band an Allan bump
+#: spans, widened by this factor each side.
+ALLAN_LINE_TAU = 0.371
+ALLAN_LINE_WIDEN = 2.0
 #: Fraction of the log at each end where a step is not tried (as the step scan).
 STEP_MARGIN = 0.05
+#: Blocks of the noise-level scan (:func:`noise_level_findings`) and its chance of a false finding per log.
+LEVEL_BLOCKS = 20
+LEVEL_ALPHA = 0.01
 #: The catalogue's effects that a log at rest cannot test, and why.
 NOT_TESTABLE_AT_REST = {
     "scale_factor_asymmetry": "needs rates of both signs well above the Earth's rate; a log at rest has none",
@@ -146,6 +158,9 @@ def finding_excess(f: dict) -> float:
         e = math.log(abs(log - mean) / half) if half > 0.0 else math.inf
     elif q == "bias_step":
         e = math.log(abs(f["z"]) / f["threshold"])
+    elif q == "noise_level":
+        lo, hi = f["band"]
+        e = math.log(f["ratio"] / hi) if f["side"] == "above" else math.log(lo / f["ratio"])
     else:
         raise ValueError(f"finding: unknown quantity {q!r}")
     return max(0.0, float(e))
@@ -165,6 +180,8 @@ def finding_key(f: dict) -> tuple:
         return (q, f["sensor"], f["axis"], round(f["frequency_hz"] / max(f["band_hz"][1] - f["frequency_hz"], 1e-12)))
     if q == "navigation":
         return (q, f["what"])
+    if q == "noise_level":
+        return (q, f["sensor"], f["axis"], f["side"], round(f["time_s"][0], 6))
     return (q, f["sensor"], f["axis"])
 
 
@@ -174,6 +191,59 @@ def _place(f: dict) -> dict:
                               "time_s") if k in f}
     out["excess"] = finding_excess(f)
     out["statement"] = f["statement"]
+    return out
+
+
+# --- the noise level over time ------------------------------------------------------------------------------------
+
+def noise_level_findings(y6, fs: float, alpha: float = LEVEL_ALPHA, blocks: int = LEVEL_BLOCKS) -> list:
+    """Where a log's white-noise level changes over time (a finding kind of the log alone; the twin's noise is
+    stationary, so no candidate of the catalogue removes it).
+
+    Per axis, the variance ``s_k^2`` of the first differences of the rate (or specific force) in each of ``blocks``
+    blocks, against the median over the blocks. A first difference keeps the white noise (variance ``2 sigma^2``)
+    and suppresses what is slow: a line of frequency ``f`` by ``2 sin(pi f / fs)``, a bias step to one sample. The
+    differences of white noise are an MA(1) with lag-one correlation -1/2, so a block's sample variance has
+    ``(m - 1) / 1.5`` equivalent degrees of freedom (``var s^2 = 2 s^4 (1 + 2 rho_1^2) / m``; Priestley 1981,
+    "Spectral Analysis and Time Series", sec. 5.3.2), and the median of ``K`` blocks the share ``2 / pi`` of the
+    mean's (its efficiency for a normal scale; Kendall and Stuart, vol. 1, sec. 10.10): the ratio is read against
+    ``F(edf, 2 K edf / pi)``, two-sided at ``alpha / (6 K)`` (Bonferroni over the axes and blocks). A run of blocks
+    outside on one side is one finding, with its time window.
+    """
+    from scipy.stats import f as f_dist
+
+    y6 = np.asarray(y6, dtype=np.float64)
+    n = y6.shape[0]
+    m = n // blocks
+    if m < 20:
+        return []
+    d = np.diff(y6[:m * blocks], axis=0)
+    d = np.vstack([d, d[-1:]]).reshape(blocks, m, 6)
+    var = d.var(axis=1, ddof=1)                                             # (blocks, 6)
+    edf = (m - 1) / 1.5
+    a = alpha / (2.0 * 6.0 * blocks)
+    lo, hi = f_dist.ppf(a, edf, 2.0 * blocks * edf / math.pi), f_dist.isf(a, edf, 2.0 * blocks * edf / math.pi)
+    out = []
+    for ch, (sensor, ax) in enumerate(CHANNELS):
+        ratio = var[:, ch] / max(float(np.median(var[:, ch])), 1e-300)
+        flags = np.where(ratio > hi, 1, np.where(ratio < lo, -1, 0))
+        i = 0
+        while i < blocks:
+            if flags[i] == 0:
+                i += 1
+                continue
+            j = i
+            while j + 1 < blocks and flags[j + 1] == flags[i]:
+                j += 1
+            k = i + int(np.argmax(np.abs(np.log(ratio[i:j + 1]))))
+            side = "above" if flags[i] > 0 else "below"
+            window = [i * m / fs, (j + 1) * m / fs]
+            out.append({"quantity": "noise_level", "sensor": sensor, "axis": ax, "side": side, "time_s": window,
+                        "ratio": float(ratio[k]), "band": [float(lo), float(hi)],
+                        "statement": (f"{sensor} {ax}: the white noise level lies {side} its median from "
+                                      f"{window[0]:.4g} s to {window[1]:.4g} s (variance {ratio[k]:.3g} times the "
+                                      f"median; band {lo:.3g} to {hi:.3g})")})
+            i = j + 1
     return out
 
 
@@ -188,7 +258,8 @@ def _scan(values, fs: float, ch: int, alpha: float):
         return None
 
 
-def localise_with_steps(log_run, runs: list, step_findings: list, scans: list, alpha: float = 0.05) -> list:
+def localise_with_steps(log_run, runs: list, step_findings: list, scans: list, alpha: float = 0.05,
+                        level_findings=()) -> list:
     """The findings of :func:`~sins_sim.identification.twin_gap.localise` (with the readings
     :func:`finding_excess` needs) and the log's bias steps that the twin does not show.
 
@@ -203,6 +274,9 @@ def localise_with_steps(log_run, runs: list, step_findings: list, scans: list, a
         Per seed, ``channel index -> StepScan`` of the twin's record on the steps' axes (None: not scannable).
     alpha : float
         The localisation's false-alarm level.
+    level_findings : list of dict
+        The log's noise-level findings (:func:`noise_level_findings`): kept whatever the twin (its noise is
+        stationary).
     """
     from sins_sim.identification.twin_gap import localise
 
@@ -224,6 +298,7 @@ def localise_with_steps(log_run, runs: list, step_findings: list, scans: list, a
         if 2 * hits >= len(scans):
             continue
         out.append({**f, "twin_seeds_with_step": hits, "excess": finding_excess(f)})
+    out += [{**f, "excess": finding_excess(f)} for f in level_findings]
     return out
 
 
@@ -240,14 +315,16 @@ def _sin_cos(t, dt: float, f_hz: float) -> tuple:
 def fit_line(y, t, dt: float, band_hz, train) -> dict:
     """A sinusoid ``A sin(2 pi f t + phi)`` (interval means) in ``y`` on the ``train`` samples, ``f`` over the band.
 
-    Returns ``frequency_hz``, ``amplitude`` and ``amplitude_sigma`` (SI: the record's unit), ``phase_rad`` and
-    ``prediction`` (N,) on every sample.
+    Returns ``frequency_hz`` and ``frequency_sigma_hz``, ``amplitude`` and ``amplitude_sigma`` (SI: the record's
+    unit), ``phase_rad`` and ``prediction`` (N,) on every sample.
     """
     y = np.asarray(y, dtype=np.float64)
     tr = np.asarray(train, dtype=bool)
     yt = y[tr] - y[tr].mean()
     best = None
-    for f in np.linspace(band_hz[0], band_hz[1], LINE_GRID):
+    span = float(t[-1] - t[0]) + dt
+    grid = int(min(MAX_LINE_GRID, max(LINE_GRID, math.ceil((band_hz[1] - band_hz[0]) * 4.0 * span))))
+    for f in np.linspace(band_hz[0], band_hz[1], grid):
         s, c = _sin_cos(t[tr], dt, f)
         x = np.column_stack([s - s.mean(), c - c.mean()])
         beta, *_ = np.linalg.lstsq(x, yt, rcond=None)
@@ -260,7 +337,14 @@ def fit_line(y, t, dt: float, band_hz, train) -> dict:
     var = rss / max(yt.size - 3, 1) * np.linalg.inv(x.T @ x)
     g = np.array([a_s, a_c]) / amp if amp > 0 else np.zeros(2)
     s, c = _sin_cos(t, dt, f)
-    return {"frequency_hz": float(f), "amplitude": amp, "amplitude_sigma": float(math.sqrt(max(g @ var @ g, 0.0))),
+    # the frequency's sigma: the Cramer-Rao bound of a sinusoid in white noise, var(w) = 12 s^2 / (A^2 n^3) per
+    # sample^2 (Kay 1993, "Fundamentals of Statistical Signal Processing", vol. 1, example 3.14), or the grid's
+    # rounding (step / sqrt(12)) where larger
+    step = (band_hz[1] - band_hz[0]) / max(grid - 1, 1)
+    s2 = rss / max(yt.size - 3, 1)
+    crb = math.sqrt(12.0 * s2 / max(amp ** 2 * yt.size ** 3, 1e-300)) / (2.0 * math.pi * dt)
+    return {"frequency_hz": float(f), "frequency_sigma_hz": max(crb, step / math.sqrt(12.0)), "amplitude": amp,
+            "amplitude_sigma": float(math.sqrt(max(g @ var @ g, 0.0))),
             "phase_rad": math.atan2(a_c, a_s), "prediction": a_s * s + a_c * c}
 
 
@@ -336,8 +420,7 @@ def _fit(cand: dict, y6, t, dt: float, train, extra: dict) -> tuple:
             pred[:, ch] = r["prediction"]
             params[name] = {"frequency_hz": r["frequency_hz"], f"amplitude_{unit}": r["amplitude"] * scale,
                             "phase_deg": math.degrees(r["phase_rad"])}
-            sig[name] = {f"amplitude_{unit}": r["amplitude_sigma"] * scale, "frequency_hz": cand["band_hz"][1]
-                         - cand["band_hz"][0]}
+            sig[name] = {f"amplitude_{unit}": r["amplitude_sigma"] * scale, "frequency_hz": r["frequency_sigma_hz"]}
             if sensor == "gyro":
                 from sins_sim.units import ARCSEC
 
@@ -389,6 +472,15 @@ def _candidates(findings: list, extra: dict, temperature: dict | None) -> list:
                         "channels": [CHANNELS.index((f["sensor"], f["axis"]))],
                         "gls_sigma": f.get(f"sigma_{unit}", 0.0) / scale,
                         "time_resolution_s": f.get("time_resolution_s", 0.0)})
+    lined = {(f["sensor"], f["axis"]) for f in findings if f["quantity"] == "psd_line"}
+    for f in findings:
+        if f["quantity"] == "allan_deviation" and f["side"] == "above" and (f["sensor"], f["axis"]) not in lined:
+            lo = max(ALLAN_LINE_TAU / f["tau_range_s"][1] / ALLAN_LINE_WIDEN, 2.0 / (extra["dt_s"] * extra["n"]))
+            hi = min(ALLAN_LINE_TAU / f["tau_range_s"][0] * ALLAN_LINE_WIDEN, 0.45 / extra["dt_s"])
+            if hi > lo:
+                out.append({"effect": "base_motion_line", "label": f"line {f['sensor']} {f['axis']} from the Allan "
+                                                                   f"bump ({lo:.3g} to {hi:.3g} Hz)", "kind": "line",
+                            "channels": [CHANNELS.index((f["sensor"], f["axis"]))], "band_hz": [lo, hi]})
     drift = sorted({CHANNELS.index((f["sensor"], f["axis"])) for f in findings
                     if f["quantity"] == "allan_deviation" and f["side"] == "above"}
                    | ({0, 1, 2} if any(f["quantity"] == "navigation" for f in findings) else set()))
@@ -545,7 +637,8 @@ class _Twin:
     """Runs the twin with added effects and localises it (with the bootstrap over seeds)."""
 
     def __init__(self, sensors, t, site, q_nb, method, seeds, run_kw, log_run, step_findings, step_alpha, alpha,
-                 rng):
+                 rng, level_findings=()):
+        self.level = list(level_findings)
         self.args = (sensors, t, site, q_nb, method, seeds)
         self.run_kw, self.log_run, self.steps = run_kw, log_run, step_findings
         self.step_alpha, self.alpha = step_alpha, alpha
@@ -559,11 +652,11 @@ class _Twin:
         runs = [r for r, _ in pairs]
         chans = {CHANNELS.index((f["sensor"], f["axis"])) for f in self.steps}
         scans = [{ch: _scan(v, self.fs, ch, self.step_alpha) for ch in chans} for _, v in pairs]
-        findings = localise_with_steps(self.log_run, runs, self.steps, scans, self.alpha)
+        findings = localise_with_steps(self.log_run, runs, self.steps, scans, self.alpha, self.level)
         boot = []
         for idx in self.boot:
             boot.append(gap_measure(localise_with_steps(self.log_run, [runs[i] for i in idx], self.steps,
-                                                        [scans[i] for i in idx], self.alpha)))
+                                                        [scans[i] for i in idx], self.alpha, self.level)))
         return {"findings": findings, "gap": gap_measure(findings), "boot": np.asarray(boot)}
 
 
@@ -616,7 +709,8 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
     train = blocks % 2 == 0
     every = np.ones(n, dtype=bool)
     extra = {"temperature_c": None if temperature_c is None else np.asarray(temperature_c, dtype=np.float64),
-             "intervals_s": None if intervals_s is None else np.asarray(intervals_s, dtype=np.float64), "dt_s": dt}
+             "intervals_s": None if intervals_s is None else np.asarray(intervals_s, dtype=np.float64), "dt_s": dt,
+             "n": n}
     not_testable = dict(NOT_TESTABLE_AT_REST)
     not_testable.update(_implied_scales(bias, lat_rad))
     gap0 = 0.0
@@ -629,7 +723,7 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
         out["verdict"] = give_twin_verdict(findings, [], [], gap0)
         return out
     twin = _Twin(sensors, t, site, q_nb, method, list(seeds), run_kw, log_run, step_findings, step_alpha, alpha,
-                 np.random.default_rng(seed))
+                 np.random.default_rng(seed), [f for f in findings if f["quantity"] == "noise_level"])
     base = twin.run(None)
     findings = base["findings"]      # the same seeds as the plain twin's, with each finding's readings
     gap0 = out["gap"] = base["gap"]

@@ -861,7 +861,7 @@ def _explain(metrics: dict, analyses: dict, site: dict, al, t, dth, dv, alignmen
              log_run, temp) -> tuple:
     """Explain and shrink the twin's findings with the catalogue, and the verdict
     (:func:`sins_sim.identification.twin_explain.explain_twin`); ``(explain, verdict)`` for the metrics."""
-    from sins_sim.identification.twin_explain import explain_twin
+    from sins_sim.identification.twin_explain import explain_twin, noise_level_findings
     from sins_sim.models.sensor_errors import sensor_params_from_dict
 
     dt = float(t[1] - t[0])
@@ -870,6 +870,11 @@ def _explain(metrics: dict, analyses: dict, site: dict, al, t, dth, dv, alignmen
     y6 = np.hstack([np.asarray(dth, dtype=np.float64), np.asarray(dv, dtype=np.float64)]) / dt
     tc = None if temp is None else np.asarray(temp, dtype=np.float64)[:y6.shape[0]]
     temperature = metrics["temperature"] if "status" not in metrics["temperature"] else None
+    level = noise_level_findings(y6, 1.0 / dt)
+    if level:    # where the log's noise level changes over time: a place where it leaves its stationary twin too
+        metrics["twin"]["findings"] += level
+        metrics["twin"]["summary"] = (f"{len(metrics['twin']['findings'])} place(s) where the log leaves its twin's "
+                                      f"envelope ({seeds} seeds)")
     try:
         ex = explain_twin(log_run, y6, t, metrics["twin"]["findings"], _log_step_findings(metrics["bias_steps"]),
                           sensors=params, site=site, q_nb=al.q_nb, method=alignment, seeds=range(1, seeds + 1),
