@@ -121,7 +121,7 @@ def write_case(path, cls: str, seed: int, minutes: float) -> dict:
         truth.update(axis=ax, start_s=float(t[i0]))
     elif cls == "square_wave":
         n_sig = unit["sensors"]["gyro"]["arw_deg_rt_h"][0] * DEG_PER_H * 60.0 * math.sqrt(_FS)
-        b = float(rng.uniform(35.0, 45.0)) * n_sig * 2.0 / math.sqrt(n)
+        b = float(rng.uniform(70.0, 90.0)) * n_sig * 2.0 / math.sqrt(n)     # as large as a step
         rate[:, ax] += b * np.where(np.sin(2 * math.pi * 3.0 * t / t[-1]) >= 0.0, 1.0, -1.0)
         truth.update(axis=ax, half_size_deg_h=b / DEG_PER_H)
     keep = np.ones(n, dtype=bool)
