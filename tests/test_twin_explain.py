@@ -224,6 +224,12 @@ def test_the_verdict_in_metrics_report_and_result(sway_step):
     assert "## Explain: candidate effects added to the twin" in report
     tables = m.to_pandas()
     assert set(tables["candidates"]["effect"]) >= {"base_motion_line", "bias_step"}
+    assert m.files["twin-explain.png"].stat().st_size > 20000
+    fig = m.plot("twin-explain")
+    assert len(fig.axes[0].patches) == len(m["explain"]["candidates"])     # one bar per candidate
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
 
 
 def _twin_log(path, seed, minutes):

@@ -7,7 +7,7 @@ from pathlib import Path
 __all__ = ["FIGURES", "IdentifyResult", "draw_twin_figures"]
 
 #: The figures :meth:`IdentifyResult.plot` draws (``<kind>.png`` in the result folder); ``twin-*`` need the twin.
-FIGURES = ("psd", "twin-allan", "twin-psd", "twin-alignment", "twin-nav")
+FIGURES = ("psd", "twin-allan", "twin-psd", "twin-alignment", "twin-nav", "twin-explain")
 
 
 def _figure(detail: dict, metrics: dict, kind: str, path=None):
@@ -36,6 +36,9 @@ def _figure(detail: dict, metrics: dict, kind: str, path=None):
     if kind == "twin-nav":
         return tp.plot_twin_nav(log_run.nav_t_s, log_run.nav, [r.nav for r in runs], gap["nav_bands"], NAV_QUANTITIES,
                                 path, title=f"Free navigation of {name} at rest and of {seeds}")
+    if kind == "twin-explain":
+        return tp.plot_twin_shrink(metrics["explain"], metrics["verdict"], path,
+                                   title=f"Candidate effects added to the twin of {name}")
     raise ValueError(f"plot: kind must be one of {list(FIGURES)}, got {kind!r}")
 
 
@@ -43,6 +46,8 @@ def draw_twin_figures(detail: dict, metrics: dict, folder) -> list:
     """Write ``twin-*.png`` into ``folder``; returns their names."""
     names = []
     for kind in FIGURES[1:]:
+        if kind == "twin-explain" and not (metrics.get("explain") or {}).get("candidates"):
+            continue                              # no finding, or none a candidate was tried on
         _figure(detail, metrics, kind, Path(folder) / f"{kind}.png")
         names.append(f"{kind}.png")
     return names
@@ -86,7 +91,7 @@ class IdentifyResult(dict):
 
     def plot(self, kind: str = "psd"):
         """One figure, returned open (:data:`FIGURES`: ``psd``, ``twin-allan``, ``twin-psd``, ``twin-alignment``,
-        ``twin-nav``).
+        ``twin-nav``, ``twin-explain``).
 
         Raises
         ------
