@@ -291,3 +291,10 @@ def test_a_change_of_noise_level_is_found_in_its_time_window_and_a_steady_log_ha
     assert f["time_s"] == pytest.approx([60.0, 84.0])
     assert f["ratio"] == pytest.approx(9.0, rel=0.25)       # the variance ratio's sd ~ sqrt(2 * 1.5 / 600) = 7 %
     assert te.finding_excess(f) == pytest.approx(math.log(f["ratio"] / f["band"][1]))
+
+
+def test_identify_eval_command_checks_its_seeds(capsys):
+    from sins_sim.cli import main
+
+    assert main(["identify-eval", "--seeds", "1,x"]) != 0
+    assert "--seeds: must be comma-separated integers, got '1,x'" in capsys.readouterr().err

@@ -45,7 +45,9 @@ Allan deviation, a line and a navigation error add in one unit):
 * noise level (:func:`noise_level_findings`, a finding of the log alone): ``ln(ratio / hi)`` or ``ln(lo / ratio)``.
 
 The **gap** ``G`` is their sum; zero when the log stays in its envelope. A candidate's **shrink** is ``1 - G_c /
-G_0`` (``G_c`` with the candidate added to the twin, re-simulated over the twin's seeds and localised again); its
+G_0`` (``G_c`` with the candidate added to the twin, the twin's noise terms refitted on the log less the candidate's fitted
+part, re-simulated over the twin's seeds and localised again; the candidate enters less its mean, which the twin's
+biases hold already); its
 uncertainty is the standard deviation over :data:`BOOTSTRAP` resamplings of the twin's seeds with replacement (paired:
 the same resampling for the twin with and without the candidate; Efron and Tibshirani 1993, "An Introduction to the
 Bootstrap", ch. 6). A bias-step finding is gone when the twin with the candidate has its most likely step (the scan's best boundary,
@@ -214,6 +216,8 @@ def noise_level_findings(y6, fs: float, alpha: float = LEVEL_ALPHA, blocks: int 
     """
     from scipy.stats import f as f_dist
 
+    from sins_sim.identification.twin_gap import _runs
+
     y6 = np.asarray(y6, dtype=np.float64)
     n = y6.shape[0]
     m = n // blocks
@@ -229,14 +233,7 @@ def noise_level_findings(y6, fs: float, alpha: float = LEVEL_ALPHA, blocks: int 
     for ch, (sensor, ax) in enumerate(CHANNELS):
         ratio = var[:, ch] / max(float(np.median(var[:, ch])), 1e-300)
         flags = np.where(ratio > hi, 1, np.where(ratio < lo, -1, 0))
-        i = 0
-        while i < blocks:
-            if flags[i] == 0:
-                i += 1
-                continue
-            j = i
-            while j + 1 < blocks and flags[j + 1] == flags[i]:
-                j += 1
+        for i, j in _runs(flags, bridge=0):
             k = i + int(np.argmax(np.abs(np.log(ratio[i:j + 1]))))
             side = "above" if flags[i] > 0 else "below"
             window = [i * m / fs, (j + 1) * m / fs]
@@ -245,7 +242,6 @@ def noise_level_findings(y6, fs: float, alpha: float = LEVEL_ALPHA, blocks: int 
                         "statement": (f"{sensor} {ax}: the white noise level lies {side} its median from "
                                       f"{window[0]:.4g} s to {window[1]:.4g} s (variance {ratio[k]:.3g} times the "
                                       f"median; band {lo:.3g} to {hi:.3g})")})
-            i = j + 1
     return out
 
 
@@ -647,10 +643,15 @@ class _Twin:
         self.fs = 1.0 / float(t[1] - t[0])
         self.boot = rng.integers(0, len(seeds), size=(BOOTSTRAP, len(seeds)))
 
-    def run(self, added) -> dict:
+    def run(self, added, sensors=None) -> dict:
+        """The twin (its noise terms ``sensors`` where refitted) plus ``added`` less its mean (the twin's biases
+        are the log's means already), localised against the log."""
         from sins_sim.simulation.twin_effects import twin_runs_with
 
-        pairs = twin_runs_with(*self.args, added=added, **self.run_kw)
+        args = self.args if sensors is None else (sensors, *self.args[1:])
+        if added is not None:
+            added = added - added.mean(axis=0)
+        pairs = twin_runs_with(*args, added=added, **self.run_kw)
         runs = [r for r, _ in pairs]
         chans = {CHANNELS.index((f["sensor"], f["axis"])) for f in self.steps}
         scans = [{ch: _scan(v, self.fs, ch, self.step_alpha) for ch in chans} for _, v in pairs]
@@ -665,7 +666,7 @@ class _Twin:
 def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors, site, q_nb, method: str, seeds,
                  run_kw: dict, temperature_c=None, temperature: dict | None = None, intervals_s=None,
                  step_alpha: float = 0.05 / 6.0, alpha: float = 0.05, bias: dict | None = None,
-                 lat_rad: float | None = None, seed: int = 0) -> dict:
+                 lat_rad: float | None = None, seed: int = 0, refit=None) -> dict:
     """Try the catalogue on the twin's findings and give the verdict (module docstring).
 
     Parameters
@@ -695,6 +696,10 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
         The site's latitude (with ``bias``).
     seed : int
         Of the bootstrap's resampling.
+    refit : callable, optional
+        ``refit(residual (N, 6)) -> sensors``: the twin's noise terms fitted again on the log less the candidates'
+        fitted part (a strong line or step otherwise inflates the white noise or the random walk the twin was
+        fitted with); None keeps the twin's.
 
     Returns
     -------
@@ -745,7 +750,7 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
         for c in cands:
             p_full, params, sig = _fit(c, y6 - sel_full, t, dt, every, extra)
             p_train, _, _ = _fit(c, y6 - sel_train, t, dt, train, extra)
-            res = twin.run(sel_full + p_full)
+            res = twin.run(sel_full + p_full, None if refit is None else refit(y6 - sel_full - p_full))
             loss = heldout_losses(y6, sel_train + p_train, train, blocks)
             p, stat, m = _dm_p(base_loss, loss, c["channels"])
             keys = {finding_key(f) for f in res["findings"]}

@@ -880,11 +880,26 @@ def _explain(metrics: dict, analyses: dict, site: dict, al, t, dth, dv, alignmen
                           sensors=params, site=site, q_nb=al.q_nb, method=alignment, seeds=range(1, seeds + 1),
                           run_kw=run_kw, temperature_c=tc, temperature=temperature,
                           intervals_s=np.diff(np.asarray(t, dtype=np.float64), prepend=float(t[0]) - dt),
-                          step_alpha=STEP_ALPHA / 6.0, bias=metrics["bias"], lat_rad=site["lat_rad"])
+                          step_alpha=STEP_ALPHA / 6.0, bias=metrics["bias"], lat_rad=site["lat_rad"],
+                          refit=lambda resid: _refit_sensors(metrics, resid, 1.0 / dt, al.q_nb))
     except ValueError as exc:
         raise ConfigError(f"--twin-seeds: the twin's explain step failed: {exc}") from None
     verdict = ex.pop("verdict")
     return ex, verdict
+
+
+def _refit_sensors(metrics: dict, resid6, fs: float, q_nb):
+    """The twin's ``sensors:`` with its noise terms fitted again on ``resid6`` (the log less a candidate's fitted part,
+    (N, 6) rate and specific force), the biases as identified (:func:`twin_sensors`)."""
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+    from sins_sim.navigation.allan import allan_axes, screen_noise
+
+    analyses = {s: {ax: screen_noise(a) for ax, a in allan_axes(x - x.mean(axis=0), fs, kind).items()}
+                for s, x, kind in (("gyro", resid6[:, :3], "gyro"), ("accelerometer", resid6[:, 3:], "accel"))}
+    noise = {s: {ax: {key: _noise_entry(a, name, key, scale) for name, key, scale, _ in _NOISE_KEYS[s]}
+                 for ax, a in by_ax.items()} for s, by_ax in analyses.items()}
+    doc, _ = twin_sensors({**metrics, "noise": noise}, q_nb, analyses)
+    return sensor_params_from_dict(doc, "the identified twin, refitted")
 
 
 def _verdict_report(metrics: dict) -> list:
