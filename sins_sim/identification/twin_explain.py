@@ -724,7 +724,8 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
     out = {"gap": gap0, "not_testable": not_testable, "candidates": [], "steps": [],
            "gap_measure": "sum over the findings of ln(log / envelope edge) (Allan: deviation over the band's edge; "
                           "line: SNR over the threshold; navigation: |log - mean| over the half-width at the end; "
-                          "bias step: |z| over the threshold)",
+                          "bias step: |z| over the threshold; noise level: the block variance ratio over the band's "
+                          "edge)",
            "heldout": {"blocks": HELD_BLOCKS, "fit": "even blocks", "scored": "odd blocks"}}
     if not findings:
         out["verdict"] = give_twin_verdict(findings, [], [], gap0)

@@ -924,11 +924,12 @@ def _verdict_report(metrics: dict) -> list:
     out += ["", "Not testable in this log:", ""]
     for k, why in ex["not_testable"].items():
         if k == "implied_at_rest":
-            out += [f"- implied at rest: " + ", ".join(f"{n} {e['value']:.3g} +- {e['sigma']:.2g}" for n, e in
+            out += ["- implied at rest, were the whole rest bias a scale: " + ", ".join(f"{n} {e['value']:.3g} +- {e['sigma']:.2g}" for n, e in
                                                        why.items())]
         else:
             out.append(f"- {k}: {why}")
-    out += ["", "## Verdict", "", f"**{v['status']}**" + (f": {v['effect']}" if v["status"] in
+    named = " + ".join(e["effect"] for e in v["effects"]) or v["effect"]
+    out += ["", "## Verdict", "", f"**{v['status']}**" + (f": {named}" if v["status"] in
                                                           ("explained", "partly explained") else "")]
     if v["status"] in ("explained", "partly explained"):
         out += ["", f"Explained fraction of the gap: {v['explained_fraction']:.2f} +- {v['explained_fraction_sd']:.2f} "
