@@ -298,3 +298,32 @@ def test_identify_eval_command_checks_its_seeds(capsys):
 
     assert main(["identify-eval", "--seeds", "1,x"]) != 0
     assert "--seeds: must be comma-separated integers, got '1,x'" in capsys.readouterr().err
+
+
+def test_timing_jitter_and_temperature_candidates_fit_their_closed_forms():
+    # a unit integrating over intervals dt_i = dt (1 + e_i) and divided by dt reads m (1 + e_i): the jitter candidate's
+    # regressor is m_c e_i, so its gain is 1 for these data; with e_i of 1e-3 RMS on gravity (9.8 m/s^2) against a
+    # force noise of 1e-3 m/s^2 the gain's sigma is ~ 1e-3 / (9.8e-3 sqrt(n)) = 1e-3: 5 sigma is 0.005
+    rng = np.random.default_rng(11)
+    dt, n = 0.01, 10000
+    t = np.arange(1, n + 1) * dt
+    e = 1e-3 * rng.standard_normal(n)
+    mean = np.array([1e-5, 2e-5, 7e-5, 0.1, -0.2, -9.8])
+    y6 = mean * (1.0 + e[:, None]) + np.r_[[1e-6] * 3, [1e-3] * 3] * rng.standard_normal((n, 6))
+    extra = {"intervals_s": dt * (1.0 + e), "dt_s": dt, "n": n, "temperature_c": None}
+    cands = te._candidates([], extra, None)
+    assert [c["effect"] for c in cands] == ["timing_jitter"]
+    pred, params, sig = te._fit(cands[0], y6, t, dt, np.ones(n, dtype=bool), extra)
+    assert abs(params["all"]["gain"] - 1.0) <= 5.0 * sig["all"]["gain"] and sig["all"]["gain"] < 2e-3
+    # without jitter in the time column no timing candidate is proposed
+    assert te._candidates([], {**extra, "intervals_s": np.full(n, dt)}, None) == []
+    # a temperature coefficient of 0.01 deg/h per deg C on the z gyro, the temperature a 2 deg C cycle
+    temp = 25.0 + 2.0 * np.sin(2 * math.pi * t / 30.0)
+    y6 = np.zeros((n, 6))
+    y6[:, 2] = 0.01 * DEG_PER_H * (temp - temp.mean()) + 1e-7 * rng.standard_normal(n)
+    tm = {"gyro": {"z": {"coefficient_deg_h_per_c": {"value": 0.01}}}}
+    extra = {"intervals_s": None, "dt_s": dt, "n": n, "temperature_c": temp}
+    cand = te._candidates([], extra, tm)[0]
+    pred, params, sig = te._fit(cand, y6, t, dt, np.ones(n, dtype=bool), extra)
+    k = params["gyro_z"]["coefficient_deg_h_per_c"]
+    assert abs(k - 0.01) <= 5.0 * sig["gyro_z"]["coefficient_deg_h_per_c"]

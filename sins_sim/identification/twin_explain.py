@@ -25,7 +25,9 @@ Catalogue (at rest; each a rate or specific force added to the twin, :mod:`sins_
     The log's own intervals ``dt_i`` (its time column) against the nominal ``dt``: a unit that integrates over
     ``dt_i`` and is divided by ``dt`` reads its rate and force times ``dt_i / dt``, so ``g (m_c (dt_i - dt) / dt)``
     on every axis (``m_c`` the axis's mean), the gain ``g`` (1 for a real interval error, 0 for a time stamp's
-    jitter) fitted. Gaps (intervals off by more than 0.1 %) are refused before (``invalid data``).
+    jitter) fitted by weighted least squares. Gaps (intervals off by more than 0.1 %) are refused before (``invalid
+    data``). An ``import-log`` table holds its grid times, so only a plain increments file's own time column can
+    show jitter.
 
 Not testable at rest, and said so (``not_testable``): **scale-factor asymmetry** (needs rates of both signs),
 **coning and sculling residue** (needs coning or sculling motion), and a **pulse-weight error** or a **rate off its
@@ -446,9 +448,14 @@ def _fit(cand: dict, y6, t, dt: float, train, extra: dict) -> tuple:
         basis = y6.mean(axis=0)[None, :] * (extra["intervals_s"][:, None] - dt) / dt
         yc = y6 - y6[tr].mean(axis=0)
         bc = basis - basis[tr].mean(axis=0)
-        w = 1.0 / np.maximum(np.var(y6[tr], axis=0), 1e-300)     # each axis by its own noise
+        # weighted least squares over the six axes, each weighted by its own noise: the axes' variances first, then
+        # (one iteration) the residuals' variances once the fitted part is out
+        w = 1.0 / np.maximum(np.var(y6[tr], axis=0), 1e-300)
+        for _ in range(2):
+            sxx = float(np.sum(w * bc[tr] ** 2))
+            g = float(np.sum(w * bc[tr] * yc[tr])) / sxx if sxx > 0 else 0.0
+            w = 1.0 / np.maximum(np.var(yc[tr] - g * bc[tr], axis=0), 1e-300)
         sxx = float(np.sum(w * bc[tr] ** 2))
-        g = float(np.sum(w * bc[tr] * yc[tr])) / sxx if sxx > 0 else 0.0
         pred = g * basis
         params["all"] = {"gain": g, "interval_rms_s": float(np.std(extra["intervals_s"] - dt))}
         sig["all"] = {"gain": float(1.0 / math.sqrt(sxx)) if sxx > 0 else math.inf}
