@@ -161,7 +161,10 @@ def finding_excess(f: dict) -> float:
         log = next(v for k, v in f.items() if k.startswith("log_at_end_"))
         mean = next(v for k, v in f.items() if k.startswith("twin_mean_at_end_"))
         half = next(v for k, v in f.items() if k.startswith("twin_halfwidth_at_end_"))
-        e = math.log(abs(log - mean) / half) if half > 0.0 else math.inf
+        # a twin without spread there (its seeds alike, e.g. a channel quiet within its quantum) has an edge of
+        # zero width: read against a billionth of the values instead, so the gap stays finite (about 21 at most)
+        edge = max(half, 1e-9 * max(abs(log), abs(mean)), 1e-300)
+        e = math.log(abs(log - mean) / edge) if abs(log - mean) > 0.0 else 0.0
     elif q == "bias_step":
         e = math.log(abs(f["z"]) / f["threshold"])
     elif q == "noise_level":
@@ -233,7 +236,10 @@ def noise_level_findings(y6, fs: float, alpha: float = LEVEL_ALPHA, blocks: int 
     lo, hi = f_dist.ppf(a, edf, 2.0 * blocks * edf / math.pi), f_dist.isf(a, edf, 2.0 * blocks * edf / math.pi)
     out = []
     for ch, (sensor, ax) in enumerate(CHANNELS):
-        ratio = var[:, ch] / max(float(np.median(var[:, ch])), 1e-300)
+        med = float(np.median(var[:, ch]))
+        if not med > 0.0:     # a channel quiet within its quantum in most blocks: its level is not testable
+            continue
+        ratio = np.maximum(var[:, ch] / med, 1e-300)
         flags = np.where(ratio > hi, 1, np.where(ratio < lo, -1, 0))
         for i, j in _runs(flags, bridge=0):
             k = i + int(np.argmax(np.abs(np.log(ratio[i:j + 1]))))
@@ -648,7 +654,9 @@ class _Twin:
         self.run_kw, self.log_run, self.steps = run_kw, log_run, step_findings
         self.step_alpha, self.alpha = step_alpha, alpha
         self.fs = 1.0 / float(t[1] - t[0])
-        self.boot = rng.integers(0, len(seeds), size=(BOOTSTRAP, len(seeds)))
+        boot = rng.integers(0, len(seeds), size=(4 * BOOTSTRAP, len(seeds)))
+        # a resampling of one seed only has no spread: its envelope is a line, and every excess infinite
+        self.boot = boot[[len(set(b.tolist())) >= 2 for b in boot]][:BOOTSTRAP]
 
     def run(self, added, sensors=None) -> dict:
         """The twin (its noise terms ``sensors`` where refitted) plus ``added`` less its mean (the twin's biases
@@ -763,10 +771,11 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
             p, stat, m = _dm_p(base_loss, loss, c["channels"])
             keys = {finding_key(f) for f in res["findings"]}
             shrink = (gap_now - res["gap"]) / gap_now if gap_now > 0 else 0.0
-            d = boot_now - res["boot"]
-            sd = float(np.std(d / np.where(boot_now > 0, boot_now, np.nan), ddof=1)) if np.any(boot_now > 0) else 0.0
+            # resamplings of the seeds in which the selected model still leaves a (finite) gap
+            ok = (boot_now > 0) & np.isfinite(boot_now) & np.isfinite(res["boot"])
+            sd = float(np.std((boot_now[ok] - res["boot"][ok]) / boot_now[ok], ddof=1)) if ok.sum() > 1 else 0.0
             evaluated.append({**{k: c[k] for k in ("effect", "label")}, "params": params, "uncertainty": sig,
-                              "gap": res["gap"], "gap_sd": float(np.std(res["boot"], ddof=1)),
+                              "gap": res["gap"], "gap_sd": _finite_sd(res["boot"]),
                               "shrink": shrink, "shrink_sd": sd, "p_heldout": p, "t_heldout": stat, "m_heldout": m,
                               "removes": sorted([list(k) for k in ({finding_key(f) for f in left} - keys)], key=str),
                               "findings_left": res["findings"], "_loss": loss, "_cand": c, "_p_full": p_full,
@@ -794,10 +803,17 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
     if steps and out["verdict"]["status"] in ("explained", "partly explained"):
         # the fraction's sd over seeds, from the paired bootstrap of the selected model against the twin
         last = steps[-1]["_boot"]
-        ok = base["boot"] > 0
+        ok = (base["boot"] > 0) & np.isfinite(base["boot"]) & np.isfinite(last)
         out["verdict"]["explained_fraction_sd"] = float(np.std(1.0 - last[ok] / base["boot"][ok], ddof=1)) \
             if ok.sum() > 1 else 0.0
     return out
+
+
+def _finite_sd(x) -> float:
+    """The sample sd of the finite entries (0 with fewer than two)."""
+    x = np.asarray(x, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    return float(np.std(x, ddof=1)) if x.size > 1 else 0.0
 
 
 def _public(c: dict, base_keys: set) -> dict:

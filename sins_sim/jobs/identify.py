@@ -902,6 +902,11 @@ def _refit_sensors(metrics: dict, resid6, fs: float, q_nb):
     return sensor_params_from_dict(doc, "the identified twin, refitted")
 
 
+def _num(x, fmt: str) -> str:
+    """A number of the metrics as text, ``n/a`` where it is None (not finite before JSON)."""
+    return "n/a" if x is None else format(x, fmt)
+
+
 def _verdict_report(metrics: dict) -> list:
     """The report's explain and verdict sections (as the channel diagnosis's verdict)."""
     v = metrics.get("verdict")
@@ -919,23 +924,23 @@ def _verdict_report(metrics: dict) -> list:
             fitted = "; ".join(f"{ax}: " + ", ".join(f"{k} {val:.4g} +- {c['uncertainty'][ax].get(k, float('nan')):.2g}"
                                                      if k in c["uncertainty"][ax] else f"{k} {val:.4g}"
                                                      for k, val in pv.items()) for ax, pv in c["params"].items())
-            out.append(f"| {c['label']} | {fitted} | {c['shrink']:.2f} | {c['shrink_sd']:.2f} | {c['p_heldout']:.2g} | "
-                       f"{len(c['removes'])} |")
+            out.append(f"| {c['label']} | {fitted} | {_num(c['shrink'], '.2f')} | {_num(c['shrink_sd'], '.2f')} | "
+                       f"{_num(c['p_heldout'], '.2g')} | {len(c['removes'])} |")
     out += ["", "Not testable in this log:", ""]
     for k, why in ex["not_testable"].items():
         if k == "implied_at_rest":
-            out += ["- implied at rest, were the whole rest bias a scale: " + ", ".join(f"{n} {e['value']:.3g} +- {e['sigma']:.2g}" for n, e in
-                                                       why.items())]
+            out += ["- implied at rest, were the whole rest bias a scale: " + ", ".join(
+                f"{n} {_num(e['value'], '.3g')} +- {_num(e['sigma'], '.2g')}" for n, e in why.items())]
         else:
             out.append(f"- {k}: {why}")
     named = " + ".join(e["effect"] for e in v["effects"]) or v["effect"]
     out += ["", "## Verdict", "", f"**{v['status']}**" + (f": {named}" if v["status"] in
                                                           ("explained", "partly explained") else "")]
     if v["status"] in ("explained", "partly explained"):
-        out += ["", f"Explained fraction of the gap: {v['explained_fraction']:.2f} +- {v['explained_fraction_sd']:.2f} "
-                    "(over the twin's seeds)."]
-        out += [f"- {e['label']}: {e['explained_fraction']:.2f} of the gap (held-out p = {e['p_heldout']:.2g})"
-                for e in v["effects"]]
+        out += ["", f"Explained fraction of the gap: {_num(v['explained_fraction'], '.2f')} +- "
+                    f"{_num(v['explained_fraction_sd'], '.2f')} (over the twin's seeds)."]
+        out += [f"- {e['label']}: {_num(e['explained_fraction'], '.2f')} of the gap (held-out p = "
+                f"{_num(e['p_heldout'], '.2g')})" for e in v["effects"]]
     if v["alternatives"]:
         out += ["", "Alternatives (explain it alike on held-out data): " + ", ".join(v["alternatives"]) + "."]
     if v["remainder"]:

@@ -259,7 +259,9 @@ def plot_twin_shrink(explain: dict, verdict: dict, path=None, title: str = ""):
     fig, ax = plt.subplots(figsize=(8.5, 1.6 + 0.5 * max(len(cands), 1)), constrained_layout=True)
     y = np.arange(len(cands))[::-1]
     for yi, c in zip(y, cands):
-        ok = c["p_heldout"] < 0.01
+        ok = c["p_heldout"] is not None and c["p_heldout"] < 0.01
+        c = {**c, "shrink": c["shrink"] or 0.0, "shrink_sd": c["shrink_sd"] or 0.0,
+             "p_heldout": 1.0 if c["p_heldout"] is None else c["p_heldout"]}
         ax.barh(yi, c["shrink"], xerr=c["shrink_sd"], color=TWIN_COLOR if ok else "white", edgecolor=TWIN_COLOR,
                 hatch=None if ok else "//", capsize=3,
                 label=("confirmed on held-out data (p < 0.01)" if ok else "not confirmed held-out"))
