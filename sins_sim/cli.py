@@ -604,6 +604,17 @@ def _cmd_diagnose(args) -> int:
     return EXIT_OK
 
 
+def _seed_list(text: str) -> list:
+    """``--seeds``: comma-separated integers >= 0 (one ConfigError line otherwise)."""
+    try:
+        seeds = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ConfigError(f"--seeds: must be comma-separated integers, got {text!r}") from None
+    if not seeds or any(x < 0 for x in seeds):
+        raise ConfigError(f"--seeds: must be comma-separated integers >= 0, got {text!r}")
+    return seeds
+
+
 def _cmd_diagnose_eval(args) -> int:
     from sins_sim.jobs.output import atomic_output_file
     from sins_sim.jobs.recording_jobs import diagnose_eval, format_eval
@@ -618,12 +629,7 @@ def _cmd_diagnose_eval(args) -> int:
                               "--seeds")
         seeds = list(HOLDOUT_SEEDS)
     elif args.seeds is not None:
-        try:
-            seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
-        except ValueError:
-            raise ConfigError(f"--seeds: must be comma-separated integers, got {args.seeds!r}") from None
-        if not seeds or any(x < 0 for x in seeds):
-            raise ConfigError(f"--seeds: must be comma-separated integers >= 0, got {args.seeds!r}")
+        seeds = _seed_list(args.seeds)
     labels = None
     if args.labels is not None:
         labels = [x.strip() for x in args.labels.split(",") if x.strip()]
@@ -635,6 +641,29 @@ def _cmd_diagnose_eval(args) -> int:
                                jobs=args.jobs, suite="hard" if args.hard else "standard", seeds=seeds,
                                labels=labels)
     print(format_eval(result))
+    return EXIT_OK
+
+
+def _cmd_identify_eval(args) -> int:
+    import json
+    from pathlib import Path
+
+    from sins_sim.jobs.identify_eval import format_identify_eval, identify_eval
+    from sins_sim.jobs.output import atomic_output_file
+
+    seeds = _seed_list(args.seeds)
+    if args.twin_seeds < 2:
+        raise ConfigError(f"--twin-seeds: must be at least 2 (an envelope), got {args.twin_seeds}")
+    progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    try:
+        result = identify_eval(seeds, holdout=args.holdout, minutes=args.minutes, twin_seeds=args.twin_seeds,
+                               progress=progress)
+    except ValueError as exc:
+        raise ConfigError(f"identify-eval: {exc}") from None
+    if args.json is not None:
+        with atomic_output_file(args.json, "--json") as tmp:
+            Path(tmp).write_text(json.dumps(result, indent=2, default=str) + "\n")
+    print(format_identify_eval(result))
     return EXIT_OK
 
 
@@ -1246,6 +1275,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--labels", help="comma-separated classes to draw (default all of the set's), e.g. "
                                     "earth_rate,near_degenerate with --hard")
     p.set_defaults(func=_cmd_diagnose_eval)
+
+    p = sub.add_parser("identify-eval", help="blind evaluation of identify's twin verdict on generated unit logs",
+                       description="Logs at rest of random units with one withheld effect each (none, sway, "
+                                   "vibration, bias step, two off-catalogue ones, a time gap), written in a foreign "
+                                   "layout, imported and judged by identify; prints the accuracy per class.")
+    p.add_argument("--seeds", default="0,1,2", help="comma-separated seeds looked at [0,1,2]")
+    p.add_argument("--holdout", action="store_true", help="also the two seeds kept unlooked-at during development "
+                                                          "(jobs.identify_eval.HOLDOUT_SEEDS), reported apart")
+    p.add_argument("--minutes", type=_positive, default=3.0, help="length of each log (min) [3]")
+    p.add_argument("--twin-seeds", type=_count, default=5, help="seeds of each log's twin [5]")
+    p.add_argument("--json", help="write the result JSON here")
+    p.add_argument("--quiet", action="store_true", help="no per-case progress lines")
+    p.set_defaults(func=_cmd_identify_eval)
 
     p = sub.add_parser("schema", help="every key of an input format with its unit, range and default",
                        description="Print the reference of an input format (scenario, imu, experiment, trajectory, "

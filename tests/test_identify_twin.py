@@ -283,7 +283,8 @@ def test_twin_figures_written_and_the_api(twin_runs):
         assert plain.files[name] == out / name and (out / name).stat().st_size > 20000
     assert "## The twin beside the log" in (out / "report.md").read_text()
     tables = plain.to_pandas()
-    assert set(tables) == {"noise", "bias", "lines", "temperature", "findings"}
+    assert set(tables) == {"noise", "bias", "lines", "temperature", "findings", "candidates"}
+    assert plain.verdict["status"] == "none" and tables["candidates"].empty
     assert len(tables["bias"]) == 12
     fig = plain.plot("twin-nav")
     assert len(fig.axes) == 8

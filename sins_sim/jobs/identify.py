@@ -22,7 +22,10 @@ angle and velocity increments in body FRD axes. On it, for a unit at rest over t
 5. **the twin beside the log** (``twin_seeds`` > 0): the twin's ``sensors:`` (:func:`twin_sensors`) simulated on
    the log's time axis and the log's mission run on each seed and on the log (:mod:`sins_sim.simulation.twin`),
    and where the log leaves the twin's envelope (:mod:`sins_sim.identification.twin_gap`, ``twin.findings``);
-6. **output**: ``metrics.json``, ``allan.png``, ``psd.png``, ``twin-allan.png``, ``twin-psd.png``,
+6. **explain and verdict** (with the twin): the catalogue's SINS-level effects added to the twin, re-simulated and
+   localised again, the gap's shrink with a held-out check, and the verdict in the channel diagnosis's words
+   (:mod:`sins_sim.identification.twin_explain`; ``explain`` and ``verdict`` in the metrics);
+7. **output**: ``metrics.json``, ``allan.png``, ``psd.png``, ``twin-allan.png``, ``twin-psd.png``,
    ``twin-alignment.png``, ``twin-nav.png``, ``imu-sensors.yaml`` (a ``sensors:`` section for the unit's
    twin, each value's source and sigma in a comment) and ``report.md``.
 
@@ -306,6 +309,8 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     if twin_seeds:
         metrics["twin"], detail["twin"] = _twin(metrics, analyses, site, al, t, alignment, twin_seeds,
                                                      run_kw, log_run, pulses=pulses)
+        metrics["explain"], metrics["verdict"] = _explain(metrics, analyses, site, al, t, dth, dv, alignment,
+                                                          twin_seeds, run_kw, log_run, temp, pulses=pulses)
     metrics = _json_ready(metrics)
     if out_dir is not None:
         from sins_sim.jobs.manifest import Manifest, result_dir
@@ -796,7 +801,8 @@ def _write(folder: Path, metrics: dict, detail: dict) -> list:
         written += draw_twin_figures(detail, metrics, folder)
     (folder / "imu-sensors.yaml").write_text(sensors_yaml(metrics))
     (folder / "report.md").write_text(_report(metrics) + "\n".join(_lines_report(metrics) + _steps_report(metrics) + _temperature_report(metrics)
-                                                                   + _twin_report(metrics)) + "\n")
+                                                                   + _twin_report(metrics)
+                                                                   + _verdict_report(metrics)) + "\n")
     return written
 
 
@@ -1192,3 +1198,111 @@ def _truth_report(metrics: dict) -> str:
                            f"| {s} | {name} {k} | {e['status']} | |")
     out += [""] + [f"- {n}" for n in metrics["notes"]]
     return "\n".join(out) + "\n"
+
+def _log_step_findings(steps: dict) -> list:
+    """The log's bias steps as findings with the readings the gap measure needs (``z``, ``threshold``; the
+    explain step's, :mod:`sins_sim.identification.twin_explain`)."""
+    out = []
+    for f in _step_findings(steps):
+        e = steps[f["sensor"]][f["axis"]]
+        out.append({**f, "z": e["z"], "threshold": e["threshold"]})
+    return out
+
+
+def _explain(metrics: dict, analyses: dict, site: dict, al, t, dth, dv, alignment: str, seeds: int, run_kw: dict,
+             log_run, temp, pulses=None) -> tuple:
+    """Explain and shrink the twin's findings with the catalogue, and the verdict
+    (:func:`sins_sim.identification.twin_explain.explain_twin`); ``(explain, verdict)`` for the metrics. The twin
+    with each candidate keeps the plain twin's readout ``pulses``, so that the gap is measured against the same
+    kind of twin."""
+    from sins_sim.identification.twin_explain import explain_twin, noise_level_findings
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+
+    dt = float(t[1] - t[0])
+    doc, _ = twin_sensors(metrics, al.q_nb, analyses)
+    params = sensor_params_from_dict(doc, "the identified twin")
+    y6 = np.hstack([np.asarray(dth, dtype=np.float64), np.asarray(dv, dtype=np.float64)]) / dt
+    tc = None if temp is None else np.asarray(temp, dtype=np.float64)[:y6.shape[0]]
+    temperature = metrics["temperature"] if "status" not in metrics["temperature"] else None
+    level = noise_level_findings(y6, 1.0 / dt)
+    if level:    # where the log's noise level changes over time: a place where it leaves its stationary twin too
+        metrics["twin"]["findings"] += level
+        metrics["twin"]["summary"] = (f"{len(metrics['twin']['findings'])} place(s) where the log leaves its twin's "
+                                      f"envelope ({seeds} seeds)")
+    try:
+        ex = explain_twin(log_run, y6, t, metrics["twin"]["findings"], _log_step_findings(metrics["bias_steps"]),
+                          sensors=params, site=site, q_nb=al.q_nb, method=alignment, seeds=range(1, seeds + 1),
+                          run_kw={**run_kw, "pulses": pulses}, temperature_c=tc, temperature=temperature,
+                          intervals_s=np.diff(np.asarray(t, dtype=np.float64), prepend=float(t[0]) - dt),
+                          step_alpha=STEP_ALPHA / 6.0, bias=metrics["bias"], lat_rad=site["lat_rad"],
+                          refit=lambda resid: _refit_sensors(metrics, resid, 1.0 / dt, al.q_nb))
+    except ValueError as exc:
+        raise ConfigError(f"--twin-seeds: the twin's explain step failed: {exc}") from None
+    verdict = ex.pop("verdict")
+    return ex, verdict
+
+
+def _refit_sensors(metrics: dict, resid6, fs: float, q_nb):
+    """The twin's ``sensors:`` with its noise terms fitted again on ``resid6`` (the log less a candidate's fitted part,
+    (N, 6) rate and specific force), the biases as identified (:func:`twin_sensors`)."""
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+    from sins_sim.navigation.allan import allan_axes, screen_noise
+
+    analyses = {s: {ax: screen_noise(a) for ax, a in allan_axes(x - x.mean(axis=0), fs, kind).items()}
+                for s, x, kind in (("gyro", resid6[:, :3], "gyro"), ("accelerometer", resid6[:, 3:], "accel"))}
+    noise = {s: {ax: {key: _noise_entry(a, name, key, scale) for name, key, scale, _ in _NOISE_KEYS[s]}
+                 for ax, a in by_ax.items()} for s, by_ax in analyses.items()}
+    doc, _ = twin_sensors({**metrics, "noise": noise}, q_nb, analyses)
+    return sensor_params_from_dict(doc, "the identified twin, refitted")
+
+
+def _num(x, fmt: str) -> str:
+    """A number of the metrics as text, ``n/a`` where it is None (not finite before JSON)."""
+    return "n/a" if x is None else format(x, fmt)
+
+
+def _verdict_report(metrics: dict) -> list:
+    """The report's explain and verdict sections (as the channel diagnosis's verdict)."""
+    v = metrics.get("verdict")
+    if not v:
+        return []
+    ex = metrics["explain"]
+    out = ["", "## Explain: candidate effects added to the twin", "",
+           (f"Gap measure G = {ex['gap_measure']}; the twin's G_0 = {ex['gap']:.3g}. Each candidate is fitted on the "
+            "log, added to the twin, re-simulated over its seeds and localised again; shrink = 1 - G / G_0 (sd: "
+            f"bootstrap over the twin's seeds). Held-out: fitted on the {ex['heldout']['fit']} of "
+            f"{ex['heldout']['blocks']}, scored on the {ex['heldout']['scored']} (Diebold-Mariano).")]
+    if ex["candidates"]:
+        out += ["", "| candidate | fitted | shrink | sd | held-out p | findings removed |", "|---|---|---|---|---|---|"]
+        for c in ex["candidates"]:
+            fitted = "; ".join(f"{ax}: " + ", ".join(f"{k} {val:.4g} +- {c['uncertainty'][ax].get(k, float('nan')):.2g}"
+                                                     if k in c["uncertainty"][ax] else f"{k} {val:.4g}"
+                                                     for k, val in pv.items()) for ax, pv in c["params"].items())
+            out.append(f"| {c['label']} | {fitted} | {_num(c['shrink'], '.2f')} | {_num(c['shrink_sd'], '.2f')} | "
+                       f"{_num(c['p_heldout'], '.2g')} | {len(c['removes'])} |")
+    out += ["", "Not testable in this log:", ""]
+    for k, why in ex["not_testable"].items():
+        if k == "implied_at_rest":
+            out += ["- implied at rest, were the whole rest bias a scale: " + ", ".join(
+                f"{n} {_num(e['value'], '.3g')} +- {_num(e['sigma'], '.2g')}" for n, e in why.items())]
+        else:
+            out.append(f"- {k}: {why}")
+    named = " + ".join(e["effect"] for e in v["effects"]) or v["effect"]
+    out += ["", "## Verdict", "", f"**{v['status']}**" + (f": {named}" if v["status"] in
+                                                          ("explained", "partly explained") else "")]
+    if v["status"] in ("explained", "partly explained"):
+        out += ["", f"Explained fraction of the gap: {_num(v['explained_fraction'], '.2f')} +- "
+                    f"{_num(v['explained_fraction_sd'], '.2f')} (over the twin's seeds)."]
+        out += [f"- {e['label']}: {_num(e['explained_fraction'], '.2f')} of the gap (held-out p = "
+                f"{_num(e['p_heldout'], '.2g')})" for e in v["effects"]]
+    if v["alternatives"]:
+        out += ["", "Alternatives (explain it alike on held-out data): " + ", ".join(v["alternatives"]) + "."]
+    if v["remainder"]:
+        out += ["", "Remainder (still outside the envelope):"] + [f"- {f['statement']}" for f in v["remainder"]]
+    if v["status"] == "unknown":
+        out += ["", "No candidate shrinks these findings (the band of the unknown):"] + [
+            f"- {f['statement']}" for f in v["band"]]
+        if v.get("unconfirmed"):
+            out += ["", v["unconfirmed"]["message"] + "."]
+    out += ["", f"Criterion: {v['criterion']}."]
+    return out

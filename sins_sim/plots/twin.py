@@ -12,6 +12,7 @@ accelerometers. matplotlib is imported lazily (Agg backend for files).
    plot_twin_psd
    plot_twin_nav
    plot_twin_alignment
+   plot_twin_shrink
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ import numpy as np
 from sins_sim.plots.common import _pyplot, finish_figure
 from sins_sim.units import ARCSEC, DEG_PER_H, MICRO_G
 
-__all__ = ["plot_psd_lines", "plot_twin_alignment", "plot_twin_allan", "plot_twin_nav", "plot_twin_psd"]
+__all__ = ["plot_psd_lines", "plot_twin_alignment", "plot_twin_allan", "plot_twin_nav", "plot_twin_psd",
+           "plot_twin_shrink"]
 
 _SCALE = {"gyro": (1.0 / DEG_PER_H, "deg/h"), "accelerometer": (1.0 / MICRO_G, "ug")}
 LOG_COLOR, TWIN_COLOR, OUT_COLOR = "black", "tab:blue", "tab:red"
@@ -244,3 +246,39 @@ def plot_twin_alignment(side: dict, path=None, title: str = ""):
         ax.set_xticks(x)
         _label(ax, label, "twin seed", f"alignment error ({unit})", which="major")
     return _finish(fig, axes, title, path, legend_size=7.0)
+
+
+def plot_twin_shrink(explain: dict, verdict: dict, path=None, title: str = ""):
+    """How far each candidate effect shrinks the gap between the log and its twin (the explain step's first round).
+
+    One bar per candidate: the shrink ``1 - G / G_0`` with its sd over the twin's seeds as an error bar, filled where
+    the held-out test confirms it (p below the verdict's level), hatched where it does not; the verdict in the title.
+    """
+    plt = _pyplot(path is not None)
+    cands = explain["candidates"]
+    fig, ax = plt.subplots(figsize=(8.5, 1.6 + 0.5 * max(len(cands), 1)), constrained_layout=True)
+    y = np.arange(len(cands))[::-1]
+    for yi, c in zip(y, cands):
+        ok = c["p_heldout"] is not None and c["p_heldout"] < 0.01
+        c = {**c, "shrink": c["shrink"] or 0.0, "shrink_sd": c["shrink_sd"] or 0.0,
+             "p_heldout": 1.0 if c["p_heldout"] is None else c["p_heldout"]}
+        ax.barh(yi, c["shrink"], xerr=c["shrink_sd"], color=TWIN_COLOR if ok else "white", edgecolor=TWIN_COLOR,
+                hatch=None if ok else "//", capsize=3,
+                label=("confirmed on held-out data (p < 0.01)" if ok else "not confirmed held-out"))
+        ax.text(max(c["shrink"], 0.0) + c["shrink_sd"] + 0.02, yi, f"{c['shrink']:.2f}  (p = {c['p_heldout']:.1g})",
+                va="center", fontsize=8)
+    ax.set_yticks(y)
+    ax.set_yticklabels([c["label"] for c in cands], fontsize=8)
+    ax.set_xlim(min(-0.05, min((c["shrink"] for c in cands), default=0.0) - 0.05), 1.35)
+    ax.axvline(0.0, color="grey", lw=0.6)
+    ax.axvline(1.0, color="grey", lw=0.6, ls=":")
+    ax.set_xlabel("shrink of the gap, 1 - G / G_0 (G: the findings' log excess over the envelope; sd over seeds)")
+    handles, labels = ax.get_legend_handles_labels()
+    seen = dict(zip(labels, handles))
+    if seen:
+        ax.legend(seen.values(), seen.keys(), fontsize=7.5, loc="lower right")
+    named = " + ".join(e["effect"] for e in verdict.get("effects", [])) or verdict["effect"]
+    status = verdict["status"] + (f": {named}" if verdict["status"] in ("explained", "partly explained") else "")
+    ax.set_title(f"{title}\nverdict {status}; G_0 = {explain['gap']:.3g}" if title else f"verdict {status}",
+                 fontsize=9.5)
+    return finish_figure(fig, path)

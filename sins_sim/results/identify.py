@@ -7,7 +7,7 @@ from pathlib import Path
 __all__ = ["FIGURES", "IdentifyResult", "draw_twin_figures"]
 
 #: The figures :meth:`IdentifyResult.plot` draws (``<kind>.png`` in the result folder); ``twin-*`` need the twin.
-FIGURES = ("psd", "twin-allan", "twin-psd", "twin-alignment", "twin-nav")
+FIGURES = ("psd", "twin-allan", "twin-psd", "twin-alignment", "twin-nav", "twin-explain")
 
 
 def _figure(detail: dict, metrics: dict, kind: str, path=None):
@@ -36,6 +36,9 @@ def _figure(detail: dict, metrics: dict, kind: str, path=None):
     if kind == "twin-nav":
         return tp.plot_twin_nav(log_run.nav_t_s, log_run.nav, [r.nav for r in runs], gap["nav_bands"], NAV_QUANTITIES,
                                 path, title=f"Free navigation of {name} at rest and of {seeds}")
+    if kind == "twin-explain":
+        return tp.plot_twin_shrink(metrics["explain"], metrics["verdict"], path,
+                                   title=f"Candidate effects added to the twin of {name}")
     raise ValueError(f"plot: kind must be one of {list(FIGURES)}, got {kind!r}")
 
 
@@ -43,6 +46,8 @@ def draw_twin_figures(detail: dict, metrics: dict, folder) -> list:
     """Write ``twin-*.png`` into ``folder``; returns their names."""
     names = []
     for kind in FIGURES[1:]:
+        if kind == "twin-explain" and not (metrics.get("explain") or {}).get("candidates"):
+            continue                              # no finding, or none a candidate was tried on
         _figure(detail, metrics, kind, Path(folder) / f"{kind}.png")
         names.append(f"{kind}.png")
     return names
@@ -72,6 +77,12 @@ class IdentifyResult(dict):
         return (IdentifyResult, (dict(self), None, self.files))
 
     @property
+    def verdict(self) -> dict | None:
+        """The verdict beside the twin (``status``: ``none``, ``explained``, ``partly explained``, ``unknown``,
+        ``invalid data``; :mod:`sins_sim.identification.twin_explain`), or None without the twin."""
+        return self.get("verdict")
+
+    @property
     def figures(self) -> list:
         """The kinds :meth:`plot` can draw."""
         if self.detail is None:
@@ -80,7 +91,7 @@ class IdentifyResult(dict):
 
     def plot(self, kind: str = "psd"):
         """One figure, returned open (:data:`FIGURES`: ``psd``, ``twin-allan``, ``twin-psd``, ``twin-alignment``,
-        ``twin-nav``).
+        ``twin-nav``, ``twin-explain``).
 
         Raises
         ------
@@ -94,7 +105,8 @@ class IdentifyResult(dict):
     def to_pandas(self) -> dict:
         """The tables: ``noise`` (sensor, axis, term, value, ci95 low/high), ``bias`` (sensor, component, value,
         sigma), ``lines`` (sensor, axis and each line's readings), ``temperature`` (sensor, axis, coefficient,
-        sigma, significant) and ``findings`` (one row per place the log leaves its twin); for a rate-table result
+        sigma, significant) and ``findings`` (one row per place the log leaves its twin), with the twin ``candidates``
+        (label, effect, shrink, shrink_sd, p_heldout, findings_removed: :mod:`sins_sim.identification.twin_explain`); for a rate-table result
         ``motion_terms`` (term, unit, value, sigma, status)."""
         import pandas as pd
 
@@ -122,5 +134,12 @@ class IdentifyResult(dict):
                     temp.append({"sensor": s, "axis": ax, "quantity": key, "value": e.get("value"),
                                  "sigma": e["sigma"], "significant": "value" in e})
         findings = [{k: v for k, v in f.items()} for f in (self.get("twin") or {}).get("findings", [])]
-        return {"noise": pd.DataFrame(noise), "bias": pd.DataFrame(bias), "lines": pd.DataFrame(lines),
-                "temperature": pd.DataFrame(temp), "findings": pd.DataFrame(findings)}
+        out = {"noise": pd.DataFrame(noise), "bias": pd.DataFrame(bias), "lines": pd.DataFrame(lines),
+               "temperature": pd.DataFrame(temp), "findings": pd.DataFrame(findings)}
+        if "explain" in self:
+            out["candidates"] = pd.DataFrame(
+                [{"label": c["label"], "effect": c["effect"], "shrink": c["shrink"], "shrink_sd": c["shrink_sd"],
+                  "p_heldout": c["p_heldout"], "findings_removed": len(c["removes"])}
+                 for c in self["explain"]["candidates"]], columns=["label", "effect", "shrink", "shrink_sd",
+                                                                   "p_heldout", "findings_removed"])
+        return out

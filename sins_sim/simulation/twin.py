@@ -224,15 +224,17 @@ def rest_run(t_s, dth, dv, site: dict, method: str, *, gyro_bias_sigma_rad_s: fl
     return RestRun(allan, lines, alignment, np.asarray(sol.t_s) - free.start["t_s"], nav)
 
 
-def twin_increments(sensors, n: int, dt_s: float, site: dict, q_nb, seed: int, pulses: PulseWeights | None = None
-                    ) -> tuple:
+def twin_increments(sensors, n: int, dt_s: float, site: dict, q_nb, seed: int, pulses: PulseWeights | None = None,
+                    added=None) -> tuple:
     """``(t_s, dtheta, dv)`` of the twin at rest: ``n`` intervals of ``dt_s`` at the site, body attitude ``q_nb``.
 
     The exact increments at rest are ``C_bn w_ie^n dt`` and ``C_bn (0, 0, -g) dt`` (``g`` normal gravity at the
     site's latitude and height, :func:`sins_sim.earth.gravity_down`); the errors ``sensors``
     (:class:`~sins_sim.models.sensor_errors.SensorErrorParams`) are applied to them with ``seed``, then, with
     ``pulses``, the readout's pulse quantisation (:func:`quantise_pulses`, the residues drawn after the errors from
-    the same seed).
+    the same seed). ``added``, an (n, 6) rate (rad/s) and specific force (m/s^2) that a candidate effect adds
+    (:mod:`sins_sim.simulation.twin_effects`), enters as its interval mean times the interval, before the
+    quantisation (the readout counts what the unit senses).
     """
     from sins_sim.earth import earth_rate_ned, gravity_down
     from sins_sim.models.sensor_errors import AccelErrors, GyroErrors
@@ -246,6 +248,9 @@ def twin_increments(sensors, n: int, dt_s: float, site: dict, q_nb, seed: int, p
     accels = AccelErrors(sensors.accelerometer, rng, dt_s)
     dth = gyros.apply(np.tile(w_b * dt_s, (n, 1)))
     dv = accels.apply(np.tile(f_b * dt_s, (n, 1)))
+    if added is not None:
+        dth = dth + added[:, :3] * dt_s
+        dv = dv + added[:, 3:] * dt_s
     if pulses is not None:
         dth = quantise_pulses(dth, pulses.gyro_rad, pulses.axes, rng)
         dv = quantise_pulses(dv, pulses.accel_m_s, pulses.axes, rng)
