@@ -229,21 +229,27 @@ def with_unit(plan, imu, ctx: str = "plan"):
     if plan.temperature is not None:
         imu = _with_temperature(imu, plan.temperature, plan.duration_s, ctx)
         _check_block_temperature(imu, plan.temperature, plan.duration_s, ctx)
-    nav = plan.nav
-    if nav.tuned:
-        from sins_sim.simulation.sins import tuned_designs
-
-        key = "navigation.coning" if nav.coning == "filter_tuned" else "navigation.sculling"
-        try:
-            nav = dataclasses.replace(nav, designs=tuned_designs(imu, plan.filters, nav.tuned_band_hz, key))
-        except ValueError as exc:
-            raise PlanError(f"{ctx}: {exc}") from None
+    try:
+        nav = _with_designs(plan.nav, imu, plan.filters)
+    except ValueError as exc:
+        raise PlanError(f"{ctx}: {exc}") from None
     return dataclasses.replace(plan, imu=imu, nav=nav)
 
 
+def _with_designs(nav, imu, filters: tuple):
+    """``nav`` with the ``filter_tuned`` coning and sculling designs of ``filters`` on ``imu`` (issue 28: designed
+    when the plan is resolved, so that a design that does not fit is refused then, not mid-run); ValueError naming
+    the key when one does not fit."""
+    if not nav.tuned:
+        return nav
+    from sins_sim.simulation.sins import tuned_designs
+
+    key = "navigation.coning" if nav.coning == "filter_tuned" else "navigation.sculling"
+    return dataclasses.replace(nav, designs=tuned_designs(imu, filters, nav.tuned_band_hz, key))
+
+
 def _nav_settings(nv: dict, imu, filters: tuple, ctx: str):
-    """``navigation`` -> NavSettings with the alignment and the ``filter_tuned`` designs (issue 28: designed at
-    load, so that a design that does not fit is refused now, not mid-run)."""
+    """``navigation`` -> NavSettings with the alignment and the ``filter_tuned`` designs (:func:`_with_designs`)."""
     from sins_sim.simulation.sins import NavSettings
 
     try:
@@ -253,11 +259,7 @@ def _nav_settings(nv: dict, imu, filters: tuple, ctx: str):
                           timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"],
                           tuned_band_hz=None if nv["tuned_band_hz"] is None else tuple(nv["tuned_band_hz"]),
                           alignment=_alignment_settings(nv["alignment"], imu))
-        if nav.tuned:
-            from sins_sim.simulation.sins import tuned_designs
-
-            key = "navigation.coning" if nv["coning"] == "filter_tuned" else "navigation.sculling"
-            nav = dataclasses.replace(nav, designs=tuned_designs(imu, filters, nav.tuned_band_hz, key))
+        nav = _with_designs(nav, imu, filters)
     except ValueError as exc:
         raise PlanError(f"{ctx}: {exc}") from None
     return nav
