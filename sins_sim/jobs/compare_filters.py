@@ -59,9 +59,9 @@ from sins_sim.jobs.coning_table import algorithm_drifts, band_for, coning_algori
 from sins_sim.jobs.reproduce.responses import fir_response, mechanical_response
 from sins_sim.models.motion import SineMotion, StaticMotion
 from sins_sim.models.readout import ReadoutParams
+from sins_sim.plan import run_plan
 from sins_sim.simulation.channel import simulate_channel
 from sins_sim.simulation.metrics import drift_angle_of_series, ramp_fit
-from sins_sim.plan import run_plan
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["CompareSettings", "run_compare_filters", "resolve_unit", "unit_table", "UnitAndMission", "BANDS_HZ", "CONING_HZ", "WIDEBAND_FILTERS", "TARGETS"]
