@@ -33,7 +33,7 @@ ALLOWED = {
     # the resolve stage: builds what the engine runs from configuration's checked keys (the engine never imports it)
     "plan": BASE | {"simulation", "models", "filters", "navigation", "io"},
     "identification": BASE | {"plan", "simulation", "models", "filters", "navigation", "io", "plots"},
-    # config reaches the physics through the plan (experiment files still build their own engine inputs)
+    # config reaches the physics through the plan (scenarios, IMU files and experiment files alike)
     "config": BASE | {"plan", "simulation", "models", "filters", "navigation", "io"},
     # the result objects: below the commands, above configuration; figures through plots/ and the diagnosis'
     # own figures (lazily); no engine, no command
@@ -51,7 +51,8 @@ MOVED_TO_CONFIG = {m: f"sins_sim.config.{m}" for m in ("schema", "yaml_io", "sce
 MOVED_TO_CONFIG["sweep.schema"] = "sins_sim.config.sweep"
 MOVED_TO_CONFIG["advisories"] = "sins_sim.plan.advisories"  # they need the physics: the plan's (issue 38)
 #: config/ module -> the names it may import from sins_sim.plan: one entry point per file format
-PLAN_ENTRIES = {"scenario": {"resolve_plan", "PlanError"}, "imu": {"resolve_imu", "PlanError"}}
+PLAN_ENTRIES = {"scenario": {"resolve_plan", "PlanError"}, "imu": {"resolve_imu", "PlanError"},
+                "experiment": {"resolve_experiment", "PlanError"}}
 
 
 def _layer(module: str) -> str:
@@ -159,8 +160,9 @@ def test_import_linter_contracts_are_kept():
 
 def test_configuration_enters_the_plan_through_one_entry_point():
     """config/ checks keys, units and ranges; what needs the physics is the plan's (sins_sim.plan), which a scenario
-    enters through ``resolve_plan`` and an IMU file (``load_imu``) through ``resolve_imu``, nothing else: no config
-    module calls the engine's helpers (``simulation``, ``_kernels``) on a scenario's path."""
+    enters through ``resolve_plan``, an IMU file (``load_imu``) through ``resolve_imu`` and an experiment file
+    (``experiment_from_dict``) through ``resolve_experiment``, nothing else: no config module calls the engine's helpers
+    (``simulation``, ``_kernels``) on a file's path."""
     bad = []
     for path in sorted((PKG / "config").glob("*.py")):
         tree = ast.parse(path.read_text())

@@ -123,3 +123,51 @@ def test_run_plan_runs_every_field_of_the_plan():
     # 5 m/s^2 at 30 Hz on z moves the velocity by 5 / (2 pi 30) = 27 mm/s peak: the ideal's error series see it
     assert any(not np.array_equal(arr, bare.series["ideal"][key], equal_nan=True)
                for key, arr in got.series["ideal"].items())
+
+
+# --- a command that varies the unit re-resolves what depends on it (with_unit) -----------------------------------------
+
+def _tuned_doc(filter_parameters) -> dict:
+    return {"name": "tuned", "imu": str(IMU), "duration_s": 2.0, "filters": ["correcting", "eliminator"],
+            "filter_parameters": filter_parameters,
+            "navigation": {"start_s": 1.0, "coning": "filter_tuned", "tuned_band_hz": [20.0, 200.0]}}
+
+
+def test_with_unit_redesigns_the_filter_tuned_coefficients_on_the_new_units_filters():
+    """The budget's ``filter_mismatch`` off makes the filters believe the truth: the plan on that unit must carry the
+    coefficients designed on those filters, which a scenario whose filters believe the truth (``filter_parameters:
+    true``, resolved independently) has. They differ from the mismatched unit's: with eq. 5 2 % off f0 the 20-200 Hz
+    design is ill-conditioned and falls back to the two-sample coefficients (with a warning), on the true f0 it is
+    not, so a plan that kept the old designs fails the first comparison. Equality is exact: the same design computed
+    on the same unit."""
+    import warnings
+
+    from sins_sim.config.scenario import Scenario
+    from sins_sim.jobs.budget import apply_off
+    from sins_sim.plan import with_unit
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the mismatched design's fall-back line
+        mismatched = Scenario(_tuned_doc({"source": True, "f0_mismatch_ppm": 20000.0}), "t", ROOT)
+    truth = Scenario(_tuned_doc(True), "t", ROOT)
+    plan = with_unit(mismatched.plan, apply_off(mismatched.imu, ("filter_mismatch",)))
+    for name in ("correcting", "eliminator"):
+        got, want = (np.asarray(p.nav.designs[name]["coefficients"]) for p in (plan, truth.plan))
+        assert np.array_equal(got, want), name
+    assert not np.array_equal(np.asarray(mismatched.plan.nav.designs["correcting"]["coefficients"]),
+                              np.asarray(plan.nav.designs["correcting"]["coefficients"]))
+    # what the command did not vary is the scenario's own
+    assert plan.motion is mismatched.plan.motion and plan.vehicle is mismatched.plan.vehicle
+
+
+def test_with_unit_refuses_a_unit_at_another_filter_rate():
+    """``n_sub`` was resolved on the filter rate: a unit at another rate needs the scenario resolved again."""
+    import dataclasses
+
+    from sins_sim.plan import PlanError, with_unit
+
+    sc = load_scenario(ROOT / "scenarios" / "stationary.yaml")
+    chans = tuple(dataclasses.replace(c, readout=dataclasses.replace(c.readout, output_rate_hz=2.0 * c.readout.output_rate_hz))
+                  for c in sc.imu.channels)
+    with pytest.raises(PlanError, match=r"^cmd: readout\.output_rate_hz: .*resolve the scenario again"):
+        with_unit(sc.plan, dataclasses.replace(sc.imu, channels=chans), "cmd")

@@ -20,7 +20,8 @@ A scenario file's path reads top to bottom::
 A sweep file (``sweep.load_sweep``) takes the same path, yaml_io then schema (``SWEEP_SCHEMA``); each
 of the scenarios it names is a scenario file as above. An experiment file
 (``experiment.experiment_from_dict``, for ``sins-sim simulate-recording``) is validated against
-``EXPERIMENT_SCHEMA`` and becomes the recording simulator's inputs (sins_sim.simulation.experiment). A log
+``EXPERIMENT_SCHEMA``; the plan (sins_sim.plan.experiment.resolve_experiment) builds the recording
+simulator's inputs (sins_sim.simulation.experiment). A log
 description (``log.load_log_description``, for ``sins-sim import-log``) is validated against ``LOG_SCHEMA``
 and becomes the plain layout the log reader takes (sins_sim.io.unitlog.LogLayout).
 

@@ -133,15 +133,14 @@ def apply_off(imu, off):
 def _one_run(path: str, overrides: dict, off: tuple) -> dict:
     """One budget run in a worker: the final error vectors of every filter."""
     from sins_sim.config.scenario import load_scenario
-    from sins_sim.simulation.sins import simulate_sins
+    from sins_sim.plan import run_plan, with_unit
 
     sc = load_scenario(path, overrides)
-    imu = apply_off(sc.imu, off)
-    res = simulate_sins(imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters, threads=1,
-                        vehicle=sc.vehicle, translation=sc.translation,
-                        vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
+    # the scenario's plan on the unit with those sources off (its filter-tuned designs redesigned on that unit)
+    plan = with_unit(sc.plan, apply_off(sc.imu, off), f"budget ({', '.join(off) or 'all on'})")
+    res = run_plan(plan, threads=1)
     out = {}
-    for name in sc.filters:
+    for name in plan.filters:
         st = res.stats.get(name)
         if st is None or st.n == 0 or name in res.diverged:
             out[name] = None

@@ -59,9 +59,9 @@ from sins_sim.jobs.coning_table import algorithm_drifts, band_for, coning_algori
 from sins_sim.jobs.reproduce.responses import fir_response, mechanical_response
 from sins_sim.models.motion import SineMotion, StaticMotion
 from sins_sim.models.readout import ReadoutParams
+from sins_sim.plan import run_plan
 from sins_sim.simulation.channel import simulate_channel
 from sins_sim.simulation.metrics import drift_angle_of_series, ramp_fit
-from sins_sim.simulation.sins import NavSettings, simulate_sins
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["CompareSettings", "run_compare_filters", "resolve_unit", "unit_table", "UnitAndMission", "BANDS_HZ", "CONING_HZ", "WIDEBAND_FILTERS", "TARGETS"]
@@ -393,18 +393,24 @@ def _group_delay_s(imu, names):
     return out
 
 
-def _three_axis(imu, three, st, gain, resid, qnoise, cost, delay) -> dict:
+def _three_axis(um, three, st, gain, resid, qnoise, cost, delay) -> dict:
     """The single-channel measurements of the three-axis plug-ins, in the SINS engine (module docstring); fills
     ``gain`` (no sweep: null), ``resid``, ``qnoise``, ``cost`` and ``delay`` in place; returns their reports."""
-    from sins_sim.models.motion import Static
+    from sins_sim.plan import with_unit
 
     if not three:
         return {}
+    imu = um.imu
     settle = min(1.0, 0.5 * st.stationary_s)
+    # the unit at rest, every filter sample navigated (n_sub 1): its plan, then the same plan on requantised units
+    doc = {"name": "compare-stationary", "seed": 2, "duration_s": st.stationary_s, "imu": um.imu_ref,
+           "motion": [{"type": "static"}], "filters": list(three),
+           "navigation": {"start_s": settle, "align_s": 0.0, "spectrum_s": st.stationary_s - settle, "n_sub": 1},
+           "outputs": {"plots": False, "timeseries": False}}
+    plan = _scenario(doc, "compare-filters: stationary three-axis", um.imu_base).plan
 
     def run(unit):
-        return simulate_sins(unit, Static(), st.stationary_s, seed=2, filters=three,
-                             nav=NavSettings(start_s=settle, align_s=0.0, spectrum_s=st.stationary_s - settle))
+        return run_plan(with_unit(plan, unit, "compare-filters: stationary three-axis"))
 
     def rms(e):  # per axis, mean removed, then RMS over the axes (as the single-channel residual)
         return float(np.sqrt(np.mean(np.var(e, axis=0)))) / ARCSEC
@@ -474,9 +480,7 @@ def _coning(names, st, progress, p0, p1, um):
                "navigation": {"coning": "two_sample", "start_s": st.coning_start_s, "n_sub": 1},
                "outputs": {"plots": False, "timeseries": False}}
         sc = _scenario(doc, f"compare-filters: coning {f:g} Hz", um.imu_base)
-        res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
-                            vehicle=sc.vehicle, translation=sc.translation,
-                            vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
+        res = run_plan(sc.plan)
         for n in out:
             ser = res.series[n]
             fit = ramp_fit(ser["t_s"], drift_angle_of_series(ser, res.truth_series)[1][:, 2])
@@ -499,9 +503,7 @@ def _mission(names, st, um):
     if st.mission_s is not None:
         doc["duration_s"] = min(float(doc.get("duration_s", st.mission_s)), st.mission_s)
     sc = _scenario(doc, f"compare-filters: {um.mission_name}", um.mission_base)
-    res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
-                        vehicle=sc.vehicle, translation=sc.translation,
-                        vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
+    res = run_plan(sc.plan)
     m = scenario_metrics(res, sc)
     return {n: m[n]["horizontal_position_error_m"]["final"] if m[n]["status"] == "ok" else None for n in m}, \
         float(sc.duration_s)
@@ -595,7 +597,7 @@ def run_compare_filters(out_dir, json_path, quick: bool = False, filters=None, p
         progress(0.45)
         cost = _cost_ns(imu, single, sample[0], sample[1], st.cost_samples)
         delay = _group_delay_s(imu, single)
-        three_axis = _three_axis(imu, three, st, gain, resid, qnoise, cost, delay)
+        three_axis = _three_axis(um, three, st, gain, resid, qnoise, cost, delay)
         coning, coning_alg = _coning(names, st, progress, 0.5, 0.8, um)
         mission, mission_s = _mission(names, st, um)
         progress(0.95)

@@ -31,7 +31,7 @@ import numpy as np
 from sins_sim.plan import advisories
 from sins_sim.plan.errors import PlanError
 
-__all__ = ["Plan", "resolve_plan", "run_plan", "ALIGNMENT_REST_SPEED_M_S"]
+__all__ = ["Plan", "resolve_plan", "run_plan", "with_unit", "ALIGNMENT_REST_SPEED_M_S"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -190,9 +190,66 @@ def run_plan(plan, progress=None, threads: int | None = None):
                          vibration_enters=plan.vibration_enters, motion_enters=plan.motion_enters)
 
 
+def with_unit(plan, imu, ctx: str = "plan"):
+    """The plan on another unit: what the plan derived from the unit resolved again for ``imu``.
+
+    A command that varies the unit (the budget switches its error sources off, compare-filters requantises its
+    readout) comes here rather than handing the unit to the engine beside the old plan's designs:
+
+    - the scenario's temperature is applied to every channel and checked at the profile's extremes (and the
+      isolators' coefficients against the block), as :func:`resolve_plan` does;
+    - the ``filter_tuned`` coning and sculling designs are redesigned on the new unit's filters (they are designed
+      on each filter's response, which the filters' parameters set: a unit whose filters believe other parameters
+      needs other coefficients).
+
+    The navigation rate (``n_sub``) was resolved on the filter rate, so a unit with another filter rate is refused;
+    the alignment keeps the settings resolved from the scenario's unit (the navigator's a-priori error model, not the
+    truth the command varies).
+
+    Parameters
+    ----------
+    plan : Plan
+    imu : ImuConfig
+    ctx : str
+        How a refusal names the command.
+
+    Returns
+    -------
+    Plan
+
+    Raises
+    ------
+    PlanError
+        One line: another filter rate, a temperature out of the unit's range, or a design that does not fit.
+    """
+    if imu.filter_rate_hz != plan.imu.filter_rate_hz:
+        raise PlanError(f"{ctx}: readout.output_rate_hz: the plan's navigation rate was resolved for the filter rate "
+                        f"{plan.imu.filter_rate_hz:g} Hz, got a unit at {imu.filter_rate_hz:g} Hz: resolve the "
+                        f"scenario again (resolve_plan)")
+    if plan.temperature is not None:
+        imu = _with_temperature(imu, plan.temperature, plan.duration_s, ctx)
+        _check_block_temperature(imu, plan.temperature, plan.duration_s, ctx)
+    try:
+        nav = _with_designs(plan.nav, imu, plan.filters)
+    except ValueError as exc:
+        raise PlanError(f"{ctx}: {exc}") from None
+    return dataclasses.replace(plan, imu=imu, nav=nav)
+
+
+def _with_designs(nav, imu, filters: tuple):
+    """``nav`` with the ``filter_tuned`` coning and sculling designs of ``filters`` on ``imu`` (issue 28: designed
+    when the plan is resolved, so that a design that does not fit is refused then, not mid-run); ValueError naming
+    the key when one does not fit."""
+    if not nav.tuned:
+        return nav
+    from sins_sim.simulation.sins import tuned_designs
+
+    key = "navigation.coning" if nav.coning == "filter_tuned" else "navigation.sculling"
+    return dataclasses.replace(nav, designs=tuned_designs(imu, filters, nav.tuned_band_hz, key))
+
+
 def _nav_settings(nv: dict, imu, filters: tuple, ctx: str):
-    """``navigation`` -> NavSettings with the alignment and the ``filter_tuned`` designs (issue 28: designed at
-    load, so that a design that does not fit is refused now, not mid-run)."""
+    """``navigation`` -> NavSettings with the alignment and the ``filter_tuned`` designs (:func:`_with_designs`)."""
     from sins_sim.simulation.sins import NavSettings
 
     try:
@@ -202,11 +259,7 @@ def _nav_settings(nv: dict, imu, filters: tuple, ctx: str):
                           timeseries_rate_hz=nv["timeseries_rate_hz"], spectrum_s=nv["spectrum_s"],
                           tuned_band_hz=None if nv["tuned_band_hz"] is None else tuple(nv["tuned_band_hz"]),
                           alignment=_alignment_settings(nv["alignment"], imu))
-        if nav.tuned:
-            from sins_sim.simulation.sins import tuned_designs
-
-            key = "navigation.coning" if nv["coning"] == "filter_tuned" else "navigation.sculling"
-            nav = dataclasses.replace(nav, designs=tuned_designs(imu, filters, nav.tuned_band_hz, key))
+        nav = _with_designs(nav, imu, filters)
     except ValueError as exc:
         raise PlanError(f"{ctx}: {exc}") from None
     return nav

@@ -330,7 +330,7 @@ def run_task(spec: dict) -> dict:
     from sins_sim.jobs.messages import format_warning_lines
     from sins_sim.jobs.run import scenario_metrics
     from sins_sim.config.scenario import Scenario
-    from sins_sim.simulation.sins import simulate_sins
+    from sins_sim.plan import run_plan
     from sins_sim.units import ARCSEC
 
     if spec["version"] != package_version():
@@ -340,9 +340,7 @@ def run_task(spec: dict) -> dict:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         sc = Scenario(spec["doc"], spec["ctx"], Path(spec["base_dir"]))
-        res = simulate_sins(sc.imu, sc.motion, sc.duration_s, seed=sc.seed, nav=sc.nav, filters=sc.filters,
-                            threads=1, vehicle=sc.vehicle, translation=sc.translation,
-                            vibration_enters=sc.vibration_enters, motion_enters=sc.motion_enters)
+        res = run_plan(sc.plan, threads=1)  # the unit's scenario as resolved (its drawn unit in the document)
         filters = scenario_metrics(res, sc)
     gyro_rms = {name: np.sqrt(np.mean((e - e.mean(axis=0)) ** 2, axis=0)) / ARCSEC
                 for name, e in res.spectra.items() if name != "t" and e.shape[0]}

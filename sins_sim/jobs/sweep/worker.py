@@ -3,7 +3,7 @@
 Set-up (:class:`SweepWorkerSetup`, a worker plugin registered before the first task):
 
 * **one thread**: ``NUMBA_NUM_THREADS=1`` (and the BLAS/OpenMP pools at 1) in every worker process, one
-  worker thread per process (``--nthreads 1``): a run is one core's work (``simulate_sins(threads=1)``) and
+  worker thread per process (``--nthreads 1``): a run is one core's work (``run_plan(plan, threads=1)``) and
   the sweep's parallelism is the workers'; more threads would only compete for the same cores;
 * **the C heap kept between runs**: dask's nanny starts every worker with ``MALLOC_TRIM_THRESHOLD_=65536``
   (``distributed.nanny.pre-spawn-environ``), which also fixes glibc's mmap threshold at 128 kB: every array a run
