@@ -118,7 +118,8 @@ def test_random_band_in_the_stop_band_reports_the_lost_angle(tmp_path):
 def test_bundled_scenarios_load_without_new_warnings():
     """Only random-vibration.yaml warns: its 1e-3 (deg/s)^2/Hz puts ~0.3 arcsec RMS (two readout quanta) into
     each eliminator band, which the eliminator removes with the dither; and pseudo-coning-300hz-tuned.yaml, whose
-    eq. 5 filter-tuned designs fall back to two-sample."""
+    eq. 5 filter-tuned designs fall back to two-sample; and helicopter-unit.yaml, whose online estimators on a block
+    learn the block's counter-rotation (told once, with each axis's value)."""
     for path in sorted((ROOT / "scenarios").glob("*.yaml")):
         if path.name.startswith("sweep-"):
             continue
@@ -131,6 +132,10 @@ def test_bundled_scenarios_load_without_new_warnings():
             assert [m.split(" (")[0] for m in msgs] == [
                 f"navigation.coning: filter_tuned over 200-300 Hz is ill-conditioned for the filter {n}"
                 for n in ("correcting", "correcting_paper")]
+        elif path.name == "helicopter-unit.yaml":
+            assert [m.split(" (")[0] for m in msgs] == [
+                "filter_parameters.source: online with imu.block: each estimator learns the gyro as the block "
+                "presents it, its readout carrying the block's counter-rotation"]
         else:
             assert msgs == [], (path.name, msgs)
 
@@ -167,6 +172,20 @@ def test_drive_off_its_amplitude_target_and_voltage_warns():
     assert len(msgs) == 2
     assert msgs[0].startswith("drive y: dither amplitude 3.1 arcmin against its target 3 arcmin (+3.3 %")
     assert msgs[1].startswith("drive z: V_m = ") and "-6.0 % off the eq. 17 voltage" in msgs[1]
+
+
+def test_a_modulated_drive_is_judged_on_its_amplitude_not_its_voltage():
+    """With drive.modulation_depth > 0 the target jumps every control block, faster than the loop settles, so V_m
+    at the end is no equilibrium: a 12 % voltage offset (what the bundled 5 % modulated units end with) is not
+    judged, while an amplitude beyond 1 % + depth still is, and the same voltage offset unmodulated warns."""
+    doc = _imu(352.0)
+    doc["drive"] = dict(doc.get("drive", {}), modulation_depth=0.05)
+    imu = imu_from_dict(doc, "imu.yaml")
+    assert advisories.drive_advisories(_drives(imu, (1.0, 1.0, 1.0), (0.88, 1.12, 1.0)), imu, 10.0) == []
+    msgs = advisories.drive_advisories(_drives(imu, (1.0, 1.07, 1.0), (1.0, 1.0, 1.0)), imu, 10.0)
+    assert len(msgs) == 1 and msgs[0].startswith("drive y: dither amplitude")
+    plain = imu_from_dict(_imu(352.0), "imu.yaml")
+    assert len(advisories.drive_advisories(_drives(plain, (1.0, 1.0, 1.0), (0.88, 1.12, 1.0)), plain, 10.0)) == 2
 
 
 def test_a_drive_still_pulling_in_is_not_judged():

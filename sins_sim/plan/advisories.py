@@ -295,7 +295,8 @@ def online_on_block_advisories(imu) -> list[str]:
 
 def drive_advisories(drives, imu, duration_s: float) -> list[str]:
     """Drives off their amplitude target, or with V_m away from eq. 17, one message each (none for a run
-    shorter than :data:`DRIVE_SETTLE_LOOPS` amplitude-loop periods).
+    shorter than :data:`DRIVE_SETTLE_LOOPS` amplitude-loop periods; the voltage is not judged on a drive whose
+    amplitude is modulated, ``drive.modulation_depth > 0``, whose loop never settles on one target).
 
     Parameters
     ----------
@@ -332,7 +333,11 @@ def drive_advisories(drives, imu, duration_s: float) -> list[str]:
         except ValueError:
             continue
         vm = d["v_m_final"]
-        if closed and expected != 0.0 and math.isfinite(vm) and abs(vm / expected - 1.0) > VOLTAGE_TOLERANCE:
+        # With amplitude modulation the target jumps at every control block (a few dither periods) by up to
+        # +-depth, faster than the amplitude loop settles (loop_time_s): V_m at the end is the loop's state on its
+        # way to a moving target, not the equilibrium eq. 17 describes (the bundled 5 % modulated units end 6-12 %
+        # off it with nothing wrong), so the voltage is not judged then.
+        if closed and depth == 0.0 and expected != 0.0 and math.isfinite(vm) and abs(vm / expected - 1.0) > VOLTAGE_TOLERANCE:
             out.append(f"drive {ax}: V_m = {vm:.4g} V is {100.0 * (vm / expected - 1.0):+.1f} % off the eq. 17 "
                        f"voltage{' on the isolated block' if factor[i] != 1.0 else ''} {expected:.4g} V of the unit's parameters at {target / ARCMIN:.3g} arcmin (tolerance "
                        f"{100.0 * VOLTAGE_TOLERANCE:g} %): the suspension's loss or tuning is not what the unit's "
