@@ -143,7 +143,7 @@ def test_the_intermodulation_level_against_its_closed_form(study):
     """The level itself: the eliminator's attitude carries the truth's coning less its own increments' coning,
     ``(w_d + w_v) / (4 |w_d - w_v|) |R conj(B) - R_n conj(B_n)|`` (the study's ``_navigated_difference``): the
     rocking its stop band leaves (``R_n``, about 1.3 % of ``R``) cones with its output at the line (``B_n``, 6.5
-    times the block's line: z's dither suspension, 37 Hz below its 421.6 Hz resonance, deflects by
+    times the block's line: z's dither suspension, below its resonance (417.7 Hz at its 300 arcsec swing), deflects by
     ``(f_v / f_0)^2 / (1 - (f_v / f_0)^2)`` of it, and the eliminator's phase there). Without that term the level
     is 0.91-0.92 of the block's coning alone; the term's bound ``|R_n| |B_n| / (|R| |B|)`` covers the deficit.
     Tolerance: ``|w_d - w_v| / (w_d + w_v)`` (the closed form's equal weights against the kinematics'

@@ -224,8 +224,9 @@ def _navigated_difference(block_rec, spectra, d: int, v: int, fd: float, fv: flo
     ``B_n = B + e_v`` with ``e`` the eliminator's angle error at the line (``spectra``: output minus truth).
     ``R_n`` is the rocking the eliminator's stop band leaves (about 1 % of it); ``B_n`` departs from ``B`` by the
     vibration axis's own gyro: its dither suspension, base-excited below its resonance, deflects by
-    ``(f_v / f_0)^2 / (1 - (f_v / f_0)^2)`` of ``B`` (5.5 times at 384 Hz under a 421 Hz gyro), and the
-    eliminator's phase there. Their coning takes ``|R_n| |B_n|`` (8 % of ``|R| |B|`` in that case) from the
+    ``(f_v / f_0)^2 / (1 - (f_v / f_0)^2)`` of ``B`` (``f_0`` its resonance at that swing: 5.5 times for 384 Hz
+    under a 421 Hz gyro, whose resonance is 417.7 Hz at the 300 arcsec it swings), and the eliminator's phase
+    there. Their coning takes ``|R_n| |B_n|`` (8 % of ``|R| |B|`` in that case) from the
     closed form. None without a block record or spectra."""
     if not block_rec or not spectra or "eliminator" not in spectra:
         return None
