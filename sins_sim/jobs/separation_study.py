@@ -324,8 +324,9 @@ def _point(imu, a: int, b: int, delta_hz: float, duration_s: float, start_s: flo
         # the eliminator's own coning: the rocking it leaves at f_d cones with its output at f_v (module docstring)
         d = _AXES.index(x["dither_axis"])
         nav_cf = _navigated_difference(res.block, res.spectra, d, v, x["dither_hz"], line[1], line[2], line[3])
-        x["eliminator_rocking_left_arcsec"], x["eliminator_line_arcsec"], x["difference_closed_form_navigated_arcsec"] = (
-            (None, None, None) if nav_cf is None else (nav_cf[1] / ARCSEC, nav_cf[2] / ARCSEC, nav_cf[0] / ARCSEC))
+        for key, i in (("difference_closed_form_navigated_arcsec", 0), ("eliminator_rocking_left_arcsec", 1),
+                       ("eliminator_line_arcsec", 2)):
+            x[key] = None if nav_cf is None else nav_cf[i] / ARCSEC
     # every line the attitude error can hold, so that the lock-in fits the ones the means alias near the one it
     # measures: the dithers, their sums, the vibration lines and the intermodulation lines
     known = list(f_all) + [fi + fj for fi in f_all for fj in f_all] + [ln[1] for ln in lines] + [
