@@ -139,18 +139,31 @@ def test_a_vibration_line_near_a_dither_intermodulates_as_its_closed_form(study)
     assert seen == 4  # x and y dithers, two separations
 
 
-@pytest.mark.xfail(strict=True, reason="open: the engine's eliminator carries 0.91-0.92 of the closed form with the "
-                                       "simulated block's rotation (0.85 with the profile's), where the kinematics "
-                                       "give 1.00; see the report of issue 38 item 5")
 def test_the_intermodulation_level_against_its_closed_form(study):
-    """The level itself, with b the block's rotation at the line as the engine simulated it (5 % and three
-    floors, as above)."""
+    """The level itself: the eliminator's attitude carries the truth's coning less its own increments' coning,
+    ``(w_d + w_v) / (4 |w_d - w_v|) |R conj(B) - R_n conj(B_n)|`` (the study's ``_navigated_difference``): the
+    rocking its stop band leaves (``R_n``, about 1.3 % of ``R``) cones with its output at the line (``B_n``, 6.5
+    times the block's line: z's dither suspension, below its resonance (417.7 Hz at its 300 arcsec swing), deflects by
+    ``(f_v / f_0)^2 / (1 - (f_v / f_0)^2)`` of it, and the eliminator's phase there). Without that term the level
+    is 0.91-0.92 of the block's coning alone; the term's bound ``|R_n| |B_n| / (|R| |B|)`` covers the deficit.
+    Tolerance: ``|w_d - w_v| / (w_d + w_v)`` (the closed form's equal weights against the kinematics'
+    ``w_d / (2 |w_d - w_v|)``, test above), 0.005 (that test's lock-in bound) and three floors."""
     _, res = study
+    seen = 0
     for p in res["points"]:
         for x in p["intermodulation"]:
-            ref = x["difference_closed_form_simulated_block_arcsec"]
+            ref = x["difference_closed_form_navigated_arcsec"]
             got, floor = x["difference_arcsec_eliminator"], x["difference_floor_arcsec_eliminator"]
-            assert abs(got - ref) <= 0.05 * ref + 3 * floor
+            wd, wv = x["dither_hz"], x["vibration_hz"]
+            tol = abs(wd - wv) / (wd + wv) + 0.005
+            assert abs(got - ref) <= tol * ref + 3 * floor, (p["separation_hz"], x["dither_axis"], got, ref)
+            block_only = x["difference_closed_form_simulated_block_arcsec"]
+            share = (x["eliminator_rocking_left_arcsec"] * x["eliminator_line_arcsec"]
+                     / (x["counter_rotation_arcsec"] * x["vibration_block_simulated_arcsec"]))
+            assert 0.05 < share < 0.2  # the eliminator's own coning is what departs from the block's
+            assert abs(got - block_only) <= share * block_only + 3 * floor
+            seen += 1
+    assert seen == 4
 
 
 def test_no_entrainment_risk_with_a_2_mrad_axis_offset(study):

@@ -20,7 +20,10 @@ suspensions, drives, readouts, filters, navigation), at rest or under the vibrat
 - **intermodulation**: a vibration line (a ``sines`` part of the scenario's motion) turns the block at ``f_v``; it
   cones with the counter-rotation at each dither ``f_d`` about another axis and puts lines at ``|f_d - f_v|`` and
   ``f_d + f_v`` into the third gyro (closed forms in :func:`_intermodulation`); the difference line is measured in
-  each filter's attitude error about that gyro's axis, as the beat;
+  each filter's attitude error about that gyro's axis, as the beat. The eliminator's carries the truth's coning
+  less that of its own increments (:func:`_navigated_difference`): the rocking its stop band leaves, coned with its
+  output at ``f_v``, which the vibration axis's own gyro (its dither suspension excited below resonance) makes
+  several times the block's line when ``f_v`` nears that gyro's resonance;
 - **cross-axis drive**: the second gyro's deflection at the first's drive frequency, relative to its own dither
   (fitted on the raw readout's error over the navigated span, both lines at once). It comes from the block's
   coupling of the axes: products of inertia, and each gyro's input-axis offset (``--axis-offset-mrad`` tilts the
@@ -198,6 +201,48 @@ def _block_line(block_rec, axis: int, f_hz: float, amp: float, phase: float) -> 
     return float(abs(complex(amp * math.cos(phase) + c[1], amp * math.sin(phase) + c[2])))
 
 
+def _phasor(t_s, y, f_hz: float) -> complex:
+    """Complex amplitude ``A`` of the line ``Re(A exp(i 2 pi f t))`` in ``y`` (least squares with an offset and a
+    trend; ``t`` absolute, so that phasors of one run compare)."""
+    t = np.asarray(t_s, dtype=float)
+    w = 2 * np.pi * f_hz
+    c, *_ = np.linalg.lstsq(np.column_stack([np.ones_like(t), t - t.mean(), np.cos(w * t), np.sin(w * t)]),
+                            np.asarray(y, dtype=float), rcond=None)
+    return complex(c[2], -c[3])
+
+
+def _navigated_difference(block_rec, spectra, d: int, v: int, fd: float, fv: float, amp: float, phase: float):
+    """The difference line the eliminator's attitude carries (rad), with its two inputs: ``(line, |R_n|, |B_n|)``.
+
+    The navigation integrates the coning of the increments it is given, so its error at ``|f_d - f_v|`` is the
+    truth's coning of the rocking ``R`` (at ``f_d`` about ``d``) with the block's line ``B`` (at ``f_v`` about
+    ``v``) less the coning of the eliminator's own lines there, ``R_n`` and ``B_n``: each the difference-frequency
+    term of two lines in Bortz's rate, ``(w_d + w_v) / (4 |w_d - w_v|)`` times ``R conj(B)`` (as
+    :func:`~sins_sim.models.block.coning_beat_amplitude`; Bortz 1971, IEEE Trans. AES-7(1), eq. 27), so
+    ``(w_d + w_v) / (4 |w_d - w_v|) |R conj(B) - R_n conj(B_n)|``. ``R``, ``B``: the run's block record (the
+    profile ``A sin(2 pi f t + p)`` added to the block's own rotation about ``v``); ``R_n = R + e_d``,
+    ``B_n = B + e_v`` with ``e`` the eliminator's angle error at the line (``spectra``: output minus truth).
+    ``R_n`` is the rocking the eliminator's stop band leaves (about 1 % of it); ``B_n`` departs from ``B`` by the
+    vibration axis's own gyro: its dither suspension, base-excited below its resonance, deflects by
+    ``(f_v / f_0)^2 / (1 - (f_v / f_0)^2)`` of ``B`` (``f_0`` its resonance at that swing: 5.5 times for 384 Hz
+    under a 421 Hz gyro, whose resonance is 417.7 Hz at the 300 arcsec it swings), and the eliminator's phase
+    there. Their coning takes ``|R_n| |B_n|`` (8 % of ``|R| |B|`` in that case) from the
+    closed form. None without a block record or spectra."""
+    if not block_rec or not spectra or "eliminator" not in spectra:
+        return None
+    tb, th = np.asarray(block_rec["t_s"]), np.asarray(block_rec["theta_rad"])
+    ts, err = np.asarray(spectra["t"]), np.asarray(spectra["eliminator"])
+    if tb.size < 2 or ts.size < 2 or min(tb[-1] - tb[0], ts[-1] - ts[0]) * min(fv, fd) < 2:
+        return None
+    r = _phasor(tb, th[:, d], fd)
+    b = _phasor(tb, th[:, v], fv) + amp * np.exp(1j * (phase - np.pi / 2))
+    rn = r + _phasor(ts, err[:, d], fd)
+    bn = b + _phasor(ts, err[:, v], fv)
+    wd, wv = 2 * np.pi * fd, 2 * np.pi * fv
+    line = (wd + wv) / (4 * abs(wd - wv)) * abs(r * np.conj(b) - rn * np.conj(bn))
+    return float(line), float(abs(rn)), float(abs(bn))
+
+
 def _intermodulation(unit, drives_hz, rock, lines, motion_enters: str) -> list:
     """Closed forms of the lines a vibration line makes with each dither in the third gyro (module docstring):
     the block's rotation ``b`` at ``f_v`` about ``v`` cones with its counter-rotation ``rho`` at the dither
@@ -276,13 +321,12 @@ def _point(imu, a: int, b: int, delta_hz: float, duration_s: float, start_s: flo
         x["vibration_block_simulated_arcsec"] = None if b_sim is None else b_sim / ARCSEC
         x["difference_closed_form_simulated_block_arcsec"] = (
             None if b_sim is None else x["difference_closed_form_arcsec"] * b_sim / (x["vibration_block_arcsec"] * ARCSEC))
-        # the eliminator removes the dither's rocking (its rate error cones with the line: the whole difference
-        # line) and passes the line with its gain G at f_v (the line's rate error (1 - G) cones back with the
-        # rocking, the other way): the difference line in its attitude is |G| of the closed form
-        v = _AXES.index(x["vibration_axis"])
-        g = abs(complex(np.asarray(drives[v].eliminator_design().frequency_response(x["vibration_hz"])).ravel()[0]))
-        x["eliminator_gain_at_line"] = g
-        x["difference_closed_form_eliminator_arcsec"] = g * x["difference_closed_form_arcsec"]
+        # the eliminator's own coning: the rocking it leaves at f_d cones with its output at f_v (module docstring)
+        d = _AXES.index(x["dither_axis"])
+        nav_cf = _navigated_difference(res.block, res.spectra, d, v, x["dither_hz"], line[1], line[2], line[3])
+        for key, i in (("difference_closed_form_navigated_arcsec", 0), ("eliminator_rocking_left_arcsec", 1),
+                       ("eliminator_line_arcsec", 2)):
+            x[key] = None if nav_cf is None else nav_cf[i] / ARCSEC
     # every line the attitude error can hold, so that the lock-in fits the ones the means alias near the one it
     # measures: the dithers, their sums, the vibration lines and the intermodulation lines
     known = list(f_all) + [fi + fj for fi in f_all for fj in f_all] + [ln[1] for ln in lines] + [
@@ -522,7 +566,8 @@ def _csv(points) -> str:
 _INTER_COLS = ("vibration_axis", "vibration_hz", "vibration_block_arcsec", "dither_axis", "dither_hz",
                "counter_rotation_arcsec", "gyro", "difference_hz", "difference_closed_form_arcsec",
                "vibration_block_simulated_arcsec", "difference_closed_form_simulated_block_arcsec",
-               "eliminator_gain_at_line", "difference_closed_form_eliminator_arcsec") + tuple(
+               "eliminator_rocking_left_arcsec", "eliminator_line_arcsec",
+               "difference_closed_form_navigated_arcsec") + tuple(
     f"difference_arcsec_{n}" for n in FILTERS) + tuple(f"difference_floor_arcsec_{n}" for n in FILTERS) + (
     "sum_hz", "sum_closed_form_arcsec")
 
@@ -593,14 +638,18 @@ def _report(res) -> str:
                   "into the third gyro a line at `|f_d - f_v|` of angle amplitude `rho b (w_d + w_v) / (4 |w_d - w_v|)` "
                   "and one at `f_d + f_v` of `rho b |w_d - w_v| / (4 (w_d + w_v))`. A filter that notches the dither "
                   "(the eliminator) keeps the difference line in its attitude, as it keeps the dither coning's beat, "
-                  "times its gain `|G|` at the line (the share of the line it passes: the rest cones back with the "
-                  "rocking the other way); measured there (the same lock-in), about the third gyro's axis.", "",
+                  "less the coning of its own increments: the rocking its stop band leaves at `f_d` (`R_n`, about 1 % "
+                  "of it) with its output at `f_v` (`B_n`), which departs from the block's line by the vibration "
+                  "axis's own gyro (its dither suspension, excited below its resonance, deflects by "
+                  "`(f_v / f_0)^2 / (1 - (f_v / f_0)^2)` of the line) and by the eliminator's phase there. "
+                  "'eliminator, navigated' is `(w_d + w_v) / (4 |w_d - w_v|) |R conj(B) - R_n conj(B_n)|` with the "
+                  "four lines from the run; measured (the same lock-in) about the third gyro's axis.", "",
                   "`b` is the line's amplitude on the block from the scenario (at the block) or the chassis times "
                   "the block's transmissibility; 'simulated block' takes `b` from the run's block record instead "
                   "(near a gyro's resonance the engine's block departs from the profile that enters at it, by the "
                   "suspension's dynamic load).", "",
                   "| separation (Hz) | line | dither | gyro | f_d - f_v (Hz) | closed form (arcsec) | "
-                  "with the simulated block (arcsec) | eliminator: |G| x closed form (arcsec) | " + " | ".join(FILTERS)
+                  "with the simulated block (arcsec) | eliminator, navigated (arcsec) | " + " | ".join(FILTERS)
                   + " | f_d + f_v (Hz) | closed form (arcsec) |",
                   "|" + "---|" * (10 + len(FILTERS))]
         for sep, x in inter:
@@ -612,7 +661,8 @@ def _report(res) -> str:
                          f"{x['dither_hz']:.6g} Hz, {x['counter_rotation_arcsec']:.3g} arcsec | {x['gyro']} | "
                          f"{x['difference_hz']:.4g} | {x['difference_closed_form_arcsec']:.3g} | "
                          f"{_fmt(x['difference_closed_form_simulated_block_arcsec'], 3)} | "
-                         f"{x['difference_closed_form_eliminator_arcsec']:.3g} (|G| {x['eliminator_gain_at_line']:.3g})"
+                         f"{_fmt(x['difference_closed_form_navigated_arcsec'], 3)} (rocking left "
+                         f"{_fmt(x['eliminator_rocking_left_arcsec'], 2)}, line {_fmt(x['eliminator_line_arcsec'], 3)})"
                          " | " + " | ".join(meas)
                          + f" | {x['sum_hz']:.5g} | {x['sum_closed_form_arcsec']:.3g} |")
     lines += ["", "## Answer", "",
