@@ -27,7 +27,7 @@ from sins_sim._kernels._config import jit
 from sins_sim._kernels.nav import quat_mul, quat_to_dcm, rotvec_to_quat
 from sins_sim._kernels.strapdown import gravity_down, radii
 
-__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
+__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "running_integrals", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
 
 #: Highest power of ``F`` in the series of ``Phi`` and ``Q_d`` (the reference's ``_SERIES_ORDER``).
 SERIES_ORDER = 5
@@ -145,6 +145,28 @@ def unmodelled_increment_into(a0, a1, origin, s2, m2, out):
         b0 = (a0[i] - origin[i]) ** 2
         b1 = (a1[i] - origin[i]) ** 2
         out[i] = max(0.0, s2 * (b1 - b0) + m2 * ((n1 - b1) - (n0 - b0)))
+
+
+@jit
+def running_integrals(dth, dvel, acc0, f_ref, big_t, n_sub, pending, out):
+    """The running integrals at the end of each of the ``out.shape[0]`` navigation updates a chunk completes, into
+    ``out`` (rows ``acc0[:3] + sum dtheta``, ``acc0[3:] + sum dv - (j + 1) T f_ref``; the chunk's first
+    ``n_sub - pending`` samples complete the pending update): the sums sequential, as ``np.cumsum``, so the rows
+    equal those of :meth:`sins_sim.navigation.ekf.AidedNavigator._integrals_reference` bit for bit, without the
+    cumulative sum of every sample of the chunk."""
+    s = np.zeros(6)
+    k = 0
+    for j in range(out.shape[0]):
+        end = (j + 1) * n_sub - pending
+        while k < end:
+            for i in range(3):
+                s[i] += dth[k, i]
+                s[3 + i] += dvel[k, i]
+            k += 1
+        t_row = (j + 1) * big_t
+        for i in range(3):
+            out[j, i] = acc0[i] + s[i]
+            out[j, 3 + i] = acc0[3 + i] + s[3 + i] - t_row * f_ref[i]
 
 
 @jit

@@ -1220,7 +1220,19 @@ class AidedNavigator:
 
     def _integrals(self, dth, dvel, pending, m):
         """The running integrals at the end of each of the ``m`` navigation updates this chunk completes (the
-        chunk's first ``n_sub - pending`` samples complete the pending update), and carried on past them."""
+        chunk's first ``n_sub - pending`` samples complete the pending update), and carried on past them (compiled,
+        :func:`kekf.running_integrals`; :meth:`_integrals_reference` is the numpy form, equal bit for bit)."""
+        nav = self._nav
+        if self._f_ref is None:
+            self._f_ref = dvel.sum(axis=0) / (dvel.shape[0] * nav.dt_s)
+        acc = np.empty((m, 6))
+        if m:
+            kekf.running_integrals(dth, dvel, self._acc, self._f_ref, nav.update_period_s, nav.n_sub, pending, acc)
+            self._acc = acc[-1].copy()
+        return acc
+
+    def _integrals_reference(self, dth, dvel, pending, m):
+        """:meth:`_integrals` in numpy (cumulative sums over the chunk)."""
         nav = self._nav
         if self._f_ref is None:
             self._f_ref = dvel.sum(axis=0) / (dvel.shape[0] * nav.dt_s)
@@ -1480,7 +1492,10 @@ class AidedNavigator:
     def _apply_feedback(self):
         x = self._x
         self._last_correction = self._change
-        self._nav.apply_correction(x[POS], x[VEL], x[ATT])
+        if math.isfinite(float(x[:N_STATES].sum())):      # the checks of apply_correction, once
+            self._nav._correct(x[POS].copy(), x[VEL].copy(), x[ATT].copy())
+        else:
+            self._nav.apply_correction(x[POS], x[VEL], x[ATT])      # raises, naming the part
         self._bg = self._bg - x[GYRO_BIAS]
         self._ba = self._ba - x[ACCEL_BIAS]
         self._x = x.copy()
