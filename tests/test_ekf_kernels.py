@@ -111,6 +111,25 @@ def test_running_integrals_equal_the_cumulative_sums_bit_for_bit():
         assert np.array_equal(a._acc, b._acc) and np.array_equal(a._f_ref, b._f_ref)
 
 
+def test_chunk_passes_equal_their_numpy_expressions_bit_for_bit():
+    """The increments less the bias estimates, the gyro sum since the last epoch and the per-update sums: the
+    kernels add in numpy's order for these shapes (sequentially over the rows), so they are identical."""
+    rng = np.random.default_rng(372)
+    for n in (0, 17, 18 * 400):
+        dth = rng.standard_normal((n, 3)) * np.array([1e-4, 3e-6, 2e-2])
+        dv = rng.standard_normal((n, 3)) * 1e-3
+        bg_dt, ba_dt = rng.standard_normal(3) * 1e-9, rng.standard_normal(3) * 1e-7
+        acc = rng.standard_normal(3)
+        want = acc + dth.sum(axis=0)
+        a, b = np.empty_like(dth), np.empty_like(dv)
+        kekf.bias_corrected(dth, dv, bg_dt, ba_dt, a, b, acc)
+        assert np.array_equal(a, dth - bg_dt) and np.array_equal(b, dv - ba_dt) and np.array_equal(acc, want)
+        m = n // 18
+        sums = np.empty((m, 3))
+        kekf.update_sums(dth, 18, sums)
+        assert np.array_equal(sums, dth[:18 * m].reshape(-1, 18, 3).sum(axis=1))
+
+
 def test_error_dynamics_kernel_equals_the_numpy_reference():
     """F entry by entry at a cruise state off the equator (every motion term non-zero)."""
     lat, h = math.radians(-33.0), 1500.0

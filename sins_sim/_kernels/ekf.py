@@ -27,7 +27,7 @@ from sins_sim._kernels._config import jit
 from sins_sim._kernels.nav import quat_mul, quat_to_dcm, rotvec_to_quat
 from sins_sim._kernels.strapdown import gravity_down, radii
 
-__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "running_integrals", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
+__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "running_integrals", "bias_corrected", "update_sums", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
 
 #: Highest power of ``F`` in the series of ``Phi`` and ``Q_d`` (the reference's ``_SERIES_ORDER``).
 SERIES_ORDER = 5
@@ -145,6 +145,39 @@ def unmodelled_increment_into(a0, a1, origin, s2, m2, out):
         b0 = (a0[i] - origin[i]) ** 2
         b1 = (a1[i] - origin[i]) ** 2
         out[i] = max(0.0, s2 * (b1 - b0) + m2 * ((n1 - b1) - (n0 - b0)))
+
+
+@jit
+def bias_corrected(dth, dvel, bg_dt, ba_dt, dth_out, dv_out, dth_sum):
+    """``dth_out = dth - bg_dt`` and ``dv_out = dvel - ba_dt`` row by row (the increments with the bias estimates
+    removed), and ``dth_sum += `` the column sums of ``dth`` (added sequentially from zero, as numpy sums a
+    C-contiguous ``(n, 3)`` array over axis 0): the numpy expressions of
+    :meth:`sins_sim.navigation.ekf.AidedNavigator._process_checked` in one pass, same values."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    for k in range(dth.shape[0]):
+        s0 += dth[k, 0]
+        s1 += dth[k, 1]
+        s2 += dth[k, 2]
+        for i in range(3):
+            dth_out[k, i] = dth[k, i] - bg_dt[i]
+            dv_out[k, i] = dvel[k, i] - ba_dt[i]
+    dth_sum[0] += s0
+    dth_sum[1] += s1
+    dth_sum[2] += s2
+
+
+@jit
+def update_sums(x, n_sub, out):
+    """The sums of ``x`` over each navigation update's ``n_sub`` rows, into ``out`` (added sequentially, as
+    ``x.reshape(-1, n_sub, 3).sum(axis=1)``)."""
+    for j in range(out.shape[0]):
+        for i in range(3):
+            a = 0.0
+            for k in range(n_sub):
+                a += x[j * n_sub + k, i]
+            out[j, i] = a
 
 
 @jit

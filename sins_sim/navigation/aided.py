@@ -562,7 +562,8 @@ class AidedRun:
         dth, dvel = self._pend_th[:n], self._pend_v[:n]
         sol = self._aided._process_checked(np.ascontiguousarray(dth), np.ascontiguousarray(dvel))
         self._hist.append(self._t0 + sol.t_s, sol, self._keep_s)
-        sums = dth.reshape(-1, self._n_sub, 3).sum(axis=1)
+        sums = np.empty((j - self._done, 3))
+        kekf.update_sums(dth, self._n_sub, sums)     # dth.reshape(-1, n_sub, 3).sum(axis=1), compiled
         keep_upd = int(math.ceil(self._keep_s / self._big_t)) + 2
         self._upd_sum = np.concatenate([self._upd_sum, sums])
         drop = max(0, self._upd_sum.shape[0] - keep_upd)

@@ -1272,11 +1272,12 @@ class AidedNavigator:
         :class:`~sins_sim.navigation.aided.AidedRun`."""
         nav = self._nav
         dt = nav.dt_s
-        if dth.shape[0]:
-            self._sum_dtheta += dth.sum(axis=0)
-            self._sum_n += dth.shape[0]
+        # dth - b_g dt, dv - b_a dt and the gyro sum since the last epoch in one compiled pass (same values)
+        dth_c, dv_c = np.empty_like(dth), np.empty_like(dvel)
+        kekf.bias_corrected(dth, dvel, self._bg * dt, self._ba * dt, dth_c, dv_c, self._sum_dtheta)
+        self._sum_n += dth.shape[0]
         pending = nav.pending_samples
-        out = nav._run(dth - self._bg * dt, dvel - self._ba * dt, _NO_AID)
+        out = nav._run(dth_c, dv_c, _NO_AID)
         m = out.shape[0]
         if self._unmod is not None and dth.shape[0]:
             if pending:      # the running integrals count whole updates: the pending samples join this chunk
