@@ -64,8 +64,9 @@ def _navigations(n_s):
     dth = np.tile(earth.earth_rate_ned(lat) / fs, (n, 1))
     dv = np.tile([0.0, 0.0, -float(earth.gravity_down(lat, h)) / fs], (n, 1))
     t_truth = np.arange(0, n + 1) / fs
-    fixes = simulate_gnss(t_truth[::7200], np.full(t_truth[::7200].shape, lat), np.zeros(t_truth[::7200].shape),
-                          np.full(t_truth[::7200].shape, h), np.zeros((t_truth[::7200].size, 3)),
+    t_fix = t_truth[::int(round(fs / UPDATE_HZ))]     # the fixes' times at the update rate
+    fixes = simulate_gnss(t_fix, np.full(t_fix.shape, lat), np.zeros(t_fix.shape), np.full(t_fix.shape, h),
+                          np.zeros((t_fix.size, 3)),
                           GnssSettings(rate_hz=UPDATE_HZ), seed=1)
     noise = ekf.ImuNoise.from_datasheet(0.002, 20.0, 0.0035, 25.0)
     p0 = ekf.initial_covariance(1.0, 0.05, 1e-4, 1e-3, noise)
