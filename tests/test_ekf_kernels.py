@@ -197,6 +197,49 @@ def test_correct_rows_equals_the_numpy_reference():
     assert np.all(np.abs(lon) < math.pi)
 
 
+def test_correct_state_equals_apply_correction():
+    """The feedback on the navigator's state: the kernel against the public method, after some navigation (the
+    previous update's rows set), with a correction of a converged filter's size and one of a fix's size. Same
+    expressions, so equal to rounding: a few eps of each entry (the normalisation's sum in another order)."""
+    rng = np.random.default_rng(373)
+    start = _rows(rng)[0]
+    for dx in (np.array([0.3, -0.2, 0.5, 0.01, -0.02, 0.005, 2e-5, -1e-5, 3e-4]),
+               np.array([30.0, -25.0, 8.0, 0.5, -0.4, 0.1, 1e-3, -2e-3, 5e-3])):
+        a = StrapdownNavigator(start[0], 0.08, start[1], start[2:5], start[5:9], 1.0 / 400.0)
+        inc = rng.standard_normal((40, 3))
+        a.process(inc * 1e-5, inc * 1e-3 + np.array([0.0, 0.0, -9.81 / 400.0]))
+        st = a.state_array()
+        a.apply_correction(dx[0:3], dx[3:6], dx[6:9])
+        x = np.zeros(N)
+        x[:9] = dx
+        kekf.correct_state(st, x)
+        assert np.all(np.abs(st - a.state_array()) <= 4 * EPS * np.abs(a.state_array()))
+
+
+def test_interpolate_row_equals_the_numpy_reference():
+    """The history's interpolation to a fix's time of validity: inside, at, and beyond the stored rows (clamped),
+    across the longitude's wrap and with a quaternion stored with the other sign."""
+    from sins_sim.navigation.aided import _History
+
+    rng = np.random.default_rng(374)
+    q0 = quat_from_rotvec([0.01, -0.02, 0.7])
+    hist = _History(0.0, ekf.NavState(0.0, 0.9, math.pi - 1e-7, 300.0, np.array([40.0, 30.0, -1.0]), q0,
+                                      np.zeros(3), np.zeros(3)))
+    t = np.arange(1, 6) * 0.0025
+    q = quat_from_rotvec(np.array([0.01, -0.02, 0.7]) + np.outer(t, [0.0, 0.0, 0.2]))
+    q[2] = -q[2]
+    lon = (math.pi - 1e-7 + 3e-8 * np.arange(1, 6) + math.pi) % (2.0 * math.pi) - math.pi
+    sol = type("Sol", (), dict(lat_rad=0.9 + 1e-7 * np.arange(1, 6), lon_rad=lon, h_m=300.0 + 0.01 * np.arange(1, 6),
+                               v_ned_m_s=rng.standard_normal((5, 3)) + 40.0, q_nb=q))
+    hist.append(t, sol, 1.0)
+    for t_v in (-0.001, 0.0, 0.0011, 0.005, 0.0062, 0.0125, 0.02):
+        a = hist.state_at(t_v, np.zeros(3), np.zeros(3))
+        b = hist.state_at_reference(t_v, np.zeros(3), np.zeros(3))
+        for f in ("lat_rad", "lon_rad", "h_m", "v_ned_m_s", "q_nb"):
+            x, y = np.asarray(getattr(a, f)), np.asarray(getattr(b, f))
+            assert np.all(np.abs(x - y) <= 4 * EPS * np.maximum(np.abs(y), 1.0)), (t_v, f, x - y)
+
+
 def test_gnss_measurement_equals_the_plug_ins():
     """H and dz of the compiled GNSS fix (AidedRun's path) against ekf.Position and ekf.Velocity, with and
     without a lever arm, position and velocity alone and stacked."""

@@ -25,9 +25,10 @@ import numpy as np
 from sins_sim import earth
 from sins_sim._kernels._config import jit
 from sins_sim._kernels.nav import quat_mul, quat_to_dcm, rotvec_to_quat
+from sins_sim._kernels import strapdown as ksd
 from sins_sim._kernels.strapdown import gravity_down, radii
 
-__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "running_integrals", "bias_corrected", "update_sums", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
+__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "running_integrals", "bias_corrected", "update_sums", "joseph_update", "block_nis", "correct_rows", "correct_state", "interpolate_row", "gnss_measurement", "error_dynamics_into"]
 
 #: Highest power of ``F`` in the series of ``Phi`` and ``Q_d`` (the reference's ``_SERIES_ORDER``).
 SERIES_ORDER = 5
@@ -417,6 +418,71 @@ def correct_rows(lat, lon, h, vel, q, dx):
         nq = math.sqrt(qi[0] * qi[0] + qi[1] * qi[1] + qi[2] * qi[2] + qi[3] * qi[3])
         for k in range(4):
             q[i, k] = qi[k] / nq
+
+
+@jit
+def correct_state(st, dx):
+    """The feedback on a navigator's kernel state ``st`` (layout ``sins_sim._kernels.strapdown.ST_*``, vertical
+    channel free), in place: :meth:`sins_sim.navigation.strapdown.StrapdownNavigator.apply_correction` with the
+    error state's first nine entries (the same expressions; the previous update's latitude, height and velocity
+    that the next update extrapolates from corrected alike)."""
+    r_n, r_e = radii(st[ksd.ST_LAT])
+    lat, h = st[ksd.ST_LAT], st[ksd.ST_H]
+    dlat = dx[0] / (r_n + h)
+    dlon = dx[1] / ((r_e + h) * math.cos(lat))
+    st[ksd.ST_LAT] -= dlat
+    st[ksd.ST_PREV_LAT] -= dlat
+    st[ksd.ST_LON] = (st[ksd.ST_LON] - dlon + math.pi) % (2.0 * math.pi) - math.pi
+    st[ksd.ST_H] += dx[2]
+    st[ksd.ST_PREV_H] += dx[2]
+    for k in range(3):
+        st[ksd.ST_V + k] -= dx[3 + k]
+        st[ksd.ST_PREV_V + k] -= dx[3 + k]
+    rv = np.empty(3)
+    for k in range(3):
+        rv[k] = -dx[6 + k]
+    dq = np.empty(4)
+    rotvec_to_quat(rv, dq)
+    qi = np.empty(4)
+    for k in range(4):
+        qi[k] = st[ksd.ST_Q + k]
+    q = np.empty(4)
+    quat_mul(dq, qi, q)
+    nq = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    for k in range(4):
+        st[ksd.ST_Q + k] = q[k] / nq
+
+
+@jit
+def interpolate_row(t, lat, lon, h, vel, q, t_v, out):
+    """The stored solution rows interpolated linearly to ``t_v`` into ``out`` = ``(lat, lon, h, v_N, v_E, v_D,
+    q0..q3)``: the bracketing rows (clamped to the stored span), the longitude difference wrapped, the quaternions
+    sign-aligned and the result normalised (:meth:`sins_sim.navigation.aided._History.state_at_reference`)."""
+    n = t.shape[0]
+    i = min(max(np.searchsorted(t, t_v) - 1, 0), max(n - 2, 0))
+    if n == 1:
+        w = 0.0
+        j = 0
+    else:
+        j = i + 1
+        w = min(max((t_v - t[i]) / (t[j] - t[i]), 0.0), 1.0)
+    dlon = (lon[j] - lon[i] + math.pi) % (2.0 * math.pi) - math.pi
+    out[0] = (1.0 - w) * lat[i] + w * lat[j]
+    out[1] = lon[i] + w * dlon
+    out[2] = (1.0 - w) * h[i] + w * h[j]
+    for k in range(3):
+        out[3 + k] = (1.0 - w) * vel[i, k] + w * vel[j, k]
+    dot = 0.0
+    for k in range(4):
+        dot += q[i, k] * q[j, k]
+    sgn = 1.0 if dot >= 0.0 else -1.0
+    nq = 0.0
+    for k in range(4):
+        out[6 + k] = (1.0 - w) * q[i, k] + w * sgn * q[j, k]
+        nq += out[6 + k] * out[6 + k]
+    nq = math.sqrt(nq)
+    for k in range(4):
+        out[6 + k] /= nq
 
 
 @jit

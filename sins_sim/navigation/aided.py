@@ -279,7 +279,14 @@ class _History:
         self.lat, self.lon, self.h, self.v, self.q = _correct_rows(self.lat, self.lon, self.h, self.v, self.q, dx)
 
     def state_at(self, t_v, bg, ba) -> ekf.NavState:
-        """Linear interpolation between the stored rows (quaternions sign-aligned and normalised)."""
+        """Linear interpolation between the stored rows (quaternions sign-aligned and normalised; compiled,
+        :func:`kekf.interpolate_row`, :meth:`state_at_reference` the numpy form)."""
+        r = np.empty(10)
+        kekf.interpolate_row(self.t, self.lat, self.lon, self.h, self.v, self.q, float(t_v), r)
+        return ekf.NavState(t_v, r[0], r[1], r[2], r[3:6], r[6:10], bg, ba)
+
+    def state_at_reference(self, t_v, bg, ba) -> ekf.NavState:
+        """:meth:`state_at` in numpy."""
         i = min(max(int(np.searchsorted(self.t, t_v)) - 1, 0), max(self.t.size - 2, 0))
         if self.t.size == 1:
             w, j = 0.0, 0

@@ -1500,7 +1500,7 @@ class AidedNavigator:
         x = self._x
         self._last_correction = self._change
         if math.isfinite(float(x[:N_STATES].sum())):      # the checks of apply_correction, once
-            self._nav._correct(x[POS].copy(), x[VEL].copy(), x[ATT].copy())
+            kekf.correct_state(self._nav._state, x)       # apply_correction compiled (vertical free)
         else:
             self._nav.apply_correction(x[POS], x[VEL], x[ATT])      # raises, naming the part
         self._bg = self._bg - x[GYRO_BIAS]

@@ -508,15 +508,9 @@ class StrapdownNavigator:
         ValueError
             For a wrong shape or a non-finite value (the message names the argument).
         """
-        self._correct(None if dpos_ned_m is None else _vector("dpos_ned_m", dpos_ned_m, 3),
-                      None if dv_ned_m_s is None else _vector("dv_ned_m_s", dv_ned_m_s, 3),
-                      None if psi_ned_rad is None else _vector("psi_ned_rad", psi_ned_rad, 3))
-
-    def _correct(self, dr, dvel, psi) -> None:
-        """:meth:`apply_correction` on checked float64 (3,) arrays or None (an aiding filter's own finite
-        estimate: no check per update)."""
         s = self._state
-        if dr is not None:
+        if dpos_ned_m is not None:
+            dr = _vector("dpos_ned_m", dpos_ned_m, 3)
             lat, h = s[ksd.ST_LAT], s[ksd.ST_H]
             r_n, r_e = earth.radii(lat)
             dlat = dr[0] / (r_n + h)
@@ -528,10 +522,12 @@ class StrapdownNavigator:
             s[ksd.ST_PREV_H] += dr[2]
             if self._vertical == "height_aid":
                 s[ksd.ST_DH] += dr[2]
-        if dvel is not None:
+        if dv_ned_m_s is not None:
+            dvel = _vector("dv_ned_m_s", dv_ned_m_s, 3)
             s[ksd.ST_V:ksd.ST_V + 3] -= dvel
             s[ksd.ST_PREV_V:ksd.ST_PREV_V + 3] -= dvel
-        if psi is not None:
+        if psi_ned_rad is not None:
+            psi = _vector("psi_ned_rad", psi_ned_rad, 3)
             qc = np.empty(4)
             q = np.empty(4)
             knav.rotvec_to_quat(-psi, qc)
