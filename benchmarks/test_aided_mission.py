@@ -17,9 +17,9 @@ from sins_sim.bench import median_ratio
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The filter's update rate of the benchmark (Hz): the low end of the issue's 1-10 Hz. Per update the filter costs
-#: about 0.4 ms of Python-level glue per dither filter on this machine (records, feedback, history; the 15 x 15
-#: algebra is compiled), so the ratio grows with the update rate: 5 Hz measured 1.32-1.37 on 10 s of the helicopter
-#: scenario (docs/user-guide/aided.md).
+#: about 0.25 ms per dither filter on this machine (the aided navigator's strapdown piece and the 15 x 15
+#: propagation, the update and its records, the epoch's Python glue; the per-chunk passes are compiled), so the
+#: ratio grows with the update rate: 5 Hz measured 1.23-1.31 in quick mode (1 Hz 1.14-1.21).
 UPDATE_HZ = 1.0
 
 
