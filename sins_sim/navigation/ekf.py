@@ -1126,7 +1126,6 @@ class AidedNavigator:
         self._sum_dtheta = np.zeros(3)
         self._sum_n = 0
         self._pend_raw = (np.zeros((0, 3)), np.zeros((0, 3)))
-        self._scratch = np.empty((2, 0, 3))     # the bias-corrected increments of a chunk (_process_checked)
         self._epoch_rate = np.full(3, np.nan)
         self._epoch_update = -1
         self._phi_acc = np.eye(n)     # product of the block transitions since the last propagate()
@@ -1274,12 +1273,7 @@ class AidedNavigator:
         nav = self._nav
         dt = nav.dt_s
         # dth - b_g dt, dv - b_a dt and the gyro sum since the last epoch in one compiled pass (same values)
-        # (into buffers kept between chunks: the navigator's kernel only reads them; fresh arrays of a chunk's size
-        # are mapped memory, their page faults cost as much as the pass)
-        n = dth.shape[0]
-        if self._scratch.shape[1] < n:
-            self._scratch = np.empty((2, n, 3))
-        dth_c, dv_c = self._scratch[0, :n], self._scratch[1, :n]
+        dth_c, dv_c = np.empty_like(dth), np.empty_like(dvel)
         kekf.bias_corrected(dth, dvel, self._bg * dt, self._ba * dt, dth_c, dv_c, self._sum_dtheta)
         self._sum_n += dth.shape[0]
         pending = nav.pending_samples
