@@ -86,6 +86,50 @@ def test_propagate_block_equals_the_numpy_reference():
             assert np.array_equal(a._block_start, end)
 
 
+def test_running_integrals_equal_the_cumulative_sums_bit_for_bit():
+    """The unmodelled errors' running integrals at the update ends: the kernel adds the samples in the order
+    ``np.cumsum`` does (sequentially, from zero), so the rows are identical, not merely close; with samples
+    pending from the previous chunk (the first update completed early) and a partial update left at the end."""
+    rng = np.random.default_rng(371)
+    n_sub, dt = 18, 1.0 / 7200.0
+    for pending, n in ((0, 18 * 40), (7, 18 * 40 - 7 + 5), (0, 11)):
+        dth = rng.standard_normal((n, 3)) * 1e-4
+        dv = rng.standard_normal((n, 3)) * 1e-3 + np.array([0.0, 0.0, -9.81 * dt])
+        m = (pending + n) // n_sub
+        start = _rows(rng)[0]
+        a, b = (ekf.AidedNavigator(StrapdownNavigator(start[0], 0.08, start[1], start[2:5], start[5:9], dt,
+                                                      n_sub=n_sub),
+                                   ekf.ImuNoise(1e-6, 2e-4, 5e-8, 1e-3), np.eye(N), unmodelled=UNMODELLED)
+                for _ in range(2))
+        acc0 = rng.standard_normal(6)
+        for nav in (a, b):
+            nav._acc = acc0.copy()
+            nav._f_ref = None
+        ra = a._integrals(dth, dv, pending, m)
+        rb = b._integrals_reference(dth, dv, pending, m)
+        assert ra.shape == (m, 6) and np.array_equal(ra, rb)
+        assert np.array_equal(a._acc, b._acc) and np.array_equal(a._f_ref, b._f_ref)
+
+
+def test_chunk_passes_equal_their_numpy_expressions_bit_for_bit():
+    """The increments less the bias estimates, the gyro sum since the last epoch and the per-update sums: the
+    kernels add in numpy's order for these shapes (sequentially over the rows), so they are identical."""
+    rng = np.random.default_rng(372)
+    for n in (0, 17, 18 * 400):
+        dth = rng.standard_normal((n, 3)) * np.array([1e-4, 3e-6, 2e-2])
+        dv = rng.standard_normal((n, 3)) * 1e-3
+        bg_dt, ba_dt = rng.standard_normal(3) * 1e-9, rng.standard_normal(3) * 1e-7
+        acc = rng.standard_normal(3)
+        want = acc + dth.sum(axis=0)
+        a, b = np.empty_like(dth), np.empty_like(dv)
+        kekf.bias_corrected(dth, dv, bg_dt, ba_dt, a, b, acc)
+        assert np.array_equal(a, dth - bg_dt) and np.array_equal(b, dv - ba_dt) and np.array_equal(acc, want)
+        m = n // 18
+        sums = np.empty((m, 3))
+        kekf.update_sums(dth, 18, sums)
+        assert np.array_equal(sums, dth[:18 * m].reshape(-1, 18, 3).sum(axis=1))
+
+
 def test_error_dynamics_kernel_equals_the_numpy_reference():
     """F entry by entry at a cruise state off the equator (every motion term non-zero)."""
     lat, h = math.radians(-33.0), 1500.0
@@ -151,6 +195,49 @@ def test_correct_rows_equals_the_numpy_reference():
         assert np.all(np.abs(got[0] - lat) > 0.0) and np.all(r_n > 0)
     # the inputs are not modified
     assert np.all(np.abs(lon) < math.pi)
+
+
+def test_correct_state_equals_apply_correction():
+    """The feedback on the navigator's state: the kernel against the public method, after some navigation (the
+    previous update's rows set), with a correction of a converged filter's size and one of a fix's size. Same
+    expressions, so equal to rounding: a few eps of each entry (the normalisation's sum in another order)."""
+    rng = np.random.default_rng(373)
+    start = _rows(rng)[0]
+    for dx in (np.array([0.3, -0.2, 0.5, 0.01, -0.02, 0.005, 2e-5, -1e-5, 3e-4]),
+               np.array([30.0, -25.0, 8.0, 0.5, -0.4, 0.1, 1e-3, -2e-3, 5e-3])):
+        a = StrapdownNavigator(start[0], 0.08, start[1], start[2:5], start[5:9], 1.0 / 400.0)
+        inc = rng.standard_normal((40, 3))
+        a.process(inc * 1e-5, inc * 1e-3 + np.array([0.0, 0.0, -9.81 / 400.0]))
+        st = a.state_array()
+        a.apply_correction(dx[0:3], dx[3:6], dx[6:9])
+        x = np.zeros(N)
+        x[:9] = dx
+        kekf.correct_state(st, x)
+        assert np.all(np.abs(st - a.state_array()) <= 4 * EPS * np.abs(a.state_array()))
+
+
+def test_interpolate_row_equals_the_numpy_reference():
+    """The history's interpolation to a fix's time of validity: inside, at, and beyond the stored rows (clamped),
+    across the longitude's wrap and with a quaternion stored with the other sign."""
+    from sins_sim.navigation.aided import _History
+
+    rng = np.random.default_rng(374)
+    q0 = quat_from_rotvec([0.01, -0.02, 0.7])
+    hist = _History(0.0, ekf.NavState(0.0, 0.9, math.pi - 1e-7, 300.0, np.array([40.0, 30.0, -1.0]), q0,
+                                      np.zeros(3), np.zeros(3)))
+    t = np.arange(1, 6) * 0.0025
+    q = quat_from_rotvec(np.array([0.01, -0.02, 0.7]) + np.outer(t, [0.0, 0.0, 0.2]))
+    q[2] = -q[2]
+    lon = (math.pi - 1e-7 + 3e-8 * np.arange(1, 6) + math.pi) % (2.0 * math.pi) - math.pi
+    sol = type("Sol", (), dict(lat_rad=0.9 + 1e-7 * np.arange(1, 6), lon_rad=lon, h_m=300.0 + 0.01 * np.arange(1, 6),
+                               v_ned_m_s=rng.standard_normal((5, 3)) + 40.0, q_nb=q))
+    hist.append(t, sol, 1.0)
+    for t_v in (-0.001, 0.0, 0.0011, 0.005, 0.0062, 0.0125, 0.02):
+        a = hist.state_at(t_v, np.zeros(3), np.zeros(3))
+        b = hist.state_at_reference(t_v, np.zeros(3), np.zeros(3))
+        for f in ("lat_rad", "lon_rad", "h_m", "v_ned_m_s", "q_nb"):
+            x, y = np.asarray(getattr(a, f)), np.asarray(getattr(b, f))
+            assert np.all(np.abs(x - y) <= 4 * EPS * np.maximum(np.abs(y), 1.0)), (t_v, f, x - y)
 
 
 def test_gnss_measurement_equals_the_plug_ins():

@@ -25,9 +25,10 @@ import numpy as np
 from sins_sim import earth
 from sins_sim._kernels._config import jit
 from sins_sim._kernels.nav import quat_mul, quat_to_dcm, rotvec_to_quat
+from sins_sim._kernels import strapdown as ksd
 from sins_sim._kernels.strapdown import gravity_down, radii
 
-__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "joseph_update", "block_nis", "correct_rows", "gnss_measurement", "error_dynamics_into"]
+__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "running_integrals", "bias_corrected", "update_sums", "joseph_update", "block_nis", "correct_rows", "correct_state", "interpolate_row", "gnss_measurement", "error_dynamics_into"]
 
 #: Highest power of ``F`` in the series of ``Phi`` and ``Q_d`` (the reference's ``_SERIES_ORDER``).
 SERIES_ORDER = 5
@@ -145,6 +146,61 @@ def unmodelled_increment_into(a0, a1, origin, s2, m2, out):
         b0 = (a0[i] - origin[i]) ** 2
         b1 = (a1[i] - origin[i]) ** 2
         out[i] = max(0.0, s2 * (b1 - b0) + m2 * ((n1 - b1) - (n0 - b0)))
+
+
+@jit
+def bias_corrected(dth, dvel, bg_dt, ba_dt, dth_out, dv_out, dth_sum):
+    """``dth_out = dth - bg_dt`` and ``dv_out = dvel - ba_dt`` row by row (the increments with the bias estimates
+    removed), and ``dth_sum += `` the column sums of ``dth`` (added sequentially from zero, as numpy sums a
+    C-contiguous ``(n, 3)`` array over axis 0): the numpy expressions of
+    :meth:`sins_sim.navigation.ekf.AidedNavigator._process_checked` in one pass, same values."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    for k in range(dth.shape[0]):
+        s0 += dth[k, 0]
+        s1 += dth[k, 1]
+        s2 += dth[k, 2]
+        for i in range(3):
+            dth_out[k, i] = dth[k, i] - bg_dt[i]
+            dv_out[k, i] = dvel[k, i] - ba_dt[i]
+    dth_sum[0] += s0
+    dth_sum[1] += s1
+    dth_sum[2] += s2
+
+
+@jit
+def update_sums(x, n_sub, out):
+    """The sums of ``x`` over each navigation update's ``n_sub`` rows, into ``out`` (added sequentially, as
+    ``x.reshape(-1, n_sub, 3).sum(axis=1)``)."""
+    for j in range(out.shape[0]):
+        for i in range(3):
+            a = 0.0
+            for k in range(n_sub):
+                a += x[j * n_sub + k, i]
+            out[j, i] = a
+
+
+@jit
+def running_integrals(dth, dvel, acc0, f_ref, big_t, n_sub, pending, out):
+    """The running integrals at the end of each of the ``out.shape[0]`` navigation updates a chunk completes, into
+    ``out`` (rows ``acc0[:3] + sum dtheta``, ``acc0[3:] + sum dv - (j + 1) T f_ref``; the chunk's first
+    ``n_sub - pending`` samples complete the pending update): the sums sequential, as ``np.cumsum``, so the rows
+    equal those of :meth:`sins_sim.navigation.ekf.AidedNavigator._integrals_reference` bit for bit, without the
+    cumulative sum of every sample of the chunk."""
+    s = np.zeros(6)
+    k = 0
+    for j in range(out.shape[0]):
+        end = (j + 1) * n_sub - pending
+        while k < end:
+            for i in range(3):
+                s[i] += dth[k, i]
+                s[3 + i] += dvel[k, i]
+            k += 1
+        t_row = (j + 1) * big_t
+        for i in range(3):
+            out[j, i] = acc0[i] + s[i]
+            out[j, 3 + i] = acc0[3 + i] + s[3 + i] - t_row * f_ref[i]
 
 
 @jit
@@ -362,6 +418,71 @@ def correct_rows(lat, lon, h, vel, q, dx):
         nq = math.sqrt(qi[0] * qi[0] + qi[1] * qi[1] + qi[2] * qi[2] + qi[3] * qi[3])
         for k in range(4):
             q[i, k] = qi[k] / nq
+
+
+@jit
+def correct_state(st, dx):
+    """The feedback on a navigator's kernel state ``st`` (layout ``sins_sim._kernels.strapdown.ST_*``, vertical
+    channel free), in place: :meth:`sins_sim.navigation.strapdown.StrapdownNavigator.apply_correction` with the
+    error state's first nine entries (the same expressions; the previous update's latitude, height and velocity
+    that the next update extrapolates from corrected alike)."""
+    r_n, r_e = radii(st[ksd.ST_LAT])
+    lat, h = st[ksd.ST_LAT], st[ksd.ST_H]
+    dlat = dx[0] / (r_n + h)
+    dlon = dx[1] / ((r_e + h) * math.cos(lat))
+    st[ksd.ST_LAT] -= dlat
+    st[ksd.ST_PREV_LAT] -= dlat
+    st[ksd.ST_LON] = (st[ksd.ST_LON] - dlon + math.pi) % (2.0 * math.pi) - math.pi
+    st[ksd.ST_H] += dx[2]
+    st[ksd.ST_PREV_H] += dx[2]
+    for k in range(3):
+        st[ksd.ST_V + k] -= dx[3 + k]
+        st[ksd.ST_PREV_V + k] -= dx[3 + k]
+    rv = np.empty(3)
+    for k in range(3):
+        rv[k] = -dx[6 + k]
+    dq = np.empty(4)
+    rotvec_to_quat(rv, dq)
+    qi = np.empty(4)
+    for k in range(4):
+        qi[k] = st[ksd.ST_Q + k]
+    q = np.empty(4)
+    quat_mul(dq, qi, q)
+    nq = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    for k in range(4):
+        st[ksd.ST_Q + k] = q[k] / nq
+
+
+@jit
+def interpolate_row(t, lat, lon, h, vel, q, t_v, out):
+    """The stored solution rows interpolated linearly to ``t_v`` into ``out`` = ``(lat, lon, h, v_N, v_E, v_D,
+    q0..q3)``: the bracketing rows (clamped to the stored span), the longitude difference wrapped, the quaternions
+    sign-aligned and the result normalised (:meth:`sins_sim.navigation.aided._History.state_at_reference`)."""
+    n = t.shape[0]
+    i = min(max(np.searchsorted(t, t_v) - 1, 0), max(n - 2, 0))
+    if n == 1:
+        w = 0.0
+        j = 0
+    else:
+        j = i + 1
+        w = min(max((t_v - t[i]) / (t[j] - t[i]), 0.0), 1.0)
+    dlon = (lon[j] - lon[i] + math.pi) % (2.0 * math.pi) - math.pi
+    out[0] = (1.0 - w) * lat[i] + w * lat[j]
+    out[1] = lon[i] + w * dlon
+    out[2] = (1.0 - w) * h[i] + w * h[j]
+    for k in range(3):
+        out[3 + k] = (1.0 - w) * vel[i, k] + w * vel[j, k]
+    dot = 0.0
+    for k in range(4):
+        dot += q[i, k] * q[j, k]
+    sgn = 1.0 if dot >= 0.0 else -1.0
+    nq = 0.0
+    for k in range(4):
+        out[6 + k] = (1.0 - w) * q[i, k] + w * sgn * q[j, k]
+        nq += out[6 + k] * out[6 + k]
+    nq = math.sqrt(nq)
+    for k in range(4):
+        out[6 + k] /= nq
 
 
 @jit

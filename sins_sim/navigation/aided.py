@@ -279,7 +279,14 @@ class _History:
         self.lat, self.lon, self.h, self.v, self.q = _correct_rows(self.lat, self.lon, self.h, self.v, self.q, dx)
 
     def state_at(self, t_v, bg, ba) -> ekf.NavState:
-        """Linear interpolation between the stored rows (quaternions sign-aligned and normalised)."""
+        """Linear interpolation between the stored rows (quaternions sign-aligned and normalised; compiled,
+        :func:`kekf.interpolate_row`, :meth:`state_at_reference` the numpy form)."""
+        r = np.empty(10)
+        kekf.interpolate_row(self.t, self.lat, self.lon, self.h, self.v, self.q, float(t_v), r)
+        return ekf.NavState(t_v, r[0], r[1], r[2], r[3:6], r[6:10], bg, ba)
+
+    def state_at_reference(self, t_v, bg, ba) -> ekf.NavState:
+        """:meth:`state_at` in numpy."""
         i = min(max(int(np.searchsorted(self.t, t_v)) - 1, 0), max(self.t.size - 2, 0))
         if self.t.size == 1:
             w, j = 0.0, 0
@@ -562,7 +569,8 @@ class AidedRun:
         dth, dvel = self._pend_th[:n], self._pend_v[:n]
         sol = self._aided._process_checked(np.ascontiguousarray(dth), np.ascontiguousarray(dvel))
         self._hist.append(self._t0 + sol.t_s, sol, self._keep_s)
-        sums = dth.reshape(-1, self._n_sub, 3).sum(axis=1)
+        sums = np.empty((j - self._done, 3))
+        kekf.update_sums(dth, self._n_sub, sums)     # dth.reshape(-1, n_sub, 3).sum(axis=1), compiled
         keep_upd = int(math.ceil(self._keep_s / self._big_t)) + 2
         self._upd_sum = np.concatenate([self._upd_sum, sums])
         drop = max(0, self._upd_sum.shape[0] - keep_upd)

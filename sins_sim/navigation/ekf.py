@@ -1220,7 +1220,19 @@ class AidedNavigator:
 
     def _integrals(self, dth, dvel, pending, m):
         """The running integrals at the end of each of the ``m`` navigation updates this chunk completes (the
-        chunk's first ``n_sub - pending`` samples complete the pending update), and carried on past them."""
+        chunk's first ``n_sub - pending`` samples complete the pending update), and carried on past them (compiled,
+        :func:`kekf.running_integrals`; :meth:`_integrals_reference` is the numpy form, equal bit for bit)."""
+        nav = self._nav
+        if self._f_ref is None:
+            self._f_ref = dvel.sum(axis=0) / (dvel.shape[0] * nav.dt_s)
+        acc = np.empty((m, 6))
+        if m:
+            kekf.running_integrals(dth, dvel, self._acc, self._f_ref, nav.update_period_s, nav.n_sub, pending, acc)
+            self._acc = acc[-1].copy()
+        return acc
+
+    def _integrals_reference(self, dth, dvel, pending, m):
+        """:meth:`_integrals` in numpy (cumulative sums over the chunk)."""
         nav = self._nav
         if self._f_ref is None:
             self._f_ref = dvel.sum(axis=0) / (dvel.shape[0] * nav.dt_s)
@@ -1260,11 +1272,12 @@ class AidedNavigator:
         :class:`~sins_sim.navigation.aided.AidedRun`."""
         nav = self._nav
         dt = nav.dt_s
-        if dth.shape[0]:
-            self._sum_dtheta += dth.sum(axis=0)
-            self._sum_n += dth.shape[0]
+        # dth - b_g dt, dv - b_a dt and the gyro sum since the last epoch in one compiled pass (same values)
+        dth_c, dv_c = np.empty_like(dth), np.empty_like(dvel)
+        kekf.bias_corrected(dth, dvel, self._bg * dt, self._ba * dt, dth_c, dv_c, self._sum_dtheta)
+        self._sum_n += dth.shape[0]
         pending = nav.pending_samples
-        out = nav._run(dth - self._bg * dt, dvel - self._ba * dt, _NO_AID)
+        out = nav._run(dth_c, dv_c, _NO_AID)
         m = out.shape[0]
         if self._unmod is not None and dth.shape[0]:
             if pending:      # the running integrals count whole updates: the pending samples join this chunk
@@ -1480,7 +1493,10 @@ class AidedNavigator:
     def _apply_feedback(self):
         x = self._x
         self._last_correction = self._change
-        self._nav.apply_correction(x[POS], x[VEL], x[ATT])
+        if math.isfinite(float(x[:N_STATES].sum())):      # the checks of apply_correction, once
+            kekf.correct_state(self._nav._state, x)       # apply_correction compiled (vertical free)
+        else:
+            self._nav.apply_correction(x[POS], x[VEL], x[ATT])      # raises, naming the part
         self._bg = self._bg - x[GYRO_BIAS]
         self._ba = self._ba - x[ACCEL_BIAS]
         self._x = x.copy()
