@@ -218,6 +218,11 @@ def simulate_pll_drives(imu, duration_s: float, settings: PllSettings = PllSetti
             "start_hz": f_start, "amplitude_rad": amp_last, "q": q, "tau_s": tau, "gains": gains}
 
 
+#: A PLL counts as locked to a vibration line when its mean frequency lies within this fraction of the line's
+#: offset from the line (a PLL that holds its drive stays at a shift of order FM^2 / offset, far below).
+LOCKED_FRACTION = 0.1
+
+
 def pll_line_response(imu, duration_s: float, settle_s: float, lines_hz, settings: PllSettings = PllSettings(), *,
                       motion=None, translation=None) -> dict:
     """Each drive's PLL under the chassis vibration ``motion`` / ``translation``, against the same PLLs at rest.
@@ -237,7 +242,9 @@ def pll_line_response(imu, duration_s: float, settle_s: float, lines_hz, setting
         rest, ``start_hz`` (3,), ``q`` (3,), and ``lines``: a list of dicts per (axis, line) with ``axis``,
         ``line_hz``, ``drive_hz``, ``offset_hz``, ``phase_disturbance_rad``, ``line_to_dither``, ``fm_hz``,
         ``fm_closed_form_hz``, ``adler_range_hz``, ``captured`` (``d_v / a >= 1``: the detector follows the
-        line) and ``within_adler`` (the offset inside Adler's range); offsets the record does not resolve
+        line), ``within_adler`` (the offset inside Adler's range), ``mean_shift_hz`` (closed loop, vibration less
+        rest) and ``locked_to_line`` (measured: the mean within :data:`LOCKED_FRACTION` of the offset from the
+        line); offsets the record does not resolve
         (fewer than two periods after ``settle_s``) are left out.
     """
     if not (0 <= settle_s < duration_s):
@@ -266,10 +273,13 @@ def pll_line_response(imu, duration_s: float, settle_s: float, lines_hz, setting
             x = math.pi * off * settings.cycles / fd
             ratio = e_o / abs(math.sin(x) / x)
             adler = adler_range_hz(fd, float(ref["q"][ax]), ratio)
+            mean = float(runs[(True, False)]["frequency_hz"][ax, keep].mean())
             out.append({"axis": "xyz"[ax], "line_hz": float(fv), "drive_hz": fd, "offset_hz": off,
                         "phase_disturbance_rad": e_o, "line_to_dither": ratio, "fm_hz": fm,
                         "fm_closed_form_hz": fm_per_phase_disturbance(settings, float(ref["tau_s"][ax]), fd, off) * e_o,
-                        "adler_range_hz": adler, "captured": bool(ratio >= 1.0), "within_adler": bool(off < adler)})
+                        "adler_range_hz": adler, "captured": bool(ratio >= 1.0), "within_adler": bool(off < adler),
+                        "mean_shift_hz": mean - float(runs[(False, False)]["frequency_hz"][ax, keep].mean()),
+                        "locked_to_line": bool(abs(mean - fv) < LOCKED_FRACTION * off)})
     return {"mean_hz": runs[(True, False)]["frequency_hz"][:, keep].mean(axis=1),
             "rest_mean_hz": runs[(False, False)]["frequency_hz"][:, keep].mean(axis=1),
             "start_hz": ref["start_hz"], "q": ref["q"], "lines": out}
