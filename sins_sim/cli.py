@@ -907,7 +907,7 @@ def _cmd_separation_study(args) -> int:
                       for n, v in ans["required_separation_hz"].items()))
     lock = ans["no_entrainment_risk_down_to_hz"]
     print("no entrainment risk down to " + ("no tested separation" if lock is None else f"{lock:g} Hz"))
-    print(f"wrote {args.out}: separation.json, separation.csv, intermodulation.csv, separation.png, report.md")
+    print(f"wrote {args.out}: separation.json, separation.csv, intermodulation.csv, pll_vibration.csv, separation.png, report.md")
     return EXIT_OK
 
 
@@ -1320,7 +1320,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "vibration), and report each filter's heading error (dither coning), the "
                                    "cross-axis dither line, the vibration lines' intermodulation with the dithers, "
                                    "and the drives on live PLLs (pulling, entrainment); writes separation.json, "
-                                   "separation.csv, intermodulation.csv, separation.png and report.md.")
+                                   "separation.csv, intermodulation.csv, pll_vibration.csv, separation.png and report.md.")
     p.add_argument("imu", help="IMU file with a block: section (e.g. configs/isolated-block.yaml)")
     p.add_argument("--out", required=True, help="result folder (created; an existing one only with --force)")
     _force_flag(p)

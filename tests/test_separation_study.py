@@ -16,6 +16,7 @@ import pytest
 from sins_sim.config.errors import ConfigError
 from sins_sim.config.imu import load_imu
 from sins_sim.jobs.separation_study import LOCK_RATIO, separation_study
+from sins_sim.units import ARCSEC
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The vibration line of the study's scenario: about z, on the block itself (so that its amplitude there is the
@@ -193,6 +194,37 @@ def test_the_study_writes_its_files_and_record(study):
     report = (out / "report.md").read_text()
     assert "How far apart" in report and "Intermodulation" in report and "PLLs, live" in report
     assert "n/a" not in report.split("## The drives")[0]
+    # the study's line enters at the block (its frame): the PLLs are not run under it, and the report says why
+    assert (out / "pll_vibration.csv").read_text().splitlines() == [
+        "separation_hz,axis,line_hz,drive_hz,offset_hz,phase_disturbance_rad,line_to_dither,fm_hz,"
+        "fm_closed_form_hz,adler_range_hz,within_adler,captured,mean_shift_hz,locked_to_line"]
+    assert "under the vibration" in report and "Not run" in report
+    assert "pll_vibration_fm_hz_first" in rows[0]
+
+
+def test_the_plls_under_a_chassis_line_enter_the_tables():
+    """A chassis line about x 6.4 Hz from x's drive: the study's PLL runs give a row per drive with the FM and its
+    closed form (within the tolerance of tests/test_drive_pll_vibration.py: offset / f_d + d_v / a +
+    (2 pi offset / update_hz)^2), and the CSV and report carry it. The line reaches x only (diagonal inertia)."""
+    from sins_sim.jobs.separation_study import _csv_pll_vib, _pll_vibration, _report_pll_vibration, _vib_cells
+    from sins_sim.models.motion.sines import AxisSines
+    from sins_sim.simulation.drive_pll import PllSettings
+
+    unit = load_imu(ROOT / "configs" / "rotor-block.yaml")
+    amp = 0.05 * 60 * ARCSEC
+    vib = {"motion": AxisSines([amp, 0.0, 0.0], [345.6, 0.0, 0.0]), "translation": None,
+           "motion_enters": "chassis", "vibration_enters": "chassis", "lines": [(0, 345.6, amp, 0.0)]}
+    v = _pll_vibration(unit, 0, vib["lines"], PllSettings(), vib)
+    x = next(r for r in v["lines"] if r["axis"] == "x")
+    tol = x["offset_hz"] / x["drive_hz"] + x["line_to_dither"] + (2 * math.pi * x["offset_hz"] / 1000.0) ** 2
+    assert x["fm_hz"] == pytest.approx(x["fm_closed_form_hz"], rel=tol)
+    assert not x["locked_to_line"]
+    point = {"separation_hz": 5.0, "drive_hz": {"x": 339.2, "y": 334.2}, "pll_vibration": v}
+    rows = _csv_pll_vib([point]).splitlines()
+    assert len(rows) == 4 and rows[1].startswith("5,x,345.6,")
+    assert _vib_cells(point) == [x["fm_hz"], next(r["fm_hz"] for r in v["lines"] if r["axis"] == "y"), False]
+    text = "\n".join(_report_pll_vibration({"settings": {"scenario": "line"}, "points": [point]}))
+    assert "| 5 | x " in text and "Adler" in text
 
 
 def test_bad_input_is_one_line(tmp_path):

@@ -34,7 +34,11 @@ suspensions, drives, readouts, filters, navigation), at rest or under the vibrat
   the separation the PLLs hold, the pull of the first drive against a run with the resonances
   :data:`PLL_REFERENCE_HZ` apart, beside the pull of the passive coupled modes (exact, linearised) and its
   weak-coupling closed form (:func:`~sins_sim.models.block.mode_pulling_hz`), the frequency modulation of each
-  drive at the beat, and whether the two locked together.
+  drive at the beat, and whether the two locked together. Under a scenario whose vibration enters at the chassis,
+  the PLLs run again under it (:func:`~sins_sim.simulation.drive_pll.pll_line_response`): for each drive and each
+  vibration line, the FM at the offset ``|f_d - f_v|`` against its closed form from the loop's transfer function
+  (the line's response read by the detector as a phase disturbance), the line's response relative to the dither,
+  Adler's lock range for it, and whether the line captures the PLL (``pll_vibration.csv``).
 
 The answer, per filter: the smallest tested separation above which the beat in its heading error stays within
 ``--budget-arcsec`` (0.05 arcsec by default, :data:`BUDGET_ARCSEC`); and the smallest separation with neither an
@@ -401,6 +405,25 @@ def _pll_run(unit, a: int, b: int, delta_hz: float, pll) -> dict:
     return {"mean_hz": mean, "start_hz": r["start_hz"], "fm_hz": fm, "window_s": window}
 
 
+def _pll_vibration(unit, a: int, lines, pll, vib) -> dict | None:
+    """The live PLLs of ``unit`` under the scenario's vibration where it enters at the chassis (the profile that
+    enters at the block is its frame, not an input through the isolators: not run), against the same at rest."""
+    from sins_sim.simulation.drive_pll import pll_line_response
+
+    motion = vib["motion"] if vib.get("motion_enters") == "chassis" else None
+    translation = vib.get("translation") if vib.get("vibration_enters") == "chassis" else None
+    if not lines or (motion is None and translation is None):
+        return None
+    sus = unit.channels[a].suspension
+    am = unit.channels[a].drive.amplitude_rad
+    tau = 2 * sus.q_factor(am) / (2 * np.pi * sus.resonance_hz(am))
+    settle = max(PLL_SETTLE_MIN_S, PLL_SETTLE_TAUS * tau)
+    r = pll_line_response(unit, settle + PLL_WINDOW_MIN_S, settle, sorted({ln[1] for ln in lines}), pll,
+                          motion=motion, translation=translation)
+    return {"lines": r["lines"], "mean_shift_hz": {_AXES[i]: float(r["mean_hz"][i] - r["rest_mean_hz"][i])
+                                                   for i in range(3)}}
+
+
 def _answer(points: list, budget_arcsec: float) -> dict:
     """Per filter (not the ideal, whose heading follows the block) the smallest tested separation above which the
     heading error's beat at the separation (the dither coning it carries) stays within ``budget_arcsec``; and the
@@ -432,7 +455,7 @@ def separation_study(imu, out, *, pair=("x", "y"), separations_hz=DEFAULT_SEPARA
                      seed: int = 1, scenario=None, pll=None, force: bool = False, manifest=None, inputs=(),
                      progress=None) -> dict:
     """Run the study (module docstring); write ``separation.json``, ``separation.csv``, ``intermodulation.csv``,
-    ``separation.png`` and ``report.md`` into ``out`` and return the results.
+    ``pll_vibration.csv``, ``separation.png`` and ``report.md`` into ``out`` and return the results.
 
     Parameters
     ----------
@@ -505,6 +528,8 @@ def separation_study(imu, out, *, pair=("x", "y"), separations_hz=DEFAULT_SEPARA
             "fm_at_beat_hz": {_AXES[a]: live["fm_hz"][0], _AXES[b]: live["fm_hz"][1]},
             "window_s": live["window_s"],
             "entrained": bool(abs(live["mean_hz"][a] - live["mean_hz"][b]) < 0.5 * d)}
+        p["pll_vibration"] = None if vibration is None else _pll_vibration(unit, a, vibration["lines"], pll,
+                                                                           vibration)
         points.append(p)
         if progress is not None:
             progress((k + 1) / len(seps))
@@ -526,6 +551,7 @@ def separation_study(imu, out, *, pair=("x", "y"), separations_hz=DEFAULT_SEPARA
         (tmp / "separation.json").write_text(json.dumps(res, indent=1) + "\n")
         (tmp / "separation.csv").write_text(_csv(points))
         (tmp / "intermodulation.csv").write_text(_csv_inter(points))
+        (tmp / "pll_vibration.csv").write_text(_csv_pll_vib(points))
         from sins_sim.plots.block import plot_separation_study
 
         plot_separation_study(res, tmp / "separation.png")
@@ -548,7 +574,8 @@ def _csv(points) -> str:
         f"heading_beat_arcsec_{n}" for n in FILTERS] + [f"heading_beat_floor_arcsec_{n}" for n in FILTERS] + [
         "coning_beat_closed_form_arcsec", "cross_axis_arcsec", "own_dither_arcsec", "cross_axis_ratio",
         "entrainment_risk", "pll_separation_held_hz", "pll_pull_hz", "pll_pull_linear_modes_hz",
-        "pll_pull_closed_form_hz", "pll_fm_at_beat_hz_first", "pll_fm_at_beat_hz_second", "pll_entrained"]
+        "pll_pull_closed_form_hz", "pll_fm_at_beat_hz_first", "pll_fm_at_beat_hz_second", "pll_entrained",
+        "pll_vibration_fm_hz_first", "pll_vibration_fm_hz_second", "pll_vibration_captured"]
     rows = [",".join(cols)]
     for p in points:
         q = p["pll"]
@@ -558,8 +585,30 @@ def _csv(points) -> str:
             p["heading_error"][n]["beat_floor_arcsec"] for n in FILTERS] + [
             p["coning_beat_closed_form_arcsec"], p["cross_axis_arcsec"], p["own_dither_arcsec"],
             p["cross_axis_ratio"], p["entrainment_risk"], q["separation_held_hz"], q["pull_hz"],
-            q["pull_linear_modes_hz"], q["pull_closed_form_hz"], fm[0], fm[1], q["entrained"]]
+            q["pull_linear_modes_hz"], q["pull_closed_form_hz"], fm[0], fm[1], q["entrained"]] + _vib_cells(p)
         rows.append(",".join(_fmt(v) for v in vals))
+    return "\n".join(rows) + "\n"
+
+
+def _vib_cells(p) -> list:
+    """The largest FM over the vibration lines of the pair's two drives, and whether any line captured a PLL."""
+    v = p.get("pll_vibration")
+    if v is None:
+        return [None, None, None]
+    a, b = p["drive_hz"]
+    fm = [max((x["fm_hz"] for x in v["lines"] if x["axis"] == k), default=None) for k in (a, b)]
+    return fm + [any(x["locked_to_line"] for x in v["lines"])]
+
+
+_PLL_VIB_COLS = ("axis", "line_hz", "drive_hz", "offset_hz", "phase_disturbance_rad", "line_to_dither", "fm_hz",
+                 "fm_closed_form_hz", "adler_range_hz", "within_adler", "captured", "mean_shift_hz", "locked_to_line")
+
+
+def _csv_pll_vib(points) -> str:
+    rows = [",".join(("separation_hz",) + _PLL_VIB_COLS)]
+    for p in points:
+        for x in (p.get("pll_vibration") or {}).get("lines", []):
+            rows.append(",".join(_fmt(v) for v in [p["separation_hz"]] + [x[c] for c in _PLL_VIB_COLS]))
     return "\n".join(rows) + "\n"
 
 
@@ -578,6 +627,35 @@ def _csv_inter(points) -> str:
         for x in p["intermodulation"]:
             rows.append(",".join(_fmt(v) for v in [p["separation_hz"]] + [x.get(c) for c in _INTER_COLS]))
     return "\n".join(rows) + "\n"
+
+
+def _report_pll_vibration(res) -> list:
+    """The report's section on the live PLLs under the scenario's vibration (empty at rest)."""
+    if not res["settings"]["scenario"]:
+        return []
+    rows = [(p["separation_hz"], x) for p in res["points"] for x in (p.get("pll_vibration") or {}).get("lines", [])]
+    out = ["", "## The drives' PLLs under the vibration", ""]
+    if not rows:
+        return out + ["Not run: the scenario has no angular line entering at the chassis nor a translational "
+                      "vibration entering there (a profile that enters at the block is the block's frame, not an "
+                      "input through the isolators).", ""]
+    out += ["Each PLL run again with the vibration entering at the chassis, the loop open and closed, each against "
+            "the same run at rest (the difference is the vibration's part alone). A line at `f_v` reaches a drive's "
+            "deflection as a forced response `d_v` beside its dither `a`; the detector reads it as a phase "
+            "disturbance of `d_v / a` rad at the offset `|f_d - f_v|`, `e_o` through its own mean. The closed "
+            "form of the FM is `|W| e_o / (2 pi)` with `W = C H / (1 + C H D tau / (1 + s tau))` (the loop's "
+            "filter C, the held command H, the detector's mean D and the resonator's phase), at the offset. "
+            "Adler's range `(f_d / 2 Q) (d_v / a)` is the lock range of an oscillator under that injection; "
+            "'captured': `d_v / a >= 1`; 'locked to the line': the PLL's mean within a tenth of the offset from "
+            "the line (measured).", "",
+            "| separation (Hz) | drive | line (Hz) | offset (Hz) | d_v / a | FM (Hz) | closed form (Hz) | "
+            "Adler range (Hz) | mean shift (Hz) | locked to the line |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for sep, x in rows:
+        out.append(f"| {sep:g} | {x['axis']} {x['drive_hz']:.6g} Hz | {x['line_hz']:g} | {x['offset_hz']:.4g} | "
+                   f"{x['line_to_dither']:.3g} | {x['fm_hz']:.3g} | {x['fm_closed_form_hz']:.3g} | "
+                   f"{x['adler_range_hz']:.3g} | {x['mean_shift_hz']:.3g} | "
+                   + ("yes" if x["locked_to_line"] else "no") + " |")
+    return out
 
 
 def _report(res) -> str:
@@ -630,6 +708,7 @@ def _report(res) -> str:
         lines.append(f"| {p['separation_hz']:g} | {q['separation_held_hz']:.6g} | {q['pull_hz']:.3g} | "
                      f"{q['pull_linear_modes_hz']:.3g} | {q['pull_closed_form_hz']:.3g} | {fm[0]} | {fm[1]} | "
                      + ("yes" if q["entrained"] else "no") + " |")
+    lines += _report_pll_vibration(res)
     inter = [(p["separation_hz"], x) for p in res["points"] for x in p["intermodulation"]]
     if inter:
         lines += ["", "## Intermodulation of the vibration lines with the dithers", "",
