@@ -1016,7 +1016,8 @@ def _cmd_identify(args) -> int:
     from sins_sim.jobs.identify import identify, identify_positions, identify_rate_table, identify_truth
 
     if args.truth is not None:
-        m = identify_truth(args.log, args.truth, args.out, force=args.force, manifest=_manifest(args))
+        m = identify_truth(args.log, args.truth, args.out, twin_seeds=args.twin_seeds, force=args.force,
+                           manifest=_manifest(args))
         tf = m["truth_fit"]
         for sensor, bkey in (("gyro", "bias_deg_h"), ("accelerometer", "bias_ug")):
             for group in (bkey, "scale_factor_ppm", "misalignment_arcsec"):
