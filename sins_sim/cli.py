@@ -1024,6 +1024,10 @@ def _cmd_identify(args) -> int:
                 cells = [f"{k} {e['value']:.4g} +- {e['sigma']:.2g}" if "value" in e else f"{k} not observable"
                          for k, e in tf[sensor][group].items()]
                 print(f"{sensor} {group}: {'; '.join(cells)}")
+        if "twin" in m:
+            print(f"twin: {m['twin']['summary']}")
+            for f in m["twin"]["findings"]:
+                print(f"  {f['statement']}")
         print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
         return EXIT_OK
     if args.positions is not None:

@@ -115,6 +115,8 @@ def test_moving_log_refusal_points_to_truth(tmp_path):
     log = _log(tmp_path / "log.parquet", truth, 9)
     with pytest.raises(ConfigError, match="--truth TRAJECTORY"):
         identify(log, twin_seeds=0)
+    with pytest.raises(ConfigError, match="--twin-seeds"):
+        identify_truth(log, truth, twin_seeds=1)
     short = _truth_file(tmp_path / "short.csv", rocking=True)
     with pytest.raises(ConfigError, match="must cover the log's"):
         data = TrajectoryData(*[np.asarray(x)[:100] for x in (
@@ -148,6 +150,8 @@ def test_twin_on_the_truth_holds_the_log_and_finds_a_bias_step(tmp_path):
     assert set(tw["navigation_at_end"]) == {"north position", "east position", "north velocity", "east velocity",
                                             "attitude drift about north", "attitude drift about east",
                                             "attitude drift about down"}
+    # a float log has no pulse weight (its smallest step between values is float rounding, not a pulse)
+    assert "pulses" not in tw["simulated_at"]
     assert (tmp_path / "out" / "twin-nav.png").is_file() and "## The twin beside the log" in (
         tmp_path / "out" / "report.md").read_text()
     # the twin's white noise from the residuals is the log's own to its chi-square spread: K = 300 blocks give

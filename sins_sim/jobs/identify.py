@@ -1301,8 +1301,8 @@ def _truth_twin_report(metrics: dict) -> list:
     if not tw:
         return []
     out = ["", "## The twin beside the log", "",
-           (f"The twin (the terms above, 0 where not observable, and a white noise from the fit's residuals: "
-            f"{tw['simulated_at']}) simulated {tw['seeds']} times on the truth's trajectory; the log and each seed "
+           (f"The twin ({tw['simulated_at']}; the terms above, 0 where not observable) simulated {tw['seeds']} "
+            f"times on the truth's trajectory; the log and each seed "
             f"navigated {tw['navigated']}, their errors against the truth. Figure: `twin-nav.png`."), "",
            f"Navigation error after {tw['duration_s']:.4g} s (twin: mean and the prediction half-width):", "",
            "| quantity | log | twin |", "|---|---|---|"]
