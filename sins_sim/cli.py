@@ -1016,13 +1016,18 @@ def _cmd_identify(args) -> int:
     from sins_sim.jobs.identify import identify, identify_positions, identify_rate_table, identify_truth
 
     if args.truth is not None:
-        m = identify_truth(args.log, args.truth, args.out, force=args.force, manifest=_manifest(args))
+        m = identify_truth(args.log, args.truth, args.out, twin_seeds=args.twin_seeds, force=args.force,
+                           manifest=_manifest(args))
         tf = m["truth_fit"]
         for sensor, bkey in (("gyro", "bias_deg_h"), ("accelerometer", "bias_ug")):
             for group in (bkey, "scale_factor_ppm", "misalignment_arcsec"):
                 cells = [f"{k} {e['value']:.4g} +- {e['sigma']:.2g}" if "value" in e else f"{k} not observable"
                          for k, e in tf[sensor][group].items()]
                 print(f"{sensor} {group}: {'; '.join(cells)}")
+        if "twin" in m:
+            print(f"twin: {m['twin']['summary']}")
+            for f in m["twin"]["findings"]:
+                print(f"  {f['statement']}")
         print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
         return EXIT_OK
     if args.positions is not None:

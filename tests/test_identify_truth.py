@@ -115,6 +115,8 @@ def test_moving_log_refusal_points_to_truth(tmp_path):
     log = _log(tmp_path / "log.parquet", truth, 9)
     with pytest.raises(ConfigError, match="--truth TRAJECTORY"):
         identify(log, twin_seeds=0)
+    with pytest.raises(ConfigError, match="--twin-seeds"):
+        identify_truth(log, truth, twin_seeds=1)
     short = _truth_file(tmp_path / "short.csv", rocking=True)
     with pytest.raises(ConfigError, match="must cover the log's"):
         data = TrajectoryData(*[np.asarray(x)[:100] for x in (
@@ -122,3 +124,49 @@ def test_moving_log_refusal_points_to_truth(tmp_path):
             np.zeros(100), np.zeros(100))], np.zeros((100, 3)))
         write_trajectory(short, data)
         identify_truth(log, short)
+
+
+def _stepped_log(path, truth_path, seed, t_step, step_rad_s):
+    """The log of :func:`_log` with a gyro x bias step of ``step_rad_s`` from ``t_step`` on."""
+    from sins_sim.jobs.import_log import read_log_table
+
+    t, dth, dv, _ = read_log_table(_log(path, truth_path, seed))
+    dth = dth.copy()
+    dth[t > t_step, 0] += step_rad_s * DT
+    path.unlink()
+    write_log_table(path, t, dth, dv, {"site": {"lat_rad": LAT, "lon_rad": LON, "height_m": H}})
+    return path
+
+
+def test_twin_on_the_truth_holds_the_log_and_finds_a_bias_step(tmp_path):
+    truth = _truth_file(tmp_path / "truth.csv", rocking=True)
+    log = _log(tmp_path / "log.parquet", truth, 7)
+    seeds = 8
+    r = identify_truth(log, truth, tmp_path / "out", twin_seeds=seeds)
+    tw = r["twin"]
+    # the log is a run of its twin up to the fitted terms' errors: the envelope (prediction interval at the
+    # family-wise 5 % of twin_gap, Bonferroni over the 7 quantities) leaves it out with a chance of at most 5 %
+    assert tw["findings"] == [], tw["findings"]
+    assert set(tw["navigation_at_end"]) == {"north position", "east position", "north velocity", "east velocity",
+                                            "attitude drift about north", "attitude drift about east",
+                                            "attitude drift about down"}
+    # a float log has no pulse weight (its smallest step between values is float rounding, not a pulse)
+    assert "pulses" not in tw["simulated_at"]
+    assert (tmp_path / "out" / "twin-nav.png").is_file() and "## The twin beside the log" in (
+        tmp_path / "out" / "report.md").read_text()
+    # the twin's white noise from the residuals is the log's own to its chi-square spread: K = 300 blocks give
+    # s^2 / sigma^2 ~ chi2(K - p) / (K - p), p <= 4; N within its 99.9 % two-sided interval (per axis, 6 axes)
+    k = r["truth_fit"]["blocks"]
+    lo, hi = (math.sqrt(chi2.ppf(q, k - 4) / (k - 4)) for q in (0.0005 / 6, 1.0 - 0.0005 / 6))
+    arw = np.array(tw["sensors"]["gyro"]["arw_deg_rt_h"]) * DEG / 60.0
+    vrw = np.array(tw["sensors"]["accelerometer"]["vrw_ug_rt_hz"]) * MICRO_G
+    assert np.all((lo < arw / ARW) & (arw / ARW < hi)) and np.all((lo < vrw / VRW) & (vrw / VRW < hi)), (arw, vrw)
+    # a gyro x bias step at mid-log, 40 times the fitted bias's sigma: the fit takes half of it into the bias, so
+    # the twin's tilt grows as s t / 2 from the start, the log's as s (t - T/2) after the step; the velocity error
+    # (g times the tilt's integral) then differs at the end by g s T^2 / 8, far outside the twin's band
+    sigma = r["truth_fit"]["gyro"]["bias_deg_h"]["x"]["sigma"] * DEG_PER_H
+    t_step = T_S / 2.0
+    bad = _stepped_log(tmp_path / "stepped.parquet", truth, 7, t_step, 40.0 * sigma)
+    found = identify_truth(bad, truth, twin_seeds=seeds)["twin"]["findings"]
+    assert found, "no finding for a bias step of 40 sigma"
+    assert all(f["quantity"] == "navigation" and f["leaves_at_s"] > t_step for f in found), found

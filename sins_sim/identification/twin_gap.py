@@ -34,7 +34,7 @@ import numpy as np
 
 from sins_sim.units import ARCSEC, DEG_PER_H, MICRO_G
 
-__all__ = ["MIN_CLUSTERS", "MODEL_TOLERANCE", "NAV_QUANTITIES", "alignment_side_by_side", "allan_band", "localise", "nav_band"]
+__all__ = ["MIN_CLUSTERS", "MODEL_TOLERANCE", "NAV_QUANTITIES", "alignment_side_by_side", "allan_band", "localise", "localise_nav", "nav_band"]
 
 #: Independent clusters a tau needs to be tested.
 MIN_CLUSTERS = 10
@@ -209,6 +209,23 @@ def localise(log_run, twins, *, alpha: float = 0.05) -> dict:
     nav_f, nav_b = _nav_findings(log_run, twins, alpha)
     return {"findings": allan_f + _line_findings(log_run, twins) + nav_f, "allan_bands": allan_b,
             "nav_bands": nav_b, "alpha": alpha}
+
+
+def localise_nav(log_run, twins, *, alpha: float = 0.05) -> dict:
+    """The navigation findings alone (module docstring, **Navigation**), for a mission with no Allan or line test
+    beside it: a moving log navigated on its known trajectory and its twin's seeds
+    (:class:`sins_sim.simulation.twin_moving.MovingRun`; anything with ``nav_t_s`` and ``nav`` as
+    :class:`~sins_sim.simulation.twin.RestRun`).
+
+    Returns
+    -------
+    dict
+        ``findings``, ``nav_bands`` (``(key, column) -> band``), ``alpha``.
+    """
+    if len(twins) < 2:
+        raise ValueError(f"twin_seeds: the envelope needs at least 2 seeds of the twin, got {len(twins)}")
+    nav_f, nav_b = _nav_findings(log_run, twins, alpha)
+    return {"findings": nav_f, "nav_bands": nav_b, "alpha": alpha}
 
 
 def alignment_side_by_side(log_run, twins, q_true) -> dict:

@@ -1035,9 +1035,11 @@ def identify_positions(log, positions="auto", out_dir=None, *, lat_deg=None, lon
     return IdentifyResult(metrics, files=files)
 
 
-def _write_fit(out_dir, metrics: dict, texts: dict, manifest, settings: dict, inputs: dict, force: bool) -> dict:
-    """Write ``metrics.json`` and ``texts`` (name -> text) into ``out_dir`` as one result (its manifest naming
-    ``inputs``, label -> path); the files written, name -> path (none without ``out_dir``)."""
+def _write_fit(out_dir, metrics: dict, texts: dict, manifest, settings: dict, inputs: dict, force: bool,
+               figures: dict | None = None) -> dict:
+    """Write ``metrics.json``, ``texts`` (name -> text) and ``figures`` (name -> a function drawing it to a path)
+    into ``out_dir`` as one result (its manifest naming ``inputs``, label -> path); the files written,
+    name -> path (none without ``out_dir``)."""
     if out_dir is None:
         return {}
     from sins_sim.jobs.manifest import Manifest, result_dir
@@ -1050,7 +1052,9 @@ def _write_fit(out_dir, metrics: dict, texts: dict, manifest, settings: dict, in
         (Path(tmp) / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
         for name, text in texts.items():
             (Path(tmp) / name).write_text(text)
-    return {name: Path(out_dir) / name for name in ("metrics.json", *texts)}
+        for name, draw in (figures or {}).items():
+            draw(Path(tmp) / name)
+    return {name: Path(out_dir) / name for name in ("metrics.json", *texts, *(figures or {}))}
 
 
 def _entries_line(key: str, entries: list, unit: str, what: str) -> str:
@@ -1104,7 +1108,7 @@ def _positions_report(metrics: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def identify_truth(log, truth_file, out_dir=None, *, force: bool = False, manifest=None):
+def identify_truth(log, truth_file, out_dir=None, *, twin_seeds: int = 0, force: bool = False, manifest=None):
     """Biases, scale factors and misalignments of a moving log against its known trajectory
     (:mod:`sins_sim.navigation.truth_fit`): the errors are the log's increments minus the truth's ideal increments
     (:func:`sins_sim.simulation.external.ideal_increments`, on the truth's time axis as ``sins-sim navigate --truth``
@@ -1117,7 +1121,11 @@ def identify_truth(log, truth_file, out_dir=None, *, force: bool = False, manife
     truth_file : path
         A trajectory file (:func:`sins_sim.io.trajectory.read_trajectory`) covering the log's span.
     out_dir : path, optional
-        Folder for ``metrics.json``, ``imu-sensors.yaml`` and ``report.md``; None: write nothing.
+        Folder for ``metrics.json``, ``imu-sensors.yaml`` and ``report.md`` (and ``twin-nav.png`` with the twin);
+        None: write nothing.
+    twin_seeds : int
+        0, or 2 to ``MAX_TWIN_SEEDS``: the twin (:func:`truth_twin_sensors`) simulated on the truth's trajectory
+        that many times and navigated beside the log; its results under ``twin``.
     force : bool
         Replace an earlier result at ``out_dir``.
     manifest : Manifest, optional
@@ -1139,7 +1147,11 @@ def identify_truth(log, truth_file, out_dir=None, *, force: bool = False, manife
     from sins_sim.results.identify import IdentifyResult
     from sins_sim.simulation.external import ideal_increments
 
-    t, dth, dv, _ = read_log_table(log)
+    if isinstance(twin_seeds, bool) or not isinstance(twin_seeds, int) or not (twin_seeds == 0 or
+                                                                             2 <= twin_seeds <= MAX_TWIN_SEEDS):
+        raise ConfigError(f"--twin-seeds: must be 0 (no twin) or an integer from 2 to {MAX_TWIN_SEEDS}, got "
+                          f"{twin_seeds!r}")
+    t, dth, dv, meta = read_log_table(log)
     dt = _interval(t)
     try:
         truth = SampledTrajectory.from_data(read_trajectory(truth_file))
@@ -1164,9 +1176,93 @@ def identify_truth(log, truth_file, out_dir=None, *, force: bool = False, manife
         "notes": ["the sigmas hold the noise as the residuals show it, white over one-second blocks; a rate random "
                   "walk or a bias drift over the log makes them too small",
                   "the truth's own errors (its attitude, its timing against the log) are in the fitted terms"]})
+    detail = None
+    if twin_seeds:
+        metrics["twin"], detail = _truth_twin(metrics, t_truth, dth, dv, ideal_th, ideal_v, truth, twin_seeds,
+                                              pulse_weights(meta, dth, dv))
+        metrics = _json_ready(metrics)
+    figures = {}
+    if detail is not None:
+        from sins_sim.identification.twin_gap import NAV_QUANTITIES
+        from sins_sim.plots.twin import plot_twin_nav
+
+        figures["twin-nav.png"] = lambda path: plot_twin_nav(
+            detail["log_run"].nav_t_s, detail["log_run"].nav, [r.nav for r in detail["runs"]],
+            detail["gap"]["nav_bands"], NAV_QUANTITIES, path,
+            title=f"Navigation error against the truth: {Path(str(log)).name} and its twin ({twin_seeds} seeds)")
     files = _write_fit(out_dir, metrics, {"imu-sensors.yaml": truth_yaml(metrics), "report.md": _truth_report(metrics)},
-                       manifest, {"truth": str(truth_file)}, {"log": log, "truth": truth_file}, force)
-    return IdentifyResult(metrics, files=files)
+                       manifest, {"truth": str(truth_file), "twin_seeds": twin_seeds}, {"log": log, "truth": truth_file},
+                       force, figures)
+    return IdentifyResult(metrics, detail=detail, files=files)
+
+
+def truth_twin_sensors(truth_fit: dict) -> dict:
+    """The twin's ``sensors:`` mapping (:func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) from a fit
+    against the truth (:meth:`~sins_sim.navigation.truth_fit.TruthFit.to_dict`): the fitted biases, scale factors
+    and misalignments (0 where not observable), and a white noise from the fit's residuals.
+
+    A white noise of density ``N`` gives a block sum of standard deviation ``N sqrt(T_block)`` (IEEE Std 952-1997,
+    Annex C, the angle random walk), so ``N = s / sqrt(T_block)`` with ``s`` the residual's standard deviation
+    per block; the residual's RMS over ``K`` blocks is ``s sqrt((K - p) / K)`` for the ``p`` terms fitted in its
+    row (least squares, Draper and Smith 1998, sec. 2.6), so ``s = rms sqrt(K / (K - p))``.
+    """
+    def val(e):
+        return float(e["value"]) if "value" in e else 0.0
+
+    mis_order = ("xy", "xz", "yx", "yz", "zx", "zy")
+    k, block_s = int(truth_fit["blocks"]), float(truth_fit["block_s"])
+    out = {}
+    for s, bkey, noise_key, noise_scale in (("gyro", "bias_deg_h", "arw_deg_rt_h", 60.0 / DEG),
+                                            ("accelerometer", "bias_ug", "vrw_ug_rt_hz", 1.0 / MICRO_G)):
+        sec = truth_fit[s]
+        noise = []
+        for i, a in enumerate("xyz"):
+            p = 1 + ("value" in sec["scale_factor_ppm"][a]) + sum(
+                "value" in sec["misalignment_arcsec"][a + c] for c in "xyz" if c != a)
+            rms = float(sec["rms_residual_per_block"][i])
+            noise.append(rms * math.sqrt(k / (k - p)) / math.sqrt(block_s) * noise_scale)
+        out[s] = {bkey: [val(sec[bkey][a]) for a in "xyz"],
+                  "scale_factor_ppm": [val(sec["scale_factor_ppm"][a]) for a in "xyz"],
+                  "misalignment_arcsec": [val(sec["misalignment_arcsec"][m]) for m in mis_order],
+                  noise_key: noise}
+    return out
+
+
+def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds: int, pulses) -> tuple:
+    """The twin on the truth's trajectory beside the log (:mod:`sins_sim.simulation.twin_moving`): both navigated
+    from the truth's state, their errors against it, the log's against the twin's envelope
+    (:func:`sins_sim.identification.twin_gap.localise_nav`)."""
+    from sins_sim.identification.twin_gap import NAV_QUANTITIES, localise_nav
+    from sins_sim.models.sensor_errors import sensor_params_from_dict
+    from sins_sim.simulation.twin_moving import truth_run, twin_runs_on
+
+    doc = truth_twin_sensors(metrics["truth_fit"])
+    try:
+        params = sensor_params_from_dict(doc, "the twin fitted against the truth")
+        log_run = truth_run(t_truth, dth, dv, truth)
+        runs = twin_runs_on(params, t_truth, ideal_th, ideal_v, truth, range(1, seeds + 1), pulses=pulses)
+        gap = localise_nav(log_run, runs)
+    except ValueError as exc:
+        raise ConfigError(f"--twin-seeds: the twin's run on the truth failed: {' '.join(str(exc).split())}") from None
+    m = min([log_run.nav_t_s.size] + [r.nav_t_s.size for r in runs])
+    nav_end = {}
+    for key, col, label, scale, unit in NAV_QUANTITIES:
+        b = gap["nav_bands"][(key, col)]
+        nav_end[label] = {f"log_{unit}": float(log_run.nav[key][m - 1, col] * scale),
+                          f"twin_mean_{unit}": float(b["mean"][-1] * scale),
+                          f"twin_halfwidth_{unit}": float((b["hi"][-1] - b["mean"][-1]) * scale)}
+    findings = gap["findings"]
+    out = {"seeds": seeds, "sensors": doc,
+           "simulated_at": ("the truth's exact increments with the fitted errors and a white noise from the fit's "
+                            "residuals" + (", then the readout's pulses" if pulses is not None else "")),
+           "navigated": "free from the truth's state one interval before the first increment, height aided by "
+                        "the truth's",
+           "duration_s": float(log_run.nav_t_s[m - 1]), "navigation_at_end": nav_end, "alpha": gap["alpha"],
+           "findings": findings,
+           "summary": (f"the log's navigation error stays within its twin's envelope ({seeds} seeds)"
+                       if not findings else f"{len(findings)} navigation quantit{'y' if len(findings) == 1 else 'ies'} "
+                                            f"where the log leaves its twin's envelope ({seeds} seeds)")}
+    return out, {"log_run": log_run, "runs": runs, "gap": gap}
 
 
 def truth_yaml(metrics: dict) -> str:
@@ -1197,7 +1293,29 @@ def _truth_report(metrics: dict) -> str:
                 out.append(f"| {s} | {name} {k} | {e['value']:.5g} | {e['sigma']:.2g} |" if "value" in e else
                            f"| {s} | {name} {k} | {e['status']} | |")
     out += [""] + [f"- {n}" for n in metrics["notes"]]
-    return "\n".join(out) + "\n"
+    return "\n".join(out + _truth_twin_report(metrics)) + "\n"
+
+
+def _truth_twin_report(metrics: dict) -> list:
+    tw = metrics.get("twin")
+    if not tw:
+        return []
+    out = ["", "## The twin beside the log", "",
+           (f"The twin ({tw['simulated_at']}; the terms above, 0 where not observable) simulated {tw['seeds']} "
+            f"times on the truth's trajectory; the log and each seed "
+            f"navigated {tw['navigated']}, their errors against the truth. Figure: `twin-nav.png`."), "",
+           f"Navigation error after {tw['duration_s']:.4g} s (twin: mean and the prediction half-width):", "",
+           "| quantity | log | twin |", "|---|---|---|"]
+    for label, e in tw["navigation_at_end"].items():
+        unit = next(k for k in e if k.startswith("log_"))[4:]
+        out.append(f"| {label} ({unit}) | {e['log_' + unit]:.4g} | {e['twin_mean_' + unit]:.4g} +- "
+                   f"{e['twin_halfwidth_' + unit]:.3g} |")
+    out += ["", tw["summary"] + ".", ""] + [f"- {f['statement']}" for f in tw["findings"]]
+    out += ["", (f"Test (false alarms {100 * tw['alpha']:.3g} % per log, Bonferroni over the quantities): the log "
+                 "outside the twin's prediction interval (mean +- t s sqrt(1 + 1/seeds)) from a time to the end. "
+                 "The twin's noise is white: a bias drift or instability of the log shows as a finding.")]
+    return out
+
 
 def _log_step_findings(steps: dict) -> list:
     """The log's bias steps as findings with the readings the gap measure needs (``z``, ``threshold``; the

@@ -44,6 +44,10 @@ SENSORS = ("gyro", "accelerometer")
 #: (:func:`pulse_weight_of`): float64 pulses times a weight, rotated by a signed permutation, are exact to a few
 #: units of 1e-16; 1e-9 leaves room for a text log's decimals (9 significant digits) and none for real noise.
 PULSE_TOLERANCE = 1e-9
+#: Most of a pulse the tolerance may reach on the largest count (``PULSE_TOLERANCE`` times it): 1 % of a pulse,
+#: i.e. counts up to 1e7 per interval. An unquantised float log's smallest step between distinct values is a few
+#: ulps of its largest, some 1e9 to 1e13 "pulses", where the relative tolerance passes any value as a whole number.
+MAX_PULSE_SLACK = 0.01
 
 
 @dataclass(frozen=True)
@@ -87,7 +91,10 @@ def pulse_weight_of(x) -> float | None:
     if not (q > 0.0 and q > 1e3 * np.finfo(float).eps * scale):
         return None
     k = u / q
-    return q if float(np.max(np.abs(k - np.round(k)))) <= PULSE_TOLERANCE * max(1.0, float(np.max(np.abs(k)))) else None
+    k_max = float(np.max(np.abs(k)))
+    if PULSE_TOLERANCE * k_max > MAX_PULSE_SLACK:
+        return None     # a step of float rounding, not a pulse: the tolerance would pass any value as whole
+    return q if float(np.max(np.abs(k - np.round(k)))) <= PULSE_TOLERANCE * max(1.0, k_max) else None
 
 
 def quantise_pulses(x_frd, weights, axes, rng) -> np.ndarray:
