@@ -330,7 +330,15 @@ def _leaves(spec, path=(), out=None):
         out.append((path, spec))
     elif type(spec).__name__ == "_PerAxis":  # axis name -> suspension keys (experiment format)
         _leaves(spec.item, path + ("x",), out)
+    elif type(spec).__name__ == "_SpecEntry":  # vibration.spec: a file path or the mapping written inline
+        _leaves(_spec_entry_schema(), path, out)
     return out
+
+
+def _spec_entry_schema():
+    from sins_sim.config.vibration_spec import VIBRATION_SPEC_SCHEMA
+
+    return VIBRATION_SPEC_SCHEMA
 
 
 def _set(doc, schema, path, value):
@@ -351,6 +359,8 @@ def _set(doc, schema, path, value):
             sub = next(s for n, s in spec.fields.items() if _key(n, s) == step)
         else:  # an axis of a per-axis mapping
             sub = spec.item
+        if type(sub).__name__ == "_SpecEntry":  # written inline: its mapping's keys
+            sub = _spec_entry_schema()
         if last:
             node[step] = value
         elif isinstance(sub, OneOf):
