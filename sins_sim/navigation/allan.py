@@ -11,6 +11,7 @@ Arrays in, numbers out. The overlapping Allan deviation is computed by ``allanto
    screen_noise
    not_determinable
    term_interval
+   term_rel
    gyro_allan
    accel_allan
    allan_axes
@@ -50,7 +51,9 @@ powers of tau; here:
    a free log-log fit is reported beside it;
 5. each term's 95 % confidence interval (:attr:`AllanTerm.ci`, :func:`term_interval`): the chi-square
    interval of the overlapping estimator with the simple equivalent degrees of freedom of the term's
-   noise type (Riley 2008, Table 7), bounded over the region's correlated points (conservative). The fit's
+   noise type (Riley 2008, Table 7), combined at each point with the error of the other terms subtracted
+   there (their part times their own relative error, read first from their own regions: first-order error
+   propagation, :func:`term_rel`), bounded over the region's correlated points (conservative). The fit's
    weights in step 2 use the simpler non-overlapping count ``clusters - 1`` instead.
 
 A term absent from the record (zero coefficient, or no point where it dominates) reads NaN.
@@ -79,9 +82,24 @@ from scipy.optimize import nnls
 
 from sins_sim.units import ARCSEC, DEG, DEG_PER_H, MICRO_G
 
-__all__ = ["AllanCurve", "AllanTerm", "AllanAnalysis", "allan_deviation", "fit_allan", "screen_noise", "gyro_allan",
-           "accel_allan", "allan_axes", "not_determinable", "term_interval", "TERMS", "ALPHA", "CI_LEVEL",
-           "FLICKER_FLOOR_FACTOR"]
+__all__ = [
+    "ALPHA",
+    "CI_LEVEL",
+    "FLICKER_FLOOR_FACTOR",
+    "TERMS",
+    "AllanAnalysis",
+    "AllanCurve",
+    "AllanTerm",
+    "accel_allan",
+    "allan_axes",
+    "allan_deviation",
+    "fit_allan",
+    "gyro_allan",
+    "not_determinable",
+    "screen_noise",
+    "term_interval",
+    "term_rel",
+]
 
 #: Allan-deviation floor of bias instability per unit of B, sqrt(2 ln 2 / pi) (IEEE Std 952-1997, Annex C).
 FLICKER_FLOOR_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
@@ -169,7 +187,8 @@ class AllanTerm:
         Free log-log slope over the region (NaN with fewer than 3 points).
     ci : tuple of float or None
         95 % confidence interval ``(low, high)`` of ``coefficient`` (same unit), from the chi-square
-        distribution of the region's most informative point (:func:`term_interval`); None when not found.
+        scatter of the region's points and the error of the other terms subtracted there
+        (:func:`term_interval`); None when not found.
     """
 
     name: str
@@ -457,22 +476,37 @@ def fit_allan(curve: AllanCurve, sensor: str = "gyro", min_clusters: float = 10.
     consistent = np.abs(s2 / model - 1.0) <= 3.0 * rel
     gof = _goodness_of_fit(s2, model, rel, coef, use)
     w = 1.0 / (np.maximum(model, 0.25 * s2) * rel) ** 2
-    terms = {}
+    # pass 1: each term's reading and the relative standard deviation of its Allan-variance coefficient from its
+    # own region's chi-square scatter alone (term_rel without others_err)
+    reading = {}
     for k, name in enumerate(names):
         part = basis[:, k] * coef[k]
         run = _runs((part >= share * model) & consistent) if coef[k] > 0.0 else None
         if run is None:
-            terms[name] = empty[name]
             continue
-        a, b = run
-        sel = slice(a, b)
+        sel = slice(*run)
         resid = s2[sel] - (model[sel] - part[sel])
         bk = basis[sel, k]
         c_k = float(np.sum(w[sel] * resid * bk) / np.sum(w[sel] * bk * bk))
+        own = term_rel(name, tau[sel], s2[sel], part[sel] / coef[k] * c_k, w[sel] * bk * bk, curve)
+        reading[name] = (run, c_k, own)
+    # pass 2: the interval with the other terms' coefficient errors carried into each point (term_interval); a
+    # fitted term without a region of its own is known only to within itself (relative error 1)
+    own_rel = {n: (reading[n][2] if n in reading and np.isfinite(reading[n][2]) else 1.0) for n in names}
+    terms = {}
+    for k, name in enumerate(names):
+        if name not in reading:
+            terms[name] = empty[name]
+            continue
+        (a, b), c_k, _ = reading[name]
+        sel = slice(a, b)
+        bk = basis[sel, k]
+        others_err = sum(basis[sel, j] * coef[j] * own_rel[nj] for j, nj in enumerate(names) if j != k)
         slope = math.nan
         if b - a >= 3:
             slope = float(np.polyfit(np.log(tau[sel]), 0.5 * np.log(s2[sel]), 1)[0])
-        ci = term_interval(name, c_k, tau[sel], s2[sel], part[sel] / coef[k] * c_k, w[sel] * bk * bk, curve)
+        ci = term_interval(name, c_k, tau[sel], s2[sel], basis[sel, k] * c_k, w[sel] * bk * bk, curve,
+                           others_err=others_err)
         terms[name] = AllanTerm(name, TERMS[name][1], _coefficient_from_c(name, c_k),
                                 (float(tau[a]), float(tau[b - 1])), b - a, slope, ci)
     return AllanAnalysis(curve, sensor, {n: float(c) for n, c in zip(names, coef)}, terms, float(min_clusters),
@@ -487,20 +521,67 @@ ALPHA = {"quantization": 2, "white": 0, "flicker": -1, "random_walk": -2}
 CI_LEVEL = 0.95
 
 
-def term_interval(name: str, c_k: float, tau, s2, part, weight, curve: AllanCurve, level: float = CI_LEVEL):
-    """Confidence interval of a term's coefficient read off its region.
+def term_rel(name: str, tau, s2, part, weight, curve: AllanCurve, others_err=None) -> float:
+    """Relative standard deviation of a term's Allan-variance coefficient read off its region.
 
     Each Allan-variance point is chi-square distributed with ``edf`` equivalent degrees of freedom,
     ``edf * s2_hat / s2 ~ chi2(edf)`` (NIST SP 1065, Riley 2008, sec. 5.3), a relative standard deviation
     ``sqrt(2 / edf)``; ``edf`` is the simple approximation for the overlapping Allan variance of the term's
     noise type (Riley 2008, Table 7, after Howe, Allan and Barnes 1981; ``allantools.edf_simple``). The
-    term's variance at a point is the point's minus the other fitted terms', so the point's relative error
-    enters the term ``gain = s2 / part`` times. The reading is a weighted mean of the region's points
-    (weights ``w``, :func:`fit_allan`); the points of an overlapping curve are correlated in an unknown way,
-    so its relative standard deviation is bounded by the weighted mean of theirs (Minkowski's inequality:
-    equality for fully correlated points), ``rel = sum(a_i gain_i sqrt(2 / edf_i))`` with ``a`` the
-    normalised weights, and the interval is the chi-square one for ``edf_eff = 2 / rel^2``. The bound makes
-    the interval conservative (coverage at least ``level`` under the noise model).
+    term's variance at a point is ``c_i tau_i^k = s2_i - others_i``, so (first-order error propagation):
+
+    * the point's own scatter enters ``gain_i = s2_i / part_i`` times: ``u_i = gain_i sqrt(2 / edf_i)``;
+    * the other terms' part ``others_i`` is itself an estimate; its 1-sigma error ``others_err_i`` (the sum,
+      over the other terms, of their part times their own coefficient's relative error: added linearly, since
+      the fit's coefficients are correlated with unknown sign) enters as ``v_i = others_err_i / part_i``.
+
+    The two are read off different points (the other terms' regions), so they add in quadrature,
+    ``r_i = sqrt(u_i^2 + v_i^2)``. The reading is a weighted mean of the region's points (normalised
+    weights ``a_i``); the points of an overlapping curve are correlated in an unknown way, and the other
+    terms' errors are the same at every point, so the reading's relative standard deviation is bounded by
+    the weighted mean ``rel = sum(a_i r_i)`` (Minkowski's inequality: equality for fully correlated points).
+
+    Parameters
+    ----------
+    name : str
+        The term (one of :data:`ALPHA`).
+    tau, s2, part, weight : ndarray
+        The region's taus (s), Allan variances, the term's part of them and each point's weight in the
+        reading (the weight of ``c_i = (s2_i - others_i) / tau_i^k``).
+    curve : AllanCurve
+        The curve (for the record length and sample rate).
+    others_err : ndarray or None
+        1-sigma error of the other terms' part subtracted at each point (unit^2); None: the point's scatter
+        alone.
+
+    Returns
+    -------
+    float
+        ``rel`` (NaN for a term without a noise type, the ramp).
+    """
+    import allantools
+
+    if name not in ALPHA:
+        return math.nan
+    m = np.round(np.asarray(tau) * curve.rate_hz)
+    edf = np.array([allantools.edf_simple(curve.n_samples, float(mi), ALPHA[name]) for mi in m])
+    edf = np.maximum(edf, 1.0)
+    part = np.maximum(np.asarray(part, dtype=np.float64), np.finfo(np.float64).tiny)
+    u = np.asarray(s2, dtype=np.float64) / part * np.sqrt(2.0 / edf)
+    v = np.zeros_like(u) if others_err is None else np.asarray(others_err, dtype=np.float64) / part
+    a = np.asarray(weight, dtype=np.float64) / np.sum(weight)
+    return float(np.sum(a * np.hypot(u, v)))
+
+
+def term_interval(name: str, c_k: float, tau, s2, part, weight, curve: AllanCurve, level: float = CI_LEVEL,
+                  others_err=None):
+    """Confidence interval of a term's coefficient read off its region.
+
+    The relative standard deviation ``rel`` of the Allan-variance coefficient is :func:`term_rel` (each
+    point's chi-square scatter, NIST SP 1065 sec. 5.3, and the error of the other terms subtracted there,
+    first-order propagation), bounded over the region's correlated points; the interval is the chi-square
+    one for ``edf_eff = 2 / rel^2`` (Riley 2008, sec. 5.3, eq. 35 form). The bound makes the interval
+    conservative (coverage at least ``level`` under the noise model).
 
     Parameters
     ----------
@@ -509,12 +590,13 @@ def term_interval(name: str, c_k: float, tau, s2, part, weight, curve: AllanCurv
     c_k : float
         Its Allan-variance coefficient read off the region (unit^2 s^-k).
     tau, s2, part, weight : ndarray
-        The region's taus (s), Allan variances, the term's part of them and each point's weight in the
-        reading (the weight of ``c_i = (s2_i - others_i) / tau_i^k``).
+        See :func:`term_rel`.
     curve : AllanCurve
         The curve (for the record length and sample rate).
     level : float
         Confidence level.
+    others_err : ndarray or None
+        See :func:`term_rel`.
 
     Returns
     -------
@@ -522,17 +604,11 @@ def term_interval(name: str, c_k: float, tau, s2, part, weight, curve: AllanCurv
         ``(low, high)`` of the coefficient (Q, N, B, K or R in SI), None for the ramp or a
         non-positive ``c_k``.
     """
-    import allantools
     from scipy.stats import chi2 as chi2_dist
 
     if name not in ALPHA or not (np.isfinite(c_k) and c_k > 0.0):
         return None
-    m = np.round(np.asarray(tau) * curve.rate_hz)
-    edf = np.array([allantools.edf_simple(curve.n_samples, float(mi), ALPHA[name]) for mi in m])
-    edf = np.maximum(edf, 1.0)
-    gain = s2 / np.maximum(part, np.finfo(np.float64).tiny)
-    a = np.asarray(weight, dtype=np.float64) / np.sum(weight)
-    rel = float(np.sum(a * gain * np.sqrt(2.0 / edf)))
+    rel = term_rel(name, tau, s2, part, weight, curve, others_err)
     edf_eff = 2.0 / rel ** 2
     lo_q, hi_q = chi2_dist.ppf([(1.0 - level) / 2.0, (1.0 + level) / 2.0], edf_eff)
     return (_coefficient_from_c(name, c_k * edf_eff / hi_q), _coefficient_from_c(name, c_k * edf_eff / lo_q))
