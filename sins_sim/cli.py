@@ -1024,10 +1024,7 @@ def _cmd_identify(args) -> int:
                 cells = [f"{k} {e['value']:.4g} +- {e['sigma']:.2g}" if "value" in e else f"{k} not observable"
                          for k, e in tf[sensor][group].items()]
                 print(f"{sensor} {group}: {'; '.join(cells)}")
-        if "twin" in m:
-            print(f"twin: {m['twin']['summary']}")
-            for f in m["twin"]["findings"]:
-                print(f"  {f['statement']}")
+        _print_twin(m)
         print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
         return EXIT_OK
     if args.positions is not None:
@@ -1070,12 +1067,17 @@ def _cmd_identify(args) -> int:
         print(f"{sensor} bias {key}: {e['value']:.4g} {sig}")
     n_lines = sum(len(e["lines"]) for s in ("gyro", "accelerometer") for e in m["lines"][s].values())
     print(f"spectral lines: {n_lines}")
+    _print_twin(m)
+    print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
+    return EXIT_OK
+
+
+def _print_twin(m) -> None:
+    """The twin's summary and its findings, one line each (identify, at rest or on a known trajectory)."""
     if "twin" in m:
         print(f"twin: {m['twin']['summary']}")
         for f in m["twin"]["findings"]:
             print(f"  {f['statement']}")
-    print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
-    return EXIT_OK
 
 
 def _cmd_completion(args) -> int:

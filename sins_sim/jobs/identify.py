@@ -810,6 +810,22 @@ def _write(folder: Path, metrics: dict, detail: dict) -> list:
 SEGMENT_COLUMNS = ("start_s", "end_s", "axis", "rate_deg_s")
 
 
+def _windows_table(p: Path, flag: str, columns: tuple, more: str = ""):
+    """A windows CSV (comments ``#``, header row) as a DataFrame with stripped column names; one line naming
+    ``flag``, the file and the first missing column when it cannot be read or lacks one of ``columns``."""
+    import pandas as pd
+
+    try:
+        df = pd.read_csv(p, comment="#", skipinitialspace=True)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is the file's fault: one line
+        raise ConfigError(f"{flag}: {p}: cannot read: {' '.join(str(exc).split())}") from None
+    df.columns = [str(c).strip() for c in df.columns]
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise ConfigError(f"{flag}: {p}: column {missing[0]}: missing (needs {', '.join(columns)}{more})")
+    return df
+
+
 def read_segments(path) -> list:
     """The windows of constant table rate from a CSV with the columns :data:`SEGMENT_COLUMNS`, as
     ``(start_s, end_s, axis 0..2, rate_rad_s)``.
@@ -819,17 +835,8 @@ def read_segments(path) -> list:
     ConfigError
         One line naming the file, the row and the column.
     """
-    import pandas as pd
-
     p = Path(path)
-    try:
-        df = pd.read_csv(p, comment="#", skipinitialspace=True)
-    except Exception as exc:  # noqa: BLE001 - any reader failure is the file's fault: one line
-        raise ConfigError(f"--rate-table: {p}: cannot read: {' '.join(str(exc).split())}") from None
-    df.columns = [str(c).strip() for c in df.columns]
-    missing = [c for c in SEGMENT_COLUMNS if c not in df.columns]
-    if missing:
-        raise ConfigError(f"--rate-table: {p}: column {missing[0]}: missing (needs {', '.join(SEGMENT_COLUMNS)})")
+    df = _windows_table(p, "--rate-table", SEGMENT_COLUMNS)
     out = []
     for i, row in enumerate(df.itertuples(index=False), start=2):
         axis = str(row.axis).strip().lower()
@@ -933,18 +940,8 @@ def read_positions(path) -> list:
     ConfigError
         One line naming the file, the row and the column.
     """
-    import pandas as pd
-
     p = Path(path)
-    try:
-        df = pd.read_csv(p, comment="#", skipinitialspace=True)
-    except Exception as exc:  # noqa: BLE001 - any reader failure is the file's fault: one line
-        raise ConfigError(f"--positions: {p}: cannot read: {' '.join(str(exc).split())}") from None
-    df.columns = [str(c).strip() for c in df.columns]
-    missing = [c for c in POSITION_COLUMNS if c not in df.columns]
-    if missing:
-        raise ConfigError(f"--positions: {p}: column {missing[0]}: missing (needs {', '.join(POSITION_COLUMNS)}, "
-                          "optionally up)")
+    df = _windows_table(p, "--positions", POSITION_COLUMNS, ", optionally up")
     out = []
     for i, row in enumerate(df.itertuples(index=False), start=2):
         try:
