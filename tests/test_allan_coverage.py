@@ -112,3 +112,17 @@ def test_term_rel_one_point_closed_form():
     assert term_rel("white", [10.0], s2, part, [1.0], curve) == pytest.approx(u, rel=1e-12)
     assert term_rel("white", [10.0], s2, part, [1.0], curve, err) == pytest.approx(math.hypot(u, 0.3 / 1.5),
                                                                                     rel=1e-12)
+
+
+def test_an_interval_the_chi_square_form_cannot_state_is_none_not_an_overflow():
+    """A point whose subtracted terms are uncertain beyond any scale (a nearly empty region's bound, 1e289 in the
+    separation study's 3 s records before the cap) has no chi-square interval: None, never an OverflowError."""
+    from sins_sim.navigation.allan import AllanCurve, term_interval
+
+    tau = np.array([0.01, 0.02])
+    curve = AllanCurve(tau_s=tau, adev=np.ones(2), n_terms=np.array([298.0, 297.0]), n_samples=299,
+                       rate_hz=100.0)
+    s2, part, w = np.array([1.6e-7, 3.2e-8]), np.array([1.4e-7, 3.6e-8]), np.array([1.0, 0.5])
+    assert term_interval("quantization", 1.4e-11, tau, s2, part, w, curve, others_err=np.array([1e289, 5e288])) is None
+    lo, hi = term_interval("quantization", 1.4e-11, tau, s2, part, w, curve)
+    assert 0.0 < lo < math.sqrt(1.4e-11 / 3.0) < hi  # Q = sqrt(c / 3) (IEEE 952 Annex C) inside its interval

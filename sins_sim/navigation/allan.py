@@ -491,8 +491,10 @@ def fit_allan(curve: AllanCurve, sensor: str = "gyro", min_clusters: float = 10.
         own = term_rel(name, tau[sel], s2[sel], part[sel] / coef[k] * c_k, w[sel] * bk * bk, curve)
         reading[name] = (run, c_k, own)
     # pass 2: the interval with the other terms' coefficient errors carried into each point (term_interval); a
-    # fitted term without a region of its own is known only to within itself (relative error 1)
-    own_rel = {n: (reading[n][2] if n in reading and np.isfinite(reading[n][2]) else 1.0) for n in names}
+    # fitted term without a region of its own is known only to within itself (relative error 1); a region's own
+    # bound above 1 says no more than that (a non-negative coefficient is known to within itself), so it is capped
+    # there, which also keeps a nearly empty region's huge bound from swamping the others' intervals
+    own_rel = {n: (min(reading[n][2], 1.0) if n in reading and np.isfinite(reading[n][2]) else 1.0) for n in names}
     terms = {}
     for k, name in enumerate(names):
         if name not in reading:
@@ -601,14 +603,16 @@ def term_interval(name: str, c_k: float, tau, s2, part, weight, curve: AllanCurv
     Returns
     -------
     tuple of float or None
-        ``(low, high)`` of the coefficient (Q, N, B, K or R in SI), None for the ramp or a
-        non-positive ``c_k``.
+        ``(low, high)`` of the coefficient (Q, N, B, K or R in SI), None for the ramp, a non-positive
+        ``c_k`` or a relative error beyond 1e6 (or not finite), for which no chi-square interval exists.
     """
     from scipy.stats import chi2 as chi2_dist
 
     if name not in ALPHA or not (np.isfinite(c_k) and c_k > 0.0):
         return None
     rel = term_rel(name, tau, s2, part, weight, curve, others_err)
+    if not (math.isfinite(rel) and 0.0 < rel < 1e6):  # no interval the chi-square form can state
+        return None
     edf_eff = 2.0 / rel ** 2
     lo_q, hi_q = chi2_dist.ppf([(1.0 - level) / 2.0, (1.0 + level) / 2.0], edf_eff)
     return (_coefficient_from_c(name, c_k * edf_eff / hi_q), _coefficient_from_c(name, c_k * edf_eff / lo_q))
