@@ -244,35 +244,54 @@ def twin_increments(sensors, n: int, dt_s: float, site: dict, q_nb, seed: int, p
     quantisation (the readout counts what the unit senses).
     """
     from sins_sim.earth import earth_rate_ned, gravity_down
-    from sins_sim.models.sensor_errors import AccelErrors, GyroErrors
     from sins_sim.navigation.attitude import dcm_from_quat
 
     c_nb = dcm_from_quat(np.asarray(q_nb, dtype=np.float64))
     w_b = c_nb.T @ earth_rate_ned(site["lat_rad"])
     f_b = c_nb.T @ np.array([0.0, 0.0, -gravity_down(site["lat_rad"], site["height_m"])])
+    dth, dv = sensed_increments(sensors, np.tile(w_b * dt_s, (n, 1)), np.tile(f_b * dt_s, (n, 1)), dt_s, seed,
+                                pulses, added)
+    return np.arange(1, n + 1) * dt_s, dth, dv
+
+
+def sensed_increments(sensors, ideal_dth, ideal_dv, dt_s: float, seed: int, pulses: PulseWeights | None = None,
+                      added=None) -> tuple:
+    """``(dtheta, dv)`` the twin senses from the exact increments ``ideal_dth``, ``ideal_dv`` (N, 3): the errors
+    ``sensors`` (:class:`~sins_sim.models.sensor_errors.SensorErrorParams`) applied with ``seed``; ``added`` (N, 6)
+    rate and specific force times ``dt_s``; then, with ``pulses``, the readout's quantisation
+    (:func:`quantise_pulses`, the residues drawn after the errors from the same seed). At rest
+    (:func:`twin_increments`) or on a trajectory (:mod:`sins_sim.simulation.twin_moving`)."""
+    from sins_sim.models.sensor_errors import AccelErrors, GyroErrors
+
     rng = np.random.default_rng(seed)
     gyros = GyroErrors(sensors.gyro, rng, dt_s)
     accels = AccelErrors(sensors.accelerometer, rng, dt_s)
-    dth = gyros.apply(np.tile(w_b * dt_s, (n, 1)))
-    dv = accels.apply(np.tile(f_b * dt_s, (n, 1)))
+    dth = gyros.apply(np.asarray(ideal_dth, dtype=np.float64))
+    dv = accels.apply(np.asarray(ideal_dv, dtype=np.float64))
     if added is not None:
         dth = dth + added[:, :3] * dt_s
         dv = dv + added[:, 3:] * dt_s
     if pulses is not None:
         dth = quantise_pulses(dth, pulses.gyro_rad, pulses.axes, rng)
         dv = quantise_pulses(dv, pulses.accel_m_s, pulses.axes, rng)
-    return np.arange(1, n + 1) * dt_s, dth, dv
+    return dth, dv
 
 
 def twin_runs(sensors, t_s, site: dict, q_nb, method: str, seeds, *, pulses: PulseWeights | None = None,
               **kwargs) -> list:
     """:func:`rest_run` on the twin (:func:`twin_increments`, with the readout's ``pulses``) once per seed, on the
     log's time axis ``t_s``."""
+    return [run for run, _, _ in seed_runs(sensors, t_s, site, q_nb, method, seeds, pulses=pulses, **kwargs)]
+
+
+def seed_runs(sensors, t_s, site: dict, q_nb, method: str, seeds, *, pulses: PulseWeights | None = None,
+              added=None, **kwargs):
+    """Yield ``(RestRun, dtheta, dv)`` per seed: :func:`twin_increments` (with ``pulses`` and ``added``) on the
+    log's time axis ``t_s``, then :func:`rest_run` on them (the one loop of :func:`twin_runs` and
+    :func:`sins_sim.simulation.twin_effects.twin_runs_with`)."""
     t = np.asarray(t_s, dtype=np.float64)
     dt = float(t[1] - t[0])
-    runs = []
     for seed in seeds:
-        _, dth, dv = twin_increments(sensors, t.size, dt, site, q_nb, int(seed), pulses)
-        runs.append(rest_run(t, dth, dv, site, method, **kwargs))
-    return runs
+        _, dth, dv = twin_increments(sensors, t.size, dt, site, q_nb, int(seed), pulses, added)
+        yield rest_run(t, dth, dv, site, method, **kwargs), dth, dv
 

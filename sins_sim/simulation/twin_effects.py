@@ -52,7 +52,7 @@ def twin_runs_with(sensors, t_s, site: dict, q_nb, method: str, seeds, added=Non
     ValueError
         ``added`` not of shape (N, 6) or not finite.
     """
-    from sins_sim.simulation.twin import rest_run, twin_increments
+    from sins_sim.simulation.twin import seed_runs
 
     t = np.asarray(t_s, dtype=np.float64)
     dt = float(t[1] - t[0])
@@ -61,8 +61,5 @@ def twin_runs_with(sensors, t_s, site: dict, q_nb, method: str, seeds, added=Non
         if added.shape != (t.size, 6) or not np.all(np.isfinite(added)):
             raise ValueError(f"added: must be a finite ({t.size}, 6) array of rate and specific force, got shape "
                              f"{added.shape}")
-    out = []
-    for seed in seeds:
-        _, dth, dv = twin_increments(sensors, t.size, dt, site, q_nb, int(seed), pulses, added)
-        out.append((rest_run(t, dth, dv, site, method, **kwargs), np.hstack([dth, dv]) / dt))
-    return out
+    return [(run, np.hstack([dth, dv]) / dt)
+            for run, dth, dv in seed_runs(sensors, t, site, q_nb, method, seeds, pulses=pulses, added=added, **kwargs)]

@@ -96,18 +96,9 @@ def twin_increments_on(sensors, ideal_dth, ideal_dv, dt_s: float, seed: int, pul
     the errors ``sensors`` (:class:`~sins_sim.models.sensor_errors.SensorErrorParams`) applied with ``seed``, then,
     with ``pulses`` (:class:`~sins_sim.simulation.twin.PulseWeights`), the readout's quantisation (its residues
     drawn after the errors from the same seed, as :func:`sins_sim.simulation.twin.twin_increments`)."""
-    from sins_sim.models.sensor_errors import AccelErrors, GyroErrors
-    from sins_sim.simulation.twin import quantise_pulses
+    from sins_sim.simulation.twin import sensed_increments
 
-    rng = np.random.default_rng(seed)
-    gyros = GyroErrors(sensors.gyro, rng, dt_s)
-    accels = AccelErrors(sensors.accelerometer, rng, dt_s)
-    dth = gyros.apply(np.asarray(ideal_dth, dtype=np.float64))
-    dv = accels.apply(np.asarray(ideal_dv, dtype=np.float64))
-    if pulses is not None:
-        dth = quantise_pulses(dth, pulses.gyro_rad, pulses.axes, rng)
-        dv = quantise_pulses(dv, pulses.accel_m_s, pulses.axes, rng)
-    return dth, dv
+    return sensed_increments(sensors, ideal_dth, ideal_dv, dt_s, seed, pulses)
 
 
 def twin_runs_on(sensors, t_s, ideal_dth, ideal_dv, truth, seeds, *, pulses=None) -> list:
