@@ -143,7 +143,7 @@ def test_fix_error_states_enter_position_rows_only_and_are_not_fed_back():
 def test_propagate_kernel_equals_the_reference_with_fix_states():
     """The compiled block propagation with 3 and 6 fix-error states against the numpy reference, open and closed
     loop (rounding-level: the bound of tests/test_ekf_kernels.py, 100 n eps of the product chain, n = 21)."""
-    from tests.test_ekf_kernels import UNMODELLED, _rows
+    from test_ekf_kernels import UNMODELLED, _rows
 
     rng = np.random.default_rng(37)
     start, end = _rows(rng)
@@ -208,7 +208,7 @@ def test_augmented_filter_nees_within_bounds_and_mistuned_states_detected():
     position, velocity and attitude (measured 1.00 / 0.96 / 1.00, n_eff 5.5 / 14.0 / 5.8). Told a Gauss-Markov
     sigma / sqrt(10) or a correlation time / 10, the filter trusts the fixes too much: the position fraction
     falls below 0.90 (measured 0.00 and 0.28) and its interval excludes 0.90 (upper ends 0.27 and 0.88)."""
-    from tests.test_aided_consistency import GNSS, Mission, coverage, nees_mc
+    from test_aided_consistency import GNSS, Mission, coverage, nees_mc
     from sins_sim.simulation.aiding import AidingSettings
 
     gnss = dataclasses.replace(GNSS, markov_tau_s=300.0)
@@ -268,7 +268,7 @@ def test_smoother_with_fix_error_states_is_consistent():
     well after the turn) each block's smoothed NEES summed over the seeds is chi-square with 150 degrees of freedom
     for a consistent smoother (independent seeds), inside its 0.1 % and 99.9 % quantiles (102 to 209; measured
     125 to 161)."""
-    from tests.test_aided_consistency import GNSS, N_SEEDS, Mission
+    from test_aided_consistency import GNSS, N_SEEDS, Mission
     from sins_sim.navigation.aided import smooth
     from sins_sim.simulation.aiding import AidingSettings
 

@@ -175,3 +175,17 @@ def test_configuration_enters_the_plan_through_one_entry_point():
                     and node.module.startswith(("sins_sim.simulation", "sins_sim._kernels"))):
                 bad.append(f"config/{path.name}:{node.lineno} imports {node.module} (the plan's business)")
     assert not bad, "; ".join(bad)
+
+
+def test_no_test_imports_the_tests_directory_as_a_package():
+    """CI runs ``pytest`` from a clean clone, where ``tests`` has no ``__init__.py`` and is not on ``sys.path``:
+    a test that shares another's helpers imports the module by its bare name (pytest puts ``tests/`` on the path),
+    never ``tests.test_x`` (which imports only when the working directory happens to be on ``sys.path``, as under
+    ``python -m pytest``: the twelfth landing failed on exactly that)."""
+    offenders = []
+    for path in sorted((PKG.parent / "tests").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            names = ([node.module or ""] if isinstance(node, ast.ImportFrom)
+                     else [a.name for a in node.names] if isinstance(node, ast.Import) else [])
+            offenders += [f"{path.name}:{node.lineno} {n}" for n in names if n == "tests" or n.startswith("tests.")]
+    assert not offenders, offenders
