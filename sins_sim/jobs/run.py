@@ -392,6 +392,7 @@ def compute_run(scenario, config_warnings=(), progress=None, threads: int | None
         "alignment_samples": {k: val for k, val in res.delays.items() if k != "residual_eliminator"},
         "drives": [{**d, "amplitude_measured_arcmin": d["amplitude_measured_rad"] / ARCMIN,
                     "amplitude_target_arcmin": d["amplitude_target_rad"] / ARCMIN} for d in res.drives],
+        "dither_under_vibration": list(getattr(scenario, "dither_forecast", ())),
         "diverged": res.diverged,
         "warnings": list(dict.fromkeys([*config_warnings, *res.warnings,
                                         *advisories.drive_advisories(res.drives, scenario.imu, scenario.duration_s)])),

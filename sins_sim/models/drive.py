@@ -115,3 +115,45 @@ class DriveSignal:
         # reduce the phase per sample exactly: (f k / rate) mod 1 keeps long runs accurate
         cycles = np.mod(self.frequency_hz * k / self.dac_rate_hz, 1.0)
         return self.v_m * np.cos(2.0 * math.pi * cycles + self.phase_rad)
+
+
+# --- the amplitude loop under a vibration line ---------------------------------------------------------------------
+def detector_leakage(block_steps: int, rate_hz: float, offset_hz: float) -> float:
+    """What the amplitude loop's detector reads of a line ``offset_hz`` from the drive, per unit of that line.
+
+    The detector (``sins_sim._kernels.drive.demod_accumulate``, ``chain.end_block``) reads
+    ``2 |sum_n w_n delta_n e^{-i w_d t_n}| / sum_n w_n`` over a control block of ``block_steps`` plant steps with a
+    Hann window ``w_n``. A line ``d_v cos(w_v t)`` adds ``d_v |W(w_v - w_d)| / W(0)`` to that phasor's modulus,
+    ``W`` the window's transform (Harris 1978, "On the use of windows for harmonic analysis with the discrete
+    Fourier transform", Proc. IEEE 66(1), sec. IV.C: the Hann window's main lobe spans ``+- 2 / T``); the image at
+    ``w_v + w_d`` is left out (below 1e-3 for lines near the dither). Here ``W`` is summed exactly over the block.
+    """
+    n = np.arange(int(block_steps)) + 0.5
+    w = np.sin(math.pi * n / int(block_steps)) ** 2
+    return float(abs(np.sum(w * np.exp(2j * math.pi * float(offset_hz) * n / float(rate_hz)))) / np.sum(w))
+
+
+def held_dither_amplitude(target_rad: float, leak_rad: float) -> float:
+    """The dither the closed amplitude loop holds when its detector also reads a line's leak ``leak_rad``.
+
+    At a beat the control blocks do not resolve, the line's phasor turns against the dither's from block to block, and
+    the detector reads ``|a + c e^{i phi}|`` with ``phi`` spread evenly over the turn; the loop's integral drives the
+    mean of that to the target: ``M(a, c) = (2 / pi) (a + c) E(4 a c / (a + c)^2) = a_t`` (``E`` the complete
+    elliptic integral of the second kind, parameter ``m``: the mean distance from a point of a circle of radius
+    ``c`` to a point at ``a`` from its centre; Abramowitz and Stegun 1964, 17.3.3). ``M >= max(a, c)``: a leak
+    ``c >= a_t`` leaves no dither at all (the loop winds the drive down, returned as 0), and a small one takes
+    ``c^2 / (4 a_t)`` from it.
+    """
+    from scipy import optimize, special
+
+    at, c = float(target_rad), float(leak_rad)
+    if c <= 0.0:
+        return at
+    if c >= at:
+        return 0.0
+
+    def mean(a):
+        s = a + c
+        return 2.0 / math.pi * s * special.ellipe(4.0 * a * c / (s * s)) - at
+
+    return float(optimize.brentq(mean, 0.0, at, xtol=1e-15 * at, rtol=1e-13))

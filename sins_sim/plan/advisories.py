@@ -12,6 +12,10 @@ Three families (issue 22, points 7 and 8):
   amplitude off its target by more than :data:`AMPLITUDE_TOLERANCE` (plus the drive's own amplitude
   modulation), or a final drive voltage ``V_m`` away from the eq. 17 voltage of the unit's parameters
   by more than :data:`VOLTAGE_TOLERANCE`.
+* **Vibration lines that take the dither from the amplitude loop** (:func:`dither_line_advisories`, before the
+  engine runs): a line whose forced response at a suspension reaches that drive's synchronous detector, which the
+  loop then holds in the dither's place (the drive reports its target while the dither at the drive frequency is
+  smaller: the lock-in margin shrinks); :func:`dither_under_lines` gives the numbers for ``metrics.json``.
 * **Trajectory files whose attitude does not fit their ground track** (:func:`trajectory_advisories`):
   the radians-for-degrees slip. A file that fits only when its angle columns are read as radians is
   refused (:class:`~sins_sim.config.schema.PlanError`); one whose yaw strays far from its track is
@@ -33,7 +37,8 @@ from sins_sim.plan.errors import PlanError
 from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["N_BANDWIDTHS", "AMPLITUDE_TOLERANCE", "VOLTAGE_TOLERANCE", "vibration_advisories", "drive_advisories",
-           "trajectory_advisories", "motion_content", "online_on_block_advisories"]
+           "trajectory_advisories", "motion_content", "online_on_block_advisories", "dither_under_lines",
+           "dither_line_advisories"]
 
 AXES = ("x", "y", "z")
 
@@ -227,6 +232,106 @@ def _dither_zone(ch, ax, f):
     return (f"lies {df:.3g} Hz (= {df / bw:.2g} resonance bandwidths f0/Q = {bw:.3g} Hz; warned within "
             f"{N_BANDWIDTHS:g}) from the {ax} dither at {fd:.4g} Hz: the suspension amplifies it {mag:.3g} "
             f"times and the drive's amplitude beats at {df:.3g} Hz")
+
+
+def _lock_in_threshold(imu, ax):
+    """The ``lock_in`` effect's threshold on axis ``ax`` (rad/s), or None."""
+    for e in getattr(imu, "effects", ()) or ():
+        if getattr(e, "name", "") == "lock_in" and (e.axes is None or ax in e.axes):
+            return float(e.params["threshold_rad_s"])
+    return None
+
+
+def dither_under_lines(imu, motion_spec, motion_enters: str = "chassis") -> list[dict]:
+    """What each sine line of the angular motion leaves of each dither under the closed amplitude loop.
+
+    For a line at ``f`` (amplitude ``p`` about axis ``k``) and gyro ``i``:
+
+    1. the block's rotation about ``u_i`` at ``f``, ``b``: ``p`` on a rigid block; entering at the block, ``p``
+       plus the engine's departure from it (:func:`~sins_sim.models.block.block_entry_departure`); entering at the
+       chassis, through the isolators (:func:`~sins_sim.models.block.block_rotation_from_chassis`);
+    2. the suspension's forced deflection, ``d = |H| b`` with ``H = w^2 / (w_l^2 - w^2 + i w w_l / Q)``: the dither
+       mode base-excited by the block (Rao, *Mechanical Vibrations*, sec. 3.6), ``w_l`` its resonance for a line
+       superposed on the dither (:meth:`~sins_sim.models.suspension.SuspensionParams.line_resonance_hz`), ``Q`` of
+       eq. 16;
+    3. what the detector reads of it, ``c = d L`` (:func:`~sins_sim.models.drive.detector_leakage`: a Hann window of
+       the control block, main lobe ``+- 2 f_d / block_cycles``);
+    4. the dither the loop leaves at the drive frequency, ``a`` with ``M(a, c) = a_t``
+       (:func:`~sins_sim.models.drive.held_dither_amplitude`), its peak rate ``a w_d`` (what sweeps the lock-in band)
+       against the ``lock_in`` effect's threshold where the unit has one, and the control block that puts the line
+       at the window's first null (``block_cycles >= 2 f_d / |f - f_d|``).
+
+    One dict per line and gyro whose ``c`` is at least one readout quantum; none in open loop (the drive then
+    does not read its deflection).
+    """
+    if getattr(imu.drive_control, "mode", "closed_loop") != "closed_loop":
+        return []
+    from sins_sim.models.drive import detector_leakage, held_dither_amplitude
+
+    block = getattr(imu, "block", None)
+    chans = _run_channels(imu)
+    amp = [c.drive.amplitude_rad for c in imu.channels]
+    sus = [c.suspension for c in imu.channels]
+    w_line = np.array([2.0 * math.pi * s.line_resonance_hz(a) for s, a in zip(sus, amp)])
+    q = np.array([s.q_factor(a) for s, a in zip(sus, amp)])
+    axes = np.eye(3) if block is None else block.input_axes
+    cycles = int(imu.drive_control.block_cycles)
+    out = []
+    for ax, f, p, label in motion_content(motion_spec)["lines"]:
+        k = AXES.index(ax)
+        if block is None:
+            rot = np.eye(3)[k] * p
+        elif motion_enters == "block":
+            from sins_sim.models.block import block_entry_departure
+            rot = (np.eye(3)[k] + block_entry_departure(block, w_line, q, k, f)) * p
+        else:
+            from sins_sim.models.block import block_rotation_from_chassis
+            rot = block_rotation_from_chassis(block, w_line, q, k, f) * p
+        w = 2.0 * math.pi * f
+        for i, ch in enumerate(chans):
+            b = abs(complex(axes[i] @ rot))
+            h = w * w / abs(complex(w_line[i] ** 2 - w * w, w * w_line[i] / q[i]))
+            fd = ch.drive_signal().frequency_hz
+            rate = ch.plant.rate_hz
+            steps = max(1, int(round(cycles * rate / fd)))
+            leak = b * h * detector_leakage(steps, rate, f - fd)
+            if leak < ch.readout.quantum_rad:
+                continue
+            held = held_dither_amplitude(amp[i], leak)
+            thr = _lock_in_threshold(imu, AXES[i])
+            out.append({"axis": AXES[i], "line_axis": ax, "line": label, "line_hz": float(f), "drive_hz": float(fd),
+                        "block_rotation_arcsec": b / ARCSEC, "transmissibility": h,
+                        "deflection_line_arcsec": b * h / ARCSEC, "detector_reads_arcsec": leak / ARCSEC,
+                        "dither_target_arcsec": amp[i] / ARCSEC, "dither_held_arcsec": held / ARCSEC,
+                        "dither_peak_rate_deg_s": math.degrees(held * 2.0 * math.pi * fd),
+                        "lock_in_threshold_deg_s": None if thr is None else math.degrees(thr),
+                        "block_cycles_for_null": int(math.ceil(2.0 * fd / abs(f - fd))) if f != fd else None})
+    return out
+
+
+def dither_line_advisories(forecast) -> list[str]:
+    """One line per entry of :func:`dither_under_lines` whose held dither is short of its target by more than
+    :data:`AMPLITUDE_TOLERANCE`: the axis, the line, what the detector reads of it, the dither left at the drive
+    frequency against its target and its peak rate against the lock-in threshold."""
+    out = []
+    for d in forecast:
+        if d["dither_held_arcsec"] >= (1.0 - AMPLITUDE_TOLERANCE) * d["dither_target_arcsec"]:
+            continue
+        thr = d["lock_in_threshold_deg_s"]
+        vs = (f"the lock-in threshold {thr:.3g} deg/s" if thr is not None else "no lock_in effect on the unit to "
+              "compare with")
+        null = d["block_cycles_for_null"]
+        out.append(f"drive {d['axis']}: the vibration line {d['line_hz']:g} Hz on {d['line_axis']} ({d['line']}) "
+                   f"forces {d['axis']}'s suspension to {d['deflection_line_arcsec']:.3g} arcsec "
+                   f"({d['transmissibility']:.3g} times the block's {d['block_rotation_arcsec']:.3g} arcsec), "
+                   f"{abs(d['line_hz'] - d['drive_hz']):.3g} Hz from its drive at {d['drive_hz']:.5g} Hz; the "
+                   f"amplitude loop's detector reads {d['detector_reads_arcsec']:.3g} arcsec of it and holds the "
+                   f"total, leaving a dither of {d['dither_held_arcsec']:.3g} arcsec at the drive frequency against "
+                   f"its {d['dither_target_arcsec']:.3g} arcsec target (the drive reports the target): peak dither "
+                   f"rate {d['dither_peak_rate_deg_s']:.3g} deg/s against {vs}"
+                   + (f"; drive_control.block_cycles >= {null} puts the line at the detector's first null" if null
+                      else ""))
+    return out
 
 
 # --- drives ----------------------------------------------------------------------------------------------

@@ -65,6 +65,9 @@ class Plan:
         Configuration-time warnings (vibration against the filters and the dithers, online estimation on a block).
     vibration_spec : SineOnRandomSpec or None
         The sine-on-random specification (``vibration.spec``) the translation was built from, for the report.
+    dither_forecast : tuple of dict
+        What each sine line of the motion leaves of each dither under the amplitude loop
+        (:func:`~sins_sim.plan.advisories.dither_under_lines`; ``metrics.json``'s ``dither_under_vibration``).
     """
 
     imu: object
@@ -82,6 +85,7 @@ class Plan:
     motion_enters: str = "chassis"
     advisories: tuple = ()
     vibration_spec: object = None
+    dither_forecast: tuple = ()
 
 
 def resolve_plan(parsed: dict) -> Plan:
@@ -150,8 +154,9 @@ def resolve_plan(parsed: dict) -> Plan:
         nav = dataclasses.replace(nav, aiding=_aiding_settings(doc.get("aiding") or {}, c["aiding"], plan, base_dir,
                                                                ctx, duration_key))
     #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
+    forecast = tuple(advisories.dither_under_lines(imu, c["motion"], c["motion_enters"]))
     notes = tuple(advisories.vibration_advisories(imu, c["motion"], filters)
-                  + advisories.online_on_block_advisories(imu))
+                  + advisories.online_on_block_advisories(imu) + advisories.dither_line_advisories(forecast))
     for msg in notes:
         warnings.warn(msg, UserWarning, stacklevel=3)
     spec = parsed.get("vibration_spec")
@@ -165,7 +170,7 @@ def resolve_plan(parsed: dict) -> Plan:
     return dataclasses.replace(plan, nav=nav, events=_events(c["motion"], vehicle), translation=translation,
                                vibration_spec=spec,
                                vibration_enters=c["vibration_enters"], motion_enters=c["motion_enters"],
-                               advisories=notes)
+                               advisories=notes, dither_forecast=forecast)
 
 
 def run_plan(plan, progress=None, threads: int | None = None):
