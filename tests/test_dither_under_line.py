@@ -104,5 +104,7 @@ def test_the_finding_a_line_that_takes_the_dither(tmp_path):
     assert d["detector_reads_arcsec"] > 0.99 * d["dither_target_arcsec"]
     dither, _, res = _lines(sc)
     assert dither < 0.3 * d["dither_target_arcsec"] * ARCSEC
+    (entry,) = [n for n in notes if n.startswith("motion line 384.3 Hz")]  # the block departs by 7.2 % there
+    assert "7.19 %" in entry and "z gyro" in entry
     (msg,) = [n for n in notes if n.startswith("drive z")]
     assert f"block_cycles >= {d['block_cycles_for_null']}" in msg and d["block_cycles_for_null"] == 23

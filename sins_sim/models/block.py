@@ -587,7 +587,8 @@ def block_entry_departure(block: BlockParams, omega_rad_s, q, axis: int, f_hz: f
     Rao, *Mechanical Vibrations*, sec. 3.6). Far below ``w0`` (``H -> (w / w0)^2``) and away from the rocking mode
     ``w_r`` it is the small ``(J_g / J_b) (w / w0)^2 w^2 / (w_r^2 - w^2)``; near ``w0`` ``H`` grows as
     ``1 / (1 - (w / w0)^2)`` and above the rocking mode the ratio tends to ``-J_g H / (J_b + J_g (1 + H))``:
-    -6.8 % at 384.3 Hz under a gyro resonant at 416 Hz on the bundled block (``J_g / J_b`` 1.3 %, ``H`` 5.8).
+    -7.2 % at 384.3 Hz under the 421 Hz gyro of the bundled isolated block (417.8 Hz for the line, ``J_g / J_b``
+    1.3 %, ``H`` 5.5).
     ``omega_rad_s`` (3,): each suspension's resonance for a small line superposed on its dither (see
     :func:`superposed_line_resonance`); ``q`` (3,): each suspension's Q.
     """

@@ -38,7 +38,7 @@ from sins_sim.units import ARCMIN, ARCSEC
 
 __all__ = ["N_BANDWIDTHS", "AMPLITUDE_TOLERANCE", "VOLTAGE_TOLERANCE", "vibration_advisories", "drive_advisories",
            "trajectory_advisories", "motion_content", "online_on_block_advisories", "dither_under_lines",
-           "dither_line_advisories"]
+           "dither_line_advisories", "block_entry_advisories", "BLOCK_ENTRY_TOLERANCE"]
 
 AXES = ("x", "y", "z")
 
@@ -331,6 +331,40 @@ def dither_line_advisories(forecast) -> list[str]:
                    f"rate {d['dither_peak_rate_deg_s']:.3g} deg/s against {vs}"
                    + (f"; drive_control.block_cycles >= {null} puts the line at the detector's first null" if null
                       else ""))
+    return out
+
+
+#: A profile entering at the block is warned about where the engine's block departs from it by more than this
+#: (relative): far from the gyros' resonances the departure is ``(J_g / J_b) (w / w0)^2 w^2 / (w_r^2 - w^2)``, 1e-5
+#: to 1e-4 of the profile for vehicle motion; 1 % is where it enters the navigation's scale-factor budget.
+BLOCK_ENTRY_TOLERANCE = 0.01
+
+
+def block_entry_advisories(imu, motion_spec, motion_enters: str) -> list[str]:
+    """Sine lines of a profile entering at the block where the engine's block departs from the profile by more than
+    :data:`BLOCK_ENTRY_TOLERANCE` (:func:`~sins_sim.models.block.block_entry_departure`: the dither mode's reaction,
+    amplified near a gyro's resonance by its transmissibility). One line each; none without a block or with the
+    motion entering at the chassis."""
+    block = getattr(imu, "block", None)
+    if block is None or motion_enters != "block":
+        return []
+    from sins_sim.models.block import block_entry_departure
+
+    amp = [c.drive.amplitude_rad for c in imu.channels]
+    sus = [c.suspension for c in imu.channels]
+    w_line = np.array([2.0 * math.pi * s.line_resonance_hz(a) for s, a in zip(sus, amp)])
+    q = np.array([s.q_factor(a) for s, a in zip(sus, amp)])
+    out = []
+    for ax, f, p, label in motion_content(motion_spec)["lines"]:
+        k = AXES.index(ax)
+        dep = abs(complex(block_entry_departure(block, w_line, q, k, f)[k]))
+        if dep > BLOCK_ENTRY_TOLERANCE:
+            near = int(np.argmax(np.abs(block.input_axes[:, k])))  # the gyro whose input axis the line turns
+            out.append(f"motion line {f:g} Hz on {ax} ({label}) enters at the block within reach of the {AXES[near]} "
+                       f"gyro's resonance ({w_line[near] / (2.0 * math.pi):.4g} Hz): the block departs from the "
+                       f"profile by {100.0 * dep:.3g} % of it (the dither modes' reaction, amplified by their "
+                       f"transmissibility; a measured block profile already holds it, so the run counts it twice; "
+                       f"warned above {100.0 * BLOCK_ENTRY_TOLERANCE:g} %)")
     return out
 
 

@@ -156,7 +156,8 @@ def resolve_plan(parsed: dict) -> Plan:
     #: configuration-time warnings (vibration against the filters' stop bands and the dithers), also issued
     forecast = tuple(advisories.dither_under_lines(imu, c["motion"], c["motion_enters"]))
     notes = tuple(advisories.vibration_advisories(imu, c["motion"], filters)
-                  + advisories.online_on_block_advisories(imu) + advisories.dither_line_advisories(forecast))
+                  + advisories.online_on_block_advisories(imu) + advisories.dither_line_advisories(forecast)
+                  + advisories.block_entry_advisories(imu, c["motion"], c["motion_enters"]))
     for msg in notes:
         warnings.warn(msg, UserWarning, stacklevel=3)
     spec = parsed.get("vibration_spec")
