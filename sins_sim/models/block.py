@@ -554,6 +554,17 @@ def block_rotation_from_chassis(block: BlockParams, omega_rad_s, q, axis: int, f
     of freedom as ``r = (0, e_axis, 0)`` does, so ``(K - w^2 M + i w C) q = w^2 M r B`` (Rao, *Mechanical
     Vibrations*, sec. 3.6, in matrix form) and the block turns by ``theta + e_axis B``.
     """
+    w = 2.0 * math.pi * float(f_hz)
+    dyn, m9 = _dynamic_stiffness9(block, omega_rad_s, q, w)
+    r = np.zeros(9)
+    r[3 + axis] = 1.0
+    sol = np.linalg.solve(dyn, w * w * (m9 @ r))
+    return sol[3:6] + r[3:6]
+
+
+def _dynamic_stiffness9(block: BlockParams, omega_rad_s, q, w: float) -> tuple:
+    """``(K - w^2 M + i w C, M)`` of the linearised block with its three suspensions (:func:`_matrices9`; the
+    isolators' damping and each suspension's loss as ``J_g w0 / Q``)."""
     om = np.asarray(omega_rad_s, dtype=float)
     m9, k9 = _matrices9(block, om)
     c9 = np.zeros((9, 9))
@@ -561,11 +572,7 @@ def block_rotation_from_chassis(block: BlockParams, omega_rad_s, q, axis: int, f
     jg = block.gyro_inertia_kg_m2
     for k in range(3):
         c9[6 + k, 6 + k] = jg[k] * om[k] / float(np.asarray(q, dtype=float)[k])
-    w = 2.0 * math.pi * float(f_hz)
-    r = np.zeros(9)
-    r[3 + axis] = 1.0
-    sol = np.linalg.solve(k9 - w * w * m9 + 1j * w * c9, w * w * (m9 @ r))
-    return sol[3:6] + r[3:6]
+    return k9 - w * w * m9 + 1j * w * c9, m9
 
 
 def block_entry_departure(block: BlockParams, omega_rad_s, q, axis: int, f_hz: float) -> np.ndarray:
@@ -592,18 +599,11 @@ def block_entry_departure(block: BlockParams, omega_rad_s, q, axis: int, f_hz: f
     ``omega_rad_s`` (3,): each suspension's resonance for a small line superposed on its dither (see
     :func:`superposed_line_resonance`); ``q`` (3,): each suspension's Q.
     """
-    om = np.asarray(omega_rad_s, dtype=float)
-    m9, k9 = _matrices9(block, om)
-    c9 = np.zeros((9, 9))
-    c9[:6, :6] = block.damping_matrix()
-    jg = block.gyro_inertia_kg_m2
-    for k in range(3):
-        c9[6 + k, 6 + k] = jg[k] * om[k] / float(np.asarray(q, dtype=float)[k])
     w = 2.0 * math.pi * float(f_hz)
+    dyn, _ = _dynamic_stiffness9(block, omega_rad_s, q, w)
     rhs = np.zeros(9, dtype=complex)
-    rhs[6:] = w * w * jg * block.input_axes[:, axis]
-    sol = np.linalg.solve(k9 - w * w * m9 + 1j * w * c9, rhs)
-    return sol[3:6]
+    rhs[6:] = w * w * block.gyro_inertia_kg_m2 * block.input_axes[:, axis]
+    return np.linalg.solve(dyn, rhs)[3:6]
 
 
 # --- the coupled plant ---------------------------------------------------------------------------------------------
