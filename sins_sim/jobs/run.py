@@ -54,6 +54,13 @@ DEFINITIONS = {
         "the drift of each filter's increments per body axis: the slope of its gyro-angle error (output minus the "
         "true increments, accumulated), where a ramp explains it; a gyro bias shows here"),
     "excess_over_ideal": "a filter's cost: the norm of the difference of its and ideal's final error vectors",
+    "dither_under_vibration": (
+        "per sine line of the angular motion and gyro whose forced deflection reaches the drive's synchronous "
+        "detector (at least one readout quantum): the block's rotation about the gyro's axis at the line, the "
+        "suspension's transmissibility and forced deflection, what the detector reads of it, the dither the closed "
+        "amplitude loop then leaves at the drive frequency (forecast: the mean modulus over the beat held at the "
+        "target) and its peak rate against the lock_in threshold, and the block_cycles that put the line at the "
+        "detector's first null (sins_sim.plan.advisories.dither_under_lines)"),
     "timeseries": (
         "timeseries.npz (and the figures, drifts, beats and steps read from it): per stored interval the mean of the "
         "error over every filter sample, never over the navigation updates alone (below the filter rate each "
