@@ -168,3 +168,23 @@ def test_a_slow_loop_holds_the_mean_modulus_at_its_target():
     tol = 1 / (2 * math.pi * loop) / alias + 0.02
     assert (at - dither) == pytest.approx(at - held, rel=tol), ((at - dither) / ARCSEC, (at - held) / ARCSEC)
     assert (at - held) / ARCSEC > 5  # a real reduction, not the fit's floor
+
+
+def test_the_run_keeps_the_forecast_and_the_warning(tmp_path):
+    """``metrics.json`` carries the forecast under ``dither_under_vibration`` and the warning among its warnings."""
+    import json
+
+    from sins_sim.jobs.run import run_scenario
+
+    p = tmp_path / "run.yaml"
+    p.write_text(f"name: line\nseed: 1\nduration_s: 1.5\nimu: {ROOT / 'configs' / 'isolated-block.yaml'}\n"
+                 f"motion:\n  - {{type: sines, amplitude_arcmin: [0.0, 0.0, 0.4], frequency_hz: [0.0, 0.0, "
+                 f"{LINE_HZ}]}}\nmotion_enters: block\nfilters: [ideal]\nnavigation: {{start_s: 0.5}}\n"
+                 f"outputs: {{plots: false, timeseries: false}}\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run_scenario(p, tmp_path / "out")
+    m = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    (d,) = [x for x in m["dither_under_vibration"] if x["axis"] == "z"]
+    assert d["line_hz"] == LINE_HZ and d["dither_held_arcsec"] < 0.99 * d["dither_target_arcsec"]
+    assert [w for w in m["warnings"] if w.startswith("drive z: the vibration line 384.3 Hz")]
