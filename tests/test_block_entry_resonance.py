@@ -91,3 +91,17 @@ def test_the_block_departs_from_the_profile_as_the_closed_form_near_a_resonance(
         else:
             assert abs(g / AMP) > old  # and is not a bound below it either
     assert 3 * ARCMIN > AMP
+
+
+def test_a_superposed_line_meets_the_springs_mean_slope():
+    """Small dither: eq. 9 is ``Nonl ~ -k1 d |d| / (8 k2^2)``, whose slope averaged over ``a cos(theta)`` softens the
+    line by ``k1 a / (2 pi k2^2)`` and whose first harmonic softens the dither by ``k1 a / (3 pi k2^2)``
+    (``resonance_hz``): 3/2 times as much, to O(a / k2) (the series' next term; 0.028 at 0.1 arcmin)."""
+    from sins_sim.models.suspension import SuspensionParams
+
+    s = SuspensionParams(f0_hz=421.0)
+    a = 0.1 * ARCMIN
+    line = 1 - (s.line_resonance_hz(a) / s.f0_hz) ** 2
+    dither = 1 - (s.resonance_hz(a) / s.f0_hz) ** 2
+    assert line == pytest.approx(s.k1 * a / (2 * math.pi * s.k2 ** 2), rel=a / s.k2)
+    assert line / dither == pytest.approx(1.5, rel=a / s.k2)
