@@ -97,6 +97,10 @@ class AidingSettings:
     fix_error_states : bool
         Model the fixes' Gauss-Markov error as three filter states (``R`` the white noise; default) rather than
         fold it into ``R`` (:func:`markov_equivalent_sigma`); no effect without a Gauss-Markov error.
+    sensor_error_states : tuple of str
+        The scale-factor and misalignment groups estimated as filter states
+        (:data:`~sins_sim.navigation.ekf.SENSOR_ERROR_GROUPS`: ``gyro_scale_factor`` 3 states, ``gyro_misalignment``
+        6, ``accel_scale_factor`` 3, ``accel_misalignment`` 6); the others stay process noise per step.
     """
 
     gnss: object
@@ -106,6 +110,7 @@ class AidingSettings:
     smoother: bool = False
     file: object = field(default=None, compare=False)
     fix_error_states: bool = True
+    sensor_error_states: tuple = ()
 
     @property
     def decimation(self) -> int:
@@ -153,15 +158,17 @@ def markov_equivalent_sigma(white_sigma, markov_sigma, markov_tau_s, interval_s,
     return np.sqrt(np.asarray(white_sigma, dtype=np.float64) ** 2 + np.asarray(markov_sigma, dtype=np.float64) ** 2 * g)
 
 
-def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
-    """The scale factors and misalignments the filter does not estimate, as the filter is told them.
+def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5, states=()):
+    """The scale factors and misalignments as the filter is told them: process noise per step, or states.
 
     ``sigma_S`` the root sum square of scale factor and asymmetry, ``sigma_M`` the largest misalignment (the
     unit's numbers read as 1-sigma, the largest axis), for gyros and accelerometers: the process noise per
-    propagation step of :class:`~sins_sim.navigation.ekf.UnmodelledErrors`. The accelerometers' reference is the
-    vehicle's median specific force over the span (body; in level flight gravity): its error ``K f_ref`` is
-    constant and reads as a bias, so the bias priors per body axis are raised by ``sigma_S^2 x_i^2 + sigma_M^2
-    sum_(j != i) x_j^2`` of the median rate and specific force instead.
+    propagation step of :class:`~sins_sim.navigation.ekf.UnmodelledErrors`, or, for the groups named in
+    ``states``, the priors of their filter states (and then no process noise: no double counting). The
+    accelerometers' reference is the vehicle's median specific force over the span (body; in level flight
+    gravity): its error ``K f_ref`` is constant and reads as a bias, so the bias priors per body axis are raised by
+    ``sigma_S^2 x_i^2 + sigma_M^2 sum_(j != i) x_j^2`` of the median rate and specific force instead (each term
+    only for a group that is not a state: a state's ``F`` column carries the whole ``K x``).
 
     Parameters
     ----------
@@ -173,6 +180,8 @@ def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
         The aided span (s).
     step_s : float
         Sampling of the vehicle's motion for the medians (s).
+    states : sequence of str
+        The groups estimated as states (:data:`~sins_sim.navigation.ekf.SENSOR_ERROR_GROUPS`).
 
     Returns
     -------
@@ -184,7 +193,10 @@ def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
     from sins_sim.navigation.ekf import UnmodelledErrors
 
     extra = np.zeros(6)
+    states = tuple(states)
     if sensors is None:
+        if states:
+            raise ValueError(f"states: {', '.join(states)} need the unit's sensor errors (sensors), got none")
         return None, extra
     ppm = 1e-6
     sig = {}
@@ -198,11 +210,13 @@ def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
         tr = vehicle.evaluate(np.arange(t0_s, t1_s + 1e-9, step_s))
         for k, (key, x) in enumerate((("gyro", np.asarray(tr.omega_iv_v_rad_s)), ("accel", np.asarray(tr.f_v_m_s2)))):
             s, m = sig[key]
+            s = 0.0 if f"{key}_scale_factor" in states else s
+            m = 0.0 if f"{key}_misalignment" in states else m
             med = np.median(x, axis=0)
             extra[3 * k:3 * k + 3] = s * s * med ** 2 + m * m * (np.sum(med ** 2) - med ** 2)
             if key == "accel":
                 f_ref = med
-    return UnmodelledErrors(sig["gyro"][0], sig["gyro"][1], sig["accel"][0], sig["accel"][1], f_ref), extra
+    return UnmodelledErrors(sig["gyro"][0], sig["gyro"][1], sig["accel"][0], sig["accel"][1], f_ref, states), extra
 
 
 @dataclass(frozen=True)
@@ -284,11 +298,13 @@ def filter_model(settings: AidingSettings, noise, sensors=None, vehicle=None, t0
     else:
         pos = np.asarray(g.position_sigma_m, dtype=np.float64)
         how = {"gnss_markov": "none"}
-    un, extra = unmodelled_errors(sensors, vehicle, float(t0_s), t1)
-    record = {"states": N_STATES + (0 if fix_errors is None else fix_errors.n_states), **how,
+    un, extra = unmodelled_errors(sensors, vehicle, float(t0_s), t1, states=settings.sensor_error_states)
+    n_sens = 0 if un is None else un.n_states
+    record = {"states": N_STATES + (0 if fix_errors is None else fix_errors.n_states) + n_sens, **how,
               "position_sigma_told_m": [float(x) for x in pos],
               "velocity_sigma_told_m_s": [float(x) for x in np.asarray(g.velocity_sigma_m_s)],
               "unmodelled": "process noise per step from the angle and velocity change (coherent accumulation)",
+              "sensor_error_states": ", ".join(un.states) if un is not None and un.states else "none",
               "gyro_arw_rad_sqrt_s": noise.gyro_arw_rad_sqrt_s, "accel_vrw_m_s_sqrt_s": noise.accel_vrw_m_s_sqrt_s}
     if un is not None:
         record.update(gyro_scale_factor_sigma=un.gyro_scale_factor, gyro_misalignment_sigma_rad=un.gyro_misalignment_rad,
