@@ -285,3 +285,23 @@ def test_filter_model_and_plan_checks():
     _Imu.sensors = LARGE
     got = _aiding_settings({}, {**a, "sensor_error_states": ["gyro_misalignment"]}, _Sc(), ".", "s.yaml", "d")
     assert got.sensor_error_states == ("gyro_misalignment",)
+
+
+def test_mission_with_sensor_states_is_chunk_invariant_and_states_them():
+    """Through the scenario layer: ``aiding.sensor_error_states`` reaches the mission's filter (24 states: no fix
+    Gauss-Markov error here, 15 + 3 + 6), ``metrics.json`` states the groups, the run does not depend on the chunk
+    length (the correction ``(I + K_est)^-1`` changes only at feedback, at update boundaries; the tolerance that of
+    tests/test_mission_aided.py: sums taken in another association, a few ulps amplified by the gains to 1e-9 m),
+    and an unknown group is refused naming the key."""
+    from test_mission_aided import _doc, _refused, _run
+
+    doc = _doc(duration_s=14.0, outages_s=[[6.0, 9.0]],
+               sensor_error_states=["gyro_misalignment", "gyro_scale_factor"])
+    a, _ = _run(doc, chunk_s=1.0)
+    b, _ = _run(doc, chunk_s=0.37)
+    ra, rb = a.aided["ideal"]["result"], b.aided["ideal"]["result"]
+    assert ra.sigma.shape[1] == 24
+    assert a.aided["ideal"]["filter_model"]["sensor_error_states"] == "gyro_scale_factor, gyro_misalignment"
+    np.testing.assert_allclose(a.aided["ideal"]["errors"], b.aided["ideal"]["errors"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(ra.sigma, rb.sigma, rtol=1e-9)
+    _refused(_doc(sensor_error_states=["gyro_bias"]), "aiding.sensor_error_states[0]")

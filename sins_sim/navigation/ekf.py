@@ -77,6 +77,22 @@ They enter a GNSS ``position`` (``velocity``) measurement as ``dz = H x - e + v`
 columns and ``R`` holds the white noise only. They are not fed back (they are the receiver's error, not the
 navigator's) and are carried by ``Phi`` between updates in closed loop too.
 
+Sensor-error states (optional, :attr:`UnmodelledErrors.states`), after the fix-error states: the errors
+``dK[i, j] = K_est[i, j] - K[i, j]`` of the estimated error matrices of the gyros and the accelerometers (the IMU
+model ``u_meas = b + (I + K) u + w``, scale factors on the diagonal of ``K``, misalignments ``K[i, j]``, sensor
+``i`` sensing body axis ``j``, off it; Groves 2013, sec. 4.4.6), per group ``gyro_scale_factor`` (3),
+``gyro_misalignment`` (6), ``accel_scale_factor`` (3), ``accel_misalignment`` (6). The navigator integrates
+``(I + K_est)^-1 (u_meas - b_est dt)``, whose error is ``-db - dK u`` to first order, so::
+
+    psi' = ... - C (db_g + dK_g omega_ib^b),    dv' = ... - C (db_a + dK_a f^b)
+
+(Groves 2013, sec. 14.2.4, the scale-factor and cross-coupling terms of the system model; Titterton & Weston
+2004, sec. 12.3): the state ``dK[i, j]`` has the column ``-C[:, i] x_j`` on the attitude (gyros) or velocity
+(accelerometers) rows, ``x`` the block's mean body rate or specific force from the running integrals of the raw
+increments. Random constants (``F`` and ``Q'`` zero on their rows), prior the group's 1-sigma of
+:class:`UnmodelledErrors`, whose process noise for that group is then off. Fed back like the biases
+(``K_est -= dK``, the increments then corrected by the new ``(I + K_est)^-1``), then reset to zero.
+
 Measurements (plug-ins, :data:`MEASUREMENTS`): each gives ``dz = h(x_c) - z`` (computed minus measured),
 modelled as ``dz = H x + v``, ``v ~ N(0, R)``. Update in Joseph form (Bucy & Joseph 1968; Groves 2013,
 eq. 3.58)::
@@ -85,7 +101,8 @@ eq. 3.58)::
 
 and the innovation ``nu = dz - H x``, its covariance ``S`` and ``NIS = nu^T S^-1 nu`` recorded.
 Feedback (closed loop): position, velocity and attitude by
-:meth:`StrapdownNavigator.apply_correction`, biases ``b_est -= db``, then ``x = 0``.
+:meth:`StrapdownNavigator.apply_correction`, biases ``b_est -= db``, error matrices ``K_est -= dK``, then ``x = 0``
+(the fix-error states excepted).
 
 Observability at rest (zero velocity and known position; Britting 1971, Bar-Itzhack & Berman 1988). With
 ``f^n = (0, 0, -g)``, ``a = C db_a`` and ``e = C db_g`` (NED)::
@@ -343,7 +360,7 @@ class ImuNoise:
 
 @dataclass(frozen=True)
 class UnmodelledErrors:
-    """Scale factors and misalignments the 15 states do not hold, told to the filter as process noise per step.
+    """Scale factors and misalignments: told to the filter as process noise per step, or (``states``) estimated.
 
     Parameters
     ----------
@@ -354,6 +371,9 @@ class UnmodelledErrors:
     accel_reference_b_m_s2 : array_like, shape (3,), or None
         The specific force (body, m/s^2) whose error the accelerometer bias states take up (in level flight
         mostly gravity); None: the mean of the first chunk the filter navigates.
+    states : sequence of str
+        The groups estimated as filter states (:data:`SENSOR_ERROR_GROUPS`; module docstring, "Sensor-error
+        states"): their sigma is then the states' prior and their process noise is off (:attr:`variances`).
 
     Notes
     -----
@@ -1146,11 +1166,13 @@ class AidedNavigator:
         (``x <- Phi x`` between updates): the open-loop filter, whose corrected solution is
         :meth:`corrected_state`.
     unmodelled : UnmodelledErrors or None
-        Scale factors and misalignments not estimated: process noise per propagation block from the angle
-        and velocity change the block adds (:class:`UnmodelledErrors`); None: none.
+        Scale factors and misalignments: process noise per propagation block from the angle and velocity change
+        the block adds (:class:`UnmodelledErrors`), and the groups of its ``states`` as sensor-error states after
+        the fix-error states (module docstring); None: none.
     fix_errors : FixErrorStates or None
-        The fixes' Gauss-Markov errors as states 15 on (module docstring); ``p0`` may then be (15, 15), the
-        new states starting at their stationary variance, uncorrelated, or (n, n). None: 15 states.
+        The fixes' Gauss-Markov errors as states 15 on (module docstring); None: none. ``p0`` may be (15, 15) or
+        cover the fix-error states only, the states it leaves out starting at their priors (the fix errors'
+        stationary variance, the sensor errors' sigma squared), uncorrelated; or (n, n).
     """
 
     def __init__(self, navigator, noise, p0, *, gyro_bias_rad_s=(0.0, 0.0, 0.0), accel_bias_m_s2=(0.0, 0.0, 0.0),

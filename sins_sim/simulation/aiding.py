@@ -31,8 +31,9 @@ at 5 Hz); once the metrics, the outage growth and the smoother are computed they
    unmodelled_errors
    OUTAGE_AFTER_S
 
-The filter's model of what it does not estimate (15 inertial states, no scale-factor or misalignment states;
-:func:`filter_model`, stated in ``metrics.json`` ``aiding.filter_model`` with the number of states):
+The filter's model of what it does not estimate (15 inertial states; scale-factor and misalignment states only
+with ``aiding.sensor_error_states``; :func:`filter_model`, stated in ``metrics.json`` ``aiding.filter_model`` with
+the number of states):
 
 * **The fixes' Gauss-Markov error**, with ``aiding.fix_error_states`` (the default), is three filter states
   (:class:`~sins_sim.navigation.ekf.FixErrorStates`: ``exp(-T/tau)`` transition, ``sigma^2 (1 - exp(-2 T/tau))``
@@ -47,7 +48,10 @@ The filter's model of what it does not estimate (15 inertial states, no scale-fa
   change less the median specific force) since the start, ``sigma_S^2 a_i^2 + sigma_M^2 (|a|^2 - a_i^2)``
   per body axis, coherent as a constant error is (a constant rate ``omega`` about one axis for ``t``:
   ``sigma_S^2 omega^2 t^2``), and nothing in cruise. Their constant part (the median rate and specific force)
-  raises the bias priors instead.
+  raises the bias priors instead. A group named in ``aiding.sensor_error_states`` is estimated instead (3 or 6
+  random-constant states with that sigma as prior, fed back into the increments;
+  :class:`~sins_sim.navigation.ekf.UnmodelledErrors` ``states``), and neither its process noise nor its share of
+  the bias priors is told (no double counting).
 """
 
 from __future__ import annotations
@@ -226,7 +230,8 @@ class FilterModel:
     ``noise`` the unit's :class:`~sins_sim.navigation.ekf.ImuNoise`, ``position_sigma_m`` and
     ``velocity_sigma_m_s`` the fixes' ``R`` (1-sigma per NED axis), ``record`` the derivation's numbers for
     ``metrics.json`` (SI, units in the keys), ``unmodelled`` the scale factors and misalignments told as process
-    noise per step (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`, or None), ``fix_errors`` the fixes'
+    noise per step, or as states for the groups of its ``states`` (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`,
+    or None), ``fix_errors`` the fixes'
     Gauss-Markov error as filter states (:class:`~sins_sim.navigation.ekf.FixErrorStates`, or None).
     """
 
