@@ -148,6 +148,7 @@ def test_propagate_kernel_equals_the_reference_with_sensor_states():
     """The compiled block propagation with the 18 sensor-error states (and 3 fix-error states before them) against
     the numpy reference, open and closed loop: rounding-level, the bound of tests/test_ekf_kernels.py
     (100 n eps of the product chain, n = 36)."""
+    from test_aided_fix_states import kernel_against_reference, random_covariance
     from test_ekf_kernels import _rows
 
     rng = np.random.default_rng(37)
@@ -157,28 +158,11 @@ def test_propagate_kernel_equals_the_reference_with_sensor_states():
     for states in (ALL, ("gyro_misalignment",)):
         un = ekf.UnmodelledErrors(30e-6, 2.9e-5, 3e-4, 9.7e-5, (0.0, 0.0, -9.81), states)
         n = ekf.N_STATES + fe.n_states + un.n_states
-        s = np.concatenate([[3.0, 3.0, 5.0, 0.05, 0.05, 0.1, 1e-4, 1e-4, 1e-3], [5e-8] * 3, [1e-3] * 3,
-                            np.sqrt(fe.variance), un.state_table()[3]])
-        g = rng.standard_normal((n, n))
-        c = g @ g.T + n * np.eye(n)
-        d = np.sqrt(np.diag(c))
-        p0 = c / np.outer(d, d) * np.outer(s, s)
+        s, p0 = random_covariance(rng, np.concatenate([np.sqrt(fe.variance), un.state_table()[3]]))
         for feedback in (True, False):
-            navs = []
-            for _ in range(2):
-                nav = StrapdownNavigator(start[0], 0.08, start[1], start[2:5], start[5:9], 1.0 / 400.0)
-                navs.append(ekf.AidedNavigator(nav, noise, p0, feedback=feedback, unmodelled=un, fix_errors=fe))
-            x0 = rng.standard_normal(n) * s
-            for a in navs:
-                a._block_start = start.copy()
-                a._x = x0.copy()
-            navs[0]._propagate_block(end.copy(), 80)
-            navs[1]._propagate_block_reference(end.copy(), 80)
-            phi = navs[0]._phi_acc
-            bound = 100 * n * np.finfo(float).eps
-            assert np.all(np.abs(navs[0].p - navs[1].p) <= bound * (np.abs(phi) @ np.abs(p0) @ np.abs(phi).T))
-            assert np.all(np.abs(navs[0]._x - navs[1]._x) <= bound * (np.abs(phi) @ np.abs(x0)))
-            sens = navs[0].sensor_error_slice
+            phi = kernel_against_reference(start, end, noise, p0, rng.standard_normal(n) * s, feedback,
+                                           unmodelled=un, fix_errors=fe)
+            sens = slice(ekf.N_STATES + fe.n_states, n)
             assert np.array_equal(phi[sens, sens], np.eye(un.n_states))       # random constants
 
 
