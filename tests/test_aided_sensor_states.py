@@ -289,3 +289,20 @@ def test_mission_with_sensor_states_is_chunk_invariant_and_states_them():
     np.testing.assert_allclose(a.aided["ideal"]["errors"], b.aided["ideal"]["errors"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(ra.sigma, rb.sigma, rtol=1e-9)
     _refused(_doc(sensor_error_states=["gyro_bias"]), "aiding.sensor_error_states[0]")
+
+
+def test_report_states_the_sensor_states_and_not_the_fix_states_they_are_not():
+    """With sensor-error states and the Gauss-Markov fold (24 states, no fix-error states) the report names the
+    groups and does not claim fix-error states (it gives the fold's NIS bound instead)."""
+    from sins_sim.jobs.run import _aided_findings
+
+    ref = {"horizontal_position_sigma_median_m": 0.9, "nees_position_within_95_fraction": 0.9,
+           "nees_velocity_within_95_fraction": 0.9, "nees_attitude_within_95_fraction": 0.9, "nees_position_n": 10,
+           "nis_position_mean": 0.03, "nis_position_bound_low": 2.8, "nis_position_bound_high": 3.2,
+           "nis_position_n": 10, "filter_position_sigma_told_m_north": 10.0, "filter_position_sigma_told_m_east": 10.0,
+           "filter_position_sigma_told_m_down": 20.0, "filter_states": 24,
+           "filter_sensor_error_states": "gyro_scale_factor, gyro_misalignment"}
+    metrics = {"aiding": {"position_sigma_m": [1.0, 1.0, 2.0], "markov_sigma_m": [0.5, 0.5, 1.0]}}
+    text = _aided_findings(metrics, {"ideal": ref})[-1]
+    assert "groups gyro_scale_factor, gyro_misalignment as states" in text, text
+    assert "three position states" not in text and "expected at most" in text, text
