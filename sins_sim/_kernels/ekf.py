@@ -1,7 +1,7 @@
 """Compiled steps of the error-state Kalman filter (:mod:`sins_sim.navigation.ekf`).
 
 The same equations as the numpy reference there, written for one call per filter step so that the
-aided mission pays no Python-level cost per n x n product (n = 15, or more with fix-error states) (issue 37, item 7):
+aided mission pays no Python-level cost per n x n product (n = 15, or more with fix-error and sensor-error states) (issue 37, item 7):
 
 * :func:`propagate_block`: the continuous ``F`` at a block's mean navigation state (Groves 2013,
   sec. 14.2.4, eq. 14.64-14.71, the form of :func:`sins_sim.navigation.ekf.error_dynamics`), its
