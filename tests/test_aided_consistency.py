@@ -69,8 +69,9 @@ BLOCKS = (ekf.POS, ekf.VEL, ekf.ATT)
 class Mission:
     """The trajectory, its exact increments and its truth at the 1 Hz output times."""
 
-    def __init__(self, aiding=AIDING):
+    def __init__(self, aiding=AIDING, sensors=SENSORS):
         self.gnss = gnss = aiding.gnss
+        self.sensors = sensors
         self.traj = Trajectory(LAT, LON, H, 60.0, math.radians(40.0),
                                [Cruise(30.0), CoordinatedTurn(30.0, math.pi / 2), Cruise(61.0)])
         self.n = round(DURATION_S / DT)
@@ -80,7 +81,7 @@ class Mission:
         self.truth = self.traj.evaluate(self.tt)
         self.out_t = np.arange(0.0, DURATION_S + 0.5, 1.0)
         self.out_truth = self.traj.evaluate(self.out_t)
-        self.model = filter_model(aiding, UNIT, SENSORS, self.traj, 0.0, DURATION_S)
+        self.model = filter_model(aiding, UNIT, sensors, self.traj, 0.0, DURATION_S)
         prior = (np.hypot(gnss.position_sigma_m, gnss.markov_sigma_m), gnss.velocity_sigma_m_s, TILT0, HEADING0)
         self.p0 = self.model.initial_covariance(*prior)
         # the truth's initial errors: the unit's bias sigmas only, the drawn scale factors and misalignments add
@@ -93,7 +94,7 @@ class Mission:
         bg = rng.normal(0.0, UNIT.gyro_bias_sigma_rad_s, 3)
         ba = rng.normal(0.0, UNIT.accel_bias_sigma_m_s2, 3)
         k = {}
-        for name, par in (("gyro", SENSORS.gyro), ("accel", SENSORS.accelerometer)):
+        for name, par in (("gyro", self.sensors.gyro), ("accel", self.sensors.accelerometer)):
             m = rng.normal(0.0, par.misalignment_arcsec[0] * ARCSEC, (3, 3))
             np.fill_diagonal(m, rng.normal(0.0, par.scale_factor_ppm[0] * 1e-6, 3))
             k[name] = np.eye(3) + m

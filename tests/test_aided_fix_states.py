@@ -140,6 +140,39 @@ def test_fix_error_states_enter_position_rows_only_and_are_not_fed_back():
     assert corr[0] == pytest.approx(-18.0 / 10.25, rel=1e-6)
 
 
+def random_covariance(rng, extra_sigma):
+    """``(sigma, P)``: the 15 inertial states' sigmas of a navigation-grade filter (3-5 m, 0.05-0.1 m/s, 0.1-1 mrad,
+    the bias sigmas) then ``extra_sigma``, and a random positive-definite ``P`` with them on its diagonal and
+    correlations of a few tenths (a Wishart draw plus ``n I``, scaled to its correlation matrix)."""
+    s = np.concatenate([[3.0, 3.0, 5.0, 0.05, 0.05, 0.1, 1e-4, 1e-4, 1e-3], [5e-8] * 3, [1e-3] * 3, extra_sigma])
+    n = s.size
+    g = rng.standard_normal((n, n))
+    c = g @ g.T + n * np.eye(n)
+    d = np.sqrt(np.diag(c))
+    return s, c / np.outer(d, d) * np.outer(s, s)
+
+
+def kernel_against_reference(start, end, noise, p0, x0, feedback, **kwargs):
+    """One block of 80 navigation updates (0.2 s) from ``start`` to ``end`` by the compiled propagation and by the
+    numpy reference, from ``p0`` and ``x0``: ``P`` and ``x`` agree to rounding, the bound of
+    tests/test_ekf_kernels.py (100 n eps of the product chain); returns the block's ``Phi``."""
+    n = p0.shape[0]
+    navs = []
+    for _ in range(2):
+        nav = StrapdownNavigator(start[0], 0.08, start[1], start[2:5], start[5:9], 1.0 / 400.0)
+        navs.append(ekf.AidedNavigator(nav, noise, p0, feedback=feedback, **kwargs))
+    for a in navs:
+        a._block_start = start.copy()
+        a._x = x0.copy()
+    navs[0]._propagate_block(end.copy(), 80)
+    navs[1]._propagate_block_reference(end.copy(), 80)
+    phi = navs[0]._phi_acc
+    bound = 100 * n * np.finfo(float).eps
+    assert np.all(np.abs(navs[0].p - navs[1].p) <= bound * (np.abs(phi) @ np.abs(p0) @ np.abs(phi).T))
+    assert np.all(np.abs(navs[0]._x - navs[1]._x) <= bound * (np.abs(phi) @ np.abs(x0)))
+    return phi
+
+
 def test_propagate_kernel_equals_the_reference_with_fix_states():
     """The compiled block propagation with 3 and 6 fix-error states against the numpy reference, open and closed
     loop (rounding-level: the bound of tests/test_ekf_kernels.py, 100 n eps of the product chain, n = 21)."""
@@ -150,29 +183,10 @@ def test_propagate_kernel_equals_the_reference_with_fix_states():
     noise = ekf.ImuNoise(1e-6, 2e-4, 5e-8, 1e-3, gyro_bias_tau_s=300.0, accel_bias_tau_s=600.0)
     for fe in (ekf.FixErrorStates(GM_SIGMA, 300.0), ekf.FixErrorStates(GM_SIGMA, 300.0, [0.02, 0.02, 0.05], 60.0)):
         n = ekf.N_STATES + fe.n_states
-        g = rng.standard_normal((n, n))
-        s = np.concatenate([[3.0, 3.0, 5.0, 0.05, 0.05, 0.1, 1e-4, 1e-4, 1e-3], [5e-8] * 3, [1e-3] * 3,
-                            np.sqrt(fe.variance)])
-        c = g @ g.T + n * np.eye(n)
-        d = np.sqrt(np.diag(c))
-        p0 = c / np.outer(d, d) * np.outer(s, s)
+        s, p0 = random_covariance(rng, np.sqrt(fe.variance))
         for feedback in (True, False):
-            navs = []
-            for _ in range(2):
-                nav = StrapdownNavigator(start[0], 0.08, start[1], start[2:5], start[5:9], 1.0 / 400.0)
-                navs.append(ekf.AidedNavigator(nav, noise, p0, feedback=feedback, unmodelled=UNMODELLED,
-                                               fix_errors=fe))
-            x0 = rng.standard_normal(n) * s
-            for a in navs:
-                a._block_start = start.copy()
-                a._x = x0.copy()
-            navs[0]._propagate_block(end.copy(), 80)
-            navs[1]._propagate_block_reference(end.copy(), 80)
-            phi = navs[0]._phi_acc
-            bound = 100 * n * np.finfo(float).eps
-            scale = np.abs(phi) @ np.abs(p0) @ np.abs(phi).T
-            assert np.all(np.abs(navs[0].p - navs[1].p) <= bound * scale)
-            assert np.all(np.abs(navs[0]._x - navs[1]._x) <= bound * (np.abs(phi) @ np.abs(x0)))
+            phi = kernel_against_reference(start, end, noise, p0, rng.standard_normal(n) * s, feedback,
+                                           unmodelled=UNMODELLED, fix_errors=fe)
             gm = np.arange(ekf.N_STATES, n)
             assert np.allclose(phi[gm, gm], np.exp(-0.2 / fe.tau_s), rtol=1e-15)
 

@@ -1,7 +1,7 @@
 """Compiled steps of the error-state Kalman filter (:mod:`sins_sim.navigation.ekf`).
 
 The same equations as the numpy reference there, written for one call per filter step so that the
-aided mission pays no Python-level cost per n x n product (n = 15, or more with fix-error states) (issue 37, item 7):
+aided mission pays no Python-level cost per n x n product (n = 15, or more with fix-error and sensor-error states) (issue 37, item 7):
 
 * :func:`propagate_block`: the continuous ``F`` at a block's mean navigation state (Groves 2013,
   sec. 14.2.4, eq. 14.64-14.71, the form of :func:`sins_sim.navigation.ekf.error_dynamics`), its
@@ -28,7 +28,7 @@ from sins_sim._kernels.nav import quat_mul, quat_to_dcm, rotvec_to_quat
 from sins_sim._kernels import strapdown as ksd
 from sins_sim._kernels.strapdown import gravity_down, radii
 
-__all__ = ["SERIES_ORDER", "propagate_block", "unmodelled_increment_into", "running_integrals", "bias_corrected", "update_sums", "joseph_update", "block_nis", "correct_rows", "correct_state", "interpolate_row", "gnss_measurement", "error_dynamics_into"]
+__all__ = ["SERIES_ORDER", "propagate_block", "propagate_block_states", "unmodelled_increment_into", "running_integrals", "bias_corrected", "update_sums", "joseph_update", "block_nis", "correct_rows", "correct_state", "interpolate_row", "gnss_measurement", "error_dynamics_into"]
 
 #: Highest power of ``F`` in the series of ``Phi`` and ``Q_d`` (the reference's ``_SERIES_ORDER``).
 SERIES_ORDER = 5
@@ -206,12 +206,26 @@ def running_integrals(dth, dvel, acc0, f_ref, big_t, n_sub, pending, out):
 @jit
 def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, phi_acc, x, open_loop, fix_tau,
                     fix_var):
+    """:func:`propagate_block_states` with no sensor-error states (the 15 inertial states and the fix errors)."""
+    none = np.zeros(0, dtype=np.int64)
+    return propagate_block_states(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, phi_acc, x, open_loop,
+                                  fix_tau, fix_var, np.zeros(3), none, none, none)
+
+
+@jit
+def propagate_block_states(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, phi_acc, x, open_loop, fix_tau,
+                           fix_var, f_ref, sens_kind, sens_row, sens_col):
     """Propagate the covariance over one block of navigation updates, in place.
 
-    The state has ``n = p.shape[0]`` entries: the 15 of the inertial errors, then ``n - 15`` first-order
+    The state has ``n = p.shape[0]`` entries: the 15 of the inertial errors, then ``len(fix_tau)`` first-order
     Gauss-Markov errors of the aiding fixes (:class:`sins_sim.navigation.ekf.FixErrorStates`), each decoupled
     from the rest with the exact discrete model ``Phi_k = exp(-T/tau_k)``,
-    ``Q_d,k = sigma_k^2 (1 - exp(-2 T/tau_k))`` (Gelb 1974, sec. 3.8; Brown & Hwang 2012, sec. 4.2).
+    ``Q_d,k = sigma_k^2 (1 - exp(-2 T/tau_k))`` (Gelb 1974, sec. 3.8; Brown & Hwang 2012, sec. 4.2), then
+    ``len(sens_kind)`` random constants, the errors ``dK[row, col]`` of the estimated scale-factor and misalignment
+    matrices (:meth:`sins_sim.navigation.ekf.UnmodelledErrors.state_table`), whose columns of ``F`` are
+    ``-C[:, row] x_col`` on the attitude rows (gyros, ``x`` the block's mean body rate from the running angle) or
+    the velocity rows (accelerometers, ``x`` the mean specific force, the running velocity's change over ``T`` plus
+    ``f_ref``) (:func:`sins_sim.navigation.ekf.sensor_error_columns`).
 
     Parameters
     ----------
@@ -240,8 +254,12 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, p
         (not fed back) are carried.
     open_loop : bool
         Whether the error state is carried (no feedback).
-    fix_tau, fix_var : ndarray, shape (n - 15,)
+    fix_tau, fix_var : ndarray, shape (n_fix,)
         Correlation times (s) and stationary variances of the fix-error states.
+    f_ref : ndarray, shape (3,)
+        The specific-force reference the running velocity integral is taken less of (m/s^2, body).
+    sens_kind, sens_row, sens_col : ndarray of int64, shape (n - 15 - n_fix,)
+        Per sensor-error state: 0 gyro, 1 accelerometer; the element of the error matrix.
 
     Returns
     -------
@@ -286,6 +304,17 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, p
     f_n[2] -= gravity_down(lat, h)
     f = np.empty((n, n))
     error_dynamics_into(lat, h, vel, c, f_n, inv_tau_g, inv_tau_a, f)
+    n_fix = fix_tau.shape[0]
+    for k in range(sens_kind.shape[0]):      # the sensor-error states' columns, -C[:, row] x_col
+        i, j = sens_row[k], sens_col[k]
+        if sens_kind[k] == 0:
+            xj = (end[9 + j] - start[9 + j]) / t
+            r0 = 6
+        else:
+            xj = (end[12 + j] - start[12 + j]) / t + f_ref[j]
+            r0 = 3
+        for r in range(3):
+            f[r0 + r, 15 + n_fix + k] = -c[r, i] * xj
     m = qc.copy()
     d = np.empty(3)
     for blk in range(2):
@@ -316,7 +345,7 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, p
         coef *= t / (k + 1)
         q_d += m * coef
     # the fix-error states: F and Q' are zero on their rows, so the series left them I and 0; their exact model
-    for i in range(n - 15):
+    for i in range(n_fix):
         k = 15 + i
         phi[k, k] = math.exp(-t / fix_tau[i])
         q_d[k, k] = fix_var[i] * -math.expm1(-2.0 * t / fix_tau[i])
@@ -328,7 +357,7 @@ def propagate_block(start, end, t, inv_tau_g, inv_tau_a, qc, unmod, origin, p, p
     if open_loop:
         x[:] = np.dot(phi, x)
     else:
-        for k in range(15, n):
+        for k in range(15, 15 + n_fix):
             x[k] *= phi[k, k]
     return phi
 

@@ -415,6 +415,10 @@ class _FilterParameters:
 #: The fix components the aided filter can apply (``sins_sim.navigation.aided.GNSS_MEASUREMENTS``, written here so
 #: that loading a scenario does not import the navigation package; tests/test_mission_aided.py checks they agree).
 AIDING_MEASUREMENTS = ("position", "velocity")
+#: The scale-factor and misalignment groups the aided filter can estimate as states
+#: (``sins_sim.navigation.ekf.SENSOR_ERROR_GROUPS``, written here for the same reason; tests/test_aided_sensor_states.py
+#: checks they agree).
+AIDING_SENSOR_ERROR_STATES = ("gyro_scale_factor", "gyro_misalignment", "accel_scale_factor", "accel_misalignment")
 _SIG3 = dict(min=0.0, min_exclusive=True, max=1.0e4)
 AIDING_SCHEMA = Map({
     "rate": Num(unit="hz", min=0.0, min_exclusive=True, max=100.0, default=1.0,
@@ -450,16 +454,22 @@ AIDING_SCHEMA = Map({
                                                "states, R the white noise (Gelb 1974 sec. 3.8); false: fold it "
                                                "into R as the variance of the mean over the longest aided "
                                                "stretch (15 states)"),
+    "sensor_error_states": ListOf(Str(choices=AIDING_SENSOR_ERROR_STATES), default=[], max_len=4,
+                                  doc="scale-factor and misalignment groups the filter estimates as states (3 per "
+                                      "scale-factor group, 6 per misalignment group; random constants with the "
+                                      "IMU's sensors: numbers as priors, fed back into the increments), instead "
+                                      "of process noise per step from the angle turned (Groves 2013 sec. 14.2.4)"),
     "file": Str(default="", doc="a recorded GNSS solution instead of simulated fixes (CSV or Parquet: time_s, "
                                 "lat_deg, lon_deg, height_m, optional vn_m_s, ve_m_s, vd_m_s), relative to the "
                                 "scenario; it must cover navigation.start_s to duration_s"),
 }, default=None, allow_null=True,
     doc="GNSS aiding: each filter's increments also navigated by an error-state Kalman filter (15 states, 18 with "
-        "the Gauss-Markov fix-error states) with the "
+        "the Gauss-Markov fix-error states, up to 18 more with sensor_error_states) with the "
         "same fixes (absent: free navigation only)",
     rules=("rate_hz divides readout.output_rate_hz (simulated fixes); update_rate_hz divides rate_hz",
            "markov_sigma_m and markov_tau_s describe simulated fixes: refused with file",
            "velocity in measurements needs the file's velocity columns",
+           "sensor_error_states names each group once and needs the IMU's sensors: section",
            "outages lie within (navigation.start_s, duration_s); a file covers navigation.start_s to duration_s"))
 SCENARIO_SCHEMA.fields["aiding"] = AIDING_SCHEMA
 

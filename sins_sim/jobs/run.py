@@ -937,7 +937,7 @@ def _aided_findings(metrics: dict, aided: dict) -> list:
     aid = metrics.get("aiding", {})
     gm = max(aid.get("markov_sigma_m") or [0.0])
     told = [ref.get(f"filter_position_sigma_told_m_{ax}") for ax in ("north", "east", "down")]
-    if gm > 0.0 and ref.get("filter_states", 15) > 15:
+    if gm > 0.0 and "filter_gnss_markov_tau_s" in ref:      # the fix-error states (not only sensor-error states)
         cons.append(f" The fixes carry a Gauss-Markov error of up to {gm:g} m (1 sigma, correlation "
                     f"{ref.get('filter_gnss_markov_tau_s', 0.0):g} s) that the filter estimates as three position "
                     f"states ({ref['filter_states']} states; R the white noise), so the position NIS keeps its "
@@ -951,6 +951,10 @@ def _aided_findings(metrics: dict, aided: dict) -> list:
                     f"stretch (position sigma told {', '.join(f'{r:.3g}' for r in told)} m north, east, down), so the "
                     f"position NIS is expected at most {bound:.2g}, not 3, and below its chi-square interval it is "
                     "what that R predicts, not a mis-tuned filter; the velocity NIS keeps its meaning.")
+    groups = ref.get("filter_sensor_error_states", "none")
+    if groups != "none":
+        cons.append(f" The filter estimates the scale-factor and misalignment groups {groups} as states (priors the "
+                    "unit's sensor errors, fed back into the increments), not as process noise.")
     return out + ["", "".join(cons)]
 
 

@@ -77,6 +77,22 @@ They enter a GNSS ``position`` (``velocity``) measurement as ``dz = H x - e + v`
 columns and ``R`` holds the white noise only. They are not fed back (they are the receiver's error, not the
 navigator's) and are carried by ``Phi`` between updates in closed loop too.
 
+Sensor-error states (optional, :attr:`UnmodelledErrors.states`), after the fix-error states: the errors
+``dK[i, j] = K_est[i, j] - K[i, j]`` of the estimated error matrices of the gyros and the accelerometers (the IMU
+model ``u_meas = b + (I + K) u + w``, scale factors on the diagonal of ``K``, misalignments ``K[i, j]``, sensor
+``i`` sensing body axis ``j``, off it; Groves 2013, sec. 4.4.6), per group ``gyro_scale_factor`` (3),
+``gyro_misalignment`` (6), ``accel_scale_factor`` (3), ``accel_misalignment`` (6). The navigator integrates
+``(I + K_est)^-1 (u_meas - b_est dt)``, whose error is ``-db - dK u`` to first order, so::
+
+    psi' = ... - C (db_g + dK_g omega_ib^b),    dv' = ... - C (db_a + dK_a f^b)
+
+(Groves 2013, sec. 14.2.4, the scale-factor and cross-coupling terms of the system model; Titterton & Weston
+2004, sec. 12.3): the state ``dK[i, j]`` has the column ``-C[:, i] x_j`` on the attitude (gyros) or velocity
+(accelerometers) rows, ``x`` the block's mean body rate or specific force from the running integrals of the raw
+increments. Random constants (``F`` and ``Q'`` zero on their rows), prior the group's 1-sigma of
+:class:`UnmodelledErrors`, whose process noise for that group is then off. Fed back like the biases
+(``K_est -= dK``, the increments then corrected by the new ``(I + K_est)^-1``), then reset to zero.
+
 Measurements (plug-ins, :data:`MEASUREMENTS`): each gives ``dz = h(x_c) - z`` (computed minus measured),
 modelled as ``dz = H x + v``, ``v ~ N(0, R)``. Update in Joseph form (Bucy & Joseph 1968; Groves 2013,
 eq. 3.58)::
@@ -85,7 +101,8 @@ eq. 3.58)::
 
 and the innovation ``nu = dz - H x``, its covariance ``S`` and ``NIS = nu^T S^-1 nu`` recorded.
 Feedback (closed loop): position, velocity and attitude by
-:meth:`StrapdownNavigator.apply_correction`, biases ``b_est -= db``, then ``x = 0``.
+:meth:`StrapdownNavigator.apply_correction`, biases ``b_est -= db``, error matrices ``K_est -= dK``, then ``x = 0``
+(the fix-error states excepted).
 
 Observability at rest (zero velocity and known position; Britting 1971, Bar-Itzhack & Berman 1988). With
 ``f^n = (0, 0, -g)``, ``a = C db_a`` and ``e = C db_g`` (NED)::
@@ -146,7 +163,7 @@ __all__ = [
     "AidedNavigator", "MEASUREMENTS", "make_measurement",
     "ZeroVelocity", "ZeroAngularRate", "Position", "Velocity", "Height",
     "error_dynamics", "process_noise_density", "discretize", "initial_covariance", "skew",
-    "unmodelled_variance_increment",
+    "unmodelled_variance_increment", "SENSOR_ERROR_GROUPS", "MISALIGNMENT_PAIRS", "sensor_error_columns",
 ]
 
 # --- state layout -------------------------------------------------------------------------------------------
@@ -174,6 +191,11 @@ STATE_NAMES = (
 )
 #: Number of states.
 N_STATES = len(STATE_NAMES)
+#: The sensor-error groups that can be filter states (:attr:`UnmodelledErrors.states`), in layout order.
+SENSOR_ERROR_GROUPS = ("gyro_scale_factor", "gyro_misalignment", "accel_scale_factor", "accel_misalignment")
+#: The off-diagonal elements ``(row, col)`` of an error matrix, in the order xy, xz, yx, yz, zx, zy (the sensor
+#: model's ``misalignment_arcsec``: sensor ``row`` sensing body axis ``col``).
+MISALIGNMENT_PAIRS = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
 #: Keys of the observability flags, in the order of the bias states (the AlignmentResult convention).
 BIAS_KEYS = ("gyro_bias_x", "gyro_bias_y", "gyro_bias_z", "accel_bias_x", "accel_bias_y", "accel_bias_z")
 
@@ -338,7 +360,7 @@ class ImuNoise:
 
 @dataclass(frozen=True)
 class UnmodelledErrors:
-    """Scale factors and misalignments the 15 states do not hold, told to the filter as process noise per step.
+    """Scale factors and misalignments: told to the filter as process noise per step, or (``states``) estimated.
 
     Parameters
     ----------
@@ -349,6 +371,9 @@ class UnmodelledErrors:
     accel_reference_b_m_s2 : array_like, shape (3,), or None
         The specific force (body, m/s^2) whose error the accelerometer bias states take up (in level flight
         mostly gravity); None: the mean of the first chunk the filter navigates.
+    states : sequence of str
+        The groups estimated as filter states (:data:`SENSOR_ERROR_GROUPS`; module docstring, "Sensor-error
+        states"): their sigma is then the states' prior and their process noise is off (:attr:`variances`).
 
     Notes
     -----
@@ -383,6 +408,7 @@ class UnmodelledErrors:
     accel_scale_factor: float
     accel_misalignment_rad: float
     accel_reference_b_m_s2: object = None
+    states: tuple = ()
 
     def __post_init__(self):
         for name in ("gyro_scale_factor", "gyro_misalignment_rad", "accel_scale_factor", "accel_misalignment_rad"):
@@ -390,12 +416,55 @@ class UnmodelledErrors:
         if self.accel_reference_b_m_s2 is not None:
             object.__setattr__(self, "accel_reference_b_m_s2",
                                _vec3("accel_reference_b_m_s2", self.accel_reference_b_m_s2))
+        states = (self.states,) if isinstance(self.states, str) else tuple(self.states)
+        for name in states:
+            if name not in SENSOR_ERROR_GROUPS:
+                raise ValueError(f"UnmodelledErrors.states: {name!r} is not one of {', '.join(SENSOR_ERROR_GROUPS)}")
+        if len(set(states)) != len(states):
+            raise ValueError(f"UnmodelledErrors.states: each group at most once, got {list(states)}")
+        # canonical order (the state layout does not depend on the order the groups are named in)
+        object.__setattr__(self, "states", tuple(g for g in SENSOR_ERROR_GROUPS if g in states))
 
     @property
     def variances(self) -> np.ndarray:
-        """``(sigma_S^2, sigma_M^2)`` of the gyros, then of the accelerometers (the kernel's ``unmod``)."""
-        return np.array([self.gyro_scale_factor, self.gyro_misalignment_rad, self.accel_scale_factor,
-                         self.accel_misalignment_rad]) ** 2
+        """``(sigma_S^2, sigma_M^2)`` of the gyros, then of the accelerometers (the kernel's ``unmod``), zero for a
+        group estimated as states (:attr:`states`: its error is in ``F``, not in the process noise)."""
+        sig = np.array([self.gyro_scale_factor, self.gyro_misalignment_rad, self.accel_scale_factor,
+                        self.accel_misalignment_rad])
+        return np.where([g in self.states for g in SENSOR_ERROR_GROUPS], 0.0, sig) ** 2
+
+    @property
+    def n_states(self) -> int:
+        """Number of sensor-error states (3 per scale-factor group, 6 per misalignment group)."""
+        return len(self.state_table()[0])
+
+    def state_table(self):
+        """The sensor-error states in layout order (module docstring, "Sensor-error states").
+
+        Returns
+        -------
+        kind, row, col : ndarray of int64
+            Per state: 0 gyro, 1 accelerometer; the element ``K[row, col]`` of that triad's error matrix it is
+            (the scale factors on the diagonal, the misalignments off it in the order xy, xz, yx, yz, zx, zy).
+        sigma : ndarray
+            Its prior 1-sigma (the group's ``gyro_scale_factor`` ... ``accel_misalignment_rad``).
+        names : tuple of str
+            ``dsf_gyro_x``, ``dmis_gyro_xy``, ... (dimensionless; a misalignment in rad).
+        """
+        kind, row, col, sig, names = [], [], [], [], []
+        sigmas = dict(zip(SENSOR_ERROR_GROUPS, (self.gyro_scale_factor, self.gyro_misalignment_rad,
+                                                self.accel_scale_factor, self.accel_misalignment_rad)))
+        for g in self.states:
+            sensor, what = g.split("_", 1)
+            pairs = [(i, i) for i in range(3)] if what == "scale_factor" else list(MISALIGNMENT_PAIRS)
+            for i, j in pairs:
+                kind.append(0 if sensor == "gyro" else 1)
+                row.append(i)
+                col.append(j)
+                sig.append(sigmas[g])
+                names.append(f"dsf_{sensor}_{'xyz'[i]}" if i == j else f"dmis_{sensor}_{'xyz'[i]}{'xyz'[j]}")
+        return (np.array(kind, dtype=np.int64), np.array(row, dtype=np.int64), np.array(col, dtype=np.int64),
+                np.array(sig, dtype=np.float64), tuple(names))
 
 
 def gauss_markov_discrete(tau_s, sigma, t_s):
@@ -905,6 +974,36 @@ def error_dynamics(lat_rad, h_m, v_ned_m_s, c_nb, f_ned_m_s2, noise: ImuNoise) -
     return f
 
 
+def sensor_error_columns(c_nb, omega_ib_b_rad_s, f_b_m_s2, kind, row, col) -> np.ndarray:
+    """The columns of ``F`` of the sensor-error states (15 rows; module docstring, "Sensor-error states").
+
+    A state ``dK[i, j]`` (the error of the estimate of element ``(i, j)`` of a triad's error matrix) makes the
+    corrected rate (specific force) wrong by ``-dK[i, j] x_j`` on body axis ``i``, ``x`` the body rate ``omega_ib^b``
+    (the specific force ``f^b``), so its column is ``-C[:, i] x_j`` on the attitude rows (gyros) or the velocity rows
+    (accelerometers): ``psi' = ... - C (db_g + dK_g omega_ib^b)``, ``dv' = ... - C (db_a + dK_a f^b)`` (Groves
+    2013, sec. 14.2.4 with the error model of sec. 4.4.6; Titterton & Weston 2004, sec. 12.3).
+
+    Parameters
+    ----------
+    c_nb : array_like, shape (3, 3)
+    omega_ib_b_rad_s, f_b_m_s2 : array_like, shape (3,)
+        The block's mean body rate (rad/s) and specific force (m/s^2).
+    kind, row, col : array_like of int, shape (m,)
+        :meth:`UnmodelledErrors.state_table`.
+
+    Returns
+    -------
+    ndarray, shape (15, m)
+    """
+    c = np.asarray(c_nb, dtype=np.float64)
+    x = (np.asarray(omega_ib_b_rad_s, dtype=np.float64), np.asarray(f_b_m_s2, dtype=np.float64))
+    out = np.zeros((N_STATES, len(kind)))
+    for k, (kd, i, j) in enumerate(zip(kind, row, col)):
+        rows = ATT if kd == 0 else VEL
+        out[rows, k] = -c[:, i] * x[kd][j]
+    return out
+
+
 def process_noise_density(noise: ImuNoise) -> np.ndarray:
     """``Q' = G Q G^T`` (15 x 15, per second): white sensor noise into velocity and attitude, bias driving noise.
 
@@ -1067,11 +1166,13 @@ class AidedNavigator:
         (``x <- Phi x`` between updates): the open-loop filter, whose corrected solution is
         :meth:`corrected_state`.
     unmodelled : UnmodelledErrors or None
-        Scale factors and misalignments not estimated: process noise per propagation block from the angle
-        and velocity change the block adds (:class:`UnmodelledErrors`); None: none.
+        Scale factors and misalignments: process noise per propagation block from the angle and velocity change
+        the block adds (:class:`UnmodelledErrors`), and the groups of its ``states`` as sensor-error states after
+        the fix-error states (module docstring); None: none.
     fix_errors : FixErrorStates or None
-        The fixes' Gauss-Markov errors as states 15 on (module docstring); ``p0`` may then be (15, 15), the
-        new states starting at their stationary variance, uncorrelated, or (n, n). None: 15 states.
+        The fixes' Gauss-Markov errors as states 15 on (module docstring); None: none. ``p0`` may be (15, 15) or
+        cover the fix-error states only, the states it leaves out starting at their priors (the fix errors'
+        stationary variance, the sensor errors' sigma squared), uncorrelated; or (n, n).
     """
 
     def __init__(self, navigator, noise, p0, *, gyro_bias_rad_s=(0.0, 0.0, 0.0), accel_bias_m_s2=(0.0, 0.0, 0.0),
@@ -1087,17 +1188,30 @@ class AidedNavigator:
             raise ValueError(f"unmodelled: must be UnmodelledErrors or None, got {type(unmodelled).__name__}")
         if fix_errors is not None and not isinstance(fix_errors, FixErrorStates):
             raise ValueError(f"fix_errors: must be FixErrorStates or None, got {type(fix_errors).__name__}")
-        n = N_STATES + (0 if fix_errors is None else fix_errors.n_states)
+        n_fix = 0 if fix_errors is None else fix_errors.n_states
+        kind, row, col, sens_sigma, _ = (np.zeros(0, np.int64),) * 3 + (np.zeros(0), ()) if unmodelled is None \
+            else unmodelled.state_table()
+        n = N_STATES + n_fix + kind.shape[0]
         p = v.finite_array("", "p0", p0, ndim=2)
-        if fix_errors is not None and p.shape == (N_STATES, N_STATES):
-            p = np.block([[p, np.zeros((N_STATES, n - N_STATES))],
-                          [np.zeros((n - N_STATES, N_STATES)), np.diag(fix_errors.variance)]])
+        # the states p0 leaves out start at their priors, uncorrelated: the fix errors' stationary variance, the
+        # sensor errors' sigma
+        prior = np.concatenate([np.zeros(N_STATES), np.zeros(0) if fix_errors is None else fix_errors.variance,
+                                sens_sigma ** 2])
+        if p.shape[0] == p.shape[1] and p.shape[0] in (N_STATES, N_STATES + n_fix) and p.shape[0] < n:
+            k = p.shape[0]
+            p = np.block([[p, np.zeros((k, n - k))], [np.zeros((n - k, k)), np.diag(prior[k:])]])
         if p.shape != (n, n) or not np.allclose(p, p.T, rtol=0.0, atol=1e-12 * np.max(np.abs(p))) \
                 or np.min(np.linalg.eigvalsh(p)) < -1e-12 * np.max(np.abs(p)):
             raise ValueError(f"p0: must be a symmetric positive semi-definite ({n}, {n}) matrix, "
                              f"got shape {p.shape}")
         self._n = n
         self._fix_errors = fix_errors
+        # sensor-error states (UnmodelledErrors.states) after the fix errors: the table of F's columns, the estimated
+        # error matrices of the gyros and accelerometers, and the inverses of (I + K) the increments are corrected by
+        self._sens0 = N_STATES + n_fix
+        self._sens = (kind, row, col)
+        self._k_est = np.zeros((2, 3, 3))
+        self._k_inv = np.stack([_I3, _I3])
         self._fix_tau = np.zeros(0) if fix_errors is None else fix_errors.tau_s
         self._fix_var = np.zeros(0) if fix_errors is None else fix_errors.variance
         self._nav = navigator
@@ -1115,6 +1229,8 @@ class AidedNavigator:
         self._unmod = unmodelled
         self._unmod_var = np.zeros(4) if unmodelled is None else unmodelled.variances
         self._f_ref = None if unmodelled is None else unmodelled.accel_reference_b_m_s2
+        if self._f_ref is not None:
+            self._f_ref = np.array(self._f_ref, dtype=np.float64)
         # running integrals at the last navigation update: raw angle (rad) and velocity less f_ref t (m/s), body
         self._acc = np.zeros(6)
         self._origin = np.zeros(6)     # their origins (UnmodelledErrors: restarted where the vehicle turns back)
@@ -1140,8 +1256,24 @@ class AidedNavigator:
 
     @property
     def n_states(self) -> int:
-        """Number of states: 15, plus the fix-error states."""
+        """Number of states: 15, plus the fix-error states, plus the sensor-error states."""
         return self._n
+
+    @property
+    def sensor_error_slice(self) -> slice:
+        """The sensor-error states' indices (:meth:`UnmodelledErrors.state_table`; empty without)."""
+        return slice(self._sens0, self._n)
+
+    @property
+    def gyro_error_matrix(self) -> np.ndarray:
+        """The estimated error matrix ``K_g`` of the gyros (scale factors on the diagonal, misalignments off it; the
+        increments are corrected by ``(I + K_g)^-1``; zeros without the states; copy)."""
+        return self._k_est[0].copy()
+
+    @property
+    def accel_error_matrix(self) -> np.ndarray:
+        """The same for the accelerometers, ``K_a``."""
+        return self._k_est[1].copy()
 
     @property
     def fix_errors(self):
@@ -1275,6 +1407,9 @@ class AidedNavigator:
         # dth - b_g dt, dv - b_a dt and the gyro sum since the last epoch in one compiled pass (same values)
         dth_c, dv_c = np.empty_like(dth), np.empty_like(dvel)
         kekf.bias_corrected(dth, dvel, self._bg * dt, self._ba * dt, dth_c, dv_c, self._sum_dtheta)
+        if self._n > self._sens0:       # estimated scale factors and misalignments: (I + K)^-1 (x - b dt), per triad
+            dth_c = dth_c @ self._k_inv[0].T
+            dv_c = dv_c @ self._k_inv[1].T
         self._sum_n += dth.shape[0]
         pending = nav.pending_samples
         out = nav._run(dth_c, dv_c, _NO_AID)
@@ -1313,9 +1448,15 @@ class AidedNavigator:
         """One block (the compiled :func:`kekf.propagate_block`; the reference in numpy is
         :meth:`_propagate_block_reference`)."""
         t = n_updates * self._nav.update_period_s
-        kekf.propagate_block(self._block_start, end, t, self._inv_tau[0], self._inv_tau[1], self._qc, self._unmod_var,
-                             self._origin, self._p, self._phi_acc, self._x, not self._feedback, self._fix_tau,
-                             self._fix_var)
+        if self._n > self._sens0:
+            kekf.propagate_block_states(self._block_start, end, t, self._inv_tau[0], self._inv_tau[1], self._qc,
+                                        self._unmod_var, self._origin, self._p, self._phi_acc, self._x,
+                                        not self._feedback, self._fix_tau, self._fix_var,
+                                        np.zeros(3) if self._f_ref is None else self._f_ref, *self._sens)
+        else:
+            kekf.propagate_block(self._block_start, end, t, self._inv_tau[0], self._inv_tau[1], self._qc,
+                                 self._unmod_var, self._origin, self._p, self._phi_acc, self._x, not self._feedback,
+                                 self._fix_tau, self._fix_var)
         self._prior_bias_var = self._noise.bias_variance_after(self._prior_bias_var, t)
         self._block_start = end
 
@@ -1341,16 +1482,23 @@ class AidedNavigator:
         qc = self._qc.copy()
         un = self._unmod
         if un is not None:       # the unmodelled errors' variance over the block (UnmodelledErrors), body to NED
-            for sl, a, sig_s, sig_m in ((ATT, slice(9, 12), un.gyro_scale_factor, un.gyro_misalignment_rad),
-                                        (VEL, slice(12, 15), un.accel_scale_factor, un.accel_misalignment_rad)):
+            var = self._unmod_var
+            for sl, a, vs, vm in ((ATT, slice(9, 12), var[0], var[1]), (VEL, slice(12, 15), var[2], var[3])):
+                if vs == 0.0 and vm == 0.0:
+                    continue
                 o = slice(a.start - 9, a.stop - 9)
-                d, self._origin[o] = unmodelled_variance_increment(s0[a], s1[a], sig_s, sig_m, self._origin[o])
+                d, self._origin[o] = unmodelled_variance_increment(s0[a], s1[a], math.sqrt(vs), math.sqrt(vm),
+                                                                   self._origin[o])
                 qc[sl, sl] += c @ np.diag(d) @ c.T / t
         n = self._n
         fn, qn = np.zeros((n, n)), np.zeros((n, n))
         fn[:N_STATES, :N_STATES], qn[:N_STATES, :N_STATES] = fm, qc[:N_STATES, :N_STATES]
+        if n > self._sens0:      # the block's mean body rate and specific force from the running integrals
+            w_b = (s1[9:12] - s0[9:12]) / t
+            f_b = (s1[12:15] - s0[12:15]) / t + self._f_ref
+            fn[:N_STATES, self._sens0:] = sensor_error_columns(c, w_b, f_b, *self._sens)
         phi, q_d = discretize(fn, qn, t)
-        gm = np.arange(N_STATES, n)
+        gm = np.arange(N_STATES, self._sens0)
         phi[gm, gm], q_d[gm, gm] = gauss_markov_discrete(self._fix_tau, np.sqrt(self._fix_var), t)
         p = phi @ self._p @ phi.T + q_d
         self._p = 0.5 * (p + p.T)
@@ -1385,7 +1533,8 @@ class AidedNavigator:
     @property
     def last_correction(self) -> np.ndarray:
         """The last update's change of the error state (copy; zeros before any, and without feedback): its first 15
-        entries the correction fed back, the rest the change of the fix-error estimates."""
+        entries the correction fed back, then the change of the fix-error estimates (not fed back), then that of
+        the sensor-error states (fed back)."""
         return self._last_correction.copy()
 
     def _roll_epoch(self):
@@ -1433,7 +1582,7 @@ class AidedNavigator:
             hn[:, :h.shape[1]] = h
             k0 = 0
             for meas, d in zip(measurements, dims):
-                cols = self._fix_errors.columns(meas.name)
+                cols = None if self._fix_errors is None else self._fix_errors.columns(meas.name)
                 if cols is not None:
                     hn[k0 + np.arange(3), np.arange(cols.start, cols.stop)] = -1.0
                 k0 += d
@@ -1501,4 +1650,9 @@ class AidedNavigator:
         self._ba = self._ba - x[ACCEL_BIAS]
         self._x = x.copy()
         self._x[:N_STATES] = 0.0      # the fix-error states are the receiver's, not fed back
+        if self._n > self._sens0:     # the scale factors and misalignments like the biases: K_est -= dK
+            kind, row, col = self._sens
+            self._k_est[kind, row, col] -= x[self._sens0:]
+            self._k_inv = np.linalg.inv(np.eye(3)[None] + self._k_est)
+            self._x[self._sens0:] = 0.0
         self._block_start = self._snapshot_row()

@@ -330,6 +330,13 @@ def _aiding_settings(written: dict, a: dict, sc, base_dir, ctx, duration_key) ->
         if not (start < w[0] and w[1] <= dur):
             raise PlanError(f"{ctx}: aiding.outages_s[{i}]: {w} must lie within navigation.start_s = {start:g} s "
                               f"(an update must come before it) and {duration_key} = {dur:g} s")
+    groups = a["sensor_error_states"]
+    dup = sorted({g for g in groups if groups.count(g) > 1})
+    if dup:
+        raise PlanError(f"{ctx}: aiding.sensor_error_states: each group at most once, got {', '.join(dup)} twice")
+    if groups and sc.imu.sensors is None:
+        raise PlanError(f"{ctx}: aiding.sensor_error_states: needs the IMU's sensors: section (its scale factors and "
+                        f"misalignments are the states' priors), and the IMU has none")
     data = None
     if a["file"]:
         for key in ("markov_sigma_m", "markov_tau_s"):
@@ -364,7 +371,7 @@ def _aiding_settings(written: dict, a: dict, sc, base_dir, ctx, duration_key) ->
         raise PlanError(f"{ctx}: aiding: {exc}") from None
     return AidingSettings(gnss=gnss, measurements=tuple(dict.fromkeys(a["measurements"])), update_rate_hz=upd,
                           feedback=a["feedback"], smoother=a["smoother"], file=data,
-                          fix_error_states=a["fix_error_states"])
+                          fix_error_states=a["fix_error_states"], sensor_error_states=tuple(groups))
 
 
 def _alignment_settings(spec: dict, imu):

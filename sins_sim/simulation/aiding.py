@@ -31,8 +31,9 @@ at 5 Hz); once the metrics, the outage growth and the smoother are computed they
    unmodelled_errors
    OUTAGE_AFTER_S
 
-The filter's model of what it does not estimate (15 inertial states, no scale-factor or misalignment states;
-:func:`filter_model`, stated in ``metrics.json`` ``aiding.filter_model`` with the number of states):
+The filter's model of what it does not estimate (15 inertial states; scale-factor and misalignment states only
+with ``aiding.sensor_error_states``; :func:`filter_model`, stated in ``metrics.json`` ``aiding.filter_model`` with
+the number of states):
 
 * **The fixes' Gauss-Markov error**, with ``aiding.fix_error_states`` (the default), is three filter states
   (:class:`~sins_sim.navigation.ekf.FixErrorStates`: ``exp(-T/tau)`` transition, ``sigma^2 (1 - exp(-2 T/tau))``
@@ -47,7 +48,10 @@ The filter's model of what it does not estimate (15 inertial states, no scale-fa
   change less the median specific force) since the start, ``sigma_S^2 a_i^2 + sigma_M^2 (|a|^2 - a_i^2)``
   per body axis, coherent as a constant error is (a constant rate ``omega`` about one axis for ``t``:
   ``sigma_S^2 omega^2 t^2``), and nothing in cruise. Their constant part (the median rate and specific force)
-  raises the bias priors instead.
+  raises the bias priors instead. A group named in ``aiding.sensor_error_states`` is estimated instead (3 or 6
+  random-constant states with that sigma as prior, fed back into the increments;
+  :class:`~sins_sim.navigation.ekf.UnmodelledErrors` ``states``), and neither its process noise nor its share of
+  the bias priors is told (no double counting).
 """
 
 from __future__ import annotations
@@ -97,6 +101,10 @@ class AidingSettings:
     fix_error_states : bool
         Model the fixes' Gauss-Markov error as three filter states (``R`` the white noise; default) rather than
         fold it into ``R`` (:func:`markov_equivalent_sigma`); no effect without a Gauss-Markov error.
+    sensor_error_states : tuple of str
+        The scale-factor and misalignment groups estimated as filter states
+        (:data:`~sins_sim.navigation.ekf.SENSOR_ERROR_GROUPS`: ``gyro_scale_factor`` 3 states, ``gyro_misalignment``
+        6, ``accel_scale_factor`` 3, ``accel_misalignment`` 6); the others stay process noise per step.
     """
 
     gnss: object
@@ -106,6 +114,7 @@ class AidingSettings:
     smoother: bool = False
     file: object = field(default=None, compare=False)
     fix_error_states: bool = True
+    sensor_error_states: tuple = ()
 
     @property
     def decimation(self) -> int:
@@ -153,15 +162,17 @@ def markov_equivalent_sigma(white_sigma, markov_sigma, markov_tau_s, interval_s,
     return np.sqrt(np.asarray(white_sigma, dtype=np.float64) ** 2 + np.asarray(markov_sigma, dtype=np.float64) ** 2 * g)
 
 
-def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
-    """The scale factors and misalignments the filter does not estimate, as the filter is told them.
+def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5, states=()):
+    """The scale factors and misalignments as the filter is told them: process noise per step, or states.
 
     ``sigma_S`` the root sum square of scale factor and asymmetry, ``sigma_M`` the largest misalignment (the
     unit's numbers read as 1-sigma, the largest axis), for gyros and accelerometers: the process noise per
-    propagation step of :class:`~sins_sim.navigation.ekf.UnmodelledErrors`. The accelerometers' reference is the
-    vehicle's median specific force over the span (body; in level flight gravity): its error ``K f_ref`` is
-    constant and reads as a bias, so the bias priors per body axis are raised by ``sigma_S^2 x_i^2 + sigma_M^2
-    sum_(j != i) x_j^2`` of the median rate and specific force instead.
+    propagation step of :class:`~sins_sim.navigation.ekf.UnmodelledErrors`, or, for the groups named in
+    ``states``, the priors of their filter states (and then no process noise: no double counting). The
+    accelerometers' reference is the vehicle's median specific force over the span (body; in level flight
+    gravity): its error ``K f_ref`` is constant and reads as a bias, so the bias priors per body axis are raised by
+    ``sigma_S^2 x_i^2 + sigma_M^2 sum_(j != i) x_j^2`` of the median rate and specific force instead (each term
+    only for a group that is not a state: a state's ``F`` column carries the whole ``K x``).
 
     Parameters
     ----------
@@ -173,6 +184,8 @@ def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
         The aided span (s).
     step_s : float
         Sampling of the vehicle's motion for the medians (s).
+    states : sequence of str
+        The groups estimated as states (:data:`~sins_sim.navigation.ekf.SENSOR_ERROR_GROUPS`).
 
     Returns
     -------
@@ -184,7 +197,10 @@ def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
     from sins_sim.navigation.ekf import UnmodelledErrors
 
     extra = np.zeros(6)
+    states = tuple(states)
     if sensors is None:
+        if states:
+            raise ValueError(f"states: {', '.join(states)} need the unit's sensor errors (sensors), got none")
         return None, extra
     ppm = 1e-6
     sig = {}
@@ -198,11 +214,13 @@ def unmodelled_errors(sensors, vehicle, t0_s, t1_s, step_s=0.5):
         tr = vehicle.evaluate(np.arange(t0_s, t1_s + 1e-9, step_s))
         for k, (key, x) in enumerate((("gyro", np.asarray(tr.omega_iv_v_rad_s)), ("accel", np.asarray(tr.f_v_m_s2)))):
             s, m = sig[key]
+            s = 0.0 if f"{key}_scale_factor" in states else s
+            m = 0.0 if f"{key}_misalignment" in states else m
             med = np.median(x, axis=0)
             extra[3 * k:3 * k + 3] = s * s * med ** 2 + m * m * (np.sum(med ** 2) - med ** 2)
             if key == "accel":
                 f_ref = med
-    return UnmodelledErrors(sig["gyro"][0], sig["gyro"][1], sig["accel"][0], sig["accel"][1], f_ref), extra
+    return UnmodelledErrors(sig["gyro"][0], sig["gyro"][1], sig["accel"][0], sig["accel"][1], f_ref, states), extra
 
 
 @dataclass(frozen=True)
@@ -212,7 +230,8 @@ class FilterModel:
     ``noise`` the unit's :class:`~sins_sim.navigation.ekf.ImuNoise`, ``position_sigma_m`` and
     ``velocity_sigma_m_s`` the fixes' ``R`` (1-sigma per NED axis), ``record`` the derivation's numbers for
     ``metrics.json`` (SI, units in the keys), ``unmodelled`` the scale factors and misalignments told as process
-    noise per step (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`, or None), ``fix_errors`` the fixes'
+    noise per step, or as states for the groups of its ``states`` (:class:`~sins_sim.navigation.ekf.UnmodelledErrors`,
+    or None), ``fix_errors`` the fixes'
     Gauss-Markov error as filter states (:class:`~sins_sim.navigation.ekf.FixErrorStates`, or None).
     """
 
@@ -284,11 +303,13 @@ def filter_model(settings: AidingSettings, noise, sensors=None, vehicle=None, t0
     else:
         pos = np.asarray(g.position_sigma_m, dtype=np.float64)
         how = {"gnss_markov": "none"}
-    un, extra = unmodelled_errors(sensors, vehicle, float(t0_s), t1)
-    record = {"states": N_STATES + (0 if fix_errors is None else fix_errors.n_states), **how,
+    un, extra = unmodelled_errors(sensors, vehicle, float(t0_s), t1, states=settings.sensor_error_states)
+    n_sens = 0 if un is None else un.n_states
+    record = {"states": N_STATES + (0 if fix_errors is None else fix_errors.n_states) + n_sens, **how,
               "position_sigma_told_m": [float(x) for x in pos],
               "velocity_sigma_told_m_s": [float(x) for x in np.asarray(g.velocity_sigma_m_s)],
               "unmodelled": "process noise per step from the angle and velocity change (coherent accumulation)",
+              "sensor_error_states": ", ".join(un.states) if un is not None and un.states else "none",
               "gyro_arw_rad_sqrt_s": noise.gyro_arw_rad_sqrt_s, "accel_vrw_m_s_sqrt_s": noise.accel_vrw_m_s_sqrt_s}
     if un is not None:
         record.update(gyro_scale_factor_sigma=un.gyro_scale_factor, gyro_misalignment_sigma_rad=un.gyro_misalignment_rad,
