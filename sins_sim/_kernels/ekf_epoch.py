@@ -257,8 +257,7 @@ def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon
         _navigate(dth, dvel, (done - done0) * n_sub, j - done, done, t0, dt, n_sub, ccoef, scoef, gains, st, bg, ba,
                   has_unmod, ints, f_ref, acc, ring, hist, keep_rows, n_prop, big_t, inv_tau, qc, unmod, origin, p,
                   phi_acc, x, fix_tau, fix_var, prior, bsig, btau, brw, block_start)
-        if j > done:
-            done = j
+        done = max(done, j)
         # the propagation up to now (AidedNavigator.propagate)
         if ints[INT_BLOCK_N] > 0:
             _snapshot(st, acc, snap)
@@ -371,3 +370,36 @@ def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon
               bg, ba, has_unmod, ints, f_ref, acc, ring, hist, keep_rows, n_prop, big_t, inv_tau, qc, unmod, origin, p,
               phi_acc, x, fix_tau, fix_var, prior, bsig, btau, brw, block_start)
     return ev_j.shape[0]
+
+
+@jit
+def rts_smooth(phi, p_pred, p_upd, corr, est, p_s):
+    """The Rauch-Tung-Striebel recursion of :func:`sins_sim.navigation.aided.smooth` over all epochs in one call
+    (its numpy form, :func:`sins_sim.navigation.aided._smooth_reference`, is the reference): backwards from the
+    last epoch, ``C_k = P_k^+ Phi_(k+1)^T (P_(k+1)^-)^-1`` solved with ``P_(k+1)^-`` scaled to its correlation
+    matrix, ``s_k = C_k (s_(k+1) + dx_(k+1))``, ``P_k^s = P_k^+ + C_k (P_(k+1)^s - P_(k+1)^-) C_k^T`` (symmetrised).
+
+    ``est`` (K, n) zeros and ``p_s`` (K, n, n) a copy of ``p_upd`` on entry; both written in place."""
+    k_ep = phi.shape[0]
+    n = phi.shape[1]
+    d = np.empty(n)
+    for k in range(k_ep - 2, -1, -1):
+        pp = p_pred[k + 1]
+        for i in range(n):
+            d[i] = math.sqrt(pp[i, i])
+        b = np.dot(phi[k + 1], p_upd[k])
+        ps = np.empty((n, n))
+        for i in range(n):
+            for j in range(n):
+                b[i, j] = b[i, j] / d[i]
+                ps[i, j] = pp[i, j] / (d[i] * d[j])
+        g = np.linalg.solve(ps, b)
+        for i in range(n):
+            for j in range(n):
+                g[i, j] = g[i, j] / d[i]
+        gain = g.T.copy()
+        est[k] = np.dot(gain, est[k + 1] + corr[k + 1])
+        p = p_upd[k] + np.dot(np.dot(gain, p_s[k + 1] - pp), gain.T)
+        for i in range(n):
+            for j in range(n):
+                p_s[k, i, j] = 0.5 * (p[i, j] + p[j, i])

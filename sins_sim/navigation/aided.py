@@ -464,6 +464,7 @@ class AidedRun:
         self._tv = tv
         self._n_fix_sched = tv.shape[0]
         self._fix_parts, self._n_fixes = [], 0
+        self._fix_tab = np.empty((tv.shape[0], 7))
         self._fix = None
         # pending increments (not yet navigated) and the gyro sums of the recent navigation updates
         self._pend_th, self._pend_v = np.zeros((0, 3)), np.zeros((0, 3))
@@ -514,6 +515,11 @@ class AidedRun:
                 raise ValueError(f"fixes.{name}: must be finite (a {meas} measurement is applied), got "
                                  f"{np.count_nonzero(~np.isfinite(val))} non-finite values")
         self._fix_parts.append(fixes)
+        tab = self._fix_tab          # the compiled path's copy: time of validity, lat, lon, h, v_N, v_E, v_D
+        a = self._n_fixes
+        tab[a:a + m, 0], tab[a:a + m, 1], tab[a:a + m, 2], tab[a:a + m, 3] = (fixes.t_valid_s, fixes.lat_rad,
+                                                                              fixes.lon_rad, fixes.h_m)
+        tab[a:a + m, 4:7] = fixes.v_ned_m_s
         self._n_fixes += m
         self._fix = None
 
@@ -665,6 +671,8 @@ class AidedRun:
             ptr = np.zeros(ev.size + 1, dtype=np.int64)
             ptr[1:] = np.cumsum([len(x) for x in lists])
             fix = np.array([i for x in lists for i in x], dtype=np.int64)
+            # the largest fix index needed up to each entry (a chunk's fixes all added: one comparison)
+            cmax = np.maximum.accumulate(fix) if fix.size else fix
             keep_rows = int(math.ceil(self._keep_s / big_t)) + 3
             hist = np.empty((2 * keep_rows + 64, kep.HIST_COLS))
             st = self._hist
@@ -679,7 +687,7 @@ class AidedRun:
                     gm[k] = -1 if cols is None else cols.start
             r_pos = self._r_pos if self._r_pos is not None else np.zeros((3, 3))
             r_vel = self._r_vel if self._r_vel is not None else np.zeros((3, 3))
-            self._fast = dict(ev=ev, ptr=ptr, fix=fix, keep_rows=keep_rows, hist=hist, ints=ints, gm=gm,
+            self._fast = dict(ev=ev, ptr=ptr, fix=fix, cmax=cmax, keep_rows=keep_rows, hist=hist, ints=ints, gm=gm,
                               ring=np.zeros((keep_rows + 2, 3)), r_pos=np.ascontiguousarray(r_pos),
                               r_vel=np.ascontiguousarray(r_vel))
         return self._fast
@@ -698,26 +706,19 @@ class AidedRun:
         k0 = self._next_event
         k1 = int(np.searchsorted(ev, avail, side="right"))
         target, missing = avail, None
-        if k1 > k0 and fs["ptr"][k1] > fs["ptr"][k0]:
-            last_fix = np.maximum.accumulate(fs["fix"][fs["ptr"][k0]:fs["ptr"][k1]])
-            late = np.flatnonzero(last_fix >= self._n_fixes)
-            if late.size:       # a fix due and not added: navigate up to its epoch, then say so
-                k_bad = int(np.searchsorted(fs["ptr"], fs["ptr"][k0] + late[0], side="right")) - 1
-                missing = (int(ev[k_bad]), int(fs["fix"][fs["ptr"][k0] + late[0]]))
-                k1, target = k_bad, int(ev[k_bad])
+        p0, p1 = int(fs["ptr"][k0]), int(fs["ptr"][k1])
+        if p1 > p0 and fs["cmax"][p1 - 1] >= self._n_fixes:
+            # a fix due and not added: navigate up to its epoch, then say so
+            late = p0 + int(np.argmax(fs["fix"][p0:p1] >= self._n_fixes))
+            k_bad = int(np.searchsorted(fs["ptr"], late, side="right")) - 1
+            missing = (int(ev[k_bad]), int(fs["fix"][late]))
+            k1, target = k_bad, int(ev[k_bad])
         aided = self._aided
         nav = aided._nav
         n_x = aided.n_states
         k_ep = k1 - k0
         m_meas = int(fs["ptr"][k1] - fs["ptr"][k0]) * len(self._use)
-        fixes = self._fixes() if self._n_fixes else None
-        if fixes is None:
-            f_tv = f_lat = f_lon = f_h = np.zeros(0)
-            f_v = np.zeros((0, 3))
-        else:
-            f_tv, f_lat, f_lon, f_h = (np.ascontiguousarray(a, dtype=np.float64) for a in
-                                       (fixes.t_valid_s, fixes.lat_rad, fixes.lon_rad, fixes.h_m))
-            f_v = np.ascontiguousarray(fixes.v_ned_m_s, dtype=np.float64)
+        tab = self._fix_tab
         rec = dict(t=np.empty(k_ep), nav=np.empty((k_ep, 10)), bg=np.empty((k_ep, 3)), ba=np.empty((k_ep, 3)),
                    sigma=np.empty((k_ep, n_x)), updated=np.empty(k_ep, dtype=np.bool_), t_valid=np.empty(k_ep),
                    phi=np.empty((k_ep, n_x, n_x)), p_pred=np.empty((k_ep, n_x, n_x)), p_upd=np.empty((k_ep, n_x, n_x)),
@@ -736,7 +737,8 @@ class AidedRun:
         n_go = target - self._done
         done = kep.aided_chunk(
             dth, dvel, n_go, self._done, ev[k0:k1], fs["ptr"][k0:k1 + 1] - fs["ptr"][k0],
-            fs["fix"][fs["ptr"][k0]:fs["ptr"][k1]], f_tv, f_lat, f_lon, f_h, f_v, self._t0, self._dt, self._n_sub,
+            fs["fix"][fs["ptr"][k0]:fs["ptr"][k1]], tab[:, 0], tab[:, 1], tab[:, 2], tab[:, 3], tab[:, 4:7], self._t0,
+            self._dt, self._n_sub,
             self._big_t, aided._n_prop, self._latency == "compensate", "position" in self._use,
             "velocity" in self._use, self._has_lever, self._lever, fs["r_pos"], fs["r_vel"], fs["gm"][0],
             fs["gm"][1], fs["keep_rows"], nav._ccoef, nav._scoef, np.asarray(nav._gains, dtype=np.float64),
@@ -823,6 +825,17 @@ def smooth(result: AidedResult) -> SmoothedResult:
         raise ValueError(f"result: must be an AidedResult, got {type(result).__name__}")
     k_ep = len(result)
     est = np.zeros((k_ep, result.phi.shape[1] if k_ep else ekf.N_STATES))
+    p_s = np.ascontiguousarray(result.p_upd, dtype=np.float64).copy()
+    if k_ep >= 2:      # the recursion compiled (kep.rts_smooth; _smooth_reference the numpy form, tested)
+        kep.rts_smooth(*(np.ascontiguousarray(a, dtype=np.float64) for a in
+                         (result.phi, result.p_pred, result.p_upd, result.correction)), est, p_s)
+    return _smoothed(result, est, p_s)
+
+
+def _smooth_reference(result: AidedResult) -> SmoothedResult:
+    """:func:`smooth` with the recursion in numpy."""
+    k_ep = len(result)
+    est = np.zeros((k_ep, result.phi.shape[1] if k_ep else ekf.N_STATES))
     p_s = result.p_upd.copy()
     for k in range(k_ep - 2, -1, -1):
         pp = result.p_pred[k + 1]
@@ -832,6 +845,11 @@ def smooth(result: AidedResult) -> SmoothedResult:
         est[k] = gain @ (est[k + 1] + result.correction[k + 1])
         p = result.p_upd[k] + gain @ (p_s[k + 1] - pp) @ gain.T
         p_s[k] = 0.5 * (p + p.T)
+    return _smoothed(result, est, p_s)
+
+
+def _smoothed(result, est, p_s) -> SmoothedResult:
+    """The filter's solution corrected by the smoothed estimates ``est`` with their covariance ``p_s``."""
     lat, lon, h, vel, q = _correct_rows(result.lat_rad, result.lon_rad, result.h_m, result.v_ned_m_s,
                                         result.q_nb, est[:, :ekf.N_STATES])
     return SmoothedResult(
