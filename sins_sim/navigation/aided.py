@@ -485,7 +485,10 @@ class AidedRun:
         self._inn = {k: [] for k in ("t", "t_valid", "name", "nu", "sigma", "nis")}
         # the compiled path (closed loop): every epoch of a chunk in one call (_kernels.ekf_epoch.aided_chunk); the
         # Python path above (_epoch, _advance) is its reference. Records per chunk (the times also in _rec["t"]).
-        self._compiled = self._feedback
+        # (only for the state layout it knows, 15 inertial states then the fix errors: a filter with other states
+        # runs the Python path until the kernel learns them)
+        fe_n = 0 if fix_errors is None else fix_errors.n_states
+        self._compiled = self._feedback and self._aided.n_states == ekf.N_STATES + fe_n
         self._parts = []
         self._fast = None
 
