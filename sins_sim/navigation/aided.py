@@ -750,8 +750,7 @@ class AidedRun:
         done = kep.aided_chunk(
             dth, dvel, n_go, self._done, ev[k0:k1], fs["ptr"][k0:k1 + 1] - fs["ptr"][k0],
             fs["fix"][fs["ptr"][k0]:fs["ptr"][k1]], tab[:, 0], tab[:, 1], tab[:, 2], tab[:, 3], tab[:, 4:7], self._t0,
-            self._dt, self._n_sub,
-            self._big_t, aided._n_prop, self._latency == "compensate", "position" in self._use,
+            self._dt, self._n_sub, self._big_t, aided._n_prop, self._latency == "compensate", "position" in self._use,
             "velocity" in self._use, self._has_lever, self._lever, fs["r_pos"], fs["r_vel"], fs["gm"][0],
             fs["gm"][1], fs["keep_rows"], nav._ccoef, nav._scoef, np.asarray(nav._gains, dtype=np.float64),
             nav._state, bg, ba, aided._unmod is not None, f_ref, aided._acc, aided._origin, aided._unmod_var,
