@@ -67,6 +67,7 @@ import numpy as np
 from sins_sim import _validate as v
 from sins_sim import earth
 from sins_sim._kernels import ekf as kekf
+from sins_sim._kernels import ekf_epoch as kep
 from sins_sim.navigation import ekf
 from sins_sim.navigation.attitude import _increments, attitude_error, quat_from_rotvec, quat_multiply
 from sins_sim.navigation.gnss import GnssFixes
@@ -403,6 +404,15 @@ class AidedRun:
     coning, sculling : str or sequence
         The navigator's coning and sculling compensation
         (:class:`~sins_sim.navigation.strapdown.StrapdownNavigator`).
+
+    Notes
+    -----
+    In closed loop (``feedback=True``) each :meth:`feed` handles all the navigation updates and epochs its chunk
+    reaches in one compiled call (:func:`sins_sim._kernels.ekf_epoch.aided_chunk`: the aided navigator's strapdown
+    pieces, the propagation blocks, the fixes' measurements at their time of validity, the update, the NIS, the
+    feedback, the kept rows and the records); the Python path that does the same one step at a time (``_epoch``,
+    ``_advance``; the open loop's) is its reference, and the two give the same result bit for bit (tested). The
+    aided navigator's own innovation list and mean gyro rate are then not kept (the run's records hold them).
     """
 
     def __init__(self, t0_s, dt_s, n_increments, start: ekf.NavState, noise: ekf.ImuNoise, p0, t_valid_s,
@@ -463,6 +473,7 @@ class AidedRun:
         self._tv = tv
         self._n_fix_sched = tv.shape[0]
         self._fix_parts, self._n_fixes = [], 0
+        self._fix_tab = np.empty((tv.shape[0], 7))
         self._fix = None
         # pending increments (not yet navigated) and the gyro sums of the recent navigation updates
         self._pend_th, self._pend_v = np.zeros((0, 3)), np.zeros((0, 3))
@@ -472,6 +483,14 @@ class AidedRun:
         self._rec = {k: [] for k in ("t", "lat", "lon", "h", "v", "q", "bg", "ba", "sigma", "updated", "t_valid",
                                      "phi", "p_pred", "p_upd", "corr")}
         self._inn = {k: [] for k in ("t", "t_valid", "name", "nu", "sigma", "nis")}
+        # the compiled path (closed loop): every epoch of a chunk in one call (_kernels.ekf_epoch.aided_chunk); the
+        # Python path above (_epoch, _advance) is its reference. Records per chunk (the times also in _rec["t"]).
+        # (only for the state layout it knows, 15 inertial states then the fix errors: a filter with other states
+        # runs the Python path until the kernel learns them)
+        fe_n = 0 if fix_errors is None else fix_errors.n_states
+        self._compiled = self._feedback and self._aided.n_states == ekf.N_STATES + fe_n
+        self._parts = []
+        self._fast = None
 
     @property
     def update_period_s(self) -> float:
@@ -508,6 +527,11 @@ class AidedRun:
                 raise ValueError(f"fixes.{name}: must be finite (a {meas} measurement is applied), got "
                                  f"{np.count_nonzero(~np.isfinite(val))} non-finite values")
         self._fix_parts.append(fixes)
+        tab = self._fix_tab          # the compiled path's copy: time of validity, lat, lon, h, v_N, v_E, v_D
+        a = self._n_fixes
+        tab[a:a + m, 0], tab[a:a + m, 1], tab[a:a + m, 2], tab[a:a + m, 3] = (fixes.t_valid_s, fixes.lat_rad,
+                                                                              fixes.lon_rad, fixes.h_m)
+        tab[a:a + m, 4:7] = fixes.v_ned_m_s
         self._n_fixes += m
         self._fix = None
 
@@ -552,6 +576,9 @@ class AidedRun:
             raise ValueError(f"dtheta: must have shape (n, 3), got {dth.shape}")
         if dvel.shape != dth.shape:
             raise ValueError(f"dv: must have the shape of dtheta {dth.shape}, got {dvel.shape}")
+        if self._compiled:
+            self._feed_compiled(dth, dvel)
+            return
         self._pend_th = np.concatenate([self._pend_th, dth])
         self._pend_v = np.concatenate([self._pend_v, dvel])
         avail = self._done + self._pend_th.shape[0] // self._n_sub
@@ -644,8 +671,138 @@ class AidedRun:
                          ("phi", phi), ("p_pred", p_pred), ("p_upd", aided.p), ("corr", corr)):
             self._rec[key].append(val)
 
+    # --- the compiled path ---------------------------------------------------------------------------------------
+
+    def _fast_state(self):
+        """The compiled path's arrays (made at the first chunk): the epochs' fixes as index lists, the kept rows
+        (``t, lat, lon, h, v, q``; at least the ``keep_s`` the latency needs), the updates' raw gyro sums."""
+        if self._fast is None:
+            big_t = self._big_t
+            ev = np.array(self._events, dtype=np.int64)
+            lists = [self._by_update.get(int(j), []) for j in ev]
+            ptr = np.zeros(ev.size + 1, dtype=np.int64)
+            ptr[1:] = np.cumsum([len(x) for x in lists])
+            fix = np.array([i for x in lists for i in x], dtype=np.int64)
+            # the largest fix index needed up to each entry (a chunk's fixes all added: one comparison)
+            cmax = np.maximum.accumulate(fix) if fix.size else fix
+            keep_rows = int(math.ceil(self._keep_s / big_t)) + 3
+            hist = np.empty((2 * keep_rows + 64, kep.HIST_COLS))
+            st = self._hist
+            hist[0] = [st.t[0], st.lat[0], st.lon[0], st.h[0], *st.v[0], *st.q[0]]
+            ints = np.zeros(kep.INT_SIZE, dtype=np.int64)
+            ints[kep.INT_HIST_N] = 1
+            fe = self._aided.fix_errors
+            gm = [-1, -1]
+            if fe is not None:
+                for k, name in enumerate(GNSS_MEASUREMENTS):
+                    cols = fe.columns(name)
+                    gm[k] = -1 if cols is None else cols.start
+            r_pos = self._r_pos if self._r_pos is not None else np.zeros((3, 3))
+            r_vel = self._r_vel if self._r_vel is not None else np.zeros((3, 3))
+            self._fast = dict(ev=ev, ptr=ptr, fix=fix, cmax=cmax, keep_rows=keep_rows, hist=hist, ints=ints, gm=gm,
+                              ring=np.zeros((keep_rows + 2, 3)), r_pos=np.ascontiguousarray(r_pos),
+                              r_vel=np.ascontiguousarray(r_vel))
+        return self._fast
+
+    def _feed_compiled(self, dth, dvel):
+        """:meth:`feed`'s epochs and navigation in one compiled call (:func:`kep.aided_chunk`; the same values as
+        :meth:`_epoch` and :meth:`_advance`, tested)."""
+        fs = self._fast_state()
+        if self._pend_th.shape[0]:
+            dth = np.concatenate([self._pend_th, dth])
+            dvel = np.concatenate([self._pend_v, dvel])
+        else:
+            dth, dvel = np.ascontiguousarray(dth), np.ascontiguousarray(dvel)
+        avail = self._done + dth.shape[0] // self._n_sub
+        ev = fs["ev"]
+        k0 = self._next_event
+        k1 = int(np.searchsorted(ev, avail, side="right"))
+        target, missing = avail, None
+        p0, p1 = int(fs["ptr"][k0]), int(fs["ptr"][k1])
+        if p1 > p0 and fs["cmax"][p1 - 1] >= self._n_fixes:
+            # a fix due and not added: navigate up to its epoch, then say so
+            late = p0 + int(np.argmax(fs["fix"][p0:p1] >= self._n_fixes))
+            k_bad = int(np.searchsorted(fs["ptr"], late, side="right")) - 1
+            missing = (int(ev[k_bad]), int(fs["fix"][late]))
+            k1, target = k_bad, int(ev[k_bad])
+        aided = self._aided
+        nav = aided._nav
+        n_x = aided.n_states
+        k_ep = k1 - k0
+        m_meas = int(fs["ptr"][k1] - fs["ptr"][k0]) * len(self._use)
+        tab = self._fix_tab
+        rec = dict(t=np.empty(k_ep), nav=np.empty((k_ep, 10)), bg=np.empty((k_ep, 3)), ba=np.empty((k_ep, 3)),
+                   sigma=np.empty((k_ep, n_x)), updated=np.empty(k_ep, dtype=np.bool_), t_valid=np.empty(k_ep),
+                   phi=np.empty((k_ep, n_x, n_x)), p_pred=np.empty((k_ep, n_x, n_x)), p_upd=np.empty((k_ep, n_x, n_x)),
+                   corr=np.empty((k_ep, n_x)), i_t=np.empty(m_meas), i_tv=np.empty(m_meas),
+                   i_name=np.empty(m_meas, dtype=np.int64), i_nu=np.empty((m_meas, 3)), i_sig=np.empty((m_meas, 3)),
+                   i_nis=np.empty(m_meas))
+        noise = aided._noise
+        bg, ba = aided._bg.copy(), aided._ba.copy()
+        if aided._f_ref is None:
+            f_ref, fs["ints"][kep.INT_HAVE_FREF] = np.zeros(3), 0
+        else:
+            f_ref, fs["ints"][kep.INT_HAVE_FREF] = np.asarray(aided._f_ref, dtype=np.float64).copy(), 1
+        x = aided._x.copy()
+        ints = fs["ints"]
+        ints[kep.INT_BLOCK_N] = aided._block_n
+        n_go = target - self._done
+        done = kep.aided_chunk(
+            dth, dvel, n_go, self._done, ev[k0:k1], fs["ptr"][k0:k1 + 1] - fs["ptr"][k0],
+            fs["fix"][fs["ptr"][k0]:fs["ptr"][k1]], tab[:, 0], tab[:, 1], tab[:, 2], tab[:, 3], tab[:, 4:7], self._t0,
+            self._dt, self._n_sub, self._big_t, aided._n_prop, self._latency == "compensate", "position" in self._use,
+            "velocity" in self._use, self._has_lever, self._lever, fs["r_pos"], fs["r_vel"], fs["gm"][0],
+            fs["gm"][1], fs["keep_rows"], nav._ccoef, nav._scoef, np.asarray(nav._gains, dtype=np.float64),
+            nav._state, bg, ba, aided._unmod is not None, f_ref, aided._acc, aided._origin, aided._unmod_var,
+            aided._qc, np.asarray(aided._inv_tau, dtype=np.float64), aided._fix_tau, aided._fix_var,
+            aided._prior_bias_var, np.array([noise.gyro_bias_sigma_rad_s, noise.accel_bias_sigma_m_s2], dtype=float),
+            np.array([noise.gyro_bias_tau_s, noise.accel_bias_tau_s], dtype=float),
+            np.array([noise.gyro_bias_rw_rad_s_sqrt_s, noise.accel_bias_rw_m_s2_sqrt_s], dtype=float),
+            aided._p, x, aided._phi_acc, aided._block_start, aided._last_correction, ints, fs["hist"], fs["ring"],
+            rec["t"], rec["nav"], rec["bg"], rec["ba"], rec["sigma"], rec["updated"], rec["t_valid"], rec["phi"],
+            rec["p_pred"], rec["p_upd"], rec["corr"], rec["i_t"], rec["i_tv"], rec["i_name"], rec["i_nu"],
+            rec["i_sig"], rec["i_nis"])
+        aided._bg, aided._ba, aided._x = bg, ba, x
+        aided._block_n = int(ints[kep.INT_BLOCK_N])
+        if aided._unmod is not None and ints[kep.INT_HAVE_FREF]:
+            aided._f_ref = f_ref
+        if ints[kep.INT_STATUS] != kep.STATUS_OK:
+            raise ValueError(f"the filter's correction at t = {float(self._t0 + ev[k0 + done] * self._big_t)!r} s is "
+                             "not finite (the covariance or a measurement is not)")
+        n_used = n_go * self._n_sub
+        nav._n_samples += n_used
+        nav._n_updates += n_go
+        self._pend_th, self._pend_v = dth[n_used:].copy(), dvel[n_used:].copy()
+        self._done = target
+        self._next_event = k1
+        self._rec["t"].extend(rec["t"].tolist())
+        self._parts.append(rec)
+        if missing is not None:
+            raise RuntimeError(f"the fix valid at {self._tv[missing[1]]!r} s is due at "
+                               f"{float(self._t0 + missing[0] * self._big_t)!r} s and has not been added (add_fixes)")
+
+    def _result_compiled(self) -> AidedResult:
+        n_x = self._aided.n_states
+        names = np.array(GNSS_MEASUREMENTS)
+
+        def cat(key, shape):
+            return np.concatenate([p[key] for p in self._parts]) if self._parts else np.zeros((0,) + shape)
+
+        nav = cat("nav", (10,))
+        return AidedResult(
+            t_s=cat("t", ()), lat_rad=nav[:, 0].copy(), lon_rad=nav[:, 1].copy(), h_m=nav[:, 2].copy(),
+            v_ned_m_s=nav[:, 3:6].copy(), q_nb=nav[:, 6:10].copy(), gyro_bias_rad_s=cat("bg", (3,)),
+            accel_bias_m_s2=cat("ba", (3,)), sigma=cat("sigma", (n_x,)), updated=cat("updated", ()).astype(bool),
+            t_valid_s=cat("t_valid", ()), phi=cat("phi", (n_x, n_x)), p_pred=cat("p_pred", (n_x, n_x)),
+            p_upd=cat("p_upd", (n_x, n_x)), correction=cat("corr", (n_x,)), innovation_t_s=cat("i_t", ()),
+            innovation_t_valid_s=cat("i_tv", ()), innovation_name=names[cat("i_name", ()).astype(np.int64)],
+            innovation=cat("i_nu", (3,)), innovation_sigma=cat("i_sig", (3,)), nis=cat("i_nis", ()),
+            latency=self._latency, update_period_s=self._big_t)
+
     def result(self) -> AidedResult:
         """The run so far as an :class:`AidedResult` (all epochs recorded)."""
+        if self._compiled:
+            return self._result_compiled()
         a = {k: np.array(val) for k, val in self._rec.items()}
         inn = self._inn
         m = len(inn["t"])
@@ -679,6 +836,17 @@ def smooth(result: AidedResult) -> SmoothedResult:
         raise ValueError(f"result: must be an AidedResult, got {type(result).__name__}")
     k_ep = len(result)
     est = np.zeros((k_ep, result.phi.shape[1] if k_ep else ekf.N_STATES))
+    p_s = np.ascontiguousarray(result.p_upd, dtype=np.float64).copy()
+    if k_ep >= 2:      # the recursion compiled (kep.rts_smooth; _smooth_reference the numpy form, tested)
+        kep.rts_smooth(*(np.ascontiguousarray(a, dtype=np.float64) for a in
+                         (result.phi, result.p_pred, result.p_upd, result.correction)), est, p_s)
+    return _smoothed(result, est, p_s)
+
+
+def _smooth_reference(result: AidedResult) -> SmoothedResult:
+    """:func:`smooth` with the recursion in numpy."""
+    k_ep = len(result)
+    est = np.zeros((k_ep, result.phi.shape[1] if k_ep else ekf.N_STATES))
     p_s = result.p_upd.copy()
     for k in range(k_ep - 2, -1, -1):
         pp = result.p_pred[k + 1]
@@ -688,6 +856,11 @@ def smooth(result: AidedResult) -> SmoothedResult:
         est[k] = gain @ (est[k + 1] + result.correction[k + 1])
         p = result.p_upd[k] + gain @ (p_s[k + 1] - pp) @ gain.T
         p_s[k] = 0.5 * (p + p.T)
+    return _smoothed(result, est, p_s)
+
+
+def _smoothed(result, est, p_s) -> SmoothedResult:
+    """The filter's solution corrected by the smoothed estimates ``est`` with their covariance ``p_s``."""
     lat, lon, h, vel, q = _correct_rows(result.lat_rad, result.lon_rad, result.h_m, result.v_ned_m_s,
                                         result.q_nb, est[:, :ekf.N_STATES])
     return SmoothedResult(

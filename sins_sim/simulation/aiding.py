@@ -457,11 +457,14 @@ class AidedMission:
         out = np.asarray(out)
         return np.unique(out[(out >= t0_s) & (out <= t_end_s + 1e-9)])
 
-    def model(self, t0_s, t_end_s) -> FilterModel:
-        """The filter's model over the aided span ``[t0_s, t_end_s]`` (:func:`filter_model`; one per span)."""
-        key = (round(float(t0_s), 9), round(float(t_end_s), 9))
+    def model(self, t0_s) -> FilterModel:
+        """The filter's model over the aided span from ``t0_s`` to the mission's end (:func:`filter_model`), computed
+        once per mission and shared by the filters (their own spans end a few samples earlier, by their group
+        delays; one model keeps the comparison paired)."""
+        key = round(float(t0_s), 9)
         if key not in self._models:
-            self._models[key] = filter_model(self.settings, self.noise, self.sensors, self.vehicle, t0_s, t_end_s)
+            self._models[key] = filter_model(self.settings, self.noise, self.sensors, self.vehicle, t0_s,
+                                             self.duration_s)
         return self._models[key]
 
     def start_run(self, name, j0, n_increments, lat0, lon0, h0, v0, q0, alignment_result=None):
@@ -472,7 +475,7 @@ class AidedMission:
         t0 = j0 / self.fs
         g = self.settings.gnss
         t_end = (j0 + n_increments) / self.fs
-        model = self.model(t0, t_end)
+        model = self.model(t0)
         pos, vel, tilt, heading = _prior(self.settings, alignment_result)
         p0 = model.initial_covariance(pos, vel, tilt, heading)
         start = ekf.NavState(t0, lat0, lon0, h0, np.asarray(v0, dtype=np.float64), np.asarray(q0, dtype=np.float64),
