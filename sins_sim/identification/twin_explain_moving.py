@@ -83,16 +83,21 @@ def _span(x3: np.ndarray) -> np.ndarray:
     return np.column_stack([np.ones(x3.shape[0]), x3])
 
 
-def _perp(z: np.ndarray, span: np.ndarray, train) -> tuple:
-    """``(z_perp, 1 - R^2)``: the part of ``z`` outside ``span`` (coefficients on the ``train`` samples), and its
-    share of ``z``'s sum of squares there."""
-    tr = np.asarray(train, dtype=bool)
-    scale = np.linalg.norm(span[tr], axis=0)
+def _perp(z: np.ndarray, span: np.ndarray, train, per: int) -> tuple:
+    """``(z_perp, 1 - R^2)``: ``z`` less its regression on ``span``, the coefficients fitted as the twin's terms
+    were (:func:`~sins_sim.navigation.truth_fit.fit_against_truth`: on sums over blocks of ``per`` intervals, here
+    the blocks wholly in ``train``), and the share of ``z``'s block sums of squares outside the span."""
+    n = z.shape[0]
+    k = n // per
+    tr = np.asarray(train, dtype=bool)[:k * per].reshape(k, per).all(axis=1)
+    zb = z[:k * per].reshape(k, per).sum(axis=1)[tr]
+    sb = span[:k * per].reshape(k, per, span.shape[1]).sum(axis=1)[tr]
+    scale = np.linalg.norm(sb, axis=0)
     scale[scale == 0.0] = 1.0
-    coef, *_ = np.linalg.lstsq(span[tr] / scale, z[tr], rcond=None)
-    zp = z - (span / scale) @ coef
-    zz = float(z[tr] @ z[tr])
-    return zp, (float(zp[tr] @ zp[tr]) / zz if zz > 0.0 else 0.0)
+    coef, *_ = np.linalg.lstsq(sb / scale, zb, rcond=None)
+    zz = float(zb @ zb)
+    rb = zb - (sb / scale) @ coef
+    return z - (span / scale) @ coef, (float(rb @ rb) / zz if zz > 0.0 else 0.0)
 
 
 def _clock_regressor(x: np.ndarray, t: np.ndarray, dt: float) -> np.ndarray:
@@ -133,13 +138,14 @@ def motion_candidates(ideal_dth, ideal_dv, t, resid6) -> tuple:
     """
     from scipy.stats import norm
 
-    from sins_sim.navigation.truth_fit import EXCITATION_MIN
+    from sins_sim.navigation.truth_fit import BLOCK_S, EXCITATION_MIN
 
     a = np.asarray(ideal_dth, dtype=np.float64)
     v = np.asarray(ideal_dv, dtype=np.float64)
     t = np.asarray(t, dtype=np.float64)
     dt = float(t[1] - t[0])
     every = np.ones(t.size, dtype=bool)
+    per = max(1, int(round(BLOCK_S / dt)))
     spans = (_span(a), _span(v))
     var = np.maximum(np.var(np.asarray(resid6, dtype=np.float64), axis=0), 1e-300)
     cands, why = [], {}
@@ -147,13 +153,13 @@ def motion_candidates(ideal_dth, ideal_dv, t, resid6) -> tuple:
     for tri, (sensor, x, what) in enumerate((("gyro", a, "rates"), ("accelerometer", v, "specific forces"))):
         for i, ax in enumerate("xyz"):
             z = np.abs(x[:, i]) / (2.0 * dt)
-            zp, share = _perp(z, spans[tri], every)
+            zp, share = _perp(z, spans[tri], every, per)
             if share >= EXCITATION_MIN:
                 cands.append({"effect": "scale_factor_asymmetry", "label": f"scale-factor asymmetry {sensor} {ax}",
                               "groups": [([3 * tri + i], zp[:, None])], "coefficient": "asymmetry", "unit": "ppm",
                               "factor": 1e6})
                 continue
-            pos, neg = float(np.sum(x[x[:, i] > 0, i])), float(-np.sum(x[x[:, i] < 0, i]))
+            pos, neg = float(np.sum(x[x[:, i] > 0, i])), abs(float(np.sum(x[x[:, i] < 0, i])))
             sign = "negative" if neg <= pos else "positive"
             out_of.append(f"{sensor} {ax}: no {sign} {what} about {ax} (they make "
                           f"{min(pos, neg) / max(pos + neg, 1e-300):.2g} of its increments), so |x| is +-x and the "
@@ -164,7 +170,7 @@ def motion_candidates(ideal_dth, ideal_dv, t, resid6) -> tuple:
     for tri, x in enumerate((a, v)):
         z = _clock_regressor(x, t, dt)
         for i in range(3):
-            zp, share = _perp(z[:, i], spans[tri], every)
+            zp, share = _perp(z[:, i], spans[tri], every, per)
             if share >= EXCITATION_MIN:
                 groups.append([3 * tri + i, zp])
     if groups:
@@ -178,7 +184,7 @@ def motion_candidates(ideal_dth, ideal_dv, t, resid6) -> tuple:
     need = 1.0 / (norm.isf(ALPHA / 2.0) + norm.ppf(TEST_POWER))
     groups, low = [], []
     for tri, (z3, name) in enumerate(((con, "coning"), (scul, "sculling"))):
-        cols = [_perp(z3[:, i], spans[tri], every)[0] for i in range(3)]
+        cols = [_perp(z3[:, i], spans[tri], every, per)[0] for i in range(3)]
         info = sum(float(c @ c) / var[3 * tri + i] for i, c in enumerate(cols))
         sigma = 1.0 / math.sqrt(info) if info > 0.0 else math.inf
         if sigma <= need:
