@@ -161,9 +161,9 @@ def motion_candidates(ideal_dth, ideal_dv, t, resid6) -> tuple:
                 continue
             pos, neg = float(np.sum(x[x[:, i] > 0, i])), abs(float(np.sum(x[x[:, i] < 0, i])))
             sign = "negative" if neg <= pos else "positive"
-            out_of.append(f"{sensor} {ax}: no {sign} {what} about {ax} (they make "
-                          f"{min(pos, neg) / max(pos + neg, 1e-300):.2g} of its increments), so |x| is +-x and the "
-                          "asymmetry a scale factor")
+            out_of.append(f"{sensor} {ax}: no {sign} {what} about {ax} (their share of the axis's increments: "
+                          f"{min(pos, neg) / max(pos + neg, 1e-300):.2g}), so |x| is +-x and the asymmetry a scale "
+                          "factor")
     if out_of:
         why["scale_factor_asymmetry"] = "; ".join(out_of)
     groups = []
@@ -192,8 +192,8 @@ def motion_candidates(ideal_dth, ideal_dv, t, resid6) -> tuple:
         else:
             low.append(f"{name}: a full term would have sigma {sigma:.3g} on its gain (testable at <= {need:.3g})")
     if groups:
-        cands.append({"effect": "coning_sculling_residue", "label": "coning/sculling residue of the unit's algorithm"
-                      + ("" if len(groups) == 2 else f" ({'coning' if groups[0][0][0] == 0 else 'sculling'})"),
+        cands.append({"effect": "coning_sculling_residue", "label": "coning/sculling residue"
+                      + ("" if len(groups) == 2 else f" ({'coning' if groups[0][0][0] == 0 else 'sculling'} only)"),
                       "groups": groups, "coefficient": "gain", "unit": "", "factor": 1.0})
     if low:
         why["coning_sculling_residue"] = "the motion's coning and sculling are too weak against the noise: " + \
@@ -238,8 +238,9 @@ def pulse_weight_in_fit(truth_fit: dict, alpha: float = ALPHA) -> dict:
         if "value" in e and e["sigma"] > 0.0 and abs(e["value"]) > crit * e["sigma"]:
             found[f"{s} {a}"] = {"value_ppm": e["value"], "sigma_ppm": e["sigma"]}
     return {"effect": "pulse_weight_error", "channels": found,
-            "statement": ("a pulse-weight error is its channel's scale factor: in the fit against the truth and in "
-                          "the twin, so it leaves no gap; " + ("; ".join(
+            "statement": ("a pulse-weight error is its channel's scale factor, not told apart from it on a known "
+                          "trajectory: it is in the fitted scale factor and in the twin, and leaves no gap; scale "
+                          "factors that differ from zero (a pulse-weight error among them): " + ("; ".join(
                               f"{k} {e['value_ppm']:.4g} +- {e['sigma_ppm']:.2g} ppm" for k, e in found.items())
                               or f"no scale factor differs from zero (|S| / sigma < {crit:.3g})"))}
 

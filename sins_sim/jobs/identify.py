@@ -1374,7 +1374,8 @@ def _truth_twin_report(metrics: dict) -> list:
         out.append(f"| {label} ({unit}) | {e['log_' + unit]:.4g} | {e['twin_mean_' + unit]:.4g} +- "
                    f"{e['twin_halfwidth_' + unit]:.3g} |")
     out += ["", tw["summary"] + ".", ""] + [f"- {f['statement']}" for f in tw["findings"]]
-    out += ["", (f"Tests (false alarms {100 * tw['alpha']:.3g} % per log and kind, Bonferroni over the points): "
+    out += ["", (f"Tests (false alarms {100 * tw['alpha']:.3g} % per log for the Allan deviation and for the "
+                 f"navigation, {100 * LINE_FALSE_ALARM:.3g} % for the lines; Bonferroni over the points): "
                  "the residual's Allan variance against the mean of the twin's (F), a line of the log's residual "
                  "that half the twin's seeds lack, and the navigation error outside the twin's prediction interval "
                  "(mean +- t s sqrt(1 + 1/seeds)) from a time to the end. The twin's noise is white: a bias drift or "
