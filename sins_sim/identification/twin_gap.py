@@ -56,15 +56,8 @@ NAV_QUANTITIES = (
 )
 #: The same on a known trajectory (:mod:`sins_sim.simulation.twin_moving`): position and velocity are errors against
 #: the truth, and the attitude is the error ``psi`` against the truth's attitude, not a drift from an aligned start.
-NAV_QUANTITIES_TRUTH = (
-    ("position_m", 0, "north position error", 1.0, "m"),
-    ("position_m", 1, "east position error", 1.0, "m"),
-    ("velocity_m_s", 0, "north velocity error", 1.0, "m/s"),
-    ("velocity_m_s", 1, "east velocity error", 1.0, "m/s"),
-    ("attitude_rad", 0, "attitude error about north", 1.0 / ARCSEC, "arcsec"),
-    ("attitude_rad", 1, "attitude error about east", 1.0 / ARCSEC, "arcsec"),
-    ("attitude_rad", 2, "attitude error about down", 1.0 / ARCSEC, "arcsec"),
-)
+NAV_QUANTITIES_TRUTH = tuple((key, col, label.replace("drift", "error") if key == "attitude_rad" else label + " error",
+                              scale, unit) for key, col, label, scale, unit in NAV_QUANTITIES)
 _ALLAN_UNIT = {"gyro": ("deg_h", 1.0 / DEG_PER_H), "accelerometer": ("ug", 1.0 / MICRO_G)}
 
 
