@@ -131,6 +131,34 @@ def test_clean_moving_logs_give_none(tmp_path):
     assert sum(v["status"] == "none" for v in verdicts) >= 4, [v["status"] for v in verdicts]
 
 
+def _pulse_readout(x, w, rng):
+    """Increments as a pulse readout outputs them: ``floor(r + x / w)`` pulses, the residue ``r`` carried from a
+    uniform start (written out here, apart from the twin's kernel)."""
+    r = rng.uniform(0.0, 1.0, x.shape[1])
+    out = np.empty_like(x)
+    for k in range(x.shape[0]):
+        c = np.floor(r + x[k] / w)
+        r = r + x[k] / w - c
+        out[k] = c * w
+    return out
+
+
+def test_clean_logs_of_a_coarse_pulse_readout_give_none(tmp_path):
+    # pulses of 5 urad (1 arcsec) and 0.1 mm/s: the quantum's error (w / sqrt(6) per increment) is 7 times the
+    # gyro's white noise per sample, so the twin's noise is read off the one-second blocks, where the carried
+    # residue's error telescopes; two or more false verdicts of three logs at most 3 * 0.11^2 = 0.04 (as above)
+    truth = _truth_file(tmp_path / "truth.csv", rocking=True)
+    statuses = []
+    for s in (1, 2, 3):
+        def readout(t, dth, dv, th, v, rng=np.random.default_rng(100 + s)):
+            return _pulse_readout(dth, 5e-6, rng), _pulse_readout(dv, 1e-4, rng)
+
+        r = identify_truth(_altered(tmp_path / f"pulses{s}.parquet", truth, s, readout), truth, twin_seeds=SEEDS)
+        assert "pulses" in r["twin"]["simulated_at"]
+        statuses.append(r["verdict"]["status"])
+    assert statuses.count("none") >= 2, statuses
+
+
 def test_clock_rate_off_nominal_is_named(tmp_path):
     kappa = 20e-6
     truth = _truth_file(tmp_path / "truth.csv", rocking=True)
