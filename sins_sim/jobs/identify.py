@@ -1247,14 +1247,22 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
     from sins_sim.identification.twin_explain_moving import explain_moving
     from sins_sim.identification.twin_gap import NAV_QUANTITIES_TRUTH, localise
     from sins_sim.models.sensor_errors import sensor_params_from_dict
+    from sins_sim.navigation.truth_fit import fit_against_truth
     from sins_sim.simulation.twin_moving import truth_run, twin_runs_on
 
     doc = truth_twin_sensors(metrics["truth_fit"])
     dt = float(t_truth[1] - t_truth[0])
     ideal = {"gyro": np.asarray(ideal_th, dtype=np.float64), "accelerometer": np.asarray(ideal_v, dtype=np.float64)}
-    # the twin's deterministic increments x_true + b dt + E x_true (0 where a term is not observable, as the twin)
-    expected = np.hstack([ideal[s] + np.nan_to_num(fit.bias[s]) * dt + ideal[s] @ np.nan_to_num(fit.e[s]).T
+    def fitted(f):
+        """The deterministic increments x_true + b dt + E x_true of a fit (0 where a term is not observable)."""
+        return np.hstack([ideal[s] + np.nan_to_num(f.bias[s]) * dt + ideal[s] @ np.nan_to_num(f.e[s]).T
                           for s in ("gyro", "accelerometer")])
+
+    def own_fit(th, v):
+        """A twin seed's residual is made as the log's: against its own fit to the truth."""
+        return fitted(fit_against_truth(dt, {"gyro": th, "accelerometer": v}, ideal))
+
+    expected = fitted(fit)
     resid6 = (np.hstack([np.asarray(dth, dtype=np.float64), np.asarray(dv, dtype=np.float64)]) - expected) / dt
     fa = LINE_FALSE_ALARM / 6.0
     doc = _truth_white_noise(doc, resid6, dt, pulses, metrics["truth_fit"])
@@ -1268,7 +1276,7 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
             twin = params if added is None else sensor_params_from_dict(
                 _truth_white_noise(doc, resid6 - added, dt, pulses, metrics["truth_fit"]), "the twin, refitted")
             return twin_runs_on(twin, t_truth, ideal_th, ideal_v, truth, range(1, seeds + 1), pulses=pulses,
-                                added=added, expected=expected, false_alarm=fa)
+                                added=added, expected=own_fit, false_alarm=fa)
 
         runs = run_twin(None)
         gap = localise(log_run, runs, quantities=NAV_QUANTITIES_TRUTH)

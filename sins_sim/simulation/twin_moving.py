@@ -19,7 +19,10 @@ spectral lines (:func:`sins_sim.navigation.spectral_lines.find_lines`) of its **
 twin's deterministic increments ``x_true + b dt + E x_true`` (the fit against the truth), as a rate and specific
 force. On a moving log the raw record is the motion; the residual is the unit's noise and whatever the twin does not
 model, and the twin's residual (its seeds less the same deterministic part) is its noise alone, so the two are
-compared as at rest (:func:`sins_sim.identification.twin_gap.localise`).
+compared as at rest (:func:`sins_sim.identification.twin_gap.localise`). Each seed's deterministic part is best its
+own fit against the truth, as the log's is (``expected`` a callable): the fit's error then leaves the same trace in
+both residuals (a line at the motion's frequency of the size of the fitted terms' error, less power at the longest
+taus where the fit takes the residual's projection out).
 """
 
 from __future__ import annotations
@@ -67,14 +70,17 @@ def residual_analyses(dth, dv, expected, dt_s: float, false_alarm: float) -> tup
     ----------
     dth, dv : ndarray (N, 3)
         The increments.
-    expected : ndarray (N, 6)
-        The deterministic increments (angle, velocity) they are read against.
+    expected : ndarray (N, 6) or callable
+        The deterministic increments (angle, velocity) they are read against, or ``expected(dth, dv) -> (N, 6)``
+        (e.g. the record's own fit against the truth, so that a twin's residual is made as the log's is).
     false_alarm : float
         Per channel, the chance of one or more false lines.
     """
     from sins_sim.navigation.allan import allan_deviation
     from sins_sim.navigation.spectral_lines import find_lines
 
+    if callable(expected):
+        expected = expected(dth, dv)
     resid = (np.hstack([np.asarray(dth, dtype=np.float64), np.asarray(dv, dtype=np.float64)])
              - np.asarray(expected, dtype=np.float64)) / dt_s
     allan, lines = {}, {}
