@@ -98,6 +98,10 @@ def test_asymmetry_with_rates_of_both_signs_is_localised_named_and_shrinks(tmp_p
     assert "## Verdict" in text and "**explained**: scale_factor_asymmetry" in text
     for name in ("twin-nav.png", "twin-allan.png", "twin-psd.png", "twin-explain.png"):
         assert (tmp_path / "out" / name).is_file(), name
+    assert "twin-alignment" not in r.figures        # no alignment on a moving log: it starts from the truth
+    tables = r.to_pandas()
+    assert len(tables["truth_fit"]) == 2 * (3 + 3 + 6) and len(tables["findings"]) == len(r["twin"]["findings"])
+    assert tables["candidates"]["label"].iloc[0] == "scale-factor asymmetry gyro x"
 
 
 def test_asymmetry_with_rates_of_one_sign_is_not_testable(tmp_path):

@@ -1178,33 +1178,20 @@ def identify_truth(log, truth_file, out_dir=None, *, twin_seeds: int = 0, force:
         metrics["twin"], metrics["explain"], metrics["verdict"], detail = _truth_twin(
             metrics, t_truth, dth, dv, ideal_th, ideal_v, truth, twin_seeds, pulse_weights(meta, dth, dv), fit)
         metrics = _json_ready(metrics)
-    figures = {} if detail is None else _truth_figures(detail, metrics, Path(str(log)).name, twin_seeds)
+    figures = {} if detail is None else _truth_figures(detail, metrics)
     files = _write_fit(out_dir, metrics, {"imu-sensors.yaml": truth_yaml(metrics), "report.md": _truth_report(metrics)},
                        manifest, {"truth": str(truth_file), "twin_seeds": twin_seeds}, {"log": log, "truth": truth_file},
                        force, figures)
     return IdentifyResult(metrics, detail=detail, files=files)
 
 
-def _truth_figures(detail: dict, metrics: dict, name: str, seeds: int) -> dict:
-    """The figures of a moving log beside its twin: name -> a function drawing it to a path."""
-    from sins_sim.identification.twin_gap import NAV_QUANTITIES_TRUTH
-    from sins_sim.plots import twin as tp
+def _truth_figures(detail: dict, metrics: dict) -> dict:
+    """The figures of a moving log beside its twin: name -> a function drawing it to a path
+    (:class:`~sins_sim.results.identify.IdentifyResult`'s own)."""
+    from sins_sim.results.identify import IdentifyResult, draw_figure
 
-    log_run, runs, gap = detail["log_run"], detail["runs"], detail["gap"]
-    out = {
-        "twin-nav.png": lambda path: tp.plot_twin_nav(
-            log_run.nav_t_s, log_run.nav, [r.nav for r in runs], gap["nav_bands"], NAV_QUANTITIES_TRUTH, path,
-            title=f"Navigation error against the truth: {name} and its twin ({seeds} seeds)"),
-        "twin-allan.png": lambda path: tp.plot_twin_allan(
-            log_run.allan, {k: [r.allan[k] for r in runs] for k in log_run.allan}, gap["allan_bands"], path,
-            title=f"Allan deviation of the residual against the truth: {name} and its twin ({seeds} seeds)"),
-        "twin-psd.png": lambda path: tp.plot_twin_psd(
-            log_run.lines, {k: [r.lines[k] for r in runs] for k in log_run.lines}, path,
-            title=f"PSD of the residual against the truth: {name} and its twin ({seeds} seeds)")}
-    if metrics["explain"]["candidates"]:
-        out["twin-explain.png"] = lambda path: tp.plot_twin_shrink(
-            metrics["explain"], metrics["verdict"], path, title=f"Motion-excited candidates added to the twin of {name}")
-    return out
+    kinds = [k for k in IdentifyResult(metrics, detail=detail).figures if k != "psd"]
+    return {f"{kind}.png": (lambda path, kind=kind: draw_figure(detail, metrics, kind, path)) for kind in kinds}
 
 
 def truth_twin_sensors(truth_fit: dict) -> dict:
@@ -1305,7 +1292,7 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
            "summary": (f"the log stays within its twin's envelope ({seeds} seeds)"
                        if not findings else f"{len(findings)} place(s) where the log leaves its twin's envelope "
                                             f"({seeds} seeds)")}
-    return out, ex, verdict, {"log_run": log_run, "runs": runs, "gap": gap}
+    return out, ex, verdict, {"log_run": log_run, "twin": {"runs": runs, "gap": gap}}
 
 
 def _truth_white_noise(doc: dict, resid6, dt: float, pulses, truth_fit: dict) -> dict:
