@@ -1078,6 +1078,12 @@ def _print_twin(m) -> None:
         print(f"twin: {m['twin']['summary']}")
         for f in m["twin"]["findings"]:
             print(f"  {f['statement']}")
+    v = m.get("verdict")
+    if v:
+        named = " + ".join(e["effect"] for e in v.get("effects", [])) or v["effect"]
+        print(f"verdict: {v['status']}" + (f": {named} ({v['explained_fraction']:.2f} +- "
+                                           f"{v['explained_fraction_sd']:.2f} of the gap)"
+                                           if v["status"] in ("explained", "partly explained") else ""))
 
 
 def _cmd_completion(args) -> int:

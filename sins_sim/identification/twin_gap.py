@@ -16,7 +16,8 @@ of quantity (``alpha``, Bonferroni over the points tested):
   of up to :data:`BRIDGE` taus bridged).
 * **Spectral lines**: a line of the log (found at the log's false-alarm level) with no line of the twin within
   two bins in at least half its seeds.
-* **Navigation** (north and east position, north and east velocity, attitude drift about north, east and down):
+* **Navigation** (north and east position, north and east velocity, attitude drift about north, east and down; on a
+  known trajectory the errors against the truth, :data:`NAV_QUANTITIES_TRUTH`):
   at each time the twin's 95 % prediction interval for one more run, ``mean +- t_{S-1} s sqrt(1 + 1/S)`` (the
   normal prediction interval with unknown mean and variance), at level ``1 - alpha / 7``. The log leaves it at
   the start of the last run of times it is outside, when that run reaches the end of the log (it does not come
@@ -34,7 +35,7 @@ import numpy as np
 
 from sins_sim.units import ARCSEC, DEG_PER_H, MICRO_G
 
-__all__ = ["MIN_CLUSTERS", "MODEL_TOLERANCE", "NAV_QUANTITIES", "alignment_side_by_side", "allan_band", "localise", "localise_nav", "nav_band"]
+__all__ = ["MIN_CLUSTERS", "MODEL_TOLERANCE", "NAV_QUANTITIES", "NAV_QUANTITIES_TRUTH", "alignment_side_by_side", "allan_band", "localise", "localise_nav", "nav_band"]
 
 #: Independent clusters a tau needs to be tested.
 MIN_CLUSTERS = 10
@@ -53,6 +54,10 @@ NAV_QUANTITIES = (
     ("attitude_rad", 1, "attitude drift about east", 1.0 / ARCSEC, "arcsec"),
     ("attitude_rad", 2, "attitude drift about down", 1.0 / ARCSEC, "arcsec"),
 )
+#: The same on a known trajectory (:mod:`sins_sim.simulation.twin_moving`): position and velocity are errors against
+#: the truth, and the attitude is the error ``psi`` against the truth's attitude, not a drift from an aligned start.
+NAV_QUANTITIES_TRUTH = tuple((key, col, label.replace("drift", "error") if key == "attitude_rad" else label + " error",
+                              scale, unit) for key, col, label, scale, unit in NAV_QUANTITIES)
 _ALLAN_UNIT = {"gyro": ("deg_h", 1.0 / DEG_PER_H), "accelerometer": ("ug", 1.0 / MICRO_G)}
 
 
@@ -168,12 +173,12 @@ def _line_findings(log_run, twins) -> list:
     return findings
 
 
-def _nav_findings(log_run, twins, alpha: float) -> tuple:
+def _nav_findings(log_run, twins, alpha: float, quantities=NAV_QUANTITIES) -> tuple:
     findings, bands = [], {}
-    level = 1.0 - alpha / len(NAV_QUANTITIES)
+    level = 1.0 - alpha / len(quantities)
     t = log_run.nav_t_s
     m = min([t.size] + [tw.nav_t_s.size for tw in twins])
-    for key, col, label, scale, unit in NAV_QUANTITIES:
+    for key, col, label, scale, unit in quantities:
         y = log_run.nav[key][:m, col]
         x = np.array([tw.nav[key][:m, col] for tw in twins])
         band = nav_band(y, x, level)
@@ -194,8 +199,9 @@ def _nav_findings(log_run, twins, alpha: float) -> tuple:
     return findings, bands
 
 
-def localise(log_run, twins, *, alpha: float = 0.05) -> dict:
-    """The findings (module docstring) and the bands they were read against.
+def localise(log_run, twins, *, alpha: float = 0.05, quantities=NAV_QUANTITIES) -> dict:
+    """The findings (module docstring) and the bands they were read against (the navigation's ``quantities``:
+    :data:`NAV_QUANTITIES` at rest, :data:`NAV_QUANTITIES_TRUTH` on a known trajectory).
 
     Returns
     -------
@@ -206,12 +212,12 @@ def localise(log_run, twins, *, alpha: float = 0.05) -> dict:
     if len(twins) < 2:
         raise ValueError(f"twin_seeds: the envelope needs at least 2 seeds of the twin, got {len(twins)}")
     allan_f, allan_b = _allan_findings(log_run, twins, alpha)
-    nav_f, nav_b = _nav_findings(log_run, twins, alpha)
+    nav_f, nav_b = _nav_findings(log_run, twins, alpha, quantities)
     return {"findings": allan_f + _line_findings(log_run, twins) + nav_f, "allan_bands": allan_b,
             "nav_bands": nav_b, "alpha": alpha}
 
 
-def localise_nav(log_run, twins, *, alpha: float = 0.05) -> dict:
+def localise_nav(log_run, twins, *, alpha: float = 0.05, quantities=NAV_QUANTITIES_TRUTH) -> dict:
     """The navigation findings alone (module docstring, **Navigation**), for a mission with no Allan or line test
     beside it: a moving log navigated on its known trajectory and its twin's seeds
     (:class:`sins_sim.simulation.twin_moving.MovingRun`; anything with ``nav_t_s`` and ``nav`` as
@@ -224,7 +230,7 @@ def localise_nav(log_run, twins, *, alpha: float = 0.05) -> dict:
     """
     if len(twins) < 2:
         raise ValueError(f"twin_seeds: the envelope needs at least 2 seeds of the twin, got {len(twins)}")
-    nav_f, nav_b = _nav_findings(log_run, twins, alpha)
+    nav_f, nav_b = _nav_findings(log_run, twins, alpha, quantities)
     return {"findings": nav_f, "nav_bands": nav_b, "alpha": alpha}
 
 

@@ -272,7 +272,7 @@ def plot_twin_shrink(explain: dict, verdict: dict, path=None, title: str = ""):
     ax.set_xlim(min(-0.05, min((c["shrink"] for c in cands), default=0.0) - 0.05), 1.35)
     ax.axvline(0.0, color="grey", lw=0.6)
     ax.axvline(1.0, color="grey", lw=0.6, ls=":")
-    ax.set_xlabel("shrink of the gap, 1 - G / G_0 (G: the findings' log excess over the envelope; sd over seeds)")
+    ax.set_xlabel("shrink of the gap, 1 - G / G_0\n(G: the findings' log excess over the envelope; sd over seeds)")
     handles, labels = ax.get_legend_handles_labels()
     seen = dict(zip(labels, handles))
     if seen:
