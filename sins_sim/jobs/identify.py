@@ -199,15 +199,25 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     if until_s is not None and not (isinstance(until_s, (int, float)) and math.isfinite(until_s) and until_s > 0):
         raise ConfigError(f"--until-s: must be a number > 0 (seconds from the log's start), got {until_s!r}")
     t, dth, dv, meta = read_log_table(log)
-    site = _site(meta, lat_deg, lon_deg, height_m)
-    dt = _interval(t)
     if until_s is not None:
-        keep = int(round(until_s / dt))
+        steps = np.diff(t)
+        dt0 = float(np.median(steps[steps > 0.0])) if np.any(steps > 0.0) else 0.0
+        if not dt0 > 0.0:
+            raise ConfigError("LOG: its time column never advances")
+        keep = int(round(until_s / dt0))
         if keep > t.size:
-            raise ConfigError(f"--until-s: {until_s:g} s is beyond the log's {t.size * dt:g} s")
-        if keep * dt < MIN_REST_S:
+            raise ConfigError(f"--until-s: {until_s:g} s is beyond the log's {t.size * dt0:g} s")
+        if keep * dt0 < MIN_REST_S:
             raise ConfigError(f"--until-s: {until_s:g} s leaves less than {MIN_REST_S:g} s of the log to fit")
         t, dth, dv = t[:keep], dth[:keep], dv[:keep]
+    settings = {"lat_deg": lat_deg, "lon_deg": lon_deg, "height_m": height_m, "alignment": alignment,
+                "gyro_bias_prior_deg_h": gyro_bias_prior_deg_h, "accel_bias_prior_ug": accel_bias_prior_ug,
+                "twin_seeds": twin_seeds, "line_false_alarm": line_false_alarm, "until_s": until_s}
+    refused = _invalid_data(log, t, dth, dv, meta, out_dir, settings, manifest, force)
+    if refused is not None:
+        return refused
+    site = _site(meta, lat_deg, lon_deg, height_m)
+    dt = _interval(t)
     moved = first_motion_s(dth, dv, dt)
     if moved is not None:  # the noise, the biases and the twin are all fits of a unit at rest: never of a moving one
         hint = ((f"give --until-s {moved:g} to fit its still start, or " if moved >= MIN_REST_S else "")
@@ -316,10 +326,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         from sins_sim.jobs.manifest import Manifest, result_dir
 
         if manifest is None:
-            manifest = Manifest("identify", settings={
-                "lat_deg": lat_deg, "lon_deg": lon_deg, "height_m": height_m, "alignment": alignment,
-                "gyro_bias_prior_deg_h": gyro_bias_prior_deg_h, "accel_bias_prior_ug": accel_bias_prior_ug,
-                "twin_seeds": twin_seeds, "line_false_alarm": line_false_alarm})
+            manifest = Manifest("identify", settings=settings)
         manifest.add_input("log", log)
         with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
             names = _write(Path(tmp), metrics, detail)
@@ -329,6 +336,36 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     from sins_sim.results.identify import IdentifyResult
 
     return IdentifyResult(metrics, detail=detail, files=files)
+
+
+def _invalid_data(log, t, dth, dv, meta: dict, out_dir, settings: dict, manifest, force: bool):
+    """The log's checks (:func:`sins_sim.identification.log_checks.check_log`); None when it passes, else the
+    result with the verdict ``invalid data`` (its folder written when ``out_dir`` is given: ``metrics.json``,
+    ``report.md`` and the manifest)."""
+    from sins_sim.identification.log_checks import check_log, invalid_data_summary
+    from sins_sim.identification.twin_explain import invalid_data
+    from sins_sim.results.identify import IdentifyResult
+
+    nominal = ((meta.get("description") or {}).get("time") or {}).get("rate_hz")
+    findings = check_log(t, dth, dv, nominal_rate_hz=nominal)
+    if not findings:
+        return None
+    line = invalid_data_summary(findings)
+    verdict = {**invalid_data(line), "checks": findings,
+               "criterion": "the log's checks: time order, gaps, even steps, the nominal rate, stuck or saturated "
+                            "channels (sins_sim.identification.log_checks)"}
+    metrics = _json_ready({"log": str(log), "rows": int(t.size), "start_s": float(t[0]), "end_s": float(t[-1]),
+                           "verdict": verdict, "summary": line})
+    report = "\n".join([
+        f"# identify {Path(str(log)).name}: invalid data", "",
+        "The log fails the checks every fit of `identify` rests on (an even time axis at one rate, live "
+        "channels), so nothing is fitted and no twin is run.", "",
+        "## Verdict", "", "**invalid data**", "",
+        "| check | channel | time (s) | row | finding | what to do |", "|---|---|---|---|---|---|",
+        *(f"| {f['check']} | {f['channel']} | {f['time_s']:.9g} | {f['sample'] + 1} | {f['message']} | "
+          f"{f['remedy']} |" for f in findings), ""])
+    files = _write_fit(out_dir, metrics, {"report.md": report}, manifest, settings, {"log": log}, force)
+    return IdentifyResult(metrics, detail={}, files=files)
 
 
 def _gyro_wander(noise: dict, analyses: dict, window_s: float) -> float:
