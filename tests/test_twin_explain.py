@@ -163,6 +163,42 @@ def test_the_selection_names_each_of_several_effects_among_many_small_findings()
     assert pick["label"] == "29.3" and pick["alternatives"] == ["44.85"] and not pick["tentative"]
 
 
+def test_a_log_with_three_withheld_lines_and_an_unexplained_burst_names_all_three(tmp_path):
+    """Three vibration lines withheld from the twin (600 ug at 31 Hz on accelerometer z, 50 ug at 17 Hz on x,
+    0.45 deg/h at 23 Hz on gyro y) and a noise burst outside the catalogue (gyro x's white noise raised over a tenth
+    of the log), which no candidate removes. The strong line is named first; the two weak ones each remove their own
+    line finding, about 0.12 of the gap, which is less than MIN_STEP = 0.3 of what the first leaves (the burst's
+    findings stay in it): the former rule stopped after one effect. Now each is named, and the burst is the
+    remainder."""
+    from sins_sim.jobs.identify import identify
+    from test_identify_twin import DT, _sine_increments
+
+    from sins_sim.jobs.import_log import read_log_table, write_log_table
+    from sins_sim.units import MICRO_G
+
+    p = tmp_path / "three.parquet"
+    rest_log(p, 41, minutes=3.0)
+    t, dth, dv, meta = read_log_table(p)
+    dth, dv = dth.copy(), dv.copy()
+    dv[:, 2] += _sine_increments(600.0 * MICRO_G, 31.0, t)
+    dv[:, 0] += _sine_increments(50.0 * MICRO_G, 17.0, t)
+    dth[:, 1] += _sine_increments(0.45 * DEG_PER_H, 23.0, t)
+    n = t.size
+    burst = slice(int(0.6 * n), int(0.7 * n))
+    dth[burst, 0] += (np.random.default_rng(5).standard_normal(n // 10) * 4.0 * 0.003 * math.pi / 180.0 / 60.0
+                      * math.sqrt(DT))
+    p.unlink()
+    write_log_table(p, t, dth, dv, meta)
+    v = identify(p, twin_seeds=5)["verdict"]
+    assert v["status"] == "partly explained"
+    named = [e["label"] for e in v["effects"]]
+    assert named[0].startswith("vibration line accelerometer z 31")
+    assert sorted(named[1:]) == sorted(["vibration line gyro y 23 Hz", "vibration line accelerometer x 17 Hz"])
+    first, second = (e["explained_fraction"] for e in v["effects"][:2])
+    assert second / (1.0 - first) < 0.3          # what the former rule asked of the second: it would have stopped
+    assert any(r["quantity"] == "noise_level" and r["axis"] == "x" for r in v["remainder"]), v["remainder"]
+
+
 def _f(quantity, excess, **kw):
     return {"quantity": quantity, "excess": excess, "statement": f"{quantity} {kw}", **kw}
 
