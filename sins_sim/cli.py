@@ -1054,6 +1054,11 @@ def _cmd_identify(args) -> int:
                  accel_bias_prior_ug=args.accel_bias_prior_ug, twin_seeds=args.twin_seeds,
                  line_false_alarm=args.line_false_alarm, until_s=args.until_s, force=args.force,
                  manifest=_manifest(args))
+    if m.invalid:       # a verdict, as diagnose's on invalid data: exit status 0, the folder says why
+        print(m["summary"])
+        if args.out is not None:
+            print(f"wrote {args.out}: {', '.join(sorted(m.files))}, manifest.json")
+        return EXIT_OK
     for sensor, key in (("gyro", "arw_deg_rt_h"), ("gyro", "rrw_deg_h_rt_h"), ("accelerometer", "vrw_ug_rt_hz")):
         cells = [f"{e['value']:.4g}" if "value" in e else e["status"] for e in
                  (m["noise"][sensor][ax][key] for ax in "xyz")]
@@ -1460,7 +1465,11 @@ def build_parser() -> argparse.ArgumentParser:
                                    "observable' for the others), the PSD's spectral lines, the temperature "
                                    "coefficients where the log has a temperature_c column, a sensors: section for "
                                    "the unit's twin, and the twin simulated beside the log (Allan deviation, PSD, "
-                                   "alignment, free navigation) with where the log leaves its envelope.")
+                                   "alignment, free navigation) with where the log leaves its envelope. A log that "
+                                   "fails the data checks (time order, gaps, uneven steps, a rate off its nominal, "
+                                   "a stuck or saturated channel) gets the verdict 'invalid data': one line on "
+                                   "stdout, the folder with metrics.json and report.md naming the check, the row and "
+                                   "the remedy, exit status 0 (as diagnose on invalid data).")
     p.add_argument("log", help="increments file (from sins-sim import-log)")
     p.add_argument("--out", required=True, help="result folder to write")
     p.add_argument("--site-lat-deg", type=float, default=None, help="site latitude (deg) [from the log]")

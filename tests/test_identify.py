@@ -230,8 +230,8 @@ def test_inertial_alignment_gives_the_same_observable_biases(bias_run):
     assert mi["bias"]["gyro"]["east_deg_h"] == {"status": NOT_OBSERVABLE}
 
 
-def test_unevenly_spaced_increments_are_refused(tmp_path):
-    from sins_sim.config.errors import ConfigError
+def test_unevenly_spaced_increments_are_invalid_data(tmp_path):
+    # the checks and their folder: test_identify_invalid
     from sins_sim.jobs.navigate import write_increments
 
     p = tmp_path / "gappy.csv"
@@ -239,8 +239,8 @@ def test_unevenly_spaced_increments_are_refused(tmp_path):
     t = np.arange(1, n + 1) * 0.01
     t[500:] += 0.05                                       # a 50 ms gap: five intervals missing
     write_increments(p, t, np.zeros((n, 3)), np.tile([0.0, 0.0, -0.098], (n, 1)))
-    with pytest.raises(ConfigError, match=r"^LOG: the increments must be evenly spaced"):
-        identify(p, lat_deg=45.0)
+    v = identify(p, lat_deg=45.0).verdict
+    assert v["status"] == "invalid data" and v["checks"][0]["check"] == "time gap" and v["checks"][0]["sample"] == 499
 
 
 @pytest.mark.filterwarnings("error")  # no numpy or matplotlib warning on its quiet channels either

@@ -199,15 +199,25 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     if until_s is not None and not (isinstance(until_s, (int, float)) and math.isfinite(until_s) and until_s > 0):
         raise ConfigError(f"--until-s: must be a number > 0 (seconds from the log's start), got {until_s!r}")
     t, dth, dv, meta = read_log_table(log)
-    site = _site(meta, lat_deg, lon_deg, height_m)
-    dt = _interval(t)
     if until_s is not None:
-        keep = int(round(until_s / dt))
+        steps = np.diff(t)
+        dt0 = float(np.median(steps[steps > 0.0])) if np.any(steps > 0.0) else 0.0
+        if not dt0 > 0.0:
+            raise ConfigError("LOG: its time column never advances")
+        keep = int(round(until_s / dt0))
         if keep > t.size:
-            raise ConfigError(f"--until-s: {until_s:g} s is beyond the log's {t.size * dt:g} s")
-        if keep * dt < MIN_REST_S:
+            raise ConfigError(f"--until-s: {until_s:g} s is beyond the log's {t.size * dt0:g} s")
+        if keep * dt0 < MIN_REST_S:
             raise ConfigError(f"--until-s: {until_s:g} s leaves less than {MIN_REST_S:g} s of the log to fit")
         t, dth, dv = t[:keep], dth[:keep], dv[:keep]
+    settings = {"lat_deg": lat_deg, "lon_deg": lon_deg, "height_m": height_m, "alignment": alignment,
+                "gyro_bias_prior_deg_h": gyro_bias_prior_deg_h, "accel_bias_prior_ug": accel_bias_prior_ug,
+                "twin_seeds": twin_seeds, "line_false_alarm": line_false_alarm, "until_s": until_s}
+    refused = _invalid_data(log, t, dth, dv, meta, out_dir, settings, manifest, force)
+    if refused is not None:
+        return refused
+    site = _site(meta, lat_deg, lon_deg, height_m)
+    dt = _interval(t)
     moved = first_motion_s(dth, dv, dt)
     if moved is not None:  # the noise, the biases and the twin are all fits of a unit at rest: never of a moving one
         hint = ((f"give --until-s {moved:g} to fit its still start, or " if moved >= MIN_REST_S else "")
@@ -316,10 +326,7 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
         from sins_sim.jobs.manifest import Manifest, result_dir
 
         if manifest is None:
-            manifest = Manifest("identify", settings={
-                "lat_deg": lat_deg, "lon_deg": lon_deg, "height_m": height_m, "alignment": alignment,
-                "gyro_bias_prior_deg_h": gyro_bias_prior_deg_h, "accel_bias_prior_ug": accel_bias_prior_ug,
-                "twin_seeds": twin_seeds, "line_false_alarm": line_false_alarm})
+            manifest = Manifest("identify", settings=settings)
         manifest.add_input("log", log)
         with result_dir(out_dir, manifest, inputs=(log,), force=force) as tmp:
             names = _write(Path(tmp), metrics, detail)
@@ -329,6 +336,36 @@ def identify(log, out_dir=None, *, lat_deg=None, lon_deg=None, height_m=None, al
     from sins_sim.results.identify import IdentifyResult
 
     return IdentifyResult(metrics, detail=detail, files=files)
+
+
+def _invalid_data(log, t, dth, dv, meta: dict, out_dir, settings: dict, manifest, force: bool):
+    """The log's checks (:func:`sins_sim.identification.log_checks.check_log`); None when it passes, else the
+    result with the verdict ``invalid data`` (its folder written when ``out_dir`` is given: ``metrics.json``,
+    ``report.md`` and the manifest)."""
+    from sins_sim.identification.log_checks import check_log, invalid_data_summary
+    from sins_sim.identification.twin_explain import invalid_data
+    from sins_sim.results.identify import IdentifyResult
+
+    nominal = ((meta.get("description") or {}).get("time") or {}).get("rate_hz")
+    findings = check_log(t, dth, dv, nominal_rate_hz=nominal)
+    if not findings:
+        return None
+    line = invalid_data_summary(findings)
+    verdict = {**invalid_data(line), "checks": findings,
+               "criterion": "the log's checks: time order, gaps, even steps, the nominal rate, stuck or saturated "
+                            "channels (sins_sim.identification.log_checks)"}
+    metrics = _json_ready({"log": str(log), "rows": int(t.size), "start_s": float(t[0]), "end_s": float(t[-1]),
+                           "verdict": verdict, "summary": line})
+    report = "\n".join([
+        f"# identify {Path(str(log)).name}: invalid data", "",
+        "The log fails the checks every fit of `identify` rests on (an even time axis at one rate, live "
+        "channels), so nothing is fitted and no twin is run.", "",
+        "## Verdict", "", "**invalid data**", "",
+        "| check | channel | time (s) | row | finding | what to do |", "|---|---|---|---|---|---|",
+        *(f"| {f['check']} | {f['channel']} | {f['time_s']:.9g} | {f['sample'] + 1} | {f['message']} | "
+          f"{f['remedy']} |" for f in findings), ""])
+    files = _write_fit(out_dir, metrics, {"report.md": report}, manifest, settings, {"log": log}, force)
+    return IdentifyResult(metrics, detail={}, files=files)
 
 
 def _gyro_wander(noise: dict, analyses: dict, window_s: float) -> float:
@@ -1167,11 +1204,17 @@ def identify_truth(log, truth_file, out_dir=None, *, twin_seeds: int = 0, force:
     metrics = _json_ready({
         "log": str(log), "truth": str(truth_file), "duration_s": float(t.size * dt), "rate_hz": 1.0 / dt,
         "truth_fit": fit.to_dict(),
-        "methods": {"truth_fit": "x_meas - x_ideal = b dt + E x_ideal per triad row, ordinary least squares on "
-                                 "one-second block sums, sigma from the residuals (s^2 (A^T A)^-1); a column whose "
+        "bias_steps": _bias_steps(*_truth_residuals(fit, dt, dth, dv, ideal_th, ideal_v), 1.0 / dt),
+        "methods": {"truth_fit": "x_meas - x_ideal = b dt + E x_ideal per triad row on one-second block sums; the "
+                                 "residual's Allan deviation fitted with the IEEE Std 952 terms (the twin's ARW/VRW, "
+                                 "bias instability, RRW); the terms by generalised least squares with a white noise "
+                                 "and a rate random walk whose levels restricted maximum likelihood fits to the block "
+                                 "sums, their sigmas at the walk's one-sided 84 % likelihood bound; a column whose "
                                  "part apart from the others is below 1e-6 of its size is not observable"},
-        "notes": ["the sigmas hold the noise as the residuals show it, white over one-second blocks; a rate random "
-                  "walk or a bias drift over the log makes them too small",
+        "notes": ["the sigmas hold the residual's noise as the likelihood of the block sums reads it, a white noise "
+                  "and a rate random walk (the bias instability taken as one), the walk at its one-sided 84 % bound: "
+                  "where the log shows no walk, the one it cannot exclude still widens the biases' sigmas; "
+                  "ols_sigma gives the ordinary least-squares sigmas (white noise over a block assumed) beside them",
                   "the truth's own errors (its attitude, its timing against the log) are in the fitted terms"]})
     detail = None
     if twin_seeds:
@@ -1194,35 +1237,46 @@ def _truth_figures(detail: dict, metrics: dict) -> dict:
     return {f"{kind}.png": (lambda path, kind=kind: draw_figure(detail, metrics, kind, path)) for kind in kinds}
 
 
+def _truth_residuals(fit, dt: float, dth, dv, ideal_th, ideal_v) -> tuple:
+    """The log's rate and specific force less the truth's and the fitted terms (``b + E x_ideal / dt``, 0 where not
+    observable): what the twin's noise is fitted to, and where a bias step shows (the twin's noise is stationary)."""
+    out = []
+    for s, meas, ideal in (("gyro", dth, ideal_th), ("accelerometer", dv, ideal_v)):
+        e = np.nan_to_num(fit.e[s])
+        b = np.nan_to_num(fit.bias[s])
+        out.append((meas - ideal - ideal @ e.T) / dt - b)
+    return tuple(out)
+
+
 def truth_twin_sensors(truth_fit: dict) -> dict:
     """The twin's ``sensors:`` mapping (:func:`sins_sim.models.sensor_errors.sensor_params_from_dict`) from a fit
     against the truth (:meth:`~sins_sim.navigation.truth_fit.TruthFit.to_dict`): the fitted biases, scale factors
-    and misalignments (0 where not observable), and a white noise from the fit's residuals.
-
-    A white noise of density ``N`` gives a block sum of standard deviation ``N sqrt(T_block)`` (IEEE Std 952-1997,
-    Annex C, the angle random walk), so ``N = s / sqrt(T_block)`` with ``s`` the residual's standard deviation
-    per block; the residual's RMS over ``K`` blocks is ``s sqrt((K - p) / K)`` for the ``p`` terms fitted in its
-    row (least squares, Draper and Smith 1998, sec. 2.6), so ``s = rms sqrt(K / (K - p))``.
-    """
+    and misalignments (0 where not observable), and the noise of the fit's residual: its Allan fit's white noise
+    (ARW / VRW) and random walk (RRW) whether or not their slope regions show (a term too weak to show still moves
+    the log, and the fit holds it), the bias instability where its flat region shows (the twin's Gauss-Markov sum
+    needs its tau range), as :func:`twin_sensors` does at rest."""
     def val(e):
         return float(e["value"]) if "value" in e else 0.0
 
     mis_order = ("xy", "xz", "yx", "yz", "zx", "zy")
-    k, block_s = int(truth_fit["blocks"]), float(truth_fit["block_s"])
     out = {}
-    for s, bkey, noise_key, noise_scale in (("gyro", "bias_deg_h", "arw_deg_rt_h", 60.0 / DEG),
-                                            ("accelerometer", "bias_ug", "vrw_ug_rt_hz", 1.0 / MICRO_G)):
+    for s, bkey, keys in (("gyro", "bias_deg_h", ("arw_deg_rt_h", "bias_instability_deg_h", "rrw_deg_h_rt_h")),
+                          ("accelerometer", "bias_ug", ("vrw_ug_rt_hz", "bias_instability_ug", "rrw_ug_rt_h"))):
         sec = truth_fit[s]
-        noise = []
-        for i, a in enumerate("xyz"):
-            p = 1 + ("value" in sec["scale_factor_ppm"][a]) + sum(
-                "value" in sec["misalignment_arcsec"][a + c] for c in "xyz" if c != a)
-            rms = float(sec["rms_residual_per_block"][i])
-            noise.append(rms * math.sqrt(k / (k - p)) / math.sqrt(block_s) * noise_scale)
         out[s] = {bkey: [val(sec[bkey][a]) for a in "xyz"],
                   "scale_factor_ppm": [val(sec["scale_factor_ppm"][a]) for a in "xyz"],
-                  "misalignment_arcsec": [val(sec["misalignment_arcsec"][m]) for m in mis_order],
-                  noise_key: noise}
+                  "misalignment_arcsec": [val(sec["misalignment_arcsec"][m]) for m in mis_order]}
+        for key in keys:
+            entries = [sec["noise"][a][key] for a in "xyz"]
+            if key.startswith("bias_instability"):
+                ranges = [e["tau_range_s"] for e in entries if e["determined"]]
+                if not ranges:
+                    continue
+                out[s][key] = [e["value"] if e["determined"] else 0.0 for e in entries]
+                lo = min(r[0] for r in ranges)
+                out[s]["bias_instability_tau_s"] = [lo, max(max(r[1] for r in ranges), lo)]
+            else:
+                out[s][key] = [e["value"] for e in entries]
     return out
 
 
@@ -1278,12 +1332,21 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
         nav_end[label] = {f"log_{unit}": float(log_run.nav[key][m - 1, col] * scale),
                           f"twin_mean_{unit}": float(b["mean"][-1] * scale),
                           f"twin_halfwidth_{unit}": float((b["hi"][-1] - b["mean"][-1]) * scale)}
-    findings = ex.pop("findings")
+    # the bias steps the residual's scan finds (twinfix): findings too; the moving catalogue has no step, so a log
+    # whose only departure is a step is not 'none' but 'unknown' in the step's place
+    steps = _step_findings(metrics["bias_steps"])
+    findings = ex.pop("findings") + steps
     verdict = ex.pop("verdict")
+    if steps and verdict["status"] == "none":
+        from sins_sim.identification.twin_explain import _place
+
+        verdict.update(status="unknown", effect="unknown", band=[_place(f) for f in steps],
+                       remainder=[_place(f) for f in steps])
     out = {"seeds": seeds, "sensors": doc,
-           "simulated_at": ("the truth's exact increments with the fitted errors and a white noise from the "
-                            "residual's sample variance" + (", then the readout's pulses" if pulses is not None
-                                                            else "")),
+           "simulated_at": ("the truth's exact increments with the fitted errors and the noise terms of the fit's "
+                            "residual (its Allan fit's bias instability and random walk; the white noise read from "
+                            "the residual's samples or blocks, whichever states it more precisely)"
+                            + (", then the readout's pulses" if pulses is not None else "")),
            "navigated": "free from the truth's state one interval before the first increment, height aided by "
                         "the truth's",
            "residual": "the increments less x_true + b dt + E x_true (the fitted terms), as rate and specific force",
@@ -1351,6 +1414,11 @@ def truth_yaml(metrics: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: The units of the noise keys, as a report writes them.
+_NOISE_UNITS = {"arw_deg_rt_h": "deg/sqrt(h)", "bias_instability_deg_h": "deg/h", "rrw_deg_h_rt_h": "deg/h/sqrt(h)",
+                "vrw_ug_rt_hz": "ug/sqrt(Hz)", "bias_instability_ug": "ug", "rrw_ug_rt_h": "ug/sqrt(h)"}
+
+
 def _truth_report(metrics: dict) -> str:
     tf = metrics["truth_fit"]
     out = ["# Unit fitted against its known trajectory", "",
@@ -1363,6 +1431,12 @@ def _truth_report(metrics: dict) -> str:
             for k, e in tf[s][group].items():
                 out.append(f"| {s} | {name} {k} | {e['value']:.5g} | {e['sigma']:.2g} |" if "value" in e else
                            f"| {s} | {name} {k} | {e['status']} | |")
+    out += ["", "Noise of the residual (its Allan fit; the twin's terms; * where the term's slope region shows):", "",
+            "| sensor | axis | white | bias instability | random walk |", "|---|---|---|---|---|"]
+    for s in ("gyro", "accelerometer"):
+        for ax, terms in tf[s]["noise"].items():
+            cells = [f"{e['value']:.3g} {_NOISE_UNITS[k]}{'*' if e['determined'] else ''}" for k, e in terms.items()]
+            out.append(f"| {s} | {ax} | " + " | ".join(cells) + " |")
     out += [""] + [f"- {n}" for n in metrics["notes"]]
     return "\n".join(out + _truth_twin_report(metrics)) + "\n"
 

@@ -100,11 +100,16 @@ class IdentifyResult(dict):
     @property
     def figures(self) -> list:
         """The kinds :meth:`plot` can draw."""
-        if self.detail is None:
+        if self.detail is None or self.invalid:
             return []
         return [k for k in FIGURES if (k == "psd" or "twin" in self.detail)
                 and not (k == "twin-alignment" and "truth" in self)
                 and not (k == "twin-explain" and not (self.get("explain") or {}).get("candidates"))]
+
+    @property
+    def invalid(self) -> bool:
+        """The log failed its checks (verdict ``invalid data``): the metrics hold the findings, no fit."""
+        return (self.get("verdict") or {}).get("status") == "invalid data"
 
     def plot(self, kind: str = "psd"):
         """One figure, returned open (:data:`FIGURES`: ``psd``, ``twin-allan``, ``twin-psd``, ``twin-alignment``,
@@ -115,6 +120,8 @@ class IdentifyResult(dict):
         ValueError
             The metrics only (read back from JSON), or a twin figure without the twin.
         """
+        if self.invalid:
+            raise ValueError(f"plot: no figures: the log is invalid data ({self['summary']})")
         if self.detail is None:
             raise ValueError("plot: this result holds the metrics only; identify(log) keeps the runs the figures need")
         return _figure(self.detail, self, kind)
@@ -125,9 +132,14 @@ class IdentifyResult(dict):
         sigma, significant) and ``findings`` (one row per place the log leaves its twin), with the twin ``candidates``
         (label, effect, shrink, shrink_sd, p_heldout, findings_removed: :mod:`sins_sim.identification.twin_explain`); for a rate-table result
         ``motion_terms`` (term, unit, value, sigma, status); for a moving log against its truth ``truth_fit``
-        (sensor, term, axis, value, sigma, status) with the twin's ``findings`` and ``candidates``."""
+        (sensor, term, axis, value, sigma, status) with the twin's ``findings`` and ``candidates``; for a log that is
+        invalid data ``checks`` only (check, channel, time_s, sample, message, remedy:
+        :mod:`sins_sim.identification.log_checks`)."""
         import pandas as pd
 
+        if self.invalid:                            # the log's checks: one row per finding, nothing fitted
+            return {"checks": pd.DataFrame(self["verdict"]["checks"],
+                                           columns=["check", "channel", "time_s", "sample", "message", "remedy"])}
         if "truth_fit" in self:                      # a moving log fitted against its truth
             tf = self["truth_fit"]
             rows = [{"sensor": sen, "term": group, "axis": k, "value": e.get("value"), "sigma": e.get("sigma"),
