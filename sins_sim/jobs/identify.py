@@ -1288,7 +1288,7 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
     from sins_sim.identification.twin_explain_moving import explain_moving
     from sins_sim.identification.twin_gap import NAV_QUANTITIES_TRUTH, localise
     from sins_sim.models.sensor_errors import sensor_params_from_dict
-    from sins_sim.navigation.truth_fit import fit_against_truth
+    from sins_sim.navigation.truth_fit import fit_against_truth, residual_noise_entries
     from sins_sim.simulation.twin_moving import truth_run, twin_runs_on
 
     doc = truth_twin_sensors(metrics["truth_fit"])
@@ -1314,8 +1314,17 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
         def run_twin(added):
             # with a candidate, the twin's white noise refitted on the residual less its fitted part (a strong
             # effect otherwise inflates the noise the twin was fitted with)
-            twin = params if added is None else sensor_params_from_dict(
-                _truth_white_noise(doc, resid6 - added, dt, pulses, metrics["truth_fit"]), "the twin, refitted")
+            # (all its noise terms: the Allan fit's bias instability and random walk too, which a strong effect
+            # such as a clock off its rate inflates as much as the white noise)
+            if added is None:
+                twin = params
+            else:
+                rest = resid6 - added
+                tf = dict(metrics["truth_fit"])
+                for k, s in enumerate(("gyro", "accelerometer")):
+                    tf[s] = dict(tf[s], noise=residual_noise_entries(rest[:, 3 * k:3 * k + 3] * dt, dt, s))
+                twin = sensor_params_from_dict(
+                    _truth_white_noise(truth_twin_sensors(tf), rest, dt, pulses, tf), "the twin, refitted")
             return twin_runs_on(twin, t_truth, ideal_th, ideal_v, truth, range(1, seeds + 1), pulses=pulses,
                                 added=added, expected=own_fit, false_alarm=fa)
 

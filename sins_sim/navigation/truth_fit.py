@@ -171,6 +171,14 @@ def _noise_entries(sensor: str, analysis, used: dict) -> dict:
     return out
 
 
+def residual_noise_entries(resid: np.ndarray, dt_s: float, sensor: str) -> dict:
+    """The twin's noise terms (``noise`` of :meth:`TruthFit.to_dict`, per axis) read off a residual ``(N, 3)`` of
+    per-interval increments: the Allan fit of each axis, as the fit itself does. Used to refit the twin's noise on
+    the residual less a candidate effect (a strong effect otherwise reads as bias instability or random walk)."""
+    r = np.asarray(resid, dtype=np.float64)
+    return {ax: _noise_entries(sensor, *_residual_noise(r[:, i], dt_s, sensor)) for i, ax in enumerate("xyz")}
+
+
 def _entry(val, sig, scale) -> dict:
     return {"status": NOT_OBSERVABLE} if not math.isfinite(val) else {"value": float(val * scale),
                                                                      "sigma": float(sig * scale)}

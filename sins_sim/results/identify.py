@@ -145,7 +145,7 @@ class IdentifyResult(dict):
             rows = [{"sensor": sen, "term": group, "axis": k, "value": e.get("value"), "sigma": e.get("sigma"),
                      "status": e.get("status", "observable")}
                     for sen in ("gyro", "accelerometer") for group, by_k in tf[sen].items() if isinstance(by_k, dict)
-                    for k, e in by_k.items()]
+                    for k, e in by_k.items() if isinstance(e, dict) and ("value" in e or "status" in e)]
             return self._twin_tables({"truth_fit": pd.DataFrame(rows)})
         if "motion_terms" in self:                   # a rate-table result
             mt = self["motion_terms"]
