@@ -171,6 +171,51 @@ def coverage(nees, seeds=N_SEEDS):
     return out
 
 
+def set_coverage(nees_per_seed, set_size=N_SEEDS, level=0.95):
+    """The 90 % rule judged over disjoint sets of seeds: per set and block the fraction of epochs whose
+    set-averaged NEES lies inside the chi-square 95 % interval of a mean of ``set_size`` (as :func:`coverage`),
+    their mean over the sets, the spread between sets, and a Clopper-Pearson interval of the mean over the
+    binomial-equivalent number of independent epochs the sets show.
+
+    :func:`coverage` counts the independent epochs of one set from the autocorrelation of its NEES along the run.
+    It cannot see a part of the error that stays for the whole run in each seed (a position offset the fixes cannot
+    tell from their own Gauss-Markov error when that error's correlation time exceeds the run, a velocity error
+    that is a long average of the fixes): such a part moves the set's whole NEES curve up or down together, and the
+    fraction of a set swings between sets far more than its interval says. The spread between sets holds every
+    part: per set ``n_b = f (1 - f) / s^2`` independent epochs (a binomial with the mean fraction ``f`` and the
+    sets' variance ``s^2``; Bernoulli sets, all in or all out, give 1; independent epochs give their count). The
+    sets' variance is itself uncertain (relative sd about ``sqrt(2 / (M - 1))`` for ``M`` sets): judge with ten
+    sets or more.
+
+    Parameters
+    ----------
+    nees_per_seed : array_like, shape (S, K, B)
+        One run's NEES per seed, epoch and block.
+    set_size : int
+        Seeds per set; the first ``set_size * (S // set_size)`` seeds are used, at least two sets.
+
+    Returns
+    -------
+    dict
+        ``fractions`` (n_sets, B), ``mean`` (B,), ``sd`` (B,) between sets, ``n_b`` (B,) binomial-equivalent
+        epochs per set (at most K), ``interval`` (B, 2) the Clopper-Pearson interval of the mean over
+        ``n_sets * n_b`` trials.
+    """
+    x = np.asarray(nees_per_seed, dtype=np.float64)
+    n_sets = x.shape[0] // set_size
+    if x.ndim != 3 or n_sets < 2:
+        raise ValueError(f"nees_per_seed: needs shape (S, K, B) with at least two sets of {set_size} seeds, got "
+                         f"{x.shape}")
+    lo, hi = chi2.ppf([0.025, 0.975], 3 * set_size) / set_size
+    m = x[:n_sets * set_size].reshape(n_sets, set_size, *x.shape[1:]).mean(axis=1)
+    frac = np.mean((m >= lo) & (m <= hi), axis=1)
+    mean, var = frac.mean(axis=0), frac.var(axis=0)
+    k = x.shape[1]
+    n_b = np.where(var > 0.0, mean * (1.0 - mean) / np.where(var > 0.0, var, 1.0), k).clip(1.0, k)
+    interval = np.array([clopper_pearson(float(f), n_sets * float(n), level) for f, n in zip(mean, n_b)])
+    return {"fractions": frac, "mean": mean, "sd": np.sqrt(var), "n_b": n_b, "interval": interval}
+
+
 @pytest.fixture(scope="module")
 def mission():
     return Mission()
