@@ -152,3 +152,31 @@ def test_compiled_smoother_equals_its_numpy_form(record):
                      ("v_ned_m_s", ekf.VEL)):
         assert np.all(np.abs(getattr(fast, name) - getattr(ref, name)) <= 1e-9 * ref.sigma[:, sl]), name
     np.testing.assert_allclose(fast.h_m, ref.h_m, rtol=0.0, atol=1e-9 * float(np.max(ref.sigma[:, 2])))
+
+
+def test_sensor_feedback_and_increment_correction_against_numpy():
+    """The two kernels both paths share for the sensor-error states: ``K_est -= dK`` at the states' elements (exact:
+    one subtraction each), ``(I + K_est)^-1`` by the adjugate against LAPACK's inverse and ``m d`` row by row
+    against numpy's product. ``I + K`` with ``|K| ~ 1e-3`` has condition number about 1, so either inverse is
+    within a few ulp of the exact one: 8 eps on entries of size 1. A row's product is three products and two sums,
+    each rounded once: within 3 eps of ``sum_j |m_ij d_j|`` (Higham 2002, sec. 3.1), 4 eps allowed."""
+    from sins_sim._kernels import ekf as kekf
+
+    eps = np.finfo(float).eps
+    rng = np.random.default_rng(3)
+    un = ekf.UnmodelledErrors(1e-3, 1e-3, 1e-3, 1e-3, None, states=ekf.SENSOR_ERROR_GROUPS)
+    kind, row, col, _, _ = un.state_table()
+    k_est, k_inv = np.zeros((2, 3, 3)), np.zeros((2, 3, 3))
+    dx = rng.normal(0.0, 1e-3, kind.size)
+    kekf.sensor_feedback(k_est, k_inv, dx, kind, row, col)
+    want = np.zeros((2, 3, 3))
+    want[kind, row, col] = -dx
+    assert np.array_equal(k_est, want) and np.count_nonzero(k_est) == 18
+    for b in range(2):
+        assert np.all(np.abs(k_inv[b] - np.linalg.inv(np.eye(3) + k_est[b])) <= 8 * eps)
+    d = rng.normal(0.0, 1e-3, (50, 3))
+    got = d.copy()
+    kekf.triad_corrected(got, k_inv[0])
+    bound = 4 * eps * (np.abs(d) @ np.abs(k_inv[0]).T)
+    assert np.all(np.abs(got - d @ k_inv[0].T) <= bound)
+    assert not np.array_equal(got, d)
