@@ -3,14 +3,14 @@
 :func:`aided_chunk` does for every navigation update and every epoch of a chunk of increments what
 :class:`sins_sim.navigation.aided.AidedRun` does in Python (its reference path, which the tests hold this one to):
 the aided navigator's strapdown pieces between epochs with the bias estimates removed, the covariance propagation
-in blocks (:func:`sins_sim._kernels.ekf.propagate_block_states`, with the bias priors carried alongside), the solution rows
-kept for the fixes' latency and the raw gyro sum of each navigation update (the lever arm's rate), and at each
-epoch the flush of the propagation, the fixes' ``H`` and ``dz`` at their time of validity
+in blocks (:func:`sins_sim._kernels.ekf.propagate_block_states`, with the bias priors carried alongside), the
+solution rows kept for the fixes' latency and the raw gyro sum of each navigation update (the lever arm's rate),
+and at each epoch the flush of the propagation, the fixes' ``H`` and ``dz`` at their time of validity
 (:func:`sins_sim._kernels.ekf.gnss_measurement`), the Joseph update (:func:`sins_sim._kernels.ekf.joseph_update`),
 each measurement's normalised innovation squared, the feedback into the navigator, the biases, the estimated
 scale factors and misalignments (when the filter has those states; the increments are then corrected by
-``(I + K_est)^-1`` after the biases and the blocks carry the states' columns) and the kept rows,
-and the epoch's records. The same kernels in the same order on the same values, so the results are the reference
+``(I + K_est)^-1`` after the biases and the blocks carry the states' columns) and the kept rows, and the epoch's
+records. The same kernels in the same order on the same values, so the results are the reference
 path's to the last bit (tested); what goes is the Python glue per update (about 0.2 ms per epoch and filter).
 
 The run's state lives in arrays the caller owns and this call updates in place (their layouts below); nothing
@@ -84,8 +84,9 @@ def _navigate(dth, dvel, a, n_upd, done, t0, dt, n_sub, ccoef, scoef, gains, st,
     """Navigate the ``n_upd`` navigation updates starting at sample ``a`` of the chunk (the updates ``done + 1``
     on), as :meth:`~sins_sim.navigation.aided.AidedRun._advance` with
     :meth:`~sins_sim.navigation.ekf.AidedNavigator._process_checked`: one strapdown piece with the current bias
-    estimates removed (and the estimated scale factors and misalignments, ``(I + K_est)^-1``, with those states), the running integrals restarted at the piece (as the reference's per-piece call), the
-    kept rows, the updates' raw gyro sums and the block ends."""
+    estimates removed (and the estimated scale factors and misalignments, ``(I + K_est)^-1``, with those states),
+    the running integrals restarted at the piece (as the reference's per-piece call), the kept rows, the updates'
+    raw gyro sums and the block ends."""
     if n_upd <= 0:
         return
     n = n_upd * n_sub
@@ -174,7 +175,8 @@ def _navigate(dth, dvel, a, n_upd, done, t0, dt, n_sub, ccoef, scoef, gains, st,
 def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon, f_h, f_v, t0, dt, n_sub,
                 big_t, n_prop, compensate, use_pos, use_vel, has_lever, lever, r_pos, r_vel, gm_pos, gm_vel,
                 keep_rows, ccoef, scoef, gains, st, bg, ba, has_unmod, f_ref, acc, origin, unmod, qc, inv_tau, fix_tau,
-                fix_var, prior, bsig, btau, brw, sens, k_est, k_inv, p, x, phi_acc, block_start, last_corr, ints, hist, ring,
+                fix_var, prior, bsig, btau, brw, sens, k_est, k_inv, p, x, phi_acc, block_start, last_corr, ints,
+                hist, ring,
                 r_t, r_nav, r_bg, r_ba, r_sig, r_upd, r_tv, r_phi, r_pp, r_pu, r_corr,
                 i_t, i_tv, i_name, i_nu, i_sig, i_nis):
     """A chunk of a closed-loop aided run: navigate ``n_go`` navigation updates from update ``done0`` and handle

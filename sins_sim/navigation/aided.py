@@ -410,9 +410,10 @@ class AidedRun:
     In closed loop (``feedback=True``) each :meth:`feed` handles all the navigation updates and epochs its chunk
     reaches in one compiled call (:func:`sins_sim._kernels.ekf_epoch.aided_chunk`: the aided navigator's strapdown
     pieces, the propagation blocks, the fixes' measurements at their time of validity, the update, the NIS, the
-    feedback (the sensor-error states' too), the kept rows and the records); the Python path that does the same one step at a time (``_epoch``,
-    ``_advance``; the open loop's) is its reference, and the two give the same result bit for bit (tested). The
-    aided navigator's own innovation list and mean gyro rate are then not kept (the run's records hold them).
+    feedback, the sensor-error states' too, the kept rows and the records); the Python path that does the same one
+    step at a time (``_epoch``, ``_advance``; the open loop's) is its reference, and the two give the same result
+    bit for bit (tested). The aided navigator's own innovation list and mean gyro rate are then not kept (the run's
+    records hold them).
     """
 
     def __init__(self, t0_s, dt_s, n_increments, start: ekf.NavState, noise: ekf.ImuNoise, p0, t_valid_s,
