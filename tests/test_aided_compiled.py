@@ -6,8 +6,11 @@ step at a time, the form the filter's other tests hold to the numpy references) 
 same record here, a turning flight (the lever arm's rate terms are not zero) with two navigation updates per
 increment pair (``n_sub = 2``), a fix latency of 0.15 s (three increments: the fixes are applied against
 interpolated rows), an outage, the lever arm, the fixes' Gauss-Markov states (18 states) and the unmodelled scale
-factors and misalignments (once without both, 15 states, once with velocity fix-error states too, 21), fed in
-chunks of 37 increments (not whole navigation updates, not whole fix intervals). The same kernels on the same values in the same order: every recorded array is equal bit for bit.
+factors and misalignments (once without both, 15 states, once with velocity fix-error states too, 21), and with
+the scale factors and misalignments estimated as states (the gyros' nine, 24 states, or all four groups' eighteen,
+33, each also with the position fix-error states: 27 and 36), fed in chunks of 37 increments (not whole navigation
+updates, not whole fix intervals). The same kernels in the same order on the same values: every recorded array is
+equal bit for bit.
 """
 
 from __future__ import annotations
@@ -62,11 +65,18 @@ def _part(fixes, a, b):
     return dataclasses.replace(fixes, **{k: getattr(fixes, k)[a:b] for k in PER_FIX})
 
 
+#: The sensor-error groups estimated for each state count (the counts with none: 15, 18, 21).
+SENSORS = {24: ekf.SENSOR_ERROR_GROUPS[:2], 27: ekf.SENSOR_ERROR_GROUPS[:2], 33: ekf.SENSOR_ERROR_GROUPS,
+           36: ekf.SENSOR_ERROR_GROUPS}
+
+
 def _run(record, compiled, use=("position", "velocity"), latency="compensate", states=18):
     dth, dv, fixes, start = record
-    unmod = ekf.UnmodelledErrors(100e-6, 20e-6, 300e-6, 50e-6, None) if states > 15 else None
-    fe = {15: None, 18: ekf.FixErrorStates(SETTINGS.markov_sigma_m, SETTINGS.markov_tau_s),
-          21: ekf.FixErrorStates(SETTINGS.markov_sigma_m, SETTINGS.markov_tau_s, (0.01,) * 3, 50.0)}[states]
+    sensors = SENSORS.get(states, ())
+    unmod = ekf.UnmodelledErrors(100e-6, 20e-6, 300e-6, 50e-6, None, states=sensors) if states > 15 else None
+    n_fix = states - 15 - 9 * len(sensors) // 2 if sensors else states - 15
+    fe = {0: None, 3: ekf.FixErrorStates(SETTINGS.markov_sigma_m, SETTINGS.markov_tau_s),
+          6: ekf.FixErrorStates(SETTINGS.markov_sigma_m, SETTINGS.markov_tau_s, (0.01,) * 3, 50.0)}[n_fix]
     run = AidedRun(0.0, DT, dth.shape[0], start, NOISE, P0, fixes.t_valid_s, fixes.t_deliver_s,
                    fixes.position_sigma_m, fixes.velocity_sigma_m_s, fixes.lever_arm_b_m,
                    output_t_s=np.arange(0.0, 50.0, 1.0), use=use, latency=latency, n_sub=2, max_propagation_s=0.5,
@@ -93,10 +103,16 @@ FIELDS = ("t_s", "lat_rad", "lon_rad", "h_m", "v_ned_m_s", "q_nb", "gyro_bias_ra
 @pytest.mark.parametrize("use, latency, states", [(("position", "velocity"), "compensate", 18),
                                                   (("velocity",), "ignore", 18), (("position",), "compensate", 18),
                                                   (("position", "velocity"), "compensate", 15),
-                                                  (("position", "velocity"), "compensate", 21)])
+                                                  (("position", "velocity"), "compensate", 21),
+                                                  (("position", "velocity"), "compensate", 24),
+                                                  (("position", "velocity"), "compensate", 27),
+                                                  (("position", "velocity"), "compensate", 33),
+                                                  (("position",), "compensate", 36)])
 def test_compiled_epochs_equal_the_python_path_bit_for_bit(record, use, latency, states):
     fast, ref = _run(record, True, use, latency, states), _run(record, False, use, latency, states)
     assert fast.phi.shape[1] == states and np.count_nonzero(ref.updated) > 40 and len(ref.nis) > 40
+    if states in SENSORS:      # the sensor-error states were estimated and fed back (the increments' correction)
+        assert np.all(np.any(ref.correction[:, states - 9 * len(SENSORS[states]) // 2:] != 0.0, axis=0))
     # the outage: no update with a fix valid inside it
     assert not np.any(ref.updated & (ref.t_valid_s > 20.0) & (ref.t_valid_s < 32.0))
     for name in FIELDS:
@@ -136,3 +152,31 @@ def test_compiled_smoother_equals_its_numpy_form(record):
                      ("v_ned_m_s", ekf.VEL)):
         assert np.all(np.abs(getattr(fast, name) - getattr(ref, name)) <= 1e-9 * ref.sigma[:, sl]), name
     np.testing.assert_allclose(fast.h_m, ref.h_m, rtol=0.0, atol=1e-9 * float(np.max(ref.sigma[:, 2])))
+
+
+def test_sensor_feedback_and_increment_correction_against_numpy():
+    """The two kernels both paths share for the sensor-error states: ``K_est -= dK`` at the states' elements (exact:
+    one subtraction each), ``(I + K_est)^-1`` by the adjugate against LAPACK's inverse and ``m d`` row by row
+    against numpy's product. ``I + K`` with ``|K| ~ 1e-3`` has condition number about 1, so either inverse is
+    within a few ulp of the exact one: 8 eps on entries of size 1. A row's product is three products and two sums,
+    each rounded once: within 3 eps of ``sum_j |m_ij d_j|`` (Higham 2002, sec. 3.1), 4 eps allowed."""
+    from sins_sim._kernels import ekf as kekf
+
+    eps = np.finfo(float).eps
+    rng = np.random.default_rng(3)
+    un = ekf.UnmodelledErrors(1e-3, 1e-3, 1e-3, 1e-3, None, states=ekf.SENSOR_ERROR_GROUPS)
+    kind, row, col, _, _ = un.state_table()
+    k_est, k_inv = np.zeros((2, 3, 3)), np.zeros((2, 3, 3))
+    dx = rng.normal(0.0, 1e-3, kind.size)
+    kekf.sensor_feedback(k_est, k_inv, dx, kind, row, col)
+    want = np.zeros((2, 3, 3))
+    want[kind, row, col] = -dx
+    assert np.array_equal(k_est, want) and np.count_nonzero(k_est) == 18
+    for b in range(2):
+        assert np.all(np.abs(k_inv[b] - np.linalg.inv(np.eye(3) + k_est[b])) <= 8 * eps)
+    d = rng.normal(0.0, 1e-3, (50, 3))
+    got = d.copy()
+    kekf.triad_corrected(got, k_inv[0])
+    bound = 4 * eps * (np.abs(d) @ np.abs(k_inv[0]).T)
+    assert np.all(np.abs(got - d @ k_inv[0].T) <= bound)
+    assert not np.array_equal(got, d)

@@ -28,7 +28,7 @@ from sins_sim._kernels.nav import quat_mul, quat_to_dcm, rotvec_to_quat
 from sins_sim._kernels import strapdown as ksd
 from sins_sim._kernels.strapdown import gravity_down, radii
 
-__all__ = ["SERIES_ORDER", "propagate_block", "propagate_block_states", "unmodelled_increment_into", "running_integrals", "bias_corrected", "update_sums", "joseph_update", "block_nis", "correct_rows", "correct_state", "interpolate_row", "gnss_measurement", "error_dynamics_into"]
+__all__ = ["SERIES_ORDER", "propagate_block", "propagate_block_states", "unmodelled_increment_into", "running_integrals", "bias_corrected", "triad_corrected", "sensor_feedback", "update_sums", "joseph_update", "block_nis", "correct_rows", "correct_state", "interpolate_row", "gnss_measurement", "error_dynamics_into"]
 
 #: Highest power of ``F`` in the series of ``Phi`` and ``Q_d`` (the reference's ``_SERIES_ORDER``).
 SERIES_ORDER = 5
@@ -167,6 +167,54 @@ def bias_corrected(dth, dvel, bg_dt, ba_dt, dth_out, dv_out, dth_sum):
     dth_sum[0] += s0
     dth_sum[1] += s1
     dth_sum[2] += s2
+
+
+@jit
+def triad_corrected(d, m):
+    """``d[k] <- m d[k]`` for every row ``k`` of an ``(n, 3)`` array of one triad's increments, in place: the
+    estimated scale factors and misalignments removed, ``m = (I + K_est)^-1`` (Titterton & Weston 2004, sec. 4.3.3,
+    ``u_meas = (I + K) u``). Each element the sum ``m_i0 d_0 + m_i1 d_1 + m_i2 d_2`` left to right, on the
+    Python path (:meth:`sins_sim.navigation.ekf.AidedNavigator._process_checked`) and the compiled one alike."""
+    for k in range(d.shape[0]):
+        a0 = d[k, 0]
+        a1 = d[k, 1]
+        a2 = d[k, 2]
+        for i in range(3):
+            d[k, i] = m[i, 0] * a0 + m[i, 1] * a1 + m[i, 2] * a2
+
+
+@jit
+def _inverse_identity_plus(k, out):
+    """``out = (I + k)^-1`` of a 3x3 ``k`` by the adjugate over the determinant (Cramer's rule; Strang 2016,
+    *Introduction to Linear Algebra*, sec. 5.3): exact algebra, accurate for ``I + K`` near the identity."""
+    a = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            a[i, j] = k[i, j] + (1.0 if i == j else 0.0)
+    c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    det = a[0, 0] * c00 + a[0, 1] * c01 + a[0, 2] * c02
+    out[0, 0] = c00 / det
+    out[1, 0] = c01 / det
+    out[2, 0] = c02 / det
+    out[0, 1] = (a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]) / det
+    out[1, 1] = (a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]) / det
+    out[2, 1] = (a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]) / det
+    out[0, 2] = (a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]) / det
+    out[1, 2] = (a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]) / det
+    out[2, 2] = (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]) / det
+
+
+@jit
+def sensor_feedback(k_est, k_inv, dx, kind, row, col):
+    """The sensor-error states fed back like the biases, in place: ``K_est[kind, row, col] -= dx`` per state
+    (:meth:`sins_sim.navigation.ekf.UnmodelledErrors.state_table`), then ``k_inv = (I + K_est)^-1`` of both triads
+    (gyros 0, accelerometers 1), which :func:`triad_corrected` applies to the increments."""
+    for s in range(kind.shape[0]):
+        k_est[kind[s], row[s], col[s]] -= dx[s]
+    for b in range(2):
+        _inverse_identity_plus(k_est[b], k_inv[b])
 
 
 @jit

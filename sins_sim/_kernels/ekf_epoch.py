@@ -3,16 +3,18 @@
 :func:`aided_chunk` does for every navigation update and every epoch of a chunk of increments what
 :class:`sins_sim.navigation.aided.AidedRun` does in Python (its reference path, which the tests hold this one to):
 the aided navigator's strapdown pieces between epochs with the bias estimates removed, the covariance propagation
-in blocks (:func:`sins_sim._kernels.ekf.propagate_block`, with the bias priors carried alongside), the solution rows
-kept for the fixes' latency and the raw gyro sum of each navigation update (the lever arm's rate), and at each
-epoch the flush of the propagation, the fixes' ``H`` and ``dz`` at their time of validity
+in blocks (:func:`sins_sim._kernels.ekf.propagate_block_states`, with the bias priors carried alongside), the
+solution rows kept for the fixes' latency and the raw gyro sum of each navigation update (the lever arm's rate),
+and at each epoch the flush of the propagation, the fixes' ``H`` and ``dz`` at their time of validity
 (:func:`sins_sim._kernels.ekf.gnss_measurement`), the Joseph update (:func:`sins_sim._kernels.ekf.joseph_update`),
-each measurement's normalised innovation squared, the feedback into the navigator, the biases and the kept rows,
-and the epoch's records. The same kernels in the same order on the same values, so the results are the reference
+each measurement's normalised innovation squared, the feedback into the navigator, the biases, the estimated
+scale factors and misalignments (when the filter has those states; the increments are then corrected by
+``(I + K_est)^-1`` after the biases and the blocks carry the states' columns) and the kept rows, and the epoch's
+records. The same kernels in the same order on the same values, so the results are the reference
 path's to the last bit (tested); what goes is the Python glue per update (about 0.2 ms per epoch and filter).
 
 The run's state lives in arrays the caller owns and this call updates in place (their layouts below); nothing
-here depends on the number of error states ``n`` beyond ``p.shape[0]``.
+here depends on the number of error states ``n`` beyond ``p.shape[0]`` and the sensor-error states' table.
 """
 
 from __future__ import annotations
@@ -64,11 +66,12 @@ def _bias_prior_after(var, t, sig, tau, rw):
 
 @jit
 def _block(start, end, n_upd, big_t, inv_tau, qc, unmod, origin, p, phi_acc, x, fix_tau, fix_var, prior, bsig, btau,
-           brw):
-    """One propagation block (:meth:`sins_sim.navigation.ekf.AidedNavigator._propagate_block`, closed loop)."""
+           brw, f_ref, sens):
+    """One propagation block (:meth:`sins_sim.navigation.ekf.AidedNavigator._propagate_block`, closed loop; with no
+    sensor-error states :func:`kekf.propagate_block_states` is that method's :func:`kekf.propagate_block`)."""
     t = n_upd * big_t
-    kekf.propagate_block(start, end, t, inv_tau[0], inv_tau[1], qc, unmod, origin, p, phi_acc, x, False, fix_tau,
-                         fix_var)
+    kekf.propagate_block_states(start, end, t, inv_tau[0], inv_tau[1], qc, unmod, origin, p, phi_acc, x, False,
+                                fix_tau, fix_var, f_ref, sens[0], sens[1], sens[2])
     _bias_prior_after(prior, t, bsig, btau, brw)
     for k in range(start.shape[0]):
         start[k] = end[k]
@@ -77,12 +80,13 @@ def _block(start, end, n_upd, big_t, inv_tau, qc, unmod, origin, p, phi_acc, x, 
 @jit
 def _navigate(dth, dvel, a, n_upd, done, t0, dt, n_sub, ccoef, scoef, gains, st, bg, ba, has_unmod, ints, f_ref,
               acc, ring, hist, keep_rows, n_prop, big_t, inv_tau, qc, unmod, origin, p, phi_acc, x, fix_tau, fix_var,
-              prior, bsig, btau, brw, block_start):
+              prior, bsig, btau, brw, block_start, sens, k_inv):
     """Navigate the ``n_upd`` navigation updates starting at sample ``a`` of the chunk (the updates ``done + 1``
     on), as :meth:`~sins_sim.navigation.aided.AidedRun._advance` with
     :meth:`~sins_sim.navigation.ekf.AidedNavigator._process_checked`: one strapdown piece with the current bias
-    estimates removed, the running integrals restarted at the piece (as the reference's per-piece call), the
-    kept rows, the updates' raw gyro sums and the block ends."""
+    estimates removed (and the estimated scale factors and misalignments, ``(I + K_est)^-1``, with those states),
+    the running integrals restarted at the piece (as the reference's per-piece call), the kept rows, the updates'
+    raw gyro sums and the block ends."""
     if n_upd <= 0:
         return
     n = n_upd * n_sub
@@ -99,6 +103,9 @@ def _navigate(dth, dvel, a, n_upd, done, t0, dt, n_sub, ccoef, scoef, gains, st,
         for i in range(3):
             th_c[k, i] = th[k, i] - bg_dt[i]
             dv_c[k, i] = dv[k, i] - ba_dt[i]
+    if sens[0].shape[0] > 0:
+        kekf.triad_corrected(th_c, k_inv[0])
+        kekf.triad_corrected(dv_c, k_inv[1])
     out = np.empty((n_upd, ksd.OUT_SIZE))
     ksd.strapdown_run(th_c, dv_c, np.empty(0), dt, n_sub, ccoef, scoef, False, gains[0], gains[1], gains[2], st, out)
     accs = np.zeros((n_upd, 6))
@@ -160,7 +167,7 @@ def _navigate(dth, dvel, a, n_upd, done, t0, dt, n_sub, ccoef, scoef, gains, st,
             for i in range(6):
                 row[9 + i] = accs[k, i]
             _block(block_start, row, n_prop, big_t, inv_tau, qc, unmod, origin, p, phi_acc, x, fix_tau, fix_var,
-                   prior, bsig, btau, brw)
+                   prior, bsig, btau, brw, f_ref, sens)
             ints[INT_BLOCK_N] = 0
 
 
@@ -168,7 +175,8 @@ def _navigate(dth, dvel, a, n_upd, done, t0, dt, n_sub, ccoef, scoef, gains, st,
 def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon, f_h, f_v, t0, dt, n_sub,
                 big_t, n_prop, compensate, use_pos, use_vel, has_lever, lever, r_pos, r_vel, gm_pos, gm_vel,
                 keep_rows, ccoef, scoef, gains, st, bg, ba, has_unmod, f_ref, acc, origin, unmod, qc, inv_tau, fix_tau,
-                fix_var, prior, bsig, btau, brw, p, x, phi_acc, block_start, last_corr, ints, hist, ring,
+                fix_var, prior, bsig, btau, brw, sens, k_est, k_inv, p, x, phi_acc, block_start, last_corr, ints,
+                hist, ring,
                 r_t, r_nav, r_bg, r_ba, r_sig, r_upd, r_tv, r_phi, r_pp, r_pu, r_corr,
                 i_t, i_tv, i_name, i_nu, i_sig, i_nis):
     """A chunk of a closed-loop aided run: navigate ``n_go`` navigation updates from update ``done0`` and handle
@@ -219,6 +227,12 @@ def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon
     prior, bsig, btau, brw : ndarray
         The bias priors carried (6, in place) and the noise's bias sigma, correlation time and random walk
         (gyro, accelerometer).
+    sens : tuple of three ndarray of int64, shape (n_sens,)
+        The sensor-error states' table (kind, row, column;
+        :meth:`sins_sim.navigation.ekf.UnmodelledErrors.state_table`; empty without), the last ``n_sens`` states.
+    k_est, k_inv : ndarray, shape (2, 3, 3)
+        The estimated error matrices of the gyros and accelerometers and the inverses of ``I + K_est`` that correct
+        the increments (in place).
     p, x, phi_acc, block_start, last_corr : ndarray
         Covariance, error state, transition product, the current block's start row, the last update's change of
         the state (in place).
@@ -242,6 +256,7 @@ def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon
         the navigator left uncorrected at that epoch).
     """
     n = p.shape[0]
+    n_sens = sens[0].shape[0]
     done = done0
     per_fix = 3 * (use_pos + use_vel)
     n_use = use_pos + use_vel
@@ -256,13 +271,13 @@ def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon
         j = ev_j[e]
         _navigate(dth, dvel, (done - done0) * n_sub, j - done, done, t0, dt, n_sub, ccoef, scoef, gains, st, bg, ba,
                   has_unmod, ints, f_ref, acc, ring, hist, keep_rows, n_prop, big_t, inv_tau, qc, unmod, origin, p,
-                  phi_acc, x, fix_tau, fix_var, prior, bsig, btau, brw, block_start)
+                  phi_acc, x, fix_tau, fix_var, prior, bsig, btau, brw, block_start, sens, k_inv)
         done = max(done, j)
         # the propagation up to now (AidedNavigator.propagate)
         if ints[INT_BLOCK_N] > 0:
             _snapshot(st, acc, snap)
             _block(block_start, snap, ints[INT_BLOCK_N], big_t, inv_tau, qc, unmod, origin, p, phi_acc, x, fix_tau,
-                   fix_var, prior, bsig, btau, brw)
+                   fix_var, prior, bsig, btau, brw, f_ref, sens)
             ints[INT_BLOCK_N] = 0
         r_phi[e] = phi_acc
         phi_acc[:, :] = np.eye(n)
@@ -345,6 +360,10 @@ def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon
                 ba[i] = ba[i] - x[12 + i]
             for i in range(15):
                 x[i] = 0.0
+            if n_sens > 0:      # the scale factors and misalignments like the biases: K_est -= dK, then zeroed
+                kekf.sensor_feedback(k_est, k_inv, x[n - n_sens:], sens[0], sens[1], sens[2])
+                for i in range(n - n_sens, n):
+                    x[i] = 0.0
             _snapshot(st, acc, block_start)
             hn = ints[INT_HIST_N]
             kekf.correct_rows(hist[:hn, 1], hist[:hn, 2], hist[:hn, 3], hist[:hn, 4:7], hist[:hn, 7:11],
@@ -368,7 +387,7 @@ def aided_chunk(dth, dvel, n_go, done0, ev_j, ev_ptr, ev_fix, f_tv, f_lat, f_lon
         r_pu[e] = p
     _navigate(dth, dvel, (done - done0) * n_sub, done0 + n_go - done, done, t0, dt, n_sub, ccoef, scoef, gains, st,
               bg, ba, has_unmod, ints, f_ref, acc, ring, hist, keep_rows, n_prop, big_t, inv_tau, qc, unmod, origin, p,
-              phi_acc, x, fix_tau, fix_var, prior, bsig, btau, brw, block_start)
+              phi_acc, x, fix_tau, fix_var, prior, bsig, btau, brw, block_start, sens, k_inv)
     return ev_j.shape[0]
 
 

@@ -410,9 +410,10 @@ class AidedRun:
     In closed loop (``feedback=True``) each :meth:`feed` handles all the navigation updates and epochs its chunk
     reaches in one compiled call (:func:`sins_sim._kernels.ekf_epoch.aided_chunk`: the aided navigator's strapdown
     pieces, the propagation blocks, the fixes' measurements at their time of validity, the update, the NIS, the
-    feedback, the kept rows and the records); the Python path that does the same one step at a time (``_epoch``,
-    ``_advance``; the open loop's) is its reference, and the two give the same result bit for bit (tested). The
-    aided navigator's own innovation list and mean gyro rate are then not kept (the run's records hold them).
+    feedback, the sensor-error states' too, the kept rows and the records); the Python path that does the same one
+    step at a time (``_epoch``, ``_advance``; the open loop's) is its reference, and the two give the same result
+    bit for bit (tested). The aided navigator's own innovation list and mean gyro rate are then not kept (the run's
+    records hold them).
     """
 
     def __init__(self, t0_s, dt_s, n_increments, start: ekf.NavState, noise: ekf.ImuNoise, p0, t_valid_s,
@@ -485,10 +486,8 @@ class AidedRun:
         self._inn = {k: [] for k in ("t", "t_valid", "name", "nu", "sigma", "nis")}
         # the compiled path (closed loop): every epoch of a chunk in one call (_kernels.ekf_epoch.aided_chunk); the
         # Python path above (_epoch, _advance) is its reference. Records per chunk (the times also in _rec["t"]).
-        # (only for the state layout it knows, 15 inertial states then the fix errors: a filter with other states
-        # runs the Python path until the kernel learns them)
-        fe_n = 0 if fix_errors is None else fix_errors.n_states
-        self._compiled = self._feedback and self._aided.n_states == ekf.N_STATES + fe_n
+        # (the 15 inertial states, the fix errors and the sensor errors, the layout AidedNavigator makes)
+        self._compiled = self._feedback
         self._parts = []
         self._fast = None
 
@@ -758,6 +757,7 @@ class AidedRun:
             aided._prior_bias_var, np.array([noise.gyro_bias_sigma_rad_s, noise.accel_bias_sigma_m_s2], dtype=float),
             np.array([noise.gyro_bias_tau_s, noise.accel_bias_tau_s], dtype=float),
             np.array([noise.gyro_bias_rw_rad_s_sqrt_s, noise.accel_bias_rw_m_s2_sqrt_s], dtype=float),
+            aided._sens, aided._k_est, aided._k_inv,
             aided._p, x, aided._phi_acc, aided._block_start, aided._last_correction, ints, fs["hist"], fs["ring"],
             rec["t"], rec["nav"], rec["bg"], rec["ba"], rec["sigma"], rec["updated"], rec["t_valid"], rec["phi"],
             rec["p_pred"], rec["p_upd"], rec["corr"], rec["i_t"], rec["i_tv"], rec["i_name"], rec["i_nu"],

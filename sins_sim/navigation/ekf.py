@@ -1408,8 +1408,8 @@ class AidedNavigator:
         dth_c, dv_c = np.empty_like(dth), np.empty_like(dvel)
         kekf.bias_corrected(dth, dvel, self._bg * dt, self._ba * dt, dth_c, dv_c, self._sum_dtheta)
         if self._n > self._sens0:       # estimated scale factors and misalignments: (I + K)^-1 (x - b dt), per triad
-            dth_c = dth_c @ self._k_inv[0].T
-            dv_c = dv_c @ self._k_inv[1].T
+            kekf.triad_corrected(dth_c, self._k_inv[0])
+            kekf.triad_corrected(dv_c, self._k_inv[1])
         self._sum_n += dth.shape[0]
         pending = nav.pending_samples
         out = nav._run(dth_c, dv_c, _NO_AID)
@@ -1651,8 +1651,6 @@ class AidedNavigator:
         self._x = x.copy()
         self._x[:N_STATES] = 0.0      # the fix-error states are the receiver's, not fed back
         if self._n > self._sens0:     # the scale factors and misalignments like the biases: K_est -= dK
-            kind, row, col = self._sens
-            self._k_est[kind, row, col] -= x[self._sens0:]
-            self._k_inv = np.linalg.inv(np.eye(3)[None] + self._k_est)
+            kekf.sensor_feedback(self._k_est, self._k_inv, x[self._sens0:], *self._sens)    # and (I + K_est)^-1
             self._x[self._sens0:] = 0.0
         self._block_start = self._snapshot_row()
