@@ -68,8 +68,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["CLASSES", "DESCRIPTION", "GROUPS", "HOLDOUT_SEEDS", "SEEDS", "draw_unit", "identify_eval",
-           "format_identify_eval", "right_verdict", "write_case"]
+__all__ = ["CLASSES", "DESCRIPTION", "GROUPS", "HOLDOUT_SEEDS", "SEEDS", "draw_unit", "format_identify_eval",
+           "identify_eval", "right_verdict", "truth_path_of", "write_case"]
 
 #: The withheld-effect classes and their right answer (status, the effects named: None, one or a tuple of two).
 CLASSES = {"none": ("none", None), "sway": ("explained", "base_motion_line"),
@@ -142,7 +142,8 @@ def _rocking(rng, heading_rad: float, duration_s: float, site: dict):
     ph = rng.uniform(0.0, w, 2)
     roll = a_r * np.sin(w * f_r * t)
     pitch = a_p * np.sin(w * f_p * t + ph[0])
-    yaw = heading_rad + a_y * np.sin(w * f_y * t + ph[1])
+    # the heading taken into [-180, 180) deg: with the swing, the yaw stays inside the trajectory file's +-360 deg
+    yaw = math.remainder(heading_rad, 2.0 * math.pi) + a_y * np.sin(w * f_y * t + ph[1])
     return TrajectoryData(t, np.full(n, site["lat_rad"]), np.full(n, site["lon_rad"]), np.full(n, site["height_m"]),
                           roll, pitch, yaw, np.zeros((n, 3)))
 
@@ -259,7 +260,7 @@ def write_case(path, cls: str, seed: int, minutes: float) -> dict:
         raise ValueError(f"class: must be one of {list(CLASSES)}, got {cls!r}")
     rng = np.random.default_rng([seed, list(CLASSES).index(cls)])
     dt = 1.0 / _FS
-    n = int(round(minutes * 60.0 * _FS))
+    n = round(minutes * 60.0 * _FS)
     truth = {"class": cls, "seed": seed}
     keep = np.ones(n, dtype=bool)
     if cls in GROUPS["moving"]:
@@ -273,7 +274,9 @@ def write_case(path, cls: str, seed: int, minutes: float) -> dict:
         truth["unit"] = unit
         keep = _rest_effects([c for c in cls.split("+") if c != "none"], rate, force, t, n, dt, unit, rng, truth)
     # FRD -> right-forward-up: (R, F, U) = (y, x, -z)
-    perm = lambda v: np.column_stack([v[:, 1], v[:, 0], -v[:, 2]])  # noqa: E731
+    def perm(v):
+        return np.column_stack([v[:, 1], v[:, 0], -v[:, 2]])
+
     g, a = perm(rate / DEG_PER_H), perm(force / (1e-3 * 9.80665))
     site = unit["site"]
     lines = [f"Latitude: {math.degrees(site['lat_rad']):.8f}", f"Longitude: {math.degrees(site['lon_rad']):.8f}",
@@ -347,7 +350,8 @@ def identify_eval(seeds=SEEDS, *, holdout: bool = False, minutes: float = 3.0, t
     Returns
     -------
     dict
-        ``cases`` (class, seed, set, truth, status, effect, effects, right, seconds), ``accuracy`` (``looked`` and
+        ``cases`` (class, seed, set, truth, status, effect, effects, band (an ``unknown``'s places, as
+        statements), right, seconds), ``accuracy`` (``looked`` and
         ``holdout``: class -> [right, total]).
     """
     import time
@@ -370,6 +374,7 @@ def identify_eval(seeds=SEEDS, *, holdout: bool = False, minutes: float = 3.0, t
                 named = [e["effect"] for e in v.get("effects", [])]
                 cases.append({"class": cls, "seed": seed, "set": which, "status": v["status"], "effect": v["effect"],
                               "effects": named, "explained_fraction": v.get("explained_fraction"), "right": right,
+                              "band": [b.get("statement", "") for b in v.get("band") or []],
                               "truth": truth, "seconds": time.perf_counter() - start})
                 if progress is not None:
                     progress(f"{which} seed {seed} {cls}: {v['status']} ({'+'.join(named) or v['effect']}) "
