@@ -41,7 +41,7 @@ few minutes would be a gap of its own, outside these classes).
 class                     withheld effect                                              right verdict
 ========================= ============================================================ ==================
 ``moving_none``           nothing                                                      ``none``
-``sf_asymmetry``          one gyro's scale-factor asymmetry ``(A / 2) |omega|``         ``explained`` by
+``sf_asymmetry``          one gyro's scale-factor asymmetry ``(A / 2) |omega|``        ``explained`` by
                           (IEEE Std 952-1997), A 50-200 ppm                            ``scale_factor_asymmetry``
 ``clock_rate``            the log's clock off nominal: every interval ``dt (1 +        ``explained`` by
                           kappa)``, kappa 15-60 ppm                                    ``timing_rate_off_nominal``
