@@ -656,8 +656,9 @@ def _cmd_identify_eval(args) -> int:
         raise ConfigError(f"--twin-seeds: must be at least 2 (an envelope), got {args.twin_seeds}")
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     try:
+        classes = [c.strip() for c in args.classes.split(",") if c.strip()] if args.classes else None
         result = identify_eval(seeds, holdout=args.holdout, minutes=args.minutes, twin_seeds=args.twin_seeds,
-                               progress=progress)
+                               classes=classes, progress=progress)
     except ValueError as exc:
         raise ConfigError(f"identify-eval: {exc}") from None
     if args.json is not None:
@@ -1295,14 +1296,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_diagnose_eval)
 
     p = sub.add_parser("identify-eval", help="blind evaluation of identify's twin verdict on generated unit logs",
-                       description="Logs at rest of random units with one withheld effect each (none, sway, "
-                                   "vibration, bias step, two off-catalogue ones, a time gap), written in a foreign "
-                                   "layout, imported and judged by identify; prints the accuracy per class.")
+                       description="Logs of random units with withheld effects, written in a foreign layout, "
+                                   "imported and judged by identify; prints the accuracy per class. Groups: rest "
+                                   "(one effect each: none, sway, vibration, bias step, two off-catalogue ones, a "
+                                   "time gap), two (two effects at rest, right when explained naming both), moving "
+                                   "(on a known trajectory, judged with --truth: none, scale-factor asymmetry, clock "
+                                   "rate, an off-catalogue noise burst).")
     p.add_argument("--seeds", default="0,1,2", help="comma-separated seeds looked at [0,1,2]")
     p.add_argument("--holdout", action="store_true", help="also the two seeds kept unlooked-at during development "
                                                           "(jobs.identify_eval.HOLDOUT_SEEDS), reported apart")
     p.add_argument("--minutes", type=_positive, default=3.0, help="length of each log (min) [3]")
     p.add_argument("--twin-seeds", type=_count, default=5, help="seeds of each log's twin [5]")
+    p.add_argument("--classes", default=None, help="comma-separated classes or groups (rest, two, moving) "
+                                                   "[every class]")
     p.add_argument("--json", help="write the result JSON here")
     p.add_argument("--quiet", action="store_true", help="no per-case progress lines")
     p.set_defaults(func=_cmd_identify_eval)
