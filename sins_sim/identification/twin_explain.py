@@ -113,7 +113,7 @@ from sins_sim.identification.verdict import AHEAD_ALPHA, ALPHA, DOMINANT, MAX_EF
 from sins_sim.units import DEG_PER_H, MICRO_G
 
 __all__ = ["BOOTSTRAP", "CHANNELS", "HELD_BLOCKS", "NOT_TESTABLE_AT_REST", "SWAY_MAX_HZ", "choose_step",
-           "explain_twin", "finding_excess", "finding_key", "noise_level_findings", "LEVEL_ALPHA", "LEVEL_BLOCKS", "fit_line", "fit_ramp", "fit_step", "gap_measure",
+           "explain_twin", "finding_excess", "finding_key", "finding_place", "noise_level_findings", "LEVEL_ALPHA", "LEVEL_BLOCKS", "fit_line", "fit_ramp", "fit_step", "gap_measure",
            "give_twin_verdict", "heldout_losses", "invalid_data", "localise_with_steps"]
 
 #: The six axes of a log, in the column order of the added rate and force.
@@ -200,7 +200,7 @@ def finding_key(f: dict) -> tuple:
     return (q, f["sensor"], f["axis"])
 
 
-def _place(f: dict) -> dict:
+def finding_place(f: dict) -> dict:
     """Where a finding sits: quantity, sensor axis, band and time, for the verdict's ``band`` and ``remainder``."""
     out = {k: f[k] for k in ("quantity", "sensor", "axis", "side", "tau_range_s", "band_hz", "what", "leaves_at_s",
                               "time_s") if k in f}
@@ -619,7 +619,7 @@ def give_twin_verdict(findings: list, candidates: list, steps: list, gap0: float
         steps = []
     if not steps:
         removed = {tuple(k) for c in candidates for k in c["removes"]}
-        band = [_place(f) for f in findings if finding_key(f) not in removed] or [_place(f) for f in findings]
+        band = [finding_place(f) for f in findings if finding_key(f) not in removed] or [finding_place(f) for f in findings]
         shown = [c for c in candidates if c["p_heldout"] >= ALPHA and gap0 > 0 and (gap0 - c["gap"]) / gap0
                  >= MIN_PARTIAL]
         unconf = None
@@ -638,7 +638,7 @@ def give_twin_verdict(findings: list, candidates: list, steps: list, gap0: float
     done = not left
     if not done and frac < MIN_PARTIAL:
         out.update(status="unknown", effect="unknown", explained_fraction=0.0, explained_fraction_sd=0.0,
-                   band=[_place(f) for f in findings])
+                   band=[finding_place(f) for f in findings])
         return out
     prev = gap0
     effects = []
@@ -651,7 +651,7 @@ def give_twin_verdict(findings: list, candidates: list, steps: list, gap0: float
     out.update(status="explained" if done else "partly explained", effect=steps[0]["effect"],
                explained_fraction=1.0 if done else frac, explained_fraction_sd=float(last.get("gap_sd", 0.0) / gap0),
                effects=effects, alternatives=list(steps[0].get("alternatives", [])),
-               remainder=[] if done else [_place(f) for f in left])
+               remainder=[] if done else [finding_place(f) for f in left])
     return out
 
 
@@ -841,7 +841,7 @@ def _finite_sd(x) -> float:
 def _public(c: dict, base_keys: set) -> dict:
     """A candidate without its arrays, for the metrics."""
     return {k: v for k, v in c.items() if not k.startswith("_") and k != "findings_left"} | {
-        "findings_left": [_place(f) for f in c["findings_left"]]}
+        "findings_left": [finding_place(f) for f in c["findings_left"]]}
 
 
 def _implied_scales(bias: dict | None, lat_rad: float | None) -> dict:

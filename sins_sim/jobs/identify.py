@@ -1341,16 +1341,21 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
         nav_end[label] = {f"log_{unit}": float(log_run.nav[key][m - 1, col] * scale),
                           f"twin_mean_{unit}": float(b["mean"][-1] * scale),
                           f"twin_halfwidth_{unit}": float((b["hi"][-1] - b["mean"][-1]) * scale)}
-    # the bias steps the residual's scan finds (twinfix): findings too; the moving catalogue has no step, so a log
-    # whose only departure is a step is not 'none' but 'unknown' in the step's place
-    steps = _step_findings(metrics["bias_steps"])
-    findings = ex.pop("findings") + steps
-    verdict = ex.pop("verdict")
-    if steps and verdict["status"] == "none":
-        from sins_sim.identification.twin_explain import _place
+    # Findings of the residual alone that no moving candidate addresses (the twin's noise is stationary): the bias
+    # steps its scan finds, and where its white-noise level changes over time (the first differences' variance per
+    # block, as at rest; a smooth departure such as a clock's drift hardly moves first differences). A log whose
+    # only departure is one of them is 'unknown' in its place, not 'none'. Beside findings a candidate explains they
+    # stay findings but do not overturn the verdict: both are read on the residual before the candidate is taken
+    # out, where a smooth departure (a clock's drift) shows as steps and shifts the blocks' noise levels.
+    from sins_sim.identification.twin_explain import finding_place, noise_level_findings
 
-        verdict.update(status="unknown", effect="unknown", band=[_place(f) for f in steps],
-                       remainder=[_place(f) for f in steps])
+    steps = _step_findings(metrics["bias_steps"])
+    level = noise_level_findings(resid6, 1.0 / dt)
+    findings = ex.pop("findings") + steps + level
+    verdict = ex.pop("verdict")
+    if (steps or level) and verdict["status"] == "none":
+        verdict.update(status="unknown", effect="unknown", band=[finding_place(f) for f in steps + level],
+                       remainder=[finding_place(f) for f in steps + level])
     out = {"seeds": seeds, "sensors": doc,
            "simulated_at": ("the truth's exact increments with the fitted errors and the noise terms of the fit's "
                             "residual (its Allan fit's bias instability and random walk; the white noise read from "
@@ -1375,8 +1380,9 @@ def _truth_white_noise(doc: dict, resid6, dt: float, pulses, truth_fit: dict) ->
     A white noise of density ``N`` has a sample variance ``N^2 / dt`` and a variance ``N^2 T`` of a block sum over
     ``T`` (IEEE Std 952-1997, Annex C). A pulse readout (weight ``w``, the residue carried) adds ``w (r_{k-1} -
     r_k)`` to each increment and, the terms telescoping, the same to a block sum: ``w^2 / 6`` for a residue uniform
-    and independent, taken out of both (the twin adds its own readout again). The samples give ``N^2 = (var(r) -
-    w^2 / (6 dt^2)) dt`` with a relative sd ``sqrt(2 / n) var(r) / (var(r) - w^2 / (6 dt^2))``; the ``K`` blocks
+    and independent, taken out of both (the twin adds its own readout again). The samples give ``N^2 = (var(diff r) / 2 -
+    w^2 / (4 dt^2)) dt`` (first differences, blind to a smooth departure) with a relative sd ``sqrt(3 / n)`` of the
+    same ratio; the ``K`` blocks
     ``N^2 = (s^2 - w^2 / 6) / T`` with ``sqrt(2 / (K - p)) s^2 / (s^2 - w^2 / 6)`` (``s^2`` the block sums' mean
     square with the fit's ``p`` terms of the row taken out, as :func:`truth_twin_sensors`). On a float log the
     samples win (0.8 % on ``N^2`` for 30 000 samples against 8 % for 300 blocks, which left clean logs outside the
@@ -1391,9 +1397,15 @@ def _truth_white_noise(doc: dict, resid6, dt: float, pulses, truth_fit: dict) ->
         c2 = np.asarray(pulses.axes, dtype=np.float64) ** 2
         q_inc = np.concatenate([c2.T @ (np.asarray(pulses.gyro_rad) ** 2 / 6.0),
                                 c2.T @ (np.asarray(pulses.accel_m_s) ** 2 / 6.0)])
-    var = np.var(r, axis=0, ddof=1)
-    n2_s = (var - q_inc / dt ** 2) * dt
-    rel_s = math.sqrt(2.0 / n) * var * dt / np.maximum(n2_s, 1e-300)
+    # the samples through their first differences: a smooth departure the fitted terms leave (a clock's drift
+    # before its candidate is fitted, a candidate's small misfit after) is nearly gone from them (by (2 pi f dt)^2),
+    # where it inflated the sample variance (a clock 34 ppm off left the twin 12 times the log's noise at 0.01 s).
+    # White noise: var(diff r) / 2 = N^2 / dt, an MA(1) with rho_1 = -1/2, so the relative sd sqrt(2 (1 + 2 rho_1^2)
+    # / n) = sqrt(3 / n); the pulse residue's second difference w (r_{k-2} - 2 r_{k-1} + r_k) has variance w^2 / 2,
+    # half of it per sample: 3/2 of its w^2 / 6
+    var = 0.5 * np.var(np.diff(r, axis=0), axis=0, ddof=1)
+    n2_s = (var - 1.5 * q_inc / dt ** 2) * dt
+    rel_s = math.sqrt(3.0 / n) * var * dt / np.maximum(n2_s, 1e-300)
     sums = (r[:k * per] * dt).reshape(k, per, 6).sum(axis=1)
     p = np.array([1 + ("value" in truth_fit[s]["scale_factor_ppm"][a]) + sum(
         "value" in truth_fit[s]["misalignment_arcsec"][a + c] for c in "xyz" if c != a)

@@ -32,9 +32,14 @@ blocks (:data:`BLOCK_S`):
    the likelihood takes it as one. ``rho`` from one log is uncertain (a walk crossing the white noise at 20 s is
    read to tens of per cent in 600 s), and where the log shows none a walk too weak to see still moves the bias; so
    the terms' covariance is that of the estimate under ``C(rho_up)``, ``rho_up`` the upper end of the profile
-   likelihood's interval (``-2 ln L`` up by :data:`RHO_LEVEL`): ``M^-1 A^T W D_up W A M^-1`` in the eigenbasis
-   (``W = (I + rho Lambda)^-1``, ``M = A^T W A``, ``D_up = s_up^2 (I + rho_up Lambda)``). The Allan fit of item 2
-   gives the twin its terms; the likelihood, which uses every block, the covariance.
+   likelihood's interval (``-2 ln L`` up by :data:`RHO_LEVEL`). The terms reported are the ordinary least-squares
+   ones, with their covariance under ``C(rho_up)``, the sandwich ``(A^T A)^-1 A^T D_up A (A^T A)^-1`` (``D_up =
+   s_up^2 (I + rho_up Lambda)`` in the eigenbasis): the twin's candidate effects on a moving log are projected off
+   the fitted terms with that same estimator (:mod:`sins_sim.identification.twin_explain_moving`), and a GLS
+   estimate there left the twin's heading apart from a log with a scale-factor asymmetry (the two estimators absorb
+   the asymmetry's rectified part differently). The price is efficiency, not honesty: the sandwich is the OLS
+   estimate's covariance under that noise. The Allan fit of item 2 gives the twin its terms; the likelihood, which
+   uses every block, the covariance.
 
 Why generalised least squares with the fitted covariance rather than a block bootstrap or a Newey-West correction:
 a rate random walk is not stationary (its block sums' variance grows with time) and correlates the whole log, so
@@ -223,7 +228,8 @@ def _reml(a_t: np.ndarray, y_t: np.ndarray, lam: np.ndarray) -> tuple:
     """Generalised least squares with ``C = s^2 (I + rho R)`` in the eigenbasis of ``R`` (``a_t = V^T A``, ``y_t =
     V^T y``, ``lam`` the eigenvalues), ``rho`` by restricted maximum likelihood (Harville 1977; ``s^2`` profiled
     out), and the coefficients' covariance at ``rho_up``, the upper end of ``rho``'s profile-likelihood interval
-    (:data:`RHO_LEVEL`): ``(coefficients, their covariance, s^2, rho, rho_up)`` (module docstring, item 3)."""
+    (:data:`RHO_LEVEL`): ``(GLS coefficients, their covariance, the OLS coefficients' covariance, s^2, rho,
+    rho_up)`` (module docstring, item 3)."""
     from scipy.optimize import brentq, minimize_scalar
 
     k, p = a_t.shape
@@ -265,7 +271,10 @@ def _reml(a_t: np.ndarray, y_t: np.ndarray, lam: np.ndarray) -> tuple:
     # the estimate's covariance where the noise is C(rho_up): M^-1 A^T W D_up W A M^-1 (W, M at the estimate's rho)
     d_up = 1.0 + rho_up * lam
     cov = s2_up * m_inv @ (a_t.T @ ((w * w * d_up)[:, None] * a_t)) @ m_inv
-    return beta, cov, solve(rho)[3], rho, rho_up
+    # the ordinary least-squares estimate's covariance there too (the sandwich (A^T A)^-1 A^T D_up A (A^T A)^-1)
+    m0_inv = np.linalg.inv(a_t.T @ a_t)
+    cov_ols = s2_up * m0_inv @ (a_t.T @ (d_up[:, None] * a_t)) @ m0_inv
+    return beta, cov, cov_ols, solve(rho)[3], rho, rho_up
 
 
 def _residual_noise(resid: np.ndarray, dt_s: float, sensor: str):
@@ -335,7 +344,10 @@ def fit_against_truth(dt_s: float, meas: dict, ideal: dict) -> TruthFit:
             rms[i] = math.sqrt(float(resid @ resid) / k)
             ols_sig = np.sqrt(np.diag(cov_unit) * float(resid @ resid) / dof)
             analysis, used = _residual_noise(err[:, i] - per_interval @ coef, dt_s, s)
-            beta, cov_beta, s2, rho, rho_up = _reml(a_t, vec.T @ y[:, i], lam)
+            # the terms are the ordinary least-squares ones (the estimator the twin's candidates are projected with,
+            # twin_explain_moving._perp), their covariance the one the walk's likelihood bound gives them
+            _, _, cov_beta, s2, rho, rho_up = _reml(a_t, vec.T @ y[:, i], lam)
+            beta = coef
             # SI: a block's white variance (unit^2), the walk's K^2 (unit^2 / s^3) and its upper end used for the sigmas
             used.update(block_white_variance=s2, block_random_walk=s2 * rho, block_random_walk_upper=s2 * rho_up)
             analyses.append(analysis)
