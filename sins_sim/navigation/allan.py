@@ -604,7 +604,8 @@ def term_interval(name: str, c_k: float, tau, s2, part, weight, curve: AllanCurv
     -------
     tuple of float or None
         ``(low, high)`` of the coefficient (Q, N, B, K or R in SI), None for the ramp, a non-positive
-        ``c_k`` or a relative error beyond 1e6 (or not finite), for which no chi-square interval exists.
+        ``c_k`` or a relative error beyond 1e6 (or not finite, or so large that the chi-square lower quantile is 0),
+        for which no chi-square interval with a finite upper end exists.
     """
     from scipy.stats import chi2 as chi2_dist
 
@@ -615,6 +616,8 @@ def term_interval(name: str, c_k: float, tau, s2, part, weight, curve: AllanCurv
         return None
     edf_eff = 2.0 / rel ** 2
     lo_q, hi_q = chi2_dist.ppf([(1.0 - level) / 2.0, (1.0 + level) / 2.0], edf_eff)
+    if not lo_q > 0.0:     # so few degrees of freedom that the lower quantile underflows: no finite upper end
+        return None
     return (_coefficient_from_c(name, c_k * edf_eff / hi_q), _coefficient_from_c(name, c_k * edf_eff / lo_q))
 
 
