@@ -1344,7 +1344,8 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
     # Findings of the residual alone that no moving candidate addresses (the twin's noise is stationary): the bias
     # steps its scan finds, and where its white-noise level changes over time (the first differences' variance per
     # block, as at rest; a smooth departure such as a clock's drift hardly moves first differences). A log whose
-    # only departure is one of them is 'unknown' in its place, not 'none'. Beside findings a candidate explains they
+    # only departure is one of them is 'unknown' in its place, not 'none' (and an 'unknown' band lists a noise-level
+    # change beside the findings no candidate shrinks). Beside findings a candidate explains they
     # stay findings but do not overturn the verdict: both are read on the residual before the candidate is taken
     # out, where a smooth departure (a clock's drift) shows as steps and shifts the blocks' noise levels.
     from sins_sim.identification.twin_explain import finding_place, noise_level_findings
@@ -1356,6 +1357,8 @@ def _truth_twin(metrics: dict, t_truth, dth, dv, ideal_th, ideal_v, truth, seeds
     if (steps or level) and verdict["status"] == "none":
         verdict.update(status="unknown", effect="unknown", band=[finding_place(f) for f in steps + level],
                        remainder=[finding_place(f) for f in steps + level])
+    elif level and verdict["status"] == "unknown":      # no candidate removes a noise-level change either
+        verdict["band"] = list(verdict.get("band") or []) + [finding_place(f) for f in level]
     out = {"seeds": seeds, "sensors": doc,
            "simulated_at": ("the truth's exact increments with the fitted errors and the noise terms of the fit's "
                             "residual (its Allan fit's bias instability and random walk; the white noise read from "
