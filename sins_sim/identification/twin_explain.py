@@ -113,7 +113,7 @@ from sins_sim.identification.verdict import AHEAD_ALPHA, ALPHA, DOMINANT, MAX_EF
 from sins_sim.units import DEG_PER_H, MICRO_G
 
 __all__ = ["BOOTSTRAP", "CHANNELS", "HELD_BLOCKS", "NOT_TESTABLE_AT_REST", "SWAY_MAX_HZ", "choose_step",
-           "explain_twin", "finding_excess", "finding_key", "finding_place", "noise_level_findings", "LEVEL_ALPHA", "LEVEL_BLOCKS", "fit_line", "fit_ramp", "fit_step", "gap_measure",
+           "explain_twin", "finding_excess", "finding_key", "finding_place", "verdict_of_steps", "noise_level_findings", "LEVEL_ALPHA", "LEVEL_BLOCKS", "fit_line", "fit_ramp", "fit_step", "gap_measure",
            "give_twin_verdict", "heldout_losses", "invalid_data", "localise_with_steps"]
 
 #: The six axes of a log, in the column order of the added rate and force.
@@ -821,14 +821,20 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
         gap_now, boot_now, left = pick["gap"], pick["_boot"], pick["findings_left"]
         cands = [c for c in cands if c is not pick["_cand"]]
     out["steps"] = [_public(s, base_keys) for s in steps]
-    out["verdict"] = give_twin_verdict(findings, first_round, steps, gap0)
-    if steps and out["verdict"]["status"] in ("explained", "partly explained"):
-        # the fraction's sd over seeds, from the paired bootstrap of the selected model against the twin
-        last = steps[-1]["_boot"]
-        ok = (base["boot"] > 0) & np.isfinite(base["boot"]) & np.isfinite(last)
-        out["verdict"]["explained_fraction_sd"] = float(np.std(1.0 - last[ok] / base["boot"][ok], ddof=1)) \
-            if ok.sum() > 1 else 0.0
+    out["verdict"] = verdict_of_steps(findings, first_round, steps, gap0, base["boot"])
     return out
+
+
+def verdict_of_steps(findings: list, first_round: list, steps: list, gap0: float, base_boot) -> dict:
+    """:func:`give_twin_verdict` of a greedy selection's ``steps``, with the explained fraction's sd over seeds from
+    the paired bootstrap of the selected model (the last step's ``_boot``) against the twin's (``base_boot``)."""
+    verdict = give_twin_verdict(findings, first_round, steps, gap0)
+    if steps and verdict["status"] in ("explained", "partly explained"):
+        last = steps[-1]["_boot"]
+        ok = (base_boot > 0) & np.isfinite(base_boot) & np.isfinite(last)
+        verdict["explained_fraction_sd"] = float(np.std(1.0 - last[ok] / base_boot[ok], ddof=1)) \
+            if ok.sum() > 1 else 0.0
+    return verdict
 
 
 def _finite_sd(x) -> float:

@@ -66,7 +66,7 @@ import numpy as np
 
 from sins_sim.identification.twin_explain import (BOOTSTRAP, CHANNELS, HELD_BLOCKS, _dm_p, _finite_sd, _public,
                                                   choose_step, finding_excess, gap_measure, give_twin_verdict,
-                                                  heldout_losses)
+                                                  heldout_losses, verdict_of_steps)
 from sins_sim.identification.verdict import ALPHA, MAX_EFFECTS
 
 __all__ = ["TEST_POWER", "explain_moving", "fit_motion_candidate", "localise_moving", "motion_candidates",
@@ -369,7 +369,8 @@ def explain_moving(log_run, resid6, t, ideal_dth, ideal_dv, run_twin, n_seeds: i
         if rnd == 0:
             out["candidates"] = [_public(c, base_keys) for c in sorted(evaluated, key=lambda c: c["gap"])]
             first_round = evaluated
-        pick = choose_step(evaluated, gap_now, first=(rnd == 0))
+        # the stop rule at rest: a further effect is judged against what the findings it removes held
+        pick = choose_step(evaluated, gap_now, first=(rnd == 0), held={_key(f): finding_excess(f) for f in left})
         if pick is None or pick["tentative"]:
             if pick is not None and rnd == 0:
                 steps.append(pick)
@@ -380,12 +381,7 @@ def explain_moving(log_run, resid6, t, ideal_dth, ideal_dv, run_twin, n_seeds: i
         gap_now, boot_now, left = pick["gap"], pick["_boot"], pick["findings_left"]
         cands = [c for c in cands if c is not pick["_cand"]]
     out["steps"] = [_public(s, base_keys) for s in steps]
-    out["verdict"] = give_twin_verdict(findings, first_round, steps, gap0)
-    if steps and out["verdict"]["status"] in ("explained", "partly explained"):
-        last = steps[-1]["_boot"]
-        ok = (base["boot"] > 0) & np.isfinite(base["boot"]) & np.isfinite(last)
-        out["verdict"]["explained_fraction_sd"] = float(np.std(1.0 - last[ok] / base["boot"][ok], ddof=1)) \
-            if ok.sum() > 1 else 0.0
+    out["verdict"] = verdict_of_steps(findings, first_round, steps, gap0, base["boot"])
     return out
 
 
