@@ -113,7 +113,7 @@ from sins_sim.identification.verdict import AHEAD_ALPHA, ALPHA, DOMINANT, MAX_EF
 from sins_sim.units import DEG_PER_H, MICRO_G
 
 __all__ = ["BOOTSTRAP", "CHANNELS", "HELD_BLOCKS", "NOT_TESTABLE_AT_REST", "SWAY_MAX_HZ", "choose_step",
-           "explain_twin", "finding_excess", "finding_key", "finding_place", "verdict_of_steps", "noise_level_findings", "LEVEL_ALPHA", "LEVEL_BLOCKS", "fit_line", "fit_ramp", "fit_step", "gap_measure",
+           "explain_twin", "finding_excess", "finding_key", "finding_place", "select_effects", "verdict_of_steps", "noise_level_findings", "LEVEL_ALPHA", "LEVEL_BLOCKS", "fit_line", "fit_ramp", "fit_step", "gap_measure",
            "give_twin_verdict", "heldout_losses", "invalid_data", "localise_with_steps"]
 
 #: The six axes of a log, in the column order of the added rate and force.
@@ -775,6 +775,28 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
         out["verdict"] = give_twin_verdict(findings, [], [], gap0)
         return out
     cands = _candidates(findings, extra, temperature)
+
+    def fit(c, resid, mask):
+        return _fit(c, resid, t, dt, mask, extra)
+
+    def run(added, rest):
+        return twin.run(added, None if refit is None else refit(rest))
+
+    select_effects(out, cands, fit, run, lambda c: c["channels"], y6, train, every, blocks, base)
+    return out
+
+
+def select_effects(out: dict, cands: list, fit, run, channels_of, y6, train, every, blocks, base: dict) -> None:
+    """The greedy selection (module docstring, "Selection and verdict"), shared by the catalogue at rest and the
+    moving one (:mod:`sins_sim.identification.twin_explain_moving`): each round fits every remaining candidate on the
+    log less the effects chosen so far (on all samples and on the held-out training blocks), runs the twin with it,
+    scores shrink, its sd over the seeds' resamplings and the held-out test, and :func:`choose_step` picks the next;
+    fills ``out["candidates"]`` (the first round), ``out["steps"]`` and ``out["verdict"]``.
+
+    ``fit(c, resid, mask) -> (added, params, sigmas)``; ``run(added, rest) -> {"findings", "gap", "boot"}`` (``rest``
+    the log less everything added, for a twin that refits its noise); ``channels_of(c)`` the candidate's channels;
+    ``base`` the plain twin's ``findings``, ``gap`` and ``boot``."""
+    findings, gap0 = base["findings"], base["gap"]
     base_keys = {finding_key(f) for f in findings}
     sel_full = np.zeros_like(y6)
     sel_train = np.zeros_like(y6)
@@ -785,11 +807,12 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
             break
         evaluated = []
         for c in cands:
-            p_full, params, sig = _fit(c, y6 - sel_full, t, dt, every, extra)
-            p_train, _, _ = _fit(c, y6 - sel_train, t, dt, train, extra)
-            res = twin.run(sel_full + p_full, None if refit is None else refit(y6 - sel_full - p_full))
+            p_full, params, sig = fit(c, y6 - sel_full, every)
+            p_train, _, _ = fit(c, y6 - sel_train, train)
+            res = run(sel_full + p_full, y6 - sel_full - p_full)
             loss = heldout_losses(y6, sel_train + p_train, train, blocks)
-            p, stat, m = _dm_p(base_loss, loss, c["channels"])
+            chans = sorted(channels_of(c))
+            p, stat, m = _dm_p(base_loss, loss, chans)
             keys = {finding_key(f) for f in res["findings"]}
             shrink = (gap_now - res["gap"]) / gap_now if gap_now > 0 else 0.0
             # resamplings of the seeds in which the selected model still leaves a (finite) gap
@@ -798,12 +821,12 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
             evaluated.append({**{k: c[k] for k in ("effect", "label")}, "params": params, "uncertainty": sig,
                               "gap": res["gap"], "gap_sd": _finite_sd(res["boot"]),
                               "shrink": shrink, "shrink_sd": sd, "p_heldout": p, "t_heldout": stat, "m_heldout": m,
+                              "channels": chans,
                               "removes": sorted([list(k) for k in ({finding_key(f) for f in left} - keys)], key=str),
                               "findings_left": res["findings"], "_loss": loss, "_cand": c, "_p_full": p_full,
                               "_p_train": p_train, "_boot": res["boot"]})
         for c in evaluated:
-            c["p_vs"] = {o["label"]: _dm_p(o["_loss"], c["_loss"], sorted(set(c["_cand"]["channels"])
-                                                                           | set(o["_cand"]["channels"])))[0]
+            c["p_vs"] = {o["label"]: _dm_p(o["_loss"], c["_loss"], sorted(set(c["channels"]) | set(o["channels"])))[0]
                          for o in evaluated if o is not c}
         if rnd == 0:
             out["candidates"] = [_public(c, base_keys) for c in sorted(evaluated, key=lambda c: c["gap"])]
@@ -822,7 +845,6 @@ def explain_twin(log_run, y6, t, findings: list, step_findings: list, *, sensors
         cands = [c for c in cands if c is not pick["_cand"]]
     out["steps"] = [_public(s, base_keys) for s in steps]
     out["verdict"] = verdict_of_steps(findings, first_round, steps, gap0, base["boot"])
-    return out
 
 
 def verdict_of_steps(findings: list, first_round: list, steps: list, gap0: float, base_boot) -> dict:

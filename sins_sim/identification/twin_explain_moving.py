@@ -64,10 +64,9 @@ import math
 
 import numpy as np
 
-from sins_sim.identification.twin_explain import (BOOTSTRAP, CHANNELS, HELD_BLOCKS, _dm_p, _finite_sd, _public,
-                                                  choose_step, finding_excess, gap_measure, give_twin_verdict,
-                                                  heldout_losses, verdict_of_steps)
-from sins_sim.identification.verdict import ALPHA, MAX_EFFECTS
+from sins_sim.identification.twin_explain import (BOOTSTRAP, CHANNELS, HELD_BLOCKS, finding_excess, gap_measure,
+                                                  give_twin_verdict, select_effects)
+from sins_sim.identification.verdict import ALPHA
 
 __all__ = ["TEST_POWER", "explain_moving", "fit_motion_candidate", "localise_moving", "motion_candidates",
            "pulse_weight_in_fit"]
@@ -338,54 +337,9 @@ def explain_moving(log_run, resid6, t, ideal_dth, ideal_dv, run_twin, n_seeds: i
     if not findings:
         out["verdict"] = give_twin_verdict(findings, [], [], gap0)
         return out
-    base_keys = {_key(f) for f in findings}
-    sel_full, sel_train = np.zeros_like(r6), np.zeros_like(r6)
-    steps, gap_now, boot_now, left, first_round = [], gap0, base["boot"], findings, []
-    base_loss = heldout_losses(r6, sel_train, train, blocks)
-    for rnd in range(MAX_EFFECTS):
-        if not left or not cands:
-            break
-        evaluated = []
-        for c in cands:
-            p_full, params, sig = fit_motion_candidate(c, r6 - sel_full, every)
-            p_train, _, _ = fit_motion_candidate(c, r6 - sel_train, train)
-            res = twin.run(sel_full + p_full)
-            loss = heldout_losses(r6, sel_train + p_train, train, blocks)
-            chans = sorted({ch for chs, _ in c["groups"] for ch in chs})
-            p, stat, m = _dm_p(base_loss, loss, chans)
-            keys = {_key(f) for f in res["findings"]}
-            ok = (boot_now > 0) & np.isfinite(boot_now) & np.isfinite(res["boot"])
-            sd = float(np.std((boot_now[ok] - res["boot"][ok]) / boot_now[ok], ddof=1)) if ok.sum() > 1 else 0.0
-            evaluated.append({"effect": c["effect"], "label": c["label"], "params": params, "uncertainty": sig,
-                              "gap": res["gap"], "gap_sd": _finite_sd(res["boot"]),
-                              "shrink": (gap_now - res["gap"]) / gap_now, "shrink_sd": sd, "p_heldout": p,
-                              "t_heldout": stat, "m_heldout": m, "channels": chans,
-                              "removes": sorted([list(k) for k in ({_key(f) for f in left} - keys)], key=str),
-                              "findings_left": res["findings"], "_loss": loss, "_cand": c, "_p_full": p_full,
-                              "_p_train": p_train, "_boot": res["boot"]})
-        for c in evaluated:
-            c["p_vs"] = {o["label"]: _dm_p(o["_loss"], c["_loss"], sorted(set(c["channels"]) | set(o["channels"])))[0]
-                         for o in evaluated if o is not c}
-        if rnd == 0:
-            out["candidates"] = [_public(c, base_keys) for c in sorted(evaluated, key=lambda c: c["gap"])]
-            first_round = evaluated
-        # the stop rule at rest: a further effect is judged against what the findings it removes held
-        pick = choose_step(evaluated, gap_now, first=(rnd == 0), held={_key(f): finding_excess(f) for f in left})
-        if pick is None or pick["tentative"]:
-            if pick is not None and rnd == 0:
-                steps.append(pick)
-            break
-        steps.append(pick)
-        sel_full, sel_train = sel_full + pick["_p_full"], sel_train + pick["_p_train"]
-        base_loss = pick["_loss"]
-        gap_now, boot_now, left = pick["gap"], pick["_boot"], pick["findings_left"]
-        cands = [c for c in cands if c is not pick["_cand"]]
-    out["steps"] = [_public(s, base_keys) for s in steps]
-    out["verdict"] = verdict_of_steps(findings, first_round, steps, gap0, base["boot"])
+    select_effects(out, cands, fit_motion_candidate,
+                   lambda added, rest: twin.run(added), lambda c: {ch for chs, _ in c["groups"] for ch in chs},
+                   r6, train, every, blocks, base)
     return out
 
 
-def _key(f: dict) -> tuple:
-    from sins_sim.identification.twin_explain import finding_key
-
-    return finding_key(f)

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ALIGNMENT_AT_REST", "PULSE_TOLERANCE", "PulseWeights", "RestRun", "align_at_rest", "gyro_wander_sigma", "pulse_weight_of",
+__all__ = ["ALIGNMENT_AT_REST", "PULSE_TOLERANCE", "PulseWeights", "RestRun", "align_at_rest", "checked_added", "gyro_wander_sigma", "pulse_weight_of",
            "quantise_pulses", "rest_run", "twin_increments", "twin_runs"]
 
 #: The self-alignments a log at rest is aligned with.
@@ -282,6 +282,17 @@ def twin_runs(sensors, t_s, site: dict, q_nb, method: str, seeds, *, pulses: Pul
     """:func:`rest_run` on the twin (:func:`twin_increments`, with the readout's ``pulses``) once per seed, on the
     log's time axis ``t_s``."""
     return [run for run, _, _ in seed_runs(sensors, t_s, site, q_nb, method, seeds, pulses=pulses, **kwargs)]
+
+
+def checked_added(added, n: int):
+    """``added`` (an effect added to the twin: rate and specific force, (n, 6)) as float64, or None; one line
+    naming it where it is not a finite (n, 6) array."""
+    if added is None:
+        return None
+    added = np.asarray(added, dtype=np.float64)
+    if added.shape != (n, 6) or not np.all(np.isfinite(added)):
+        raise ValueError(f"added: must be a finite ({n}, 6) array of rate and specific force, got shape {added.shape}")
+    return added
 
 
 def seed_runs(sensors, t_s, site: dict, q_nb, method: str, seeds, *, pulses: PulseWeights | None = None,

@@ -52,14 +52,10 @@ def twin_runs_with(sensors, t_s, site: dict, q_nb, method: str, seeds, added=Non
     ValueError
         ``added`` not of shape (N, 6) or not finite.
     """
-    from sins_sim.simulation.twin import seed_runs
+    from sins_sim.simulation.twin import checked_added, seed_runs
 
     t = np.asarray(t_s, dtype=np.float64)
     dt = float(t[1] - t[0])
-    if added is not None:
-        added = np.asarray(added, dtype=np.float64)
-        if added.shape != (t.size, 6) or not np.all(np.isfinite(added)):
-            raise ValueError(f"added: must be a finite ({t.size}, 6) array of rate and specific force, got shape "
-                             f"{added.shape}")
+    added = checked_added(added, t.size)
     return [(run, np.hstack([dth, dv]) / dt)
             for run, dth, dv in seed_runs(sensors, t, site, q_nb, method, seeds, pulses=pulses, added=added, **kwargs)]

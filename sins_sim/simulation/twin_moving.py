@@ -154,13 +154,11 @@ def twin_runs_on(sensors, t_s, ideal_dth, ideal_dv, truth, seeds, *, pulses=None
                  false_alarm: float = 0.01 / 6.0) -> list:
     """:func:`truth_run` on the twin (:func:`twin_increments_on`, with ``added`` (N, 6) rate and specific force)
     once per seed, on the log's time axis ``t_s`` (the truth's); with ``expected``, the residual's analyses."""
+    from sins_sim.simulation.twin import checked_added
+
     t = np.asarray(t_s, dtype=np.float64)
     dt = float(t[1] - t[0])
-    if added is not None:
-        added = np.asarray(added, dtype=np.float64)
-        if added.shape != (t.size, 6) or not np.all(np.isfinite(added)):
-            raise ValueError(f"added: must be a finite ({t.size}, 6) array of rate and specific force, got shape "
-                             f"{added.shape}")
+    added = checked_added(added, t.size)
     runs = []
     for seed in seeds:
         dth, dv = twin_increments_on(sensors, ideal_dth, ideal_dv, dt, int(seed), pulses, added)
